@@ -1,0 +1,25 @@
+//! # vibrobar-core
+//!
+//! Model, solvers and analyses of a vibro-impact (impact-damped) boring bar: a lumped SDOF bar
+//! with a free ball in a cavity, after the seed paper "The effect of rolling friction on
+//! vibro-impact damped boring bars".
+//!
+//! * [`params`]: plain-data parameters in SI units, presets, validation.
+//! * [`model`]: the friction law (as published and dissipative), the impact law (Eqs. 4–5).
+//! * [`solver`]: the [`solver::Solver`] trait and its implementations.
+//! * [`analysis`]: RMS, impact statistics, time histories, sweeps.
+//!
+//! No I/O happens here: progress is reported through callbacks, results are returned as data.
+
+#![warn(missing_docs)]
+#![deny(clippy::float_cmp)]
+
+pub mod analysis;
+pub mod error;
+pub mod model;
+pub mod params;
+pub mod solver;
+
+pub use error::{ParamError, SimError};
+pub use params::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};
+pub use solver::{Observer, Solver};

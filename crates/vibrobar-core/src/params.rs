@@ -1,0 +1,435 @@
+//! Parameters: plain data in SI units. Names carry their units.
+//!
+//! Everything here is validated by [`System::validate`] before a solver touches it, so solvers may
+//! assume finite, physically meaningful numbers.
+
+use crate::error::ParamError;
+use serde::{Deserialize, Serialize};
+
+/// Standard gravity used for the derived rolling-friction force.
+pub const STANDARD_GRAVITY_M_S2: f64 = 9.806_65;
+
+/// Lumped SDOF bar: `M ü + C u̇ + K u = F(t) − F_rf`, with `C = 2ζ√(KM)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Bar {
+    /// Lumped modal mass `M`.
+    pub mass_kg: f64,
+    /// Lumped stiffness `K`.
+    pub stiffness_n_per_m: f64,
+    /// Damping ratio `ζ`, so that `C = 2ζ√(KM)`.
+    pub damping_ratio: f64,
+}
+
+impl Bar {
+    /// The paper's bar with the cavity that houses the ball (M = 0.644 kg, K = 9.22 MN/m).
+    pub const PAPER_CAVITY: Bar = Bar {
+        mass_kg: 0.644,
+        stiffness_n_per_m: 9.22e6,
+        damping_ratio: 0.01,
+    };
+    /// The paper's solid (undamped reference) bar (M = 0.668 kg, K = 9.26 MN/m).
+    pub const PAPER_SOLID: Bar = Bar {
+        mass_kg: 0.668,
+        stiffness_n_per_m: 9.26e6,
+        damping_ratio: 0.01,
+    };
+
+    /// Viscous coefficient `C = 2ζ√(KM)`.
+    pub fn damping_n_s_per_m(&self) -> f64 {
+        2.0 * self.damping_ratio * (self.stiffness_n_per_m * self.mass_kg).sqrt()
+    }
+
+    /// Undamped natural frequency `√(K/M)`.
+    pub fn natural_freq_rad_s(&self) -> f64 {
+        (self.stiffness_n_per_m / self.mass_kg).sqrt()
+    }
+}
+
+/// How the ball–bar friction acts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FrictionModel {
+    /// Frictionless: the ball flies freely between impacts.
+    None,
+    /// Exactly the paper's Eqs. 1–3: the ball gets `+F_rf sgn(ẇ)`, the bar `−F_rf sgn(ẇ)`,
+    /// `sgn(0) = 0`. This sign puts energy *into* the system (`F_rf·ẇ ≥ 0`).
+    AsPublished,
+    /// Dissipative dry friction: the force on the ball opposes relative sliding, with sticking
+    /// while the needed force stays within the limit.
+    Coulomb,
+}
+
+impl FrictionModel {
+    /// All models, in a stable order.
+    pub const ALL: [FrictionModel; 3] = [
+        FrictionModel::None,
+        FrictionModel::AsPublished,
+        FrictionModel::Coulomb,
+    ];
+
+    /// The name used in the CLI and in output files.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            FrictionModel::None => "none",
+            FrictionModel::AsPublished => "as-published",
+            FrictionModel::Coulomb => "coulomb",
+        }
+    }
+
+    /// Parse the CLI / file name.
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.as_str() == s)
+    }
+}
+
+impl std::fmt::Display for FrictionModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// The free ball in its cavity.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Damper {
+    /// Ball mass `m_d`.
+    pub ball_mass_kg: f64,
+    /// Ball radius `r` (enters the rolling-friction force only).
+    pub ball_radius_m: f64,
+    /// Coefficient of restitution `e`, in [0, 1].
+    pub restitution: f64,
+    /// Total clearance; the ball can move `±gap/2` (= `±l_g`) about the cavity centre.
+    pub gap_m: f64,
+    /// Coefficient of rolling friction `η` (a length).
+    pub rolling_friction_m: f64,
+    /// Friction law.
+    pub friction: FrictionModel,
+    /// Override of the friction force level; `None` derives `η/r · m_d · g`.
+    pub friction_force_n: Option<f64>,
+}
+
+impl Damper {
+    /// Carbide density used to turn a diameter into a mass when only the diameter is known.
+    pub const CARBIDE_DENSITY_KG_M3: f64 = 14_700.0;
+
+    /// The paper's ball: 26 g carbide, 15 mm diameter, `e = 0.5`, `η = 0.6 mm`.
+    pub fn paper(gap_m: f64, friction: FrictionModel) -> Damper {
+        Damper {
+            ball_mass_kg: 0.026,
+            ball_radius_m: 0.0075,
+            restitution: 0.5,
+            gap_m,
+            rolling_friction_m: 0.6e-3,
+            friction,
+            friction_force_n: None,
+        }
+    }
+
+    /// Mass of a solid sphere from its diameter and density.
+    pub fn sphere_mass_kg(diameter_m: f64, density_kg_m3: f64) -> f64 {
+        density_kg_m3 * std::f64::consts::PI * diameter_m.powi(3) / 6.0
+    }
+
+    /// Half the total clearance, `l_g`.
+    pub fn half_gap_m(&self) -> f64 {
+        0.5 * self.gap_m
+    }
+
+    /// Friction force level `|F_rf|`: the override, else `η/r · m_d · g`. Zero for `FrictionModel::None`.
+    pub fn friction_level_n(&self, gravity_m_s2: f64) -> f64 {
+        match self.friction {
+            FrictionModel::None => 0.0,
+            _ => self.friction_force_n.unwrap_or(
+                self.rolling_friction_m / self.ball_radius_m * self.ball_mass_kg * gravity_m_s2,
+            ),
+        }
+    }
+}
+
+/// How the forcing frequency is given.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Frequency {
+    /// `Ω / √(K/M)` of the bar being simulated.
+    Ratio(f64),
+    /// `Ω` directly.
+    RadPerS(f64),
+}
+
+/// Cutting force `F(t) = F_s + F0 sin(Ωt)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Forcing {
+    /// Amplitude `F0` of the oscillatory part.
+    pub amplitude_n: f64,
+    /// Frequency of the oscillatory part.
+    pub frequency: Frequency,
+    /// Steady (DC) part `F_s`; the paper leaves it out (0).
+    pub static_force_n: f64,
+}
+
+impl Forcing {
+    /// The paper's forcing: 15 N at the given frequency ratio, no DC part.
+    pub fn paper(ratio: f64) -> Forcing {
+        Forcing {
+            amplitude_n: 15.0,
+            frequency: Frequency::Ratio(ratio),
+            static_force_n: 0.0,
+        }
+    }
+}
+
+/// A complete model: bar, optional ball, forcing.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct System {
+    /// The bar.
+    pub bar: Bar,
+    /// The ball; `None` is a bar without damper (the solid reference bar).
+    pub damper: Option<Damper>,
+    /// External force on the bar.
+    pub forcing: Forcing,
+    /// Gravity for the derived friction force.
+    pub gravity_m_s2: f64,
+}
+
+impl System {
+    /// Paper's impact-damped bar at a gap, friction model and frequency ratio.
+    pub fn paper_damped(gap_m: f64, friction: FrictionModel, ratio: f64) -> System {
+        System {
+            bar: Bar::PAPER_CAVITY,
+            damper: Some(Damper::paper(gap_m, friction)),
+            forcing: Forcing::paper(ratio),
+            gravity_m_s2: STANDARD_GRAVITY_M_S2,
+        }
+    }
+
+    /// Paper's solid bar (no ball) at a frequency ratio of its own natural frequency.
+    pub fn paper_solid(ratio: f64) -> System {
+        System {
+            bar: Bar::PAPER_SOLID,
+            damper: None,
+            forcing: Forcing::paper(ratio),
+            gravity_m_s2: STANDARD_GRAVITY_M_S2,
+        }
+    }
+
+    /// Forcing frequency `Ω` in rad/s.
+    pub fn omega_rad_s(&self) -> f64 {
+        match self.forcing.frequency {
+            Frequency::Ratio(r) => r * self.bar.natural_freq_rad_s(),
+            Frequency::RadPerS(w) => w,
+        }
+    }
+
+    /// Forcing period `2π/Ω` (infinite for a static load).
+    pub fn forcing_period_s(&self) -> f64 {
+        2.0 * std::f64::consts::PI / self.omega_rad_s()
+    }
+
+    /// External force at time `t`.
+    pub fn force_n(&self, t_s: f64) -> f64 {
+        self.forcing.static_force_n + self.forcing.amplitude_n * (self.omega_rad_s() * t_s).sin()
+    }
+
+    /// Friction force level (0 without a ball or without friction).
+    pub fn friction_level_n(&self) -> f64 {
+        self.damper
+            .map(|d| d.friction_level_n(self.gravity_m_s2))
+            .unwrap_or(0.0)
+    }
+
+    /// Check every field; the error names the field and the allowed range.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        positive("bar.mass_kg", self.bar.mass_kg)?;
+        positive("bar.stiffness_n_per_m", self.bar.stiffness_n_per_m)?;
+        in_range(
+            "bar.damping_ratio",
+            self.bar.damping_ratio,
+            0.0,
+            1.0,
+            "[0, 1)",
+        )?;
+        if self.bar.damping_ratio >= 1.0 {
+            return Err(ParamError::OutOfRange {
+                field: "bar.damping_ratio",
+                value: self.bar.damping_ratio,
+                allowed: "[0, 1)",
+            });
+        }
+        finite("forcing.amplitude_n", self.forcing.amplitude_n)?;
+        finite("forcing.static_force_n", self.forcing.static_force_n)?;
+        match self.forcing.frequency {
+            Frequency::Ratio(r) => positive("forcing.frequency_ratio", r)?,
+            Frequency::RadPerS(w) => positive("forcing.omega_rad_s", w)?,
+        }
+        positive("gravity_m_s2", self.gravity_m_s2)?;
+        if let Some(d) = &self.damper {
+            positive("damper.ball_mass_kg", d.ball_mass_kg)?;
+            positive("damper.ball_radius_m", d.ball_radius_m)?;
+            positive("damper.gap_m", d.gap_m)?;
+            in_range("damper.restitution", d.restitution, 0.0, 1.0, "[0, 1]")?;
+            non_negative("damper.rolling_friction_m", d.rolling_friction_m)?;
+            if let Some(f) = d.friction_force_n {
+                non_negative("damper.friction_force_n", f)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Full state of bar and ball. Without a damper the ball fields are ignored.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct State {
+    /// Time.
+    pub t_s: f64,
+    /// Bar displacement `u`.
+    pub u_m: f64,
+    /// Bar velocity `u̇`.
+    pub du_m_s: f64,
+    /// Ball displacement `v` (absolute; the cavity centre is at `u`).
+    pub v_m: f64,
+    /// Ball velocity `v̇`.
+    pub dv_m_s: f64,
+}
+
+impl State {
+    /// At rest at `t = 0` with the ball centred: the paper's initial condition.
+    pub const REST: State = State {
+        t_s: 0.0,
+        u_m: 0.0,
+        du_m_s: 0.0,
+        v_m: 0.0,
+        dv_m_s: 0.0,
+    };
+
+    /// Relative displacement `w = v − u`.
+    pub fn w_m(&self) -> f64 {
+        self.v_m - self.u_m
+    }
+
+    /// Relative velocity `ẇ = v̇ − u̇`.
+    pub fn dw_m_s(&self) -> f64 {
+        self.dv_m_s - self.du_m_s
+    }
+
+    /// Check the initial condition against the system.
+    pub fn validate(&self, sys: &System) -> Result<(), ParamError> {
+        finite("initial.t_s", self.t_s)?;
+        finite("initial.u_m", self.u_m)?;
+        finite("initial.du_m_s", self.du_m_s)?;
+        finite("initial.v_m", self.v_m)?;
+        finite("initial.dv_m_s", self.dv_m_s)?;
+        if let Some(d) = &sys.damper {
+            let lg = d.half_gap_m();
+            if self.w_m().abs() > lg {
+                return Err(ParamError::OutOfRange {
+                    field: "initial.w_m (v − u)",
+                    value: self.w_m(),
+                    allowed: "[−gap/2, +gap/2]",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Settings shared by every run: duration, step, RMS window.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RunSettings {
+    /// Simulated time.
+    pub duration_s: f64,
+    /// Fixed step for `rk4` (also the output-grid unit for `exact`).
+    pub dt_s: f64,
+    /// Fraction of the run, counted from the end, over which RMS and impact rates are taken.
+    pub rms_fraction: f64,
+}
+
+impl Default for RunSettings {
+    /// The paper: 2 s, dt = 1 µs, RMS over the last 80 %.
+    fn default() -> Self {
+        RunSettings {
+            duration_s: 2.0,
+            dt_s: 1e-6,
+            rms_fraction: 0.8,
+        }
+    }
+}
+
+impl RunSettings {
+    /// Check every field.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        positive("duration_s", self.duration_s)?;
+        positive("dt_s", self.dt_s)?;
+        if self.dt_s > self.duration_s {
+            return Err(ParamError::OutOfRange {
+                field: "dt_s",
+                value: self.dt_s,
+                allowed: "(0, duration_s]",
+            });
+        }
+        if !(self.rms_fraction > 0.0 && self.rms_fraction <= 1.0) {
+            return Err(ParamError::OutOfRange {
+                field: "rms_fraction",
+                value: self.rms_fraction,
+                allowed: "(0, 1]",
+            });
+        }
+        Ok(())
+    }
+
+    /// Start of the RMS window.
+    pub fn window_start_s(&self) -> f64 {
+        self.duration_s * (1.0 - self.rms_fraction)
+    }
+}
+
+pub(crate) fn finite(field: &'static str, value: f64) -> Result<(), ParamError> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(ParamError::NotFinite { field, value })
+    }
+}
+
+pub(crate) fn positive(field: &'static str, value: f64) -> Result<(), ParamError> {
+    finite(field, value)?;
+    if value > 0.0 {
+        Ok(())
+    } else {
+        Err(ParamError::OutOfRange {
+            field,
+            value,
+            allowed: "(0, ∞)",
+        })
+    }
+}
+
+pub(crate) fn non_negative(field: &'static str, value: f64) -> Result<(), ParamError> {
+    finite(field, value)?;
+    if value >= 0.0 {
+        Ok(())
+    } else {
+        Err(ParamError::OutOfRange {
+            field,
+            value,
+            allowed: "[0, ∞)",
+        })
+    }
+}
+
+pub(crate) fn in_range(
+    field: &'static str,
+    value: f64,
+    lo: f64,
+    hi: f64,
+    allowed: &'static str,
+) -> Result<(), ParamError> {
+    finite(field, value)?;
+    if value >= lo && value <= hi {
+        Ok(())
+    } else {
+        Err(ParamError::OutOfRange {
+            field,
+            value,
+            allowed,
+        })
+    }
+}

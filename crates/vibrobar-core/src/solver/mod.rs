@@ -1,0 +1,209 @@
+//! The solver interface: one trait that every solver implements, and the observer protocol through
+//! which analyses see a run.
+//!
+//! A solver reports a run as a sequence of smooth [`Segment`]s separated by [`Event`]s (impacts,
+//! friction switches, …). Analyses are [`Observer`]s: they never know which solver produced the
+//! segments, so every analysis works with every solver.
+
+pub mod rk4;
+
+pub use rk4::Rk4;
+
+use crate::error::SimError;
+use crate::params::{RunSettings, State, System};
+use serde::{Deserialize, Serialize};
+
+/// Which wall of the cavity: `Plus` is at `w = +l_g`, `Minus` at `w = −l_g`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Wall {
+    /// `w = +l_g`.
+    Plus,
+    /// `w = −l_g`.
+    Minus,
+}
+
+impl Wall {
+    /// `+1` or `−1`.
+    pub fn sign(self) -> f64 {
+        match self {
+            Wall::Plus => 1.0,
+            Wall::Minus => -1.0,
+        }
+    }
+}
+
+/// What happened at an event.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum EventKind {
+    /// Ball hit a wall with pre-impact relative velocity `dw_m_s` (Eqs. 4–5 applied).
+    Impact {
+        /// Wall hit.
+        wall: Wall,
+        /// `ẇ−`.
+        dw_m_s: f64,
+        /// Kinetic energy lost.
+        energy_loss_j: f64,
+    },
+    /// `ẇ` changed sign; the sliding friction reversed.
+    FrictionSwitch,
+    /// Ball started to stick to the bar (`coulomb`).
+    Stick,
+    /// Ball started to slide again.
+    Unstick,
+    /// A chatter sequence at a wall was summed to its accumulation point; the ball now rides
+    /// against the wall. `energy_loss_j` is the kinetic energy lost by the remaining impacts.
+    ChatterLimit {
+        /// Wall.
+        wall: Wall,
+        /// Impacts extrapolated (infinitely many in theory; this is the loss they carry).
+        energy_loss_j: f64,
+    },
+    /// Contact force at a wall reached zero; the ball leaves the wall.
+    ContactRelease {
+        /// Wall.
+        wall: Wall,
+    },
+}
+
+/// A discrete event in a run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Event {
+    /// Time of the event.
+    pub t_s: f64,
+    /// Kind.
+    pub kind: EventKind,
+    /// State just before.
+    pub before: State,
+    /// State just after.
+    pub after: State,
+}
+
+/// How the ball moves during a segment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Mode {
+    /// No ball at all (solid bar).
+    NoBall,
+    /// Ball moves freely relative to the bar.
+    Free,
+    /// Ball sticks to the bar away from the walls (`coulomb`).
+    Stick,
+    /// Ball rides pressed against a wall.
+    Contact(Wall),
+}
+
+/// Integrals over part of a segment, the raw material of RMS and the energy audit.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct SegmentIntegrals {
+    /// `∫ u² dt`.
+    pub u2_m2_s: f64,
+    /// Work of the external force on the bar, `∫ F(t) u̇ dt`.
+    pub forcing_work_j: f64,
+    /// Viscous loss, `∫ C u̇² dt`.
+    pub viscous_loss_j: f64,
+    /// Work of the friction force on the bar–ball system, `∫ F_ball ẇ dt` (positive = energy in).
+    pub friction_work_j: f64,
+}
+
+impl std::ops::AddAssign for SegmentIntegrals {
+    fn add_assign(&mut self, o: Self) {
+        self.u2_m2_s += o.u2_m2_s;
+        self.forcing_work_j += o.forcing_work_j;
+        self.viscous_loss_j += o.viscous_loss_j;
+        self.friction_work_j += o.friction_work_j;
+    }
+}
+
+/// A smooth piece of the motion between two events.
+pub trait Segment {
+    /// Start time.
+    fn t_start_s(&self) -> f64;
+    /// End time.
+    fn t_end_s(&self) -> f64;
+    /// Mode during the segment.
+    fn mode(&self) -> Mode;
+    /// State at `t` in `[t_start, t_end]`.
+    fn state_at(&self, t_s: f64) -> State;
+    /// `∫ u² dt` over `[a, b] ⊆ [t_start, t_end]`: the hot path of RMS, kept separate.
+    fn integral_u2(&self, a_s: f64, b_s: f64) -> f64;
+    /// All integrals over `[a, b] ⊆ [t_start, t_end]`.
+    fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals;
+}
+
+/// Sees a run as it is computed. Every method defaults to a no-op.
+pub trait Observer {
+    /// A smooth segment was completed.
+    fn segment(&mut self, _seg: &dyn Segment) {}
+    /// An event happened (after the segment that ends at it).
+    fn event(&mut self, _ev: &Event) {}
+}
+
+/// Does nothing.
+impl Observer for () {}
+
+/// Feeds two observers.
+impl<A: Observer, B: Observer> Observer for (A, B) {
+    fn segment(&mut self, seg: &dyn Segment) {
+        self.0.segment(seg);
+        self.1.segment(seg);
+    }
+    fn event(&mut self, ev: &Event) {
+        self.0.event(ev);
+        self.1.event(ev);
+    }
+}
+
+/// Feeds any number of observers: `Fanout(&mut [&mut a, &mut b])`.
+pub struct Fanout<'a, 'b>(pub &'a mut [&'b mut dyn Observer]);
+
+impl Observer for Fanout<'_, '_> {
+    fn segment(&mut self, seg: &dyn Segment) {
+        for o in self.0.iter_mut() {
+            o.segment(seg);
+        }
+    }
+    fn event(&mut self, ev: &Event) {
+        for o in self.0.iter_mut() {
+            o.event(ev);
+        }
+    }
+}
+
+/// What a solver says about a finished run.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct RunSummary {
+    /// State at the end.
+    pub final_state: State,
+    /// Impacts over the whole run.
+    pub impacts: u64,
+    /// All events over the whole run.
+    pub events: u64,
+    /// Largest `|w| − l_g` seen (penetration into the wall; ≤ 0 when the ball never left).
+    pub max_penetration_m: f64,
+}
+
+/// Every solver implements this; every analysis is written against it.
+pub trait Solver: Sync {
+    /// Short name used in the CLI and in output files (`rk4`, `exact`).
+    fn name(&self) -> &'static str;
+    /// Integrate `sys` from `init` (at `init.t_s`) until `t_end_s`, reporting to `obs`.
+    fn run(
+        &self,
+        sys: &System,
+        init: &State,
+        t_end_s: f64,
+        obs: &mut dyn Observer,
+    ) -> Result<RunSummary, SimError>;
+}
+
+/// Names of the solvers the library provides.
+pub const SOLVER_NAMES: [&str; 1] = ["rk4"];
+
+/// Build a solver by name with the run settings (`dt` is used by fixed-step solvers).
+pub fn solver_by_name(name: &str, settings: &RunSettings) -> Option<Box<dyn Solver>> {
+    match name {
+        "rk4" => Some(Box::new(Rk4 {
+            dt_s: settings.dt_s,
+        })),
+        _ => None,
+    }
+}
