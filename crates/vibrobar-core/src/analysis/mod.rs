@@ -1,5 +1,6 @@
 //! Analyses built on the observer protocol. They work with every solver.
 
+pub mod energy;
 pub mod sweep;
 
 pub use sweep::{
