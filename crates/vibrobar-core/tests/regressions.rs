@@ -26,3 +26,57 @@ fn rk4_accepted_nan_or_backward_end_time() {
     let s = Rk4 { dt_s: 1e-6 }.run(&sys, &init, 0.5, &mut ()).unwrap();
     assert_eq!(s.final_state, init);
 }
+
+/// Bug: rk4's `Segment::integrals` took the friction work of a step as the start-of-step
+/// friction force times `Δw`. On a step where `ẇ` reverses, `Δw` can have the other sign, so a
+/// step of `as-published` friction (power `F|ẇ| ≥ 0`) reported negative work (−8.8e-12 J seen
+/// at gap 1 mm, 0.0204 N), and `coulomb` positive work. Now `±F·∫|ẇ|dt`.
+#[test]
+fn rk4_step_friction_work_had_wrong_sign_when_dw_reversed_in_step() {
+    use vibrobar_core::solver::{Observer, Segment};
+    use vibrobar_core::FrictionModel;
+    struct Probe {
+        reversals: u64,
+        min_work: f64,
+        max_work: f64,
+    }
+    impl Observer for Probe {
+        fn segment(&mut self, seg: &dyn Segment) {
+            let (a, b) = (seg.t_start_s(), seg.t_end_s());
+            if seg.state_at(a).dw_m_s() * seg.state_at(b).dw_m_s() < 0.0 {
+                self.reversals += 1;
+                let w = seg.integrals(a, b).friction_work_j;
+                self.min_work = self.min_work.min(w);
+                self.max_work = self.max_work.max(w);
+            }
+        }
+    }
+    for model in [FrictionModel::AsPublished, FrictionModel::Coulomb] {
+        let sys = System::paper_damped(1e-3, model, 1.0);
+        let mut p = Probe {
+            reversals: 0,
+            min_work: f64::INFINITY,
+            max_work: f64::NEG_INFINITY,
+        };
+        Rk4 { dt_s: 1e-6 }
+            .run(&sys, &State::REST, 0.05, &mut p)
+            .unwrap();
+        assert!(
+            p.reversals > 10,
+            "{model}: only {} reversal steps",
+            p.reversals
+        );
+        match model {
+            FrictionModel::AsPublished => assert!(
+                p.min_work >= 0.0,
+                "{model}: friction work {} J < 0 on a reversal step",
+                p.min_work
+            ),
+            _ => assert!(
+                p.max_work <= 0.0,
+                "{model}: friction work {} J > 0 on a reversal step",
+                p.max_work
+            ),
+        }
+    }
+}
