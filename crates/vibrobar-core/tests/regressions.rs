@@ -80,3 +80,35 @@ fn rk4_step_friction_work_had_wrong_sign_when_dw_reversed_in_step() {
         }
     }
 }
+
+/// Bug: `linspace_inclusive(0.0, 1.0, 0.0)` computed `inf as i64 = i64::MAX` points and tried to
+/// allocate them (abort), and a NaN step silently gave one point. Bad grids now give an empty
+/// vector, and `checked_linspace_inclusive` an error naming the argument.
+#[test]
+fn linspace_with_zero_step_tried_to_allocate_i64_max_points() {
+    use vibrobar_core::analysis::{checked_linspace_inclusive, linspace_inclusive};
+    for (start, stop, step, field) in [
+        (0.0, 1.0, 0.0, "grid.step"),
+        (0.0, 1.0, -0.1, "grid.step"),
+        (0.0, 1.0, f64::NAN, "grid.step"),
+        (0.0, 1.0, 1e-300, "grid.step"),
+        (f64::NAN, 1.0, 0.1, "grid.start"),
+        (0.0, f64::INFINITY, 0.1, "grid.stop"),
+        (1.0, 0.0, 0.1, "grid.stop"),
+    ] {
+        assert!(
+            linspace_inclusive(start, stop, step).is_empty(),
+            "({start}, {stop}, {step})"
+        );
+        match checked_linspace_inclusive(start, stop, step) {
+            Err(ParamError::NotFinite { field: f, .. })
+            | Err(ParamError::OutOfRange { field: f, .. }) => {
+                assert_eq!(f, field, "({start}, {stop}, {step})")
+            }
+            Ok(v) => panic!("({start}, {stop}, {step}) accepted: {} points", v.len()),
+        }
+    }
+    // A single point and the paper grid still work.
+    assert_eq!(linspace_inclusive(1.0, 1.0, 0.01), vec![1.0]);
+    assert_eq!(linspace_inclusive(0.95, 1.05, 0.01).len(), 11);
+}

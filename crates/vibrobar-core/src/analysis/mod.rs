@@ -4,7 +4,8 @@ pub mod energy;
 pub mod sweep;
 
 pub use sweep::{
-    linspace_inclusive, par_map_with_progress, sweep, SweepBase, SweepPoint, SweepRow,
+    checked_linspace_inclusive, linspace_inclusive, par_map_with_progress, sweep, SweepBase,
+    SweepPoint, SweepRow,
 };
 
 use crate::error::SimError;
