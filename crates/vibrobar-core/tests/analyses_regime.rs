@@ -242,3 +242,79 @@ fn small_gap_at_resonance_impacts() {
     assert_ne!(r, Regime::None);
     assert_ne!(r, Regime::Contact);
 }
+
+/// A segment of constant state in a given mode: enough to drive the observer by hand, as an
+/// event-driven solver reporting stick and contact modes would.
+struct ModeSegment {
+    a: f64,
+    b: f64,
+    mode: vibrobar_core::solver::Mode,
+}
+
+impl vibrobar_core::solver::Segment for ModeSegment {
+    fn t_start_s(&self) -> f64 {
+        self.a
+    }
+    fn t_end_s(&self) -> f64 {
+        self.b
+    }
+    fn mode(&self) -> vibrobar_core::solver::Mode {
+        self.mode
+    }
+    fn state_at(&self, t_s: f64) -> State {
+        State { t_s, ..State::REST }
+    }
+    fn integral_u2(&self, _a: f64, _b: f64) -> f64 {
+        0.0
+    }
+    fn integrals(&self, _a: f64, _b: f64) -> vibrobar_core::solver::SegmentIntegrals {
+        Default::default()
+    }
+}
+
+#[test]
+fn observer_times_modes_inside_the_window_only() {
+    use vibrobar_core::solver::{Event, EventKind, Mode};
+    use vibrobar_core::Observer;
+    let sys = System::paper_damped(1e-4, FrictionModel::Coulomb, 1.0);
+    let tp = sys.forcing_period_s();
+    let (w0, w1) = (10.0 * tp, 40.0 * tp);
+    let mut obs = RegimeObserver::new(&sys, w0, w1);
+    // 0 … 20 T free (10 T of it in the window), 20 … 32 T riding the wall, 32 … 40 T stuck.
+    let segs = [
+        (0.0, 20.0, Mode::Free),
+        (20.0, 32.0, Mode::Contact(Wall::Plus)),
+        (32.0, 40.0, Mode::Stick),
+    ];
+    for (a, b, mode) in segs {
+        obs.segment(&ModeSegment {
+            a: a * tp,
+            b: b * tp,
+            mode,
+        });
+        let ev = Event {
+            t_s: b * tp,
+            kind: EventKind::Impact {
+                wall: Wall::Minus,
+                dw_m_s: -0.01,
+                energy_loss_j: 0.0,
+            },
+            before: State::REST,
+            after: State::REST,
+        };
+        obs.event(&ev);
+    }
+    let c = obs.finish();
+    assert!((c.mode_time.free_s - 10.0 * tp).abs() < 1e-12);
+    assert!((c.mode_time.contact_s - 12.0 * tp).abs() < 1e-12);
+    assert!((c.mode_time.stick_s - 8.0 * tp).abs() < 1e-12);
+    assert_eq!(c.impacts.len(), 3); // at 20 T, 32 T and 40 T (window end included)
+    assert_eq!(c.strobe.len(), 31); // phase-0 points at 10 T … 40 T
+                                    // 20 of 30 periods stuck or in contact: 67 % > 50 %.
+    assert_eq!(classify(&c, &Tolerances::default()), Regime::Contact);
+    let lenient = Tolerances {
+        contact_fraction: 0.7,
+        ..Default::default()
+    };
+    assert_eq!(classify(&c, &lenient), Regime::Chaotic);
+}
