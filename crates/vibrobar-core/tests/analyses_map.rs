@@ -194,6 +194,14 @@ fn small_real_map_shares_solid_runs_and_matches_single_points() {
     assert!(res.impacts_per_cycle > 0.0);
     assert_ne!(res.regime, Regime::None);
     assert!(res.reduction_pct > 20.0, "{}", res.reduction_pct);
+    // One thread or two: the same rows, bit for bit.
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| run_map(&spec, &solver, &g.points(), &|_, _| {}))
+        .unwrap();
+    assert_eq!(one, rows);
     // The shard of a grid runs the same rows.
     let shard = run_map(&spec, &solver, &g.shard(2, 2).unwrap(), &|_, _| {}).unwrap();
     assert_eq!(shard, vec![rows[1].clone(), rows[3].clone()]);
