@@ -1,6 +1,11 @@
 //! Analyses built on the observer protocol. They work with every solver.
 
 pub mod energy;
+pub mod ensemble;
+pub mod lyapunov;
+pub mod map;
+pub mod poincare;
+pub mod regime;
 pub mod sweep;
 
 pub use sweep::{
