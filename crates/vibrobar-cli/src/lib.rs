@@ -1,0 +1,2 @@
+//! vibrobar command-line front end.
+pub mod store;
