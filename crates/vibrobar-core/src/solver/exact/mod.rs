@@ -32,7 +32,7 @@ use crate::error::SimError;
 use crate::model::impact_energy_loss_j;
 use crate::params::{FrictionModel, State, System};
 use expsum::{integral_product, ExpSum, Trig};
-use roots::{first_root, Root};
+use roots::{first_root_multi, Cand, Root};
 
 /// The exact event-driven solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -76,6 +76,7 @@ struct Consts {
     tol_x: f64,
     tol_v: f64,
     tol_f: f64,
+    tol_t: f64,
     /// Chatter resolution: apex height and time.
     chatter_h: f64,
     chatter_t: f64,
@@ -371,6 +372,7 @@ impl Solver for Exact {
             tol_x: 1e-15 * lg,
             tol_v: 1e-15 * lg * om.max(wn),
             tol_f: 1e-15 * f_scale.max(f64::MIN_POSITIVE),
+            tol_t: 1e-15 / om.max(wn),
             chatter_h: 1e-10 * lg,
             chatter_t: 1e-9 * 2.0 * std::f64::consts::PI / om,
         };
@@ -420,6 +422,7 @@ impl Solver for Exact {
         let mut mode = initial_mode(&cs, &mut s, &mut book)?;
         while s.t < t_end_s {
             let span = t_end_s - s.t;
+            let tol_t = cs.tol_t + 4.0 * f64::EPSILON * s.t.abs();
             match mode {
                 Md::Free {
                     sigma,
@@ -439,36 +442,49 @@ impl Solver for Exact {
                         q: -u.q,
                         ..u
                     };
-                    // Candidates: (function, order, tolerance, which).
-                    let mut best = span;
-                    let mut which = 0u8;
+                    // Candidates and what they mean: 1 wall +, 2 wall −, 3 ẇ = 0.
                     let both_walls = !cs.frictional() || sigma == 0.0;
-                    let mut cands: [(ExpSum, usize, f64, u8); 3] = [(w, 0, 0.0, 0); 3];
+                    let mut cands = [Cand {
+                        g: w,
+                        order: 0,
+                        tol: 0.0,
+                    }; 3];
+                    let mut ids = [0u8; 3];
                     let mut n = 0;
                     if both_walls || sigma > 0.0 {
-                        cands[n] = (w.affine(-1.0, cs.lg), k_plus, cs.tol_x, 1);
+                        cands[n] = Cand {
+                            g: w.affine(-1.0, cs.lg),
+                            order: k_plus,
+                            tol: cs.tol_x,
+                        };
+                        ids[n] = 1;
                         n += 1;
                     }
                     if both_walls || sigma < 0.0 {
-                        cands[n] = (w.affine(1.0, cs.lg), k_minus, cs.tol_x, 2);
+                        cands[n] = Cand {
+                            g: w.affine(1.0, cs.lg),
+                            order: k_minus,
+                            tol: cs.tol_x,
+                        };
+                        ids[n] = 2;
                         n += 1;
                     }
                     if cs.frictional() && sigma != 0.0 {
-                        cands[n] = (w.deriv().affine(sigma, 0.0), k_sw, cs.tol_v, 3);
+                        cands[n] = Cand {
+                            g: w.deriv().affine(sigma, 0.0),
+                            order: k_sw,
+                            tol: cs.tol_v,
+                        };
+                        ids[n] = 3;
                         n += 1;
                     }
-                    for (g, k, tol, id) in cands.iter().take(n) {
-                        match first_root(g, *k, 0.0, best, *tol) {
-                            Root::At(t) => {
-                                best = t;
-                                which = *id;
-                            }
-                            Root::None => {}
-                            Root::Stalled(t) => {
-                                return Err(SimError::RootIsolation { t_s: s.t + t });
-                            }
+                    let (best, which) = match first_root_multi(&cands[..n], 0.0, span, tol_t) {
+                        (Root::At(t), i) => (t, ids[i]),
+                        (Root::None, _) => (span, 0),
+                        (Root::Stalled(t), _) => {
+                            return Err(SimError::RootIsolation { t_s: s.t + t })
                         }
-                    }
+                    };
                     let seg = ExactSegment {
                         t0: s.t,
                         t1: if which == 0 { t_end_s } else { s.t + best },
@@ -509,34 +525,34 @@ impl Solver for Exact {
                         ..u.zero_like()
                     };
                     // Margins that stay positive while the mode holds.
-                    let mut cands: [(ExpSum, u8); 2] = [(w, 0); 2];
+                    let mk = |g: ExpSum| Cand {
+                        g,
+                        order: 0,
+                        tol: cs.tol_f,
+                    };
+                    let mut cands = [mk(w); 2];
+                    let mut ids = [0u8; 2];
                     let n = match mode {
                         Md::Stick => {
-                            cands[0] = (ddu.affine(-cs.md, cs.fl), 1); // unstick, ball lags
-                            cands[1] = (ddu.affine(cs.md, cs.fl), 2); // unstick, ball leads
+                            cands[0] = mk(ddu.affine(-cs.md, cs.fl)); // ball lags
+                            cands[1] = mk(ddu.affine(cs.md, cs.fl)); // ball leads
+                            ids = [1, 2];
                             2
                         }
                         Md::Contact(wall) => {
-                            let sw = wall.sign();
-                            cands[0] = (ddu.affine(-sw * cs.md, cs.f_hold()), 3);
+                            cands[0] = mk(ddu.affine(-wall.sign() * cs.md, cs.f_hold()));
+                            ids[0] = 3;
                             1
                         }
                         _ => unreachable!(),
                     };
-                    let mut best = span;
-                    let mut which = 0u8;
-                    for (g, id) in cands.iter().take(n) {
-                        match first_root(g, 0, 0.0, best, cs.tol_f) {
-                            Root::At(t) => {
-                                best = t;
-                                which = *id;
-                            }
-                            Root::None => {}
-                            Root::Stalled(t) => {
-                                return Err(SimError::RootIsolation { t_s: s.t + t });
-                            }
+                    let (best, which) = match first_root_multi(&cands[..n], 0.0, span, tol_t) {
+                        (Root::At(t), i) => (t, ids[i]),
+                        (Root::None, _) => (span, 0),
+                        (Root::Stalled(t), _) => {
+                            return Err(SimError::RootIsolation { t_s: s.t + t })
                         }
-                    }
+                    };
                     let seg = ExactSegment {
                         t0: s.t,
                         t1: if which == 0 { t_end_s } else { s.t + best },

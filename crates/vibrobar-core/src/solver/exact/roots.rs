@@ -51,66 +51,129 @@ fn factorial(n: usize) -> f64 {
     (1..=n).map(|i| i as f64).product()
 }
 
-/// First zero of `g` in `[t0, t_max]`, `g` positive just after `t0`. `order` is the order of the
-/// known zero at `t0` (0: `g(t0) > 0`, no departure logic). `tol` is an absolute tolerance on `g`.
-pub fn first_root(g: &ExpSum, order: usize, t0: f64, t_max: f64, tol: f64) -> Root {
-    let mut tau = t0;
-    if order > 0 {
-        let trig = Trig::new(t0, g.om, g.al, g.wd);
-        let d: [f64; 5] = g.derivs_t(&trig);
-        let k = order.min(3);
-        let a = d[k].max(0.0) / factorial(k);
-        let b = d[k + 1] / factorial(k + 1);
-        let c = g.deriv_bound((k + 2) as u32, t0, t_max) / factorial(k + 2);
-        let h1 = if c > 0.0 {
-            (b + (b * b + 4.0 * a * c).sqrt()) / (2.0 * c)
-        } else if b < 0.0 {
-            a / -b
-        } else if a > 0.0 || b > 0.0 {
-            f64::INFINITY
-        } else {
-            0.0
-        };
-        if h1.is_nan() || h1 <= 0.0 {
-            return Root::At(t0);
-        }
-        tau = t0 + 0.5 * h1;
-        if tau >= t_max {
-            return Root::None;
+/// One event function of a joint search.
+#[derive(Debug, Clone, Copy)]
+pub struct Cand {
+    /// The function, positive while nothing happens.
+    pub g: ExpSum,
+    /// Order of its known zero at the start (0: none).
+    pub order: usize,
+    /// Absolute tolerance on `g`.
+    pub tol: f64,
+}
+
+/// Departure step: `g > 0` is proven on `(t0, t0 + h₁)`; returns `h₁/2`, or `None` if the
+/// clamped Taylor bracket does not confirm the departure.
+fn departure_step(g: &ExpSum, order: usize, t0: f64, t_max: f64) -> Option<f64> {
+    let trig = Trig::new(t0, g.om, g.al, g.wd);
+    let d: [f64; 5] = g.derivs_t(&trig);
+    let k = order.min(3);
+    let a = d[k].max(0.0) / factorial(k);
+    let b = d[k + 1] / factorial(k + 1);
+    let c = g.deriv_bound((k + 2) as u32, t0, t_max) / factorial(k + 2);
+    let h1 = if c > 0.0 {
+        (b + (b * b + 4.0 * a * c).sqrt()) / (2.0 * c)
+    } else if b < 0.0 {
+        a / -b
+    } else if a > 0.0 || b > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    };
+    if h1.is_nan() || h1 <= 0.0 {
+        None
+    } else {
+        Some(0.5 * h1)
+    }
+}
+
+/// First zero among several functions sharing the frequencies of the first one, in
+/// `[t0, t_max]`: returns the root and the index of the function. All functions are stepped
+/// together (the step is the smallest proven root-free step), so the work is bounded by the
+/// earliest event, not by the interval.
+pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Root, usize) {
+    let Some(first) = cands.first() else {
+        return (Root::None, 0);
+    };
+    let (om, al, wd) = (first.g.om, first.g.al, first.g.wd);
+    let wn2 = al * al + wd * wd;
+    // Per function: constant part of the |g''| bound and the decaying amplitude.
+    let mut bconst = [0.0f64; 4];
+    let mut bdec = [0.0f64; 4];
+    let n = cands.len().min(4);
+    let tau = t0;
+    // Departing functions are proven positive up to `free_until` by their Taylor bracket.
+    let mut free_until = [t0; 4];
+    for (i, c) in cands.iter().take(n).enumerate() {
+        bconst[i] = (2.0 * c.g.c2.abs() + om * om * c.g.a.hypot(c.g.b)) * (1.0 + 1e-12);
+        bdec[i] = wn2 * c.g.p.hypot(c.g.q) * (1.0 + 1e-12);
+        if c.order > 0 {
+            match departure_step(&c.g, c.order, t0, t_max) {
+                Some(h) => free_until[i] = t0 + h,
+                None => return (Root::At(t0), i),
+            }
         }
     }
+    let mut tau = tau;
     for _ in 0..MAX_ITER {
-        let trig = Trig::new(tau, g.om, g.al, g.wd);
-        let [f, f1]: [f64; 2] = g.derivs_t(&trig);
-        if f <= tol && f1 <= 0.0 {
-            return Root::At(tau);
-        }
-        let f = f.max(0.0);
-        let bnd = g.deriv_bound(2, tau, t_max);
-        let h = if bnd > 0.0 {
-            let disc = (f1 * f1 + 2.0 * bnd * f).sqrt();
-            if f1 < 0.0 {
-                // Same root, written without cancellation.
-                2.0 * f / (disc - f1)
-            } else {
-                (f1 + disc) / bnd
+        let trig = Trig::new(tau, om, al, wd);
+        let decay = 1.0 + trig.em1;
+        let mut h = f64::INFINITY;
+        let mut imin = 0;
+        for (i, c) in cands.iter().take(n).enumerate() {
+            if free_until[i] > tau {
+                let hi = free_until[i] - tau;
+                if hi < h {
+                    h = hi;
+                    imin = i;
+                }
+                continue;
             }
-        } else if f1 < 0.0 {
-            f / -f1
-        } else {
-            f64::INFINITY
-        };
+            let [f, f1]: [f64; 2] = c.g.derivs_t(&trig);
+            if f <= c.tol && f1 <= 0.0 {
+                return (Root::At(tau), i);
+            }
+            let f = f.max(0.0);
+            let bnd = bconst[i] + bdec[i] * decay;
+            let hi = if bnd > 0.0 {
+                let disc = (f1 * f1 + 2.0 * bnd * f).sqrt();
+                if f1 < 0.0 {
+                    // Same root, written without cancellation.
+                    2.0 * f / (disc - f1)
+                } else {
+                    (f1 + disc) / bnd
+                }
+            } else if f1 < 0.0 {
+                f / -f1
+            } else {
+                f64::INFINITY
+            };
+            if f1 < 0.0 && hi <= tol_t {
+                // Within the time resolution of the zero, approaching it: it is here.
+                return (Root::At(tau), i);
+            }
+            if hi < h {
+                h = hi;
+                imin = i;
+            }
+        }
         let next = tau + h;
         if next >= t_max {
-            return Root::None;
+            return (Root::None, 0);
         }
         if next <= tau {
-            // Below one ulp of time from the zero: it is here.
-            return Root::At(tau);
+            return (Root::At(tau), imin);
         }
         tau = next;
     }
-    Root::Stalled(tau)
+    (Root::Stalled(tau), 0)
+}
+
+/// First zero of `g` in `[t0, t_max]`, `g` positive just after `t0`. `order` is the order of the
+/// known zero at `t0` (0: `g(t0) > 0`, no departure logic). `tol` is an absolute tolerance on
+/// `g`, `tol_t` the time resolution (a zero closer than that, approached, is taken as reached).
+pub fn first_root(g: &ExpSum, order: usize, t0: f64, t_max: f64, tol: f64, tol_t: f64) -> Root {
+    first_root_multi(&[Cand { g: *g, order, tol }], t0, t_max, tol_t).0
 }
 
 #[cfg(test)]
@@ -132,18 +195,18 @@ mod tests {
     #[test]
     fn parabola_roots() {
         // 1 − τ²: root at 1.
-        match first_root(&es(1.0, 0.0, -1.0), 0, 0.0, 10.0, 1e-15) {
+        match first_root(&es(1.0, 0.0, -1.0), 0, 0.0, 10.0, 1e-15, 0.0) {
             Root::At(t) => assert!((t - 1.0).abs() < 1e-14, "{t}"),
             r => panic!("{r:?}"),
         }
         // Touch: (τ − 1)² ≥ 0 touches 0 at 1.
-        match first_root(&es(1.0, -2.0, 1.0), 0, 0.0, 10.0, 1e-15) {
+        match first_root(&es(1.0, -2.0, 1.0), 0, 0.0, 10.0, 1e-15, 0.0) {
             Root::At(t) => assert!((t - 1.0).abs() < 1e-7, "{t}"),
             r => panic!("{r:?}"),
         }
         // Near miss by 1e-12: no root.
         assert_eq!(
-            first_root(&es(1.0 + 1e-12, -2.0, 1.0), 0, 0.0, 10.0, 1e-15),
+            first_root(&es(1.0 + 1e-12, -2.0, 1.0), 0, 0.0, 10.0, 1e-15, 0.0),
             Root::None
         );
     }
@@ -153,7 +216,7 @@ mod tests {
         // g = τ − τ²/2 leaves 0 with slope 1 and returns at τ = 2; with round-off in g'(0) < 0
         // clamped by the departure logic.
         let g = es(1e-18, 1.0, -0.5);
-        match first_root(&g, 1, 0.0, 10.0, 1e-15) {
+        match first_root(&g, 1, 0.0, 10.0, 1e-15, 0.0) {
             Root::At(t) => assert!((t - 2.0).abs() < 1e-12, "{t}"),
             r => panic!("{r:?}"),
         }
@@ -167,7 +230,7 @@ mod tests {
             wd: 1.0,
             ..Default::default()
         };
-        match first_root(&h, 2, 0.0, 10.0, 1e-15) {
+        match first_root(&h, 2, 0.0, 10.0, 1e-15, 0.0) {
             Root::At(t) => assert!((t - 2.0 * std::f64::consts::PI).abs() < 1e-6, "{t}"),
             r => panic!("{r:?}"),
         }
