@@ -128,7 +128,8 @@ impl Consts {
         let d = kk * kk + cw * cw;
         let (a, b) = if self.f0 == 0.0 {
             (0.0, 0.0)
-        } else if d == 0.0 {
+        } else if d == 0.0 || (cw == 0.0 && kk.abs() <= 8.0 * f64::EPSILON * self.k) {
+            // Undamped and at resonance to rounding: no bounded closed form.
             return Err(SimError::UndampedResonance {
                 omega_rad_s: self.om,
             });
