@@ -115,13 +115,13 @@ fn run(sys: &System, t_end: f64) -> (Recorder, State) {
     (rec, sum.final_state)
 }
 
-/// `ΔE = W_forcing − W_viscous + W_friction − impact/chatter losses` to 1e-9 of the input work.
-fn audit(sys: &System, rec: &Recorder, end: &State) {
+/// `ΔE = W_forcing − W_viscous + W_friction − impact/chatter losses` to `rel` of the input work.
+fn audit(sys: &System, rec: &Recorder, end: &State, rel: f64) {
     let t = rec.totals;
     let de = model::mechanical_energy_j(sys, end) - model::mechanical_energy_j(sys, &State::REST);
     let gap = t.forcing_work_j - t.viscous_loss_j + t.friction_work_j - rec.losses_j() - de;
     assert!(
-        gap.abs() < 1e-9 * t.forcing_work_j.abs(),
+        gap.abs() < rel * t.forcing_work_j.abs(),
         "energy audit off by {gap:e} J of {:e} J",
         t.forcing_work_j
     );
@@ -152,7 +152,7 @@ fn friction_power_has_the_sign_of_the_model() {
         }
         assert!(free > 0);
         assert!(sign * rec.totals.friction_work_j > 0.0);
-        audit(&sys, &rec, &end);
+        audit(&sys, &rec, &end, 1e-9);
     }
 }
 
@@ -200,35 +200,60 @@ fn stick_and_unstick_follow_the_force_condition() {
         }
     }
     assert!(stick_segs >= 5);
-    audit(&sys, &rec, &end);
+    audit(&sys, &rec, &end, 1e-9);
 }
 
+/// Ball chattering into contact with the + wall under `F = −1 + 2 sin 10t` (soft spring): the
+/// contact holds while `m_d ü_pair = m_d F/(M + m_d) ≤ f_hold` and releases exactly when `F`
+/// reaches `f_hold (M + m_d)/m_d`.
 #[test]
 fn contact_releases_when_the_contact_force_vanishes() {
-    let mut releases = 0;
-    for sys in [
-        paper(FrictionModel::None, 1e-4, None, 1.0),
-        paper(FrictionModel::AsPublished, 1e-4, None, 1.05),
+    for (fr, f) in [
+        (FrictionModel::None, 0.0),
+        (FrictionModel::AsPublished, 0.002),
+        (FrictionModel::Coulomb, 0.005),
     ] {
-        let (rec, end) = run(&sys, 0.2);
-        for ev in &rec.events {
-            if let EventKind::ContactRelease { wall } = ev.kind {
-                releases += 1;
-                // f_hold = 0 for these models: s·m_d ü_pair crosses 0 upward.
-                let s_acc = wall.sign() * md_acc_pair(&sys, &ev.after);
-                assert!(s_acc.abs() < 1e-9, "release at s·m ü = {s_acc}");
+        let mut sys = common::constant_push(-1.0, 2e-4, 0.3);
+        sys.forcing.amplitude_n = 2.0;
+        sys.forcing.frequency = Frequency::RadPerS(10.0);
+        let d = sys.damper.as_mut().unwrap();
+        d.friction = fr;
+        d.friction_force_n = Some(f);
+        let (m, md) = (1.0, 0.05);
+        let f_hold = if fr == FrictionModel::Coulomb { f } else { 0.0 };
+        let (rec, end) = run(&sys, 0.1);
+        let release = rec
+            .events
+            .iter()
+            .find(|e| matches!(e.kind, EventKind::ContactRelease { .. }))
+            .unwrap_or_else(|| panic!("{fr}: no release"));
+        assert!(matches!(
+            release.kind,
+            EventKind::ContactRelease {
+                wall: solver::Wall::Plus
             }
-        }
+        ));
+        let f_release = f_hold * (m + md) / md;
+        let t_want = ((f_release + 1.0) / 2.0).asin() / 10.0;
+        assert!(
+            (release.t_s - t_want).abs() < 1e-12,
+            "{fr}: release at {} vs {t_want}",
+            release.t_s
+        );
+        let s_acc = md_acc_pair(&sys, &release.after);
+        assert!((s_acc - f_hold).abs() < 1e-12, "{fr}: {s_acc}");
+        // Contact reached by chatter before, held in between.
+        assert!(rec.count(|k| matches!(k, EventKind::ChatterLimit { .. })) >= 1);
         for (_, _, mode, _, sa, sb) in &rec.segs {
             if let Mode::Contact(wall) = mode {
                 for s in [sa, sb] {
-                    assert!(wall.sign() * md_acc_pair(&sys, s) <= 1e-9);
-                    let lg = sys.damper.unwrap().half_gap_m();
-                    assert!((s.w_m() - wall.sign() * lg).abs() < 1e-15);
+                    assert!(wall.sign() * md_acc_pair(&sys, s) <= f_hold + 1e-12);
+                    assert!((s.w_m() - wall.sign() * 1e-4).abs() < 1e-18);
                 }
             }
         }
-        audit(&sys, &rec, &end);
+        // The soft spring (K = 1e-9 N/m) puts a homogeneous amplitude of F_s/K ≈ 1e9 m into the
+        // closed form; its terms cancel in ∫F u̇ to ~1e-13 J absolute, hence the looser audit.
+        audit(&sys, &rec, &end, 1e-8);
     }
-    assert!(releases >= 2);
 }

@@ -13,6 +13,9 @@
 pub struct ExpSum {
     /// Value at `τ = 0`.
     pub f0: f64,
+    /// The standard-form constant `c0` (`= f0 − a − p`), kept exactly where it is known
+    /// (`F_s/K`, 0 for a derivative): the closed-form integrals use it.
+    pub k0: f64,
     /// Linear coefficient.
     pub c1: f64,
     /// Quadratic coefficient.
@@ -92,6 +95,7 @@ impl ExpSum {
     pub fn affine(&self, s: f64, k: f64) -> ExpSum {
         ExpSum {
             f0: s * self.f0 + k,
+            k0: s * self.k0 + k,
             c1: s * self.c1,
             c2: s * self.c2,
             a: s * self.a,
@@ -102,9 +106,13 @@ impl ExpSum {
         }
     }
 
-    /// The standard-form constant `c0 = f(0) − a − p`.
-    pub fn c0(&self) -> f64 {
-        self.f0 - self.a - self.p
+    /// A constant with the frequencies of `like`.
+    pub fn constant(v: f64, like: &ExpSum) -> ExpSum {
+        ExpSum {
+            f0: v,
+            k0: v,
+            ..like.zero_like()
+        }
     }
 
     /// The derivative, again an exponential sum (its `f0` is `f'(0)`).
@@ -115,6 +123,7 @@ impl ExpSum {
         let q = -self.al * self.q - self.wd * self.p;
         ExpSum {
             f0: self.c1 + a + p,
+            k0: self.c1,
             c1: 2.0 * self.c2,
             c2: 0.0,
             a,
@@ -195,7 +204,7 @@ impl ExpSum {
         let ih = C(0.0, self.om);
         let dd = C(-self.al, self.wd);
         [
-            (C(self.c0(), 0.0), C(0.0, 0.0)),
+            (C(self.k0, 0.0), C(0.0, 0.0)),
             (C(0.5 * self.a, -0.5 * self.b), ih),
             (C(0.5 * self.a, 0.5 * self.b), ih.conj()),
             (C(0.5 * self.p, -0.5 * self.q), dd),
@@ -291,6 +300,7 @@ mod tests {
     fn sample() -> ExpSum {
         ExpSum {
             f0: 0.3,
+            k0: 0.3 - 0.7 - 0.5,
             c1: 0.0,
             c2: 0.0,
             a: 0.7,
@@ -304,8 +314,7 @@ mod tests {
     }
 
     fn naive(f: &ExpSum, t: f64) -> f64 {
-        f.c0()
-            + f.c1 * t
+        f.k0 + f.c1 * t
             + f.c2 * t * t
             + f.a * (f.om * t).cos()
             + f.b * (f.om * t).sin()

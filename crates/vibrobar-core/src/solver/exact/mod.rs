@@ -146,6 +146,7 @@ impl Consts {
         let q = (du0 - self.om * b + al * p) / wd;
         Ok(ExpSum {
             f0: u0,
+            k0: uc,
             c1: 0.0,
             c2: 0.0,
             a,
@@ -162,6 +163,7 @@ impl Consts {
         let (s0, c0) = (self.om * t_seg).sin_cos();
         ExpSum {
             f0: self.fs + self.f0 * s0,
+            k0: self.fs,
             a: self.f0 * s0,
             b: self.f0 * c0,
             ..like.zero_like()
@@ -435,6 +437,7 @@ impl Solver for Exact {
                     let u = cs.bar_sum(cs.m, -fb, s.t, s.u, s.du)?;
                     let w = ExpSum {
                         f0: s.w,
+                        k0: s.w + u.a + u.p,
                         c1: s.du + s.dw,
                         c2: 0.5 * fb / cs.md,
                         a: -u.a,
@@ -521,10 +524,7 @@ impl Solver for Exact {
                 Md::Stick | Md::Contact(_) => {
                     let u = cs.bar_sum(cs.m + cs.md, 0.0, s.t, s.u, s.du)?;
                     let ddu = u.deriv().deriv();
-                    let w = ExpSum {
-                        f0: s.w,
-                        ..u.zero_like()
-                    };
+                    let w = ExpSum::constant(s.w, &u);
                     // Margins that stay positive while the mode holds.
                     let mk = |g: ExpSum| Cand {
                         g,
@@ -762,10 +762,7 @@ fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Re
         t1: s.t + j.dt,
         mode: Mode::Contact(wall_of(j.sw)),
         u,
-        w: ExpSum {
-            f0: j.sw * cs.lg,
-            ..u.zero_like()
-        },
+        w: ExpSum::constant(j.sw * cs.lg, &u),
         force: cs.force_sum(s.t, &u),
         c: cs.c,
         fb: 0.0,

@@ -100,6 +100,8 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
     // Per function: constant part of the |g''| bound and the decaying amplitude.
     let mut bconst = [0.0f64; 4];
     let mut bdec = [0.0f64; 4];
+    let mut b3const = [0.0f64; 4];
+    let mut b3dec = [0.0f64; 4];
     let n = cands.len().min(4);
     let tau = t0;
     // Departing functions are proven positive up to `free_until` by their Taylor bracket.
@@ -107,6 +109,8 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
     for (i, c) in cands.iter().take(n).enumerate() {
         bconst[i] = (2.0 * c.g.c2.abs() + om * om * c.g.a.hypot(c.g.b)) * (1.0 + 1e-12);
         bdec[i] = wn2 * c.g.p.hypot(c.g.q) * (1.0 + 1e-12);
+        b3const[i] = om * om * om * c.g.a.hypot(c.g.b) * (1.0 + 1e-12);
+        b3dec[i] = wn2 * wn2.sqrt() * c.g.p.hypot(c.g.q) * (1.0 + 1e-12);
         if c.order > 0 {
             match departure_step(&c.g, c.order, t0, t_max) {
                 Some(h) => free_until[i] = t0 + h,
@@ -129,25 +133,32 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
                 }
                 continue;
             }
-            let [f, f1]: [f64; 2] = c.g.derivs_t(&trig);
+            let [f, f1, f2]: [f64; 3] = c.g.derivs_t(&trig);
             if f <= c.tol && f1 <= 0.0 {
                 return (Root::At(tau), i);
             }
             let f = f.max(0.0);
-            let bnd = bconst[i] + bdec[i] * decay;
-            let hi = if bnd > 0.0 {
-                let disc = (f1 * f1 + 2.0 * bnd * f).sqrt();
-                if f1 < 0.0 {
-                    // Same root, written without cancellation.
-                    2.0 * f / (disc - f1)
-                } else {
-                    (f1 + disc) / bnd
-                }
-            } else if f1 < 0.0 {
-                f / -f1
+            // Quadratic bound with B ≥ |g''| on the rest of the interval …
+            let h2 = quad_step(f, f1, bconst[i] + bdec[i] * decay);
+            // … and, within a horizon H, the cubic bound with the actual g'':
+            // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6) h² for h ≤ H. Both are proofs; take the longer.
+            // H is set a little beyond the zero of the local quadratic model, so that near a
+            // root the step lands next to it (Newton-like), far from one it is long.
+            let h_model = if f2 < 0.0 {
+                quad_step(f, f1, -f2)
+            } else if f1 < 0.0 && f1 * f1 >= 2.0 * f2 * f {
+                2.0 * f / (-f1 + (f1 * f1 - 2.0 * f2 * f).sqrt())
             } else {
                 f64::INFINITY
             };
+            let big_h = (1.1 * h_model).min(8.0 * h2);
+            let h3 = if big_h.is_finite() && big_h > h2 {
+                let b_eff = (b3const[i] + b3dec[i] * decay) * big_h / 3.0 - f2;
+                quad_step(f, f1, b_eff.max(0.0)).min(big_h)
+            } else {
+                0.0
+            };
+            let hi = h2.max(h3);
             if f1 < 0.0 && hi <= tol_t {
                 // Within the time resolution of the zero, approaching it: it is here.
                 return (Root::At(tau), i);
@@ -167,6 +178,24 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
         tau = next;
     }
     (Root::Stalled(tau), 0)
+}
+
+/// Smallest positive root of `f + f1 h − b h²/2` (`f ≥ 0`, `b ≥ 0`), infinite if none.
+#[inline]
+fn quad_step(f: f64, f1: f64, b: f64) -> f64 {
+    if b > 0.0 {
+        let disc = (f1 * f1 + 2.0 * b * f).sqrt();
+        if f1 < 0.0 {
+            // Same root, written without cancellation.
+            2.0 * f / (disc - f1)
+        } else {
+            (f1 + disc) / b
+        }
+    } else if f1 < 0.0 {
+        f / -f1
+    } else {
+        f64::INFINITY
+    }
 }
 
 /// First zero of `g` in `[t0, t_max]`, `g` positive just after `t0`. `order` is the order of the
