@@ -213,19 +213,37 @@ impl ExpSum {
     }
 }
 
-/// `∫_a^b x(τ) y(τ) dτ` in closed form, for sums without polynomial terms:
-/// `Σ_jk c_j d_k ∫ e^{(λ_j+μ_k)τ}`, each integral `e^{νa}(b−a) φ1(ν(b−a))` with a series for
-/// small `|ν(b−a)|`, so that no term loses precision.
+/// `∫_a^b x(τ) y(τ) dτ` in closed form, for sums without polynomial terms and with the same
+/// frequencies: `Σ_jk c_j d_k ∫ e^{(λ_j+λ_k)τ}`, each integral `(e^{νb} − e^{νa})/ν`, or
+/// `e^{νa}(b−a) φ1(ν(b−a))` with a series when `|ν(b−a)| < 1/2`, so that no term loses precision.
+/// The exponentials of the five `λ` at `a` and `b` are computed once (two `sin_cos` and one `exp`
+/// per end).
 pub fn integral_product(x: &ExpSum, y: &ExpSum, a: f64, b: f64) -> f64 {
     let h = b - a;
     if h <= 0.0 {
         return 0.0;
     }
+    debug_assert!(
+        x.om.to_bits() == y.om.to_bits()
+            && x.al.to_bits() == y.al.to_bits()
+            && x.wd.to_bits() == y.wd.to_bits()
+    );
     let tx = x.terms();
     let ty = y.terms();
-    // e^{λ a} of each term.
-    let ex: [C; 5] = tx.map(|(_, l)| l.scale(a).exp());
-    let ey: [C; 5] = ty.map(|(_, l)| l.scale(a).exp());
+    let ends = |t: f64| -> [C; 5] {
+        let (sh, ch) = (x.om * t).sin_cos();
+        let (sd, cd) = (x.wd * t).sin_cos();
+        let e = (-x.al * t).exp();
+        [
+            C(1.0, 0.0),
+            C(ch, sh),
+            C(ch, -sh),
+            C(e * cd, e * sd),
+            C(e * cd, -e * sd),
+        ]
+    };
+    let ea = ends(a);
+    let eb = ends(b);
     let mut sum = C(0.0, 0.0);
     for (j, &(cj, lj)) in tx.iter().enumerate() {
         if cj.0 == 0.0 && cj.1 == 0.0 {
@@ -237,29 +255,31 @@ pub fn integral_product(x: &ExpSum, y: &ExpSum, a: f64, b: f64) -> f64 {
             }
             let nu = lj.add(lk);
             let z = nu.scale(h);
-            let e_a = ex[j].mul(ey[k]);
-            sum = sum.add(cj.mul(dk).mul(e_a).mul(phi1(z)).scale(h));
+            let int = if z.0.hypot(z.1) < 0.5 {
+                ea[j].mul(ea[k]).mul(phi1(z)).scale(h)
+            } else {
+                let d = eb[j].mul(eb[k]);
+                let c = ea[j].mul(ea[k]);
+                C(d.0 - c.0, d.1 - c.1).div(nu)
+            };
+            sum = sum.add(cj.mul(dk).mul(int));
         }
     }
     sum.0
 }
 
-/// `(e^z − 1)/z`, accurate for all `z` (series near 0).
+/// `(e^z − 1)/z` for `|z| < 1/2` by its series (terms until they no longer count).
 fn phi1(z: C) -> C {
-    let m = z.0.hypot(z.1);
-    if m < 0.5 {
-        // Σ z^n/(n+1)!: 20 terms give < 1e-17 for |z| < 0.5.
-        let mut term = C(1.0, 0.0);
-        let mut s = C(1.0, 0.0);
-        for n in 1..20 {
-            term = term.mul(z).scale(1.0 / (n as f64 + 1.0));
-            s = s.add(term);
+    let mut term = C(1.0, 0.0);
+    let mut s = C(1.0, 0.0);
+    for n in 1..24 {
+        term = term.mul(z).scale(1.0 / (n as f64 + 1.0));
+        s = s.add(term);
+        if term.0.abs() + term.1.abs() < 1e-18 {
+            break;
         }
-        s
-    } else {
-        let ez = z.exp();
-        C(ez.0 - 1.0, ez.1).div(z)
     }
+    s
 }
 
 /// Minimal complex number (no dependency needed for five terms).
@@ -285,11 +305,6 @@ impl C {
             (self.0 * o.0 + self.1 * o.1) / d,
             (self.1 * o.0 - self.0 * o.1) / d,
         )
-    }
-    fn exp(self) -> C {
-        let r = self.0.exp();
-        let (s, c) = self.1.sin_cos();
-        C(r * c, r * s)
     }
 }
 
