@@ -30,8 +30,9 @@ fn solve4(mut a: [[f64; 5]; 4]) -> [f64; 4] {
         for row in 0..4 {
             if row != col {
                 let f = a[row][col] / a[col][col];
-                for k in col..5 {
-                    a[row][k] -= f * a[col][k];
+                let pivot_row = a[col];
+                for (x, p) in a[row].iter_mut().zip(pivot_row).skip(col) {
+                    *x -= f * p;
                 }
             }
         }
@@ -107,7 +108,7 @@ pub fn orbits(sys: &System) -> Vec<Orbit> {
             du_plus,
             v_ball,
         };
-        if admissible(sys, &o, x, psi, p11, p12, p21, p22) {
+        if admissible(sys, &o, x, psi) {
             out.push(o);
         }
     }
@@ -115,17 +116,7 @@ pub fn orbits(sys: &System) -> Vec<Orbit> {
 }
 
 /// Ball arrives toward the wall, and stays inside the cavity over the half period.
-#[allow(clippy::too_many_arguments)]
-fn admissible(
-    sys: &System,
-    o: &Orbit,
-    x: f64,
-    psi: f64,
-    _p11: f64,
-    _p12: f64,
-    _p21: f64,
-    _p22: f64,
-) -> bool {
+fn admissible(sys: &System, o: &Orbit, x: f64, psi: f64) -> bool {
     let lg = sys.damper.unwrap().half_gap_m();
     let om = sys.omega_rad_s();
     if o.v_ball - o.du_minus <= 0.0 || o.v_ball <= 0.0 {
