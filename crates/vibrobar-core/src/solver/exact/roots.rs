@@ -13,6 +13,16 @@
 //! `L` is `O(h²)`); at a tangency (`g = g' = 0`) they shrink geometrically by `√2 − 1`, so a touch
 //! is found in a few dozen steps.
 //!
+//! A second proof is used alongside: within a horizon `H`, `g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6)h²`
+//! (`B₃ ≥ |g'''|`), with `H` just beyond the zero of the local quadratic model, which makes the
+//! steps Newton-like near a root; the longer of the two proven steps is taken. All event
+//! functions of a segment are stepped together (the step is the shortest proven one), so the
+//! work is bounded by the earliest event. The search stops at the first of: `g ≤ tol` with
+//! `g' ≤ 0`; a proven-free step below the time resolution while approaching; or a bracket
+//! `[τ + h*, τ + h_up]` below the time resolution, where `h_up` is where the upper bound
+//! `g + g'h + Bh²/2` reaches 0 (then a zero certainly lies in the bracket and `τ + h*` is
+//! returned, so the reported event is never past the zero).
+//!
 //! **Departure.** A segment often starts *on* the zero set of one of its functions (the wall just
 //! hit, `ẇ = 0` just crossed, a wall just released). There `g(0) = 0` analytically, and round-off
 //! of 1e-15 in its leading Taylor coefficients would create a spurious root and an endless event
@@ -159,9 +169,22 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
                 0.0
             };
             let hi = h2.max(h3);
-            if f1 < 0.0 && hi <= tol_t {
-                // Within the time resolution of the zero, approaching it: it is here.
-                return (Root::At(tau), i);
+            if f1 < 0.0 {
+                if hi <= tol_t {
+                    // Within the time resolution of the zero, approaching it: it is here.
+                    return (Root::At(tau), i);
+                }
+                // Upper bound g ≤ f + f1 h + B h²/2: if it reaches 0 by `h_up`, a zero lies in
+                // [τ + hi, τ + h_up]; once that bracket is below the time resolution, stop at
+                // its proven-free left end.
+                let bnd = bconst[i] + bdec[i] * decay;
+                let disc = f1 * f1 - 2.0 * bnd * f;
+                if disc >= 0.0 {
+                    let h_up = 2.0 * f / (-f1 + disc.sqrt());
+                    if h_up - hi <= tol_t && tau + hi < t_max {
+                        return (Root::At(tau + hi), i);
+                    }
+                }
             }
             if hi < h {
                 h = hi;
