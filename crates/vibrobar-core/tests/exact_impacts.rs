@@ -252,3 +252,27 @@ fn exact_touch_is_at_most_a_tangential_impact() {
     // Bounded work: the touch does not start an event loop.
     assert!(rec.events.len() <= 3, "{}", rec.events.len());
 }
+
+#[test]
+fn event_limit_bounds_the_work() {
+    let sys = fixed_bar(0.9);
+    let solver = Exact {
+        max_events: 5,
+        ..Default::default()
+    };
+    let r = solver.run(&sys, &launched(1.0), 1.0, &mut ());
+    match r {
+        Err(SimError::TooManyEvents { limit, t_s }) => {
+            assert_eq!(limit, 5);
+            assert!(t_s > 0.0 && t_s < 1.0);
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn registered_by_name() {
+    assert!(vibrobar_core::solver::SOLVER_NAMES.contains(&"exact"));
+    let s = vibrobar_core::solver::solver_by_name("exact", &RunSettings::default()).unwrap();
+    assert_eq!(s.name(), "exact");
+}
