@@ -276,3 +276,45 @@ fn registered_by_name() {
     let s = vibrobar_core::solver::solver_by_name("exact", &RunSettings::default()).unwrap();
     assert_eq!(s.name(), "exact");
 }
+
+/// Coulomb friction during the chatter: the ball slides to the wall with `a − fκ`, bounces away
+/// against `a + fκ`, so the bounces shrink by `q = e√((a − fκ)/(a + fκ))` and the sequence
+/// ends at `t∞ = t1 + T1/(1 − q)`, `T1 = (e s1/a_away)(1 + √(a_away/a_back))`. Friction is
+/// internal, so the momentum and centre of mass still follow `F_s`.
+#[test]
+fn chatter_with_coulomb_friction_sums_to_its_accumulation_point() {
+    let (fs, e, f) = (-1.0, 0.6, 0.01);
+    let mut sys = constant_push(fs, 2e-3, e);
+    let d = sys.damper.as_mut().unwrap();
+    d.friction = FrictionModel::Coulomb;
+    d.friction_force_n = Some(f);
+    let (m, md, lg) = (1.0, 0.05, 1e-3);
+    let kappa = 1.0 / md + 1.0 / m;
+    let a = -fs / m;
+    let (a_away, a_back) = (a + f * kappa, a - f * kappa);
+    let t1 = (2.0 * lg / a_back).sqrt();
+    let s1 = a_back * t1;
+    let q = e * (a_back / a_away).sqrt();
+    let t_inf = t1 + e * s1 / a_away * (1.0 + (a_away / a_back).sqrt()) / (1.0 - q);
+    let mut rec = Recorder::default();
+    let sum = checked()
+        .run(&sys, &State::REST, 1.5 * t_inf, &mut rec)
+        .unwrap();
+    let ev = rec
+        .events
+        .iter()
+        .find(|ev| matches!(ev.kind, EventKind::ChatterLimit { .. }))
+        .expect("chatter limit");
+    assert!(
+        (ev.t_s - t_inf).abs() < 1e-9 * t_inf,
+        "{} vs {t_inf}",
+        ev.t_s
+    );
+    let mt = m + md;
+    let t = 1.5 * t_inf;
+    let (u, du) = (fs * t * t / (2.0 * mt) - md * lg / mt, fs * t / mt);
+    let s = sum.final_state;
+    assert!((s.u_m - u).abs() < 1e-9 * u.abs(), "{} vs {u}", s.u_m);
+    assert!((s.du_m_s - du).abs() < 1e-9 * du.abs());
+    assert!((s.w_m() - lg).abs() < 1e-15);
+}

@@ -16,7 +16,9 @@
 //!
 //! Chatter (`0 < e < 1`): after an impact whose relative acceleration pushes the ball back to the
 //! same wall, the remaining impacts form a geometric sequence that ends after
-//! `Δt = 2|ẇ+|/((1−e)|ẅ|)`. When that sequence is below resolution (its first bounce is lower than
+//! `Δt = 2|ẇ+|/((1−e)|ẅ|)` (with friction, the accelerations away and back differ; the ratio
+//! is then `e√(a_back/a_away)` and `Δt` follows, see `impact`; `ẅ` is frozen at its value at the
+//! impact, which is exact to first order in the tiny `Δt`). When that sequence is below resolution (its first bounce is lower than
 //! `1e-10 l_g`, or `Δt < 1e-9` forcing periods) the solver jumps to its limit: bar and ball take the
 //! common momentum-conserving velocity (the plastic limit, [`EventKind::ChatterLimit`] carries
 //! the kinetic energy this removes), the pair moves as one body over `Δt` (reported as a
@@ -730,15 +732,23 @@ fn impact(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<Md, SimEr
     if s.dw == 0.0 {
         return contact_test(cs, sw, s);
     }
-    // Chatter: does the relative acceleration (with the friction of the new sliding direction)
-    // bring the ball back to the same wall, and is the sequence below resolution?
+    // Chatter: do the relative accelerations of the flight away (friction sign −s) and back
+    // (sign +s) both push the ball to the same wall, with bounces shrinking by
+    // q = e·√(a_back/a_away) < 1? Then the sequence sums to Δt = (|ẇ+|/a_away)(1 + √(a_away/a_back))/(1 − q),
+    // i.e. 2|ẇ+|/((1 − e) a) without friction. Jump when it is below resolution.
     let sigma = sign_or_zero(s.dw);
-    let ddw = cs.fb(sigma) * cs.kappa() - cs.a_b(s.t, s.u, s.du);
-    if cs.e < 1.0 && sw * ddw > 0.0 {
-        let apex = 0.5 * s.dw * s.dw / ddw.abs();
-        let dt = 2.0 * s.dw.abs() / ((1.0 - cs.e) * ddw.abs());
-        if apex < cs.chatter_h || dt < cs.chatter_t {
-            return chatter_limit(cs, ChatterJump { sw, dt }, s, book);
+    let a_b = cs.a_b(s.t, s.u, s.du);
+    let ddw_away = cs.fb(sigma) * cs.kappa() - a_b;
+    let ddw_back = cs.fb(-sigma) * cs.kappa() - a_b;
+    if cs.e < 1.0 && sw * ddw_away > 0.0 && sw * ddw_back > 0.0 {
+        let (a1, a2) = (ddw_away.abs(), ddw_back.abs());
+        let q = cs.e * (a2 / a1).sqrt();
+        let apex = 0.5 * s.dw * s.dw / a1;
+        if q < 1.0 {
+            let dt = s.dw.abs() / a1 * (1.0 + (a1 / a2).sqrt()) / (1.0 - q);
+            if apex < cs.chatter_h || dt < cs.chatter_t {
+                return chatter_limit(cs, ChatterJump { sw, dt }, s, book);
+            }
         }
     }
     Ok(after_wall_free(sw, s.dw, cs))
