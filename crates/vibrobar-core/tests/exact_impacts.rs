@@ -318,3 +318,70 @@ fn chatter_with_coulomb_friction_sums_to_its_accumulation_point() {
     assert!((s.du_m_s - du).abs() < 1e-9 * du.abs());
     assert!((s.w_m() - lg).abs() < 1e-15);
 }
+
+/// Grazing on the oscillating paper bar (free, undamped): the ball rests at `v0` while the bar
+/// swings `u = U cos ωt`, so `w = v0 − U cos ωt` peaks tangentially at `v0 + U` at `ωt = π`.
+fn oscillating_graze(delta: f64) -> (Recorder, Sampler, f64) {
+    let mut sys = System::paper_damped(0.1e-3, FrictionModel::None, 1.0);
+    sys.bar.damping_ratio = 0.0;
+    sys.forcing.amplitude_n = 0.0;
+    let (lg, big_u) = (0.05e-3, 3e-5);
+    let init = State {
+        u_m: big_u,
+        v_m: lg - big_u + delta,
+        ..State::REST
+    };
+    let period = 2.0 * std::f64::consts::PI / sys.bar.natural_freq_rad_s();
+    let mut rec = Recorder::default();
+    let mut sampler = Sampler::new(0.0, period / 997.0);
+    {
+        let mut obs: [&mut dyn Observer; 2] = [&mut rec, &mut sampler];
+        checked()
+            .run(
+                &sys,
+                &init,
+                0.9 * period,
+                &mut vibrobar_core::solver::Fanout(&mut obs),
+            )
+            .unwrap();
+    }
+    for s in &sampler.samples {
+        assert!(s.w_m().abs() <= lg + 1e-12, "sample outside: {}", s.w_m());
+    }
+    (rec, sampler, period)
+}
+
+#[test]
+fn oscillating_near_miss_has_no_impact() {
+    let (rec, _, _) = oscillating_graze(-1e-12);
+    assert_eq!(rec.impacts().len(), 0);
+}
+
+#[test]
+fn oscillating_near_hit_is_found() {
+    let (rec, _, period) = oscillating_graze(1e-12);
+    let imp = rec.impacts();
+    assert!(!imp.is_empty());
+    let EventKind::Impact { wall, dw_m_s, .. } = imp[0].kind else {
+        unreachable!()
+    };
+    assert_eq!(wall, Wall::Plus);
+    // ẇ at w = l_g − 1e-12 below the peak: √(2·1e-12·Uω²).
+    let wn = 2.0 * std::f64::consts::PI / period;
+    let want = (2.0 * 1e-12 * 3e-5 * wn * wn).sqrt();
+    assert!((dw_m_s - want).abs() < 1e-3 * want, "{dw_m_s} vs {want}");
+    assert!((imp[0].t_s - 0.5 * period).abs() < 1e-3 * period);
+}
+
+#[test]
+fn oscillating_exact_touch_terminates() {
+    let (rec, _, period) = oscillating_graze(0.0);
+    assert!(rec.events.len() <= 3, "{}", rec.events.len());
+    for ev in rec.impacts() {
+        let EventKind::Impact { dw_m_s, .. } = ev.kind else {
+            unreachable!()
+        };
+        assert!(dw_m_s.abs() < 1e-6, "{dw_m_s}");
+        assert!((ev.t_s - 0.5 * period).abs() < 1e-4 * period);
+    }
+}
