@@ -255,7 +255,7 @@ pub fn integral_product(x: &ExpSum, y: &ExpSum, a: f64, b: f64) -> f64 {
             }
             let nu = lj.add(lk);
             let z = nu.scale(h);
-            let int = if z.0.hypot(z.1) < 0.5 {
+            let int = if z.0 * z.0 + z.1 * z.1 < 0.25 {
                 ea[j].mul(ea[k]).mul(phi1(z)).scale(h)
             } else {
                 let d = eb[j].mul(eb[k]);

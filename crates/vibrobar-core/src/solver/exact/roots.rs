@@ -117,10 +117,13 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
     // Departing functions are proven positive up to `free_until` by their Taylor bracket.
     let mut free_until = [t0; 4];
     for (i, c) in cands.iter().take(n).enumerate() {
-        bconst[i] = (2.0 * c.g.c2.abs() + om * om * c.g.a.hypot(c.g.b)) * (1.0 + 1e-12);
-        bdec[i] = wn2 * c.g.p.hypot(c.g.q) * (1.0 + 1e-12);
-        b3const[i] = om * om * om * c.g.a.hypot(c.g.b) * (1.0 + 1e-12);
-        b3dec[i] = wn2 * wn2.sqrt() * c.g.p.hypot(c.g.q) * (1.0 + 1e-12);
+        // Amplitudes (the relative margin covers the rounding of the bounds themselves).
+        let rh = (c.g.a * c.g.a + c.g.b * c.g.b).sqrt() * (1.0 + 1e-12);
+        let rd = (c.g.p * c.g.p + c.g.q * c.g.q).sqrt() * (1.0 + 1e-12);
+        bconst[i] = 2.0 * c.g.c2.abs() * (1.0 + 1e-12) + om * om * rh;
+        bdec[i] = wn2 * rd;
+        b3const[i] = om * om * om * rh;
+        b3dec[i] = wn2 * wn2.sqrt() * rd;
         if c.order > 0 {
             match departure_step(&c.g, c.order, t0, t_max) {
                 Some(h) => free_until[i] = t0 + h,
