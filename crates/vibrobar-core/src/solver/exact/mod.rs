@@ -628,7 +628,7 @@ fn initial_mode(cs: &Consts, s: &mut St, book: &mut Book) -> Result<Md, SimError
             if s.dw == 0.0 {
                 return contact_test(cs, sw, s);
             }
-            return Ok(after_wall_free(sw, s.dw, cs));
+            return Ok(after_wall_free(sw, s.dw));
         }
     }
     if s.dw != 0.0 {
@@ -643,8 +643,7 @@ fn initial_mode(cs: &Consts, s: &mut St, book: &mut Book) -> Result<Md, SimError
 }
 
 /// Free flight leaving wall `sw` with `ẇ ≠ 0`.
-fn after_wall_free(sw: f64, dw: f64, cs: &Consts) -> Md {
-    let _ = cs;
+fn after_wall_free(sw: f64, dw: f64) -> Md {
     Md::Free {
         sigma: sign_or_zero(dw),
         k_plus: if sw > 0.0 { 1 } else { 0 },
@@ -751,7 +750,7 @@ fn impact(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<Md, SimEr
             }
         }
     }
-    Ok(after_wall_free(sw, s.dw, cs))
+    Ok(after_wall_free(sw, s.dw))
 }
 
 struct ChatterJump {
