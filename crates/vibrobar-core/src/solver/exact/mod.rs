@@ -804,3 +804,51 @@ fn contact_test(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
         Ok(free_departing(-sw, Some(wall_of(sw))))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn book(obs: &mut dyn Observer, check: bool) -> Book<'_> {
+        Book {
+            obs,
+            summary: RunSummary {
+                max_penetration_m: f64::NEG_INFINITY,
+                ..Default::default()
+            },
+            max_events: 10,
+            check,
+            lg: 1e-4,
+        }
+    }
+
+    fn st(w: f64, u: f64) -> St {
+        St {
+            t: 0.5,
+            u,
+            du: 0.0,
+            w,
+            dw: 0.0,
+        }
+    }
+
+    #[test]
+    fn invariant_mode_reports_confinement_and_non_finite_states() {
+        let mut o = ();
+        let mut b = book(&mut o, true);
+        assert!(b.check_state(&st(1e-4 + 0.5e-12, 0.0)).is_ok());
+        assert!(matches!(
+            b.check_state(&st(-1e-4 - 2e-12, 0.0)),
+            Err(SimError::Confinement { .. })
+        ));
+        assert!(matches!(
+            b.check_state(&st(0.0, f64::NAN)),
+            Err(SimError::NonFinite { .. })
+        ));
+        // Without the mode the run goes on, but the penetration is still recorded.
+        let mut o2 = ();
+        let mut b2 = book(&mut o2, false);
+        assert!(b2.check_state(&st(1e-4 + 2e-12, 0.0)).is_ok());
+        assert!(b2.summary.max_penetration_m > 1.9e-12);
+    }
+}
