@@ -13,6 +13,11 @@
 //! `L` is `O(h²)`); at a tangency (`g = g' = 0`) they shrink geometrically by `√2 − 1`, so a touch
 //! is found in a few dozen steps.
 //!
+//! `B` is the smaller of two bounds: the amplitudes `Ω²|Ĥ| + ω_n²|D̂|e^{−ατ}` (+ `2|c2|`), and the
+//! envelope of the oscillating parts taken together, `|Z₂(τ)| + ω_n²|D̂|e^{−ατ}(α + |ω_d − Ω|)h`
+//! (see [`envelope`]); near resonance the steady and transient parts of the bar motion cancel,
+//! and the envelope is several times smaller than the sum of the amplitudes.
+//!
 //! A second proof is used alongside: within a horizon `H`, `g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6)h²`
 //! (`B₃ ≥ |g'''|`), with `H` just beyond the zero of the local quadratic model, which makes the
 //! steps Newton-like near a root; the longer of the two proven steps is taken. All event
@@ -112,6 +117,8 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
     let mut bdec = [0.0f64; 4];
     let mut b3const = [0.0f64; 4];
     let mut b3dec = [0.0f64; 4];
+    let mut bdrift = [0.0f64; 4];
+    let wn = wn2.sqrt();
     let n = cands.len().min(4);
     let tau = t0;
     // Departing functions are proven positive up to `free_until` by their Taylor bracket.
@@ -124,6 +131,7 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
         bdec[i] = wn2 * rd;
         b3const[i] = om * om * om * rh;
         b3dec[i] = wn2 * wn2.sqrt() * rd;
+        bdrift[i] = wn2 * rd * (al + (wd - om).abs()) * (1.0 + 1e-12);
         if c.order > 0 {
             match departure_step(&c.g, c.order, t0, t_max) {
                 Some(h) => free_until[i] = t0 + h,
@@ -152,7 +160,25 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
             }
             let f = f.max(0.0);
             // Quadratic bound with B ≥ |g''| on the rest of the interval …
-            let h2 = quad_step(f, f1, bconst[i] + bdec[i] * decay);
+            let h2_amp = quad_step(f, f1, bconst[i] + bdec[i] * decay);
+            // … or with the envelope of the oscillating parts taken together: at τ+s,
+            // H'' + D'' = Re[e^{iΩs}(Z + λ²D̂e^{λτ}(e^{(−α+iδ)s} − 1))], Z = −Ω²Ĥe^{iΩτ} + λ²D̂e^{λτ},
+            // δ = ω_d − Ω, so |g''| ≤ 2|c2| + |Z| + ω_n²|D̂|e^{−ατ}(α + |δ|)s. Near resonance the
+            // steady and transient parts cancel and |Z| ≪ Ω²|Ĥ| + ω_n²|D̂|.
+            let g = &c.g;
+            let e = decay;
+            let (z2, z3) = envelope(g, &trig);
+            let round = 8.0 * f64::EPSILON * (bconst[i] + bdec[i] * e);
+            let bz = (2.0 * g.c2.abs() + z2) * (1.0 + 1e-12) + round;
+            let bd = bdrift[i] * e;
+            let h0 = quad_step(f, f1, bz);
+            let h2_env = if h0.is_finite() {
+                // Valid on [0, h0] with the drift term at its largest there; the root is ≤ h0.
+                quad_step(f, f1, bz + bd * h0)
+            } else {
+                0.0
+            };
+            let h2 = h2_amp.max(h2_env);
             // … and, within a horizon H, the cubic bound with the actual g'':
             // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6) h² for h ≤ H. Both are proofs; take the longer.
             // H is set a little beyond the zero of the local quadratic model, so that near a
@@ -166,7 +192,11 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
             };
             let big_h = (1.1 * h_model).min(8.0 * h2);
             let h3 = if big_h.is_finite() && big_h > h2 {
-                let b_eff = (b3const[i] + b3dec[i] * decay) * big_h / 3.0 - f2;
+                // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
+                let round3 = 8.0 * f64::EPSILON * (b3const[i] + b3dec[i] * e);
+                let b3_env = z3 * (1.0 + 1e-12) + round3 + bdrift[i] * wn * e * big_h;
+                let b3 = (b3const[i] + b3dec[i] * decay).min(b3_env);
+                let b_eff = b3 * big_h / 3.0 - f2;
                 quad_step(f, f1, b_eff.max(0.0)).min(big_h)
             } else {
                 0.0
@@ -206,6 +236,34 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
     (Root::Stalled(tau), 0)
 }
 
+/// `(|Z₂|, |Z₃|)`: the envelopes at `τ` of the second and third derivatives of the oscillating
+/// parts taken together, `Z_n = (iΩ)^n Ĥ e^{iΩτ} + λ^n D̂ e^{λτ}` (`Ĥ = a − ib`, `D̂ = p − iq`,
+/// `λ = −α + iω_d`). On `[τ, τ+s]`, `|H^(n) + D^(n)| ≤ |Z_n| + ω_n^n |D̂| e^{−ατ}(α + |ω_d − Ω|) s`,
+/// because `e^{λ(τ+s)} = e^{λτ} e^{iΩs} e^{(−α + i(ω_d − Ω))s}` and `|e^z − 1| ≤ |z|` for `Re z ≤ 0`.
+pub fn envelope(g: &ExpSum, trig: &Trig) -> (f64, f64) {
+    let (om, al, wd) = (g.om, g.al, g.wd);
+    let e = 1.0 + trig.em1;
+    // Ĥ e^{iΩτ} and D̂ e^{λτ}.
+    let (hr, hi) = (g.a * trig.ch + g.b * trig.sh, g.a * trig.sh - g.b * trig.ch);
+    let (dr, di) = (
+        e * (g.p * trig.cd + g.q * trig.sd),
+        e * (g.p * trig.sd - g.q * trig.cd),
+    );
+    let (l2r, l2i) = (al * al - wd * wd, -2.0 * al * wd);
+    let (l3r, l3i) = (-al * l2r - wd * l2i, wd * l2r - al * l2i);
+    let om2 = om * om;
+    let om3 = om2 * om;
+    // (iΩ)² = −Ω², (iΩ)³ = −iΩ³.
+    let z2r = -om2 * hr + (l2r * dr - l2i * di);
+    let z2i = -om2 * hi + (l2r * di + l2i * dr);
+    let z3r = om3 * hi + (l3r * dr - l3i * di);
+    let z3i = -om3 * hr + (l3r * di + l3i * dr);
+    (
+        (z2r * z2r + z2i * z2i).sqrt(),
+        (z3r * z3r + z3i * z3i).sqrt(),
+    )
+}
+
 /// Smallest positive root of `f + f1 h − b h²/2` (`f ≥ 0`, `b ≥ 0`), infinite if none.
 #[inline]
 fn quad_step(f: f64, f1: f64, b: f64) -> f64 {
@@ -234,6 +292,47 @@ pub fn first_root(g: &ExpSum, order: usize, t0: f64, t_max: f64, tol: f64, tol_t
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn envelope_bounds_hold_on_the_interval() {
+        // Near resonance (the case it is made for) and away from it, damped.
+        for (om, al, wd) in [(5.0, 0.05, 5.01), (3.0, 0.3, 5.0)] {
+            let g = ExpSum {
+                f0: 0.1,
+                k0: 0.0,
+                c1: 0.0,
+                c2: 0.0,
+                a: 0.7,
+                b: -0.4,
+                om,
+                p: -0.6,
+                q: 0.35,
+                al,
+                wd,
+            };
+            let wn = (al * al + wd * wd).sqrt();
+            let rd = g.p.hypot(g.q);
+            for &tau in &[0.0, 0.37, 2.9] {
+                let tr = Trig::new(tau, om, al, wd);
+                let (z2, z3) = envelope(&g, &tr);
+                let e = (-al * tau).exp();
+                let d0: [f64; 4] = g.derivs_t(&tr);
+                // At s = 0 the envelope bounds the actual derivatives.
+                assert!(d0[2].abs() <= z2 * (1.0 + 1e-12));
+                assert!(d0[3].abs() <= z3 * (1.0 + 1e-12));
+                for i in 0..=400 {
+                    let s = 1.5 * i as f64 / 400.0;
+                    let d: [f64; 4] = g.derivs(tau + s);
+                    let drift = rd * e * (al + (wd - om).abs()) * s;
+                    assert!(d[2].abs() <= z2 + wn * wn * drift + 1e-12, "{om} {tau} {s}");
+                    assert!(
+                        d[3].abs() <= z3 + wn * wn * wn * drift + 1e-12,
+                        "{om} {tau} {s}"
+                    );
+                }
+            }
+        }
+    }
 
     fn es(f0: f64, c1: f64, c2: f64) -> ExpSum {
         ExpSum {
