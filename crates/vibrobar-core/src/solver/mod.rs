@@ -5,8 +5,10 @@
 //! friction switches, …). Analyses are [`Observer`]s: they never know which solver produced the
 //! segments, so every analysis works with every solver.
 
+pub mod exact;
 pub mod rk4;
 
+pub use exact::Exact;
 pub use rk4::Rk4;
 
 use crate::error::SimError;
@@ -196,7 +198,7 @@ pub trait Solver: Sync {
 }
 
 /// Names of the solvers the library provides.
-pub const SOLVER_NAMES: [&str; 1] = ["rk4"];
+pub const SOLVER_NAMES: [&str; 2] = ["rk4", "exact"];
 
 /// Build a solver by name with the run settings (`dt` is used by fixed-step solvers).
 pub fn solver_by_name(name: &str, settings: &RunSettings) -> Option<Box<dyn Solver>> {
@@ -204,6 +206,7 @@ pub fn solver_by_name(name: &str, settings: &RunSettings) -> Option<Box<dyn Solv
         "rk4" => Some(Box::new(Rk4 {
             dt_s: settings.dt_s,
         })),
+        "exact" => Some(Box::new(Exact::default())),
         _ => None,
     }
 }

@@ -1,0 +1,405 @@
+//! Closed forms of the piecewise-linear motion: the "exponential sum"
+//!
+//! `f(τ) = f(0) + c1 τ + c2 τ² + a (cos Ωτ − 1) + b sin Ωτ + p (e^{−ατ} cos ω_d τ − 1) + q e^{−ατ} sin ω_d τ`
+//!
+//! which is `c0 + c1 τ + c2 τ² + a cos Ωτ + b sin Ωτ + e^{−ατ}(p cos ω_d τ + q sin ω_d τ)` written
+//! around its start value. Storing `f(0)` instead of `c0` keeps the value free of cancellation
+//! when the static deflection `c0` is huge compared with the motion (a soft spring under a
+//! static load: `c0 = F_s/K`), because `cos x − 1` and `e^{−x} cos y − 1` are evaluated without
+//! subtracting nearly equal numbers.
+
+/// `f(0) + c1 τ + c2 τ² + a (cos Ωτ − 1) + b sin Ωτ + p (e^{−ατ} cos ω_d τ − 1) + q e^{−ατ} sin ω_d τ`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ExpSum {
+    /// Value at `τ = 0`.
+    pub f0: f64,
+    /// The standard-form constant `c0` (`= f0 − a − p`), kept exactly where it is known
+    /// (`F_s/K`, 0 for a derivative): the closed-form integrals use it.
+    pub k0: f64,
+    /// Linear coefficient.
+    pub c1: f64,
+    /// Quadratic coefficient.
+    pub c2: f64,
+    /// Cosine coefficient of the harmonic part.
+    pub a: f64,
+    /// Sine coefficient of the harmonic part.
+    pub b: f64,
+    /// Harmonic frequency `Ω`.
+    pub om: f64,
+    /// Cosine coefficient of the decaying part.
+    pub p: f64,
+    /// Sine coefficient of the decaying part.
+    pub q: f64,
+    /// Decay rate `α ≥ 0`.
+    pub al: f64,
+    /// Damped frequency `ω_d > 0`.
+    pub wd: f64,
+}
+
+/// `cos x − 1` from `cos x` and `sin x`, without cancellation near `x = 2πk`.
+#[inline]
+fn cm1(c: f64, s: f64) -> f64 {
+    if c > 0.0 {
+        -s * s / (1.0 + c)
+    } else {
+        c - 1.0
+    }
+}
+
+/// The transcendental values at one `τ`, shared by all the sums of a segment.
+#[derive(Debug, Clone, Copy)]
+pub struct Trig {
+    /// `cos Ωτ`.
+    pub ch: f64,
+    /// `sin Ωτ`.
+    pub sh: f64,
+    /// `e^{−ατ} − 1`.
+    pub em1: f64,
+    /// `cos ω_d τ`.
+    pub cd: f64,
+    /// `sin ω_d τ`.
+    pub sd: f64,
+    /// `τ`.
+    pub tau: f64,
+}
+
+impl Trig {
+    /// Evaluate at `τ` for frequencies `om`, `wd` and decay `al`.
+    #[inline]
+    pub fn new(tau: f64, om: f64, al: f64, wd: f64) -> Trig {
+        let (sh, ch) = (om * tau).sin_cos();
+        let (sd, cd) = (wd * tau).sin_cos();
+        Trig {
+            ch,
+            sh,
+            em1: (-al * tau).exp_m1(),
+            cd,
+            sd,
+            tau,
+        }
+    }
+}
+
+impl ExpSum {
+    /// Same frequencies, all coefficients zero.
+    pub fn zero_like(&self) -> ExpSum {
+        ExpSum {
+            om: self.om,
+            al: self.al,
+            wd: self.wd,
+            ..Default::default()
+        }
+    }
+
+    /// `s·f + k`.
+    pub fn affine(&self, s: f64, k: f64) -> ExpSum {
+        ExpSum {
+            f0: s * self.f0 + k,
+            k0: s * self.k0 + k,
+            c1: s * self.c1,
+            c2: s * self.c2,
+            a: s * self.a,
+            b: s * self.b,
+            p: s * self.p,
+            q: s * self.q,
+            ..*self
+        }
+    }
+
+    /// A constant with the frequencies of `like`.
+    pub fn constant(v: f64, like: &ExpSum) -> ExpSum {
+        ExpSum {
+            f0: v,
+            k0: v,
+            ..like.zero_like()
+        }
+    }
+
+    /// The derivative, again an exponential sum (its `f0` is `f'(0)`).
+    pub fn deriv(&self) -> ExpSum {
+        let a = self.om * self.b;
+        let b = -self.om * self.a;
+        let p = -self.al * self.p + self.wd * self.q;
+        let q = -self.al * self.q - self.wd * self.p;
+        ExpSum {
+            f0: self.c1 + a + p,
+            k0: self.c1,
+            c1: 2.0 * self.c2,
+            c2: 0.0,
+            a,
+            b,
+            p,
+            q,
+            ..*self
+        }
+    }
+
+    /// Value from precomputed transcendentals.
+    #[inline]
+    pub fn value_t(&self, t: &Trig) -> f64 {
+        let e = 1.0 + t.em1;
+        let dec = self.p * (t.em1 * t.cd + cm1(t.cd, t.sd)) + self.q * e * t.sd;
+        self.f0
+            + t.tau * (self.c1 + t.tau * self.c2)
+            + self.a * cm1(t.ch, t.sh)
+            + self.b * t.sh
+            + dec
+    }
+
+    /// Value at `τ`.
+    pub fn value(&self, tau: f64) -> f64 {
+        self.value_t(&Trig::new(tau, self.om, self.al, self.wd))
+    }
+
+    /// Value and the first `N − 1` derivatives at one point.
+    #[inline]
+    pub fn derivs_t<const N: usize>(&self, t: &Trig) -> [f64; N] {
+        let mut out = [0.0; N];
+        if N == 0 {
+            return out;
+        }
+        out[0] = self.value_t(t);
+        let e = 1.0 + t.em1;
+        let (mut a, mut b, mut p, mut q) = (self.a, self.b, self.p, self.q);
+        let poly = [self.c1 + 2.0 * self.c2 * t.tau, 2.0 * self.c2];
+        for (n, o) in out.iter_mut().enumerate().skip(1) {
+            let (na, nb) = (self.om * b, -self.om * a);
+            let (np, nq) = (-self.al * p + self.wd * q, -self.al * q - self.wd * p);
+            a = na;
+            b = nb;
+            p = np;
+            q = nq;
+            let pl = if n <= 2 { poly[n - 1] } else { 0.0 };
+            *o = pl + a * t.ch + b * t.sh + e * (p * t.cd + q * t.sd);
+        }
+        out
+    }
+
+    /// Value and first `N − 1` derivatives at `τ`.
+    pub fn derivs<const N: usize>(&self, tau: f64) -> [f64; N] {
+        self.derivs_t::<N>(&Trig::new(tau, self.om, self.al, self.wd))
+    }
+
+    /// Bound on `|f^(n)|` over `[t0, t1]` (`n ≥ 1`): polynomial part exactly, the oscillating
+    /// parts by their amplitudes, the decaying part at its largest (at `t0`).
+    pub fn deriv_bound(&self, n: u32, t0: f64, t1: f64) -> f64 {
+        let poly = match n {
+            1 => (self.c1 + 2.0 * self.c2 * t0)
+                .abs()
+                .max((self.c1 + 2.0 * self.c2 * t1).abs()),
+            2 => 2.0 * self.c2.abs(),
+            _ => 0.0,
+        };
+        let wn2 = self.al * self.al + self.wd * self.wd;
+        let harm = self.om.powi(n as i32) * self.a.hypot(self.b);
+        let dec = wn2.sqrt().powi(n as i32) * (-self.al * t0).exp() * self.p.hypot(self.q);
+        // A relative margin covers the rounding of the bound itself.
+        (poly + harm + dec) * (1.0 + 1e-12)
+    }
+
+    /// Complex-exponential terms `c_k e^{λ_k τ}` (standard form). Only for sums without the
+    /// `c1`, `c2` polynomial terms (the bar displacement, velocity and the forcing).
+    fn terms(&self) -> [(C, C); 5] {
+        debug_assert!(self.c1 == 0.0 && self.c2 == 0.0);
+        let ih = C(0.0, self.om);
+        let dd = C(-self.al, self.wd);
+        [
+            (C(self.k0, 0.0), C(0.0, 0.0)),
+            (C(0.5 * self.a, -0.5 * self.b), ih),
+            (C(0.5 * self.a, 0.5 * self.b), ih.conj()),
+            (C(0.5 * self.p, -0.5 * self.q), dd),
+            (C(0.5 * self.p, 0.5 * self.q), dd.conj()),
+        ]
+    }
+}
+
+/// `∫_a^b x(τ) y(τ) dτ` in closed form, for sums without polynomial terms and with the same
+/// frequencies: `Σ_jk c_j d_k ∫ e^{(λ_j+λ_k)τ}`, each integral `(e^{νb} − e^{νa})/ν`, or
+/// `e^{νa}(b−a) φ1(ν(b−a))` with a series when `|ν(b−a)| < 1/2`, so that no term loses precision.
+/// The exponentials of the five `λ` at `a` and `b` are computed once (two `sin_cos` and one `exp`
+/// per end).
+pub fn integral_product(x: &ExpSum, y: &ExpSum, a: f64, b: f64) -> f64 {
+    let h = b - a;
+    if h <= 0.0 {
+        return 0.0;
+    }
+    debug_assert!(
+        x.om.to_bits() == y.om.to_bits()
+            && x.al.to_bits() == y.al.to_bits()
+            && x.wd.to_bits() == y.wd.to_bits()
+    );
+    let tx = x.terms();
+    let ty = y.terms();
+    let ends = |t: f64| -> [C; 5] {
+        let (sh, ch) = (x.om * t).sin_cos();
+        let (sd, cd) = (x.wd * t).sin_cos();
+        let e = (-x.al * t).exp();
+        [
+            C(1.0, 0.0),
+            C(ch, sh),
+            C(ch, -sh),
+            C(e * cd, e * sd),
+            C(e * cd, -e * sd),
+        ]
+    };
+    let ea = ends(a);
+    let eb = ends(b);
+    let mut sum = C(0.0, 0.0);
+    for (j, &(cj, lj)) in tx.iter().enumerate() {
+        if cj.0 == 0.0 && cj.1 == 0.0 {
+            continue;
+        }
+        for (k, &(dk, lk)) in ty.iter().enumerate() {
+            if dk.0 == 0.0 && dk.1 == 0.0 {
+                continue;
+            }
+            let nu = lj.add(lk);
+            let z = nu.scale(h);
+            let int = if z.0 * z.0 + z.1 * z.1 < 0.25 {
+                ea[j].mul(ea[k]).mul(phi1(z)).scale(h)
+            } else {
+                let d = eb[j].mul(eb[k]);
+                let c = ea[j].mul(ea[k]);
+                C(d.0 - c.0, d.1 - c.1).div(nu)
+            };
+            sum = sum.add(cj.mul(dk).mul(int));
+        }
+    }
+    sum.0
+}
+
+/// `(e^z − 1)/z` for `|z| < 1/2` by its series (terms until they no longer count).
+fn phi1(z: C) -> C {
+    let mut term = C(1.0, 0.0);
+    let mut s = C(1.0, 0.0);
+    for n in 1..24 {
+        term = term.mul(z).scale(1.0 / (n as f64 + 1.0));
+        s = s.add(term);
+        if term.0.abs() + term.1.abs() < 1e-18 {
+            break;
+        }
+    }
+    s
+}
+
+/// Minimal complex number (no dependency needed for five terms).
+#[derive(Debug, Clone, Copy)]
+struct C(f64, f64);
+
+impl C {
+    fn add(self, o: C) -> C {
+        C(self.0 + o.0, self.1 + o.1)
+    }
+    fn mul(self, o: C) -> C {
+        C(self.0 * o.0 - self.1 * o.1, self.0 * o.1 + self.1 * o.0)
+    }
+    fn scale(self, s: f64) -> C {
+        C(self.0 * s, self.1 * s)
+    }
+    fn conj(self) -> C {
+        C(self.0, -self.1)
+    }
+    fn div(self, o: C) -> C {
+        let d = o.0 * o.0 + o.1 * o.1;
+        C(
+            (self.0 * o.0 + self.1 * o.1) / d,
+            (self.1 * o.0 - self.0 * o.1) / d,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> ExpSum {
+        ExpSum {
+            f0: 0.3,
+            k0: 0.3 - 0.7 - 0.5,
+            c1: 0.0,
+            c2: 0.0,
+            a: 0.7,
+            b: -0.2,
+            om: 3.0,
+            p: 0.5,
+            q: 0.4,
+            al: 0.2,
+            wd: 5.0,
+        }
+    }
+
+    fn naive(f: &ExpSum, t: f64) -> f64 {
+        f.k0 + f.c1 * t
+            + f.c2 * t * t
+            + f.a * (f.om * t).cos()
+            + f.b * (f.om * t).sin()
+            + (-f.al * t).exp() * (f.p * (f.wd * t).cos() + f.q * (f.wd * t).sin())
+    }
+
+    #[test]
+    fn value_and_derivatives_match_naive_and_finite_differences() {
+        let mut f = sample();
+        f.c1 = 0.1;
+        f.c2 = -0.3;
+        for &t in &[0.0, 0.1, 1.3, 7.7] {
+            assert!((f.value(t) - naive(&f, t)).abs() < 1e-14);
+            let d: [f64; 4] = f.derivs(t);
+            let df = f.deriv();
+            assert!(
+                (d[1] - df.value(t)).abs() < 1e-13,
+                "{} {}",
+                d[1],
+                df.value(t)
+            );
+            assert!((d[2] - df.deriv().value(t)).abs() < 1e-12);
+            let h = 1e-5;
+            let fd = (f.value(t + h) - f.value(t - h)) / (2.0 * h);
+            assert!((fd - d[1]).abs() < 1e-8);
+            let fd3 = (f.derivs::<3>(t + h)[2] - f.derivs::<3>(t - h)[2]) / (2.0 * h);
+            assert!((fd3 - d[3]).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn bounds_hold() {
+        let mut f = sample();
+        f.c1 = 0.1;
+        f.c2 = -0.3;
+        for n in 1..5u32 {
+            let bnd = f.deriv_bound(n, 0.5, 3.0);
+            let mut g = f;
+            for _ in 0..n {
+                g = g.deriv();
+            }
+            for i in 0..=1000 {
+                let t = 0.5 + 2.5 * i as f64 / 1000.0;
+                assert!(g.value(t).abs() <= bnd);
+            }
+        }
+    }
+
+    #[test]
+    fn product_integral_matches_simpson() {
+        let x = sample();
+        let y = x.deriv();
+        for &(a, b) in &[(0.0, 2.0), (1.0, 1.0001), (3.0, 10.0)] {
+            let n = 20000;
+            let h = (b - a) / n as f64;
+            let mut s = 0.0;
+            for i in 0..=n {
+                let t = a + i as f64 * h;
+                let w = if i == 0 || i == n {
+                    1.0
+                } else if i % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
+                s += w * naive(&x, t) * naive(&y, t);
+            }
+            s *= h / 3.0;
+            let c = integral_product(&x, &y, a, b);
+            assert!((c - s).abs() < 1e-11 * (1.0 + s.abs()), "{c} {s}");
+        }
+    }
+}

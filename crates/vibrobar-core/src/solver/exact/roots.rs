@@ -1,0 +1,392 @@
+//! Root isolation that cannot miss a root: conservative advancement with explicit lower bounds.
+//!
+//! Every event function `g` is an [`ExpSum`] that is positive while nothing happens; the event is
+//! its first zero. On `[τ, τ_max]` we know `B ≥ |g''|` ([`ExpSum::deriv_bound`]), so by Taylor
+//! with remainder
+//!
+//! `g(τ + h) ≥ g(τ) + g'(τ) h − B h²/2 =: L(h)`.
+//!
+//! `L` is positive on `[0, h*)`, `h* = (g' + √(g'² + 2Bg))/B`, hence `g` has no zero there and we
+//! may step to `τ + h*`. No root is skipped, whatever the shape of `g` (grazing included): the
+//! only way to stop is `g ≤ tol` with `g' ≤ 0` (a crossing or a touch), or `τ + h* ≥ τ_max` (proof
+//! that there is no root). Near a transversal root the steps converge quadratically (the error of
+//! `L` is `O(h²)`); at a tangency (`g = g' = 0`) they shrink geometrically by `√2 − 1`, so a touch
+//! is found in a few dozen steps.
+//!
+//! `B` is the smaller of two bounds: the amplitudes `Ω²|Ĥ| + ω_n²|D̂|e^{−ατ}` (+ `2|c2|`), and the
+//! envelope of the oscillating parts taken together, `|Z₂(τ)| + ω_n²|D̂|e^{−ατ}(α + |ω_d − Ω|)h`
+//! (see [`envelope`]); near resonance the steady and transient parts of the bar motion cancel,
+//! and the envelope is several times smaller than the sum of the amplitudes.
+//!
+//! A second proof is used alongside: within a horizon `H`, `g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6)h²`
+//! (`B₃ ≥ |g'''|`), with `H` just beyond the zero of the local quadratic model, which makes the
+//! steps Newton-like near a root; the longer of the two proven steps is taken. All event
+//! functions of a segment are stepped together (the step is the shortest proven one), so the
+//! work is bounded by the earliest event. The search stops at the first of: `g ≤ tol` with
+//! `g' ≤ 0`; a proven-free step below the time resolution while approaching; or a bracket
+//! `[τ + h*, τ + h_up]` below the time resolution, where `h_up` is where the upper bound
+//! `g + g'h + Bh²/2` reaches 0 (then a zero certainly lies in the bracket and `τ + h*` is
+//! returned, so the reported event is never past the zero).
+//!
+//! **Departure.** A segment often starts *on* the zero set of one of its functions (the wall just
+//! hit, `ẇ = 0` just crossed, a wall just released). There `g(0) = 0` analytically, and round-off
+//! of 1e-15 in its leading Taylor coefficients would create a spurious root and an endless event
+//! loop. The mode logic knows the order `k` of the zero and that `g` departs positively, so the
+//! leading coefficients `g(0) … g^(k−1)(0)` are set to 0 and `g^(k)(0)` is clamped to `≥ 0`. With
+//! `B_{k+2} ≥ |g^(k+2)|` on the interval,
+//!
+//! `g(h) ≥ h^k (A + b h − c h²)`, `A = max(g^(k)(0), 0)/k!`, `b = g^(k+1)(0)/(k+1)!`, `c = B_{k+2}/(k+2)!`.
+//!
+//! With `A ≥ 0`, `c > 0`, the coefficient signs `(+, ±, −)` change exactly once, so by Descartes'
+//! rule the bracket has exactly one positive root `h₁ = (b + √(b² + 4Ac))/(2c)`; `g > 0` on
+//! `(0, h₁)`. We take the first step to `h₁/2` (the bound is strictly positive there) and continue
+//! with the advancement above. E.g. a tangential wall release (`w = ±l_g`, `ẇ = 0`, `ẅ ≈ 0`,
+//! jerk ≠ 0) has `k = 2`; an impact with `ẇ+ ≠ 0` has `k = 1`; the friction switch `ẇ = 0` has `k = 1`.
+//! If the clamped coefficients give no positive bracket (`A = 0`, `b ≤ 0`), the departure is not
+//! confirmed and the event is reported at once; the mode logic then decides again (bounded by the
+//! event limit).
+
+use super::expsum::{ExpSum, Trig};
+
+/// Outcome of one search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Root {
+    /// First zero at this `τ` (`g ≤ tol`, `g' ≤ 0`).
+    At(f64),
+    /// Proven positive on the whole interval.
+    None,
+    /// Iteration limit reached at this `τ` (never expected; reported as an error).
+    Stalled(f64),
+}
+
+/// Iteration limit of one search (steps are counted, nothing hangs).
+pub const MAX_ITER: u32 = 100_000;
+
+fn factorial(n: usize) -> f64 {
+    (1..=n).map(|i| i as f64).product()
+}
+
+/// One event function of a joint search.
+#[derive(Debug, Clone, Copy)]
+pub struct Cand {
+    /// The function, positive while nothing happens.
+    pub g: ExpSum,
+    /// Order of its known zero at the start (0: none).
+    pub order: usize,
+    /// Absolute tolerance on `g`.
+    pub tol: f64,
+}
+
+/// Departure step: `g > 0` is proven on `(t0, t0 + h₁)`; returns `h₁/2`, or `None` if the
+/// clamped Taylor bracket does not confirm the departure.
+fn departure_step(g: &ExpSum, order: usize, t0: f64, t_max: f64) -> Option<f64> {
+    let trig = Trig::new(t0, g.om, g.al, g.wd);
+    let d: [f64; 5] = g.derivs_t(&trig);
+    let k = order.min(3);
+    let a = d[k].max(0.0) / factorial(k);
+    let b = d[k + 1] / factorial(k + 1);
+    let c = g.deriv_bound((k + 2) as u32, t0, t_max) / factorial(k + 2);
+    let h1 = if c > 0.0 {
+        (b + (b * b + 4.0 * a * c).sqrt()) / (2.0 * c)
+    } else if b < 0.0 {
+        a / -b
+    } else if a > 0.0 || b > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    };
+    if h1.is_nan() || h1 <= 0.0 {
+        None
+    } else {
+        Some(0.5 * h1)
+    }
+}
+
+/// First zero among several functions sharing the frequencies of the first one, in
+/// `[t0, t_max]`: returns the root and the index of the function. All functions are stepped
+/// together (the step is the smallest proven root-free step), so the work is bounded by the
+/// earliest event, not by the interval.
+pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Root, usize) {
+    let Some(first) = cands.first() else {
+        return (Root::None, 0);
+    };
+    let (om, al, wd) = (first.g.om, first.g.al, first.g.wd);
+    let wn2 = al * al + wd * wd;
+    // Per function: constant part of the |g''| bound and the decaying amplitude.
+    let mut bconst = [0.0f64; 4];
+    let mut bdec = [0.0f64; 4];
+    let mut b3const = [0.0f64; 4];
+    let mut b3dec = [0.0f64; 4];
+    let mut bdrift = [0.0f64; 4];
+    let wn = wn2.sqrt();
+    let n = cands.len().min(4);
+    let tau = t0;
+    // Departing functions are proven positive up to `free_until` by their Taylor bracket.
+    let mut free_until = [t0; 4];
+    for (i, c) in cands.iter().take(n).enumerate() {
+        // Amplitudes (the relative margin covers the rounding of the bounds themselves).
+        let rh = (c.g.a * c.g.a + c.g.b * c.g.b).sqrt() * (1.0 + 1e-12);
+        let rd = (c.g.p * c.g.p + c.g.q * c.g.q).sqrt() * (1.0 + 1e-12);
+        bconst[i] = 2.0 * c.g.c2.abs() * (1.0 + 1e-12) + om * om * rh;
+        bdec[i] = wn2 * rd;
+        b3const[i] = om * om * om * rh;
+        b3dec[i] = wn2 * wn2.sqrt() * rd;
+        bdrift[i] = wn2 * rd * (al + (wd - om).abs()) * (1.0 + 1e-12);
+        if c.order > 0 {
+            match departure_step(&c.g, c.order, t0, t_max) {
+                Some(h) => free_until[i] = t0 + h,
+                None => return (Root::At(t0), i),
+            }
+        }
+    }
+    let mut tau = tau;
+    for _ in 0..MAX_ITER {
+        let trig = Trig::new(tau, om, al, wd);
+        let decay = 1.0 + trig.em1;
+        let mut h = f64::INFINITY;
+        let mut imin = 0;
+        for (i, c) in cands.iter().take(n).enumerate() {
+            if free_until[i] > tau {
+                let hi = free_until[i] - tau;
+                if hi < h {
+                    h = hi;
+                    imin = i;
+                }
+                continue;
+            }
+            let [f, f1, f2]: [f64; 3] = c.g.derivs_t(&trig);
+            if f <= c.tol && f1 <= 0.0 {
+                return (Root::At(tau), i);
+            }
+            let f = f.max(0.0);
+            // Quadratic bound with B ≥ |g''| on the rest of the interval …
+            let h2_amp = quad_step(f, f1, bconst[i] + bdec[i] * decay);
+            // … or with the envelope of the oscillating parts taken together: at τ+s,
+            // H'' + D'' = Re[e^{iΩs}(Z + λ²D̂e^{λτ}(e^{(−α+iδ)s} − 1))], Z = −Ω²Ĥe^{iΩτ} + λ²D̂e^{λτ},
+            // δ = ω_d − Ω, so |g''| ≤ 2|c2| + |Z| + ω_n²|D̂|e^{−ατ}(α + |δ|)s. Near resonance the
+            // steady and transient parts cancel and |Z| ≪ Ω²|Ĥ| + ω_n²|D̂|.
+            let g = &c.g;
+            let e = decay;
+            let (z2, z3) = envelope(g, &trig);
+            let round = 8.0 * f64::EPSILON * (bconst[i] + bdec[i] * e);
+            let bz = (2.0 * g.c2.abs() + z2) * (1.0 + 1e-12) + round;
+            let bd = bdrift[i] * e;
+            let h0 = quad_step(f, f1, bz);
+            let h2_env = if h0.is_finite() {
+                // Valid on [0, h0] with the drift term at its largest there; the root is ≤ h0.
+                quad_step(f, f1, bz + bd * h0)
+            } else {
+                0.0
+            };
+            let h2 = h2_amp.max(h2_env);
+            // … and, within a horizon H, the cubic bound with the actual g'':
+            // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6) h² for h ≤ H. Both are proofs; take the longer.
+            // H is set a little beyond the zero of the local quadratic model, so that near a
+            // root the step lands next to it (Newton-like), far from one it is long.
+            let h_model = if f2 < 0.0 {
+                quad_step(f, f1, -f2)
+            } else if f1 < 0.0 && f1 * f1 >= 2.0 * f2 * f {
+                2.0 * f / (-f1 + (f1 * f1 - 2.0 * f2 * f).sqrt())
+            } else {
+                f64::INFINITY
+            };
+            let big_h = (1.1 * h_model).min(8.0 * h2);
+            let h3 = if big_h.is_finite() && big_h > h2 {
+                // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
+                let round3 = 8.0 * f64::EPSILON * (b3const[i] + b3dec[i] * e);
+                let b3_env = z3 * (1.0 + 1e-12) + round3 + bdrift[i] * wn * e * big_h;
+                let b3 = (b3const[i] + b3dec[i] * decay).min(b3_env);
+                let b_eff = b3 * big_h / 3.0 - f2;
+                quad_step(f, f1, b_eff.max(0.0)).min(big_h)
+            } else {
+                0.0
+            };
+            let hi = h2.max(h3);
+            if f1 < 0.0 {
+                if hi <= tol_t {
+                    // Within the time resolution of the zero, approaching it: it is here.
+                    return (Root::At(tau), i);
+                }
+                // Upper bound g ≤ f + f1 h + B h²/2: if it reaches 0 by `h_up`, a zero lies in
+                // [τ + hi, τ + h_up]; once that bracket is below the time resolution, stop at
+                // its proven-free left end.
+                let bnd = bconst[i] + bdec[i] * decay;
+                let disc = f1 * f1 - 2.0 * bnd * f;
+                if disc >= 0.0 {
+                    let h_up = 2.0 * f / (-f1 + disc.sqrt());
+                    if h_up - hi <= tol_t && tau + hi < t_max {
+                        return (Root::At(tau + hi), i);
+                    }
+                }
+            }
+            if hi < h {
+                h = hi;
+                imin = i;
+            }
+        }
+        let next = tau + h;
+        if next >= t_max {
+            return (Root::None, 0);
+        }
+        if next <= tau {
+            return (Root::At(tau), imin);
+        }
+        tau = next;
+    }
+    (Root::Stalled(tau), 0)
+}
+
+/// `(|Z₂|, |Z₃|)`: the envelopes at `τ` of the second and third derivatives of the oscillating
+/// parts taken together, `Z_n = (iΩ)^n Ĥ e^{iΩτ} + λ^n D̂ e^{λτ}` (`Ĥ = a − ib`, `D̂ = p − iq`,
+/// `λ = −α + iω_d`). On `[τ, τ+s]`, `|H^(n) + D^(n)| ≤ |Z_n| + ω_n^n |D̂| e^{−ατ}(α + |ω_d − Ω|) s`,
+/// because `e^{λ(τ+s)} = e^{λτ} e^{iΩs} e^{(−α + i(ω_d − Ω))s}` and `|e^z − 1| ≤ |z|` for `Re z ≤ 0`.
+pub fn envelope(g: &ExpSum, trig: &Trig) -> (f64, f64) {
+    let (om, al, wd) = (g.om, g.al, g.wd);
+    let e = 1.0 + trig.em1;
+    // Ĥ e^{iΩτ} and D̂ e^{λτ}.
+    let (hr, hi) = (g.a * trig.ch + g.b * trig.sh, g.a * trig.sh - g.b * trig.ch);
+    let (dr, di) = (
+        e * (g.p * trig.cd + g.q * trig.sd),
+        e * (g.p * trig.sd - g.q * trig.cd),
+    );
+    let (l2r, l2i) = (al * al - wd * wd, -2.0 * al * wd);
+    let (l3r, l3i) = (-al * l2r - wd * l2i, wd * l2r - al * l2i);
+    let om2 = om * om;
+    let om3 = om2 * om;
+    // (iΩ)² = −Ω², (iΩ)³ = −iΩ³.
+    let z2r = -om2 * hr + (l2r * dr - l2i * di);
+    let z2i = -om2 * hi + (l2r * di + l2i * dr);
+    let z3r = om3 * hi + (l3r * dr - l3i * di);
+    let z3i = -om3 * hr + (l3r * di + l3i * dr);
+    (
+        (z2r * z2r + z2i * z2i).sqrt(),
+        (z3r * z3r + z3i * z3i).sqrt(),
+    )
+}
+
+/// Smallest positive root of `f + f1 h − b h²/2` (`f ≥ 0`, `b ≥ 0`), infinite if none.
+#[inline]
+fn quad_step(f: f64, f1: f64, b: f64) -> f64 {
+    if b > 0.0 {
+        let disc = (f1 * f1 + 2.0 * b * f).sqrt();
+        if f1 < 0.0 {
+            // Same root, written without cancellation.
+            2.0 * f / (disc - f1)
+        } else {
+            (f1 + disc) / b
+        }
+    } else if f1 < 0.0 {
+        f / -f1
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// First zero of `g` in `[t0, t_max]`, `g` positive just after `t0`. `order` is the order of the
+/// known zero at `t0` (0: `g(t0) > 0`, no departure logic). `tol` is an absolute tolerance on
+/// `g`, `tol_t` the time resolution (a zero closer than that, approached, is taken as reached).
+pub fn first_root(g: &ExpSum, order: usize, t0: f64, t_max: f64, tol: f64, tol_t: f64) -> Root {
+    first_root_multi(&[Cand { g: *g, order, tol }], t0, t_max, tol_t).0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn envelope_bounds_hold_on_the_interval() {
+        // Near resonance (the case it is made for) and away from it, damped.
+        for (om, al, wd) in [(5.0, 0.05, 5.01), (3.0, 0.3, 5.0)] {
+            let g = ExpSum {
+                f0: 0.1,
+                k0: 0.0,
+                c1: 0.0,
+                c2: 0.0,
+                a: 0.7,
+                b: -0.4,
+                om,
+                p: -0.6,
+                q: 0.35,
+                al,
+                wd,
+            };
+            let wn = (al * al + wd * wd).sqrt();
+            let rd = g.p.hypot(g.q);
+            for &tau in &[0.0, 0.37, 2.9] {
+                let tr = Trig::new(tau, om, al, wd);
+                let (z2, z3) = envelope(&g, &tr);
+                let e = (-al * tau).exp();
+                let d0: [f64; 4] = g.derivs_t(&tr);
+                // At s = 0 the envelope bounds the actual derivatives.
+                assert!(d0[2].abs() <= z2 * (1.0 + 1e-12));
+                assert!(d0[3].abs() <= z3 * (1.0 + 1e-12));
+                for i in 0..=400 {
+                    let s = 1.5 * i as f64 / 400.0;
+                    let d: [f64; 4] = g.derivs(tau + s);
+                    let drift = rd * e * (al + (wd - om).abs()) * s;
+                    assert!(d[2].abs() <= z2 + wn * wn * drift + 1e-12, "{om} {tau} {s}");
+                    assert!(
+                        d[3].abs() <= z3 + wn * wn * wn * drift + 1e-12,
+                        "{om} {tau} {s}"
+                    );
+                }
+            }
+        }
+    }
+
+    fn es(f0: f64, c1: f64, c2: f64) -> ExpSum {
+        ExpSum {
+            f0,
+            c1,
+            c2,
+            om: 1.0,
+            al: 0.0,
+            wd: 1.0,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn parabola_roots() {
+        // 1 − τ²: root at 1.
+        match first_root(&es(1.0, 0.0, -1.0), 0, 0.0, 10.0, 1e-15, 0.0) {
+            Root::At(t) => assert!((t - 1.0).abs() < 1e-14, "{t}"),
+            r => panic!("{r:?}"),
+        }
+        // Touch: (τ − 1)² ≥ 0 touches 0 at 1.
+        match first_root(&es(1.0, -2.0, 1.0), 0, 0.0, 10.0, 1e-15, 0.0) {
+            Root::At(t) => assert!((t - 1.0).abs() < 1e-7, "{t}"),
+            r => panic!("{r:?}"),
+        }
+        // Near miss by 1e-12: no root.
+        assert_eq!(
+            first_root(&es(1.0 + 1e-12, -2.0, 1.0), 0, 0.0, 10.0, 1e-15, 0.0),
+            Root::None
+        );
+    }
+
+    #[test]
+    fn departure_from_a_zero_is_not_a_root() {
+        // g = τ − τ²/2 leaves 0 with slope 1 and returns at τ = 2; with round-off in g'(0) < 0
+        // clamped by the departure logic.
+        let g = es(1e-18, 1.0, -0.5);
+        match first_root(&g, 1, 0.0, 10.0, 1e-15, 0.0) {
+            Root::At(t) => assert!((t - 2.0).abs() < 1e-12, "{t}"),
+            r => panic!("{r:?}"),
+        }
+        // Tangential departure: g = τ²·(1 − τ) ... approximated by a harmonic: 1 − cos τ leaves
+        // 0 quadratically and never returns before 2π.
+        let h = ExpSum {
+            f0: 0.0,
+            a: -1.0,
+            om: 1.0,
+            al: 0.0,
+            wd: 1.0,
+            ..Default::default()
+        };
+        match first_root(&h, 2, 0.0, 10.0, 1e-15, 0.0) {
+            Root::At(t) => assert!((t - 2.0 * std::f64::consts::PI).abs() < 1e-6, "{t}"),
+            r => panic!("{r:?}"),
+        }
+    }
+}

@@ -1,0 +1,80 @@
+//! Shared helpers of the `exact_*` tests: a recording observer and test systems.
+#![allow(dead_code)]
+
+pub mod orbit;
+
+use vibrobar_core::solver::{Event, EventKind, Mode, Observer, Segment, SegmentIntegrals};
+use vibrobar_core::*;
+
+/// Records events, the end points of every segment, and the summed integrals.
+#[derive(Default)]
+pub struct Recorder {
+    pub events: Vec<Event>,
+    /// (t_start, t_end, mode, integrals over the whole segment, state at start, state at end).
+    pub segs: Vec<(f64, f64, Mode, SegmentIntegrals, State, State)>,
+    pub totals: SegmentIntegrals,
+}
+
+impl Observer for Recorder {
+    fn segment(&mut self, seg: &dyn Segment) {
+        let (a, b) = (seg.t_start_s(), seg.t_end_s());
+        let i = seg.integrals(a, b);
+        self.totals += i;
+        self.segs
+            .push((a, b, seg.mode(), i, seg.state_at(a), seg.state_at(b)));
+    }
+    fn event(&mut self, ev: &Event) {
+        self.events.push(*ev);
+    }
+}
+
+impl Recorder {
+    pub fn impacts(&self) -> Vec<&Event> {
+        self.events
+            .iter()
+            .filter(|e| matches!(e.kind, EventKind::Impact { .. }))
+            .collect()
+    }
+    pub fn count(&self, f: impl Fn(&EventKind) -> bool) -> usize {
+        self.events.iter().filter(|e| f(&e.kind)).count()
+    }
+    pub fn losses_j(&self) -> f64 {
+        self.events
+            .iter()
+            .map(|e| match e.kind {
+                EventKind::Impact { energy_loss_j, .. } => energy_loss_j,
+                EventKind::ChatterLimit { energy_loss_j, .. } => energy_loss_j,
+                _ => 0.0,
+            })
+            .sum()
+    }
+}
+
+/// A bar with a constant load and a vanishing spring: the relative acceleration of a free ball
+/// is constant, `ẅ = −F_s/M`.
+pub fn constant_push(static_force_n: f64, gap_m: f64, restitution: f64) -> System {
+    System {
+        bar: Bar {
+            mass_kg: 1.0,
+            stiffness_n_per_m: 1e-9,
+            damping_ratio: 0.0,
+        },
+        damper: Some(Damper {
+            ball_mass_kg: 0.05,
+            ball_radius_m: 0.0075,
+            restitution,
+            gap_m,
+            rolling_friction_m: 0.0,
+            friction: FrictionModel::None,
+            friction_force_n: None,
+        }),
+        forcing: Forcing {
+            amplitude_n: 0.0,
+            frequency: Frequency::RadPerS(1.0),
+            static_force_n,
+        },
+        gravity_m_s2: STANDARD_GRAVITY_M_S2,
+    }
+}
+
+pub use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
