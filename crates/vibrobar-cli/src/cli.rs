@@ -68,16 +68,16 @@ pub struct ModelArgs {
     #[arg(long, value_enum)]
     pub friction: Option<FrictionArg>,
     /// Friction force level in N, overriding η/r·m_d·g (= 0.0204 N for the paper's ball).
-    #[arg(long, value_name = "F_N")]
+    #[arg(long, value_name = "F_N", allow_negative_numbers = true)]
     pub friction_force_n: Option<f64>,
-    /// Solver by name (see `vibrobar bench` for the list) [default: rk4].
+    /// Solver by name; an unknown name prints the available ones [default: rk4].
     #[arg(long)]
     pub solver: Option<String>,
     /// Time step in s (fixed step of rk4, output grid unit of event-driven solvers) [default: 1e-6].
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub dt: Option<f64>,
     /// Simulated time per run in s; RMS is taken over the last 80 % [default: 2].
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub duration: Option<f64>,
 }
 
@@ -88,10 +88,15 @@ pub struct SweepArgs {
     #[command(flatten)]
     pub model: ModelArgs,
     /// Total clearance(s) in mm, comma-separated (the ball moves ±gap/2) [default: from the scenario: 0.1,1.0].
-    #[arg(long, value_name = "G[,G...]", value_delimiter = ',')]
+    #[arg(
+        long,
+        value_name = "G[,G...]",
+        allow_negative_numbers = true,
+        value_delimiter = ','
+    )]
     pub gap_mm: Vec<f64>,
     /// Frequency ratios Ω/√(K/M) as START:STOP:STEP, STOP included (0.95:1.05:0.01 is 11 points) [default: from the scenario].
-    #[arg(long, value_name = "START:STOP:STEP")]
+    #[arg(long, value_name = "START:STOP:STEP", allow_hyphen_values = true)]
     pub ratios: Option<String>,
     /// Output CSV (written to FILE.partial, renamed when complete).
     #[arg(long, value_name = "FILE.csv")]
@@ -105,25 +110,25 @@ pub struct RunArgs {
     #[command(flatten)]
     pub model: ModelArgs,
     /// Total clearance in mm (the ball moves ±gap/2) [default: from the scenario].
-    #[arg(long, value_name = "G")]
+    #[arg(long, value_name = "G", allow_negative_numbers = true)]
     pub gap_mm: Option<f64>,
     /// Frequency ratio Ω/√(K/M) [default: from the scenario].
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub ratio: Option<f64>,
     /// Write one row every N time steps (every N·dt s).
     #[arg(long, value_name = "N", default_value_t = 10)]
     pub sample_every: u64,
     /// Initial bar displacement u(0) in m [default: 0].
-    #[arg(long, value_name = "M")]
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
     pub u0_m: Option<f64>,
     /// Initial ball position relative to the cavity centre w(0) = v − u in m, within ±gap/2 [default: 0].
-    #[arg(long, value_name = "M")]
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
     pub w0_m: Option<f64>,
     /// Initial relative velocity ẇ(0) in m/s [default: 0].
-    #[arg(long, value_name = "M_S")]
+    #[arg(long, value_name = "M_S", allow_negative_numbers = true)]
     pub dw0_m_s: Option<f64>,
     /// Initial bar velocity u̇(0) in m/s [default: 0].
-    #[arg(long, value_name = "M_S")]
+    #[arg(long, value_name = "M_S", allow_negative_numbers = true)]
     pub du0_m_s: Option<f64>,
     /// Output CSV with columns t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s.
     #[arg(long, value_name = "FILE.csv")]
@@ -148,16 +153,21 @@ pub struct PaperArgs {
     #[arg(long)]
     pub quick: bool,
     /// Simulated time per run in s (overrides --quick) [default: 2, the paper's].
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub duration: Option<f64>,
     /// Time step in s (overrides --quick) [default: 1e-6, the paper's].
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub dt: Option<f64>,
     /// Friction force in N at which the as-published model reproduces the paper's Figs. 4–5.
-    #[arg(long, value_name = "F_N", default_value_t = crate::commands::paper::REPRODUCING_FRICTION_N)]
+    #[arg(long, value_name = "F_N", allow_negative_numbers = true, default_value_t = crate::commands::paper::REPRODUCING_FRICTION_N)]
     pub reproducing_friction_n: f64,
     /// Sampling interval of the time histories (Figs. 2 and 4 and their CSVs) in s.
-    #[arg(long, value_name = "S", default_value_t = 2e-5)]
+    #[arg(
+        long,
+        value_name = "S",
+        allow_negative_numbers = true,
+        default_value_t = 2e-5
+    )]
     pub sample_interval_s: f64,
 }
 
@@ -173,10 +183,10 @@ pub struct BenchArgs {
     )]
     pub solvers: Vec<String>,
     /// Simulated time per run in s [default: 2].
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub duration: Option<f64>,
     /// Time step in s [default: 1e-6].
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub dt: Option<f64>,
     /// Time only the single run, not the sweep set.
     #[arg(long)]
