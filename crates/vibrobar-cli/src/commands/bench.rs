@@ -32,7 +32,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         solver(n, &st)?;
     }
     println!(
-        "vibrobar bench ({}): {} s simulated per run, dt = {} s, {} rayon threads",
+        "vibrobar bench ({}): {} s simulated per run, dt = {:e} s, {} rayon threads",
         crate::VERSION,
         st.duration_s,
         st.dt_s,

@@ -303,10 +303,11 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
             dashed: solid,
             width: 2,
         };
+        // Solid bar last, dashed, so it stays visible where a damped curve coincides with it.
         let curves = vec![
-            curve("solid bar".into(), &r01, SOLID, true),
             curve("impact damper, gap 0.1 mm".into(), &r01, GAP01, false),
             curve("impact damper, gap 1.0 mm".into(), &r10, GAP10, false),
+            curve("solid bar (dashed)".into(), &r01, SOLID, true),
         ];
         let title = format!(
             "Fig. {} — RMS displacement, {what} ({title_settings})",
