@@ -581,6 +581,14 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
             .find(|v| v.role == Role::Reproducing)
             .map_or("—".to_string(), |v| format!("{}", v.level_n))
     );
+    if solvers.contains(&"rk4") {
+        let _ = writeln!(
+            s,
+            "- `rk4` has no sticking mode: with `coulomb` its sgn(ẇ) chatters about ẇ = 0 step by \
+             step (a fixed-step scheme with a discontinuous right-hand side), so its `coulomb` \
+             numbers approximate sticking rather than resolve it."
+        );
+    }
     let _ = writeln!(
         s,
         "- Friction work ∫F_ball·ẇ dt is summed over every segment the solver reports \
