@@ -57,6 +57,8 @@ pub struct Case {
     pub init: State,
     /// Sample the history every this many seconds.
     pub sample_interval_s: Option<f64>,
+    /// Sum the friction work (costs full segment integrals per step; skipped without friction).
+    pub friction_work: bool,
 }
 
 /// What a case gave.
@@ -84,10 +86,11 @@ pub fn run_one(
         .sample_interval_s
         .map(|dt| Sampler::new(case.init.t_s, dt));
     // Friction work needs the full segment integrals: only pay for them when there is friction.
-    let friction = case
-        .system
-        .damper
-        .is_some_and(|d| d.friction != FrictionModel::None);
+    let friction = case.friction_work
+        && case
+            .system
+            .damper
+            .is_some_and(|d| d.friction != FrictionModel::None);
     let result = {
         let mut obs: Vec<&mut dyn Observer> = Vec::with_capacity(2);
         if friction {
@@ -196,6 +199,7 @@ pub fn sweep_cases(
     base: &vibrobar_core::analysis::SweepBase,
     gravity_m_s2: f64,
     init: &State,
+    friction_work: bool,
 ) -> (Vec<Case>, Vec<usize>) {
     let mut ratios: Vec<f64> = points.iter().map(|p| p.ratio).collect();
     ratios.sort_by(f64::total_cmp);
@@ -209,6 +213,7 @@ pub fn sweep_cases(
             },
             init: *init,
             sample_interval_s: None,
+            friction_work,
         })
         .collect();
     let mut solid_index = Vec::with_capacity(points.len());
@@ -220,6 +225,7 @@ pub fn sweep_cases(
             },
             init: *init,
             sample_interval_s: None,
+            friction_work,
         });
         solid_index.push(
             ratios

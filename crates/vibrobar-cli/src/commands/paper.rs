@@ -140,7 +140,8 @@ pub fn run_solver(
     let solver = solver(name, settings)?;
     let base = SweepBase::paper();
     let points = paper_points(variants, ratios);
-    let (mut cases, solid_index) = sweep_cases(&points, &base, STANDARD_GRAVITY_M_S2, &State::REST);
+    let (mut cases, solid_index) =
+        sweep_cases(&points, &base, STANDARD_GRAVITY_M_S2, &State::REST, true);
     let n_sweep = cases.len();
     if let Some(dt) = sample_interval_s {
         for v in variants {
@@ -153,6 +154,7 @@ pub fn run_solver(
                 }),
                 init: State::REST,
                 sample_interval_s: Some(dt),
+                friction_work: true,
             });
         }
     }

@@ -41,6 +41,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
         system: sys,
         init: sc.initial_state(),
         sample_interval_s: Some(args.sample_every as f64 * settings.dt_s),
+        friction_work: true,
     };
     let out = run_one(&case, &settings, solver.as_ref())?;
     write_history_csv(&args.out, &out.samples)?;

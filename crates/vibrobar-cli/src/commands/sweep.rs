@@ -52,8 +52,13 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     }
     let settings = sc.settings();
     let solver = solver(&sc.run.solver, &settings)?;
-    let (cases, solid_index) =
-        sweep_cases(&points, &sc.base(), sc.gravity_m_s2, &sc.initial_state());
+    let (cases, solid_index) = sweep_cases(
+        &points,
+        &sc.base(),
+        sc.gravity_m_s2,
+        &sc.initial_state(),
+        false,
+    );
     let outcomes = run_cases(&cases, &settings, solver.as_ref(), "sweep")?;
     let rows = assemble_sweep(&points, &solid_index, &outcomes, 0, solver.name());
     let csv: Vec<_> = rows.iter().map(|r| r.csv_row()).collect();
