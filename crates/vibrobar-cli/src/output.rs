@@ -137,3 +137,39 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
 pub fn write_text(path: &Path, text: &str) -> Result<()> {
     write_atomic(path, |w| Ok(w.write_all(text.as_bytes())?))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn partial_sits_beside_the_target() {
+        let p = partial_path(Path::new("out/dir/sweep.csv"));
+        assert_eq!(p, Path::new("out/dir/sweep.csv.partial"));
+    }
+
+    #[test]
+    fn failed_write_leaves_neither_file_nor_partial() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("a/b.csv");
+        let err = write_atomic(&target, |w| {
+            writeln!(w, "half a file")?;
+            anyhow::bail!("simulated failure")
+        });
+        assert!(err.is_err());
+        assert!(!target.exists());
+        assert!(!partial_path(&target).exists());
+        write_text(&target, "ok\n").unwrap();
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "ok\n");
+        assert!(!partial_path(&target).exists());
+    }
+
+    #[test]
+    fn grid_numbers_lose_binary_noise_only() {
+        assert_eq!(grid_num(0.95 + 5.0 * 0.01), "1");
+        assert_eq!(grid_num(0.1), "0.1");
+        assert_eq!(grid_num(0.25), "0.25");
+        assert_eq!(grid_num(1.0e-3 * 1e3), "1");
+        assert_eq!(grid_num(20.0), "20");
+    }
+}

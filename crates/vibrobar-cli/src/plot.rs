@@ -326,3 +326,27 @@ pub fn rms_vs_ratio(stem: &Path, title: &str, curves: &[Curve]) -> Result<()> {
         draw(r, title, &scaled)
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decimation_keeps_every_extreme_in_time_order() {
+        let pts: Vec<(f64, f64)> = (0..10_000)
+            .map(|i| {
+                let t = i as f64 * 1e-4;
+                (t, (t * 600.0 * std::f64::consts::TAU).sin() * (1.0 + t))
+            })
+            .collect();
+        let d = minmax_decimate(&pts, 100);
+        assert!(d.len() <= 200);
+        assert!(d.windows(2).all(|w| w[0].0 <= w[1].0));
+        let max = |v: &[(f64, f64)]| v.iter().map(|p| p.1).fold(f64::MIN, f64::max);
+        let min = |v: &[(f64, f64)]| v.iter().map(|p| p.1).fold(f64::MAX, f64::min);
+        assert_eq!(max(&d).to_bits(), max(&pts).to_bits());
+        assert_eq!(min(&d).to_bits(), min(&pts).to_bits());
+        // Short records are left alone.
+        assert_eq!(minmax_decimate(&pts[..50], 100), pts[..50].to_vec());
+    }
+}

@@ -745,3 +745,52 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn claim(holds: &[(Role, bool)]) -> Claim {
+        Claim {
+            id: "X".into(),
+            text: "t".into(),
+            paper: "p".into(),
+            rule: "r".into(),
+            rows: holds
+                .iter()
+                .enumerate()
+                .map(|(i, &(role, h))| ClaimRow {
+                    params: format!("set{i}"),
+                    role,
+                    findings: vec![Finding {
+                        value: String::new(),
+                        holds: h,
+                    }],
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn verdicts_follow_the_rows() {
+        use Role::*;
+        assert_eq!(claim(&[(Stated, true)]).verdicts(), ["reproduced"]);
+        assert_eq!(
+            claim(&[(Stated, false), (Reproducing, true), (Physical, false)]).verdicts(),
+            ["reproduced only with set1"]
+        );
+        assert_eq!(
+            claim(&[(Stated, false), (Reproducing, true), (Physical, true)]).verdicts(),
+            ["reproduced only with set1; set2"]
+        );
+        assert_eq!(
+            claim(&[(Stated, false), (Reproducing, false)]).verdicts(),
+            ["not reproduced"]
+        );
+    }
+
+    #[test]
+    fn table_cells_escape_pipes() {
+        assert_eq!(cell("|a|"), "\\|a\\|");
+    }
+}
