@@ -7,7 +7,7 @@ use vibrobar_core::FrictionModel;
 /// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
 /// "The effect of rolling friction on vibro-impact damped boring bars".
 #[derive(Debug, Parser)]
-#[command(name = "vibrobar", version, about, long_about = None)]
+#[command(name = "vibrobar", version)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]
@@ -70,8 +70,12 @@ pub struct ModelArgs {
     /// Friction force level in N, overriding η/r·m_d·g (= 0.0204 N for the paper's ball).
     #[arg(long, value_name = "F_N", allow_negative_numbers = true)]
     pub friction_force_n: Option<f64>,
-    /// Solver by name; an unknown name prints the available ones [default: rk4].
-    #[arg(long)]
+    /// Solver by name (help text below carries the default).
+    #[arg(long, help = concat!(
+        "Solver by name; an unknown name prints the available ones [default: ",
+        crate::default_solver!(),
+        "]"
+    ))]
     pub solver: Option<String>,
     /// Time step in s (fixed step of rk4, output grid unit of event-driven solvers) [default: 1e-6].
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
@@ -141,12 +145,13 @@ pub struct PaperArgs {
     /// Output directory.
     #[arg(long, value_name = "DIR", default_value = "paper-out")]
     pub out: PathBuf,
-    /// Solver(s), comma-separated; the report gets one column group per solver, figures use the first [default: rk4].
+    /// Solver(s), comma-separated; the report gets one column group per solver, figures use the first.
     #[arg(
         long = "solvers",
         alias = "solver",
         value_name = "NAME[,NAME...]",
-        value_delimiter = ','
+        value_delimiter = ',',
+        default_value = crate::DEFAULT_SOLVER
     )]
     pub solvers: Vec<String>,
     /// Smoke-test settings: 0.1 s per run at dt = 2e-6 s (numbers are NOT the paper's).

@@ -14,8 +14,17 @@ pub mod plot;
 pub mod report;
 pub mod scenario;
 
-/// Solver used when none is given. One constant, so switching the default is a one-line change.
-pub const DEFAULT_SOLVER: &str = "rk4";
+/// The default solver's name as a literal, so help texts can `concat!` it. Switching the default
+/// solver is this one line.
+#[macro_export]
+macro_rules! default_solver {
+    () => {
+        "rk4"
+    };
+}
+
+/// Solver used when none is given.
+pub const DEFAULT_SOLVER: &str = default_solver!();
 
 /// Version of this tool, written into every report.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
