@@ -2,7 +2,8 @@
 //!
 //! The command-line front end of vibrobar. Everything with I/O lives here: argument parsing
 //! ([`cli`]), scenario files ([`scenario`]), CSV/JSON writers ([`output`]), figures ([`plot`]),
-//! the reproduction report ([`report`]) and one module per command ([`commands`]).
+//! the reproduction report ([`report`]), result storage (atomic files, journals, NPY, shards:
+//! [`store`]) and one module per command ([`commands`]).
 //! The physics is in `vibrobar-core`; this crate never re-implements it.
 
 #![warn(missing_docs)]
@@ -13,6 +14,7 @@ pub mod output;
 pub mod plot;
 pub mod report;
 pub mod scenario;
+pub mod store;
 
 /// The default solver's name as a literal, so help texts can `concat!` it. Switching the default
 /// solver is this one line.

@@ -2,9 +2,11 @@
 //! complete, so a half-written result never looks complete.
 
 use anyhow::{Context, Result};
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::io::Write;
+use std::path::Path;
 use vibrobar_core::State;
+
+use crate::store::AtomicFile;
 
 /// Header of sweep CSVs (`sweep`, Figs. 3 and 5).
 pub const SWEEP_HEADER: &str =
@@ -13,42 +15,26 @@ pub const SWEEP_HEADER: &str =
 /// Header of time-history CSVs (`run`, Figs. 2 and 4).
 pub const HISTORY_HEADER: &str = "t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s";
 
-/// `dir/name.partial` for `dir/name`.
-pub fn partial_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".partial");
-    path.with_file_name(name)
-}
+pub use crate::store::partial_path;
 
 /// Create the parent directory of `path` if needed.
 pub fn ensure_parent(path: &Path) -> Result<()> {
-    if let Some(dir) = path.parent() {
-        if !dir.as_os_str().is_empty() {
-            std::fs::create_dir_all(dir)
-                .with_context(|| format!("cannot create directory {}", dir.display()))?;
-        }
-    }
-    Ok(())
+    crate::store::atomic::ensure_parent(path)
+        .with_context(|| format!("cannot create the directory of {}", path.display()))
 }
 
-/// Write `path` atomically: `fill` writes into `path.partial`, which is renamed on success and
-/// removed on failure.
+/// Write `path` atomically through [`crate::store::AtomicFile`]: `fill` writes into
+/// `path.partial`, renamed on success. On failure the partial file is removed, so a failed
+/// command leaves nothing that could be mistaken for a result.
 pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
-    ensure_parent(path)?;
-    let tmp = partial_path(path);
     let res = (|| -> Result<()> {
-        let f = std::fs::File::create(&tmp)
-            .with_context(|| format!("cannot create {}", tmp.display()))?;
-        let mut w = BufWriter::new(f);
-        fill(&mut w)?;
-        let f = w.into_inner().map_err(|e| e.into_error())?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))?;
+        let mut f = AtomicFile::create(path)?;
+        fill(&mut f)?;
+        f.commit()?;
         Ok(())
     })();
     if res.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+        let _ = std::fs::remove_file(partial_path(path));
     }
     res.with_context(|| format!("while writing {}", path.display()))
 }

@@ -7,7 +7,8 @@
 //! * [`params`]: plain-data parameters in SI units, presets, validation.
 //! * [`model`]: the friction law (as published and dissipative), the impact law (Eqs. 4–5).
 //! * [`solver`]: the [`solver::Solver`] trait and its implementations.
-//! * [`analysis`]: RMS, impact statistics, time histories, sweeps.
+//! * [`analysis`]: RMS, impact statistics, time histories, sweeps, energy audit.
+//! * [`euler_bernoulli`]: lumped `M`, `K` of a cantilever bar from its geometry.
 //!
 //! No I/O happens here: progress is reported through callbacks, results are returned as data.
 
@@ -16,6 +17,7 @@
 
 pub mod analysis;
 pub mod error;
+pub mod euler_bernoulli;
 pub mod model;
 pub mod params;
 pub mod solver;

@@ -1,9 +1,16 @@
 //! Analyses built on the observer protocol. They work with every solver.
 
+pub mod energy;
+pub mod ensemble;
+pub mod lyapunov;
+pub mod map;
+pub mod poincare;
+pub mod regime;
 pub mod sweep;
 
 pub use sweep::{
-    linspace_inclusive, par_map_with_progress, sweep, SweepBase, SweepPoint, SweepRow,
+    checked_linspace_inclusive, linspace_inclusive, par_map_with_progress, sweep, SweepBase,
+    SweepPoint, SweepRow,
 };
 
 use crate::error::SimError;

@@ -1,7 +1,7 @@
 //! Frequency sweeps: damped bar beside the solid bar, in parallel with rayon.
 
 use super::{run_case, RunResult};
-use crate::error::SimError;
+use crate::error::{ParamError, SimError};
 use crate::params::{
     Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System,
     STANDARD_GRAVITY_M_S2,
@@ -13,9 +13,43 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// `start + i·step` for `i = 0..=n`, where `n` is the number of whole steps to `stop` (inclusive,
 /// with a tolerance of 1e-9 steps for the rounding of decimal input). Computed from `i`, so no
 /// rounding drift builds up.
+///
+/// Input that [`checked_linspace_inclusive`] rejects (non-finite, `step ≤ 0`, `stop < start`,
+/// more than [`MAX_GRID_POINTS`] points) gives an empty vector instead of a hang or an
+/// out-of-memory abort; use the checked version to report why.
 pub fn linspace_inclusive(start: f64, stop: f64, step: f64) -> Vec<f64> {
-    let n = ((stop - start) / step + 1e-9).floor() as i64;
-    (0..=n.max(0)).map(|i| start + i as f64 * step).collect()
+    checked_linspace_inclusive(start, stop, step).unwrap_or_default()
+}
+
+/// Largest grid [`checked_linspace_inclusive`] builds.
+pub const MAX_GRID_POINTS: usize = 10_000_000;
+
+/// [`linspace_inclusive`] with an error naming the bad argument.
+pub fn checked_linspace_inclusive(
+    start: f64,
+    stop: f64,
+    step: f64,
+) -> Result<Vec<f64>, ParamError> {
+    crate::params::finite("grid.start", start)?;
+    crate::params::finite("grid.stop", stop)?;
+    crate::params::positive("grid.step", step)?;
+    if stop < start {
+        return Err(ParamError::OutOfRange {
+            field: "grid.stop",
+            value: stop,
+            allowed: "[start, ∞)",
+        });
+    }
+    let n = ((stop - start) / step + 1e-9).floor();
+    if n >= MAX_GRID_POINTS as f64 {
+        return Err(ParamError::OutOfRange {
+            field: "grid.step",
+            value: step,
+            allowed: "[(stop − start)/1e7, ∞) (at most 1e7 points)",
+        });
+    }
+    let n = n as i64;
+    Ok((0..=n).map(|i| start + i as f64 * step).collect())
 }
 
 /// Parallel, order-preserving map with a progress callback `(done, total)`.

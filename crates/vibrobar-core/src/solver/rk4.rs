@@ -161,6 +161,58 @@ impl StepSegment<'_> {
     }
 }
 
+impl StepSegment<'_> {
+    /// `∫|ẇ| dt` over `[a, b]` of the Hermite cubic of `w = v − u` (slopes `ẇ` at the step ends):
+    /// split at the roots of its quadratic derivative and sum `|Δw|` over the pieces.
+    fn w_total_variation(&self, a_s: f64, b_s: f64) -> f64 {
+        let h = self.b.t_s - self.a.t_s;
+        if h <= 0.0 || b_s <= a_s {
+            return 0.0;
+        }
+        let (p0, p1) = (self.a.w_m(), self.b.w_m());
+        let (m0, m1) = (h * self.a.dw_m_s(), h * self.b.dw_m_s());
+        // w(s) = c0 + c1 s + c2 s² + c3 s³, s = (t − t_a)/h.
+        let (c0, c1) = (p0, m0);
+        let c2 = 3.0 * (p1 - p0) - 2.0 * m0 - m1;
+        let c3 = 2.0 * (p0 - p1) + m0 + m1;
+        let w = |s: f64| c0 + s * (c1 + s * (c2 + s * c3));
+        let (sa, sb) = (
+            ((a_s - self.a.t_s) / h).clamp(0.0, 1.0),
+            ((b_s - self.a.t_s) / h).clamp(0.0, 1.0),
+        );
+        // Roots of w'(s) = c1 + 2c2 s + 3c3 s² inside (sa, sb).
+        let (qa, qb, qc) = (3.0 * c3, 2.0 * c2, c1);
+        let mut cuts = [sa, sb, sb, sb];
+        let mut n = 1;
+        let mut push = |s: f64| {
+            if s > sa && s < sb {
+                cuts[n] = s;
+                n += 1;
+            }
+        };
+        if qa.abs() <= 1e-300 {
+            if qb.abs() > 1e-300 {
+                push(-qc / qb);
+            }
+        } else {
+            let disc = qb * qb - 4.0 * qa * qc;
+            if disc > 0.0 {
+                // Stable quadratic roots.
+                let q = -0.5 * (qb + qb.signum() * disc.sqrt());
+                let (r1, r2) = (q / qa, if q != 0.0 { qc / q } else { 0.0 });
+                let (lo, hi) = if r1 <= r2 { (r1, r2) } else { (r2, r1) };
+                push(lo);
+                push(hi);
+            }
+        }
+        cuts[n] = sb;
+        cuts[..=n]
+            .windows(2)
+            .map(|p| (w(p[1]) - w(p[0])).abs())
+            .sum()
+    }
+}
+
 impl Segment for StepSegment<'_> {
     fn t_start_s(&self) -> f64 {
         self.a.t_s
@@ -192,13 +244,22 @@ impl Segment for StepSegment<'_> {
         let h = b_s - a_s;
         let trap = |f: &dyn Fn(&State) -> f64| 0.5 * h * (f(&sa) + f(&sb));
         let r = self.rhs;
-        // Friction is constant over a step unless ẇ changes sign in it; use the start value.
-        let fb = r.friction_on_ball(sa.du_m_s, sa.dv_m_s);
+        // `F_ball ẇ = ±F|ẇ|`, so the friction work is ±F times the total variation of `w`: this
+        // keeps its sign on steps where ẇ reverses (the start-of-step force times Δw did not).
+        let sign = match r.friction {
+            FrictionModel::None => 0.0,
+            FrictionModel::AsPublished => 1.0,
+            FrictionModel::Coulomb => -1.0,
+        };
         SegmentIntegrals {
             u2_m2_s: trap(&|s| s.u_m * s.u_m),
             forcing_work_j: trap(&|s| r.force(s.t_s) * s.du_m_s),
             viscous_loss_j: trap(&|s| r.c * s.du_m_s * s.du_m_s),
-            friction_work_j: fb * (sb.w_m() - sa.w_m()),
+            friction_work_j: if sign == 0.0 || r.level == 0.0 {
+                0.0
+            } else {
+                sign * r.level * self.w_total_variation(a_s, b_s)
+            },
         }
     }
 }
@@ -218,6 +279,16 @@ impl Solver for Rk4 {
         sys.validate()?;
         init.validate(sys)?;
         crate::params::positive("dt_s", self.dt_s)?;
+        // A NaN or backward end time would otherwise run zero steps and return Ok.
+        crate::params::finite("t_end_s", t_end_s)?;
+        if t_end_s < init.t_s {
+            return Err(crate::error::ParamError::OutOfRange {
+                field: "t_end_s",
+                value: t_end_s,
+                allowed: "[initial.t_s, ∞)",
+            }
+            .into());
+        }
         let rhs = Rhs::new(sys);
         let has_ball = sys.damper.is_some();
         let (lg, mu, e) = match &sys.damper {

@@ -1,0 +1,253 @@
+//! Sharding a grid over processes or cluster jobs, and merging the shard files back.
+//!
+//! `--shard K/N` selects the grid indices `i` with `i mod N = K − 1`: every shard gets points
+//! spread over the whole grid (similar cost per shard), and the union of the N shards is the grid
+//! exactly once. `vibrobar merge` reads each shard's data file and `FILE.meta.json`, checks that
+//! they come from the same job (fingerprint), that the shards are 1..N of the same N and that
+//! every grid index appears exactly once, and writes the rows sorted by grid index.
+
+use super::atomic::write_atomic;
+use super::meta::{GridInfo, Metadata, ShardInfo};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Errors of sharding and merging.
+#[derive(Debug, thiserror::Error)]
+pub enum ShardError {
+    /// Bad `--shard` text.
+    #[error("--shard must be K/N with whole numbers 1 ≤ K ≤ N, got {0:?}")]
+    Parse(String),
+    /// Reading a shard failed.
+    #[error("{path}: {why}")]
+    Read {
+        /// File.
+        path: String,
+        /// Cause.
+        why: String,
+    },
+    /// The shards do not belong together or do not cover the grid.
+    #[error("cannot merge: {0}")]
+    Mismatch(String),
+}
+
+/// Parse `K/N`.
+pub fn parse_shard(text: &str) -> Result<ShardInfo, ShardError> {
+    let bad = || ShardError::Parse(text.to_string());
+    let (k, n) = text.split_once('/').ok_or_else(bad)?;
+    let k: usize = k.trim().parse().map_err(|_| bad())?;
+    let n: usize = n.trim().parse().map_err(|_| bad())?;
+    if n == 0 || k == 0 || k > n {
+        return Err(bad());
+    }
+    Ok(ShardInfo { k, n })
+}
+
+/// Grid indices of a shard (all of them for `None`).
+pub fn shard_indices(total: usize, shard: Option<ShardInfo>) -> Vec<usize> {
+    match shard {
+        None => (0..total).collect(),
+        Some(ShardInfo { k, n }) => (k - 1..total).step_by(n).collect(),
+    }
+}
+
+/// Merge shard data files into `out` (plus `out.meta.json`). Returns the number of rows.
+pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
+    if inputs.is_empty() {
+        return Err(ShardError::Mismatch("no input files".into()));
+    }
+    let read_err = |p: &Path, why: String| ShardError::Read {
+        path: p.display().to_string(),
+        why,
+    };
+    let mut first: Option<Metadata> = None;
+    let mut seen_shards = BTreeMap::new();
+    let mut rows: BTreeMap<usize, String> = BTreeMap::new();
+    for path in inputs {
+        let meta = Metadata::read_beside(path).map_err(|e| read_err(path, e.to_string()))?;
+        let grid = meta.grid.clone().ok_or_else(|| {
+            read_err(path, "metadata has no grid: not a sweep or map file".into())
+        })?;
+        if let Some(f) = &first {
+            if f.fingerprint != meta.fingerprint || f.kind != meta.kind || f.header != meta.header {
+                return Err(ShardError::Mismatch(format!(
+                    "{} comes from another job (fingerprint {} vs {})",
+                    path.display(),
+                    meta.fingerprint,
+                    f.fingerprint
+                )));
+            }
+            let total = f.grid.as_ref().map(|g| g.total).unwrap_or(0);
+            if total != grid.total {
+                return Err(ShardError::Mismatch(format!(
+                    "{}: grid of {} points, others {}",
+                    path.display(),
+                    grid.total,
+                    total
+                )));
+            }
+        }
+        let shard = grid.shard.unwrap_or(ShardInfo { k: 1, n: 1 });
+        if let Some(prev) = seen_shards.insert(shard.k, path.clone()) {
+            return Err(ShardError::Mismatch(format!(
+                "shard {}/{} given twice ({} and {})",
+                shard.k,
+                shard.n,
+                prev.display(),
+                path.display()
+            )));
+        }
+        let indices = grid
+            .indices
+            .clone()
+            .unwrap_or_else(|| shard_indices(grid.total, grid.shard));
+        let text = std::fs::read_to_string(path).map_err(|e| read_err(path, e.to_string()))?;
+        let mut lines = text.lines();
+        if lines.next() != Some(meta.header.as_str()) {
+            return Err(read_err(path, "header differs from its metadata".into()));
+        }
+        let body: Vec<&str> = lines.collect();
+        if body.len() != indices.len() {
+            return Err(read_err(
+                path,
+                format!("{} rows, metadata lists {}", body.len(), indices.len()),
+            ));
+        }
+        for (i, row) in indices.iter().zip(body) {
+            if rows.insert(*i, row.to_string()).is_some() {
+                return Err(ShardError::Mismatch(format!(
+                    "grid index {i} appears in more than one file"
+                )));
+            }
+        }
+        first.get_or_insert(meta);
+    }
+    let meta = first.expect("at least one input");
+    let total = meta.grid.as_ref().map(|g| g.total).unwrap_or(0);
+    let n = meta
+        .grid
+        .as_ref()
+        .and_then(|g| g.shard)
+        .map(|s| s.n)
+        .unwrap_or(1);
+    let missing_shards: Vec<usize> = (1..=n).filter(|k| !seen_shards.contains_key(k)).collect();
+    if !missing_shards.is_empty() || rows.len() != total {
+        return Err(ShardError::Mismatch(format!(
+            "grid incomplete: {} of {} points present; missing shards {:?} of {}",
+            rows.len(),
+            total,
+            missing_shards,
+            n
+        )));
+    }
+    let mut text = String::new();
+    text.push_str(&meta.header);
+    text.push('\n');
+    for r in rows.values() {
+        text.push_str(r);
+        text.push('\n');
+    }
+    write_atomic(out, text.as_bytes()).map_err(|e| read_err(out, e.to_string()))?;
+    let merged = Metadata {
+        grid: Some(GridInfo {
+            total,
+            shard: None,
+            indices: None,
+        }),
+        created_utc: super::meta::utc_now_rfc3339(),
+        command: std::env::args().collect(),
+        ..meta
+    };
+    merged
+        .write_beside(out)
+        .map_err(|e| read_err(out, e.to_string()))?;
+    Ok(total)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parse_accepts_only_valid_slices() {
+        assert_eq!(parse_shard("2/5").unwrap(), ShardInfo { k: 2, n: 5 });
+        for bad in ["0/3", "4/3", "1/0", "a/b", "3", "-1/2", ""] {
+            assert!(parse_shard(bad).is_err(), "{bad} accepted");
+        }
+    }
+
+    #[test]
+    fn shards_partition_the_grid() {
+        for total in [0, 1, 7, 100, 20_000] {
+            for n in [1, 2, 3, 7, 64] {
+                let mut all: Vec<usize> = (1..=n)
+                    .flat_map(|k| shard_indices(total, Some(ShardInfo { k, n })))
+                    .collect();
+                all.sort_unstable();
+                assert_eq!(all, (0..total).collect::<Vec<_>>(), "total {total}, n {n}");
+            }
+        }
+    }
+
+    fn write_shard(dir: &Path, k: usize, n: usize, total: usize, fp_param: f64) -> PathBuf {
+        let idx = shard_indices(total, Some(ShardInfo { k, n }));
+        let p = dir.join(format!("s{k}.csv"));
+        let mut text = String::from("i,x\n");
+        for i in &idx {
+            text.push_str(&format!("{i},{}\n", *i as f64 * 0.25));
+        }
+        std::fs::write(&p, text).unwrap();
+        Metadata::new(
+            "map",
+            "i,x",
+            serde_json::json!({ "p": fp_param }),
+            Some(GridInfo {
+                total,
+                shard: Some(ShardInfo { k, n }),
+                indices: Some(idx),
+            }),
+        )
+        .write_beside(&p)
+        .unwrap();
+        p
+    }
+
+    #[test]
+    fn merge_restores_the_full_grid_in_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let files: Vec<PathBuf> = [3, 1, 2]
+            .iter()
+            .map(|&k| write_shard(dir.path(), k, 3, 10, 1.0))
+            .collect();
+        let out = dir.path().join("all.csv");
+        assert_eq!(merge(&files, &out).unwrap(), 10);
+        let want: String = std::iter::once("i,x".to_string())
+            .chain((0..10).map(|i| format!("{i},{}", i as f64 * 0.25)))
+            .map(|l| l + "\n")
+            .collect();
+        assert_eq!(std::fs::read_to_string(&out).unwrap(), want);
+        let meta = Metadata::read_beside(&out).unwrap();
+        assert_eq!(meta.grid.unwrap().shard, None);
+    }
+
+    #[test]
+    fn merge_refuses_missing_duplicate_or_foreign_shards() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = write_shard(dir.path(), 1, 3, 10, 1.0);
+        let b = write_shard(dir.path(), 2, 3, 10, 1.0);
+        let out = dir.path().join("all.csv");
+        let e = merge(&[a.clone(), b.clone()], &out)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("missing shards [3]"), "{e}");
+        assert!(!out.exists());
+        let e = merge(&[a.clone(), a.clone()], &out)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("given twice"), "{e}");
+        let sub = dir.path().join("other");
+        std::fs::create_dir(&sub).unwrap();
+        let c = write_shard(&sub, 3, 3, 10, 2.0);
+        let e = merge(&[a, b, c], &out).unwrap_err().to_string();
+        assert!(e.contains("another job"), "{e}");
+    }
+}

@@ -1,0 +1,114 @@
+//! Regression tests, each named after the bug it pins.
+
+use vibrobar_core::solver::Rk4;
+use vibrobar_core::{ParamError, SimError, Solver, State, System};
+
+/// Bug: `Rk4::run` accepted a NaN, infinite or backward `t_end_s`, ran zero steps and returned
+/// `Ok` with the initial state, so a bad duration looked like a finished run.
+#[test]
+fn rk4_accepted_nan_or_backward_end_time() {
+    let sys = System::paper_solid(1.0);
+    let init = State {
+        t_s: 0.5,
+        ..State::REST
+    };
+    for t_end in [f64::NAN, f64::INFINITY, 0.25] {
+        let r = Rk4 { dt_s: 1e-6 }.run(&sys, &init, t_end, &mut ());
+        match r {
+            Err(SimError::Param(ParamError::NotFinite { field, .. }))
+            | Err(SimError::Param(ParamError::OutOfRange { field, .. })) => {
+                assert_eq!(field, "t_end_s", "t_end = {t_end}")
+            }
+            other => panic!("t_end = {t_end} (start 0.5 s): want a t_end_s error, got {other:?}"),
+        }
+    }
+    // Zero-length runs stay allowed.
+    let s = Rk4 { dt_s: 1e-6 }.run(&sys, &init, 0.5, &mut ()).unwrap();
+    assert_eq!(s.final_state, init);
+}
+
+/// Bug: rk4's `Segment::integrals` took the friction work of a step as the start-of-step
+/// friction force times `Δw`. On a step where `ẇ` reverses, `Δw` can have the other sign, so a
+/// step of `as-published` friction (power `F|ẇ| ≥ 0`) reported negative work (−8.8e-12 J seen
+/// at gap 1 mm, 0.0204 N), and `coulomb` positive work. Now `±F·∫|ẇ|dt`.
+#[test]
+fn rk4_step_friction_work_had_wrong_sign_when_dw_reversed_in_step() {
+    use vibrobar_core::solver::{Observer, Segment};
+    use vibrobar_core::FrictionModel;
+    struct Probe {
+        reversals: u64,
+        min_work: f64,
+        max_work: f64,
+    }
+    impl Observer for Probe {
+        fn segment(&mut self, seg: &dyn Segment) {
+            let (a, b) = (seg.t_start_s(), seg.t_end_s());
+            if seg.state_at(a).dw_m_s() * seg.state_at(b).dw_m_s() < 0.0 {
+                self.reversals += 1;
+                let w = seg.integrals(a, b).friction_work_j;
+                self.min_work = self.min_work.min(w);
+                self.max_work = self.max_work.max(w);
+            }
+        }
+    }
+    for model in [FrictionModel::AsPublished, FrictionModel::Coulomb] {
+        let sys = System::paper_damped(1e-3, model, 1.0);
+        let mut p = Probe {
+            reversals: 0,
+            min_work: f64::INFINITY,
+            max_work: f64::NEG_INFINITY,
+        };
+        Rk4 { dt_s: 1e-6 }
+            .run(&sys, &State::REST, 0.05, &mut p)
+            .unwrap();
+        assert!(
+            p.reversals > 10,
+            "{model}: only {} reversal steps",
+            p.reversals
+        );
+        match model {
+            FrictionModel::AsPublished => assert!(
+                p.min_work >= 0.0,
+                "{model}: friction work {} J < 0 on a reversal step",
+                p.min_work
+            ),
+            _ => assert!(
+                p.max_work <= 0.0,
+                "{model}: friction work {} J > 0 on a reversal step",
+                p.max_work
+            ),
+        }
+    }
+}
+
+/// Bug: `linspace_inclusive(0.0, 1.0, 0.0)` computed `inf as i64 = i64::MAX` points and tried to
+/// allocate them (abort), and a NaN step silently gave one point. Bad grids now give an empty
+/// vector, and `checked_linspace_inclusive` an error naming the argument.
+#[test]
+fn linspace_with_zero_step_tried_to_allocate_i64_max_points() {
+    use vibrobar_core::analysis::{checked_linspace_inclusive, linspace_inclusive};
+    for (start, stop, step, field) in [
+        (0.0, 1.0, 0.0, "grid.step"),
+        (0.0, 1.0, -0.1, "grid.step"),
+        (0.0, 1.0, f64::NAN, "grid.step"),
+        (0.0, 1.0, 1e-300, "grid.step"),
+        (f64::NAN, 1.0, 0.1, "grid.start"),
+        (0.0, f64::INFINITY, 0.1, "grid.stop"),
+        (1.0, 0.0, 0.1, "grid.stop"),
+    ] {
+        assert!(
+            linspace_inclusive(start, stop, step).is_empty(),
+            "({start}, {stop}, {step})"
+        );
+        match checked_linspace_inclusive(start, stop, step) {
+            Err(ParamError::NotFinite { field: f, .. })
+            | Err(ParamError::OutOfRange { field: f, .. }) => {
+                assert_eq!(f, field, "({start}, {stop}, {step})")
+            }
+            Ok(v) => panic!("({start}, {stop}, {step}) accepted: {} points", v.len()),
+        }
+    }
+    // A single point and the paper grid still work.
+    assert_eq!(linspace_inclusive(1.0, 1.0, 0.01), vec![1.0]);
+    assert_eq!(linspace_inclusive(0.95, 1.05, 0.01).len(), 11);
+}
