@@ -592,8 +592,9 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
     let _ = writeln!(
         s,
         "- Friction work ∫F_ball·ẇ dt is summed over every segment the solver reports \
-         (`SegmentIntegrals::friction_work_j`). For `rk4` each step contributes F_ball(start of \
-         step)·Δw, an O(dt) approximation at friction switches and impacts.\n"
+         (`SegmentIntegrals::friction_work_j`). For `rk4` it is ±F times the variation of w along \
+         each step's cubic Hermite interpolant: an approximation, with O(dt) errors at the steps \
+         where impacts are applied.\n"
     );
 
     let _ = writeln!(s, "## Summary\n");
