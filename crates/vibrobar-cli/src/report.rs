@@ -164,6 +164,17 @@ fn fmt_ratio(r: f64) -> String {
     format!("{r:.2}")
 }
 
+/// A ratio with sensible digits.
+fn human(x: f64) -> String {
+    if x >= 10.0 {
+        format!("{x:.0}")
+    } else if x >= 0.1 {
+        format!("{x:.2}")
+    } else {
+        format!("{x:.1e}")
+    }
+}
+
 fn pct_vs(x: f64, paper: f64) -> String {
     format!("{x:.1} % ({:+.1} pp)", x - paper)
 }
@@ -679,6 +690,63 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
                 let _ = write!(s, " {at1} | {lo:+.3e} … {hi:+.3e} |");
             }
             let _ = writeln!(s);
+        }
+    }
+
+    if let Some(sd) = input.solvers.first() {
+        let _ = writeln!(
+            s,
+            "\n## Energy books of the r = 1 time-history runs ({})\n\n\
+             Core `EnergyAudit` over the whole run, in J: ΔE_mech = forcing − viscous − impacts + \
+             friction + residual.\n\n\
+             | Parameters | Gap | Forcing work | Viscous loss | Impact loss | Friction work | ΔE_mech | Residual |\n\
+             |---|---|---|---|---|---|---|---|",
+            sd.name
+        );
+        for (key, gap_m, o) in &sd.histories {
+            let label = input
+                .variants
+                .iter()
+                .find(|v| &v.key == key)
+                .map_or(key.as_str(), |v| v.label.as_str());
+            if let Some(e) = o.energy {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} mm | {:+.4e} | {:.4e} | {:.4e} | {:+.4e} | {:+.4e} | {:+.2e} |",
+                    cell(label),
+                    gap_m * 1e3,
+                    e.work_input_j,
+                    e.viscous_loss_j,
+                    e.impact_loss_j,
+                    e.friction_work_j,
+                    e.delta_mechanical_j,
+                    e.residual_j
+                );
+            }
+        }
+    }
+
+    if let Some(sd) = input.solvers.first() {
+        s.push('\n');
+        for (key, _, o) in &sd.histories {
+            let label = input
+                .variants
+                .iter()
+                .find(|v| &v.key == key)
+                .map_or(key.as_str(), |v| v.label.as_str());
+            if let Some(e) = o.energy.filter(|e| e.friction_work_j != 0.0) {
+                let _ = writeln!(
+                    s,
+                    "- {label}: friction {} {:.3e} J, {}× the work of the cutting force.",
+                    if e.friction_work_j > 0.0 {
+                        "puts in"
+                    } else {
+                        "takes out"
+                    },
+                    e.friction_work_j.abs(),
+                    human(e.friction_work_j.abs() / e.work_input_j.abs())
+                );
+            }
         }
     }
 

@@ -418,6 +418,8 @@ fn paper_quick_writes_everything() {
         "NOT the paper's run settings",
         "as published, F = 20 N",
         "physically consistent",
+        "Energy books",
+        "the work of the cutting force",
     ] {
         assert!(report.contains(needle), "REPORT.md lacks {needle:?}");
     }

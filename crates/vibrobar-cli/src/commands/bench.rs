@@ -42,7 +42,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         system: System::paper_damped(0.1e-3, FrictionModel::None, 1.0),
         init: State::REST,
         sample_interval_s: None,
-        friction_work: false,
+        energy_audit: false,
     };
     let mut rows = Vec::new();
     for n in &names {

@@ -7,9 +7,10 @@ pub mod sweep;
 
 use anyhow::{anyhow, Result};
 use indicatif::{ProgressBar, ProgressStyle};
+use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
 use vibrobar_core::analysis::{par_map_with_progress, run_case, RunResult, Sampler, SweepPoint};
-use vibrobar_core::solver::{solver_by_name, Fanout, Segment, SOLVER_NAMES};
-use vibrobar_core::{FrictionModel, Observer, RunSettings, SimError, Solver, State, System};
+use vibrobar_core::solver::{solver_by_name, Fanout, SOLVER_NAMES};
+use vibrobar_core::{Observer, RunSettings, SimError, Solver, State, System};
 
 use crate::cli::{Cli, Command};
 
@@ -33,21 +34,6 @@ pub fn solver(name: &str, settings: &RunSettings) -> Result<Box<dyn Solver>> {
     })
 }
 
-/// Sums the friction work `∫ F_ball ẇ dt` over every segment (positive = energy put in).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct FrictionWork {
-    /// Work so far in J.
-    pub work_j: f64,
-}
-
-impl Observer for FrictionWork {
-    fn segment(&mut self, seg: &dyn Segment) {
-        self.work_j += seg
-            .integrals(seg.t_start_s(), seg.t_end_s())
-            .friction_work_j;
-    }
-}
-
 /// One simulation to do.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Case {
@@ -57,8 +43,9 @@ pub struct Case {
     pub init: State,
     /// Sample the history every this many seconds.
     pub sample_interval_s: Option<f64>,
-    /// Sum the friction work (costs full segment integrals per step; skipped without friction).
-    pub friction_work: bool,
+    /// Audit the energy (core `EnergyAudit`: forcing, viscous, impact and friction work); costs
+    /// the full segment integrals per step.
+    pub energy_audit: bool,
 }
 
 /// What a case gave.
@@ -66,8 +53,10 @@ pub struct Case {
 pub struct CaseOutcome {
     /// RMS and impact statistics.
     pub result: RunResult,
-    /// Friction work in J (0 without friction).
+    /// Friction work in J (0 without friction or without audit).
     pub friction_work_j: f64,
+    /// Energy books of the whole run, when audited.
+    pub energy: Option<EnergyBalance>,
     /// Sampled history (empty unless asked for).
     pub samples: Vec<State>,
     /// Wall time of this run in s.
@@ -81,20 +70,14 @@ pub fn run_one(
     solver: &dyn Solver,
 ) -> Result<CaseOutcome, SimError> {
     let t0 = std::time::Instant::now();
-    let mut work = FrictionWork::default();
+    let mut audit = case.energy_audit.then(|| EnergyAudit::new(&case.system));
     let mut sampler = case
         .sample_interval_s
         .map(|dt| Sampler::new(case.init.t_s, dt));
-    // Friction work needs the full segment integrals: only pay for them when there is friction.
-    let friction = case.friction_work
-        && case
-            .system
-            .damper
-            .is_some_and(|d| d.friction != FrictionModel::None);
     let result = {
         let mut obs: Vec<&mut dyn Observer> = Vec::with_capacity(2);
-        if friction {
-            obs.push(&mut work);
+        if let Some(a) = audit.as_mut() {
+            obs.push(a);
         }
         if let Some(s) = sampler.as_mut() {
             obs.push(s);
@@ -107,9 +90,11 @@ pub fn run_one(
             &mut Fanout(&mut obs),
         )?
     };
+    let energy = audit.and_then(|a| a.balance());
     Ok(CaseOutcome {
         result,
-        friction_work_j: work.work_j,
+        friction_work_j: energy.map_or(0.0, |e| e.friction_work_j),
+        energy,
         samples: sampler.map(|s| s.samples).unwrap_or_default(),
         wall_s: t0.elapsed().as_secs_f64(),
     })
@@ -199,7 +184,7 @@ pub fn sweep_cases(
     base: &vibrobar_core::analysis::SweepBase,
     gravity_m_s2: f64,
     init: &State,
-    friction_work: bool,
+    energy_audit: bool,
 ) -> (Vec<Case>, Vec<usize>) {
     let mut ratios: Vec<f64> = points.iter().map(|p| p.ratio).collect();
     ratios.sort_by(f64::total_cmp);
@@ -213,7 +198,7 @@ pub fn sweep_cases(
             },
             init: *init,
             sample_interval_s: None,
-            friction_work,
+            energy_audit: false,
         })
         .collect();
     let mut solid_index = Vec::with_capacity(points.len());
@@ -225,7 +210,7 @@ pub fn sweep_cases(
             },
             init: *init,
             sample_interval_s: None,
-            friction_work,
+            energy_audit,
         });
         solid_index.push(
             ratios

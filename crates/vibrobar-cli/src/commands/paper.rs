@@ -154,7 +154,7 @@ pub fn run_solver(
                 }),
                 init: State::REST,
                 sample_interval_s: Some(dt),
-                friction_work: true,
+                energy_audit: true,
             });
         }
     }

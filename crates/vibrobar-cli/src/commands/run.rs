@@ -41,7 +41,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
         system: sys,
         init: sc.initial_state(),
         sample_interval_s: Some(args.sample_every as f64 * settings.dt_s),
-        friction_work: true,
+        energy_audit: true,
     };
     let out = run_one(&case, &settings, solver.as_ref())?;
     write_history_csv(&args.out, &out.samples)?;
@@ -73,15 +73,22 @@ pub fn run(args: &RunArgs) -> Result<()> {
         "  penetration: max |w| − l_g = {:.3e} m",
         r.summary.max_penetration_m.max(0.0)
     );
-    if d.friction != vibrobar_core::FrictionModel::None {
+    if let Some(e) = out.energy {
         println!(
-            "  friction   : work ∫F_ball·ẇ dt = {:+.4e} J ({})",
-            out.friction_work_j,
-            if out.friction_work_j > 0.0 {
-                "energy put in"
+            "  energy (J) : forcing {:+.4e}, viscous −{:.4e}, impacts −{:.4e}, friction {:+.4e} ({}), ΔE_mech {:+.4e}, residual {:+.2e}",
+            e.work_input_j,
+            e.viscous_loss_j,
+            e.impact_loss_j,
+            e.friction_work_j,
+            if e.friction_work_j > 0.0 {
+                "put in"
+            } else if e.friction_work_j < 0.0 {
+                "taken out"
             } else {
-                "energy taken out"
-            }
+                "none"
+            },
+            e.delta_mechanical_j,
+            e.residual_j
         );
     }
     println!(
