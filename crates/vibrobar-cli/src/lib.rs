@@ -1,2 +1,32 @@
-//! vibrobar command-line front end.
+//! # vibrobar-cli
+//!
+//! The command-line front end of vibrobar. Everything with I/O lives here: argument parsing
+//! ([`cli`]), scenario files ([`scenario`]), CSV/JSON writers ([`output`]), figures ([`plot`]),
+//! the reproduction report ([`report`]), result storage (atomic files, journals, NPY, shards:
+//! [`store`]) and one module per command ([`commands`]).
+//! The physics is in `vibrobar-core`; this crate never re-implements it.
+
+#![warn(missing_docs)]
+
+pub mod cli;
+pub mod commands;
+pub mod output;
+pub mod plot;
+pub mod report;
+pub mod scenario;
 pub mod store;
+
+/// The default solver's name as a literal, so help texts can `concat!` it. Switching the default
+/// solver is this one line.
+#[macro_export]
+macro_rules! default_solver {
+    () => {
+        "rk4"
+    };
+}
+
+/// Solver used when none is given.
+pub const DEFAULT_SOLVER: &str = default_solver!();
+
+/// Version of this tool, written into every report.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -1,0 +1,199 @@
+//! Command-line definitions (clap derive). Units are in every flag name or help text.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+use vibrobar_core::FrictionModel;
+
+/// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
+/// "The effect of rolling friction on vibro-impact damped boring bars".
+#[derive(Debug, Parser)]
+#[command(name = "vibrobar", version)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The commands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Frequency sweep: RMS of the damped and the solid bar for each ratio and gap, as CSV.
+    Sweep(SweepArgs),
+    /// One run: time history as CSV and a one-screen summary.
+    Run(RunArgs),
+    /// Reproduce the paper: Figs. 2–5 (PNG + SVG), their CSVs and REPORT.md.
+    Paper(PaperArgs),
+    /// Time one paper run and the whole paper sweep set for every solver, in one process.
+    Bench(BenchArgs),
+}
+
+/// Built-in parameter sets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Preset {
+    /// Every value of the paper (M = 0.644 kg, K = 9.22 MN/m, 26 g ball, e = 0.5, F0 = 15 N, …).
+    Paper,
+}
+
+/// Friction law between ball and bar.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FrictionArg {
+    /// Frictionless.
+    None,
+    /// The paper's Eqs. 1–3 as printed: F_ball = +F sgn(ẇ); this sign injects energy.
+    AsPublished,
+    /// Dissipative dry friction: F_ball = −F sgn(ẇ), with sticking.
+    Coulomb,
+}
+
+impl From<FrictionArg> for FrictionModel {
+    fn from(f: FrictionArg) -> Self {
+        match f {
+            FrictionArg::None => FrictionModel::None,
+            FrictionArg::AsPublished => FrictionModel::AsPublished,
+            FrictionArg::Coulomb => FrictionModel::Coulomb,
+        }
+    }
+}
+
+/// Where the parameters come from, and the overrides shared by `sweep` and `run`.
+#[derive(Debug, Clone, Args)]
+pub struct ModelArgs {
+    /// Built-in parameter set (the default when no --scenario is given).
+    #[arg(long, value_enum, conflicts_with = "scenario")]
+    pub preset: Option<Preset>,
+    /// Scenario file (TOML, SI units; fields not given keep the paper's values). Flags override it.
+    #[arg(long, value_name = "FILE.toml")]
+    pub scenario: Option<PathBuf>,
+    /// Friction law [default: from the scenario; the paper preset uses none].
+    #[arg(long, value_enum)]
+    pub friction: Option<FrictionArg>,
+    /// Friction force level in N, overriding η/r·m_d·g (= 0.0204 N for the paper's ball).
+    #[arg(long, value_name = "F_N", allow_negative_numbers = true)]
+    pub friction_force_n: Option<f64>,
+    /// Solver by name (help text below carries the default).
+    #[arg(long, help = concat!(
+        "Solver by name; an unknown name prints the available ones [default: ",
+        crate::default_solver!(),
+        "]"
+    ))]
+    pub solver: Option<String>,
+    /// Time step in s (fixed step of rk4, output grid unit of event-driven solvers) [default: 1e-6].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub dt: Option<f64>,
+    /// Simulated time per run in s; RMS is taken over the last 80 % [default: 2].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub duration: Option<f64>,
+}
+
+/// `vibrobar sweep`.
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// Model and run settings.
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Total clearance(s) in mm, comma-separated (the ball moves ±gap/2) [default: from the scenario: 0.1,1.0].
+    #[arg(
+        long,
+        value_name = "G[,G...]",
+        allow_negative_numbers = true,
+        value_delimiter = ','
+    )]
+    pub gap_mm: Vec<f64>,
+    /// Frequency ratios Ω/√(K/M) as START:STOP:STEP, STOP included (0.95:1.05:0.01 is 11 points) [default: from the scenario].
+    #[arg(long, value_name = "START:STOP:STEP", allow_hyphen_values = true)]
+    pub ratios: Option<String>,
+    /// Output CSV (written to FILE.partial, renamed when complete).
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: PathBuf,
+}
+
+/// `vibrobar run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// Model and run settings.
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Total clearance in mm (the ball moves ±gap/2) [default: from the scenario].
+    #[arg(long, value_name = "G", allow_negative_numbers = true)]
+    pub gap_mm: Option<f64>,
+    /// Frequency ratio Ω/√(K/M) [default: from the scenario].
+    #[arg(long, value_name = "R", allow_negative_numbers = true)]
+    pub ratio: Option<f64>,
+    /// Write one row every N time steps (every N·dt s).
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    pub sample_every: u64,
+    /// Initial bar displacement u(0) in m [default: 0].
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub u0_m: Option<f64>,
+    /// Initial ball position relative to the cavity centre w(0) = v − u in m, within ±gap/2 [default: 0].
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    pub w0_m: Option<f64>,
+    /// Initial relative velocity ẇ(0) in m/s [default: 0].
+    #[arg(long, value_name = "M_S", allow_negative_numbers = true)]
+    pub dw0_m_s: Option<f64>,
+    /// Initial bar velocity u̇(0) in m/s [default: 0].
+    #[arg(long, value_name = "M_S", allow_negative_numbers = true)]
+    pub du0_m_s: Option<f64>,
+    /// Output CSV with columns t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s.
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: PathBuf,
+}
+
+/// `vibrobar paper`.
+#[derive(Debug, Args)]
+pub struct PaperArgs {
+    /// Output directory.
+    #[arg(long, value_name = "DIR", default_value = "paper-out")]
+    pub out: PathBuf,
+    /// Solver(s), comma-separated; the report gets one column group per solver, figures use the first.
+    #[arg(
+        long = "solvers",
+        alias = "solver",
+        value_name = "NAME[,NAME...]",
+        value_delimiter = ',',
+        default_value = crate::DEFAULT_SOLVER
+    )]
+    pub solvers: Vec<String>,
+    /// Smoke-test settings: 0.1 s per run at dt = 2e-6 s (numbers are NOT the paper's).
+    #[arg(long)]
+    pub quick: bool,
+    /// Simulated time per run in s (overrides --quick) [default: 2, the paper's].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub duration: Option<f64>,
+    /// Time step in s (overrides --quick) [default: 1e-6, the paper's].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub dt: Option<f64>,
+    /// Friction force in N at which the as-published model reproduces the paper's Figs. 4–5.
+    #[arg(long, value_name = "F_N", allow_negative_numbers = true, default_value_t = crate::commands::paper::REPRODUCING_FRICTION_N)]
+    pub reproducing_friction_n: f64,
+    /// Sampling interval of the time histories (Figs. 2 and 4 and their CSVs) in s.
+    #[arg(
+        long,
+        value_name = "S",
+        allow_negative_numbers = true,
+        default_value_t = 2e-5
+    )]
+    pub sample_interval_s: f64,
+}
+
+/// `vibrobar bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Solver(s) to time, comma-separated [default: every solver the library provides].
+    #[arg(
+        long = "solvers",
+        alias = "solver",
+        value_name = "NAME[,NAME...]",
+        value_delimiter = ','
+    )]
+    pub solvers: Vec<String>,
+    /// Simulated time per run in s [default: 2].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub duration: Option<f64>,
+    /// Time step in s [default: 1e-6].
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
+    pub dt: Option<f64>,
+    /// Time only the single run, not the sweep set.
+    #[arg(long)]
+    pub single_only: bool,
+}

@@ -1,0 +1,385 @@
+//! `vibrobar paper`: reproduce Figs. 2–5 and write REPORT.md.
+
+use anyhow::{bail, Result};
+use plotters::style::RGBColor;
+use std::path::Path;
+use std::time::Instant;
+use vibrobar_core::analysis::{SweepBase, SweepPoint};
+use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
+use vibrobar_core::{FrictionModel, RunSettings, State, System};
+
+use super::{assemble_sweep, fmt_secs, run_cases, solver, sweep_cases, Case};
+use crate::cli::PaperArgs;
+use crate::output::{grid_num, write_history_csv, write_json, write_sweep_csv, write_text};
+use crate::plot::{rms_vs_ratio, time_history, Curve};
+use crate::report::{claims, render, ReportInput, Role, SolverData, Variant};
+use crate::scenario::{check_positive, ratio_range};
+
+/// Friction force at which the as-published model reproduces the paper's friction figures.
+pub const REPRODUCING_FRICTION_N: f64 = 20.0;
+
+/// Gaps of the frictionless sweep: the paper's two plus the ones behind "no impacts ≥ 0.25 mm".
+pub const FRICTIONLESS_GAPS_M: [f64; 4] = [0.1e-3, 0.25e-3, 0.5e-3, 1.0e-3];
+/// Gaps of the friction sweeps.
+pub const FRICTION_GAPS_M: [f64; 2] = [0.1e-3, 1.0e-3];
+
+/// The parameter sets of the paper run.
+pub fn variants(reproducing_n: f64) -> Vec<Variant> {
+    let stated = vibrobar_core::Damper {
+        friction: FrictionModel::AsPublished,
+        ..SweepBase::paper().ball
+    }
+    .friction_level_n(STANDARD_GRAVITY_M_S2);
+    let v = |key: &str, label: String, role, friction, force_n: Option<f64>| Variant {
+        key: key.to_string(),
+        label,
+        role,
+        friction,
+        force_n,
+        level_n: force_n.unwrap_or(if friction == FrictionModel::None {
+            0.0
+        } else {
+            stated
+        }),
+    };
+    vec![
+        v(
+            "frictionless",
+            "frictionless (stated)".into(),
+            Role::Stated,
+            FrictionModel::None,
+            None,
+        ),
+        v(
+            "as-published_stated",
+            format!("as published, F = {stated:.4} N (stated)"),
+            Role::Stated,
+            FrictionModel::AsPublished,
+            None,
+        ),
+        v(
+            &format!("as-published_{}N", grid_num(reproducing_n)),
+            format!(
+                "as published, F = {} N (reproduces the paper)",
+                grid_num(reproducing_n)
+            ),
+            Role::Reproducing,
+            FrictionModel::AsPublished,
+            Some(reproducing_n),
+        ),
+        v(
+            "coulomb_stated",
+            format!("coulomb, F = {stated:.4} N (physically consistent)"),
+            Role::Physical,
+            FrictionModel::Coulomb,
+            None,
+        ),
+    ]
+}
+
+/// Run settings of the paper command.
+pub fn settings(args: &PaperArgs) -> Result<RunSettings> {
+    let mut st = RunSettings::default();
+    if args.quick {
+        st.duration_s = 0.1;
+        st.dt_s = 2e-6;
+    }
+    if let Some(d) = args.duration {
+        check_positive("--duration", d, "s")?;
+        st.duration_s = d;
+    }
+    if let Some(dt) = args.dt {
+        check_positive("--dt", dt, "s")?;
+        st.dt_s = dt;
+    }
+    st.validate()?;
+    Ok(st)
+}
+
+/// The sweep points of every variant.
+pub fn paper_points(variants: &[Variant], ratios: &[f64]) -> Vec<SweepPoint> {
+    let mut pts = Vec::new();
+    for v in variants {
+        let gaps: &[f64] = if v.friction == FrictionModel::None {
+            &FRICTIONLESS_GAPS_M
+        } else {
+            &FRICTION_GAPS_M
+        };
+        for &gap_m in gaps {
+            for &ratio in ratios {
+                pts.push(SweepPoint {
+                    ratio,
+                    gap_m,
+                    friction: v.friction,
+                    friction_force_n: v.force_n,
+                });
+            }
+        }
+    }
+    pts
+}
+
+/// Time-history case of a variant: gap 0.1 mm without friction (Fig. 2), 1 mm with (Fig. 4).
+fn history_gap_m(v: &Variant) -> f64 {
+    if v.friction == FrictionModel::None {
+        0.1e-3
+    } else {
+        1.0e-3
+    }
+}
+
+/// All runs of the paper for one solver.
+pub fn run_solver(
+    name: &str,
+    settings: &RunSettings,
+    variants: &[Variant],
+    ratios: &[f64],
+    sample_interval_s: Option<f64>,
+) -> Result<SolverData> {
+    let t0 = Instant::now();
+    let solver = solver(name, settings)?;
+    let base = SweepBase::paper();
+    let points = paper_points(variants, ratios);
+    let (mut cases, solid_index) =
+        sweep_cases(&points, &base, STANDARD_GRAVITY_M_S2, &State::REST, true);
+    let n_sweep = cases.len();
+    if let Some(dt) = sample_interval_s {
+        for v in variants {
+            cases.push(Case {
+                system: base.damped_system(&SweepPoint {
+                    ratio: 1.0,
+                    gap_m: history_gap_m(v),
+                    friction: v.friction,
+                    friction_force_n: v.force_n,
+                }),
+                init: State::REST,
+                sample_interval_s: Some(dt),
+                energy_audit: true,
+            });
+        }
+    }
+    let outcomes = run_cases(
+        &cases,
+        settings,
+        solver.as_ref(),
+        &format!("paper [{name}]"),
+    )?;
+    let sweep = assemble_sweep(&points, &solid_index, &outcomes, 0, solver.name());
+    let histories = variants
+        .iter()
+        .zip(outcomes.into_iter().skip(n_sweep))
+        .map(|(v, o)| (v.key.clone(), history_gap_m(v), o))
+        .collect();
+    Ok(SolverData {
+        name: solver.name().to_string(),
+        sweep,
+        histories,
+        wall_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+const SOLID: RGBColor = RGBColor(0, 0, 0);
+const GAP01: RGBColor = RGBColor(214, 39, 40);
+const GAP10: RGBColor = RGBColor(31, 119, 180);
+
+/// Run the command.
+pub fn paper(args: &PaperArgs) -> Result<()> {
+    let t0 = Instant::now();
+    let settings = settings(args)?;
+    check_positive("--reproducing-friction-n", args.reproducing_friction_n, "N")?;
+    check_positive("--sample-interval-s", args.sample_interval_s, "s")?;
+    let solvers: Vec<String> = if args.solvers.is_empty() {
+        vec![crate::DEFAULT_SOLVER.to_string()]
+    } else {
+        args.solvers.clone()
+    };
+    for name in &solvers {
+        solver(name, &settings)?;
+    }
+    if solvers
+        .iter()
+        .enumerate()
+        .any(|(i, a)| solvers[..i].contains(a))
+    {
+        bail!("--solvers lists a solver twice: {}", solvers.join(","));
+    }
+    let variants = variants(args.reproducing_friction_n);
+    let ratios = ratio_range(0.95, 1.05, 0.01)?;
+    let sample = args.sample_interval_s.max(settings.dt_s);
+    let out = &args.out;
+    eprintln!(
+        "vibrobar paper: {} runs per solver ({} s each at dt {:e} s), solvers: {}",
+        paper_points(&variants, &ratios).len() + ratios.len() + variants.len(),
+        settings.duration_s,
+        settings.dt_s,
+        solvers.join(", ")
+    );
+    let mut data = Vec::new();
+    for (i, name) in solvers.iter().enumerate() {
+        // Time histories only for the first solver: the figures use it.
+        let d = run_solver(
+            name,
+            &settings,
+            &variants,
+            &ratios,
+            (i == 0).then_some(sample),
+        )?;
+        eprintln!("  {name}: runs done in {}", fmt_secs(d.wall_s));
+        data.push(d);
+    }
+
+    let mut files = Vec::new();
+    let first = &data[0];
+    let title_settings = format!(
+        "{} s, dt = {:e} s, {}",
+        settings.duration_s, settings.dt_s, first.name
+    );
+    // Figs. 2 and 4: time histories.
+    for (key, gap_m, o) in &first.histories {
+        let v = variants.iter().find(|v| &v.key == key).expect("variant");
+        let (fig, what) = if v.friction == FrictionModel::None {
+            ("fig2", "without friction".to_string())
+        } else {
+            ("fig4", format!("with friction: {}", v.label))
+        };
+        let stem = format!("{fig}_{key}_gap{}mm_r1", grid_num(gap_m * 1e3));
+        let title = format!(
+            "Fig. {} — {what}; gap {} mm, r = 1 ({title_settings})",
+            &fig[3..],
+            grid_num(gap_m * 1e3)
+        );
+        // Zoom on the last ten forcing periods.
+        let zoom_s = 10.0 * history_system(v).forcing_period_s();
+        time_history(&out.join(&stem), &title, &o.samples, 0.5 * gap_m, zoom_s)?;
+        write_history_csv(&out.join(format!("{stem}.csv")), &o.samples)?;
+        for ext in ["png", "svg", "csv"] {
+            files.push(format!("{stem}.{ext}"));
+        }
+    }
+    // Figs. 3 and 5: RMS vs ratio.
+    for v in &variants {
+        let (fig, what) = if v.friction == FrictionModel::None {
+            ("fig3", "without friction".to_string())
+        } else {
+            ("fig5", v.label.clone())
+        };
+        let stem = format!("{fig}_rms_{}", v.key);
+        let rows_of = |d: &SolverData, g: f64| -> Vec<super::SweepResult> {
+            d.sweep
+                .iter()
+                .filter(|r| {
+                    r.point.friction == v.friction
+                        && r.point.friction_force_n == v.force_n
+                        && (r.point.gap_m - g).abs() < 1e-9
+                })
+                .cloned()
+                .collect()
+        };
+        let gaps: &[f64] = if v.friction == FrictionModel::None {
+            &FRICTIONLESS_GAPS_M
+        } else {
+            &FRICTION_GAPS_M
+        };
+        let mut csv = Vec::new();
+        for d in &data {
+            for &g in gaps {
+                csv.extend(rows_of(d, g).iter().map(|r| r.csv_row()));
+            }
+        }
+        write_sweep_csv(&out.join(format!("{stem}.csv")), &csv)?;
+        let r01 = rows_of(first, 0.1e-3);
+        let r10 = rows_of(first, 1.0e-3);
+        let curve = |label: String, rows: &[super::SweepResult], color, solid: bool| Curve {
+            label,
+            points: rows
+                .iter()
+                .map(|r| {
+                    (
+                        r.point.ratio,
+                        if solid { r.solid.rms_m } else { r.damped.rms_m },
+                    )
+                })
+                .collect(),
+            color,
+            markers: true,
+            dashed: solid,
+            width: 2,
+        };
+        // Solid bar last, dashed, so it stays visible where a damped curve coincides with it.
+        let curves = vec![
+            curve("impact damper, gap 0.1 mm".into(), &r01, GAP01, false),
+            curve("impact damper, gap 1.0 mm".into(), &r10, GAP10, false),
+            curve("solid bar (dashed)".into(), &r01, SOLID, true),
+        ];
+        let title = format!(
+            "Fig. {} — RMS displacement, {what} ({title_settings})",
+            &fig[3..]
+        );
+        rms_vs_ratio(&out.join(&stem), &title, &curves)?;
+        for ext in ["png", "svg", "csv"] {
+            files.push(format!("{stem}.{ext}"));
+        }
+    }
+
+    let input = ReportInput {
+        settings,
+        variants: variants.clone(),
+        solvers: data,
+        ratios,
+        quick: args.quick,
+        files: {
+            let mut f = files.clone();
+            f.push("results.json".into());
+            f.push("REPORT.md".into());
+            f
+        },
+    };
+    let cl = claims(&input);
+    write_json(
+        &out.join("results.json"),
+        &serde_json::json!({
+            "tool_version": crate::VERSION,
+            "settings": settings,
+            "variants": variants,
+            "claims": cl,
+            "sweeps": input.solvers.iter().map(|d| serde_json::json!({
+                "solver": d.name,
+                "wall_s": d.wall_s,
+                "rows": d.sweep.iter().map(|r| serde_json::json!({
+                    "row": r.csv_row(),
+                    "friction_force_n": r.point.friction_force_n,
+                    "impacts_per_cycle": r.damped.impacts_per_cycle,
+                    "friction_work_j": r.friction_work_j,
+                })).collect::<Vec<_>>(),
+            })).collect::<Vec<_>>(),
+        }),
+    )?;
+    let report = render(&input, &cl, t0.elapsed().as_secs_f64());
+    write_text(&out.join("REPORT.md"), &report)?;
+    print_summary(out, &input, &cl, t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+fn print_summary(out: &Path, input: &ReportInput, cl: &[crate::report::Claim], wall: f64) {
+    println!(
+        "vibrobar paper ({}): wrote {} files to {}",
+        crate::VERSION,
+        input.files.len(),
+        out.display()
+    );
+    println!("  report : {}", out.join("REPORT.md").display());
+    for c in cl {
+        println!("  {:<3} {}: {}", c.id, c.text, c.verdicts().join(" | "));
+    }
+    println!("  total wall time: {}", fmt_secs(wall));
+}
+
+/// The damped system of a history case (exposed for tests and `bench`).
+pub fn history_system(v: &Variant) -> System {
+    SweepBase::paper().damped_system(&SweepPoint {
+        ratio: 1.0,
+        gap_m: history_gap_m(v),
+        friction: v.friction,
+        friction_force_n: v.force_n,
+    })
+}

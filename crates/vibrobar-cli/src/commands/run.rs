@@ -1,0 +1,101 @@
+//! `vibrobar run`: one run, its time history and a summary.
+
+use anyhow::Result;
+
+use super::{fmt_secs, run_one, solver, Case};
+use crate::cli::RunArgs;
+use crate::output::write_history_csv;
+use crate::scenario::{check_finite, check_positive, Scenario};
+
+/// Run the command.
+pub fn run(args: &RunArgs) -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let mut sc = Scenario::from_args(&args.model)?;
+    if let Some(g) = args.gap_mm {
+        check_positive("--gap-mm", g, "mm")?;
+        sc.damper.gap_m = g * 1e-3;
+    }
+    if let Some(r) = args.ratio {
+        check_positive("--ratio", r, "")?;
+        sc.forcing.frequency_ratio = r;
+    }
+    for (flag, v, field) in [
+        ("--u0-m", args.u0_m, &mut sc.initial.u_m),
+        ("--w0-m", args.w0_m, &mut sc.initial.w_m),
+        ("--dw0-m-s", args.dw0_m_s, &mut sc.initial.dw_m_s),
+        ("--du0-m-s", args.du0_m_s, &mut sc.initial.du_m_s),
+    ] {
+        if let Some(v) = v {
+            check_finite(flag, v)?;
+            *field = v;
+        }
+    }
+    if args.sample_every == 0 {
+        anyhow::bail!("--sample-every = 0 is outside the allowed range [1, ∞) steps");
+    }
+    sc.validate()?;
+    let settings = sc.settings();
+    let solver = solver(&sc.run.solver, &settings)?;
+    let sys = sc.damped_system();
+    let case = Case {
+        system: sys,
+        init: sc.initial_state(),
+        sample_interval_s: Some(args.sample_every as f64 * settings.dt_s),
+        energy_audit: true,
+    };
+    let out = run_one(&case, &settings, solver.as_ref())?;
+    write_history_csv(&args.out, &out.samples)?;
+    let d = sys.damper.expect("damped system");
+    let r = &out.result;
+    println!("vibrobar run ({})", crate::VERSION);
+    println!(
+        "  model      : gap {} mm, ratio {}, friction {} ({:.4} N), e = {}, F0 = {} N",
+        d.gap_m * 1e3,
+        sc.forcing.frequency_ratio,
+        d.friction,
+        sys.friction_level_n(),
+        d.restitution,
+        sys.forcing.amplitude_n
+    );
+    println!(
+        "  run        : solver {}, {} s at dt {:e} s, RMS over the last {:.0} %",
+        solver.name(),
+        settings.duration_s,
+        settings.dt_s,
+        settings.rms_fraction * 100.0
+    );
+    println!("  RMS u      : {:.4e} m", r.rms_m);
+    println!(
+        "  impacts    : {} total, {} in the RMS window, {:.3} per forcing cycle",
+        r.impacts, r.impacts_in_window, r.impacts_per_cycle
+    );
+    println!(
+        "  penetration: max |w| − l_g = {:.3e} m",
+        r.summary.max_penetration_m.max(0.0)
+    );
+    if let Some(e) = out.energy {
+        println!(
+            "  energy (J) : forcing {:+.4e}, viscous −{:.4e}, impacts −{:.4e}, friction {:+.4e} ({}), ΔE_mech {:+.4e}, residual {:+.2e}",
+            e.work_input_j,
+            e.viscous_loss_j,
+            e.impact_loss_j,
+            e.friction_work_j,
+            if e.friction_work_j > 0.0 {
+                "put in"
+            } else if e.friction_work_j < 0.0 {
+                "taken out"
+            } else {
+                "none"
+            },
+            e.delta_mechanical_j,
+            e.residual_j
+        );
+    }
+    println!(
+        "  output     : {} rows to {}",
+        out.samples.len(),
+        args.out.display()
+    );
+    println!("  wall time  : {}", fmt_secs(t0.elapsed().as_secs_f64()));
+    Ok(())
+}

@@ -1,0 +1,479 @@
+//! End-to-end tests of the `vibrobar` binary: headers, ranges, validation, atomic writes,
+//! a snapshot of a small sweep, closed-form plausibility and `paper --quick`.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn vibrobar(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vibrobar"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+fn ok(args: &[&str]) -> Output {
+    let o = vibrobar(args);
+    assert!(
+        o.status.success(),
+        "vibrobar {args:?} failed:\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
+}
+
+fn csv(path: &Path) -> (String, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).expect("csv written");
+    let mut lines = text.lines();
+    let header = lines.next().expect("header").to_string();
+    let rows = lines
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    (header, rows)
+}
+
+fn no_partial_files(dir: &Path) {
+    for e in std::fs::read_dir(dir).expect("dir") {
+        let p = e.expect("entry").path();
+        assert!(
+            !p.to_string_lossy().contains(".partial"),
+            "left behind: {}",
+            p.display()
+        );
+        if p.is_dir() {
+            no_partial_files(&p);
+        }
+    }
+}
+
+fn col(rows: &[Vec<String>], i: usize) -> Vec<f64> {
+    rows.iter().map(|r| r[i].parse().expect("number")).collect()
+}
+
+#[test]
+fn sweep_header_and_inclusive_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("nested/dir/sweep.csv");
+    let o = out.to_str().unwrap();
+    ok(&[
+        "sweep",
+        "--preset",
+        "paper",
+        "--friction",
+        "none",
+        "--gap-mm",
+        "0.1",
+        "--ratios",
+        "0.95:1.05:0.01",
+        "--dt",
+        "1e-5",
+        "--duration",
+        "0.01",
+        "--out",
+        o,
+    ]);
+    let (header, rows) = csv(&out);
+    assert_eq!(
+        header,
+        "ratio,gap_mm,friction,solver,rms_solid_m,rms_damped_m,reduction_pct,impacts"
+    );
+    assert_eq!(rows.len(), 11);
+    let ratios = col(&rows, 0);
+    for (i, r) in ratios.iter().enumerate() {
+        assert!(
+            (r - (0.95 + i as f64 * 0.01)).abs() < 1e-9,
+            "ratio {i} = {r}"
+        );
+    }
+    assert!(rows.iter().all(|r| r[2] == "none" && r[3] == "rk4"));
+    no_partial_files(dir.path());
+}
+
+#[test]
+fn sweep_two_gaps_and_friction_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("s.csv");
+    ok(&[
+        "sweep",
+        "--preset",
+        "paper",
+        "--friction",
+        "as-published",
+        "--friction-force-n",
+        "20",
+        "--gap-mm",
+        "0.1,1.0",
+        "--ratios",
+        "0.99:1.01:0.01",
+        "--dt",
+        "1e-5",
+        "--duration",
+        "0.02",
+        "--solver",
+        "rk4",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let (_, rows) = csv(&out);
+    assert_eq!(rows.len(), 6);
+    assert_eq!(col(&rows, 1), vec![0.1, 0.1, 0.1, 1.0, 1.0, 1.0]);
+    assert!(rows.iter().all(|r| r[2] == "as-published"));
+}
+
+#[test]
+fn run_header_rows_and_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run.csv");
+    let o = ok(&[
+        "run",
+        "--preset",
+        "paper",
+        "--friction",
+        "coulomb",
+        "--gap-mm",
+        "1",
+        "--ratio",
+        "1",
+        "--dt",
+        "1e-6",
+        "--duration",
+        "0.01",
+        "--sample-every",
+        "100",
+        "--w0-m",
+        "1e-4",
+        "--dw0-m-s",
+        "0.01",
+        "--u0-m",
+        "1e-6",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let (header, rows) = csv(&out);
+    assert_eq!(header, "t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s");
+    // 0.01 s sampled every 100·1e-6 s, both ends included.
+    assert_eq!(rows.len(), 101);
+    let t = col(&rows, 0);
+    assert!((t[1] - 1e-4).abs() < 1e-12 && (t[100] - 0.01).abs() < 1e-9);
+    // Initial conditions are honoured: w = v − u and the given values at t = 0.
+    let r0: Vec<f64> = rows[0].iter().map(|x| x.parse().unwrap()).collect();
+    assert!((r0[1] - 1e-6).abs() < 1e-15);
+    assert!((r0[5] - 1e-4).abs() < 1e-15);
+    assert!((r0[6] - 0.01).abs() < 1e-12);
+    assert!((r0[3] - r0[1] - r0[5]).abs() < 1e-15);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for key in [
+        "RMS",
+        "impacts",
+        "per forcing cycle",
+        "penetration",
+        "rk4",
+        "wall time",
+    ] {
+        assert!(stdout.contains(key), "summary lacks {key:?}:\n{stdout}");
+    }
+    no_partial_files(dir.path());
+}
+
+#[test]
+fn invalid_input_names_the_field_and_fails_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = |name: &str, body: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, body).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let mass = bad(
+        "mass.toml",
+        "[bar]\nmass_kg = 0\nstiffness_n_per_m = 9.22e6\ndamping_ratio = 0.01\n",
+    );
+    let stiff = bad(
+        "stiff.toml",
+        "[bar]\nmass_kg = 0.644\nstiffness_n_per_m = -1\ndamping_ratio = 0.01\n",
+    );
+    let e = bad("e.toml", "[damper]\nrestitution = 1.5\n");
+    let typo = bad("typo.toml", "[damper]\nrestitutio = 0.5\n");
+    let gap = bad("gap.toml", "[damper]\ngap_m = 0.0\n");
+    let sweep_gap = bad("sgap.toml", "[sweep]\ngaps_m = [1e-4, -1e-3]\n");
+    let nan = bad("nan.toml", "[forcing]\namplitude_n = nan\n");
+    let out = dir.path().join("x.csv");
+    let out = out.to_str().unwrap();
+    let r = ["--ratios", "1:1:0.01"];
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["sweep", "--scenario", &mass], "bar.mass_kg"),
+        (vec!["sweep", "--scenario", &stiff], "bar.stiffness_n_per_m"),
+        (vec!["sweep", "--scenario", &e], "damper.restitution"),
+        (vec!["sweep", "--scenario", &typo], "restitutio"),
+        (vec!["run", "--scenario", &gap], "damper.gap_m"),
+        (vec!["sweep", "--scenario", &sweep_gap], "damper.gap_m"),
+        (vec!["sweep", "--scenario", &nan], "forcing.amplitude_n"),
+        (vec!["sweep", "--gap-mm", "0"], "--gap-mm"),
+        (vec!["sweep", "--gap-mm", "-0.1"], "--gap-mm"),
+        (vec!["sweep", "--gap-mm", "nan"], "--gap-mm"),
+        (vec!["sweep", "--dt", "0"], "--dt"),
+        (vec!["sweep", "--dt", "inf"], "--dt"),
+        (vec!["sweep", "--duration", "-2"], "--duration"),
+        (
+            vec!["sweep", "--friction-force-n", "-1"],
+            "--friction-force-n",
+        ),
+        (vec!["sweep", "--solver", "nope"], "solver"),
+        (vec!["run", "--gap-mm", "0.1", "--w0-m", "1"], "initial.w_m"),
+        (vec!["run", "--ratio", "0"], "--ratio"),
+        (vec!["run", "--ratio", "nan"], "--ratio"),
+        (vec!["run", "--sample-every", "0"], "--sample-every"),
+        (vec!["paper", "--duration", "0", "--out", out], "--duration"),
+    ];
+    let range_cases: Vec<(&str, &str)> = vec![
+        ("1.05:0.95:0.01", "STOP"),
+        ("0.95:1.05:0", "STEP"),
+        ("0.95:1.05:-0.01", "STEP"),
+        ("0.95:1.05", "START:STOP:STEP"),
+        ("a:1.05:0.01", "START"),
+        ("0.95:1.05:nan", "STEP"),
+        ("0:1.05:0.01", "START"),
+    ];
+    let mut all: Vec<(Vec<String>, String)> = cases
+        .into_iter()
+        .map(|(mut a, f)| {
+            if a[0] == "sweep" && !a.contains(&"--ratios") {
+                a.extend(r);
+            }
+            if !a.contains(&"--out") {
+                a.extend(["--out", out]);
+            }
+            (a.iter().map(|s| s.to_string()).collect(), f.to_string())
+        })
+        .collect();
+    for (spec, f) in range_cases {
+        all.push((
+            ["sweep", "--ratios", spec, "--out", out]
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+            f.to_string(),
+        ));
+    }
+    for (args, field) in all {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = vibrobar(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?} should fail");
+        assert!(
+            err.contains(&field),
+            "{args:?}: message lacks {field:?}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+        assert!(!Path::new(out).exists(), "{args:?} wrote output");
+    }
+    no_partial_files(dir.path());
+}
+
+/// Snapshot of a short sweep (0.05 s, rk4, dt = 1 µs). Regenerate deliberately if the scheme
+/// changes on purpose; an unexpected change is a regression.
+#[test]
+fn small_sweep_snapshot() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("snap.csv");
+    ok(&[
+        "sweep",
+        "--preset",
+        "paper",
+        "--friction",
+        "none",
+        "--gap-mm",
+        "0.1",
+        "--ratios",
+        "0.99:1.01:0.01",
+        "--solver",
+        "rk4",
+        "--dt",
+        "1e-6",
+        "--duration",
+        "0.05",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let (_, rows) = csv(&out);
+    let expected = [
+        (0.99, 3.532551683392727e-5, 2.7903488052312838e-5, 29),
+        (1.00, 3.7872274446298044e-5, 2.601726970708355e-5, 32),
+        (1.01, 3.511814120035336e-5, 2.4767393048070377e-5, 26),
+    ];
+    assert_eq!(rows.len(), expected.len());
+    for (row, (r, solid, damped, impacts)) in rows.iter().zip(expected) {
+        let v: Vec<f64> = [0, 4, 5].iter().map(|&i| row[i].parse().unwrap()).collect();
+        assert!((v[0] - r).abs() < 1e-9);
+        assert!(
+            (v[1] / solid - 1.0).abs() < 1e-6,
+            "solid {} vs {solid}",
+            v[1]
+        );
+        assert!(
+            (v[2] / damped - 1.0).abs() < 1e-3,
+            "damped {} vs {damped}",
+            v[2]
+        );
+        assert_eq!(row[7].parse::<u64>().unwrap(), impacts);
+        let red: f64 = row[6].parse().unwrap();
+        assert!((red - 100.0 * (1.0 - damped / solid)).abs() < 0.1);
+    }
+}
+
+/// Solid-bar RMS against the closed-form steady amplitude X = F0/K / √((1−r²)² + (2ζr)²),
+/// RMS = X/√2, after the transient (time constant 1/(ζωn) ≈ 27 ms) has died out.
+#[test]
+fn solid_bar_rms_matches_closed_form() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("solid.csv");
+    ok(&[
+        "sweep",
+        "--preset",
+        "paper",
+        "--friction",
+        "none",
+        "--gap-mm",
+        "1",
+        "--ratios",
+        "0.95:1.05:0.05",
+        "--dt",
+        "1e-5",
+        "--duration",
+        "0.6",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let (_, rows) = csv(&out);
+    assert_eq!(rows.len(), 3);
+    let (f0, k, zeta) = (15.0, 9.26e6, 0.01);
+    for row in &rows {
+        let r: f64 = row[0].parse().unwrap();
+        let rms: f64 = row[4].parse().unwrap();
+        let x = f0 / k / ((1.0 - r * r).powi(2) + (2.0 * zeta * r).powi(2)).sqrt();
+        let want = x / 2f64.sqrt();
+        assert!(
+            (rms / want - 1.0).abs() < 0.01,
+            "r = {r}: RMS {rms} vs closed form {want}"
+        );
+    }
+}
+
+#[test]
+fn paper_quick_writes_everything() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("paper-out");
+    let o = ok(&[
+        "paper",
+        "--quick",
+        "--duration",
+        "0.02",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("REPORT.md") && stdout.contains("wall time"));
+    let stems = [
+        "fig2_frictionless_gap0.1mm_r1",
+        "fig4_as-published_stated_gap1mm_r1",
+        "fig4_as-published_20N_gap1mm_r1",
+        "fig4_coulomb_stated_gap1mm_r1",
+        "fig3_rms_frictionless",
+        "fig5_rms_as-published_stated",
+        "fig5_rms_as-published_20N",
+        "fig5_rms_coulomb_stated",
+    ];
+    for s in stems {
+        for ext in ["png", "svg", "csv"] {
+            let p = out.join(format!("{s}.{ext}"));
+            let len = std::fs::metadata(&p)
+                .unwrap_or_else(|_| panic!("missing {}", p.display()))
+                .len();
+            assert!(len > 100, "{} is nearly empty", p.display());
+        }
+        let (header, rows) = csv(&out.join(format!("{s}.csv")));
+        if s.contains("_rms_") {
+            assert_eq!(
+                header,
+                "ratio,gap_mm,friction,solver,rms_solid_m,rms_damped_m,reduction_pct,impacts"
+            );
+            let gaps = if s.starts_with("fig3") { 4 } else { 2 };
+            assert_eq!(rows.len(), 11 * gaps, "{s}");
+        } else {
+            assert_eq!(header, "t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s");
+            assert!(rows.len() > 100);
+        }
+    }
+    let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
+    for id in [
+        "F1", "F2", "F3", "F4", "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "R9",
+    ] {
+        let n = report.matches(&format!("| {id} |")).count();
+        // Summary row plus one row per parameter set.
+        assert!(n >= 2, "claim {id} appears {n} times in REPORT.md");
+    }
+    for needle in [
+        "83 %",
+        "56 %",
+        "rk4: verdict",
+        "injects energy",
+        "NOT the paper's run settings",
+        "as published, F = 20 N",
+        "physically consistent",
+        "Energy books",
+        "the work of the cutting force",
+    ] {
+        assert!(report.contains(needle), "REPORT.md lacks {needle:?}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(json["claims"].as_array().unwrap().len(), 13);
+    no_partial_files(&out);
+}
+
+#[test]
+fn shipped_scenario_parses_and_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run.csv");
+    let scenario = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/paper.toml");
+    ok(&[
+        "run",
+        "--scenario",
+        scenario,
+        "--duration",
+        "0.001",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let text = std::fs::read_to_string(scenario).unwrap();
+    let sc = vibrobar_cli::scenario::Scenario::from_toml(&text).unwrap();
+    assert_eq!(sc, vibrobar_cli::scenario::Scenario::paper());
+}
+
+#[test]
+fn help_is_complete() {
+    for cmd in ["sweep", "run", "paper", "bench"] {
+        let o = ok(&[cmd, "--help"]);
+        let h = String::from_utf8_lossy(&o.stdout);
+        assert!(h.contains("--"), "{cmd} help empty");
+    }
+    let h = String::from_utf8_lossy(&ok(&["sweep", "--help"]).stdout).to_string();
+    for flag in [
+        "--gap-mm",
+        "--ratios",
+        "--friction-force-n",
+        "--dt",
+        "--duration",
+        "--out",
+    ] {
+        assert!(h.contains(flag), "sweep help lacks {flag}");
+    }
+    assert!(h.contains(" mm") && h.contains(" s") && h.contains(" N"));
+}
+
+#[test]
+fn ratio_ranges_include_stop() {
+    use vibrobar_cli::scenario::parse_ratios;
+    assert_eq!(parse_ratios("0.95:1.05:0.01").unwrap().len(), 11);
+    assert_eq!(parse_ratios("1:1:0.01").unwrap(), vec![1.0]);
+    assert_eq!(parse_ratios("0.9:1.1:0.05").unwrap().len(), 5);
+    assert!(parse_ratios("1.05:0.95:0.01").is_err());
+}
