@@ -21,7 +21,7 @@ pub mod store;
 #[macro_export]
 macro_rules! default_solver {
     () => {
-        "rk4"
+        "exact"
     };
 }
 

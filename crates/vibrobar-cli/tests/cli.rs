@@ -84,7 +84,9 @@ fn sweep_header_and_inclusive_range() {
             "ratio {i} = {r}"
         );
     }
-    assert!(rows.iter().all(|r| r[2] == "none" && r[3] == "rk4"));
+    assert!(rows
+        .iter()
+        .all(|r| r[2] == "none" && r[3] == vibrobar_cli::DEFAULT_SOLVER));
     no_partial_files(dir.path());
 }
 
@@ -166,7 +168,7 @@ fn run_header_rows_and_summary() {
         "impacts",
         "per forcing cycle",
         "penetration",
-        "rk4",
+        vibrobar_cli::DEFAULT_SOLVER,
         "wall time",
     ] {
         assert!(stdout.contains(key), "summary lacks {key:?}:\n{stdout}");
@@ -395,8 +397,16 @@ fn paper_quick_writes_everything() {
                 header,
                 "ratio,gap_mm,friction,solver,rms_solid_m,rms_damped_m,reduction_pct,impacts"
             );
+            // Default `paper` reports rk4 (the paper's scheme) and exact side by side.
             let gaps = if s.starts_with("fig3") { 4 } else { 2 };
-            assert_eq!(rows.len(), 11 * gaps, "{s}");
+            assert_eq!(rows.len(), 2 * 11 * gaps, "{s}");
+            for solver in ["rk4", "exact"] {
+                assert_eq!(
+                    rows.iter().filter(|r| r[3] == solver).count(),
+                    11 * gaps,
+                    "{s}: rows of {solver}"
+                );
+            }
         } else {
             assert_eq!(header, "t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s");
             assert!(rows.len() > 100);
