@@ -134,9 +134,16 @@ pub struct RunArgs {
     /// Initial bar velocity u̇(0) in m/s [default: 0].
     #[arg(long, value_name = "M_S", allow_negative_numbers = true)]
     pub du0_m_s: Option<f64>,
-    /// Output CSV with columns t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s.
-    #[arg(long, value_name = "FILE.csv")]
+    /// Output time history: columns t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s; a name ending in `.npy`
+    /// writes an n × 7 float64 NumPy array in that column order instead of CSV. Parameters go to
+    /// FILE.meta.json beside it.
+    #[arg(long, value_name = "FILE.csv|FILE.npy")]
     pub out: PathBuf,
+    /// Print the energy audit of the whole run as JSON on stdout (fields work_input_j,
+    /// viscous_loss_j, impact_loss_j, friction_work_j, delta_mechanical_j, residual_j; friction
+    /// work > 0 means friction put energy in). The human summary then goes to stderr.
+    #[arg(long)]
+    pub energy: bool,
 }
 
 /// `vibrobar paper`.

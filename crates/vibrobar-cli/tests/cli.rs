@@ -487,3 +487,113 @@ fn ratio_ranges_include_stop() {
     assert_eq!(parse_ratios("0.9:1.1:0.05").unwrap().len(), 5);
     assert!(parse_ratios("1.05:0.95:0.01").is_err());
 }
+
+/// `run --energy`: JSON with the contract fields on stdout, closing to 1e-9 of the input work
+/// with the exact solver, and friction work of the sign its law dictates.
+#[test]
+fn run_energy_json_closes_and_has_the_friction_sign() {
+    let dir = tempfile::tempdir().unwrap();
+    for (friction, force, sign) in [
+        ("as-published", "20", 1.0),
+        ("coulomb", "0.0204", -1.0),
+        ("none", "0", 0.0),
+    ] {
+        let out = dir.path().join(format!("{friction}.csv"));
+        let o = ok(&[
+            "run",
+            "--preset",
+            "paper",
+            "--friction",
+            friction,
+            "--friction-force-n",
+            force,
+            "--gap-mm",
+            "1",
+            "--ratio",
+            "1",
+            "--duration",
+            "0.2",
+            "--solver",
+            "exact",
+            "--energy",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap_or_else(|e| {
+            panic!(
+                "stdout is not JSON ({e}):\n{}",
+                String::from_utf8_lossy(&o.stdout)
+            )
+        });
+        let f = |k: &str| {
+            v[k].as_f64()
+                .unwrap_or_else(|| panic!("{friction}: field {k} missing in {v}"))
+        };
+        let input = f("work_input_j");
+        let closing = f("delta_mechanical_j")
+            - (input - f("viscous_loss_j") - f("impact_loss_j") + f("friction_work_j"));
+        assert!(
+            (closing - f("residual_j")).abs() <= 1e-12 * input.abs(),
+            "{friction}: residual field inconsistent"
+        );
+        assert!(
+            f("residual_j").abs() <= 1e-9 * input.abs(),
+            "{friction}: residual {} vs input {input}",
+            f("residual_j")
+        );
+        let fw = f("friction_work_j");
+        if sign == 0.0 {
+            assert!(fw.abs() <= 0.0, "{friction}: friction work {fw}");
+        } else {
+            assert!(
+                fw * sign > 0.0,
+                "{friction}: friction work {fw} has the wrong sign"
+            );
+        }
+        let meta =
+            std::fs::read_to_string(dir.path().join(format!("{friction}.csv.meta.json"))).unwrap();
+        assert!(
+            meta.contains("\"fingerprint\"") && meta.contains("\"solver\": \"exact\""),
+            "{meta}"
+        );
+    }
+    no_partial_files(dir.path());
+}
+
+/// `run --out FILE.npy` writes an n × 7 float64 array with the same numbers as the CSV.
+#[test]
+fn run_writes_npy_matching_the_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let (c, n) = (dir.path().join("h.csv"), dir.path().join("h.npy"));
+    for out in [&c, &n] {
+        ok(&[
+            "run",
+            "--preset",
+            "paper",
+            "--gap-mm",
+            "0.1",
+            "--ratio",
+            "1",
+            "--duration",
+            "0.01",
+            "--sample-every",
+            "100",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+    }
+    let (_, rows) = csv(&c);
+    let (shape, data) =
+        vibrobar_cli::store::npy::decode_f64(&std::fs::read(&n).unwrap(), "h.npy").unwrap();
+    assert_eq!(shape, vec![rows.len(), 7]);
+    for (i, row) in rows.iter().enumerate() {
+        for (j, x) in row.iter().enumerate() {
+            let a: f64 = x.parse().unwrap();
+            let b = data[i * 7 + j];
+            assert!(
+                (a - b).abs() <= 1e-12 * b.abs().max(1e-12),
+                "row {i} col {j}: csv {a} npy {b}"
+            );
+        }
+    }
+}

@@ -44,11 +44,69 @@ pub fn run(args: &RunArgs) -> Result<()> {
         energy_audit: true,
     };
     let out = run_one(&case, &settings, solver.as_ref())?;
-    write_history_csv(&args.out, &out.samples)?;
+    let is_npy = args.out.extension().is_some_and(|e| e == "npy");
+    if is_npy {
+        let flat: Vec<f64> = out
+            .samples
+            .iter()
+            .flat_map(|s| [s.t_s, s.u_m, s.du_m_s, s.v_m, s.dv_m_s, s.w_m(), s.dw_m_s()])
+            .collect();
+        crate::store::npy::write_f64(&args.out, &[out.samples.len(), 7], &flat)?;
+    } else {
+        write_history_csv(&args.out, &out.samples)?;
+    }
+    let params = serde_json::json!({
+        "scenario": sc,
+        "system": sys,
+        "initial": case.init,
+        "settings": settings,
+        "solver": solver.name(),
+        "sample_interval_s": case.sample_interval_s,
+    });
+    crate::store::Metadata::new(
+        "run",
+        if is_npy {
+            ""
+        } else {
+            crate::output::HISTORY_HEADER
+        },
+        params,
+        None,
+    )
+    .write_beside(&args.out)?;
+    if args.energy {
+        let e = out.energy.expect("energy audit requested");
+        println!("{}", serde_json::to_string_pretty(&e)?);
+    }
+    // With --energy, stdout carries only the JSON; the summary goes to stderr.
+    let say = |line: String| {
+        if args.energy {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
+    };
+    print_summary(&say, &sc, &sys, &settings, solver.name(), &out, args)?;
+    say(format!(
+        "  wall time  : {}",
+        fmt_secs(t0.elapsed().as_secs_f64())
+    ));
+    Ok(())
+}
+
+fn print_summary(
+    say: &dyn Fn(String),
+    sc: &Scenario,
+    sys: &vibrobar_core::System,
+    settings: &vibrobar_core::RunSettings,
+    solver_name: &str,
+    out: &super::CaseOutcome,
+    args: &RunArgs,
+) -> Result<()> {
     let d = sys.damper.expect("damped system");
     let r = &out.result;
-    println!("vibrobar run ({})", crate::VERSION);
-    println!(
+    say(format!("vibrobar run ({})", crate::VERSION));
+    say(format!(
         "  model      : gap {} mm, ratio {}, friction {} ({:.4} N), e = {}, F0 = {} N",
         d.gap_m * 1e3,
         sc.forcing.frequency_ratio,
@@ -56,25 +114,25 @@ pub fn run(args: &RunArgs) -> Result<()> {
         sys.friction_level_n(),
         d.restitution,
         sys.forcing.amplitude_n
-    );
-    println!(
+    ));
+    say(format!(
         "  run        : solver {}, {} s at dt {:e} s, RMS over the last {:.0} %",
-        solver.name(),
+        solver_name,
         settings.duration_s,
         settings.dt_s,
         settings.rms_fraction * 100.0
-    );
-    println!("  RMS u      : {:.4e} m", r.rms_m);
-    println!(
+    ));
+    say(format!("  RMS u      : {:.4e} m", r.rms_m));
+    say(format!(
         "  impacts    : {} total, {} in the RMS window, {:.3} per forcing cycle",
         r.impacts, r.impacts_in_window, r.impacts_per_cycle
-    );
-    println!(
+    ));
+    say(format!(
         "  penetration: max |w| − l_g = {:.3e} m",
         r.summary.max_penetration_m.max(0.0)
-    );
+    ));
     if let Some(e) = out.energy {
-        println!(
+        say(format!(
             "  energy (J) : forcing {:+.4e}, viscous −{:.4e}, impacts −{:.4e}, friction {:+.4e} ({}), ΔE_mech {:+.4e}, residual {:+.2e}",
             e.work_input_j,
             e.viscous_loss_j,
@@ -89,13 +147,12 @@ pub fn run(args: &RunArgs) -> Result<()> {
             },
             e.delta_mechanical_j,
             e.residual_j
-        );
+        ));
     }
-    println!(
-        "  output     : {} rows to {}",
+    say(format!(
+        "  output     : {} rows to {} (+ .meta.json)",
         out.samples.len(),
         args.out.display()
-    );
-    println!("  wall time  : {}", fmt_secs(t0.elapsed().as_secs_f64()));
+    ));
     Ok(())
 }
