@@ -1,0 +1,255 @@
+//! Design-analysis commands: maps over ratio × gap, shard merging and the exploration tools
+//! (Poincaré sections, bifurcation diagrams, Lyapunov exponents, initial-condition ensembles).
+//! Each command is a `clap::Args` struct and a `run` function.
+pub mod explore;
+pub mod map;
+pub mod merge;
+
+use anyhow::{bail, Context};
+use vibrobar_core::analysis::{checked_linspace_inclusive, SweepBase};
+use vibrobar_core::params::{FrictionModel, RunSettings};
+use vibrobar_core::solver::{solver_by_name, Solver, SOLVER_NAMES};
+
+const fn str_eq(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
+const fn has_solver(name: &str) -> bool {
+    let mut i = 0;
+    while i < SOLVER_NAMES.len() {
+        if str_eq(SOLVER_NAMES[i], name) {
+            return true;
+        }
+        i += 1;
+    }
+    false
+}
+
+/// `exact` (event-driven) when the core provides it, else `rk4`.
+pub const DEFAULT_SOLVER: &str = if has_solver("exact") { "exact" } else { "rk4" };
+
+/// Parameter presets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Preset {
+    /// The reference paper's bars, 26 g ball (e = 0.5) and 15 N forcing.
+    Paper,
+}
+
+impl Preset {
+    /// The bars, ball and forcing of the preset.
+    pub fn base(self) -> SweepBase {
+        match self {
+            Preset::Paper => SweepBase::paper(),
+        }
+    }
+
+    /// Name in output files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Preset::Paper => "paper",
+        }
+    }
+}
+
+/// Friction law of the ball (see the brief: `as-published` injects energy).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum FrictionArg {
+    /// Frictionless ball.
+    None,
+    /// The paper's Eqs. 1–3, sign as printed (puts energy in).
+    AsPublished,
+    /// Dissipative Coulomb friction with sticking.
+    Coulomb,
+}
+
+impl From<FrictionArg> for FrictionModel {
+    fn from(f: FrictionArg) -> Self {
+        match f {
+            FrictionArg::None => FrictionModel::None,
+            FrictionArg::AsPublished => FrictionModel::AsPublished,
+            FrictionArg::Coulomb => FrictionModel::Coulomb,
+        }
+    }
+}
+
+/// Flags shared by every design command: system, friction and solver settings.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SystemArgs {
+    /// Bars, ball and forcing.
+    #[arg(long, value_enum, default_value = "paper")]
+    pub preset: Preset,
+    /// Friction law between ball and bar.
+    #[arg(long, value_enum)]
+    pub friction: FrictionArg,
+    /// Friction force level in N (default: the preset's η/r·m_d·g = 0.0204 N).
+    #[arg(long)]
+    pub friction_force_n: Option<f64>,
+    /// Solver (`exact` event-driven when available, or `rk4` with fixed step `--dt`).
+    #[arg(long, default_value = DEFAULT_SOLVER)]
+    pub solver: String,
+    /// Simulated time of each run, in s.
+    #[arg(long, default_value_t = 2.0)]
+    pub duration: f64,
+    /// Step of `rk4` (output-grid unit for `exact`), in s.
+    #[arg(long, default_value_t = 1e-6)]
+    pub dt: f64,
+    /// Fraction of the run, from the end, over which RMS and impact rates are taken.
+    #[arg(long, default_value_t = 0.8)]
+    pub rms_fraction: f64,
+}
+
+impl SystemArgs {
+    /// Checked run settings.
+    pub fn settings(&self) -> anyhow::Result<RunSettings> {
+        if !(self.duration.is_finite() && self.duration > 0.0) {
+            bail!("--duration must be in (0, ∞) s, got {}", self.duration);
+        }
+        if !(self.dt.is_finite() && self.dt > 0.0 && self.dt <= self.duration) {
+            bail!(
+                "--dt must be in (0, --duration = {}] s, got {}",
+                self.duration,
+                self.dt
+            );
+        }
+        if !(self.rms_fraction > 0.0 && self.rms_fraction <= 1.0) {
+            bail!(
+                "--rms-fraction must be in (0, 1], got {}",
+                self.rms_fraction
+            );
+        }
+        Ok(RunSettings {
+            duration_s: self.duration,
+            dt_s: self.dt,
+            rms_fraction: self.rms_fraction,
+        })
+    }
+
+    /// Preset base with the friction override applied and checked.
+    pub fn base(&self) -> anyhow::Result<SweepBase> {
+        let mut base = self.preset.base();
+        if let Some(f) = self.friction_force_n {
+            if !(f.is_finite() && f >= 0.0) {
+                bail!("--friction-force-n must be in [0, ∞) N, got {f}");
+            }
+            base.ball.friction_force_n = Some(f);
+        }
+        Ok(base)
+    }
+
+    /// The solver named by `--solver`.
+    pub fn solver(&self) -> anyhow::Result<Box<dyn Solver>> {
+        make_solver(&self.solver, &self.settings()?)
+    }
+
+    /// Parameters for metadata (SI units).
+    pub fn to_json(&self) -> anyhow::Result<serde_json::Value> {
+        let base = self.base()?;
+        Ok(serde_json::json!({
+            "preset": self.preset.as_str(),
+            "friction": FrictionModel::from(self.friction).as_str(),
+            "friction_force_n": self.friction_force_n,
+            "damped_bar": base.damped_bar,
+            "solid_bar": base.solid_bar,
+            "ball": base.ball,
+            "forcing": base.forcing,
+            "solver": self.solver,
+            "settings": self.settings()?,
+        }))
+    }
+}
+
+/// Build a solver by name, with an error listing the known names.
+pub fn make_solver(name: &str, settings: &RunSettings) -> anyhow::Result<Box<dyn Solver>> {
+    solver_by_name(name, settings).with_context(|| {
+        format!(
+            "--solver must be one of {}, got {name:?}",
+            SOLVER_NAMES.join(", ")
+        )
+    })
+}
+
+/// Parse `START:STOP:STEP` (inclusive) for `flag`, checking every value with `ok`
+/// (`allowed` describes the allowed values in the error message).
+pub fn parse_range(
+    flag: &str,
+    text: &str,
+    ok: impl Fn(f64) -> bool,
+    allowed: &str,
+) -> anyhow::Result<Vec<f64>> {
+    let form = "START:STOP:STEP with START ≤ STOP and STEP > 0";
+    let parts: Vec<&str> = text.split(':').collect();
+    let nums: Vec<f64> = match parts.as_slice() {
+        [a, b, c] => [a, b, c]
+            .iter()
+            .map(|s| s.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| anyhow::anyhow!("{flag} must be {form}, got {text:?}"))?,
+        _ => bail!("{flag} must be {form}, got {text:?}"),
+    };
+    let (start, stop, step) = (nums[0], nums[1], nums[2]);
+    if !(start.is_finite() && stop.is_finite() && step.is_finite()) {
+        bail!("{flag} must be {form} with finite numbers, got {text:?}");
+    }
+    if stop < start {
+        bail!("{flag}: STOP {stop} is below START {start}; {flag} must be {form}");
+    }
+    if step <= 0.0 {
+        bail!("{flag}: STEP {step} must be > 0; {flag} must be {form}");
+    }
+    let v = checked_linspace_inclusive(start, stop, step)
+        .map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
+    for &x in &v {
+        if !ok(x) {
+            bail!("{flag}: value {x} is outside the allowed range {allowed}");
+        }
+    }
+    Ok(v)
+}
+
+/// Check a single value for `flag`.
+pub fn check_value(
+    flag: &str,
+    x: f64,
+    ok: impl Fn(f64) -> bool,
+    allowed: &str,
+) -> anyhow::Result<f64> {
+    if x.is_finite() && ok(x) {
+        Ok(x)
+    } else {
+        bail!("{flag} = {x} is outside the allowed range {allowed}")
+    }
+}
+
+/// A grid coordinate for CSV: rounded to 12 significant digits, so `0.95 + 1·0.01` prints as
+/// `0.96`, not `0.9600000000000001` (the run used the exact value; the difference is < 1e-15).
+pub fn fmt_coord(x: f64) -> String {
+    let y: f64 = format!("{x:.11e}").parse().expect("float round trip");
+    format!("{y}")
+}
+
+/// Run `f` on a pool of `threads` threads, or on rayon's global pool (`RAYON_NUM_THREADS`).
+pub fn with_threads<R: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> R + Send,
+) -> anyhow::Result<R> {
+    match threads {
+        None => Ok(f()),
+        Some(0) => bail!("--threads must be in [1, ∞), got 0"),
+        Some(n) => Ok(rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .context("--threads: cannot start the thread pool")?
+            .install(f)),
+    }
+}
