@@ -7,6 +7,7 @@ use super::{check_value, fmt_coord, parse_range, with_threads, SystemArgs};
 use crate::progress::Progress;
 use crate::store::{npy, write_atomic, Metadata};
 use anyhow::{bail, Context};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use vibrobar_core::analysis::ensemble::{run_ensemble, EnsembleParams, IcRanges};
 use vibrobar_core::analysis::lyapunov::{max_lyapunov, LyapunovParams};
@@ -259,14 +260,10 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> anyhow::Result<()> {
     let mut body = String::new();
     let mut data = Vec::new();
     for p in &b.points {
-        let v = p.param / scale;
-        body.push_str(&format!(
-            "{},{},{:e},{:e}\n",
-            fmt_coord(v),
-            p.t_s,
-            p.u_m,
-            p.du_m_s
-        ));
+        // The value as the user wrote it (mm for gaps), identical in the CSV and the NPY.
+        let text = fmt_coord(p.param / scale);
+        let v: f64 = text.parse().expect("formatted float");
+        body.push_str(&format!("{},{},{:e},{:e}\n", text, p.t_s, p.u_m, p.du_m_s));
         data.extend_from_slice(&[v, p.t_s, p.u_m, p.du_m_s]);
     }
     let mut params = a.system.to_json()?;
@@ -393,7 +390,8 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
             "d0": d0,
             "parameters": a.point.to_json()?,
         });
-        println!("{}", serde_json::to_string_pretty(&j)?);
+        // A closed pipe (`| head`) is not an error worth a panic.
+        let _ = writeln!(std::io::stdout(), "{}", serde_json::to_string_pretty(&j)?);
     } else {
         println!(
             "λ = {:.4} ± {:.4} 1/s ({} intervals of {:.3e} s, {} projections into the cavity)",
