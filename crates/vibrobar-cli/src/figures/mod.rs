@@ -454,7 +454,7 @@ mod tests {
 
     #[test]
     fn nice_levels_are_inside_and_evenly_spaced() {
-        let v = nice_levels(-12.0, 83.0, 8);
+        let v = nice_levels(-12.0, 83.0, 10);
         assert_eq!(v.first().copied(), Some(-10.0));
         assert_eq!(v.last().copied(), Some(80.0));
         assert!(v.windows(2).all(|w| (w[1] - w[0] - 10.0).abs() < 1e-9));
