@@ -253,3 +253,46 @@ pub fn with_threads<R: Send>(
             .install(f)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_solver_is_exact_exactly_when_the_core_has_it() {
+        assert_eq!(DEFAULT_SOLVER == "exact", SOLVER_NAMES.contains(&"exact"));
+        assert!(SOLVER_NAMES.contains(&DEFAULT_SOLVER));
+    }
+
+    #[test]
+    fn ranges_are_inclusive_and_errors_name_the_flag() {
+        let v = parse_range("--ratios", "0.95:1.05:0.01", |x| x > 0.0, "(0, ∞)").unwrap();
+        assert_eq!(v.len(), 11);
+        assert_eq!(fmt_coord(v[10]), "1.05");
+        assert_eq!(fmt_coord(v[1]), "0.96");
+        let one = parse_range("--gaps-mm", "0.1:0.1:0.1", |x| x > 0.0, "(0, ∞)").unwrap();
+        assert_eq!(one.len(), 1);
+        for (text, want) in [
+            ("1:0.5:0.1", "below START"),
+            ("0.5:1:-0.1", "STEP"),
+            ("0.5:1", "START:STOP:STEP"),
+            ("a:1:0.1", "START:STOP:STEP"),
+            ("-1:1:0.5", "outside the allowed range (0, ∞)"),
+            ("0.1:1:1e-12", "at most 1e7 points"),
+        ] {
+            let e = parse_range("--x", text, |x| x > 0.0, "(0, ∞)")
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with("--x"), "{e}");
+            assert!(e.contains(want), "{text}: {e}");
+        }
+    }
+
+    #[test]
+    fn coordinates_print_without_rounding_noise_but_keep_real_digits() {
+        assert_eq!(fmt_coord(0.1 + 0.2), "0.3");
+        assert_eq!(fmt_coord(1.234_567_890_12), "1.23456789012");
+        assert_eq!(fmt_coord(1e-7), "0.0000001");
+        assert_eq!(fmt_coord(1.0), "1");
+    }
+}

@@ -252,9 +252,6 @@ fn draw_heat<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, h: &Heat) -> any
     }
     if let Some((label, pts)) = &h.markers {
         chart
-            .draw_series(LineSeries::new(pts.iter().copied(), WHITE.stroke_width(1)))
-            .map_err(err)?;
-        chart
             .draw_series(pts.iter().map(|&p| {
                 EmptyElement::at(p)
                     + Circle::new((0, 0), 5, WHITE.filled())
@@ -272,7 +269,7 @@ fn draw_heat<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, h: &Heat) -> any
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
+            .background_style(WHITE.mix(0.7))
             .border_style(BLACK)
             .label_font(("sans-serif", 14))
             .draw()
