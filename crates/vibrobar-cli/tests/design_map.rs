@@ -432,6 +432,53 @@ fn bad_input_is_a_clear_error_not_a_panic() {
             vec!["--solver", "rk4"],
         ),
     ];
+    // Negative numbers as separate tokens reach our checks (not clap's "unexpected argument").
+    let sep = |v: &[&str]| -> Vec<String> { v.iter().map(|x| x.to_string()).collect() };
+    let mut cases = cases;
+    cases.push((
+        sep(&[
+            "map",
+            "--friction",
+            "none",
+            "--ratios",
+            "0.9:1:0.1",
+            "--gaps-mm",
+            "-0.1:0.2:0.1",
+            "--out",
+            o,
+        ]),
+        vec!["--gaps-mm", "(0, ∞) mm"],
+    ));
+    cases.push((
+        sep(&[
+            "poincare",
+            "--friction",
+            "none",
+            "--ratio",
+            "1",
+            "--gap-mm",
+            "-1",
+            "--out",
+            o,
+        ]),
+        vec!["--gap-mm", "(0, ∞) mm"],
+    ));
+    cases.push((
+        sep(&[
+            "map",
+            "--friction",
+            "none",
+            "--ratios",
+            "0.9:1:0.1",
+            "--gaps-mm",
+            "0.1:0.2:0.1",
+            "--friction-force-n",
+            "-2",
+            "--out",
+            o,
+        ]),
+        vec!["--friction-force-n", "[0, ∞) N"],
+    ));
     for (args, want) in cases {
         let r = Command::new(BIN).args(&args).output().unwrap();
         let err = String::from_utf8_lossy(&r.stderr);

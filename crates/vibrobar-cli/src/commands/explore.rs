@@ -23,10 +23,10 @@ pub struct PointArgs {
     /// System and solver.
     pub system: SystemArgs,
     /// Frequency ratio Ω/ω_n (> 0).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub ratio: f64,
     /// Total gap in mm (> 0).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub gap_mm: f64,
 }
 
@@ -97,10 +97,10 @@ pub struct PoincareArgs {
     /// The point.
     pub point: PointArgs,
     /// Forcing phase Ωt of the section, in degrees.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
     pub phase_deg: f64,
     /// Discarded time at the start, s (default: the part before the RMS window).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub transient: Option<f64>,
     /// Output CSV (`t_s,u_m,du_m_s,w_m,dw_m_s`); FILE.npy (n × 5) and FILE.png/.svg beside it.
     #[arg(long)]
@@ -182,19 +182,19 @@ pub struct BifurcationArgs {
     #[arg(long, value_enum)]
     pub param: BifParam,
     /// Values, START:STOP:STEP (inclusive).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub values: String,
     /// Fixed ratio (when sweeping the gap).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub ratio: Option<f64>,
     /// Fixed gap in mm (when sweeping the ratio).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub gap_mm: Option<f64>,
     /// Forcing phase of the section, degrees.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
     pub phase_deg: f64,
     /// Discarded time at the start of each run, s (default: before the RMS window).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub transient: Option<f64>,
     /// Threads (default: all cores).
     #[arg(long)]
@@ -347,13 +347,13 @@ pub struct LyapunovArgs {
     /// The point.
     pub point: PointArgs,
     /// Discarded time before the first interval, s (default: before the RMS window).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub transient: Option<f64>,
     /// Forcing periods per renormalisation interval.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 5.0)]
     pub periods: f64,
     /// Initial separation in scaled units (see the core docs: with rk4 use ≳ |ẇ|·dt / l_g).
-    #[arg(long, default_value_t = 1e-9)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1e-9)]
     pub d0: f64,
     /// Print JSON instead of text.
     #[arg(long)]
@@ -408,16 +408,16 @@ pub struct EnsembleArgs {
     /// System and solver.
     pub system: SystemArgs,
     /// Ratio of a single point (or use --ratios).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub ratio: Option<f64>,
     /// Gap of a single point, mm (or use --gaps-mm).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub gap_mm: Option<f64>,
     /// Ratios START:STOP:STEP instead of --ratio.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub ratios: Option<String>,
     /// Gaps in mm START:STOP:STEP instead of --gap-mm.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub gaps_mm: Option<String>,
     /// Members per point.
     #[arg(long, default_value_t = 16)]
@@ -426,14 +426,14 @@ pub struct EnsembleArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Half range of the initial bar displacement u, m (uniform in ±).
-    #[arg(long, default_value_t = 5e-5)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 5e-5)]
     pub u_m: f64,
     /// Half range of the initial bar velocity, m/s.
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.2)]
     pub du_m_s: f64,
     /// Half range of the initial relative velocity ẇ, m/s (the ball position is uniform over
     /// the whole cavity).
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.2)]
     pub dw_m_s: f64,
     /// Threads (default: all cores).
     #[arg(long)]

@@ -40,20 +40,20 @@ pub struct MapArgs {
     /// System and solver.
     pub system: SystemArgs,
     /// Frequency ratios Ω/ω_n, START:STOP:STEP (inclusive), each > 0.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub ratios: String,
     /// Total gaps (clearance) in mm, START:STOP:STEP (inclusive), each > 0.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub gaps_mm: String,
     /// Optional axis: friction force levels in N (START:STOP:STEP, ≥ 0); adds a column
     /// `friction_force_n` after `gap_mm`.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub friction_forces_n: Option<String>,
     /// Optional axis: coefficients of restitution (START:STOP:STEP, in [0, 1]); adds `restitution`.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub restitutions: Option<String>,
     /// Optional axis: mass ratios m_d/M (START:STOP:STEP, > 0); adds `mass_ratio`.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub mass_ratios: Option<String>,
     /// Compute only slice K of N of the grid (round-robin); merge the slices with `merge`.
     #[arg(long)]
@@ -517,7 +517,7 @@ pub struct BenchMapArgs {
     #[arg(long, default_value_t = 40)]
     pub subsample: usize,
     /// Simulated time per run, s.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 2.0)]
     pub duration: f64,
     /// Solvers to time (default: all).
     #[arg(long)]

@@ -93,19 +93,19 @@ pub struct SystemArgs {
     #[arg(long, value_enum)]
     pub friction: FrictionArg,
     /// Friction force level in N (default: the preset's η/r·m_d·g = 0.0204 N).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub friction_force_n: Option<f64>,
     /// Solver (`exact` event-driven when available, or `rk4` with fixed step `--dt`).
     #[arg(long, default_value = DEFAULT_SOLVER)]
     pub solver: String,
     /// Simulated time of each run, in s.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 2.0)]
     pub duration: f64,
     /// Step of `rk4` (output-grid unit for `exact`), in s.
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 1e-6)]
     pub dt: f64,
     /// Fraction of the run, from the end, over which RMS and impact rates are taken.
-    #[arg(long, default_value_t = 0.8)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.8)]
     pub rms_fraction: f64,
 }
 
