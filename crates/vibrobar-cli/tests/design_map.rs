@@ -299,9 +299,10 @@ fn resume_from_a_torn_journal_is_byte_identical() {
 #[test]
 fn resume_after_sigkill_is_byte_identical() {
     let d = tempfile::tempdir().unwrap();
-    // 40 points, one thread, 0.3 s runs: long enough to be killed half-way.
-    let args = |out: &str| -> Vec<String> {
-        [
+    // 40 points of 0.1 s runs; the killed run uses one thread, the reference and the resume
+    // all cores (the thread count is not part of the job, so resuming with another is fine).
+    let args = |out: &str, threads: Option<&str>| -> Vec<String> {
+        let mut v: Vec<String> = [
             "map",
             "--friction",
             "none",
@@ -312,22 +313,27 @@ fn resume_after_sigkill_is_byte_identical() {
             "--solver",
             "rk4",
             "--duration",
-            "0.3",
-            "--threads",
-            "1",
+            "0.1",
             "--out",
             out,
         ]
         .iter()
         .map(|x| x.to_string())
-        .collect()
+        .collect();
+        if let Some(t) = threads {
+            v.extend(["--threads".to_string(), t.to_string()]);
+        }
+        v
     };
     let full = p(d.path(), "full/m.csv");
-    let o = Command::new(BIN).args(args(s(&full))).output().unwrap();
+    let o = Command::new(BIN)
+        .args(args(s(&full), None))
+        .output()
+        .unwrap();
     ok(&o);
     let out = p(d.path(), "killed/m.csv");
     let mut child = Command::new(BIN)
-        .args(args(s(&out)))
+        .args(args(s(&out), Some("1")))
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
@@ -350,7 +356,7 @@ fn resume_after_sigkill_is_byte_identical() {
     } else {
         let rows = fs::read_to_string(&jp).unwrap().lines().count() - 2;
         assert!((3..40).contains(&rows), "{rows} rows in the journal");
-        let mut a = args(s(&out));
+        let mut a = args(s(&out), None);
         a.push("--resume".into());
         ok(&Command::new(BIN).args(a).output().unwrap());
     }
