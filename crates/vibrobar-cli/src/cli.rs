@@ -25,6 +25,21 @@ pub enum Command {
     Paper(PaperArgs),
     /// Time one paper run and the whole paper sweep set for every solver, in one process.
     Bench(BenchArgs),
+    /// Design map over frequency ratio × gap: RMS reduction, impacts per cycle, regime, optimum
+    /// and heat maps; resumable (--resume) and shardable (--shard K/N).
+    Map(crate::commands::map::MapArgs),
+    /// Merge map shards written with --shard K/N into the whole map (checks completeness).
+    Merge(crate::commands::merge::MergeArgs),
+    /// Stroboscopic Poincaré section of one run (CSV, NPY, figure).
+    Poincare(crate::commands::explore::PoincareArgs),
+    /// Bifurcation diagram over the frequency ratio or the gap (CSV, NPY, figure).
+    Bifurcation(crate::commands::explore::BifurcationArgs),
+    /// Maximal Lyapunov exponent at one point (two-trajectory divergence with renormalisation).
+    Lyapunov(crate::commands::explore::LyapunovArgs),
+    /// Seeded initial-condition ensemble: spread of RMS and regime counts per point.
+    Ensemble(crate::commands::explore::EnsembleArgs),
+    /// Time a 200 × 100 ratio × gap map (from a subsample) for each solver.
+    BenchMap(crate::commands::map::BenchMapArgs),
 }
 
 /// Built-in parameter sets.

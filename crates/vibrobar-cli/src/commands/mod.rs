@@ -1,9 +1,17 @@
 //! One module per command, plus the case runner they share.
 
 pub mod bench;
+pub mod design;
+pub mod explore;
+pub mod map;
+pub mod merge;
 pub mod paper;
 pub mod run;
 pub mod sweep;
+
+pub use design::{
+    check_value, fmt_coord, make_solver, parse_range, with_threads, SystemArgs, DEFAULT_SOLVER,
+};
 
 use anyhow::{anyhow, Result};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -20,6 +28,13 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Sweep(a) => sweep::sweep(&a),
         Command::Run(a) => run::run(&a),
         Command::Paper(a) => paper::paper(&a),
+        Command::Map(a) => map::run(&a),
+        Command::Merge(a) => merge::run(&a),
+        Command::Poincare(a) => explore::run_poincare(&a),
+        Command::Bifurcation(a) => explore::run_bifurcation(&a),
+        Command::Lyapunov(a) => explore::run_lyapunov(&a),
+        Command::Ensemble(a) => explore::run_ensemble_cmd(&a),
+        Command::BenchMap(a) => map::run_bench(&a),
         Command::Bench(a) => bench::bench(&a),
     }
 }

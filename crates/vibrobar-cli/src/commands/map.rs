@@ -1,0 +1,660 @@
+//! `map`: reduction of the RMS vibration over a grid of frequency ratio × gap (optionally also
+//! friction level, restitution and mass ratio), with the optimum and figures.
+//!
+//! Output `FILE.csv`, header `ratio,gap_mm[,friction_force_n][,restitution][,mass_ratio],
+//! rms_solid_m,rms_damped_m,reduction_pct,impacts_per_cycle,regime` (the optional columns appear
+//! only when `--friction-forces-n`, `--restitutions`, `--mass-ratios` are given). Rows are in grid
+//! order: row-major over ratio, gap, then the optional axes in that order, the last varying fastest.
+//!
+//! Rows go through a journal (`FILE.csv.journal`) as they finish, so a killed run loses at most
+//! the runs in flight and `--resume` completes it with a byte-identical result. Beside the data:
+//! `FILE.csv.meta.json`; for a whole (unsharded) map also `optimum.csv` and the figures
+//! `FILE.reduction.{png,svg}` and `FILE.impacts.{png,svg}` (see [`postprocess`]).
+use super::{
+    check_value, fmt_coord, make_solver, parse_range, with_threads, SystemArgs, DEFAULT_SOLVER,
+};
+use crate::progress::Progress;
+use crate::store::{shard, GridInfo, Journal, Metadata};
+use anyhow::{bail, Context};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use vibrobar_core::analysis::map::{
+    compute_point_from, compute_solid, optimum, Axis, Grid, GridAxis, GridPoint, MapRow, MapSpec,
+    Optimum,
+};
+use vibrobar_core::analysis::par_map_with_progress;
+use vibrobar_core::analysis::regime::{Regime, Tolerances};
+use vibrobar_core::params::{FrictionModel, RunSettings, State};
+use vibrobar_core::solver::{Solver, SOLVER_NAMES};
+
+/// Fixed columns before the optional axes.
+pub const HEAD: &str = "ratio,gap_mm";
+/// Fixed columns after the optional axes.
+pub const TAIL: &str = "rms_solid_m,rms_damped_m,reduction_pct,impacts_per_cycle,regime";
+
+/// `vibrobar map`: design map over frequency ratio × gap.
+#[derive(Debug, Clone, clap::Args)]
+pub struct MapArgs {
+    #[command(flatten)]
+    /// System and solver.
+    pub system: SystemArgs,
+    /// Frequency ratios Ω/ω_n, START:STOP:STEP (inclusive), each > 0.
+    #[arg(long, allow_hyphen_values = true)]
+    pub ratios: String,
+    /// Total gaps (clearance) in mm, START:STOP:STEP (inclusive), each > 0.
+    #[arg(long, allow_hyphen_values = true)]
+    pub gaps_mm: String,
+    /// Optional axis: friction force levels in N (START:STOP:STEP, ≥ 0); adds a column
+    /// `friction_force_n` after `gap_mm`.
+    #[arg(long, allow_hyphen_values = true)]
+    pub friction_forces_n: Option<String>,
+    /// Optional axis: coefficients of restitution (START:STOP:STEP, in [0, 1]); adds `restitution`.
+    #[arg(long, allow_hyphen_values = true)]
+    pub restitutions: Option<String>,
+    /// Optional axis: mass ratios m_d/M (START:STOP:STEP, > 0); adds `mass_ratio`.
+    #[arg(long, allow_hyphen_values = true)]
+    pub mass_ratios: Option<String>,
+    /// Compute only slice K of N of the grid (round-robin); merge the slices with `merge`.
+    #[arg(long)]
+    pub shard: Option<String>,
+    /// Worker threads (default: all cores, or RAYON_NUM_THREADS).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Continue an interrupted run from FILE.journal.
+    #[arg(long)]
+    pub resume: bool,
+    /// Output CSV.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Everything a map job needs, checked.
+pub struct MapJob {
+    /// Fixed parameters.
+    pub spec: MapSpec,
+    /// The grid (SI values).
+    pub grid: Grid,
+    /// Optional axes, in column order.
+    pub extra: Vec<Axis>,
+    /// CSV header.
+    pub header: String,
+    /// Every parameter, for metadata and the fingerprint.
+    pub params: serde_json::Value,
+}
+
+fn extra_name(a: Axis) -> &'static str {
+    a.as_str()
+}
+
+/// Build and check the job from the flags (no shard, no output).
+pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
+    let settings = args.system.settings()?;
+    let base = args.system.base()?;
+    make_solver(&args.system.solver, &settings)?;
+    let ratios = parse_range("--ratios", &args.ratios, |x| x > 0.0, "(0, ∞)")?;
+    let gaps_mm = parse_range("--gaps-mm", &args.gaps_mm, |x| x > 0.0, "(0, ∞) mm")?;
+    let mut axes = vec![
+        GridAxis {
+            axis: Axis::FreqRatio,
+            values: ratios,
+        },
+        GridAxis {
+            axis: Axis::GapM,
+            values: gaps_mm.iter().map(|g| g * 1e-3).collect(),
+        },
+    ];
+    let mut extra = Vec::new();
+    let mut axes_json = serde_json::Map::new();
+    axes_json.insert("ratios".into(), args.ratios.clone().into());
+    axes_json.insert("gaps_mm".into(), args.gaps_mm.clone().into());
+    type Check = fn(f64) -> bool;
+    let optional: [(&str, &Option<String>, Axis, Check, &str); 3] = [
+        (
+            "--friction-forces-n",
+            &args.friction_forces_n,
+            Axis::FrictionForceN,
+            |x| x >= 0.0,
+            "[0, ∞) N",
+        ),
+        (
+            "--restitutions",
+            &args.restitutions,
+            Axis::Restitution,
+            |x| (0.0..=1.0).contains(&x),
+            "[0, 1]",
+        ),
+        (
+            "--mass-ratios",
+            &args.mass_ratios,
+            Axis::MassRatio,
+            |x| x > 0.0,
+            "(0, ∞)",
+        ),
+    ];
+    for (flag, text, axis, ok, allowed) in optional {
+        if let Some(t) = text {
+            axes.push(GridAxis {
+                axis,
+                values: parse_range(flag, t, ok, allowed)?,
+            });
+            extra.push(axis);
+            axes_json.insert(
+                flag.trim_start_matches("--").replace('-', "_"),
+                t.clone().into(),
+            );
+        }
+    }
+    let values_json: serde_json::Map<String, serde_json::Value> = axes
+        .iter()
+        .map(|a| (a.axis.as_str().to_string(), serde_json::json!(a.values)))
+        .collect();
+    let grid = Grid::new(axes).map_err(|e| anyhow::anyhow!("grid: {e}"))?;
+    let spec = MapSpec {
+        base,
+        friction: FrictionModel::from(args.system.friction),
+        settings,
+        tolerances: Tolerances::default(),
+    };
+    // Every point must be a valid system: fail before any run, naming the field.
+    for p in grid.points() {
+        spec.damped_system(&p)
+            .and_then(|s| s.validate())
+            .map_err(|e| anyhow::anyhow!("{e} (at {})", describe(&p)))?;
+    }
+    let mut header = String::from(HEAD);
+    for a in &extra {
+        header.push(',');
+        header.push_str(extra_name(*a));
+    }
+    header.push(',');
+    header.push_str(TAIL);
+    let t = spec.tolerances;
+    let mut params = args.system.to_json()?;
+    params["grid"] = serde_json::Value::Object(axes_json);
+    params["grid_values_si"] = serde_json::Value::Object(values_json);
+    params["regime_tolerances"] = serde_json::json!({
+        "phase_tol": t.phase_tol, "state_rel": t.state_rel, "k_max": t.k_max,
+        "min_repeats": t.min_repeats, "contact_fraction": t.contact_fraction,
+    });
+    Ok(MapJob {
+        spec,
+        grid,
+        extra,
+        header,
+        params,
+    })
+}
+
+fn describe(p: &GridPoint) -> String {
+    p.coords
+        .iter()
+        .map(|(a, v)| match a {
+            Axis::GapM => format!("gap_mm = {}", fmt_coord(v * 1e3)),
+            _ => format!("{} = {}", a.as_str(), fmt_coord(*v)),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// One CSV row (without the index).
+pub fn format_row(row: &MapRow, extra: &[Axis]) -> String {
+    let mut s = format!("{},{}", fmt_coord(row.ratio), fmt_coord(row.gap_m * 1e3));
+    for a in extra {
+        let v = row.point.get(*a).unwrap_or(f64::NAN);
+        s.push(',');
+        s.push_str(&fmt_coord(v));
+    }
+    s.push_str(&format!(
+        ",{:e},{:e},{},{},{}",
+        row.rms_solid_m, row.rms_damped_m, row.reduction_pct, row.impacts_per_cycle, row.regime
+    ));
+    s
+}
+
+/// Compute the journal's pending points: solid runs first (one per ratio), then the damped runs,
+/// each row appended to the journal as soon as it is done.
+fn compute(
+    job: &MapJob,
+    solver: &dyn Solver,
+    journal: &Journal,
+    total_in_job: usize,
+) -> anyhow::Result<()> {
+    let pending: Vec<GridPoint> = journal
+        .pending()
+        .into_iter()
+        .map(|i| job.grid.point(i).expect("index inside the grid"))
+        .collect();
+    if pending.is_empty() {
+        return Ok(());
+    }
+    let mut ratios: Vec<f64> = pending.iter().map(|p| job.spec.ratio(p)).collect();
+    ratios.sort_by(f64::total_cmp);
+    ratios.dedup_by(|a, b| a.total_cmp(b).is_eq());
+    let bar = Progress::new("solid bar", ratios.len(), 0);
+    let solids = par_map_with_progress(
+        &ratios,
+        |&r| compute_solid(&job.spec, solver, r),
+        &bar.callback(),
+    );
+    bar.finish();
+    let solids = ratios
+        .iter()
+        .zip(solids)
+        .map(|(r, s)| s.with_context(|| format!("solid bar at ratio {}", fmt_coord(*r))))
+        .collect::<anyhow::Result<Vec<f64>>>()?;
+    let bar = Progress::new("map", total_in_job, journal.done_count());
+    let res = pending.par_iter().try_for_each(|p| -> anyhow::Result<()> {
+        let r = job.spec.ratio(p);
+        let i = ratios
+            .binary_search_by(|x| x.total_cmp(&r))
+            .expect("ratio listed");
+        let row = compute_point_from(&job.spec, solver, p, &State::REST, solids[i])
+            .with_context(|| format!("damped bar at {}", describe(p)))?;
+        journal.append(p.index, &format_row(&row, &job.extra))?;
+        bar.inc();
+        Ok(())
+    });
+    bar.finish();
+    res
+}
+
+/// `vibrobar map`.
+pub fn run(args: &MapArgs) -> anyhow::Result<()> {
+    let job = job(args)?;
+    let shard = args
+        .shard
+        .as_deref()
+        .map(shard::parse_shard)
+        .transpose()
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let settings = job.spec.settings;
+    let solver = make_solver(&args.system.solver, &settings)?;
+    let total = job.grid.len();
+    let indices = shard::shard_indices(total, shard);
+    let meta = Metadata::new(
+        "map",
+        &job.header,
+        job.params.clone(),
+        Some(GridInfo {
+            total,
+            shard,
+            indices: shard.map(|_| indices.clone()),
+        }),
+    );
+    let journal = Journal::open(
+        &args.out,
+        &job.header,
+        &meta.fingerprint,
+        &indices,
+        args.resume,
+    )?;
+    if journal.done_count() > 0 {
+        eprintln!(
+            "resuming {}: {} of {} rows already done",
+            args.out.display(),
+            journal.done_count(),
+            indices.len()
+        );
+    }
+    let t0 = Instant::now();
+    with_threads(args.threads, || {
+        compute(&job, solver.as_ref(), &journal, indices.len())
+    })??;
+    journal.finish()?;
+    meta.write_beside(&args.out)
+        .with_context(|| format!("writing metadata beside {}", args.out.display()))?;
+    eprintln!(
+        "{}: {} rows in {:.1} s",
+        args.out.display(),
+        indices.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    if shard.is_none() {
+        postprocess(&args.out)?;
+    }
+    Ok(())
+}
+
+/// A map CSV read back: optional axes, rows as [`MapRow`]s and their text fields.
+pub struct MapTable {
+    /// Optional axes, in column order.
+    pub extra: Vec<Axis>,
+    /// Rows (grid index = row number).
+    pub rows: Vec<MapRow>,
+    /// Text fields of each row, as in the file.
+    pub fields: Vec<Vec<String>>,
+}
+
+/// Read a map CSV written by `map` or `merge`.
+pub fn read_map_csv(path: &Path) -> anyhow::Result<MapTable> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or("");
+    let cols: Vec<&str> = header.split(',').collect();
+    let n_tail = TAIL.split(',').count();
+    if !header.starts_with(HEAD) || !header.ends_with(TAIL) || cols.len() < 2 + n_tail {
+        bail!("{}: not a map file (header {header:?})", path.display());
+    }
+    let extra = cols[2..cols.len() - n_tail]
+        .iter()
+        .map(|c| {
+            Axis::parse(c)
+                .filter(|a| !matches!(a, Axis::FreqRatio | Axis::GapM))
+                .with_context(|| format!("{}: unknown column {c:?}", path.display()))
+        })
+        .collect::<anyhow::Result<Vec<Axis>>>()?;
+    let mut rows = Vec::new();
+    let mut fields = Vec::new();
+    for (i, line) in lines.enumerate() {
+        let bad = |what: &str| anyhow::anyhow!("{}: line {}: {what}", path.display(), i + 2);
+        let f: Vec<String> = line.split(',').map(str::to_string).collect();
+        if f.len() != cols.len() {
+            return Err(bad("wrong number of fields"));
+        }
+        let num = |k: usize| -> anyhow::Result<f64> {
+            f[k].parse::<f64>()
+                .map_err(|_| bad(&format!("{} is not a number", cols[k])))
+        };
+        let ratio = num(0)?;
+        let gap_m = num(1)? * 1e-3;
+        let mut coords = vec![(Axis::FreqRatio, ratio), (Axis::GapM, gap_m)];
+        for (k, a) in extra.iter().enumerate() {
+            coords.push((*a, num(2 + k)?));
+        }
+        let t = 2 + extra.len();
+        let regime = Regime::parse(&f[t + 4]).ok_or_else(|| bad("unknown regime"))?;
+        rows.push(MapRow {
+            point: GridPoint { index: i, coords },
+            ratio,
+            gap_m,
+            rms_solid_m: num(t)?,
+            rms_damped_m: num(t + 1)?,
+            reduction_pct: num(t + 2)?,
+            impacts_per_cycle: num(t + 3)?,
+            regime,
+        });
+        fields.push(f);
+    }
+    Ok(MapTable {
+        extra,
+        rows,
+        fields,
+    })
+}
+
+/// Header of `optimum.csv`.
+///
+/// * One row per ratio (`criterion = max-reduction`): the grid point with the largest
+///   `reduction_pct` at that ratio (over all gaps and optional axes), with its damped and solid
+///   RMS, impacts per cycle and regime.
+/// * Two band rows (`ratio = band`): the design (gap and optional axes) best over the whole band
+///   of ratios, among designs computed at every ratio: `band-mean-reduction` (largest mean
+///   reduction; `best_reduction_pct` is that mean, `rms_damped_m` the largest damped RMS over the
+///   band) and `band-minimax-rms` (smallest largest damped RMS: the robust choice; same columns).
+///   `rms_solid_m`, `impacts_per_cycle` and `regime` are empty on band rows.
+/// * `best_<axis>` columns follow for each optional axis.
+pub fn optimum_header(extra: &[Axis]) -> String {
+    let mut h = String::from(
+        "ratio,best_gap_mm,best_reduction_pct,rms_damped_m,rms_solid_m,impacts_per_cycle,regime,criterion",
+    );
+    for a in extra {
+        h.push_str(",best_");
+        h.push_str(a.as_str());
+    }
+    h
+}
+
+/// The text of `optimum.csv` for a map.
+pub fn optimum_csv(t: &MapTable, o: &Optimum) -> String {
+    let x = t.extra.len();
+    let mut s = optimum_header(&t.extra);
+    s.push('\n');
+    for r in &o.per_ratio {
+        let f = &t.fields[r.point.index];
+        s.push_str(&format!(
+            "{},{},{},{},{},{},{},max-reduction",
+            f[0],
+            f[1],
+            f[2 + x + 2],
+            f[2 + x + 1],
+            f[2 + x],
+            f[2 + x + 3],
+            f[2 + x + 4]
+        ));
+        for k in 0..x {
+            s.push(',');
+            s.push_str(&f[2 + k]);
+        }
+        s.push('\n');
+    }
+    for (name, b) in [
+        ("band-mean-reduction", &o.best_mean_reduction),
+        ("band-minimax-rms", &o.best_minimax_rms),
+    ] {
+        let Some(b) = b else { continue };
+        let gap = b
+            .design
+            .iter()
+            .find(|(a, _)| *a == Axis::GapM)
+            .map_or(f64::NAN, |d| d.1);
+        s.push_str(&format!(
+            "band,{},{},{:e},,,,{name}",
+            fmt_coord(gap * 1e3),
+            b.mean_reduction_pct,
+            b.max_rms_damped_m
+        ));
+        for a in &t.extra {
+            let v = b
+                .design
+                .iter()
+                .find(|(d, _)| d == a)
+                .map_or(f64::NAN, |d| d.1);
+            s.push(',');
+            s.push_str(&fmt_coord(v));
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// `optimum.csv` beside a map file.
+pub fn optimum_path(map_csv: &Path) -> PathBuf {
+    map_csv.with_file_name("optimum.csv")
+}
+
+/// After a whole map is written (by `map` or `merge`): `optimum.csv` and the figures, all
+/// computed from the CSV itself so both paths give the same result.
+pub fn postprocess(map_csv: &Path) -> anyhow::Result<()> {
+    let t = read_map_csv(map_csv)?;
+    let o = optimum(&t.rows);
+    let opt = optimum_path(map_csv);
+    crate::store::write_atomic(&opt, optimum_csv(&t, &o).as_bytes())
+        .with_context(|| format!("writing {}", opt.display()))?;
+    let figs = crate::figures::map::draw_map_figures(map_csv, &t, &o)?;
+    if let Some(b) = &o.best_mean_reduction {
+        let gap = b
+            .design
+            .iter()
+            .find(|(a, _)| *a == Axis::GapM)
+            .map_or(f64::NAN, |d| d.1);
+        println!(
+            "best gap over the band (mean reduction): {} mm, {:.1} % mean reduction",
+            fmt_coord(gap * 1e3),
+            b.mean_reduction_pct
+        );
+    }
+    if let Some(b) = &o.best_minimax_rms {
+        let gap = b
+            .design
+            .iter()
+            .find(|(a, _)| *a == Axis::GapM)
+            .map_or(f64::NAN, |d| d.1);
+        println!(
+            "best gap over the band (minimax RMS): {} mm, worst RMS {:.3e} m",
+            fmt_coord(gap * 1e3),
+            b.max_rms_damped_m
+        );
+    }
+    println!("wrote {}", opt.display());
+    for f in figs {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}
+
+/// `bench-map`: time a subsample of the 200 × 100 ratio × gap map (2 s runs) with each solver
+/// and project the whole map.
+#[derive(Debug, Clone, clap::Args)]
+pub struct BenchMapArgs {
+    /// Ratios in the map (0.9..1.1).
+    #[arg(long, default_value_t = 200)]
+    pub ratios: usize,
+    /// Gaps in the map (0.05..1.0 mm).
+    #[arg(long, default_value_t = 100)]
+    pub gaps: usize,
+    /// Damped runs actually timed per solver (spread over the grid); 0 = the whole map.
+    #[arg(long, default_value_t = 40)]
+    pub subsample: usize,
+    /// Simulated time per run, s.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 2.0)]
+    pub duration: f64,
+    /// Solvers to time (default: all).
+    #[arg(long)]
+    pub solver: Vec<String>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// One line of the bench.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct BenchMapResult {
+    /// Solver.
+    pub solver: String,
+    /// Runs timed (damped + solid).
+    pub runs: usize,
+    /// Wall time of the timed runs, s.
+    pub seconds: f64,
+    /// Runs per second.
+    pub runs_per_s: f64,
+    /// Runs of the whole map (damped + one solid per ratio).
+    pub map_runs: usize,
+    /// Projected (or measured, when the whole map ran) wall time of the map, s.
+    pub map_seconds: f64,
+    /// True when the whole map ran.
+    pub measured: bool,
+}
+
+/// Run the bench (library entry point for `vibrobar bench`).
+pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
+    let n_r = check_value("--ratios", args.ratios as f64, |x| x >= 2.0, "[2, ∞)")? as usize;
+    let n_g = check_value("--gaps", args.gaps as f64, |x| x >= 2.0, "[2, ∞)")? as usize;
+    let duration = check_value("--duration", args.duration, |x| x > 0.0, "(0, ∞) s")?;
+    let ratios: Vec<f64> = (0..n_r)
+        .map(|i| 0.9 + 0.2 * i as f64 / (n_r - 1) as f64)
+        .collect();
+    let gaps: Vec<f64> = (0..n_g)
+        .map(|i| (0.05 + 0.95 * i as f64 / (n_g - 1) as f64) * 1e-3)
+        .collect();
+    let grid = Grid::new(vec![
+        GridAxis {
+            axis: Axis::FreqRatio,
+            values: ratios,
+        },
+        GridAxis {
+            axis: Axis::GapM,
+            values: gaps,
+        },
+    ])?;
+    let total = grid.len();
+    let idx: Vec<usize> = if args.subsample == 0 || args.subsample >= total {
+        (0..total).collect()
+    } else {
+        // Low-discrepancy picks (golden-ratio sequence): spread over ratios and gaps alike.
+        let phi = 0.618_033_988_749_894_9_f64;
+        let mut v: Vec<usize> = (0..args.subsample)
+            .map(|k| (((k as f64 + 0.5) * phi).fract() * total as f64) as usize)
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    };
+    let points: Vec<GridPoint> = idx.iter().filter_map(|&i| grid.point(i)).collect();
+    let settings = RunSettings {
+        duration_s: duration,
+        ..RunSettings::default()
+    };
+    let names: Vec<String> = if args.solver.is_empty() {
+        SOLVER_NAMES.iter().map(|s| s.to_string()).collect()
+    } else {
+        args.solver.clone()
+    };
+    let mut out = Vec::new();
+    for name in names {
+        let solver = make_solver(&name, &settings)?;
+        let spec = MapSpec {
+            base: vibrobar_core::analysis::SweepBase::paper(),
+            friction: FrictionModel::None,
+            settings,
+            tolerances: Tolerances::default(),
+        };
+        let t0 = Instant::now();
+        let rows = with_threads(args.threads, || {
+            let bar = Progress::new(&format!("bench {name}"), 2 * points.len(), 0);
+            let r = vibrobar_core::analysis::map::run_map(
+                &spec,
+                solver.as_ref(),
+                &points,
+                &bar.callback(),
+            );
+            bar.finish();
+            r
+        })??;
+        let secs = t0.elapsed().as_secs_f64();
+        let mut rs: Vec<u64> = rows.iter().map(|r| r.ratio.to_bits()).collect();
+        rs.sort_unstable();
+        rs.dedup();
+        let runs = rows.len() + rs.len();
+        let rate = runs as f64 / secs;
+        let map_runs = total + n_r;
+        let measured = points.len() == total;
+        out.push(BenchMapResult {
+            solver: name,
+            runs,
+            seconds: secs,
+            runs_per_s: rate,
+            map_runs,
+            map_seconds: if measured {
+                secs
+            } else {
+                map_runs as f64 / rate
+            },
+            measured,
+        });
+    }
+    Ok(out)
+}
+
+/// `vibrobar bench-map`: print the bench.
+pub fn run_bench(args: &BenchMapArgs) -> anyhow::Result<()> {
+    let threads = args.threads.unwrap_or_else(rayon::current_num_threads);
+    println!(
+        "map {} ratios × {} gaps, {} s per run, {} threads (default solver {DEFAULT_SOLVER})",
+        args.ratios, args.gaps, args.duration, threads
+    );
+    for r in bench_map(args)? {
+        println!(
+            "{:>6}: {} runs in {:.2} s = {:.1} runs/s; whole map ({} runs) {} {:.1} s ({:.2} h)",
+            r.solver,
+            r.runs,
+            r.seconds,
+            r.runs_per_s,
+            r.map_runs,
+            if r.measured { "took" } else { "projected" },
+            r.map_seconds,
+            r.map_seconds / 3600.0
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,36 @@
+//! `merge`: join the shard files of a map (`map --shard K/N`) into the whole map, then write
+//! `optimum.csv` and the figures as an unsharded `map` would. The merged file is byte-identical
+//! to the file an unsharded run writes.
+use crate::store::shard;
+use anyhow::Context;
+use std::path::PathBuf;
+
+/// `vibrobar merge --out FILE.csv SHARD.csv...`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct MergeArgs {
+    /// Merged output CSV.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Shard files (each with its FILE.meta.json), in any order.
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
+    /// Only merge; skip optimum.csv and the figures.
+    #[arg(long)]
+    pub no_figures: bool,
+}
+
+/// `vibrobar merge`.
+pub fn run(args: &MergeArgs) -> anyhow::Result<()> {
+    let n = shard::merge(&args.shards, &args.out)?;
+    eprintln!(
+        "{}: {n} rows from {} shards",
+        args.out.display(),
+        args.shards.len()
+    );
+    let meta = crate::store::Metadata::read_beside(&args.out)
+        .with_context(|| format!("metadata beside {}", args.out.display()))?;
+    if meta.kind == "map" && !args.no_figures {
+        super::map::postprocess(&args.out)?;
+    }
+    Ok(())
+}
