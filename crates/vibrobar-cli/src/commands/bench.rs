@@ -45,6 +45,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         energy_audit: false,
     };
     let mut rows = Vec::new();
+    let mut sweeps = Vec::new();
     for n in &names {
         let s = solver(n, &st)?;
         // Warm-up so the first solver does not pay for page faults and CPU ramp-up.
@@ -59,7 +60,10 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
             let ratios = ratio_range(0.95, 1.05, 0.01)?;
             let t = Instant::now();
             let d = run_solver(n, &st, &v, &ratios, None)?;
-            Some((t.elapsed().as_secs_f64(), d.sweep.len()))
+            let el = t.elapsed().as_secs_f64();
+            let npts = d.sweep.len();
+            sweeps.push((n.clone(), d.sweep));
+            Some((el, npts))
         };
         println!(
             "  {n:<6} single run (r = 1, gap 0.1 mm, frictionless): {} (RMS {:.4e} m, {} impacts)",
@@ -76,14 +80,70 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         rows.push((n.clone(), t_single, t_sweep.map(|x| x.0)));
     }
     if let Some((_, ref_single, ref_sweep)) = rows.iter().find(|r| r.0 == "rk4").cloned() {
-        println!("  time relative to rk4 (smaller is faster):");
+        println!("  speed-up over rk4 (rk4 time / solver time, measured in this run):");
         for (n, ts, tw) in &rows {
-            print!("    {n:<6} single {:.3}×", ts / ref_single);
+            print!("    {n:<6} single run {:.1}×", ref_single / ts);
             if let (Some(tw), Some(rw)) = (tw, ref_sweep) {
-                print!(", sweep set {:.3}×", tw / rw);
+                print!(", paper sweep set {:.1}×", rw / tw);
             }
             println!();
         }
     }
+    print_rms_side_by_side(&sweeps);
     Ok(())
+}
+
+/// RMS of every sweep point for each solver, side by side, with the relative difference to the
+/// first solver. Chaotic points (impacting, near resonance) differ by a few per cent between any
+/// two correct solvers; the others agree to the accuracy of the cruder one.
+fn print_rms_side_by_side(sweeps: &[(String, Vec<super::SweepResult>)]) {
+    let Some((first, base)) = sweeps.first() else {
+        return;
+    };
+    if sweeps.len() < 2 {
+        return;
+    }
+    print!(
+        "  damped-bar RMS per point (m):\n    {:<34}",
+        "friction, gap, ratio"
+    );
+    for (n, _) in sweeps {
+        print!(" {n:>11}");
+    }
+    for (n, _) in &sweeps[1..] {
+        print!("  {n}/{first}−1");
+    }
+    println!();
+    let mut worst = vec![(0.0f64, String::new()); sweeps.len()];
+    for (i, r) in base.iter().enumerate() {
+        let label = format!(
+            "{} {}, {} mm, {}",
+            r.point.friction,
+            r.point
+                .friction_force_n
+                .map(|f| format!("{f} N"))
+                .unwrap_or_else(|| "stated".into()),
+            crate::output::grid_num(r.point.gap_m * 1e3),
+            crate::output::grid_num(r.point.ratio)
+        );
+        print!("    {label:<34}");
+        for (_, rows) in sweeps {
+            print!(" {:>11.4e}", rows[i].damped.rms_m);
+        }
+        for (k, (_, rows)) in sweeps.iter().enumerate().skip(1) {
+            let d = rows[i].damped.rms_m / r.damped.rms_m - 1.0;
+            print!("  {:>+10.2}%", 100.0 * d);
+            if d.abs() > worst[k].0.abs() {
+                worst[k] = (d, label.clone());
+            }
+        }
+        println!();
+    }
+    for (k, (n, _)) in sweeps.iter().enumerate().skip(1) {
+        println!(
+            "  largest RMS difference {n} vs {first}: {:+.2} % at {}",
+            100.0 * worst[k].0,
+            worst[k].1
+        );
+    }
 }
