@@ -84,10 +84,25 @@ pub fn draw_map_figures(map_csv: &Path, t: &MapTable, o: &Optimum) -> anyhow::Re
             }
         }
     }
-    let title = if t.extra.is_empty() {
+    let base = if t.extra.is_empty() {
         "RMS reduction vs solid bar".to_string()
     } else {
         "RMS reduction vs solid bar (best over the other axes)".to_string()
+    };
+    // Say which model made the map: friction law, its level and the solver, from the metadata.
+    let title = match crate::store::Metadata::read_beside(map_csv) {
+        Ok(m) => {
+            let p = &m.parameters;
+            let friction = p["friction"].as_str().unwrap_or("?");
+            let level = match p["friction_force_n"].as_f64() {
+                Some(f) => format!(" {f} N"),
+                None if friction == "none" => String::new(),
+                None => " η/r·m_d·g".to_string(),
+            };
+            let solver = p["solver"].as_str().unwrap_or("?");
+            format!("{base} — friction {friction}{level}, {solver}")
+        }
+        Err(_) => base,
     };
     let mut files = heat_files(
         &super::with_ext(&stem, "reduction"),
