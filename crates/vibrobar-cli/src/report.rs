@@ -731,16 +731,19 @@ fn ic_claims(input: &ReportInput) -> Vec<Claim> {
 fn render_ensemble(s: &mut String, input: &ReportInput, e: &IcEnsemble, claims: &[&Claim]) {
     use std::fmt::Write;
     let r = &e.ranges;
-    // `scale` converts SI to the unit shown.
+    // `scale` converts SI to the unit shown; 4 decimals, trailing zeros dropped.
+    let num = |x: f64| {
+        let t = format!("{x:.4}");
+        t.trim_end_matches('0').trim_end_matches('.').to_string()
+    };
     let span = |(lo, hi): (f64, f64), scale: f64, unit: &str| {
         let (lo, hi) = (lo * scale, hi * scale);
-        if hi - lo == 0.0 {
-            format!("{lo} {unit}")
-        } else if (hi + lo).abs() <= 1e-12 * hi.abs() {
-            format!("uniform in ±{hi:.4} {unit}")
+        let t = if hi - lo == 0.0 {
+            format!("{} {unit}", num(lo))
         } else {
-            format!("uniform in [{lo:.4}, {hi:.4}] {unit}")
-        }
+            format!("uniform in [{}, {}] {unit}", num(lo), num(hi))
+        };
+        t.trim_end().to_string()
     };
     let _ = writeln!(
         s,
