@@ -198,6 +198,10 @@ pub struct PaperArgs {
         default_value_t = 2e-5
     )]
     pub sample_interval_s: f64,
+    /// Members of the initial-condition ensemble per point (run with `exact` whatever --solvers;
+    /// 0 skips it) [default: 16; 4 with --quick].
+    #[arg(long, value_name = "N")]
+    pub ensemble_members: Option<usize>,
 }
 
 /// `vibrobar bench`.

@@ -2,6 +2,7 @@
 //! every verdict is computed from the runs; the rules are stated in the report.
 
 use serde::Serialize;
+use vibrobar_core::analysis::ensemble::{EnsembleStats, IcRanges};
 use vibrobar_core::{FrictionModel, RunSettings};
 
 use crate::commands::{CaseOutcome, SweepResult};
@@ -14,6 +15,12 @@ pub const FLAT_MAX_RATIO: f64 = 1.25;
 pub const TWO_PER_CYCLE: (f64, f64) = (1.5, 2.5);
 /// Largest |damped/solid − 1| that counts as "same as the solid bar".
 pub const SAME_AS_SOLID_TOL: f64 = 0.02;
+/// Largest relative spread (std/mean) of the ensemble RMS that counts as "negligible variation".
+pub const IC_SPREAD_TOL: f64 = 0.05;
+/// Largest |ensemble mean / RMS from rest − 1| that counts as "negligible variation".
+pub const IC_MEAN_TOL: f64 = 0.05;
+/// Ratios of "impacts only at 0.99–1.01" and of the near-resonance robustness claim.
+pub const IMPACT_BAND: [f64; 3] = [0.99, 1.0, 1.01];
 
 /// What a parameter set is for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -71,6 +78,71 @@ pub struct ReportInput {
     pub quick: bool,
     /// Files written, relative to the output directory.
     pub files: Vec<String>,
+    /// Initial-condition ensemble (None: skipped).
+    pub ensemble: Option<IcEnsemble>,
+}
+
+/// One point of the initial-condition ensemble.
+#[derive(Debug, Clone)]
+pub struct IcPoint {
+    /// Key of the parameter set.
+    pub variant_key: String,
+    /// Gap.
+    pub gap_m: f64,
+    /// Frequency ratio.
+    pub ratio: f64,
+    /// Damped RMS from the paper's start (bar at rest, ball centred at rest), same solver.
+    pub rest_rms_m: f64,
+    /// Impacts per cycle in the RMS window from the paper's start.
+    pub rest_impacts_per_cycle: f64,
+    /// Ensemble statistics.
+    pub stats: EnsembleStats,
+}
+
+impl IcPoint {
+    /// std/mean of the damped RMS over the members.
+    pub fn rel_spread(&self) -> f64 {
+        self.stats.std_rms_m / self.stats.mean_rms_m
+    }
+
+    /// Ensemble mean over the RMS from rest, minus 1.
+    pub fn mean_vs_rest(&self) -> f64 {
+        self.stats.mean_rms_m / self.rest_rms_m - 1.0
+    }
+
+    /// Fraction of members with ≥ 1 impact in the RMS window.
+    pub fn impacting_fraction(&self) -> f64 {
+        self.stats.impacting_members as f64 / self.stats.members as f64
+    }
+
+    fn robust(&self) -> bool {
+        self.rel_spread() <= IC_SPREAD_TOL && self.mean_vs_rest().abs() <= IC_MEAN_TOL
+    }
+}
+
+/// The seeded initial-condition ensemble of the paper run.
+#[derive(Debug, Clone)]
+pub struct IcEnsemble {
+    /// Solver of every ensemble run.
+    pub solver: String,
+    /// Seed.
+    pub seed: u64,
+    /// Members per point.
+    pub members: usize,
+    /// Ranges of the initial conditions.
+    pub ranges: IcRanges,
+    /// Points: frictionless gap 0.1 mm at every ratio, each friction set at gap 1.0 mm, r = 1.
+    pub points: Vec<IcPoint>,
+    /// Wall time of the ensemble runs, s.
+    pub wall_s: f64,
+}
+
+impl IcEnsemble {
+    fn at(&self, v: &Variant, gap_m: f64, ratio: f64) -> Option<&IcPoint> {
+        self.points
+            .iter()
+            .find(|p| p.variant_key == v.key && close(p.gap_m, gap_m) && close(p.ratio, ratio))
+    }
 }
 
 /// Our value for one parameter set and solver.
@@ -106,6 +178,10 @@ pub struct Claim {
     pub rule: String,
     /// Rows.
     pub rows: Vec<ClaimRow>,
+    /// What computed the findings when it is not one solver per column (then each row has one
+    /// finding), e.g. `exact ensemble`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub by: Option<String>,
 }
 
 impl Claim {
@@ -217,6 +293,7 @@ pub fn claims(input: &ReportInput) -> Vec<Claim> {
                     findings: input.solvers.iter().map(|s| f(s, v)).collect(),
                 })
                 .collect(),
+            by: None,
         }
     };
     let missing = || Finding {
@@ -517,7 +594,270 @@ pub fn claims(input: &ReportInput) -> Vec<Claim> {
             },
         ));
     }
+    out.extend(ic_claims(input));
     out
+}
+
+/// The claims about initial conditions, from the ensemble (none when it was skipped).
+fn ic_claims(input: &ReportInput) -> Vec<Claim> {
+    let Some(e) = &input.ensemble else {
+        return Vec::new();
+    };
+    let none: Vec<&Variant> = input
+        .variants
+        .iter()
+        .filter(|v| v.friction == FrictionModel::None)
+        .collect();
+    let fric: Vec<&Variant> = input
+        .variants
+        .iter()
+        .filter(|v| v.friction != FrictionModel::None)
+        .collect();
+    let claim = |id: &str, text: &str, paper: &str, rule: String, rows: Vec<ClaimRow>| Claim {
+        id: id.to_string(),
+        text: text.to_string(),
+        paper: paper.to_string(),
+        rule,
+        rows,
+        by: Some(format!("{} ensemble", e.solver)),
+    };
+    let row = |v: &Variant, finding: Finding| ClaimRow {
+        params: v.label.clone(),
+        role: v.role,
+        findings: vec![finding],
+    };
+    // Spread and mean-vs-rest at each ratio; holds when every ratio was computed and passes.
+    let robust = |v: &Variant, gap_m: f64, ratios: &[f64]| -> Finding {
+        let pts: Vec<Option<&IcPoint>> = ratios.iter().map(|&r| e.at(v, gap_m, r)).collect();
+        Finding {
+            value: ratios
+                .iter()
+                .zip(&pts)
+                .map(|(&r, p)| match p {
+                    Some(p) => format!(
+                        "r = {}: spread {:.1} %, mean {:+.1} % vs rest",
+                        fmt_ratio(r),
+                        100.0 * p.rel_spread(),
+                        100.0 * p.mean_vs_rest()
+                    ),
+                    None => format!("r = {}: n/a", fmt_ratio(r)),
+                })
+                .collect::<Vec<_>>()
+                .join("; "),
+            holds: pts.iter().all(|p| p.is_some_and(IcPoint::robust)),
+        }
+    };
+    let rule = |at: &str| {
+        format!(
+            "at {at}: std/mean of the ensemble RMS ≤ {:.0} % and |ensemble mean / RMS from rest − 1| ≤ {:.0} %",
+            IC_SPREAD_TOL * 100.0,
+            IC_MEAN_TOL * 100.0
+        )
+    };
+    let mut out = Vec::new();
+    if !none.is_empty() {
+        let band = IMPACT_BAND
+            .iter()
+            .map(|&r| fmt_ratio(r))
+            .collect::<Vec<_>>()
+            .join(", ");
+        out.push(claim(
+            "F5",
+            "Robust to initial conditions near resonance (gap 0.1 mm, frictionless): \"negligible variation in RMS values\"",
+            "negligible variation",
+            rule(&format!("r = {band}")),
+            none.iter().map(|v| row(v, robust(v, 0.1e-3, &IMPACT_BAND))).collect(),
+        ));
+        out.push(claim(
+            "F6",
+            "Impacts only at r = 0.99–1.01 also for perturbed starts (gap 0.1 mm, frictionless): \"results remained consistent\"",
+            "0.99–1.01",
+            "at every ratio outside 0.99–1.01, no member has an impact in the RMS window \
+             (shown: impacting members / members, per ratio)"
+                .into(),
+            none.iter()
+                .map(|v| {
+                    let mut pts: Vec<&IcPoint> = e
+                        .points
+                        .iter()
+                        .filter(|p| p.variant_key == v.key && close(p.gap_m, 0.1e-3))
+                        .collect();
+                    pts.sort_by(|a, b| a.ratio.total_cmp(&b.ratio));
+                    let outside: Vec<&&IcPoint> = pts
+                        .iter()
+                        .filter(|p| !IMPACT_BAND.iter().any(|&r| close(p.ratio, r)))
+                        .collect();
+                    row(
+                        v,
+                        Finding {
+                            value: if pts.is_empty() {
+                                "n/a (not computed)".into()
+                            } else {
+                                pts.iter()
+                                    .map(|p| {
+                                        format!(
+                                            "{}: {}/{}",
+                                            fmt_ratio(p.ratio),
+                                            p.stats.impacting_members,
+                                            p.stats.members
+                                        )
+                                    })
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                            },
+                            holds: !outside.is_empty()
+                                && outside.iter().all(|p| p.stats.impacting_members == 0),
+                        },
+                    )
+                })
+                .collect(),
+        ));
+    }
+    if !fric.is_empty() {
+        out.push(claim(
+            "R10",
+            "With friction, \"almost no changes\" with the initial conditions (gap 1.0 mm, r = 1)",
+            "almost no changes",
+            rule("r = 1.00"),
+            fric.iter()
+                .map(|v| row(v, robust(v, 1.0e-3, &[1.0])))
+                .collect(),
+        ));
+    }
+    out
+}
+
+/// The section on the initial-condition ensemble: what was drawn, the claims, every point.
+fn render_ensemble(s: &mut String, input: &ReportInput, e: &IcEnsemble, claims: &[&Claim]) {
+    use std::fmt::Write;
+    let r = &e.ranges;
+    // `scale` converts SI to the unit shown; 4 decimals, trailing zeros dropped.
+    let num = |x: f64| {
+        let t = format!("{x:.4}");
+        t.trim_end_matches('0').trim_end_matches('.').to_string()
+    };
+    let span = |(lo, hi): (f64, f64), scale: f64, unit: &str| {
+        let (lo, hi) = (lo * scale, hi * scale);
+        let t = if hi - lo == 0.0 {
+            format!("{} {unit}", num(lo))
+        } else {
+            format!("uniform in [{}, {}] {unit}", num(lo), num(hi))
+        };
+        t.trim_end().to_string()
+    };
+    let _ = writeln!(
+        s,
+        "\n## Robustness to initial conditions\n\n\
+         The paper repeats its runs \"with nonzero initial values of bar displacement and relative \
+         velocity\" and reports \"negligible variation in RMS values\" (frictionless) and \"almost no \
+         changes\" (with friction). We repeat each point below from {} seeded random initial states \
+         (seed {}; the same members at every point):\n\n\
+         - bar displacement u0: {} (±F0/K of the bar with the cavity);\n\
+         - bar velocity u̇0: {};\n\
+         - ball position w0/l_g: {} (anywhere in the cavity);\n\
+         - relative velocity ẇ0: {}.\n\n\
+         Every ensemble run uses the `{}` solver, whatever `--solvers` says (with `rk4` the {} runs \
+         would take minutes). *From rest* is the same solver from the paper's start (bar at rest, \
+         ball centred at rest). A member *impacts* when it has ≥ 1 impact in the RMS window (the \
+         last {:.0} % of the run): with a relative velocity the ball hits a wall within the first \
+         milliseconds of any run in a 0.1 mm cavity, so impacts of the start-up transient are not \
+         counted. Per-point statistics: `ic_ensemble.csv`.\n",
+        e.members,
+        e.seed,
+        span(r.u_m, 1e6, "µm"),
+        span(r.du_m_s, 1e3, "mm/s"),
+        span(r.w_over_half_gap, 1.0, ""),
+        span(r.dw_m_s, 1e3, "mm/s"),
+        e.solver,
+        e.points.len() * e.members,
+        input.settings.rms_fraction * 100.0
+    );
+    let _ = writeln!(
+        s,
+        "| # | Claim | Paper | Rule | Parameters | {0} ensemble: ours | {0} ensemble: holds |\n\
+         |---|---|---|---|---|---|---|",
+        e.solver
+    );
+    for c in claims {
+        for row in &c.rows {
+            for f in &row.findings {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {} | {} |",
+                    c.id,
+                    cell(&c.text),
+                    cell(&c.paper),
+                    cell(&c.rule),
+                    cell(&row.params),
+                    cell(&f.value),
+                    if f.holds { "yes" } else { "no" }
+                );
+            }
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\n| Parameters | Gap | Ratio | RMS from rest (µm) | From rest: impacts/cycle | Ensemble mean (µm) | std/mean | \
+         Mean vs rest | Min–max (µm) | Impacting members | Regimes |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for p in &e.points {
+        let label = input
+            .variants
+            .iter()
+            .find(|v| v.key == p.variant_key)
+            .map_or(p.variant_key.as_str(), |v| v.label.as_str());
+        let regimes: Vec<String> = p
+            .stats
+            .regimes
+            .iter()
+            .map(|(r, n)| format!("{r}:{n}"))
+            .collect();
+        let _ = writeln!(
+            s,
+            "| {} | {} mm | {} | {:.3} | {:.2} | {:.3} | {:.1} % | {:+.1} % | {:.3}–{:.3} | {}/{} | {} |",
+            cell(label),
+            p.gap_m * 1e3,
+            fmt_ratio(p.ratio),
+            p.rest_rms_m * 1e6,
+            p.rest_impacts_per_cycle,
+            p.stats.mean_rms_m * 1e6,
+            100.0 * p.rel_spread(),
+            100.0 * p.mean_vs_rest(),
+            p.stats.min_rms_m * 1e6,
+            p.stats.max_rms_m * 1e6,
+            p.stats.impacting_members,
+            p.stats.members,
+            regimes.join(" ")
+        );
+    }
+    // Where the paper's start never reaches a wall but perturbed starts do.
+    let quiet: Vec<&IcPoint> = e
+        .points
+        .iter()
+        .filter(|p| p.rest_impacts_per_cycle == 0.0 && p.stats.impacting_members > 0)
+        .collect();
+    if !quiet.is_empty() {
+        let (lo, hi) = quiet
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| {
+                (a.0.min(p.mean_vs_rest()), a.1.max(p.mean_vs_rest()))
+            });
+        let _ = writeln!(
+            s,
+            "\nAt {} point(s) the run from the paper's start has no impact in the RMS window while \
+             {} of {} perturbed members do; there the ensemble mean RMS is {:+.1} … {:+.1} % off \
+             the RMS from rest.",
+            quiet.len(),
+            quiet
+                .iter()
+                .map(|p| p.stats.impacting_members)
+                .sum::<usize>(),
+            quiet.iter().map(|p| p.stats.members).sum::<usize>(),
+            100.0 * lo,
+            100.0 * hi
+        );
+    }
 }
 
 /// A table cell: `|` would end the cell.
@@ -553,7 +893,8 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
     let _ = writeln!(s, "## Run settings\n");
     let _ = writeln!(
         s,
-        "- Every run: {} s simulated from rest with the ball centred, dt = {:e} s, RMS over the last {:.0} %.",
+        "- Every run: {} s simulated from rest with the ball centred (except the initial-condition \
+         ensemble), dt = {:e} s, RMS over the last {:.0} %.",
         st.duration_s,
         st.dt_s,
         st.rms_fraction * 100.0
@@ -619,12 +960,33 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
         sep.push_str("---|");
     }
     let _ = writeln!(s, "{head}\n{sep}");
-    for c in claims {
+    let (per_solver, by_other): (Vec<&Claim>, Vec<&Claim>) =
+        claims.iter().partition(|c| c.by.is_none());
+    for c in &per_solver {
         let _ = write!(s, "| {} | {} | {} |", c.id, cell(&c.text), cell(&c.paper));
         for v in c.verdicts() {
             let _ = write!(s, " {} |", cell(&v));
         }
         let _ = writeln!(s);
+    }
+    if let Some(e) = &input.ensemble {
+        let _ = writeln!(
+            s,
+            "\nChecked with the initial-condition ensemble (solver `{}` whatever the solvers \
+             above; see *Robustness to initial conditions*):\n\n\
+             | # | Claim | Paper | {} ensemble: verdict |\n|---|---|---|---|",
+            e.solver, e.solver
+        );
+        for c in &by_other {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} |",
+                c.id,
+                cell(&c.text),
+                cell(&c.paper),
+                cell(&c.verdicts().join(" "))
+            );
+        }
     }
 
     let _ = writeln!(s, "\n## Claims, parameter set by parameter set\n");
@@ -635,7 +997,7 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
         sep.push_str("---|---|");
     }
     let _ = writeln!(s, "{head}\n{sep}");
-    for c in claims {
+    for c in &per_solver {
         for row in &c.rows {
             let _ = write!(
                 s,
@@ -656,6 +1018,10 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
             }
             let _ = writeln!(s);
         }
+    }
+
+    if let Some(e) = &input.ensemble {
+        render_ensemble(&mut s, input, e, &by_other);
     }
 
     let _ = writeln!(
@@ -810,6 +1176,16 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
             sd.histories.len()
         );
     }
+    if let Some(e) = &input.ensemble {
+        let _ = writeln!(
+            s,
+            "- initial-condition ensemble ({}): {:.1} s for {} points × {} members",
+            e.solver,
+            e.wall_s,
+            e.points.len(),
+            e.members
+        );
+    }
     let _ = writeln!(s, "- total (including figures): {total_wall_s:.1} s");
     let _ = writeln!(s, "\n## Files\n");
     for f in &input.files {
@@ -840,6 +1216,7 @@ mod tests {
                     }],
                 })
                 .collect(),
+            by: None,
         }
     }
 
@@ -859,6 +1236,118 @@ mod tests {
             claim(&[(Stated, false), (Reproducing, false)]).verdicts(),
             ["not reproduced"]
         );
+    }
+
+    fn ic_input(impacting: &[(f64, usize)], spread: f64) -> ReportInput {
+        use vibrobar_core::analysis::map::{Axis, GridPoint};
+        let variants = crate::commands::paper::variants(20.0);
+        let stats = |ratio: f64, k: usize, mean: f64| EnsembleStats {
+            point: GridPoint {
+                index: 0,
+                coords: vec![(Axis::FreqRatio, ratio)],
+            },
+            members: 4,
+            mean_rms_m: mean,
+            std_rms_m: spread * mean,
+            min_rms_m: mean,
+            max_rms_m: mean,
+            regimes: Vec::new(),
+            impacting_members: k,
+        };
+        let mut points: Vec<IcPoint> = impacting
+            .iter()
+            .map(|&(ratio, k)| IcPoint {
+                variant_key: "frictionless".into(),
+                gap_m: 0.1e-3,
+                ratio,
+                rest_rms_m: 1e-5,
+                rest_impacts_per_cycle: 0.0,
+                stats: stats(ratio, k, 1.02e-5),
+            })
+            .collect();
+        for v in variants
+            .iter()
+            .filter(|v| v.friction != FrictionModel::None)
+        {
+            points.push(IcPoint {
+                variant_key: v.key.clone(),
+                gap_m: 1e-3,
+                ratio: 1.0,
+                rest_rms_m: 2e-5,
+                rest_impacts_per_cycle: 2.0,
+                stats: stats(1.0, 4, 2e-5),
+            });
+        }
+        ReportInput {
+            settings: RunSettings::default(),
+            variants,
+            solvers: Vec::new(),
+            ratios: vec![0.98, 0.99, 1.0, 1.01],
+            quick: false,
+            files: Vec::new(),
+            ensemble: Some(IcEnsemble {
+                solver: "exact".into(),
+                seed: 1,
+                members: 4,
+                ranges: IcRanges {
+                    u_m: (-1e-6, 1e-6),
+                    du_m_s: (0.0, 0.0),
+                    w_over_half_gap: (-1.0, 1.0),
+                    dw_m_s: (-1e-3, 1e-3),
+                },
+                points,
+                wall_s: 0.0,
+            }),
+        }
+    }
+
+    fn verdict(input: &ReportInput, id: &str) -> Vec<String> {
+        claims(input)
+            .into_iter()
+            .find(|c| c.id == id)
+            .unwrap_or_else(|| panic!("no claim {id}"))
+            .verdicts()
+    }
+
+    #[test]
+    fn initial_condition_claims_follow_their_rules() {
+        let band = [(0.99, 4), (1.0, 4), (1.01, 4)];
+        let quiet = [&[(0.98, 0)][..], &band].concat();
+        let input = ic_input(&quiet, 0.03);
+        assert_eq!(verdict(&input, "F5"), ["reproduced"]);
+        assert_eq!(verdict(&input, "F6"), ["reproduced"]);
+        assert_eq!(verdict(&input, "R10"), ["reproduced"]);
+        // One member impacting outside the band breaks F6.
+        let input = ic_input(&[&[(0.98, 1)][..], &band].concat(), 0.03);
+        assert_eq!(verdict(&input, "F6"), ["not reproduced"]);
+        // No ratio outside the band: nothing supports F6.
+        assert_eq!(verdict(&ic_input(&band, 0.03), "F6"), ["not reproduced"]);
+        // Spread above 5 % breaks F5 and R10.
+        let input = ic_input(&quiet, 0.06);
+        assert_eq!(verdict(&input, "F5"), ["not reproduced"]);
+        assert_eq!(verdict(&input, "R10"), ["not reproduced"]);
+        // Mean 2 % off the RMS from rest passes; 13 % off breaks F5.
+        let mut off = ic_input(&quiet, 0.03);
+        let e = off.ensemble.as_mut().unwrap();
+        e.points[2].rest_rms_m = 0.9e-5;
+        assert!((e.points[2].ratio - 1.0).abs() < 1e-12);
+        assert_eq!(verdict(&off, "F5"), ["not reproduced"]);
+        // The claims say who computed them.
+        let c = claims(&input);
+        assert!(c
+            .iter()
+            .filter(|c| ["F5", "F6", "R10"].contains(&c.id.as_str()))
+            .all(|c| c.by.as_deref() == Some("exact ensemble")));
+        // Skipped ensemble: no such claims.
+        let mut none = ic_input(&quiet, 0.03);
+        none.ensemble = None;
+        assert!(claims(&none).iter().all(|c| c.by.is_none()));
+        let md = render(
+            &ic_input(&quiet, 0.03),
+            &claims(&ic_input(&quiet, 0.03)),
+            0.0,
+        );
+        assert!(md.contains("| F6 |") && md.contains("0.98: 0/4"));
     }
 
     #[test]

@@ -414,7 +414,8 @@ fn paper_quick_writes_everything() {
     }
     let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
     for id in [
-        "F1", "F2", "F3", "F4", "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "R9",
+        "F1", "F2", "F3", "F4", "R1", "R2", "R3", "R4", "R5", "R6", "R7", "R8", "R9", "F5", "F6",
+        "R10",
     ] {
         let n = report.matches(&format!("| {id} |")).count();
         // Summary row plus one row per parameter set.
@@ -430,13 +431,55 @@ fn paper_quick_writes_everything() {
         "physically consistent",
         "Energy books",
         "the work of the cutting force",
+        "Robustness to initial conditions",
+        "exact ensemble: verdict",
+        "seed 1",
     ] {
         assert!(report.contains(needle), "REPORT.md lacks {needle:?}");
     }
+    // Initial-condition ensemble: --quick has 4 members; frictionless 0.1 mm at the 11 ratios,
+    // then the three friction sets at 1 mm, r = 1.
+    let (header, rows) = csv(&out.join("ic_ensemble.csv"));
+    assert!(header.starts_with("set,friction,friction_force_n,gap_mm,ratio,solver,seed,members,"));
+    assert!(header.contains("impacting_members,impacting_fraction,regimes"));
+    assert_eq!(rows.len(), 11 + 3);
+    let col = |name: &str| header.split(',').position(|h| h == name).unwrap();
+    for r in &rows {
+        assert_eq!(r[col("solver")], "exact");
+        assert_eq!(r[col("members")], "4");
+        let k: usize = r[col("impacting_members")].parse().unwrap();
+        assert!(k <= 4);
+        let mean: f64 = r[col("mean_rms_m")].parse().unwrap();
+        assert!(mean > 0.0 && mean.is_finite());
+    }
+    assert_eq!(rows.iter().filter(|r| r[0] == "frictionless").count(), 11);
+    assert_eq!(rows[11][col("ratio")], "1");
+    assert_eq!(rows[11][col("gap_mm")], "1");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
-    assert_eq!(json["claims"].as_array().unwrap().len(), 13);
+    assert_eq!(json["claims"].as_array().unwrap().len(), 16);
+    assert_eq!(json["ic_ensemble"]["points"].as_array().unwrap().len(), 14);
+    assert_eq!(json["ic_ensemble"]["seed"], 1);
     no_partial_files(&out);
+
+    // --ensemble-members 0 skips the ensemble: no CSV, no claims from it.
+    let out0 = dir.path().join("paper-no-ensemble");
+    ok(&[
+        "paper",
+        "--quick",
+        "--duration",
+        "0.02",
+        "--solvers",
+        "exact",
+        "--ensemble-members",
+        "0",
+        "--out",
+        out0.to_str().unwrap(),
+    ]);
+    assert!(!out0.join("ic_ensemble.csv").exists());
+    let report = std::fs::read_to_string(out0.join("REPORT.md")).unwrap();
+    assert!(!report.contains("| F5 |") && !report.contains("Robustness to initial"));
+    no_partial_files(&out0);
 }
 
 #[test]

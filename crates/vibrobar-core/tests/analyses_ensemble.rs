@@ -2,7 +2,7 @@
 
 use vibrobar_core::analysis::ensemble::{run_ensemble, EnsembleParams, IcRanges, SplitMix64};
 use vibrobar_core::analysis::map::{Axis, Grid, GridAxis, MapSpec};
-use vibrobar_core::analysis::regime::Tolerances;
+use vibrobar_core::analysis::regime::{Regime, Tolerances};
 use vibrobar_core::analysis::SweepBase;
 use vibrobar_core::solver::Rk4;
 use vibrobar_core::{FrictionModel, RunSettings};
@@ -115,4 +115,60 @@ fn ensemble_is_reproducible_seed_sensitive_and_thread_count_independent() {
     }
     assert_eq!(a[0].point.index, 0);
     assert_eq!(a[1].point.index, 1);
+}
+
+fn one_point(ratio: f64, gap_m: f64) -> Vec<vibrobar_core::analysis::map::GridPoint> {
+    Grid::new(vec![
+        GridAxis {
+            axis: Axis::FreqRatio,
+            values: vec![ratio],
+        },
+        GridAxis {
+            axis: Axis::GapM,
+            values: vec![gap_m],
+        },
+    ])
+    .unwrap()
+    .points()
+}
+
+#[test]
+fn impacting_members_counts_steady_state_impacts() {
+    let solver = vibrobar_core::solver::Exact::default();
+    let mut sp = spec();
+    sp.settings = RunSettings {
+        duration_s: 0.5,
+        dt_s: 1e-6,
+        rms_fraction: 0.8,
+    };
+    // Ball at rest (ẇ = u̇ = 0) within half of l_g of the centre of a 1 mm cavity, bar within
+    // ±2 µm: frictionless, the ball never moves and the bar's amplitude (≈ 17 µm at r = 0.95)
+    // stays far below the 250 µm of clearance left: no member can impact.
+    let still = EnsembleParams {
+        seed: 3,
+        members: 8,
+        ranges: IcRanges {
+            u_m: (-2e-6, 2e-6),
+            du_m_s: (0.0, 0.0),
+            w_over_half_gap: (-0.5, 0.5),
+            dw_m_s: (0.0, 0.0),
+        },
+    };
+    let s = run_ensemble(&sp, &solver, &one_point(0.95, 1e-3), &still, &|_, _| {}).unwrap();
+    assert_eq!(s[0].impacting_members, 0);
+    assert_eq!(s[0].regimes, vec![(Regime::None, 8)]);
+    // Same point, gap 0.1 mm, every ball started with 0.1–1 mm/s relative velocity: a free ball
+    // without friction can only stay off the walls with a velocity exactly equal to the bar's
+    // mean velocity (0); after impacts it keeps a nonzero one, crosses the 0.1 mm cavity in
+    // ≲ 0.1 s and keeps hitting the walls throughout the window. Every member impacts.
+    let moving = EnsembleParams {
+        ranges: IcRanges {
+            dw_m_s: (1e-4, 1e-3),
+            ..still.ranges
+        },
+        ..still
+    };
+    let s = run_ensemble(&sp, &solver, &one_point(0.95, 1e-4), &moving, &|_, _| {}).unwrap();
+    assert_eq!(s[0].impacting_members, 8);
+    assert!(s[0].regimes.iter().all(|(r, _)| *r != Regime::None));
 }

@@ -4,15 +4,20 @@ use anyhow::{bail, Result};
 use plotters::style::RGBColor;
 use std::path::Path;
 use std::time::Instant;
+use vibrobar_core::analysis::ensemble::{run_ensemble, EnsembleParams, IcRanges};
+use vibrobar_core::analysis::map::{run_map, Axis, Grid, GridAxis, MapSpec};
+use vibrobar_core::analysis::regime::Tolerances;
 use vibrobar_core::analysis::{SweepBase, SweepPoint};
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
 use vibrobar_core::{FrictionModel, RunSettings, State, System};
 
 use super::{assemble_sweep, fmt_secs, run_cases, solver, sweep_cases, Case};
 use crate::cli::PaperArgs;
+use crate::output::write_atomic;
 use crate::output::{grid_num, write_history_csv, write_json, write_sweep_csv, write_text};
 use crate::plot::{rms_vs_ratio, time_history, Curve};
-use crate::report::{claims, render, ReportInput, Role, SolverData, Variant};
+use crate::progress::Progress;
+use crate::report::{claims, render, IcEnsemble, IcPoint, ReportInput, Role, SolverData, Variant};
 use crate::scenario::{check_positive, ratio_range};
 
 /// Friction force at which the as-published model reproduces the paper's friction figures.
@@ -75,6 +80,147 @@ pub fn variants(reproducing_n: f64) -> Vec<Variant> {
             None,
         ),
     ]
+}
+
+/// Seed of the initial-condition ensemble.
+pub const ENSEMBLE_SEED: u64 = 1;
+/// Members of the initial-condition ensemble per point (full run, --quick).
+pub const ENSEMBLE_MEMBERS: (usize, usize) = (16, 4);
+/// Half range of the initial relative velocity ẇ0 of the ensemble, m/s.
+pub const ENSEMBLE_DW_M_S: f64 = 1e-3;
+/// Solver of the ensemble: event-driven, milliseconds per run (rk4 would take minutes).
+pub const ENSEMBLE_SOLVER: &str = "exact";
+
+/// Initial conditions of the ensemble, after the paper's "nonzero initial values of bar
+/// displacement and relative velocity": u0 within ±F0/K (the static deflection under the forcing
+/// amplitude), ball anywhere in the cavity, |ẇ0| ≤ 1 mm/s, u̇0 = 0.
+pub fn ensemble_ranges(base: &SweepBase) -> IcRanges {
+    let u = base.forcing.amplitude_n / base.damped_bar.stiffness_n_per_m;
+    IcRanges {
+        u_m: (-u, u),
+        du_m_s: (0.0, 0.0),
+        w_over_half_gap: (-1.0, 1.0),
+        dw_m_s: (-ENSEMBLE_DW_M_S, ENSEMBLE_DW_M_S),
+    }
+}
+
+/// The initial-condition ensemble: frictionless at gap 0.1 mm at every ratio (the claims on
+/// impacts and on robustness near resonance), each friction set at gap 1.0 mm and r = 1. Each
+/// point also gets a run from the paper's start with the same solver, as the reference.
+pub fn run_ic_ensemble(
+    settings: &RunSettings,
+    variants: &[Variant],
+    ratios: &[f64],
+    members: usize,
+) -> Result<IcEnsemble> {
+    let t0 = Instant::now();
+    let solver = solver(ENSEMBLE_SOLVER, settings)?;
+    let base = SweepBase::paper();
+    let params = EnsembleParams {
+        seed: ENSEMBLE_SEED,
+        members,
+        ranges: ensemble_ranges(&base),
+    };
+    let mut points = Vec::new();
+    for v in variants {
+        let (gap_m, rs) = if v.friction == FrictionModel::None {
+            (0.1e-3, ratios.to_vec())
+        } else {
+            (1.0e-3, vec![1.0])
+        };
+        let spec = MapSpec {
+            base: SweepBase {
+                ball: vibrobar_core::Damper {
+                    friction_force_n: v.force_n,
+                    ..base.ball
+                },
+                ..base
+            },
+            friction: v.friction,
+            settings: *settings,
+            tolerances: Tolerances::default(),
+        };
+        let grid = Grid::new(vec![
+            GridAxis {
+                axis: Axis::FreqRatio,
+                values: rs,
+            },
+            GridAxis {
+                axis: Axis::GapM,
+                values: vec![gap_m],
+            },
+        ])?;
+        let pts = grid.points();
+        let rest = run_map(&spec, solver.as_ref(), &pts, &|_, _| {})?;
+        let bar = Progress::new(&format!("ensemble [{}]", v.key), pts.len() * members, 0);
+        let stats = run_ensemble(&spec, solver.as_ref(), &pts, &params, &bar.callback())?;
+        bar.finish();
+        for (r, st) in rest.into_iter().zip(stats) {
+            points.push(IcPoint {
+                variant_key: v.key.clone(),
+                gap_m,
+                ratio: r.ratio,
+                rest_rms_m: r.rms_damped_m,
+                rest_impacts_per_cycle: r.impacts_per_cycle,
+                stats: st,
+            });
+        }
+    }
+    Ok(IcEnsemble {
+        solver: solver.name().to_string(),
+        seed: ENSEMBLE_SEED,
+        members,
+        ranges: params.ranges,
+        points,
+        wall_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// Header of `ic_ensemble.csv`.
+pub const IC_ENSEMBLE_HEADER: &str = "set,friction,friction_force_n,gap_mm,ratio,solver,seed,\
+members,rms_rest_m,impacts_per_cycle_rest,mean_rms_m,std_rms_m,rel_spread,mean_vs_rest,\
+min_rms_m,max_rms_m,impacting_members,impacting_fraction,regimes";
+
+/// Write `ic_ensemble.csv`: one row per point (`regimes` = `regime:count` joined by `;`;
+/// `friction_force_n` empty when the level is the stated η/r·m_d·g).
+fn write_ic_csv(path: &Path, e: &IcEnsemble, variants: &[Variant]) -> Result<()> {
+    write_atomic(path, |w| {
+        writeln!(w, "{IC_ENSEMBLE_HEADER}")?;
+        for p in &e.points {
+            let v = variants.iter().find(|v| v.key == p.variant_key);
+            let regimes: Vec<String> = p
+                .stats
+                .regimes
+                .iter()
+                .map(|(r, n)| format!("{r}:{n}"))
+                .collect();
+            writeln!(
+                w,
+                "{},{},{},{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{}",
+                p.variant_key,
+                v.map_or(String::new(), |v| v.friction.to_string()),
+                v.and_then(|v| v.force_n)
+                    .map_or(String::new(), |f| f.to_string()),
+                grid_num(p.gap_m * 1e3),
+                grid_num(p.ratio),
+                e.solver,
+                e.seed,
+                p.stats.members,
+                p.rest_rms_m,
+                p.rest_impacts_per_cycle,
+                p.stats.mean_rms_m,
+                p.stats.std_rms_m,
+                p.rel_spread(),
+                p.mean_vs_rest(),
+                p.stats.min_rms_m,
+                p.stats.max_rms_m,
+                p.stats.impacting_members,
+                p.impacting_fraction(),
+                regimes.join(";")
+            )?;
+        }
+        Ok(())
+    })
 }
 
 /// Run settings of the paper command.
@@ -227,6 +373,22 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
         eprintln!("  {name}: runs done in {}", fmt_secs(d.wall_s));
         data.push(d);
     }
+    let members = args.ensemble_members.unwrap_or(if args.quick {
+        ENSEMBLE_MEMBERS.1
+    } else {
+        ENSEMBLE_MEMBERS.0
+    });
+    let ensemble = if members == 0 {
+        None
+    } else {
+        let e = run_ic_ensemble(&settings, &variants, &ratios, members)?;
+        eprintln!(
+            "  initial-condition ensemble ({ENSEMBLE_SOLVER}, {} points × {members}): done in {}",
+            e.points.len(),
+            fmt_secs(e.wall_s)
+        );
+        Some(e)
+    };
 
     let mut files = Vec::new();
     let first = &data[0];
@@ -321,6 +483,10 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
         }
     }
 
+    if let Some(e) = &ensemble {
+        write_ic_csv(&out.join("ic_ensemble.csv"), e, &variants)?;
+        files.push("ic_ensemble.csv".into());
+    }
     let input = ReportInput {
         settings,
         variants: variants.clone(),
@@ -333,6 +499,7 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
             f.push("REPORT.md".into());
             f
         },
+        ensemble,
     };
     let cl = claims(&input);
     write_json(
@@ -352,6 +519,32 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
                     "friction_work_j": r.friction_work_j,
                 })).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
+            "ic_ensemble": input.ensemble.as_ref().map(|e| serde_json::json!({
+                "solver": e.solver,
+                "seed": e.seed,
+                "members": e.members,
+                "ranges": {
+                    "u_m": e.ranges.u_m,
+                    "du_m_s": e.ranges.du_m_s,
+                    "w_over_half_gap": e.ranges.w_over_half_gap,
+                    "dw_m_s": e.ranges.dw_m_s,
+                },
+                "impacts_counted": "members with >= 1 impact in the RMS window",
+                "wall_s": e.wall_s,
+                "points": e.points.iter().map(|p| serde_json::json!({
+                    "set": p.variant_key,
+                    "gap_m": p.gap_m,
+                    "ratio": p.ratio,
+                    "rms_rest_m": p.rest_rms_m,
+                    "impacts_per_cycle_rest": p.rest_impacts_per_cycle,
+                    "mean_rms_m": p.stats.mean_rms_m,
+                    "std_rms_m": p.stats.std_rms_m,
+                    "min_rms_m": p.stats.min_rms_m,
+                    "max_rms_m": p.stats.max_rms_m,
+                    "impacting_members": p.stats.impacting_members,
+                    "regimes": p.stats.regimes.iter().map(|(r, n)| (r.to_string(), *n)).collect::<Vec<_>>(),
+                })).collect::<Vec<_>>(),
+            })),
         }),
     )?;
     let report = render(&input, &cl, t0.elapsed().as_secs_f64());
@@ -369,7 +562,8 @@ fn print_summary(out: &Path, input: &ReportInput, cl: &[crate::report::Claim], w
     );
     println!("  report : {}", out.join("REPORT.md").display());
     for c in cl {
-        println!("  {:<3} {}: {}", c.id, c.text, c.verdicts().join(" | "));
+        let by = c.by.as_ref().map_or(String::new(), |b| format!(" [{b}]"));
+        println!("  {:<3} {}: {}{by}", c.id, c.text, c.verdicts().join(" | "));
     }
     println!("  total wall time: {}", fmt_secs(wall));
 }

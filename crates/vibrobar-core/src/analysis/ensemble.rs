@@ -145,6 +145,11 @@ pub struct EnsembleStats {
     pub max_rms_m: f64,
     /// How many members ended in each regime, sorted by regime.
     pub regimes: Vec<(Regime, usize)>,
+    /// Members with at least one impact inside the RMS window (the steady state). Impacts
+    /// before the window are not counted: a ball started with a relative velocity in a narrow
+    /// cavity hits a wall within the first milliseconds, so a whole-run count would say nothing
+    /// about the steady state.
+    pub impacting_members: usize,
 }
 
 /// Run the ensemble at each point (damped bar only) in parallel.
@@ -170,7 +175,7 @@ pub fn run_ensemble(
                 .map_or(0.0, |d| d.half_gap_m());
             let init = params.initial_state(i, lg);
             compute_point_from(spec, solver, pt, &init, f64::NAN)
-                .map(|r| (r.rms_damped_m, r.regime))
+                .map(|r| (r.rms_damped_m, r.regime, r.impacts_per_cycle > 0.0))
         },
         progress,
     );
@@ -198,6 +203,7 @@ pub fn run_ensemble(
                 min_rms_m: rs.iter().map(|r| r.0).fold(f64::INFINITY, f64::min),
                 max_rms_m: rs.iter().map(|r| r.0).fold(f64::NEG_INFINITY, f64::max),
                 regimes: counts.into_iter().collect(),
+                impacting_members: rs.iter().filter(|r| r.2).count(),
             }
         })
         .collect())
