@@ -50,7 +50,7 @@ use super::{
 use crate::error::SimError;
 use crate::model::impact_energy_loss_j;
 use crate::params::{FrictionModel, State, System};
-use expsum::{integral_product, ExpSum, Trig};
+use expsum::{integral_product, integral_square, ExpSum, Trig};
 use roots::{first_root_multi, Cand, Root};
 
 /// The exact event-driven solver.
@@ -270,15 +270,15 @@ impl Segment for ExactSegment {
         s
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
-        integral_product(&self.u, &self.u, a_s - self.t0, b_s - self.t0)
+        integral_square(&self.u, a_s - self.t0, b_s - self.t0)
     }
     fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals {
         let (a, b) = (a_s - self.t0, b_s - self.t0);
         let du = self.u.deriv();
         SegmentIntegrals {
-            u2_m2_s: integral_product(&self.u, &self.u, a, b),
+            u2_m2_s: integral_square(&self.u, a, b),
             forcing_work_j: integral_product(&self.force, &du, a, b),
-            viscous_loss_j: self.c * integral_product(&du, &du, a, b),
+            viscous_loss_j: self.c * integral_square(&du, a, b),
             friction_work_j: if self.fb == 0.0 {
                 0.0
             } else {
