@@ -67,6 +67,17 @@ impl Trig {
     /// Evaluate at `τ` for frequencies `om`, `wd` and decay `al`.
     #[inline]
     pub fn new(tau: f64, om: f64, al: f64, wd: f64) -> Trig {
+        if tau.to_bits() == 0 {
+            // τ = +0, the start of every search: the values `sin_cos` and `exp_m1` return there.
+            return Trig {
+                ch: 1.0,
+                sh: 0.0,
+                em1: -0.0,
+                cd: 1.0,
+                sd: 0.0,
+                tau,
+            };
+        }
         let (sh, ch) = (om * tau).sin_cos();
         let (sd, cd) = (wd * tau).sin_cos();
         Trig {

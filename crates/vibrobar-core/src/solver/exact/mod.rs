@@ -132,7 +132,8 @@ impl Consts {
         }
     }
 
-    /// Bar (or pair, with `mass`) closed form from `(u0, du0)` at `t_seg`, extra constant force `fc`.
+    /// Bar (or pair, with `mass`) closed form from `(u0, du0)` at `t_seg`, extra constant force
+    /// `fc`; and the forcing over the segment (both from one `sin_cos` of the phase).
     fn bar_sum(
         &self,
         mass: f64,
@@ -140,7 +141,7 @@ impl Consts {
         t_seg: f64,
         u0: f64,
         du0: f64,
-    ) -> Result<ExpSum, SimError> {
+    ) -> Result<(ExpSum, ExpSum), SimError> {
         let (s0, c0) = (self.om * t_seg).sin_cos();
         let kk = self.k - mass * self.om * self.om;
         let cw = self.c * self.om;
@@ -163,7 +164,7 @@ impl Consts {
         let wd = (self.k / mass - al * al).sqrt();
         let p = u0 - uc - a;
         let q = (du0 - self.om * b + al * p) / wd;
-        Ok(ExpSum {
+        let u = ExpSum {
             f0: u0,
             k0: uc,
             c1: 0.0,
@@ -175,11 +176,13 @@ impl Consts {
             q,
             al,
             wd,
-        })
+        };
+        let force = self.force_sum(s0, c0, &u);
+        Ok((u, force))
     }
 
-    fn force_sum(&self, t_seg: f64, like: &ExpSum) -> ExpSum {
-        let (s0, c0) = (self.om * t_seg).sin_cos();
+    /// The forcing from `(sin, cos)(Ω t_seg)`.
+    fn force_sum(&self, s0: f64, c0: f64, like: &ExpSum) -> ExpSum {
         ExpSum {
             f0: self.fs + self.f0 * s0,
             k0: self.fs,
@@ -419,14 +422,14 @@ impl Solver for Exact {
         if sys.damper.is_none() {
             s.w = 0.0;
             s.dw = 0.0;
-            let u = cs.bar_sum(cs.m, 0.0, s.t, s.u, s.du)?;
+            let (u, force) = cs.bar_sum(cs.m, 0.0, s.t, s.u, s.du)?;
             let seg = ExactSegment {
                 t0: s.t,
                 t1: t_end_s,
                 mode: Mode::NoBall,
                 u,
                 w: u.zero_like(),
-                force: cs.force_sum(s.t, &u),
+                force,
                 c: cs.c,
                 fb: 0.0,
             };
@@ -453,7 +456,7 @@ impl Solver for Exact {
                     k_sw,
                 } => {
                     let fb = cs.fb(sigma);
-                    let u = cs.bar_sum(cs.m, -fb, s.t, s.u, s.du)?;
+                    let (u, force) = cs.bar_sum(cs.m, -fb, s.t, s.u, s.du)?;
                     let w = ExpSum {
                         f0: s.w,
                         k0: s.w + u.a + u.p,
@@ -514,7 +517,7 @@ impl Solver for Exact {
                         mode: Mode::Free,
                         u,
                         w,
-                        force: cs.force_sum(s.t, &u),
+                        force,
                         c: cs.c,
                         fb,
                     };
@@ -541,7 +544,7 @@ impl Solver for Exact {
                     s = next;
                 }
                 Md::Stick | Md::Contact(_) => {
-                    let u = cs.bar_sum(cs.m + cs.md, 0.0, s.t, s.u, s.du)?;
+                    let (u, force) = cs.bar_sum(cs.m + cs.md, 0.0, s.t, s.u, s.du)?;
                     let ddu = u.deriv().deriv();
                     let w = ExpSum::constant(s.w, &u);
                     // Margins that stay positive while the mode holds.
@@ -583,7 +586,7 @@ impl Solver for Exact {
                         },
                         u,
                         w,
-                        force: cs.force_sum(s.t, &u),
+                        force,
                         c: cs.c,
                         fb: 0.0,
                     };
@@ -782,14 +785,14 @@ fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Re
     let dv = s.du + s.dw;
     let v = (cs.m * s.du + cs.md * dv) / mtot;
     let loss = 0.5 * cs.m * s.du * s.du + 0.5 * cs.md * dv * dv - 0.5 * mtot * v * v;
-    let u = cs.bar_sum(mtot, 0.0, s.t, s.u, v)?;
+    let (u, force) = cs.bar_sum(mtot, 0.0, s.t, s.u, v)?;
     let seg = ExactSegment {
         t0: s.t,
         t1: s.t + j.dt,
         mode: Mode::Contact(wall_of(j.sw)),
         u,
         w: ExpSum::constant(j.sw * cs.lg, &u),
-        force: cs.force_sum(s.t, &u),
+        force,
         c: cs.c,
         fb: 0.0,
     };

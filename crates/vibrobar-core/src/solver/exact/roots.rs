@@ -139,6 +139,7 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
             }
         }
     }
+    let env = Envelope::new(om, al, wd);
     let mut tau = tau;
     for _ in 0..MAX_ITER {
         let trig = Trig::new(tau, om, al, wd);
@@ -160,25 +161,30 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
             }
             let f = f.max(0.0);
             // Quadratic bound with B ≥ |g''| on the rest of the interval …
-            let h2_amp = quad_step(f, f1, bconst[i] + bdec[i] * decay);
+            let b_amp = bconst[i] + bdec[i] * decay;
             // … or with the envelope of the oscillating parts taken together: at τ+s,
             // H'' + D'' = Re[e^{iΩs}(Z + λ²D̂e^{λτ}(e^{(−α+iδ)s} − 1))], Z = −Ω²Ĥe^{iΩτ} + λ²D̂e^{λτ},
             // δ = ω_d − Ω, so |g''| ≤ 2|c2| + |Z| + ω_n²|D̂|e^{−ατ}(α + |δ|)s. Near resonance the
             // steady and transient parts cancel and |Z| ≪ Ω²|Ĥ| + ω_n²|D̂|.
             let g = &c.g;
             let e = decay;
-            let (z2, z3) = envelope(g, &trig);
-            let round = 8.0 * f64::EPSILON * (bconst[i] + bdec[i] * e);
-            let bz = (2.0 * g.c2.abs() + z2) * (1.0 + 1e-12) + round;
-            let bd = bdrift[i] * e;
-            let h0 = quad_step(f, f1, bz);
-            let h2_env = if h0.is_finite() {
-                // Valid on [0, h0] with the drift term at its largest there; the root is ≤ h0.
-                quad_step(f, f1, bz + bd * h0)
+            let ph = env.phasors(g, &trig);
+            let round = 8.0 * f64::EPSILON * b_amp;
+            let bz = (2.0 * g.c2.abs() + env.z2(&ph)) * (1.0 + 1e-12) + round;
+            // quad_step is non-increasing in the bound: when the amplitude bound is not larger
+            // than the envelope at τ, its step is the longer proof, and the envelope steps (both
+            // ≤ quad_step(f, f1, bz)) need not be computed.
+            let h2 = if b_amp <= bz {
+                quad_step(f, f1, b_amp)
             } else {
-                0.0
+                let h0 = quad_step(f, f1, bz);
+                if h0.is_finite() {
+                    // Valid on [0, h0] with the drift term at its largest there; the root is ≤ h0.
+                    quad_step(f, f1, b_amp.min(bz + bdrift[i] * e * h0))
+                } else {
+                    quad_step(f, f1, b_amp)
+                }
             };
-            let h2 = h2_amp.max(h2_env);
             // … and, within a horizon H, the cubic bound with the actual g'':
             // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6) h² for h ≤ H. Both are proofs; take the longer.
             // H is set a little beyond the zero of the local quadratic model, so that near a
@@ -193,9 +199,10 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
             let big_h = (1.1 * h_model).min(8.0 * h2);
             let h3 = if big_h.is_finite() && big_h > h2 {
                 // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
-                let round3 = 8.0 * f64::EPSILON * (b3const[i] + b3dec[i] * e);
-                let b3_env = z3 * (1.0 + 1e-12) + round3 + bdrift[i] * wn * e * big_h;
-                let b3 = (b3const[i] + b3dec[i] * decay).min(b3_env);
+                let b3_amp = b3const[i] + b3dec[i] * decay;
+                let round3 = 8.0 * f64::EPSILON * b3_amp;
+                let b3_env = env.z3(&ph) * (1.0 + 1e-12) + round3 + bdrift[i] * wn * e * big_h;
+                let b3 = b3_amp.min(b3_env);
                 let b_eff = b3 * big_h / 3.0 - f2;
                 quad_step(f, f1, b_eff.max(0.0)).min(big_h)
             } else {
@@ -210,8 +217,7 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
                 // Upper bound g ≤ f + f1 h + B h²/2: if it reaches 0 by `h_up`, a zero lies in
                 // [τ + hi, τ + h_up]; once that bracket is below the time resolution, stop at
                 // its proven-free left end.
-                let bnd = bconst[i] + bdec[i] * decay;
-                let disc = f1 * f1 - 2.0 * bnd * f;
+                let disc = f1 * f1 - 2.0 * b_amp * f;
                 if disc >= 0.0 {
                     let h_up = 2.0 * f / (-f1 + disc.sqrt());
                     if h_up - hi <= tol_t && tau + hi < t_max {
@@ -236,32 +242,65 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
     (Root::Stalled(tau), 0)
 }
 
+/// The powers `(iΩ)^n`, `λ^n` (`n = 2, 3`) of one search, for the envelopes of its functions.
+#[derive(Debug, Clone, Copy)]
+struct Envelope {
+    om2: f64,
+    om3: f64,
+    l2: (f64, f64),
+    l3: (f64, f64),
+}
+
+impl Envelope {
+    fn new(om: f64, al: f64, wd: f64) -> Envelope {
+        let (l2r, l2i) = (al * al - wd * wd, -2.0 * al * wd);
+        Envelope {
+            om2: om * om,
+            om3: om * om * om,
+            l2: (l2r, l2i),
+            l3: (-al * l2r - wd * l2i, wd * l2r - al * l2i),
+        }
+    }
+
+    /// `Ĥ e^{iΩτ}` and `D̂ e^{λτ}` as `[hr, hi, dr, di]`.
+    #[inline]
+    fn phasors(&self, g: &ExpSum, trig: &Trig) -> [f64; 4] {
+        let e = 1.0 + trig.em1;
+        [
+            g.a * trig.ch + g.b * trig.sh,
+            g.a * trig.sh - g.b * trig.ch,
+            e * (g.p * trig.cd + g.q * trig.sd),
+            e * (g.p * trig.sd - g.q * trig.cd),
+        ]
+    }
+
+    /// `|Z₂| = |(iΩ)²Ĥe^{iΩτ} + λ²D̂e^{λτ}|`, with `(iΩ)² = −Ω²`.
+    #[inline]
+    fn z2(&self, &[hr, hi, dr, di]: &[f64; 4]) -> f64 {
+        let (l2r, l2i) = self.l2;
+        let z2r = -self.om2 * hr + (l2r * dr - l2i * di);
+        let z2i = -self.om2 * hi + (l2r * di + l2i * dr);
+        (z2r * z2r + z2i * z2i).sqrt()
+    }
+
+    /// `|Z₃| = |(iΩ)³Ĥe^{iΩτ} + λ³D̂e^{λτ}|`, with `(iΩ)³ = −iΩ³`.
+    #[inline]
+    fn z3(&self, &[hr, hi, dr, di]: &[f64; 4]) -> f64 {
+        let (l3r, l3i) = self.l3;
+        let z3r = self.om3 * hi + (l3r * dr - l3i * di);
+        let z3i = -self.om3 * hr + (l3r * di + l3i * dr);
+        (z3r * z3r + z3i * z3i).sqrt()
+    }
+}
+
 /// `(|Z₂|, |Z₃|)`: the envelopes at `τ` of the second and third derivatives of the oscillating
 /// parts taken together, `Z_n = (iΩ)^n Ĥ e^{iΩτ} + λ^n D̂ e^{λτ}` (`Ĥ = a − ib`, `D̂ = p − iq`,
 /// `λ = −α + iω_d`). On `[τ, τ+s]`, `|H^(n) + D^(n)| ≤ |Z_n| + ω_n^n |D̂| e^{−ατ}(α + |ω_d − Ω|) s`,
 /// because `e^{λ(τ+s)} = e^{λτ} e^{iΩs} e^{(−α + i(ω_d − Ω))s}` and `|e^z − 1| ≤ |z|` for `Re z ≤ 0`.
 pub fn envelope(g: &ExpSum, trig: &Trig) -> (f64, f64) {
-    let (om, al, wd) = (g.om, g.al, g.wd);
-    let e = 1.0 + trig.em1;
-    // Ĥ e^{iΩτ} and D̂ e^{λτ}.
-    let (hr, hi) = (g.a * trig.ch + g.b * trig.sh, g.a * trig.sh - g.b * trig.ch);
-    let (dr, di) = (
-        e * (g.p * trig.cd + g.q * trig.sd),
-        e * (g.p * trig.sd - g.q * trig.cd),
-    );
-    let (l2r, l2i) = (al * al - wd * wd, -2.0 * al * wd);
-    let (l3r, l3i) = (-al * l2r - wd * l2i, wd * l2r - al * l2i);
-    let om2 = om * om;
-    let om3 = om2 * om;
-    // (iΩ)² = −Ω², (iΩ)³ = −iΩ³.
-    let z2r = -om2 * hr + (l2r * dr - l2i * di);
-    let z2i = -om2 * hi + (l2r * di + l2i * dr);
-    let z3r = om3 * hi + (l3r * dr - l3i * di);
-    let z3i = -om3 * hr + (l3r * di + l3i * dr);
-    (
-        (z2r * z2r + z2i * z2i).sqrt(),
-        (z3r * z3r + z3i * z3i).sqrt(),
-    )
+    let env = Envelope::new(g.om, g.al, g.wd);
+    let ph = env.phasors(g, trig);
+    (env.z2(&ph), env.z3(&ph))
 }
 
 /// Smallest positive root of `f + f1 h − b h²/2` (`f ≥ 0`, `b ≥ 0`), infinite if none.
