@@ -22,11 +22,15 @@
 //! (`B₃ ≥ |g'''|`), with `H` just beyond the zero of the local quadratic model, which makes the
 //! steps Newton-like near a root; the longer of the two proven steps is taken. All event
 //! functions of a segment are stepped together (the step is the shortest proven one), so the
-//! work is bounded by the earliest event. The search stops at the first of: `g ≤ tol` with
+//! work is bounded by the earliest event. Each evaluation proves its function positive up to
+//! `τ + hᵢ`; that proof stays valid, so a function proven beyond the step the others allow is
+//! not evaluated again until the step would reach its proven end (then the longer of the old and
+//! the fresh proof counts). The search stops at the first of: `g ≤ tol` with
 //! `g' ≤ 0`; a proven-free step below the time resolution while approaching; or a bracket
 //! `[τ + h*, τ + h_up]` below the time resolution, where `h_up` is where the upper bound
 //! `g + g'h + Bh²/2` reaches 0 (then a zero certainly lies in the bracket and `τ + h*` is
-//! returned, so the reported event is never past the zero).
+//! returned, so the reported event is never past the zero; it is returned only when no other
+//! function's proven step is shorter, i.e. none of them can vanish first).
 //!
 //! **Departure.** A segment often starts *on* the zero set of one of its functions (the wall just
 //! hit, `ẇ = 0` just crossed, a wall just released). There `g(0) = 0` analytically, and round-off
@@ -140,24 +144,28 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
         }
     }
     let env = Envelope::new(om, al, wd);
+    // Every evaluation proves its function positive on [τ, τ + hᵢ); `proven[i]` keeps the
+    // furthest such point. A function proven beyond the step the others allow need not be
+    // evaluated again (its proof still holds); one that would limit the step is evaluated
+    // afresh and the longer of the two proofs is kept.
+    let mut proven = [t0; 4];
     let mut tau = tau;
     for _ in 0..MAX_ITER {
         let trig = Trig::new(tau, om, al, wd);
         let decay = 1.0 + trig.em1;
-        let mut h = f64::INFINITY;
-        let mut imin = 0;
-        for (i, c) in cands.iter().take(n).enumerate() {
-            if free_until[i] > tau {
-                let hi = free_until[i] - tau;
-                if hi < h {
-                    h = hi;
-                    imin = i;
-                }
-                continue;
-            }
+        let mut st = Step {
+            h: f64::INFINITY,
+            imin: 0,
+            bracket: None,
+        };
+        let mut pending = [false; 4];
+        // One evaluation of function `i` at τ: `Err(root)` or its proven step and whether the
+        // zero is bracketed to the time resolution just after it.
+        let eval = |i: usize, prev: f64| -> Result<(f64, bool), Root> {
+            let c = &cands[i];
             let [f, f1, f2]: [f64; 3] = c.g.derivs_t(&trig);
             if f <= c.tol && f1 <= 0.0 {
-                return (Root::At(tau), i);
+                return Err(Root::At(tau));
             }
             let f = f.max(0.0);
             // Quadratic bound with B ≥ |g''| on the rest of the interval …
@@ -208,38 +216,93 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
             } else {
                 0.0
             };
-            let hi = h2.max(h3);
+            // An earlier proof may reach further.
+            let hi = h2.max(h3).max(prev);
+            let mut bracketed = false;
             if f1 < 0.0 {
                 if hi <= tol_t {
                     // Within the time resolution of the zero, approaching it: it is here.
-                    return (Root::At(tau), i);
+                    return Err(Root::At(tau));
                 }
                 // Upper bound g ≤ f + f1 h + B h²/2: if it reaches 0 by `h_up`, a zero lies in
                 // [τ + hi, τ + h_up]; once that bracket is below the time resolution, stop at
-                // its proven-free left end.
+                // its proven-free left end (if no other function may vanish before it).
                 let disc = f1 * f1 - 2.0 * b_amp * f;
                 if disc >= 0.0 {
                     let h_up = 2.0 * f / (-f1 + disc.sqrt());
-                    if h_up - hi <= tol_t && tau + hi < t_max {
-                        return (Root::At(tau + hi), i);
-                    }
+                    bracketed = h_up - hi <= tol_t && tau + hi < t_max;
                 }
             }
-            if hi < h {
-                h = hi;
-                imin = i;
+            Ok((hi, bracketed))
+        };
+        for i in 0..n {
+            if free_until[i] > tau {
+                st.take(i, free_until[i] - tau, false);
+            } else if proven[i] > tau {
+                pending[i] = true;
+            } else {
+                match eval(i, 0.0) {
+                    Ok((hi, br)) => {
+                        proven[i] = tau + hi;
+                        st.take(i, hi, br);
+                    }
+                    Err(r) => return (r, i),
+                }
             }
         }
-        let next = tau + h;
+        for i in 0..n {
+            if !pending[i] {
+                continue;
+            }
+            let hl = proven[i] - tau;
+            if hl >= st.h {
+                // Proven beyond the step: not limiting, no evaluation needed.
+                st.take(i, hl, false);
+                continue;
+            }
+            match eval(i, hl) {
+                Ok((hi, br)) => {
+                    proven[i] = tau + hi;
+                    st.take(i, hi, br);
+                }
+                Err(r) => return (r, i),
+            }
+        }
+        if let Some((i, hb)) = st.bracket {
+            if hb <= st.h {
+                return (Root::At(tau + hb), i);
+            }
+        }
+        let next = tau + st.h;
         if next >= t_max {
             return (Root::None, 0);
         }
         if next <= tau {
-            return (Root::At(tau), imin);
+            return (Root::At(tau), st.imin);
         }
         tau = next;
     }
     (Root::Stalled(tau), 0)
+}
+
+/// The shortest proven step of one iteration, the function giving it, and the earliest
+/// bracketed zero.
+struct Step {
+    h: f64,
+    imin: usize,
+    bracket: Option<(usize, f64)>,
+}
+
+impl Step {
+    fn take(&mut self, i: usize, hi: f64, bracketed: bool) {
+        if bracketed && self.bracket.is_none_or(|(_, b)| hi < b) {
+            self.bracket = Some((i, hi));
+        }
+        if hi < self.h {
+            self.h = hi;
+            self.imin = i;
+        }
+    }
 }
 
 /// The powers `(iΩ)^n`, `λ^n` (`n = 2, 3`) of one search, for the envelopes of its functions.
