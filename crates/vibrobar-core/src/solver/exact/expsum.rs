@@ -288,6 +288,11 @@ pub fn integral_product(x: &ExpSum, y: &ExpSum, a: f64, b: f64) -> f64 {
 /// that no term loses precision). The exponentials at an end are products of `e^{iΩτ}` and
 /// `e^{λτ}`; at `a = 0` they are 1 and cost nothing.
 pub fn integral_square(x: &ExpSum, a: f64, b: f64) -> f64 {
+    integral_square_to(x, a, b, None)
+}
+
+/// [`integral_square`] with the transcendentals at `b` given (`end.tau` must be `b`).
+pub fn integral_square_to(x: &ExpSum, a: f64, b: f64, end: Option<&Trig>) -> f64 {
     let h = b - a;
     if h <= 0.0 {
         return 0.0;
@@ -308,7 +313,14 @@ pub fn integral_square(x: &ExpSum, a: f64, b: f64) -> f64 {
         (C(ch, sh), C(e * cd, e * sd))
     };
     let (ha, da) = ends(a);
-    let (hb, db) = ends(b);
+    let (hb, db) = match end {
+        Some(t) => {
+            debug_assert!(t.tau.to_bits() == b.to_bits());
+            let e = 1.0 + t.em1;
+            (C(t.ch, t.sh), C(e * t.cd, e * t.sd))
+        }
+        None => ends(b),
+    };
     // ∫_a^b e^{ντ} dτ from e^{νa}, e^{νb}.
     let int = |nu: C, ea: C, eb: C| -> C {
         let z = nu.scale(h);
@@ -482,6 +494,9 @@ mod tests {
                 let p = integral_product(&x, &x, a, b);
                 let s = integral_square(&x, a, b);
                 assert!((p - s).abs() <= 1e-13 * p.abs(), "{p} {s}");
+                let tb = Trig::new(b, x.om, x.al, x.wd);
+                let st = integral_square_to(&x, a, b, Some(&tb));
+                assert!((st - s).abs() <= 1e-14 * s.abs(), "{st} {s}");
             }
         }
     }

@@ -50,7 +50,7 @@ use super::{
 use crate::error::SimError;
 use crate::model::impact_energy_loss_j;
 use crate::params::{FrictionModel, State, System};
-use expsum::{integral_product, integral_square, ExpSum, Trig};
+use expsum::{integral_product, integral_square, integral_square_to, ExpSum, Trig};
 use roots::{first_root_multi, Cand, Root};
 
 /// The exact event-driven solver.
@@ -240,13 +240,25 @@ pub struct ExactSegment {
     force: ExpSum,
     c: f64,
     fb: f64,
+    /// Transcendentals at the local end time `end.tau` (where the next state is taken), shared
+    /// by that state and `∫u²` up to `t1`.
+    end: Trig,
 }
 
 impl ExactSegment {
     fn at(&self, tau: f64) -> St {
-        let tr = Trig::new(tau, self.u.om, self.u.al, self.u.wd);
-        let [u, du]: [f64; 2] = self.u.derivs_t(&tr);
-        let [w, dw]: [f64; 2] = self.w.derivs_t(&tr);
+        self.at_t(&Trig::new(tau, self.u.om, self.u.al, self.u.wd))
+    }
+
+    /// The state at the local end `end.tau` (time `t0 + end.tau`; callers set `t1`).
+    fn at_end(&self) -> St {
+        self.at_t(&self.end)
+    }
+
+    fn at_t(&self, tr: &Trig) -> St {
+        let tau = tr.tau;
+        let [u, du]: [f64; 2] = self.u.derivs_t(tr);
+        let [w, dw]: [f64; 2] = self.w.derivs_t(tr);
         St {
             t: self.t0 + tau,
             u,
@@ -273,7 +285,13 @@ impl Segment for ExactSegment {
         s
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
-        integral_square(&self.u, a_s - self.t0, b_s - self.t0)
+        if b_s.to_bits() == self.t1.to_bits() {
+            // Up to the segment end: its transcendentals are known (local end `end.tau`, which
+            // is `t1 − t0` up to the rounding of `t1`).
+            integral_square_to(&self.u, a_s - self.t0, self.end.tau, Some(&self.end))
+        } else {
+            integral_square(&self.u, a_s - self.t0, b_s - self.t0)
+        }
     }
     fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals {
         let (a, b) = (a_s - self.t0, b_s - self.t0);
@@ -432,10 +450,11 @@ impl Solver for Exact {
                 force,
                 c: cs.c,
                 fb: 0.0,
+                end: Trig::new(t_end_s - s.t, u.om, u.al, u.wd),
             };
             if t_end_s > s.t {
                 book.obs.segment(&seg);
-                s = seg.at(t_end_s - s.t);
+                s = seg.at_end();
                 s.t = t_end_s;
             }
             if self.check_invariants && !(s.u.is_finite() && s.du.is_finite()) {
@@ -520,11 +539,12 @@ impl Solver for Exact {
                         force,
                         c: cs.c,
                         fb,
+                        end: Trig::new(best, u.om, u.al, u.wd),
                     };
                     if seg.t1 > seg.t0 {
                         book.obs.segment(&seg);
                     }
-                    let mut next = seg.at(best);
+                    let mut next = seg.at_end();
                     next.t = seg.t1;
                     book.check_state(&next)?;
                     if which == 0 {
@@ -589,11 +609,12 @@ impl Solver for Exact {
                         force,
                         c: cs.c,
                         fb: 0.0,
+                        end: Trig::new(best, u.om, u.al, u.wd),
                     };
                     if seg.t1 > seg.t0 {
                         book.obs.segment(&seg);
                     }
-                    let mut next = seg.at(best);
+                    let mut next = seg.at_end();
                     next.t = seg.t1;
                     next.dw = 0.0;
                     book.check_state(&next)?;
@@ -795,11 +816,12 @@ fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Re
         force,
         c: cs.c,
         fb: 0.0,
+        end: Trig::new(j.dt, u.om, u.al, u.wd),
     };
     if seg.t1 > seg.t0 {
         book.obs.segment(&seg);
     }
-    let mut next = seg.at(j.dt);
+    let mut next = seg.at_end();
     next.t = seg.t1;
     next.dw = 0.0;
     book.event(
