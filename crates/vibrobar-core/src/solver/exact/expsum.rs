@@ -59,6 +59,10 @@ pub struct Trig {
     pub cd: f64,
     /// `sin ω_d τ`.
     pub sd: f64,
+    /// `cos Ωτ − 1` (without cancellation).
+    pub chm1: f64,
+    /// `cos ω_d τ − 1` (without cancellation).
+    pub cdm1: f64,
     /// `τ`.
     pub tau: f64,
 }
@@ -75,6 +79,8 @@ impl Trig {
                 em1: -0.0,
                 cd: 1.0,
                 sd: 0.0,
+                chm1: cm1(1.0, 0.0),
+                cdm1: cm1(1.0, 0.0),
                 tau,
             };
         }
@@ -86,6 +92,8 @@ impl Trig {
             em1: (-al * tau).exp_m1(),
             cd,
             sd,
+            chm1: cm1(ch, sh),
+            cdm1: cm1(cd, sd),
             tau,
         }
     }
@@ -149,12 +157,8 @@ impl ExpSum {
     #[inline]
     pub fn value_t(&self, t: &Trig) -> f64 {
         let e = 1.0 + t.em1;
-        let dec = self.p * (t.em1 * t.cd + cm1(t.cd, t.sd)) + self.q * e * t.sd;
-        self.f0
-            + t.tau * (self.c1 + t.tau * self.c2)
-            + self.a * cm1(t.ch, t.sh)
-            + self.b * t.sh
-            + dec
+        let dec = self.p * (t.em1 * t.cd + t.cdm1) + self.q * e * t.sd;
+        self.f0 + t.tau * (self.c1 + t.tau * self.c2) + self.a * t.chm1 + self.b * t.sh + dec
     }
 
     /// Value at `τ`.
