@@ -51,7 +51,7 @@ use crate::error::SimError;
 use crate::model::impact_energy_loss_j;
 use crate::params::{FrictionModel, State, System};
 use expsum::{integral_product, integral_square, integral_square_to, ExpSum, Trig};
-use roots::{first_root_multi, Cand, Root};
+use roots::{first_root_multi_trig, Cand, Root};
 
 /// The exact event-driven solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -523,12 +523,15 @@ impl Solver for Exact {
                         ids[n] = 3;
                         n += 1;
                     }
-                    let (best, which) = match first_root_multi(&cands[..n], 0.0, span, tol_t) {
-                        (Root::At(t), i) => (t, ids[i]),
-                        (Root::None, _) => (span, 0),
-                        (Root::Stalled(t), _) => {
-                            return Err(SimError::RootIsolation { t_s: s.t + t })
-                        }
+                    let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
+                    let (best, which) = match root {
+                        Root::At(t) => (t, ids[i]),
+                        Root::None => (span, 0),
+                        Root::Stalled(t) => return Err(SimError::RootIsolation { t_s: s.t + t }),
+                    };
+                    let end = match trig {
+                        Some(tr) if tr.tau.to_bits() == best.to_bits() => tr,
+                        _ => Trig::new(best, u.om, u.al, u.wd),
                     };
                     let seg = ExactSegment {
                         t0: s.t,
@@ -539,7 +542,7 @@ impl Solver for Exact {
                         force,
                         c: cs.c,
                         fb,
-                        end: Trig::new(best, u.om, u.al, u.wd),
+                        end,
                     };
                     if seg.t1 > seg.t0 {
                         book.obs.segment(&seg);
@@ -589,12 +592,15 @@ impl Solver for Exact {
                         }
                         _ => unreachable!(),
                     };
-                    let (best, which) = match first_root_multi(&cands[..n], 0.0, span, tol_t) {
-                        (Root::At(t), i) => (t, ids[i]),
-                        (Root::None, _) => (span, 0),
-                        (Root::Stalled(t), _) => {
-                            return Err(SimError::RootIsolation { t_s: s.t + t })
-                        }
+                    let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
+                    let (best, which) = match root {
+                        Root::At(t) => (t, ids[i]),
+                        Root::None => (span, 0),
+                        Root::Stalled(t) => return Err(SimError::RootIsolation { t_s: s.t + t }),
+                    };
+                    let end = match trig {
+                        Some(tr) if tr.tau.to_bits() == best.to_bits() => tr,
+                        _ => Trig::new(best, u.om, u.al, u.wd),
                     };
                     let seg = ExactSegment {
                         t0: s.t,
@@ -609,7 +615,7 @@ impl Solver for Exact {
                         force,
                         c: cs.c,
                         fb: 0.0,
-                        end: Trig::new(best, u.om, u.al, u.wd),
+                        end,
                     };
                     if seg.t1 > seg.t0 {
                         book.obs.segment(&seg);

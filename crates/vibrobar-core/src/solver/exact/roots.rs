@@ -111,8 +111,20 @@ fn departure_step(g: &ExpSum, order: usize, t0: f64, t_max: f64) -> Option<f64> 
 /// together (the step is the smallest proven root-free step), so the work is bounded by the
 /// earliest event, not by the interval.
 pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Root, usize) {
+    let (r, i, _) = first_root_multi_trig(cands, t0, t_max, tol_t);
+    (r, i)
+}
+
+/// [`first_root_multi`], also returning the transcendentals at the root when they were
+/// computed there (the caller evaluates the state at the root with them).
+pub fn first_root_multi_trig(
+    cands: &[Cand],
+    t0: f64,
+    t_max: f64,
+    tol_t: f64,
+) -> (Root, usize, Option<Trig>) {
     let Some(first) = cands.first() else {
-        return (Root::None, 0);
+        return (Root::None, 0, None);
     };
     let (om, al, wd) = (first.g.om, first.g.al, first.g.wd);
     let wn2 = al * al + wd * wd;
@@ -139,7 +151,7 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
         if c.order > 0 {
             match departure_step(&c.g, c.order, t0, t_max) {
                 Some(h) => free_until[i] = t0 + h,
-                None => return (Root::At(t0), i),
+                None => return (Root::At(t0), i, None),
             }
         }
     }
@@ -182,15 +194,16 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
             // quad_step is non-increasing in the bound: when the amplitude bound is not larger
             // than the envelope at τ, its step is the longer proof, and the envelope steps (both
             // ≤ quad_step(f, f1, bz)) need not be computed.
+            let h2_amp = quad_step(f, f1, b_amp);
             let h2 = if b_amp <= bz {
-                quad_step(f, f1, b_amp)
+                h2_amp
             } else {
                 let h0 = quad_step(f, f1, bz);
                 if h0.is_finite() {
                     // Valid on [0, h0] with the drift term at its largest there; the root is ≤ h0.
-                    quad_step(f, f1, b_amp.min(bz + bdrift[i] * e * h0))
+                    h2_amp.max(quad_step(f, f1, bz + bdrift[i] * e * h0))
                 } else {
-                    quad_step(f, f1, b_amp)
+                    h2_amp
                 }
             };
             // … and, within a horizon H, the cubic bound with the actual g'':
@@ -204,7 +217,8 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
             } else {
                 f64::INFINITY
             };
-            let big_h = (1.1 * h_model).min(8.0 * h2);
+            // (Capped with the amplitude step, which does not wait for the envelope steps.)
+            let big_h = (1.1 * h_model).min(8.0 * h2_amp);
             let h3 = if big_h.is_finite() && big_h > h2 {
                 // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
                 let b3_amp = b3const[i] + b3dec[i] * decay;
@@ -246,7 +260,7 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
                         proven[i] = tau + hi;
                         st.take(i, hi, br);
                     }
-                    Err(r) => return (r, i),
+                    Err(r) => return (r, i, Some(trig)),
                 }
             }
         }
@@ -265,24 +279,24 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
                     proven[i] = tau + hi;
                     st.take(i, hi, br);
                 }
-                Err(r) => return (r, i),
+                Err(r) => return (r, i, Some(trig)),
             }
         }
         if let Some((i, hb)) = st.bracket {
             if hb <= st.h {
-                return (Root::At(tau + hb), i);
+                return (Root::At(tau + hb), i, None);
             }
         }
         let next = tau + st.h;
         if next >= t_max {
-            return (Root::None, 0);
+            return (Root::None, 0, None);
         }
         if next <= tau {
-            return (Root::At(tau), st.imin);
+            return (Root::At(tau), st.imin, Some(trig));
         }
         tau = next;
     }
-    (Root::Stalled(tau), 0)
+    (Root::Stalled(tau), 0, None)
 }
 
 /// The shortest proven step of one iteration, the function giving it, and the earliest
