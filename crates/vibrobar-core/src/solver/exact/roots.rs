@@ -28,7 +28,7 @@
 //! the fresh proof counts). The search stops at the first of: `g ≤ tol` with
 //! `g' ≤ 0`; a proven-free step below the time resolution while approaching; or a bracket
 //! `[τ + h*, τ + h_up]` below the time resolution, where `h_up` is where the upper bound
-//! `g + g'h + Bh²/2` reaches 0 (then a zero certainly lies in the bracket and `τ + h*` is
+//! `g + g'h + Bh²/2` (or, within the horizon `H`, `g + g'h + (g''/2 + B₃H/6)h²`) reaches 0 (then a zero certainly lies in the bracket and `τ + h*` is
 //! returned, so the reported event is never past the zero; it is returned only when no other
 //! function's proven step is shorter, i.e. none of them can vanish first).
 //!
@@ -219,12 +219,16 @@ pub fn first_root_multi_trig(
             };
             // (Capped with the amplitude step, which does not wait for the envelope steps.)
             let big_h = (1.1 * h_model).min(8.0 * h2_amp);
+            // Upper bound within the horizon (cubic step only): g ≤ f + f1 h + c_up h² on
+            // [0, H], c_up = f2/2 + B₃H/6, since B₃h³/6 ≤ B₃Hh²/6 there.
+            let mut c_up = f64::INFINITY;
             let h3 = if big_h.is_finite() && big_h > h2 {
                 // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
                 let b3_amp = b3const[i] + b3dec[i] * decay;
                 let round3 = 8.0 * f64::EPSILON * b3_amp;
                 let b3_env = env.z3(&ph) * (1.0 + 1e-12) + round3 + bdrift[i] * wn * e * big_h;
                 let b3 = b3_amp.min(b3_env);
+                c_up = 0.5 * f2 + b3 * big_h / 6.0;
                 let b_eff = b3 * big_h / 3.0 - f2;
                 quad_step(f, f1, b_eff.max(0.0)).min(big_h)
             } else {
@@ -245,6 +249,19 @@ pub fn first_root_multi_trig(
                 if disc >= 0.0 {
                     let h_up = 2.0 * f / (-f1 + disc.sqrt());
                     bracketed = h_up - hi <= tol_t && tau + hi < t_max;
+                }
+                // The same with the cubic upper bound (valid up to H), which brackets the zero
+                // to the resolution from much farther away; tried only when the bracket width,
+                // about (c_up − f2/2 + B₃H/6)·hi²/|f1| = B₃H·hi²/(3|f1|), may be that small.
+                if !bracketed
+                    && c_up.is_finite()
+                    && (c_up - 0.5 * f2) * hi * hi <= 4.0 * tol_t * -f1
+                {
+                    let d3 = f1 * f1 - 4.0 * c_up * f;
+                    if d3 >= 0.0 {
+                        let h_up3 = 2.0 * f / (-f1 + d3.sqrt());
+                        bracketed = h_up3 <= big_h && h_up3 - hi <= tol_t && tau + hi < t_max;
+                    }
                 }
             }
             Ok((hi, bracketed))
