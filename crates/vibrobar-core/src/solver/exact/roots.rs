@@ -14,8 +14,8 @@
 //! is found in a few dozen steps.
 //!
 //! `B` is the smaller of two bounds: the amplitudes `Ω²|Ĥ| + ω_n²|D̂|e^{−ατ}` (+ `2|c2|`), and the
-//! envelope of the oscillating parts taken together, `|Z₂(τ)| + ω_n²|D̂|e^{−ατ}(α + |ω_d − Ω|)h`
-//! (see [`envelope`]); near resonance the steady and transient parts of the bar motion cancel,
+//! envelope of the oscillating parts taken together, `|Z₂(τ)| + ω_n²|D̂|e^{−ατ}(α + |ω_d − Ω|)H`
+//! on `[τ, τ + H]` (see [`envelope`]; `H` is the horizon of the cubic proof below); near resonance the steady and transient parts of the bar motion cancel,
 //! and the envelope is several times smaller than the sum of the amplitudes.
 //!
 //! A second proof is used alongside: within a horizon `H`, `g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6)h²`
@@ -191,21 +191,7 @@ pub fn first_root_multi_trig(
             let ph = env.phasors(g, &trig);
             let round = 8.0 * f64::EPSILON * b_amp;
             let bz = (2.0 * g.c2.abs() + env.z2(&ph)) * (1.0 + 1e-12) + round;
-            // quad_step is non-increasing in the bound: when the amplitude bound is not larger
-            // than the envelope at τ, its step is the longer proof, and the envelope steps (both
-            // ≤ quad_step(f, f1, bz)) need not be computed.
             let h2_amp = quad_step(f, f1, b_amp);
-            let h2 = if b_amp <= bz {
-                h2_amp
-            } else {
-                let h0 = quad_step(f, f1, bz);
-                if h0.is_finite() {
-                    // Valid on [0, h0] with the drift term at its largest there; the root is ≤ h0.
-                    h2_amp.max(quad_step(f, f1, bz + bdrift[i] * e * h0))
-                } else {
-                    h2_amp
-                }
-            };
             // … and, within a horizon H, the cubic bound with the actual g'':
             // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6) h² for h ≤ H. Both are proofs; take the longer.
             // H is set a little beyond the zero of the local quadratic model, so that near a
@@ -217,12 +203,20 @@ pub fn first_root_multi_trig(
             } else {
                 f64::INFINITY
             };
-            // (Capped with the amplitude step, which does not wait for the envelope steps.)
+            // (Capped with the amplitude step: H does not wait for the envelope.)
             let big_h = (1.1 * h_model).min(8.0 * h2_amp);
+            // The envelope step over the same horizon: valid on [0, H] with the drift term at
+            // its largest there. Only worth it when the envelope is the smaller bound
+            // (quad_step is non-increasing in the bound) and H reaches beyond the amplitude step.
+            let h2 = if b_amp > bz && big_h > h2_amp {
+                h2_amp.max(quad_step(f, f1, bz + bdrift[i] * e * big_h).min(big_h))
+            } else {
+                h2_amp
+            };
             // Upper bound within the horizon (cubic step only): g ≤ f + f1 h + c_up h² on
             // [0, H], c_up = f2/2 + B₃H/6, since B₃h³/6 ≤ B₃Hh²/6 there.
             let mut c_up = f64::INFINITY;
-            let h3 = if big_h.is_finite() && big_h > h2 {
+            let h3 = if big_h.is_finite() && big_h > h2_amp {
                 // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
                 let b3_amp = b3const[i] + b3dec[i] * decay;
                 let round3 = 8.0 * f64::EPSILON * b3_amp;
