@@ -66,10 +66,6 @@ pub enum Root {
 /// Iteration limit of one search (steps are counted, nothing hangs).
 pub const MAX_ITER: u32 = 100_000;
 
-fn factorial(n: usize) -> f64 {
-    (1..=n).map(|i| i as f64).product()
-}
-
 /// One event function of a joint search.
 #[derive(Debug, Clone, Copy)]
 pub struct Cand {
@@ -83,13 +79,21 @@ pub struct Cand {
 
 /// Departure step: `g > 0` is proven on `(t0, t0 + h₁)`; returns `h₁/2`, or `None` if the
 /// clamped Taylor bracket does not confirm the departure.
-fn departure_step(g: &ExpSum, order: usize, t0: f64, t_max: f64) -> Option<f64> {
+/// `rh`, `rd` bound the harmonic and decaying amplitudes `|Ĥ|`, `|D̂|` (as in the search); the
+/// bound on `|g^(k+2)|` is then [`ExpSum::deriv_bound`]'s, without its `hypot`s and `exp`.
+fn departure_step(g: &ExpSum, order: usize, t0: f64, rh: f64, rd: f64) -> Option<f64> {
+    const FACT: [f64; 6] = [1.0, 1.0, 2.0, 6.0, 24.0, 120.0];
     let trig = Trig::new(t0, g.om, g.al, g.wd);
     let d: [f64; 5] = g.derivs_t(&trig);
     let k = order.min(3);
-    let a = d[k].max(0.0) / factorial(k);
-    let b = d[k + 1] / factorial(k + 1);
-    let c = g.deriv_bound((k + 2) as u32, t0, t_max) / factorial(k + 2);
+    let a = d[k].max(0.0) / FACT[k];
+    let b = d[k + 1] / FACT[k + 1];
+    // |g^(n)| ≤ poly + Ωⁿ|Ĥ| + ω_nⁿ|D̂|e^{−αt0} on [t0, ∞), n = k + 2 ≥ 3 (no polynomial part).
+    let n = (k + 2) as i32;
+    let decay = if t0 == 0.0 { 1.0 } else { (-g.al * t0).exp() };
+    let wn = (g.al * g.al + g.wd * g.wd).sqrt();
+    let bound = (g.om.powi(n) * rh + wn.powi(n) * decay * rd) * (1.0 + 1e-12);
+    let c = bound / FACT[k + 2];
     let h1 = if c > 0.0 {
         (b + (b * b + 4.0 * a * c).sqrt()) / (2.0 * c)
     } else if b < 0.0 {
@@ -149,7 +153,7 @@ pub fn first_root_multi_trig(
         b3dec[i] = wn2 * wn2.sqrt() * rd;
         bdrift[i] = wn2 * rd * (al + (wd - om).abs()) * (1.0 + 1e-12);
         if c.order > 0 {
-            match departure_step(&c.g, c.order, t0, t_max) {
+            match departure_step(&c.g, c.order, t0, rh, rd) {
                 Some(h) => free_until[i] = t0 + h,
                 None => return (Root::At(t0), i, None),
             }
