@@ -99,6 +99,8 @@ struct Consts {
     /// Chatter resolution: apex height and time.
     chatter_h: f64,
     chatter_t: f64,
+    /// The bar alone and the bar with the ball riding on it.
+    osc: [Osc; 2],
 }
 
 impl Consts {
@@ -143,25 +145,25 @@ impl Consts {
         du0: f64,
     ) -> Result<(ExpSum, ExpSum), SimError> {
         let (s0, c0) = (self.om * t_seg).sin_cos();
-        let kk = self.k - mass * self.om * self.om;
-        let cw = self.c * self.om;
-        let d = kk * kk + cw * cw;
+        let o = match self.osc.iter().find(|o| o.mass.to_bits() == mass.to_bits()) {
+            Some(o) => *o,
+            None => Osc::new(self, mass),
+        };
         let (a, b) = if self.f0 == 0.0 {
             (0.0, 0.0)
-        } else if d == 0.0 || (cw == 0.0 && kk.abs() <= 8.0 * f64::EPSILON * self.k) {
+        } else if o.resonant {
             // Undamped and at resonance to rounding: no bounded closed form.
             return Err(SimError::UndampedResonance {
                 omega_rad_s: self.om,
             });
         } else {
             (
-                self.f0 * (kk * s0 - cw * c0) / d,
-                self.f0 * (kk * c0 + cw * s0) / d,
+                o.f0_d * (o.kk * s0 - o.cw * c0),
+                o.f0_d * (o.kk * c0 + o.cw * s0),
             )
         };
         let uc = (self.fs + fc) / self.k;
-        let al = self.c / (2.0 * mass);
-        let wd = (self.k / mass - al * al).sqrt();
+        let (al, wd) = (o.al, o.wd);
         let p = u0 - uc - a;
         let q = (du0 - self.om * b + al * p) / wd;
         let u = ExpSum {
@@ -189,6 +191,38 @@ impl Consts {
             a: self.f0 * s0,
             b: self.f0 * c0,
             ..like.zero_like()
+        }
+    }
+}
+
+/// What the bar closed form needs of one oscillating mass (`M` alone, or `M + m_d`), computed
+/// once per run instead of once per segment.
+#[derive(Debug, Clone, Copy)]
+struct Osc {
+    mass: f64,
+    kk: f64,
+    cw: f64,
+    /// `F0 / ((K − mΩ²)² + (CΩ)²)`.
+    f0_d: f64,
+    resonant: bool,
+    al: f64,
+    wd: f64,
+}
+
+impl Osc {
+    fn new(cs: &Consts, mass: f64) -> Osc {
+        let kk = cs.k - mass * cs.om * cs.om;
+        let cw = cs.c * cs.om;
+        let d = kk * kk + cw * cw;
+        let al = cs.c / (2.0 * mass);
+        Osc {
+            mass,
+            kk,
+            cw,
+            f0_d: cs.f0 / d,
+            resonant: d == 0.0 || (cw == 0.0 && kk.abs() <= 8.0 * f64::EPSILON * cs.k),
+            al,
+            wd: (cs.k / mass - al * al).sqrt(),
         }
     }
 }
@@ -399,7 +433,7 @@ impl Solver for Exact {
             .abs()
             .max(sys.forcing.static_force_n.abs())
             .max(sys.friction_level_n());
-        let cs = Consts {
+        let mut cs = Consts {
             m: sys.bar.mass_kg,
             md,
             k: sys.bar.stiffness_n_per_m,
@@ -418,7 +452,17 @@ impl Solver for Exact {
             tol_t: 1e-15 / om.max(wn),
             chatter_h: 1e-10 * lg,
             chatter_t: 1e-9 * 2.0 * std::f64::consts::PI / om,
+            osc: [Osc {
+                mass: f64::NAN,
+                kk: 0.0,
+                cw: 0.0,
+                f0_d: 0.0,
+                resonant: false,
+                al: 0.0,
+                wd: 0.0,
+            }; 2],
         };
+        cs.osc = [Osc::new(&cs, cs.m), Osc::new(&cs, cs.m + cs.md)];
         let mut book = Book {
             obs,
             summary: RunSummary {
