@@ -107,12 +107,9 @@ impl Consts {
     fn kappa(&self) -> f64 {
         1.0 / self.md + 1.0 / self.m
     }
-    fn force(&self, t: f64) -> f64 {
-        self.fs + self.f0 * (self.om * t).sin()
-    }
     /// `a_b = (F − C u̇ − K u)/M`: bar acceleration without the ball force.
-    fn a_b(&self, t: f64, u: f64, du: f64) -> f64 {
-        (self.force(t) - self.c * du - self.k * u) / self.m
+    fn a_b(&self, s: &St) -> f64 {
+        (s.force - self.c * s.du - self.k * s.u) / self.m
     }
     /// Friction force on the ball while sliding with sign `σ`.
     fn fb(&self, sigma: f64) -> f64 {
@@ -235,6 +232,8 @@ struct St {
     du: f64,
     w: f64,
     dw: f64,
+    /// The external force `F(t)` (from the segment's closed form, which has its `sin Ωt`).
+    force: f64,
 }
 
 impl St {
@@ -299,6 +298,7 @@ impl ExactSegment {
             du,
             w,
             dw,
+            force: self.force.value_t(tr),
         }
     }
 }
@@ -480,6 +480,7 @@ impl Solver for Exact {
             du: init.du_m_s,
             w: init.w_m(),
             dw: init.dw_m_s(),
+            force: sys.force_n(init.t_s),
         };
         if sys.damper.is_none() {
             s.w = 0.0;
@@ -753,7 +754,7 @@ fn at_zero_velocity(cs: &Consts, s: &St) -> Result<Md, SimError> {
             k_sw: 0,
         });
     }
-    let ab = cs.a_b(s.t, s.u, s.du);
+    let ab = cs.a_b(s);
     if cs.model == FrictionModel::Coulomb {
         if ab.abs() <= cs.fl * cs.kappa() {
             return Ok(Md::Stick);
@@ -785,7 +786,7 @@ fn at_zero_velocity(cs: &Consts, s: &St) -> Result<Md, SimError> {
 
 /// `ẇ` reached 0 in free flight with friction sign `σ`.
 fn friction_zero(cs: &Consts, sigma: f64, s: &St, book: &mut Book) -> Result<Md, SimError> {
-    let ab = cs.a_b(s.t, s.u, s.du);
+    let ab = cs.a_b(s);
     if cs.model == FrictionModel::Coulomb && ab.abs() <= cs.fl * cs.kappa() {
         book.event(s.t, EventKind::Stick, s, s)?;
         return Ok(Md::Stick);
@@ -827,7 +828,7 @@ fn impact(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<Md, SimEr
     // q = e·√(a_back/a_away) < 1? Then the sequence sums to Δt = (|ẇ+|/a_away)(1 + √(a_away/a_back))/(1 − q),
     // i.e. 2|ẇ+|/((1 − e) a) without friction. Jump when it is below resolution.
     let sigma = sign_or_zero(s.dw);
-    let a_b = cs.a_b(s.t, s.u, s.du);
+    let a_b = cs.a_b(s);
     let ddw_away = cs.fb(sigma) * cs.kappa() - a_b;
     let ddw_back = cs.fb(-sigma) * cs.kappa() - a_b;
     if cs.e < 1.0 && sw * ddw_away > 0.0 && sw * ddw_back > 0.0 {
@@ -889,7 +890,7 @@ fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Re
 
 /// Ball at wall `sw` with `ẇ = 0`: does it stay pressed on it (`sw·m_d ü_pair ≤ f_hold`)?
 fn contact_test(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
-    let ddu_pair = cs.a_b(s.t, s.u, s.du) * cs.m / (cs.m + cs.md);
+    let ddu_pair = cs.a_b(s) * cs.m / (cs.m + cs.md);
     if sw * cs.md * ddu_pair <= cs.f_hold() {
         Ok(Md::Contact(wall_of(sw)))
     } else {
@@ -921,6 +922,7 @@ mod tests {
             du: 0.0,
             w,
             dw: 0.0,
+            force: 0.0,
         }
     }
 
