@@ -85,18 +85,57 @@ impl Trig {
             };
         }
         let (sh, ch) = (om * tau).sin_cos();
+        let chm1 = cm1(ch, sh);
+        let em1 = (-al * tau).exp_m1();
+        // Near resonance ω_d ≈ Ω: e^{iω_dτ} = e^{iΩτ}·e^{iδτ}, δ = ω_d − Ω (exact: Sterbenz),
+        // with e^{iδτ} from its series when |δτ| ≤ 1/8 — one `sin_cos` instead of two. The
+        // product has absolute errors ~ε(|Ωτ||δτ| + |δτ|), so it keeps the relative accuracy
+        // of `sin ω_dτ` and `cos ω_dτ − 1` at small ω_dτ only when |δ| ≪ ω_d: required here
+        // (|δ| ≤ min(ω_d, Ω)/8: relative errors ≤ 3ε); else two `sin_cos`.
+        let delta = wd - om;
+        let x = delta * tau;
+        if x.abs() <= 0.125 && 8.0 * delta.abs() <= wd.min(om) {
+            let (sx, cxm) = small_sin_cm1(x);
+            let dc = ch * cxm - sh * sx;
+            return Trig {
+                ch,
+                sh,
+                em1,
+                cd: ch + dc,
+                sd: sh + (sh * cxm + ch * sx),
+                chm1,
+                cdm1: chm1 + dc,
+                tau,
+            };
+        }
         let (sd, cd) = (wd * tau).sin_cos();
         Trig {
             ch,
             sh,
-            em1: (-al * tau).exp_m1(),
+            em1,
             cd,
             sd,
-            chm1: cm1(ch, sh),
+            chm1,
             cdm1: cm1(cd, sd),
             tau,
         }
     }
+}
+
+/// `(sin x, cos x − 1)` by their Taylor series for `|x| ≤ 1/8` (truncation below `1e-20`
+/// relative), as polynomials in `x²` evaluated in Estrin's form (short dependency chains).
+#[inline]
+fn small_sin_cm1(x: f64) -> (f64, f64) {
+    let y = x * x;
+    let y2 = y * y;
+    // sin x / x = Σ (−y)^k/(2k+1)!, k = 0..5.
+    let s = (1.0 - y / 6.0)
+        + y2 * ((1.0 / 120.0 - y / 5040.0) + y2 * (1.0 / 362_880.0 - y / 39_916_800.0));
+    // (cos x − 1)/(−x²/2) = Σ 2(−y)^k/(2k+2)!, k = 0..5.
+    let c = (1.0 - y / 12.0)
+        + y2 * ((2.0 / 720.0 - y * (2.0 / 40_320.0))
+            + y2 * (2.0 / 3_628_800.0 - y * (2.0 / 479_001_600.0)));
+    (x * s, -0.5 * y * c)
 }
 
 impl ExpSum {
@@ -472,6 +511,48 @@ mod tests {
             assert!((fd - d[1]).abs() < 1e-8);
             let fd3 = (f.derivs::<3>(t + h)[2] - f.derivs::<3>(t - h)[2]) / (2.0 * h);
             assert!((fd3 - d[3]).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn transcendentals_near_resonance_match_direct_ones() {
+        // δτ inside and outside the series range, short and long τ.
+        for (om, al, wd) in [
+            (3784.0, 37.8, 3783.5),
+            (3784.0, 37.0, 3700.0),
+            (3.0, 0.2, 5.0),
+        ] {
+            for &tau in &[1e-7, 3e-4, 1.4e-3, 2.9e-3, 0.01, 0.7, 1.9] {
+                let t = Trig::new(tau, om, al, wd);
+                let (sd, cd) = (wd * tau).sin_cos();
+                // Rounding of the phase ω_dτ itself is ~ulp(ω_dτ) ≤ 1e-12 here.
+                let tol = 4.0 * f64::EPSILON * (1.0 + wd * tau);
+                assert!((t.cd - cd).abs() <= tol, "{tau} {} {cd}", t.cd);
+                assert!((t.sd - sd).abs() <= tol, "{tau} {} {sd}", t.sd);
+                assert!((t.cdm1 - (cd - 1.0)).abs() <= tol, "{tau}");
+                let x = 1e-4;
+                let s = Trig::new(x / om, om, 0.0, om);
+                assert!((s.cdm1 - (-2.0 * (0.5 * x).sin().powi(2))).abs() <= 1e-20);
+                // A nearly free mass (ω_d ≪ Ω): sin ω_dτ and cos ω_dτ − 1 keep their relative
+                // accuracy (the coefficients multiplying them are huge).
+                let wd = 1e-6;
+                let t = Trig::new(tau, om, al, wd);
+                let sd = (wd * tau).sin();
+                let cdm1 = -2.0 * (0.5 * wd * tau).sin().powi(2);
+                assert!((t.sd - sd).abs() <= 4.0 * f64::EPSILON * sd.abs(), "{tau}");
+                assert!(
+                    (t.cdm1 - cdm1).abs() <= 4.0 * f64::EPSILON * cdm1.abs(),
+                    "{tau}"
+                );
+            }
+        }
+        // The series itself against libm over its range.
+        for i in -100..=100 {
+            let x = 0.125 * i as f64 / 100.0;
+            let (s, cm) = small_sin_cm1(x);
+            assert!((s - x.sin()).abs() <= 2.0 * f64::EPSILON * x.abs(), "{x}");
+            let want = -2.0 * (0.5 * x).sin().powi(2);
+            assert!((cm - want).abs() <= 4.0 * f64::EPSILON * want.abs(), "{x}");
         }
     }
 
