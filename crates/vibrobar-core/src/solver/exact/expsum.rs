@@ -84,8 +84,12 @@ impl Trig {
                 tau,
             };
         }
-        let (sh, ch) = (om * tau).sin_cos();
-        let chm1 = cm1(ch, sh);
+        // From the half angle: sin x = 2 sin(x/2) cos(x/2), cos x − 1 = −2 sin²(x/2), free of
+        // cancellation without a division (x/2 = (Ω/2)τ rounds exactly as Ωτ, halved).
+        let (s2, c2) = ((0.5 * om) * tau).sin_cos();
+        let chm1 = -2.0 * s2 * s2;
+        let sh = 2.0 * s2 * c2;
+        let ch = 1.0 + chm1;
         let em1 = (-al * tau).exp_m1();
         // Near resonance ω_d ≈ Ω: e^{iω_dτ} = e^{iΩτ}·e^{iδτ}, δ = ω_d − Ω (exact: Sterbenz),
         // with e^{iδτ} from its series when |δτ| ≤ 1/8 — one `sin_cos` instead of two. The
