@@ -13,24 +13,28 @@
 //! `L` is `O(h²)`); at a tangency (`g = g' = 0`) they shrink geometrically by `√2 − 1`, so a touch
 //! is found in a few dozen steps.
 //!
-//! `B` is the smaller of two bounds: the amplitudes `Ω²|Ĥ| + ω_n²|D̂|e^{−ατ}` (+ `2|c2|`), and the
-//! envelope of the oscillating parts taken together, `|Z₂(τ)| + ω_n²|D̂|e^{−ατ}(α + |ω_d − Ω|)H`
-//! on `[τ, τ + H]` (see [`envelope`]; `H` is the horizon of the cubic proof below); near resonance the steady and transient parts of the bar motion cancel,
-//! and the envelope is several times smaller than the sum of the amplitudes.
+//! `B` is the smaller of two bounds: the amplitudes `Ω²|Ĥ| + ω_n²|D̂|e^{−ατ}` (+ `2|c2|`), valid
+//! on the whole interval, and the envelope of the oscillating parts taken together,
+//! `|Z₂(τ)| + ω_n²|D̂|e^{−ατ}(α + |ω_d − Ω|)H` (+ `2|c2|`), valid on `[τ, τ + H]` (see
+//! [`envelope`]; `H` is the horizon of the cubic proof below, and that step is capped at `H`).
+//! Near resonance the steady and transient parts of the bar motion cancel, and the envelope is
+//! several times smaller than the sum of the amplitudes.
 //!
 //! A second proof is used alongside: within a horizon `H`, `g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6)h²`
 //! (`B₃ ≥ |g'''|`), with `H` just beyond the zero of the local quadratic model, which makes the
-//! steps Newton-like near a root; the longer of the two proven steps is taken. All event
-//! functions of a segment are stepped together (the step is the shortest proven one), so the
-//! work is bounded by the earliest event. Each evaluation proves its function positive up to
-//! `τ + hᵢ`; that proof stays valid, so a function proven beyond the step the others allow is
-//! not evaluated again until the step would reach its proven end (then the longer of the old and
-//! the fresh proof counts). The search stops at the first of: `g ≤ tol` with
-//! `g' ≤ 0`; a proven-free step below the time resolution while approaching; or a bracket
-//! `[τ + h*, τ + h_up]` below the time resolution, where `h_up` is where the upper bound
-//! `g + g'h + Bh²/2` (or, within the horizon `H`, `g + g'h + (g''/2 + B₃H/6)h²`) reaches 0 (then a zero certainly lies in the bracket and `τ + h*` is
-//! returned, so the reported event is never past the zero; it is returned only when no other
-//! function's proven step is shorter, i.e. none of them can vanish first).
+//! steps Newton-like near a root; the longer of the proven steps is taken. All event functions
+//! of a segment are stepped together (the step is the shortest proven one), so the work is
+//! bounded by the earliest event. Each evaluation proves its function positive up to `τ + hᵢ`;
+//! that proof stays valid, so a function proven beyond the step the others allow is not
+//! evaluated again until the step would reach its proven end (then the longer of the old and the
+//! fresh proof counts).
+//!
+//! The search stops at the first of: `g ≤ tol` with `g' ≤ 0`; a proven-free step below the time
+//! resolution while approaching; or a bracket `[τ + h*, τ + h_up]` below the time resolution,
+//! where `h_up` is where an upper bound reaches 0: `g + g'h + Bh²/2`, or within the horizon
+//! `g + g'h + (g''/2 + B₃H/6)h²` (if its zero is `≤ H`). Then a zero certainly lies in the
+//! bracket and `τ + h*` is returned, so the reported event is never past the zero; it is returned
+//! only when no other function's proven step is shorter (none of them can vanish first).
 //!
 //! **Departure.** A segment often starts *on* the zero set of one of its functions (the wall just
 //! hit, `ẇ = 0` just crossed, a wall just released). There `g(0) = 0` analytically, and round-off
