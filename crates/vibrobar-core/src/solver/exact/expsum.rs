@@ -59,6 +59,10 @@ pub struct Trig {
     pub cd: f64,
     /// `sin ω_d τ`.
     pub sd: f64,
+    /// `cos Ωτ − 1` (without cancellation).
+    pub chm1: f64,
+    /// `cos ω_d τ − 1` (without cancellation).
+    pub cdm1: f64,
     /// `τ`.
     pub tau: f64,
 }
@@ -67,17 +71,75 @@ impl Trig {
     /// Evaluate at `τ` for frequencies `om`, `wd` and decay `al`.
     #[inline]
     pub fn new(tau: f64, om: f64, al: f64, wd: f64) -> Trig {
-        let (sh, ch) = (om * tau).sin_cos();
+        if tau.to_bits() == 0 {
+            // τ = +0, the start of every search: the values `sin_cos` and `exp_m1` return there.
+            return Trig {
+                ch: 1.0,
+                sh: 0.0,
+                em1: -0.0,
+                cd: 1.0,
+                sd: 0.0,
+                chm1: cm1(1.0, 0.0),
+                cdm1: cm1(1.0, 0.0),
+                tau,
+            };
+        }
+        // From the half angle: sin x = 2 sin(x/2) cos(x/2), cos x − 1 = −2 sin²(x/2), free of
+        // cancellation without a division (x/2 = (Ω/2)τ rounds exactly as Ωτ, halved).
+        let (s2, c2) = ((0.5 * om) * tau).sin_cos();
+        let chm1 = -2.0 * s2 * s2;
+        let sh = 2.0 * s2 * c2;
+        let ch = 1.0 + chm1;
+        let em1 = (-al * tau).exp_m1();
+        // Near resonance ω_d ≈ Ω: e^{iω_dτ} = e^{iΩτ}·e^{iδτ}, δ = ω_d − Ω (exact: Sterbenz),
+        // with e^{iδτ} from its series when |δτ| ≤ 1/8 — one `sin_cos` instead of two. The
+        // product has absolute errors ~ε(|Ωτ||δτ| + |δτ|), so it keeps the relative accuracy
+        // of `sin ω_dτ` and `cos ω_dτ − 1` at small ω_dτ only when |δ| ≪ ω_d: required here
+        // (|δ| ≤ min(ω_d, Ω)/8: relative errors ≤ 3ε); else two `sin_cos`.
+        let delta = wd - om;
+        let x = delta * tau;
+        if x.abs() <= 0.125 && 8.0 * delta.abs() <= wd.min(om) {
+            let (sx, cxm) = small_sin_cm1(x);
+            let dc = ch * cxm - sh * sx;
+            return Trig {
+                ch,
+                sh,
+                em1,
+                cd: ch + dc,
+                sd: sh + (sh * cxm + ch * sx),
+                chm1,
+                cdm1: chm1 + dc,
+                tau,
+            };
+        }
         let (sd, cd) = (wd * tau).sin_cos();
         Trig {
             ch,
             sh,
-            em1: (-al * tau).exp_m1(),
+            em1,
             cd,
             sd,
+            chm1,
+            cdm1: cm1(cd, sd),
             tau,
         }
     }
+}
+
+/// `(sin x, cos x − 1)` by their Taylor series for `|x| ≤ 1/8` (truncation below `1e-20`
+/// relative), as polynomials in `x²` evaluated in Estrin's form (short dependency chains).
+#[inline]
+fn small_sin_cm1(x: f64) -> (f64, f64) {
+    let y = x * x;
+    let y2 = y * y;
+    // sin x / x = Σ (−y)^k/(2k+1)!, k = 0..5.
+    let s = (1.0 - y / 6.0)
+        + y2 * ((1.0 / 120.0 - y / 5040.0) + y2 * (1.0 / 362_880.0 - y / 39_916_800.0));
+    // (cos x − 1)/(−x²/2) = Σ 2(−y)^k/(2k+2)!, k = 0..5.
+    let c = (1.0 - y / 12.0)
+        + y2 * ((2.0 / 720.0 - y * (2.0 / 40_320.0))
+            + y2 * (2.0 / 3_628_800.0 - y * (2.0 / 479_001_600.0)));
+    (x * s, -0.5 * y * c)
 }
 
 impl ExpSum {
@@ -138,12 +200,8 @@ impl ExpSum {
     #[inline]
     pub fn value_t(&self, t: &Trig) -> f64 {
         let e = 1.0 + t.em1;
-        let dec = self.p * (t.em1 * t.cd + cm1(t.cd, t.sd)) + self.q * e * t.sd;
-        self.f0
-            + t.tau * (self.c1 + t.tau * self.c2)
-            + self.a * cm1(t.ch, t.sh)
-            + self.b * t.sh
-            + dec
+        let dec = self.p * (t.em1 * t.cd + t.cdm1) + self.q * e * t.sd;
+        self.f0 + t.tau * (self.c1 + t.tau * self.c2) + self.a * t.chm1 + self.b * t.sh + dec
     }
 
     /// Value at `τ`.
@@ -268,18 +326,126 @@ pub fn integral_product(x: &ExpSum, y: &ExpSum, a: f64, b: f64) -> f64 {
     sum.0
 }
 
-/// `(e^z − 1)/z` for `|z| < 1/2` by its series (terms until they no longer count).
-fn phi1(z: C) -> C {
-    let mut term = C(1.0, 0.0);
-    let mut s = C(1.0, 0.0);
-    for n in 1..24 {
-        term = term.mul(z).scale(1.0 / (n as f64 + 1.0));
-        s = s.add(term);
-        if term.0.abs() + term.1.abs() < 1e-18 {
-            break;
+/// `∫_a^b x(τ)² dτ` in closed form, for a sum without polynomial terms: the hot path of RMS.
+///
+/// With `x = k0 + Re(Ĥ e^{iΩτ}) + Re(D̂ e^{λτ})` (`Ĥ = a − ib`, `D̂ = p − iq`, `λ = −α + iω_d`),
+/// `Re(z)² = (|z|² + Re z²)/2` and `2 Re z Re y = Re(zy) + Re(z ȳ)` turn the 25 products of
+/// [`integral_product`] into seven exponentials `e^{ντ}` (`ν = iΩ, λ, 2iΩ, −2α, 2λ, iΩ+λ,
+/// iΩ+λ̄`) and a constant, each integrated as there (the series `φ1` when `|ν(b−a)| < 1/2`, so
+/// that no term loses precision). The exponentials at an end are products of `e^{iΩτ}` and
+/// `e^{λτ}`; at `a = 0` they are 1 and cost nothing.
+pub fn integral_square(x: &ExpSum, a: f64, b: f64) -> f64 {
+    integral_square_to(x, a, b, None)
+}
+
+/// [`integral_square`] with the transcendentals at `b` given (`end.tau` must be `b`).
+pub fn integral_square_to(x: &ExpSum, a: f64, b: f64, end: Option<&Trig>) -> f64 {
+    let h = b - a;
+    if h <= 0.0 {
+        return 0.0;
+    }
+    debug_assert!(x.c1 == 0.0 && x.c2 == 0.0);
+    let hh = C(x.a, -x.b);
+    let dd = C(x.p, -x.q);
+    let e1 = C(0.0, x.om);
+    let l = C(-x.al, x.wd);
+    // e^{iΩτ}, e^{λτ} at an end.
+    let ends = |t: f64| -> (C, C) {
+        if t == 0.0 {
+            return (C(1.0, 0.0), C(1.0, 0.0));
+        }
+        let (sh, ch) = (x.om * t).sin_cos();
+        let (sd, cd) = (x.wd * t).sin_cos();
+        let e = (-x.al * t).exp();
+        (C(ch, sh), C(e * cd, e * sd))
+    };
+    let (ha, da) = ends(a);
+    let (hb, db) = match end {
+        Some(t) => {
+            debug_assert!(t.tau.to_bits() == b.to_bits());
+            let e = 1.0 + t.em1;
+            (C(t.ch, t.sh), C(e * t.cd, e * t.sd))
+        }
+        None => ends(b),
+    };
+    // ∫_a^b e^{ντ} dτ from e^{νa}, e^{νb}.
+    let int = |nu: C, ea: C, eb: C| -> C {
+        let z = nu.scale(h);
+        if z.0 * z.0 + z.1 * z.1 < 0.25 {
+            ea.mul(phi1(z)).scale(h)
+        } else {
+            C(eb.0 - ea.0, eb.1 - ea.1).div(nu)
+        }
+    };
+    let h2 = hh.0 * hh.0 + hh.1 * hh.1;
+    let d2 = dd.0 * dd.0 + dd.1 * dd.1;
+    let mut sum = (x.k0 * x.k0 + 0.5 * h2) * h;
+    if h2 != 0.0 {
+        sum += 2.0 * x.k0 * hh.mul(int(e1, ha, hb)).0;
+        sum += 0.5 * hh.mul(hh).mul(int(e1.scale(2.0), ha.mul(ha), hb.mul(hb))).0;
+    }
+    if d2 != 0.0 {
+        sum += 2.0 * x.k0 * dd.mul(int(l, da, db)).0;
+        let (ra, rb) = (da.0 * da.0 + da.1 * da.1, db.0 * db.0 + db.1 * db.1);
+        sum += 0.5 * d2 * int(C(-2.0 * x.al, 0.0), C(ra, 0.0), C(rb, 0.0)).0;
+        sum += 0.5 * dd.mul(dd).mul(int(l.scale(2.0), da.mul(da), db.mul(db))).0;
+        if h2 != 0.0 {
+            sum += hh.mul(dd).mul(int(e1.add(l), ha.mul(da), hb.mul(db))).0;
+            sum += hh
+                .mul(dd.conj())
+                .mul(int(e1.add(l.conj()), ha.mul(da.conj()), hb.mul(db.conj())))
+                .0;
         }
     }
-    s
+    sum
+}
+
+/// `(e^z − 1)/z` for `|z| < 1/2` by its series `Σ z^k/(k+1)!`, truncated where the next term
+/// is below `2e-18` (degree 5, 10 or 15 by `|z|`), evaluated as even and odd parts in `z²`
+/// (two independent Horner chains of half the length).
+fn phi1(z: C) -> C {
+    // 1/(k+1)!, k = 0..15.
+    const INV_FACT: [f64; 16] = [
+        1.0,
+        1.0 / 2.0,
+        1.0 / 6.0,
+        1.0 / 24.0,
+        1.0 / 120.0,
+        1.0 / 720.0,
+        1.0 / 5_040.0,
+        1.0 / 40_320.0,
+        1.0 / 362_880.0,
+        1.0 / 3_628_800.0,
+        1.0 / 39_916_800.0,
+        1.0 / 479_001_600.0,
+        1.0 / 6_227_020_800.0,
+        1.0 / 87_178_291_200.0,
+        1.0 / 1_307_674_368_000.0,
+        1.0 / 20_922_789_888_000.0,
+    ];
+    let r2 = z.0 * z.0 + z.1 * z.1;
+    // |z|^(n+1)/(n+2)! < 2e-18 for: |z| ≤ 1e-3 → n = 5, ≤ 0.1 → n = 10, < 0.5 → n = 15.
+    let n = if r2 <= 1e-6 {
+        5
+    } else if r2 <= 1e-2 {
+        10
+    } else {
+        15
+    };
+    let w = z.mul(z);
+    // Highest even and odd indices ≤ n.
+    let (mut ke, mut ko) = if n % 2 == 0 { (n, n - 1) } else { (n - 1, n) };
+    let mut e = C(INV_FACT[ke], 0.0);
+    let mut o = C(INV_FACT[ko], 0.0);
+    while ke >= 2 {
+        ke -= 2;
+        e = w.mul(e).add(C(INV_FACT[ke], 0.0));
+    }
+    while ko >= 2 {
+        ko -= 2;
+        o = w.mul(o).add(C(INV_FACT[ko], 0.0));
+    }
+    e.add(z.mul(o))
 }
 
 /// Minimal complex number (no dependency needed for five terms).
@@ -361,6 +527,72 @@ mod tests {
     }
 
     #[test]
+    fn transcendentals_near_resonance_match_direct_ones() {
+        // δτ inside and outside the series range, short and long τ.
+        for (om, al, wd) in [
+            (3784.0, 37.8, 3783.5),
+            (3784.0, 37.0, 3700.0),
+            (3.0, 0.2, 5.0),
+        ] {
+            for &tau in &[1e-7, 3e-4, 1.4e-3, 2.9e-3, 0.01, 0.7, 1.9] {
+                let t = Trig::new(tau, om, al, wd);
+                let (sd, cd) = (wd * tau).sin_cos();
+                // Rounding of the phase ω_dτ itself is ~ulp(ω_dτ) ≤ 1e-12 here.
+                let tol = 4.0 * f64::EPSILON * (1.0 + wd * tau);
+                assert!((t.cd - cd).abs() <= tol, "{tau} {} {cd}", t.cd);
+                assert!((t.sd - sd).abs() <= tol, "{tau} {} {sd}", t.sd);
+                assert!((t.cdm1 - (cd - 1.0)).abs() <= tol, "{tau}");
+                let x = 1e-4;
+                let s = Trig::new(x / om, om, 0.0, om);
+                assert!((s.cdm1 - (-2.0 * (0.5 * x).sin().powi(2))).abs() <= 1e-20);
+                // A nearly free mass (ω_d ≪ Ω): sin ω_dτ and cos ω_dτ − 1 keep their relative
+                // accuracy (the coefficients multiplying them are huge).
+                let wd = 1e-6;
+                let t = Trig::new(tau, om, al, wd);
+                let sd = (wd * tau).sin();
+                let cdm1 = -2.0 * (0.5 * wd * tau).sin().powi(2);
+                assert!((t.sd - sd).abs() <= 4.0 * f64::EPSILON * sd.abs(), "{tau}");
+                assert!(
+                    (t.cdm1 - cdm1).abs() <= 4.0 * f64::EPSILON * cdm1.abs(),
+                    "{tau}"
+                );
+            }
+        }
+        // The series itself against libm over its range.
+        for i in -100..=100 {
+            let x = 0.125 * i as f64 / 100.0;
+            let (s, cm) = small_sin_cm1(x);
+            assert!((s - x.sin()).abs() <= 2.0 * f64::EPSILON * x.abs(), "{x}");
+            let want = -2.0 * (0.5 * x).sin().powi(2);
+            assert!((cm - want).abs() <= 4.0 * f64::EPSILON * want.abs(), "{x}");
+        }
+    }
+
+    #[test]
+    fn phi1_matches_its_definition() {
+        // (e^z − 1)/z directly where that is accurate enough (|z| not tiny), in each tier.
+        for &(re, im) in &[
+            (0.3, -0.35),
+            (-0.49, 0.0),
+            (0.05, 0.07),
+            (-0.02, 0.0),
+            (8e-4, -5e-4),
+        ] {
+            let z = C(re, im);
+            let p = phi1(z);
+            let (s, c) = im.sin_cos();
+            let e = re.exp_m1();
+            // e^z − 1 = (e^x − 1)cos y + (cos y − 1) + i e^x sin y.
+            let num = C(e * c - 2.0 * (0.5 * im).sin().powi(2), (1.0 + e) * s);
+            let want = num.div(z);
+            let err = (p.0 - want.0).hypot(p.1 - want.1);
+            assert!(err < 1e-15, "{re} {im}: {err}");
+        }
+        let t = phi1(C(1e-9, 0.0));
+        assert!((t.0 - (1.0 + 0.5e-9)).abs() < 1e-16 && t.1 == 0.0);
+    }
+
+    #[test]
     fn bounds_hold() {
         let mut f = sample();
         f.c1 = 0.1;
@@ -374,6 +606,44 @@ mod tests {
             for i in 0..=1000 {
                 let t = 0.5 + 2.5 * i as f64 / 1000.0;
                 assert!(g.value(t).abs() <= bnd);
+            }
+        }
+    }
+
+    #[test]
+    fn square_integral_matches_the_product_integral() {
+        // Near resonance (ω_d ≈ Ω, the slow beat term), away from it, undamped, and with a large
+        // static part; short, long and offset intervals.
+        let mut cases = vec![sample()];
+        let mut near = sample();
+        near.wd = 3.0001;
+        near.al = 0.01;
+        cases.push(near);
+        let mut und = sample();
+        und.al = 0.0;
+        cases.push(und);
+        let mut stat = sample();
+        stat.k0 = 1e3;
+        stat.f0 = stat.k0 + stat.a + stat.p;
+        cases.push(stat);
+        let mut only_h = sample();
+        only_h.p = 0.0;
+        only_h.q = 0.0;
+        cases.push(only_h);
+        for x in cases {
+            for &(a, b) in &[
+                (0.0, 2.0),
+                (0.0, 1e-4),
+                (1.0, 1.0001),
+                (3.0, 10.0),
+                (0.0, 40.0),
+            ] {
+                let p = integral_product(&x, &x, a, b);
+                let s = integral_square(&x, a, b);
+                assert!((p - s).abs() <= 1e-13 * p.abs(), "{p} {s}");
+                let tb = Trig::new(b, x.om, x.al, x.wd);
+                let st = integral_square_to(&x, a, b, Some(&tb));
+                assert!((st - s).abs() <= 1e-14 * s.abs(), "{st} {s}");
             }
         }
     }

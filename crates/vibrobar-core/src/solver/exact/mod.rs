@@ -50,8 +50,8 @@ use super::{
 use crate::error::SimError;
 use crate::model::impact_energy_loss_j;
 use crate::params::{FrictionModel, State, System};
-use expsum::{integral_product, ExpSum, Trig};
-use roots::{first_root_multi, Cand, Root};
+use expsum::{integral_product, integral_square, integral_square_to, ExpSum, Trig};
+use roots::{first_root_multi_trig, Cand, Root};
 
 /// The exact event-driven solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -99,18 +99,17 @@ struct Consts {
     /// Chatter resolution: apex height and time.
     chatter_h: f64,
     chatter_t: f64,
+    /// The bar alone and the bar with the ball riding on it.
+    osc: [Osc; 2],
 }
 
 impl Consts {
     fn kappa(&self) -> f64 {
         1.0 / self.md + 1.0 / self.m
     }
-    fn force(&self, t: f64) -> f64 {
-        self.fs + self.f0 * (self.om * t).sin()
-    }
     /// `a_b = (F − C u̇ − K u)/M`: bar acceleration without the ball force.
-    fn a_b(&self, t: f64, u: f64, du: f64) -> f64 {
-        (self.force(t) - self.c * du - self.k * u) / self.m
+    fn a_b(&self, s: &St) -> f64 {
+        (s.force - self.c * s.du - self.k * s.u) / self.m
     }
     /// Friction force on the ball while sliding with sign `σ`.
     fn fb(&self, sigma: f64) -> f64 {
@@ -132,7 +131,8 @@ impl Consts {
         }
     }
 
-    /// Bar (or pair, with `mass`) closed form from `(u0, du0)` at `t_seg`, extra constant force `fc`.
+    /// Bar (or pair, with `mass`) closed form from `(u0, du0)` at `t_seg`, extra constant force
+    /// `fc`; and the forcing over the segment (both from one `sin_cos` of the phase).
     fn bar_sum(
         &self,
         mass: f64,
@@ -140,30 +140,30 @@ impl Consts {
         t_seg: f64,
         u0: f64,
         du0: f64,
-    ) -> Result<ExpSum, SimError> {
+    ) -> Result<(ExpSum, ExpSum), SimError> {
         let (s0, c0) = (self.om * t_seg).sin_cos();
-        let kk = self.k - mass * self.om * self.om;
-        let cw = self.c * self.om;
-        let d = kk * kk + cw * cw;
+        let o = match self.osc.iter().find(|o| o.mass.to_bits() == mass.to_bits()) {
+            Some(o) => *o,
+            None => Osc::new(self, mass),
+        };
         let (a, b) = if self.f0 == 0.0 {
             (0.0, 0.0)
-        } else if d == 0.0 || (cw == 0.0 && kk.abs() <= 8.0 * f64::EPSILON * self.k) {
+        } else if o.resonant {
             // Undamped and at resonance to rounding: no bounded closed form.
             return Err(SimError::UndampedResonance {
                 omega_rad_s: self.om,
             });
         } else {
             (
-                self.f0 * (kk * s0 - cw * c0) / d,
-                self.f0 * (kk * c0 + cw * s0) / d,
+                o.f0_d * (o.kk * s0 - o.cw * c0),
+                o.f0_d * (o.kk * c0 + o.cw * s0),
             )
         };
         let uc = (self.fs + fc) / self.k;
-        let al = self.c / (2.0 * mass);
-        let wd = (self.k / mass - al * al).sqrt();
+        let (al, wd) = (o.al, o.wd);
         let p = u0 - uc - a;
         let q = (du0 - self.om * b + al * p) / wd;
-        Ok(ExpSum {
+        let u = ExpSum {
             f0: u0,
             k0: uc,
             c1: 0.0,
@@ -175,17 +175,51 @@ impl Consts {
             q,
             al,
             wd,
-        })
+        };
+        let force = self.force_sum(s0, c0, &u);
+        Ok((u, force))
     }
 
-    fn force_sum(&self, t_seg: f64, like: &ExpSum) -> ExpSum {
-        let (s0, c0) = (self.om * t_seg).sin_cos();
+    /// The forcing from `(sin, cos)(Ω t_seg)`.
+    fn force_sum(&self, s0: f64, c0: f64, like: &ExpSum) -> ExpSum {
         ExpSum {
             f0: self.fs + self.f0 * s0,
             k0: self.fs,
             a: self.f0 * s0,
             b: self.f0 * c0,
             ..like.zero_like()
+        }
+    }
+}
+
+/// What the bar closed form needs of one oscillating mass (`M` alone, or `M + m_d`), computed
+/// once per run instead of once per segment.
+#[derive(Debug, Clone, Copy)]
+struct Osc {
+    mass: f64,
+    kk: f64,
+    cw: f64,
+    /// `F0 / ((K − mΩ²)² + (CΩ)²)`.
+    f0_d: f64,
+    resonant: bool,
+    al: f64,
+    wd: f64,
+}
+
+impl Osc {
+    fn new(cs: &Consts, mass: f64) -> Osc {
+        let kk = cs.k - mass * cs.om * cs.om;
+        let cw = cs.c * cs.om;
+        let d = kk * kk + cw * cw;
+        let al = cs.c / (2.0 * mass);
+        Osc {
+            mass,
+            kk,
+            cw,
+            f0_d: cs.f0 / d,
+            resonant: d == 0.0 || (cw == 0.0 && kk.abs() <= 8.0 * f64::EPSILON * cs.k),
+            al,
+            wd: (cs.k / mass - al * al).sqrt(),
         }
     }
 }
@@ -198,6 +232,8 @@ struct St {
     du: f64,
     w: f64,
     dw: f64,
+    /// The external force `F(t)` (from the segment's closed form, which has its `sin Ωt`).
+    force: f64,
 }
 
 impl St {
@@ -237,19 +273,32 @@ pub struct ExactSegment {
     force: ExpSum,
     c: f64,
     fb: f64,
+    /// Transcendentals at the local end time `end.tau` (where the next state is taken), shared
+    /// by that state and `∫u²` up to `t1`.
+    end: Trig,
 }
 
 impl ExactSegment {
     fn at(&self, tau: f64) -> St {
-        let tr = Trig::new(tau, self.u.om, self.u.al, self.u.wd);
-        let [u, du]: [f64; 2] = self.u.derivs_t(&tr);
-        let [w, dw]: [f64; 2] = self.w.derivs_t(&tr);
+        self.at_t(&Trig::new(tau, self.u.om, self.u.al, self.u.wd))
+    }
+
+    /// The state at the local end `end.tau` (time `t0 + end.tau`; callers set `t1`).
+    fn at_end(&self) -> St {
+        self.at_t(&self.end)
+    }
+
+    fn at_t(&self, tr: &Trig) -> St {
+        let tau = tr.tau;
+        let [u, du]: [f64; 2] = self.u.derivs_t(tr);
+        let [w, dw]: [f64; 2] = self.w.derivs_t(tr);
         St {
             t: self.t0 + tau,
             u,
             du,
             w,
             dw,
+            force: self.force.value_t(tr),
         }
     }
 }
@@ -270,15 +319,21 @@ impl Segment for ExactSegment {
         s
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
-        integral_product(&self.u, &self.u, a_s - self.t0, b_s - self.t0)
+        if b_s.to_bits() == self.t1.to_bits() {
+            // Up to the segment end: its transcendentals are known (local end `end.tau`, which
+            // is `t1 − t0` up to the rounding of `t1`).
+            integral_square_to(&self.u, a_s - self.t0, self.end.tau, Some(&self.end))
+        } else {
+            integral_square(&self.u, a_s - self.t0, b_s - self.t0)
+        }
     }
     fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals {
         let (a, b) = (a_s - self.t0, b_s - self.t0);
         let du = self.u.deriv();
         SegmentIntegrals {
-            u2_m2_s: integral_product(&self.u, &self.u, a, b),
+            u2_m2_s: integral_square(&self.u, a, b),
             forcing_work_j: integral_product(&self.force, &du, a, b),
-            viscous_loss_j: self.c * integral_product(&du, &du, a, b),
+            viscous_loss_j: self.c * integral_square(&du, a, b),
             friction_work_j: if self.fb == 0.0 {
                 0.0
             } else {
@@ -378,7 +433,7 @@ impl Solver for Exact {
             .abs()
             .max(sys.forcing.static_force_n.abs())
             .max(sys.friction_level_n());
-        let cs = Consts {
+        let mut cs = Consts {
             m: sys.bar.mass_kg,
             md,
             k: sys.bar.stiffness_n_per_m,
@@ -397,7 +452,17 @@ impl Solver for Exact {
             tol_t: 1e-15 / om.max(wn),
             chatter_h: 1e-10 * lg,
             chatter_t: 1e-9 * 2.0 * std::f64::consts::PI / om,
+            osc: [Osc {
+                mass: f64::NAN,
+                kk: 0.0,
+                cw: 0.0,
+                f0_d: 0.0,
+                resonant: false,
+                al: 0.0,
+                wd: 0.0,
+            }; 2],
         };
+        cs.osc = [Osc::new(&cs, cs.m), Osc::new(&cs, cs.m + cs.md)];
         let mut book = Book {
             obs,
             summary: RunSummary {
@@ -415,24 +480,26 @@ impl Solver for Exact {
             du: init.du_m_s,
             w: init.w_m(),
             dw: init.dw_m_s(),
+            force: sys.force_n(init.t_s),
         };
         if sys.damper.is_none() {
             s.w = 0.0;
             s.dw = 0.0;
-            let u = cs.bar_sum(cs.m, 0.0, s.t, s.u, s.du)?;
+            let (u, force) = cs.bar_sum(cs.m, 0.0, s.t, s.u, s.du)?;
             let seg = ExactSegment {
                 t0: s.t,
                 t1: t_end_s,
                 mode: Mode::NoBall,
                 u,
                 w: u.zero_like(),
-                force: cs.force_sum(s.t, &u),
+                force,
                 c: cs.c,
                 fb: 0.0,
+                end: Trig::new(t_end_s - s.t, u.om, u.al, u.wd),
             };
             if t_end_s > s.t {
                 book.obs.segment(&seg);
-                s = seg.at(t_end_s - s.t);
+                s = seg.at_end();
                 s.t = t_end_s;
             }
             if self.check_invariants && !(s.u.is_finite() && s.du.is_finite()) {
@@ -453,7 +520,7 @@ impl Solver for Exact {
                     k_sw,
                 } => {
                     let fb = cs.fb(sigma);
-                    let u = cs.bar_sum(cs.m, -fb, s.t, s.u, s.du)?;
+                    let (u, force) = cs.bar_sum(cs.m, -fb, s.t, s.u, s.du)?;
                     let w = ExpSum {
                         f0: s.w,
                         k0: s.w + u.a + u.p,
@@ -501,12 +568,15 @@ impl Solver for Exact {
                         ids[n] = 3;
                         n += 1;
                     }
-                    let (best, which) = match first_root_multi(&cands[..n], 0.0, span, tol_t) {
-                        (Root::At(t), i) => (t, ids[i]),
-                        (Root::None, _) => (span, 0),
-                        (Root::Stalled(t), _) => {
-                            return Err(SimError::RootIsolation { t_s: s.t + t })
-                        }
+                    let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
+                    let (best, which) = match root {
+                        Root::At(t) => (t, ids[i]),
+                        Root::None => (span, 0),
+                        Root::Stalled(t) => return Err(SimError::RootIsolation { t_s: s.t + t }),
+                    };
+                    let end = match trig {
+                        Some(tr) if tr.tau.to_bits() == best.to_bits() => tr,
+                        _ => Trig::new(best, u.om, u.al, u.wd),
                     };
                     let seg = ExactSegment {
                         t0: s.t,
@@ -514,14 +584,15 @@ impl Solver for Exact {
                         mode: Mode::Free,
                         u,
                         w,
-                        force: cs.force_sum(s.t, &u),
+                        force,
                         c: cs.c,
                         fb,
+                        end,
                     };
                     if seg.t1 > seg.t0 {
                         book.obs.segment(&seg);
                     }
-                    let mut next = seg.at(best);
+                    let mut next = seg.at_end();
                     next.t = seg.t1;
                     book.check_state(&next)?;
                     if which == 0 {
@@ -541,7 +612,7 @@ impl Solver for Exact {
                     s = next;
                 }
                 Md::Stick | Md::Contact(_) => {
-                    let u = cs.bar_sum(cs.m + cs.md, 0.0, s.t, s.u, s.du)?;
+                    let (u, force) = cs.bar_sum(cs.m + cs.md, 0.0, s.t, s.u, s.du)?;
                     let ddu = u.deriv().deriv();
                     let w = ExpSum::constant(s.w, &u);
                     // Margins that stay positive while the mode holds.
@@ -566,12 +637,15 @@ impl Solver for Exact {
                         }
                         _ => unreachable!(),
                     };
-                    let (best, which) = match first_root_multi(&cands[..n], 0.0, span, tol_t) {
-                        (Root::At(t), i) => (t, ids[i]),
-                        (Root::None, _) => (span, 0),
-                        (Root::Stalled(t), _) => {
-                            return Err(SimError::RootIsolation { t_s: s.t + t })
-                        }
+                    let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
+                    let (best, which) = match root {
+                        Root::At(t) => (t, ids[i]),
+                        Root::None => (span, 0),
+                        Root::Stalled(t) => return Err(SimError::RootIsolation { t_s: s.t + t }),
+                    };
+                    let end = match trig {
+                        Some(tr) if tr.tau.to_bits() == best.to_bits() => tr,
+                        _ => Trig::new(best, u.om, u.al, u.wd),
                     };
                     let seg = ExactSegment {
                         t0: s.t,
@@ -583,14 +657,15 @@ impl Solver for Exact {
                         },
                         u,
                         w,
-                        force: cs.force_sum(s.t, &u),
+                        force,
                         c: cs.c,
                         fb: 0.0,
+                        end,
                     };
                     if seg.t1 > seg.t0 {
                         book.obs.segment(&seg);
                     }
-                    let mut next = seg.at(best);
+                    let mut next = seg.at_end();
                     next.t = seg.t1;
                     next.dw = 0.0;
                     book.check_state(&next)?;
@@ -679,7 +754,7 @@ fn at_zero_velocity(cs: &Consts, s: &St) -> Result<Md, SimError> {
             k_sw: 0,
         });
     }
-    let ab = cs.a_b(s.t, s.u, s.du);
+    let ab = cs.a_b(s);
     if cs.model == FrictionModel::Coulomb {
         if ab.abs() <= cs.fl * cs.kappa() {
             return Ok(Md::Stick);
@@ -711,7 +786,7 @@ fn at_zero_velocity(cs: &Consts, s: &St) -> Result<Md, SimError> {
 
 /// `ẇ` reached 0 in free flight with friction sign `σ`.
 fn friction_zero(cs: &Consts, sigma: f64, s: &St, book: &mut Book) -> Result<Md, SimError> {
-    let ab = cs.a_b(s.t, s.u, s.du);
+    let ab = cs.a_b(s);
     if cs.model == FrictionModel::Coulomb && ab.abs() <= cs.fl * cs.kappa() {
         book.event(s.t, EventKind::Stick, s, s)?;
         return Ok(Md::Stick);
@@ -753,7 +828,7 @@ fn impact(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<Md, SimEr
     // q = e·√(a_back/a_away) < 1? Then the sequence sums to Δt = (|ẇ+|/a_away)(1 + √(a_away/a_back))/(1 − q),
     // i.e. 2|ẇ+|/((1 − e) a) without friction. Jump when it is below resolution.
     let sigma = sign_or_zero(s.dw);
-    let a_b = cs.a_b(s.t, s.u, s.du);
+    let a_b = cs.a_b(s);
     let ddw_away = cs.fb(sigma) * cs.kappa() - a_b;
     let ddw_back = cs.fb(-sigma) * cs.kappa() - a_b;
     if cs.e < 1.0 && sw * ddw_away > 0.0 && sw * ddw_back > 0.0 {
@@ -782,21 +857,22 @@ fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Re
     let dv = s.du + s.dw;
     let v = (cs.m * s.du + cs.md * dv) / mtot;
     let loss = 0.5 * cs.m * s.du * s.du + 0.5 * cs.md * dv * dv - 0.5 * mtot * v * v;
-    let u = cs.bar_sum(mtot, 0.0, s.t, s.u, v)?;
+    let (u, force) = cs.bar_sum(mtot, 0.0, s.t, s.u, v)?;
     let seg = ExactSegment {
         t0: s.t,
         t1: s.t + j.dt,
         mode: Mode::Contact(wall_of(j.sw)),
         u,
         w: ExpSum::constant(j.sw * cs.lg, &u),
-        force: cs.force_sum(s.t, &u),
+        force,
         c: cs.c,
         fb: 0.0,
+        end: Trig::new(j.dt, u.om, u.al, u.wd),
     };
     if seg.t1 > seg.t0 {
         book.obs.segment(&seg);
     }
-    let mut next = seg.at(j.dt);
+    let mut next = seg.at_end();
     next.t = seg.t1;
     next.dw = 0.0;
     book.event(
@@ -814,7 +890,7 @@ fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Re
 
 /// Ball at wall `sw` with `ẇ = 0`: does it stay pressed on it (`sw·m_d ü_pair ≤ f_hold`)?
 fn contact_test(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
-    let ddu_pair = cs.a_b(s.t, s.u, s.du) * cs.m / (cs.m + cs.md);
+    let ddu_pair = cs.a_b(s) * cs.m / (cs.m + cs.md);
     if sw * cs.md * ddu_pair <= cs.f_hold() {
         Ok(Md::Contact(wall_of(sw)))
     } else {
@@ -846,6 +922,7 @@ mod tests {
             du: 0.0,
             w,
             dw: 0.0,
+            force: 0.0,
         }
     }
 

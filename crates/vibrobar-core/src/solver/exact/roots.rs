@@ -13,20 +13,28 @@
 //! `L` is `O(h²)`); at a tangency (`g = g' = 0`) they shrink geometrically by `√2 − 1`, so a touch
 //! is found in a few dozen steps.
 //!
-//! `B` is the smaller of two bounds: the amplitudes `Ω²|Ĥ| + ω_n²|D̂|e^{−ατ}` (+ `2|c2|`), and the
-//! envelope of the oscillating parts taken together, `|Z₂(τ)| + ω_n²|D̂|e^{−ατ}(α + |ω_d − Ω|)h`
-//! (see [`envelope`]); near resonance the steady and transient parts of the bar motion cancel,
-//! and the envelope is several times smaller than the sum of the amplitudes.
+//! `B` is the smaller of two bounds: the amplitudes `Ω²|Ĥ| + ω_n²|D̂|e^{−ατ}` (+ `2|c2|`), valid
+//! on the whole interval, and the envelope of the oscillating parts taken together,
+//! `|Z₂(τ)| + ω_n²|D̂|e^{−ατ}(α + |ω_d − Ω|)H` (+ `2|c2|`), valid on `[τ, τ + H]` (see
+//! [`envelope`]; `H` is the horizon of the cubic proof below, and that step is capped at `H`).
+//! Near resonance the steady and transient parts of the bar motion cancel, and the envelope is
+//! several times smaller than the sum of the amplitudes.
 //!
 //! A second proof is used alongside: within a horizon `H`, `g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6)h²`
 //! (`B₃ ≥ |g'''|`), with `H` just beyond the zero of the local quadratic model, which makes the
-//! steps Newton-like near a root; the longer of the two proven steps is taken. All event
-//! functions of a segment are stepped together (the step is the shortest proven one), so the
-//! work is bounded by the earliest event. The search stops at the first of: `g ≤ tol` with
-//! `g' ≤ 0`; a proven-free step below the time resolution while approaching; or a bracket
-//! `[τ + h*, τ + h_up]` below the time resolution, where `h_up` is where the upper bound
-//! `g + g'h + Bh²/2` reaches 0 (then a zero certainly lies in the bracket and `τ + h*` is
-//! returned, so the reported event is never past the zero).
+//! steps Newton-like near a root; the longer of the proven steps is taken. All event functions
+//! of a segment are stepped together (the step is the shortest proven one), so the work is
+//! bounded by the earliest event. Each evaluation proves its function positive up to `τ + hᵢ`;
+//! that proof stays valid, so a function proven beyond the step the others allow is not
+//! evaluated again until the step would reach its proven end (then the longer of the old and the
+//! fresh proof counts).
+//!
+//! The search stops at the first of: `g ≤ tol` with `g' ≤ 0`; a proven-free step below the time
+//! resolution while approaching; or a bracket `[τ + h*, τ + h_up]` below the time resolution,
+//! where `h_up` is where an upper bound reaches 0: `g + g'h + Bh²/2`, or within the horizon
+//! `g + g'h + (g''/2 + B₃H/6)h²` (if its zero is `≤ H`). Then a zero certainly lies in the
+//! bracket and `τ + h*` is returned, so the reported event is never past the zero; it is returned
+//! only when no other function's proven step is shorter (none of them can vanish first).
 //!
 //! **Departure.** A segment often starts *on* the zero set of one of its functions (the wall just
 //! hit, `ẇ = 0` just crossed, a wall just released). There `g(0) = 0` analytically, and round-off
@@ -62,10 +70,6 @@ pub enum Root {
 /// Iteration limit of one search (steps are counted, nothing hangs).
 pub const MAX_ITER: u32 = 100_000;
 
-fn factorial(n: usize) -> f64 {
-    (1..=n).map(|i| i as f64).product()
-}
-
 /// One event function of a joint search.
 #[derive(Debug, Clone, Copy)]
 pub struct Cand {
@@ -79,13 +83,21 @@ pub struct Cand {
 
 /// Departure step: `g > 0` is proven on `(t0, t0 + h₁)`; returns `h₁/2`, or `None` if the
 /// clamped Taylor bracket does not confirm the departure.
-fn departure_step(g: &ExpSum, order: usize, t0: f64, t_max: f64) -> Option<f64> {
+/// `rh`, `rd` bound the harmonic and decaying amplitudes `|Ĥ|`, `|D̂|` (as in the search); the
+/// bound on `|g^(k+2)|` is then [`ExpSum::deriv_bound`]'s, without its `hypot`s and `exp`.
+fn departure_step(g: &ExpSum, order: usize, t0: f64, rh: f64, rd: f64) -> Option<f64> {
+    const FACT: [f64; 6] = [1.0, 1.0, 2.0, 6.0, 24.0, 120.0];
     let trig = Trig::new(t0, g.om, g.al, g.wd);
     let d: [f64; 5] = g.derivs_t(&trig);
     let k = order.min(3);
-    let a = d[k].max(0.0) / factorial(k);
-    let b = d[k + 1] / factorial(k + 1);
-    let c = g.deriv_bound((k + 2) as u32, t0, t_max) / factorial(k + 2);
+    let a = d[k].max(0.0) / FACT[k];
+    let b = d[k + 1] / FACT[k + 1];
+    // |g^(n)| ≤ poly + Ωⁿ|Ĥ| + ω_nⁿ|D̂|e^{−αt0} on [t0, ∞), n = k + 2 ≥ 3 (no polynomial part).
+    let n = (k + 2) as i32;
+    let decay = if t0 == 0.0 { 1.0 } else { (-g.al * t0).exp() };
+    let wn = (g.al * g.al + g.wd * g.wd).sqrt();
+    let bound = (g.om.powi(n) * rh + wn.powi(n) * decay * rd) * (1.0 + 1e-12);
+    let c = bound / FACT[k + 2];
     let h1 = if c > 0.0 {
         (b + (b * b + 4.0 * a * c).sqrt()) / (2.0 * c)
     } else if b < 0.0 {
@@ -107,8 +119,20 @@ fn departure_step(g: &ExpSum, order: usize, t0: f64, t_max: f64) -> Option<f64> 
 /// together (the step is the smallest proven root-free step), so the work is bounded by the
 /// earliest event, not by the interval.
 pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Root, usize) {
+    let (r, i, _) = first_root_multi_trig(cands, t0, t_max, tol_t);
+    (r, i)
+}
+
+/// [`first_root_multi`], also returning the transcendentals at the root when they were
+/// computed there (the caller evaluates the state at the root with them).
+pub fn first_root_multi_trig(
+    cands: &[Cand],
+    t0: f64,
+    t_max: f64,
+    tol_t: f64,
+) -> (Root, usize, Option<Trig>) {
     let Some(first) = cands.first() else {
-        return (Root::None, 0);
+        return (Root::None, 0, None);
     };
     let (om, al, wd) = (first.g.om, first.g.al, first.g.wd);
     let wn2 = al * al + wd * wd;
@@ -133,52 +157,49 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
         b3dec[i] = wn2 * wn2.sqrt() * rd;
         bdrift[i] = wn2 * rd * (al + (wd - om).abs()) * (1.0 + 1e-12);
         if c.order > 0 {
-            match departure_step(&c.g, c.order, t0, t_max) {
+            match departure_step(&c.g, c.order, t0, rh, rd) {
                 Some(h) => free_until[i] = t0 + h,
-                None => return (Root::At(t0), i),
+                None => return (Root::At(t0), i, None),
             }
         }
     }
+    let env = Envelope::new(om, al, wd);
+    // Every evaluation proves its function positive on [τ, τ + hᵢ); `proven[i]` keeps the
+    // furthest such point. A function proven beyond the step the others allow need not be
+    // evaluated again (its proof still holds); one that would limit the step is evaluated
+    // afresh and the longer of the two proofs is kept.
+    let mut proven = [t0; 4];
     let mut tau = tau;
     for _ in 0..MAX_ITER {
         let trig = Trig::new(tau, om, al, wd);
         let decay = 1.0 + trig.em1;
-        let mut h = f64::INFINITY;
-        let mut imin = 0;
-        for (i, c) in cands.iter().take(n).enumerate() {
-            if free_until[i] > tau {
-                let hi = free_until[i] - tau;
-                if hi < h {
-                    h = hi;
-                    imin = i;
-                }
-                continue;
-            }
+        let mut st = Step {
+            h: f64::INFINITY,
+            imin: 0,
+            bracket: None,
+        };
+        let mut pending = [false; 4];
+        // One evaluation of function `i` at τ: `Err(root)` or its proven step and whether the
+        // zero is bracketed to the time resolution just after it.
+        let eval = |i: usize, prev: f64| -> Result<(f64, bool), Root> {
+            let c = &cands[i];
             let [f, f1, f2]: [f64; 3] = c.g.derivs_t(&trig);
             if f <= c.tol && f1 <= 0.0 {
-                return (Root::At(tau), i);
+                return Err(Root::At(tau));
             }
             let f = f.max(0.0);
             // Quadratic bound with B ≥ |g''| on the rest of the interval …
-            let h2_amp = quad_step(f, f1, bconst[i] + bdec[i] * decay);
+            let b_amp = bconst[i] + bdec[i] * decay;
             // … or with the envelope of the oscillating parts taken together: at τ+s,
             // H'' + D'' = Re[e^{iΩs}(Z + λ²D̂e^{λτ}(e^{(−α+iδ)s} − 1))], Z = −Ω²Ĥe^{iΩτ} + λ²D̂e^{λτ},
             // δ = ω_d − Ω, so |g''| ≤ 2|c2| + |Z| + ω_n²|D̂|e^{−ατ}(α + |δ|)s. Near resonance the
             // steady and transient parts cancel and |Z| ≪ Ω²|Ĥ| + ω_n²|D̂|.
             let g = &c.g;
             let e = decay;
-            let (z2, z3) = envelope(g, &trig);
-            let round = 8.0 * f64::EPSILON * (bconst[i] + bdec[i] * e);
-            let bz = (2.0 * g.c2.abs() + z2) * (1.0 + 1e-12) + round;
-            let bd = bdrift[i] * e;
-            let h0 = quad_step(f, f1, bz);
-            let h2_env = if h0.is_finite() {
-                // Valid on [0, h0] with the drift term at its largest there; the root is ≤ h0.
-                quad_step(f, f1, bz + bd * h0)
-            } else {
-                0.0
-            };
-            let h2 = h2_amp.max(h2_env);
+            let ph = env.phasors(g, &trig);
+            let round = 8.0 * f64::EPSILON * b_amp;
+            let bz = (2.0 * g.c2.abs() + env.z2(&ph)) * (1.0 + 1e-12) + round;
+            let h2_amp = quad_step(f, f1, b_amp);
             // … and, within a horizon H, the cubic bound with the actual g'':
             // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6) h² for h ≤ H. Both are proofs; take the longer.
             // H is set a little beyond the zero of the local quadratic model, so that near a
@@ -190,50 +211,182 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
             } else {
                 f64::INFINITY
             };
-            let big_h = (1.1 * h_model).min(8.0 * h2);
-            let h3 = if big_h.is_finite() && big_h > h2 {
+            // (Capped with the amplitude step: H does not wait for the envelope.)
+            let big_h = (1.1 * h_model).min(8.0 * h2_amp);
+            // The envelope step over the same horizon: valid on [0, H] with the drift term at
+            // its largest there. Only worth it when the envelope is the smaller bound
+            // (quad_step is non-increasing in the bound) and H reaches beyond the amplitude step.
+            let h2 = if b_amp > bz && big_h > h2_amp {
+                h2_amp.max(quad_step(f, f1, bz + bdrift[i] * e * big_h).min(big_h))
+            } else {
+                h2_amp
+            };
+            // Upper bound within the horizon (cubic step only): g ≤ f + f1 h + c_up h² on
+            // [0, H], c_up = f2/2 + B₃H/6, since B₃h³/6 ≤ B₃Hh²/6 there.
+            let mut c_up = f64::INFINITY;
+            let h3 = if big_h.is_finite() && big_h > h2_amp {
                 // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
-                let round3 = 8.0 * f64::EPSILON * (b3const[i] + b3dec[i] * e);
-                let b3_env = z3 * (1.0 + 1e-12) + round3 + bdrift[i] * wn * e * big_h;
-                let b3 = (b3const[i] + b3dec[i] * decay).min(b3_env);
+                let b3_amp = b3const[i] + b3dec[i] * decay;
+                let round3 = 8.0 * f64::EPSILON * b3_amp;
+                let b3_env = env.z3(&ph) * (1.0 + 1e-12) + round3 + bdrift[i] * wn * e * big_h;
+                let b3 = b3_amp.min(b3_env);
+                c_up = 0.5 * f2 + b3 * big_h / 6.0;
                 let b_eff = b3 * big_h / 3.0 - f2;
                 quad_step(f, f1, b_eff.max(0.0)).min(big_h)
             } else {
                 0.0
             };
-            let hi = h2.max(h3);
+            // An earlier proof may reach further.
+            let hi = h2.max(h3).max(prev);
+            let mut bracketed = false;
             if f1 < 0.0 {
                 if hi <= tol_t {
                     // Within the time resolution of the zero, approaching it: it is here.
-                    return (Root::At(tau), i);
+                    return Err(Root::At(tau));
                 }
                 // Upper bound g ≤ f + f1 h + B h²/2: if it reaches 0 by `h_up`, a zero lies in
                 // [τ + hi, τ + h_up]; once that bracket is below the time resolution, stop at
-                // its proven-free left end.
-                let bnd = bconst[i] + bdec[i] * decay;
-                let disc = f1 * f1 - 2.0 * bnd * f;
+                // its proven-free left end (if no other function may vanish before it).
+                let disc = f1 * f1 - 2.0 * b_amp * f;
                 if disc >= 0.0 {
                     let h_up = 2.0 * f / (-f1 + disc.sqrt());
-                    if h_up - hi <= tol_t && tau + hi < t_max {
-                        return (Root::At(tau + hi), i);
+                    bracketed = h_up - hi <= tol_t && tau + hi < t_max;
+                }
+                // The same with the cubic upper bound (valid up to H), which brackets the zero
+                // to the resolution from much farther away; tried only when the bracket width,
+                // about (c_up − f2/2 + B₃H/6)·hi²/|f1| = B₃H·hi²/(3|f1|), may be that small.
+                if !bracketed
+                    && c_up.is_finite()
+                    && (c_up - 0.5 * f2) * hi * hi <= 4.0 * tol_t * -f1
+                {
+                    let d3 = f1 * f1 - 4.0 * c_up * f;
+                    if d3 >= 0.0 {
+                        let h_up3 = 2.0 * f / (-f1 + d3.sqrt());
+                        bracketed = h_up3 <= big_h && h_up3 - hi <= tol_t && tau + hi < t_max;
                     }
                 }
             }
-            if hi < h {
-                h = hi;
-                imin = i;
+            Ok((hi, bracketed))
+        };
+        for i in 0..n {
+            if free_until[i] > tau {
+                st.take(i, free_until[i] - tau, false);
+            } else if proven[i] > tau {
+                pending[i] = true;
+            } else {
+                match eval(i, 0.0) {
+                    Ok((hi, br)) => {
+                        proven[i] = tau + hi;
+                        st.take(i, hi, br);
+                    }
+                    Err(r) => return (r, i, Some(trig)),
+                }
             }
         }
-        let next = tau + h;
+        for i in 0..n {
+            if !pending[i] {
+                continue;
+            }
+            let hl = proven[i] - tau;
+            if hl >= st.h {
+                // Proven beyond the step: not limiting, no evaluation needed.
+                st.take(i, hl, false);
+                continue;
+            }
+            match eval(i, hl) {
+                Ok((hi, br)) => {
+                    proven[i] = tau + hi;
+                    st.take(i, hi, br);
+                }
+                Err(r) => return (r, i, Some(trig)),
+            }
+        }
+        if let Some((i, hb)) = st.bracket {
+            if hb <= st.h {
+                return (Root::At(tau + hb), i, None);
+            }
+        }
+        let next = tau + st.h;
         if next >= t_max {
-            return (Root::None, 0);
+            return (Root::None, 0, None);
         }
         if next <= tau {
-            return (Root::At(tau), imin);
+            return (Root::At(tau), st.imin, Some(trig));
         }
         tau = next;
     }
-    (Root::Stalled(tau), 0)
+    (Root::Stalled(tau), 0, None)
+}
+
+/// The shortest proven step of one iteration, the function giving it, and the earliest
+/// bracketed zero.
+struct Step {
+    h: f64,
+    imin: usize,
+    bracket: Option<(usize, f64)>,
+}
+
+impl Step {
+    fn take(&mut self, i: usize, hi: f64, bracketed: bool) {
+        if bracketed && self.bracket.is_none_or(|(_, b)| hi < b) {
+            self.bracket = Some((i, hi));
+        }
+        if hi < self.h {
+            self.h = hi;
+            self.imin = i;
+        }
+    }
+}
+
+/// The powers `(iΩ)^n`, `λ^n` (`n = 2, 3`) of one search, for the envelopes of its functions.
+#[derive(Debug, Clone, Copy)]
+struct Envelope {
+    om2: f64,
+    om3: f64,
+    l2: (f64, f64),
+    l3: (f64, f64),
+}
+
+impl Envelope {
+    fn new(om: f64, al: f64, wd: f64) -> Envelope {
+        let (l2r, l2i) = (al * al - wd * wd, -2.0 * al * wd);
+        Envelope {
+            om2: om * om,
+            om3: om * om * om,
+            l2: (l2r, l2i),
+            l3: (-al * l2r - wd * l2i, wd * l2r - al * l2i),
+        }
+    }
+
+    /// `Ĥ e^{iΩτ}` and `D̂ e^{λτ}` as `[hr, hi, dr, di]`.
+    #[inline]
+    fn phasors(&self, g: &ExpSum, trig: &Trig) -> [f64; 4] {
+        let e = 1.0 + trig.em1;
+        [
+            g.a * trig.ch + g.b * trig.sh,
+            g.a * trig.sh - g.b * trig.ch,
+            e * (g.p * trig.cd + g.q * trig.sd),
+            e * (g.p * trig.sd - g.q * trig.cd),
+        ]
+    }
+
+    /// `|Z₂| = |(iΩ)²Ĥe^{iΩτ} + λ²D̂e^{λτ}|`, with `(iΩ)² = −Ω²`.
+    #[inline]
+    fn z2(&self, &[hr, hi, dr, di]: &[f64; 4]) -> f64 {
+        let (l2r, l2i) = self.l2;
+        let z2r = -self.om2 * hr + (l2r * dr - l2i * di);
+        let z2i = -self.om2 * hi + (l2r * di + l2i * dr);
+        (z2r * z2r + z2i * z2i).sqrt()
+    }
+
+    /// `|Z₃| = |(iΩ)³Ĥe^{iΩτ} + λ³D̂e^{λτ}|`, with `(iΩ)³ = −iΩ³`.
+    #[inline]
+    fn z3(&self, &[hr, hi, dr, di]: &[f64; 4]) -> f64 {
+        let (l3r, l3i) = self.l3;
+        let z3r = self.om3 * hi + (l3r * dr - l3i * di);
+        let z3i = -self.om3 * hr + (l3r * di + l3i * dr);
+        (z3r * z3r + z3i * z3i).sqrt()
+    }
 }
 
 /// `(|Z₂|, |Z₃|)`: the envelopes at `τ` of the second and third derivatives of the oscillating
@@ -241,27 +394,9 @@ pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Roo
 /// `λ = −α + iω_d`). On `[τ, τ+s]`, `|H^(n) + D^(n)| ≤ |Z_n| + ω_n^n |D̂| e^{−ατ}(α + |ω_d − Ω|) s`,
 /// because `e^{λ(τ+s)} = e^{λτ} e^{iΩs} e^{(−α + i(ω_d − Ω))s}` and `|e^z − 1| ≤ |z|` for `Re z ≤ 0`.
 pub fn envelope(g: &ExpSum, trig: &Trig) -> (f64, f64) {
-    let (om, al, wd) = (g.om, g.al, g.wd);
-    let e = 1.0 + trig.em1;
-    // Ĥ e^{iΩτ} and D̂ e^{λτ}.
-    let (hr, hi) = (g.a * trig.ch + g.b * trig.sh, g.a * trig.sh - g.b * trig.ch);
-    let (dr, di) = (
-        e * (g.p * trig.cd + g.q * trig.sd),
-        e * (g.p * trig.sd - g.q * trig.cd),
-    );
-    let (l2r, l2i) = (al * al - wd * wd, -2.0 * al * wd);
-    let (l3r, l3i) = (-al * l2r - wd * l2i, wd * l2r - al * l2i);
-    let om2 = om * om;
-    let om3 = om2 * om;
-    // (iΩ)² = −Ω², (iΩ)³ = −iΩ³.
-    let z2r = -om2 * hr + (l2r * dr - l2i * di);
-    let z2i = -om2 * hi + (l2r * di + l2i * dr);
-    let z3r = om3 * hi + (l3r * dr - l3i * di);
-    let z3i = -om3 * hr + (l3r * di + l3i * dr);
-    (
-        (z2r * z2r + z2i * z2i).sqrt(),
-        (z3r * z3r + z3i * z3i).sqrt(),
-    )
+    let env = Envelope::new(g.om, g.al, g.wd);
+    let ph = env.phasors(g, trig);
+    (env.z2(&ph), env.z3(&ph))
 }
 
 /// Smallest positive root of `f + f1 h − b h²/2` (`f ≥ 0`, `b ≥ 0`), infinite if none.
