@@ -25,6 +25,9 @@ pub enum Command {
     Paper(PaperArgs),
     /// Time one paper run and the whole paper sweep set for every solver, in one process.
     Bench(BenchArgs),
+    /// Lumped M, K of a round cantilever bar (optionally with a transverse cavity) from
+    /// Euler–Bernoulli theory, for each reduction to one degree of freedom.
+    Beam(crate::commands::beam::BeamArgs),
     /// Design map over frequency ratio × gap: RMS reduction, impacts per cycle, regime, optimum
     /// and heat maps; resumable (--resume) and shardable (--shard K/N).
     Map(crate::commands::map::MapArgs),

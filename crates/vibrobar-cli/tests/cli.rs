@@ -640,3 +640,40 @@ fn run_writes_npy_matching_the_csv() {
         }
     }
 }
+
+/// `beam` reaches the Euler–Bernoulli estimator: the closest reduction to the paper's solid bar
+/// (total mass ρAL, K = Mω₁²) and a clean error for a bad length.
+#[test]
+fn beam_prints_every_reduction_and_rejects_bad_geometry() {
+    let o = ok(&["beam"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    for r in [
+        "static-rayleigh",
+        "static-exact-freq",
+        "modal-tip",
+        "total-mass",
+    ] {
+        assert!(text.contains(r), "missing {r}:\n{text}");
+    }
+    let line = text.lines().find(|l| l.contains("total-mass")).unwrap();
+    let nums: Vec<f64> = line
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    // ρAL = 7850·π·0.0125²·0.175 kg; K = ρAL·(1.8751²)²·EI/(ρA L⁴)
+    let m = 7850.0 * std::f64::consts::PI * 0.0125f64.powi(2) * 0.175;
+    let ei = 200e9 * std::f64::consts::PI * 0.025f64.powi(4) / 64.0;
+    let k = 1.875_104_068_711_961f64.powi(4) * ei / 0.175f64.powi(3);
+    assert!((nums[0] - m).abs() < 1e-4, "M {} vs {m}", nums[0]);
+    assert!(
+        (nums[1] - k * 1e-6).abs() < 1e-4,
+        "K {} vs {}",
+        nums[1],
+        k * 1e-6
+    );
+    let bad = vibrobar(&["beam", "--length-mm", "-3"]);
+    assert!(!bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(err.contains("length_m") && err.contains("(0, ∞)"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}

@@ -1,5 +1,6 @@
 //! One module per command, plus the case runner they share.
 
+pub mod beam;
 pub mod bench;
 pub mod design;
 pub mod explore;
@@ -28,6 +29,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Sweep(a) => sweep::sweep(&a),
         Command::Run(a) => run::run(&a),
         Command::Paper(a) => paper::paper(&a),
+        Command::Beam(a) => beam::beam(&a),
         Command::Map(a) => map::run(&a),
         Command::Merge(a) => merge::run(&a),
         Command::Poincare(a) => explore::run_poincare(&a),
