@@ -120,7 +120,11 @@ pub struct SweepArgs {
     /// Frequency ratios Ω/√(K/M) as START:STOP:STEP, STOP included (0.95:1.05:0.01 is 11 points) [default: from the scenario].
     #[arg(long, value_name = "START:STOP:STEP", allow_hyphen_values = true)]
     pub ratios: Option<String>,
-    /// Output CSV (written to FILE.partial, renamed when complete).
+    /// Continue an interrupted sweep from FILE.csv.journal (same parameters only).
+    #[arg(long)]
+    pub resume: bool,
+    /// Output CSV: rows go to FILE.csv.journal as they finish; FILE.csv (sorted, gap-major) and
+    /// FILE.csv.meta.json appear only when every row is in.
     #[arg(long, value_name = "FILE.csv")]
     pub out: PathBuf,
 }

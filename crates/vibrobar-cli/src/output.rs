@@ -67,23 +67,27 @@ pub fn grid_num(x: f64) -> String {
     s.trim_end_matches('.').to_string()
 }
 
+/// One sweep CSV line (no newline); the same text whether written directly or via the journal.
+pub fn sweep_csv_line(r: &SweepCsvRow) -> String {
+    format!(
+        "{},{},{},{},{:e},{:e},{:.4},{}",
+        grid_num(r.ratio),
+        grid_num(r.gap_mm),
+        r.friction,
+        r.solver,
+        r.rms_solid_m,
+        r.rms_damped_m,
+        r.reduction_pct,
+        r.impacts
+    )
+}
+
 /// Write a sweep CSV.
 pub fn write_sweep_csv(path: &Path, rows: &[SweepCsvRow]) -> Result<()> {
     write_atomic(path, |w| {
         writeln!(w, "{SWEEP_HEADER}")?;
         for r in rows {
-            writeln!(
-                w,
-                "{},{},{},{},{:e},{:e},{:.4},{}",
-                grid_num(r.ratio),
-                grid_num(r.gap_mm),
-                r.friction,
-                r.solver,
-                r.rms_solid_m,
-                r.rms_damped_m,
-                r.reduction_pct,
-                r.impacts
-            )?;
+            writeln!(w, "{}", sweep_csv_line(r))?;
         }
         Ok(())
     })

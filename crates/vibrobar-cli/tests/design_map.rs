@@ -112,7 +112,7 @@ fn optimum_csv_agrees_with_the_map() {
     let mut lines = opt.lines();
     assert_eq!(
         lines.next(),
-        Some("ratio,best_gap_mm,best_reduction_pct,rms_damped_m,rms_solid_m,impacts_per_cycle,regime,criterion")
+        Some("ratio,best_gap_mm,best_reduction_pct,rms_damped_m,rms_solid_m,impacts_per_cycle,regime,criterion,friction_work_j,work_input_j")
     );
     let opt: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     let red = |r: &Vec<String>| r[4].parse::<f64>().unwrap();
@@ -135,6 +135,9 @@ fn optimum_csv_agrees_with_the_map() {
         assert_eq!(o[4], best[2]);
         assert_eq!(o[6], best[6]);
         assert_eq!(o[7], "max-reduction");
+        // Frictionless: no friction work; the cutting force does positive work from rest.
+        assert_eq!(o[8].parse::<f64>().unwrap(), 0.0);
+        assert!(o[9].parse::<f64>().unwrap() > 0.0, "work input {}", o[9]);
     }
     // Band: mean reduction and minimax RMS per gap, computed here independently.
     let gaps = ["0.1", "0.2", "0.3"];
@@ -166,6 +169,9 @@ fn optimum_csv_agrees_with_the_map() {
         .unwrap();
     let band: Vec<&Vec<&str>> = opt.iter().filter(|o| o[0] == "band").collect();
     assert_eq!(band.len(), 2);
+    assert!(band
+        .iter()
+        .all(|b| b.len() == 10 && b[8].is_empty() && b[9].is_empty()));
     assert_eq!(band[0][7], "band-mean-reduction");
     assert_eq!(band[0][1], best_mean);
     assert!((band[0][2].parse::<f64>().unwrap() - mean(best_mean)).abs() < 1e-9);
@@ -536,9 +542,62 @@ fn optional_axes_add_columns_after_gap() {
     assert!(rows[1].starts_with("0.99,0.1,0,0.8,"), "{}", rows[1]);
     assert!(rows[2].starts_with("0.99,0.1,1,0.5,"), "{}", rows[2]);
     let opt = fs::read_to_string(p(d.path(), "optimum.csv")).unwrap();
-    assert!(opt
-        .lines()
-        .next()
-        .unwrap()
-        .ends_with(",criterion,best_friction_force_n,best_restitution"));
+    assert!(opt.lines().next().unwrap().ends_with(
+        ",criterion,best_friction_force_n,best_restitution,friction_work_j,work_input_j"
+    ));
+}
+
+#[test]
+fn optimum_friction_work_sign_follows_the_friction_law() {
+    // As published, F_ball·ẇ = f|ẇ| ≥ 0: friction puts energy in; Coulomb takes it out; none is 0.
+    let d = tempfile::tempdir().unwrap();
+    for (friction, want) in [
+        ("as-published", "friction put energy in"),
+        ("coulomb", "friction took energy out"),
+        ("none", "(none)"),
+    ] {
+        let out = p(d.path(), &format!("{friction}/m.csv"));
+        let o = run(
+            &[
+                "map",
+                "--friction",
+                friction,
+                "--ratios",
+                "0.99:1.01:0.01",
+                "--gaps-mm",
+                "0.1:0.2:0.1",
+                "--duration",
+                "0.05",
+                "--out",
+                s(&out),
+            ],
+            &[],
+        );
+        ok(&o);
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        let line = stdout
+            .lines()
+            .find(|l| l.starts_with("friction work at the 3 optimum points"))
+            .unwrap_or_else(|| panic!("{friction}: no summary line in\n{stdout}"));
+        assert!(line.contains(want), "{friction}: {line}");
+        assert!(line.contains("cutting-force work"), "{line}");
+        let opt = fs::read_to_string(out.with_file_name("optimum.csv")).unwrap();
+        let per_ratio: Vec<Vec<&str>> = opt
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|f| f[7] == "max-reduction")
+            .collect();
+        assert_eq!(per_ratio.len(), 3);
+        for f in per_ratio {
+            let w: f64 = f[8].parse().unwrap();
+            let input: f64 = f[9].parse().unwrap();
+            match friction {
+                "as-published" => assert!(w > 0.0, "{friction}: {w}"),
+                "coulomb" => assert!(w < 0.0, "{friction}: {w}"),
+                _ => assert_eq!(w, 0.0, "{friction}"),
+            }
+            assert!(input > 0.0 && w.abs() < input, "{friction}: {w} of {input}");
+        }
+    }
 }

@@ -8,7 +8,8 @@
 //!
 //! Rows go through a journal (`FILE.csv.journal`) as they finish, so a killed run loses at most
 //! the runs in flight and `--resume` completes it with a byte-identical result. Beside the data:
-//! `FILE.csv.meta.json`; for a whole (unsharded) map also `optimum.csv` and the figures
+//! `FILE.csv.meta.json`; for a whole (unsharded) map also `optimum.csv` (with the energy books of
+//! each ratio's optimum point, rerun with the energy audit) and the figures
 //! `FILE.reduction.{png,svg}` and `FILE.impacts.{png,svg}` (see [`postprocess`]).
 use super::{
     check_value, fmt_coord, make_solver, parse_range, with_threads, SystemArgs, DEFAULT_SOLVER,
@@ -19,12 +20,13 @@ use anyhow::{bail, Context};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
 use vibrobar_core::analysis::map::{
     compute_point_from, compute_solid, optimum, Axis, Grid, GridAxis, GridPoint, MapRow, MapSpec,
     Optimum,
 };
-use vibrobar_core::analysis::par_map_with_progress;
 use vibrobar_core::analysis::regime::{Regime, Tolerances};
+use vibrobar_core::analysis::{par_map_with_progress, run_case, SweepBase};
 use vibrobar_core::params::{FrictionModel, RunSettings, State};
 use vibrobar_core::solver::{Solver, SOLVER_NAMES};
 
@@ -394,6 +396,10 @@ pub fn read_map_csv(path: &Path) -> anyhow::Result<MapTable> {
 ///   band) and `band-minimax-rms` (smallest largest damped RMS: the robust choice; same columns).
 ///   `rms_solid_m`, `impacts_per_cycle` and `regime` are empty on band rows.
 /// * `best_<axis>` columns follow for each optional axis.
+/// * Last, `friction_work_j,work_input_j`: the energy books of the per-ratio optimum point, rerun
+///   from rest with [`EnergyAudit`] over the whole run (`∫F_ball ẇ dt`, positive = friction put
+///   energy in; `∫F u̇ dt`, the cutting force's work). Empty on band rows (a band design is many
+///   runs, not one) and when the map's metadata is missing.
 pub fn optimum_header(extra: &[Axis]) -> String {
     let mut h = String::from(
         "ratio,best_gap_mm,best_reduction_pct,rms_damped_m,rms_solid_m,impacts_per_cycle,regime,criterion",
@@ -402,15 +408,16 @@ pub fn optimum_header(extra: &[Axis]) -> String {
         h.push_str(",best_");
         h.push_str(a.as_str());
     }
+    h.push_str(",friction_work_j,work_input_j");
     h
 }
 
-/// The text of `optimum.csv` for a map.
-pub fn optimum_csv(t: &MapTable, o: &Optimum) -> String {
+/// The text of `optimum.csv` for a map; `energy[k]` are the books of `o.per_ratio[k]`.
+pub fn optimum_csv(t: &MapTable, o: &Optimum, energy: &[Option<EnergyBalance>]) -> String {
     let x = t.extra.len();
     let mut s = optimum_header(&t.extra);
     s.push('\n');
-    for r in &o.per_ratio {
+    for (k, r) in o.per_ratio.iter().enumerate() {
         let f = &t.fields[r.point.index];
         s.push_str(&format!(
             "{},{},{},{},{},{},{},max-reduction",
@@ -422,9 +429,13 @@ pub fn optimum_csv(t: &MapTable, o: &Optimum) -> String {
             f[2 + x + 3],
             f[2 + x + 4]
         ));
-        for k in 0..x {
+        for c in 0..x {
             s.push(',');
-            s.push_str(&f[2 + k]);
+            s.push_str(&f[2 + c]);
+        }
+        match energy.get(k).copied().flatten() {
+            Some(e) => s.push_str(&format!(",{:e},{:e}", e.friction_work_j, e.work_input_j)),
+            None => s.push_str(",,"),
         }
         s.push('\n');
     }
@@ -453,9 +464,137 @@ pub fn optimum_csv(t: &MapTable, o: &Optimum) -> String {
             s.push(',');
             s.push_str(&fmt_coord(v));
         }
-        s.push('\n');
+        s.push_str(",,\n");
     }
     s
+}
+
+/// The map's system, friction and solver rebuilt from its metadata parameters
+/// ([`SystemArgs::to_json`] plus the regime tolerances).
+fn spec_from_params(p: &serde_json::Value) -> anyhow::Result<(MapSpec, String)> {
+    fn field<T: serde::de::DeserializeOwned>(p: &serde_json::Value, k: &str) -> anyhow::Result<T> {
+        serde_json::from_value(p[k].clone())
+            .with_context(|| format!("metadata parameter {k:?} missing or invalid"))
+    }
+    let friction: String = field(p, "friction")?;
+    let friction = FrictionModel::parse(&friction)
+        .with_context(|| format!("metadata: unknown friction model {friction:?}"))?;
+    let spec = MapSpec {
+        base: SweepBase {
+            damped_bar: field(p, "damped_bar")?,
+            solid_bar: field(p, "solid_bar")?,
+            ball: field(p, "ball")?,
+            forcing: field(p, "forcing")?,
+        },
+        friction,
+        settings: field(p, "settings")?,
+        tolerances: Tolerances::default(),
+    };
+    Ok((spec, field(p, "solver")?))
+}
+
+/// Rerun each per-ratio optimum point (from rest, as the map ran it) with the energy audit.
+/// One short run per ratio, in parallel; the order of `o.per_ratio` is kept.
+pub fn optimum_energy(
+    params: &serde_json::Value,
+    o: &Optimum,
+) -> anyhow::Result<Vec<Option<EnergyBalance>>> {
+    let (spec, solver_name) = spec_from_params(params)?;
+    let solver = make_solver(&solver_name, &spec.settings)?;
+    let grid = grid_from_params(params);
+    o.per_ratio
+        .par_iter()
+        .map(|r| -> anyhow::Result<Option<EnergyBalance>> {
+            // The exact grid values (the CSV's are rounded to 12 digits, and a chaotic run would
+            // amplify that), when the metadata's grid agrees with the row.
+            let point = grid
+                .as_ref()
+                .and_then(|g| g.point(r.point.index))
+                .filter(|g| same_point(g, &r.point))
+                .unwrap_or_else(|| r.point.clone());
+            let sys = spec
+                .damped_system(&point)
+                .map_err(|e| anyhow::anyhow!("{e} (at {})", describe(&point)))?;
+            let mut audit = EnergyAudit::new(&sys);
+            run_case(
+                &sys,
+                &State::REST,
+                &spec.settings,
+                solver.as_ref(),
+                &mut audit,
+            )
+            .with_context(|| format!("energy audit at {}", describe(&r.point)))?;
+            Ok(audit.balance())
+        })
+        .collect()
+}
+
+/// The map's grid from `grid_values_si` in the metadata (axes in [`Axis::ALL`] order, as
+/// [`job`] builds them); `None` if absent or invalid.
+fn grid_from_params(p: &serde_json::Value) -> Option<Grid> {
+    let values = p.get("grid_values_si")?.as_object()?;
+    let axes = Axis::ALL
+        .iter()
+        .filter_map(|a| {
+            let v: Vec<f64> = serde_json::from_value(values.get(a.as_str())?.clone()).ok()?;
+            Some(GridAxis {
+                axis: *a,
+                values: v,
+            })
+        })
+        .collect();
+    Grid::new(axes).ok()
+}
+
+/// Same axes and values up to the CSV's 12-digit rounding.
+fn same_point(a: &GridPoint, b: &GridPoint) -> bool {
+    a.coords.len() == b.coords.len()
+        && a.coords
+            .iter()
+            .zip(&b.coords)
+            .all(|((xa, va), (xb, vb))| xa == xb && (va - vb).abs() <= 1e-10 * va.abs().max(1e-30))
+}
+
+/// One line: friction work over the optimum points, its range and sign, against the cutting
+/// force's work. `None` when nothing was audited.
+pub fn friction_work_summary(energy: &[Option<EnergyBalance>]) -> Option<String> {
+    let e: Vec<&EnergyBalance> = energy.iter().flatten().collect();
+    if e.is_empty() {
+        return None;
+    }
+    let range = |f: fn(&EnergyBalance) -> f64| {
+        e.iter()
+            .map(|b| f(b))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            })
+    };
+    let (f_lo, f_hi) = range(|b| b.friction_work_j);
+    let (w_lo, w_hi) = range(|b| b.work_input_j);
+    let sign = if f_lo > 0.0 {
+        "friction put energy in"
+    } else if f_hi < 0.0 {
+        "friction took energy out"
+    } else if f_lo == 0.0 && f_hi == 0.0 {
+        "none"
+    } else {
+        "friction work of both signs"
+    };
+    let share = e
+        .iter()
+        .filter(|b| b.work_input_j.abs() > 0.0)
+        .map(|b| (b.friction_work_j / b.work_input_j).abs())
+        .fold(0.0, f64::max);
+    Some(format!(
+        "friction work at the {} optimum points: {:.3e}..{:.3e} J ({sign}); cutting-force work \
+         {:.3e}..{:.3e} J; |friction/cutting| up to {:.2} %",
+        e.len(),
+        f_lo,
+        f_hi,
+        w_lo,
+        w_hi,
+        100.0 * share
+    ))
 }
 
 /// `optimum.csv` beside a map file.
@@ -468,9 +607,20 @@ pub fn optimum_path(map_csv: &Path) -> PathBuf {
 pub fn postprocess(map_csv: &Path) -> anyhow::Result<()> {
     let t = read_map_csv(map_csv)?;
     let o = optimum(&t.rows);
+    let energy = match Metadata::read_beside(map_csv) {
+        Ok(meta) => optimum_energy(&meta.parameters, &o)
+            .with_context(|| format!("energy audit of the optimum of {}", map_csv.display()))?,
+        Err(e) => {
+            eprintln!("energy audit skipped: no metadata beside the map ({e})");
+            vec![None; o.per_ratio.len()]
+        }
+    };
     let opt = optimum_path(map_csv);
-    crate::store::write_atomic(&opt, optimum_csv(&t, &o).as_bytes())
+    crate::store::write_atomic(&opt, optimum_csv(&t, &o, &energy).as_bytes())
         .with_context(|| format!("writing {}", opt.display()))?;
+    if let Some(line) = friction_work_summary(&energy) {
+        println!("{line}");
+    }
     let figs = crate::figures::map::draw_map_figures(map_csv, &t, &o)?;
     if let Some(b) = &o.best_mean_reduction {
         let gap = b

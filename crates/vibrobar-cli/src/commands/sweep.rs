@@ -1,12 +1,22 @@
 //! `vibrobar sweep`: RMS of the damped and the solid bar over ratios and gaps.
+//!
+//! Rows are in grid order: gap-major (every ratio of the first gap, then of the next gap), so the
+//! grid index of (gap k, ratio j) is `k · n_ratios + j`. Rows go through a journal
+//! (`FILE.journal`) as they finish: a killed sweep loses at most the runs in flight, `--resume`
+//! completes it, and the final `FILE` is byte-identical whether or not it was interrupted.
+//! `FILE.meta.json` beside it holds every parameter, the solver settings, the version, a time
+//! stamp and the job's fingerprint (which `--resume` checks).
 
-use anyhow::Result;
+use anyhow::{Context, Result};
+use rayon::prelude::*;
 use vibrobar_core::analysis::SweepPoint;
+use vibrobar_core::System;
 
-use super::{assemble_sweep, fmt_secs, run_cases, solver, sweep_cases};
+use super::{fmt_secs, progress_bar, run_one, solver, Case, SweepResult};
 use crate::cli::SweepArgs;
-use crate::output::write_sweep_csv;
+use crate::output::{sweep_csv_line, SWEEP_HEADER};
 use crate::scenario::{check_positive, parse_ratios, ratio_range, Scenario};
+use crate::store::{GridInfo, Journal, Metadata};
 
 /// Run the command.
 pub fn sweep(args: &SweepArgs) -> Result<()> {
@@ -17,9 +27,8 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     } else {
         args.gap_mm.iter().map(|g| g * 1e-3).collect()
     };
-    for (g_mm, g) in args.gap_mm.iter().zip(&gaps_m) {
+    for g_mm in &args.gap_mm {
         check_positive("--gap-mm", *g_mm, "mm")?;
-        let _ = g;
     }
     if gaps_m.is_empty() {
         anyhow::bail!("--gap-mm: no gap given (allowed: one or more values > 0 mm)");
@@ -32,6 +41,7 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
             sc.sweep.ratio_step,
         )?,
     };
+    // Grid order (= row order and journal index): gap-major.
     let points: Vec<SweepPoint> = gaps_m
         .iter()
         .flat_map(|&gap_m| {
@@ -52,21 +62,103 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     }
     let settings = sc.settings();
     let solver = solver(&sc.run.solver, &settings)?;
-    let (cases, solid_index) = sweep_cases(
-        &points,
-        &sc.base(),
-        sc.gravity_m_s2,
-        &sc.initial_state(),
-        false,
+    let params = serde_json::json!({
+        "scenario": serde_json::to_value(&sc).context("serialising the scenario")?,
+        "solver": solver.name(),
+        "settings": serde_json::to_value(settings).context("serialising the settings")?,
+        "gaps_m": gaps_m,
+        "ratios": ratios,
+        "order": "gap-major",
+    });
+    let indices: Vec<usize> = (0..points.len()).collect();
+    let meta = Metadata::new(
+        "sweep",
+        SWEEP_HEADER,
+        params,
+        Some(GridInfo {
+            total: points.len(),
+            shard: None,
+            indices: None,
+        }),
     );
-    let outcomes = run_cases(&cases, &settings, solver.as_ref(), "sweep")?;
-    let rows = assemble_sweep(&points, &solid_index, &outcomes, 0, solver.name());
-    let csv: Vec<_> = rows.iter().map(|r| r.csv_row()).collect();
-    write_sweep_csv(&args.out, &csv)?;
+    let journal = Journal::open(
+        &args.out,
+        SWEEP_HEADER,
+        &meta.fingerprint,
+        &indices,
+        args.resume,
+    )?;
+    if journal.done_count() > 0 {
+        eprintln!(
+            "resuming {}: {} of {} rows already done",
+            args.out.display(),
+            journal.done_count(),
+            points.len()
+        );
+    }
+    let pending = journal.pending();
+    let base = sc.base();
+    let init = sc.initial_state();
+    // Solid bar once per distinct ratio among the pending points.
+    let mut solid_ratios: Vec<f64> = pending.iter().map(|&i| points[i].ratio).collect();
+    solid_ratios.sort_by(f64::total_cmp);
+    solid_ratios.dedup_by(|a, b| a.total_cmp(b).is_eq());
+    let solid_cases: Vec<Case> = solid_ratios
+        .iter()
+        .map(|&r| Case {
+            system: System {
+                gravity_m_s2: sc.gravity_m_s2,
+                ..base.solid_system(r)
+            },
+            init,
+            sample_interval_s: None,
+            energy_audit: false,
+        })
+        .collect();
+    let solids = super::run_cases(&solid_cases, &settings, solver.as_ref(), "solid bar")?;
+    let bar = progress_bar(points.len() as u64, "sweep");
+    bar.set_position(journal.done_count() as u64);
+    let res = pending.par_iter().try_for_each(|&i| -> Result<()> {
+        let p = &points[i];
+        let case = Case {
+            system: System {
+                gravity_m_s2: sc.gravity_m_s2,
+                ..base.damped_system(p)
+            },
+            init,
+            sample_interval_s: None,
+            energy_audit: false,
+        };
+        let d = run_one(&case, &settings, solver.as_ref()).map_err(|e| {
+            anyhow::anyhow!(
+                "sweep: run at ratio {:.4}, gap {} mm failed: {e}",
+                p.ratio,
+                p.gap_m * 1e3
+            )
+        })?;
+        let k = solid_ratios
+            .binary_search_by(|x| x.total_cmp(&p.ratio))
+            .expect("ratio listed");
+        let row = SweepResult {
+            point: *p,
+            solver: solver.name().to_string(),
+            solid: solids[k].result,
+            damped: d.result,
+            friction_work_j: d.friction_work_j,
+        };
+        journal.append(i, &sweep_csv_line(&row.csv_row()))?;
+        bar.inc(1);
+        Ok(())
+    });
+    bar.finish_and_clear();
+    res?;
+    journal.finish()?;
+    meta.write_beside(&args.out)
+        .with_context(|| format!("writing metadata beside {}", args.out.display()))?;
     eprintln!(
-        "sweep: {} points ({} runs, solver {}, {} s at dt {:e} s) written to {} in {}",
-        rows.len(),
-        cases.len(),
+        "sweep: {} points ({} runs this time, solver {}, {} s at dt {:e} s) written to {} in {}",
+        points.len(),
+        solid_cases.len() + pending.len(),
         solver.name(),
         settings.duration_s,
         settings.dt_s,
