@@ -96,8 +96,13 @@ impl SystemArgs {
 
     /// Parameters for metadata (SI units).
     pub fn to_json(&self) -> anyhow::Result<serde_json::Value> {
-        let base = self.base()?;
+        let mut base = self.base()?;
+        // The ball is a template: its gap is set per grid point (or by --gap-mm). Its friction
+        // fields are made to say what the runs use, so the file does not contradict itself.
+        base.ball.friction = self.friction.into();
+        base.ball.friction_force_n = self.friction_force_n;
         Ok(serde_json::json!({
+            "note": "ball.gap_m is a template value: each run's gap is its grid coordinate or --gap-mm",
             "preset": self.preset.as_str(),
             "friction": FrictionModel::from(self.friction).as_str(),
             "friction_force_n": self.friction_force_n,

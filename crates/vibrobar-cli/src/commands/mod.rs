@@ -15,7 +15,6 @@ pub use design::{
 };
 
 use anyhow::{anyhow, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
 use vibrobar_core::analysis::{par_map_with_progress, run_case, RunResult, Sampler, SweepPoint};
 use vibrobar_core::solver::{solver_by_name, Fanout, SOLVER_NAMES};
@@ -124,11 +123,9 @@ pub fn run_cases(
     solver: &dyn Solver,
     label: &str,
 ) -> Result<Vec<CaseOutcome>> {
-    let bar = progress_bar(cases.len() as u64, label);
-    let out = par_map_with_progress(cases, |c| run_one(c, settings, solver), &|done, _| {
-        bar.set_position(done as u64)
-    });
-    bar.finish_and_clear();
+    let bar = crate::progress::Progress::new(label, cases.len(), 0);
+    let out = par_map_with_progress(cases, |c| run_one(c, settings, solver), &bar.callback());
+    bar.finish();
     out.into_iter()
         .zip(cases)
         .map(|(r, c)| {
@@ -143,19 +140,6 @@ pub fn run_cases(
             })
         })
         .collect()
-}
-
-/// A progress bar on stderr with rate and ETA (hidden when stderr is not a terminal).
-pub fn progress_bar(total: u64, label: &str) -> ProgressBar {
-    let bar = ProgressBar::new(total);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} runs ({per_sec}, ETA {eta})",
-        )
-        .expect("valid template"),
-    );
-    bar.set_message(label.to_string());
-    bar
 }
 
 /// A sweep table row assembled from a solid and a damped outcome.

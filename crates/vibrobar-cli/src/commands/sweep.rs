@@ -12,9 +12,10 @@ use rayon::prelude::*;
 use vibrobar_core::analysis::SweepPoint;
 use vibrobar_core::System;
 
-use super::{fmt_secs, progress_bar, run_one, solver, Case, SweepResult};
+use super::{fmt_secs, run_one, solver, Case, SweepResult};
 use crate::cli::SweepArgs;
 use crate::output::{sweep_csv_line, SWEEP_HEADER};
+use crate::progress::Progress;
 use crate::scenario::{check_positive, parse_ratios, ratio_range, Scenario};
 use crate::store::{GridInfo, Journal, Metadata};
 
@@ -116,8 +117,7 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
         })
         .collect();
     let solids = super::run_cases(&solid_cases, &settings, solver.as_ref(), "solid bar")?;
-    let bar = progress_bar(points.len() as u64, "sweep");
-    bar.set_position(journal.done_count() as u64);
+    let bar = Progress::new("sweep", points.len(), journal.done_count());
     let res = pending.par_iter().try_for_each(|&i| -> Result<()> {
         let p = &points[i];
         let case = Case {
@@ -147,10 +147,10 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
             friction_work_j: d.friction_work_j,
         };
         journal.append(i, &sweep_csv_line(&row.csv_row()))?;
-        bar.inc(1);
+        bar.inc();
         Ok(())
     });
-    bar.finish_and_clear();
+    bar.finish();
     res?;
     journal.finish()?;
     meta.write_beside(&args.out)
