@@ -112,3 +112,61 @@ fn linspace_with_zero_step_tried_to_allocate_i64_max_points() {
     assert_eq!(linspace_inclusive(1.0, 1.0, 0.01), vec![1.0]);
     assert_eq!(linspace_inclusive(0.95, 1.05, 0.01).len(), 11);
 }
+
+/// Bug: the exact solver took a segment's friction work as `F_ball·(w(b) − w(a))`. A coulomb slide
+/// much shorter than the rounding of `w` (here 2.6e-16 m at `w ≈ −4.3e-7 m`) lost its length to
+/// that rounding: friction work 1e-7 relative off, so the energy audit of an unforced run that
+/// only brakes a slow ball missed by 2.3e-23 J of 2.3e-16 J (found by `exact_properties`, case
+/// 377). Now the increment of the closed form, `w(b) − w(0)` evaluated without `w(0)`.
+#[test]
+fn regression_friction_work_of_a_slide_shorter_than_the_rounding_of_w() {
+    use vibrobar_core::analysis::energy::EnergyAudit;
+    use vibrobar_core::solver::Exact;
+    use vibrobar_core::{Bar, Damper, Forcing, Frequency, FrictionModel};
+    let sys = System {
+        bar: Bar {
+            mass_kg: 0.104,
+            stiffness_n_per_m: 1.7e5,
+            damping_ratio: 0.28,
+        },
+        damper: Some(Damper {
+            ball_mass_kg: 7.26e-5,
+            ball_radius_m: 0.0075,
+            restitution: 0.22,
+            gap_m: 6.46e-6,
+            rolling_friction_m: 0.6e-3,
+            friction: FrictionModel::Coulomb,
+            friction_force_n: Some(0.884),
+        }),
+        forcing: Forcing {
+            amplitude_n: 0.0,
+            frequency: Frequency::Ratio(0.84),
+            static_force_n: 0.0,
+        },
+        gravity_m_s2: vibrobar_core::params::STANDARD_GRAVITY_M_S2,
+    };
+    let init = State {
+        v_m: -4.35e-7,
+        dv_m_s: -2.534e-6,
+        ..State::REST
+    };
+    let mut audit = EnergyAudit::new(&sys);
+    let solver = Exact {
+        check_invariants: true,
+        ..Default::default()
+    };
+    solver.run(&sys, &init, 0.01, &mut audit).unwrap();
+    let b = audit.balance().unwrap();
+    // The ball's kinetic energy goes (almost all) into friction.
+    let e0 = 0.5 * 7.26e-5 * 2.534e-6_f64.powi(2);
+    assert!(
+        (-b.friction_work_j - e0).abs() < 1e-2 * e0,
+        "friction work {:e} J, start energy {e0:e} J",
+        b.friction_work_j
+    );
+    assert!(
+        b.residual_j.abs() <= 1e-9 * e0,
+        "residual {:e} J of {e0:e} J: {b:?}",
+        b.residual_j
+    );
+}

@@ -204,6 +204,21 @@ impl ExpSum {
         self.f0 + t.tau * (self.c1 + t.tau * self.c2) + self.a * t.chm1 + self.b * t.sh + dec
     }
 
+    /// `f(τ) − f(0)` from precomputed transcendentals, without forming `f(0) + …` first: the
+    /// change of a position stays accurate when it is below the rounding of the position itself.
+    #[inline]
+    pub fn increment_t(&self, t: &Trig) -> f64 {
+        let e = 1.0 + t.em1;
+        let dec = self.p * (t.em1 * t.cd + t.cdm1) + self.q * e * t.sd;
+        t.tau * (self.c1 + t.tau * self.c2) + self.a * t.chm1 + self.b * t.sh + dec
+    }
+
+    /// `f(b) − f(a)`, free of the cancellation against `f(0)` (exactly 0 − 0 at `a = 0`).
+    pub fn increment(&self, a: f64, b: f64) -> f64 {
+        let at = |tau: f64| self.increment_t(&Trig::new(tau, self.om, self.al, self.wd));
+        at(b) - at(a)
+    }
+
     /// Value at `τ`.
     pub fn value(&self, tau: f64) -> f64 {
         self.value_t(&Trig::new(tau, self.om, self.al, self.wd))

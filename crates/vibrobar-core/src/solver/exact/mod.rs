@@ -337,7 +337,9 @@ impl Segment for ExactSegment {
             friction_work_j: if self.fb == 0.0 {
                 0.0
             } else {
-                self.fb * (self.w.value(b) - self.w.value(a))
+                // From the increment, not `w(b) − w(a)`: a slide far shorter than `l_g` would
+                // lose its length to the rounding of `w` (friction work 1e-7 relative off).
+                self.fb * self.w.increment(a, b)
             },
         }
     }
