@@ -170,3 +170,75 @@ fn regression_friction_work_of_a_slide_shorter_than_the_rounding_of_w() {
         b.residual_j
     );
 }
+
+/// Bug: the exact solver summed a chatter sequence only for `e < 1`. With `e = 1` and coulomb
+/// friction the bounces still shrink (friction brakes the ball both ways, so it flies out
+/// against `a_away` and back with only `a_back < a_away`: `q = √(a_back/a_away) < 1`), a Zeno
+/// sequence the solver followed impact by impact down to rounding (54 impacts here, ~20 to
+/// the resolution limit) or into `TooManyEvents` (found by `exact_properties`: M = 1.66 kg,
+/// K = 1.36e5 N/m, ζ = 0, m_d = 0.45 kg, gap 69 µm, f = 88 N, F0 = 80 N, ratio 0.914 stopped at
+/// 41 % of the run with 2e5 events; now 27856 events for the whole run).
+#[test]
+fn regression_elastic_chatter_under_coulomb_friction_was_not_summed() {
+    use vibrobar_core::analysis::energy::EnergyAudit;
+    use vibrobar_core::solver::{Event, EventKind, Exact, Observer, Wall};
+    use vibrobar_core::{Bar, Damper, Forcing, Frequency, FrictionModel};
+    struct Count(u64, u64);
+    impl Observer for Count {
+        fn event(&mut self, ev: &Event) {
+            match ev.kind {
+                EventKind::Impact { .. } => self.0 += 1,
+                EventKind::ChatterLimit {
+                    wall: Wall::Minus, ..
+                } => self.1 += 1,
+                _ => {}
+            }
+        }
+    }
+    // Static load on a heavily damped bar: a_b ≈ 10 m/s² pushes the ball onto the −wall,
+    // friction 0.2 N gives fκ = 2.2 m/s², so q = √(7.8/12.2) ≈ 0.8; the ball starts leaving the
+    // wall at 0.1 mm/s.
+    let sys = System {
+        bar: Bar {
+            mass_kg: 1.0,
+            stiffness_n_per_m: 1e4,
+            damping_ratio: 0.5,
+        },
+        damper: Some(Damper {
+            ball_mass_kg: 0.1,
+            ball_radius_m: 0.0075,
+            restitution: 1.0,
+            gap_m: 1e-3,
+            rolling_friction_m: 0.6e-3,
+            friction: FrictionModel::Coulomb,
+            friction_force_n: Some(0.2),
+        }),
+        forcing: Forcing {
+            amplitude_n: 0.0,
+            frequency: Frequency::Ratio(1.0),
+            static_force_n: 10.0,
+        },
+        gravity_m_s2: vibrobar_core::params::STANDARD_GRAVITY_M_S2,
+    };
+    let init = State {
+        v_m: -0.5e-3,
+        dv_m_s: 1e-4,
+        ..State::REST
+    };
+    let solver = Exact {
+        check_invariants: true,
+        max_events: 10_000,
+    };
+    let mut obs = (Count(0, 0), EnergyAudit::new(&sys));
+    let r = solver.run(&sys, &init, 0.01, &mut obs);
+    assert!(r.is_ok(), "{r:?}");
+    let (count, audit) = obs;
+    assert_eq!(
+        count.1, 1,
+        "chatter limits at the −wall ({} impacts)",
+        count.0
+    );
+    assert!(count.0 <= 30, "{} impacts", count.0);
+    let b = audit.balance().unwrap();
+    assert!(b.residual_j.abs() <= 1e-9 * b.work_input_j.abs(), "{b:?}");
+}

@@ -21,7 +21,7 @@
 //! 0 otherwise). A start at `ẇ = 0` with `sgn(0) = 0` (as-published) departs the way `ẅ` points
 //! with `F_rf = 0`, i.e. against `a_b`, looking at its derivatives when it vanishes.
 //!
-//! Chatter (`0 < e < 1`): after an impact whose relative acceleration pushes the ball back to the
+//! Chatter (`0 < e < 1`, or `e = 1` with coulomb friction): after an impact whose relative acceleration pushes the ball back to the
 //! same wall, the remaining impacts form a geometric sequence that ends after
 //! `Δt = 2|ẇ+|/((1−e)|ẅ|)`. With friction the accelerations away (`a_away`) and back (`a_back`)
 //! differ: the bounces shrink by `q = e√(a_back/a_away)` and
@@ -833,7 +833,9 @@ fn impact(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<Md, SimEr
     let a_b = cs.a_b(s);
     let ddw_away = cs.fb(sigma) * cs.kappa() - a_b;
     let ddw_back = cs.fb(-sigma) * cs.kappa() - a_b;
-    if cs.e < 1.0 && sw * ddw_away > 0.0 && sw * ddw_back > 0.0 {
+    // Also at e = 1: coulomb friction alone (a_back < a_away) makes the bounces shrink to a
+    // finite-time accumulation; q < 1 below decides, e = 1 without friction gives q = 1.
+    if sw * ddw_away > 0.0 && sw * ddw_back > 0.0 {
         let (a1, a2) = (ddw_away.abs(), ddw_back.abs());
         let q = cs.e * (a2 / a1).sqrt();
         let apex = 0.5 * s.dw * s.dw / a1;
