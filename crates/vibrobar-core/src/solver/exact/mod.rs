@@ -21,9 +21,9 @@
 //! 0 otherwise). A start at `ẇ = 0` with `sgn(0) = 0` (as-published) departs the way `ẅ` points
 //! with `F_rf = 0`, i.e. against `a_b`, looking at its derivatives when it vanishes.
 //!
-//! Chatter (`0 < e < 1`, or `e = 1` with coulomb friction): after an impact whose relative acceleration pushes the ball back to the
-//! same wall, the remaining impacts form a geometric sequence that ends after
-//! `Δt = 2|ẇ+|/((1−e)|ẅ|)`. With friction the accelerations away (`a_away`) and back (`a_back`)
+//! Chatter (`0 < e < 1`, or `e = 1` with coulomb friction): after an impact whose relative
+//! acceleration pushes the ball back to the same wall, the remaining impacts form a geometric
+//! sequence that ends after `Δt = 2|ẇ+|/((1−e)|ẅ|)`. With friction the accelerations away (`a_away`) and back (`a_back`)
 //! differ: the bounces shrink by `q = e√(a_back/a_away)` and
 //! `Δt = (|ẇ+|/a_away)(1 + √(a_away/a_back))/(1 − q)`; if `q ≥ 1` (possible with the
 //! energy-injecting as-published law) there is no accumulation and no jump. `ẅ` is frozen at its
