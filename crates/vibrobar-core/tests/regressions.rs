@@ -242,3 +242,51 @@ fn regression_elastic_chatter_under_coulomb_friction_was_not_summed() {
     let b = audit.balance().unwrap();
     assert!(b.residual_j.abs() <= 1e-9 * b.work_input_j.abs(), "{b:?}");
 }
+
+/// Bug: a system entirely at rest and unforced, ball resting on a wall (or, coulomb with a zero
+/// friction level, sticking), has a contact (stick) margin that is exactly 0 for all time. The
+/// search reported it as a root at once, the release departed with `ẅ ≡ 0` (unconfirmed), the
+/// graze impact with `ẇ− = 0` went back to contact, and so on at `t = 0` until `TooManyEvents`
+/// (found by `exact_properties`). A constant margin ≥ 0 now holds the mode.
+#[test]
+fn regression_unforced_ball_at_rest_on_a_wall_looped_at_one_instant() {
+    use vibrobar_core::solver::Exact;
+    use vibrobar_core::{Bar, Damper, Forcing, Frequency, FrictionModel};
+    for (friction, level, w0) in [
+        (FrictionModel::None, None, 0.5e-3),
+        (FrictionModel::None, None, -0.5e-3),
+        (FrictionModel::Coulomb, Some(0.0), 0.0),
+        (FrictionModel::Coulomb, Some(0.0), 0.5e-3),
+    ] {
+        let sys = System {
+            bar: Bar::PAPER_CAVITY,
+            damper: Some(Damper {
+                friction,
+                friction_force_n: level,
+                ..Damper::paper(1e-3, friction)
+            }),
+            forcing: Forcing {
+                amplitude_n: 0.0,
+                frequency: Frequency::Ratio(1.0),
+                static_force_n: 0.0,
+            },
+            gravity_m_s2: vibrobar_core::params::STANDARD_GRAVITY_M_S2,
+        };
+        let init = State {
+            v_m: w0,
+            ..State::REST
+        };
+        let solver = Exact {
+            check_invariants: true,
+            max_events: 1000,
+        };
+        let r = solver.run(&sys, &init, 0.01, &mut ());
+        let sum = r.unwrap_or_else(|e| panic!("{friction} {level:?} w0 = {w0}: {e}"));
+        assert_eq!(sum.final_state, State { t_s: 0.01, ..init });
+        assert!(
+            sum.events <= 1,
+            "{friction} w0 = {w0}: {} events",
+            sum.events
+        );
+    }
+}

@@ -153,6 +153,13 @@ impl ExpSum {
         }
     }
 
+    /// True when every time-dependent coefficient is exactly zero: `f(τ) = f(0)` for all `τ`.
+    pub fn is_constant(&self) -> bool {
+        [self.c1, self.c2, self.a, self.b, self.p, self.q]
+            .iter()
+            .all(|&x| x == 0.0)
+    }
+
     /// `s·f + k`.
     pub fn affine(&self, s: f64, k: f64) -> ExpSum {
         ExpSum {

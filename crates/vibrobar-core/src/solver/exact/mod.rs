@@ -570,6 +570,21 @@ impl Solver for Exact {
                         ids[n] = 3;
                         n += 1;
                     }
+                    // A margin that is constant and not below −tol (the pair at rest and unforced)
+                    // never falls through zero: the mode holds, as the entry tests decide at
+                    // equality. Searched, an exact 0 would be a root at once and the release, the
+                    // graze back (ẅ ≡ 0, departure unconfirmed) and the contact test would loop
+                    // at one instant until the event limit.
+                    let mut k = 0;
+                    while k < n {
+                        if cands[k].g.is_constant() && cands[k].g.f0 >= -cands[k].tol {
+                            cands.swap(k, n - 1);
+                            ids.swap(k, n - 1);
+                            n -= 1;
+                        } else {
+                            k += 1;
+                        }
+                    }
                     let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
                     let (best, which) = match root {
                         Root::At(t) => (t, ids[i]),
@@ -625,7 +640,7 @@ impl Solver for Exact {
                     };
                     let mut cands = [mk(w); 2];
                     let mut ids = [0u8; 2];
-                    let n = match mode {
+                    let mut n = match mode {
                         Md::Stick => {
                             cands[0] = mk(ddu.affine(-cs.md, cs.fl)); // ball lags
                             cands[1] = mk(ddu.affine(cs.md, cs.fl)); // ball leads
@@ -639,6 +654,21 @@ impl Solver for Exact {
                         }
                         _ => unreachable!(),
                     };
+                    // A margin that is constant and not below −tol (the pair at rest and unforced)
+                    // never falls through zero: the mode holds, as the entry tests decide at
+                    // equality. Searched, an exact 0 would be a root at once and the release, the
+                    // graze back (ẅ ≡ 0, departure unconfirmed) and the contact test would loop
+                    // at one instant until the event limit.
+                    let mut k = 0;
+                    while k < n {
+                        if cands[k].g.is_constant() && cands[k].g.f0 >= -cands[k].tol {
+                            cands.swap(k, n - 1);
+                            ids.swap(k, n - 1);
+                            n -= 1;
+                        } else {
+                            k += 1;
+                        }
+                    }
                     let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
                     let (best, which) = match root {
                         Root::At(t) => (t, ids[i]),
