@@ -153,6 +153,13 @@ impl ExpSum {
         }
     }
 
+    /// True when every time-dependent coefficient is exactly zero: `f(τ) = f(0)` for all `τ`.
+    pub fn is_constant(&self) -> bool {
+        [self.c1, self.c2, self.a, self.b, self.p, self.q]
+            .iter()
+            .all(|&x| x == 0.0)
+    }
+
     /// `s·f + k`.
     pub fn affine(&self, s: f64, k: f64) -> ExpSum {
         ExpSum {
@@ -202,6 +209,21 @@ impl ExpSum {
         let e = 1.0 + t.em1;
         let dec = self.p * (t.em1 * t.cd + t.cdm1) + self.q * e * t.sd;
         self.f0 + t.tau * (self.c1 + t.tau * self.c2) + self.a * t.chm1 + self.b * t.sh + dec
+    }
+
+    /// `f(τ) − f(0)` from precomputed transcendentals, without forming `f(0) + …` first: the
+    /// change of a position stays accurate when it is below the rounding of the position itself.
+    #[inline]
+    pub fn increment_t(&self, t: &Trig) -> f64 {
+        let e = 1.0 + t.em1;
+        let dec = self.p * (t.em1 * t.cd + t.cdm1) + self.q * e * t.sd;
+        t.tau * (self.c1 + t.tau * self.c2) + self.a * t.chm1 + self.b * t.sh + dec
+    }
+
+    /// `f(b) − f(a)`, free of the cancellation against `f(0)` (exactly 0 − 0 at `a = 0`).
+    pub fn increment(&self, a: f64, b: f64) -> f64 {
+        let at = |tau: f64| self.increment_t(&Trig::new(tau, self.om, self.al, self.wd));
+        at(b) - at(a)
     }
 
     /// Value at `τ`.

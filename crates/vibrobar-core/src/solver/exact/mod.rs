@@ -21,9 +21,9 @@
 //! 0 otherwise). A start at `ẇ = 0` with `sgn(0) = 0` (as-published) departs the way `ẅ` points
 //! with `F_rf = 0`, i.e. against `a_b`, looking at its derivatives when it vanishes.
 //!
-//! Chatter (`0 < e < 1`): after an impact whose relative acceleration pushes the ball back to the
-//! same wall, the remaining impacts form a geometric sequence that ends after
-//! `Δt = 2|ẇ+|/((1−e)|ẅ|)`. With friction the accelerations away (`a_away`) and back (`a_back`)
+//! Chatter (`0 < e < 1`, or `e = 1` with coulomb friction): after an impact whose relative
+//! acceleration pushes the ball back to the same wall, the remaining impacts form a geometric
+//! sequence that ends after `Δt = 2|ẇ+|/((1−e)|ẅ|)`. With friction the accelerations away (`a_away`) and back (`a_back`)
 //! differ: the bounces shrink by `q = e√(a_back/a_away)` and
 //! `Δt = (|ẇ+|/a_away)(1 + √(a_away/a_back))/(1 − q)`; if `q ≥ 1` (possible with the
 //! energy-injecting as-published law) there is no accumulation and no jump. `ẅ` is frozen at its
@@ -337,7 +337,9 @@ impl Segment for ExactSegment {
             friction_work_j: if self.fb == 0.0 {
                 0.0
             } else {
-                self.fb * (self.w.value(b) - self.w.value(a))
+                // From the increment, not `w(b) − w(a)`: a slide far shorter than `l_g` would
+                // lose its length to the rounding of `w` (friction work 1e-7 relative off).
+                self.fb * self.w.increment(a, b)
             },
         }
     }
@@ -568,6 +570,21 @@ impl Solver for Exact {
                         ids[n] = 3;
                         n += 1;
                     }
+                    // A margin that is constant and not below −tol (the pair at rest and unforced)
+                    // never falls through zero: the mode holds, as the entry tests decide at
+                    // equality. Searched, an exact 0 would be a root at once and the release, the
+                    // graze back (ẅ ≡ 0, departure unconfirmed) and the contact test would loop
+                    // at one instant until the event limit.
+                    let mut k = 0;
+                    while k < n {
+                        if cands[k].g.is_constant() && cands[k].g.f0 >= -cands[k].tol {
+                            cands.swap(k, n - 1);
+                            ids.swap(k, n - 1);
+                            n -= 1;
+                        } else {
+                            k += 1;
+                        }
+                    }
                     let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
                     let (best, which) = match root {
                         Root::At(t) => (t, ids[i]),
@@ -623,7 +640,7 @@ impl Solver for Exact {
                     };
                     let mut cands = [mk(w); 2];
                     let mut ids = [0u8; 2];
-                    let n = match mode {
+                    let mut n = match mode {
                         Md::Stick => {
                             cands[0] = mk(ddu.affine(-cs.md, cs.fl)); // ball lags
                             cands[1] = mk(ddu.affine(cs.md, cs.fl)); // ball leads
@@ -637,6 +654,21 @@ impl Solver for Exact {
                         }
                         _ => unreachable!(),
                     };
+                    // A margin that is constant and not below −tol (the pair at rest and unforced)
+                    // never falls through zero: the mode holds, as the entry tests decide at
+                    // equality. Searched, an exact 0 would be a root at once and the release, the
+                    // graze back (ẅ ≡ 0, departure unconfirmed) and the contact test would loop
+                    // at one instant until the event limit.
+                    let mut k = 0;
+                    while k < n {
+                        if cands[k].g.is_constant() && cands[k].g.f0 >= -cands[k].tol {
+                            cands.swap(k, n - 1);
+                            ids.swap(k, n - 1);
+                            n -= 1;
+                        } else {
+                            k += 1;
+                        }
+                    }
                     let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
                     let (best, which) = match root {
                         Root::At(t) => (t, ids[i]),
@@ -831,7 +863,9 @@ fn impact(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<Md, SimEr
     let a_b = cs.a_b(s);
     let ddw_away = cs.fb(sigma) * cs.kappa() - a_b;
     let ddw_back = cs.fb(-sigma) * cs.kappa() - a_b;
-    if cs.e < 1.0 && sw * ddw_away > 0.0 && sw * ddw_back > 0.0 {
+    // Also at e = 1: coulomb friction alone (a_back < a_away) makes the bounces shrink to a
+    // finite-time accumulation; q < 1 below decides, e = 1 without friction gives q = 1.
+    if sw * ddw_away > 0.0 && sw * ddw_back > 0.0 {
         let (a1, a2) = (ddw_away.abs(), ddw_back.abs());
         let q = cs.e * (a2 / a1).sqrt();
         let apex = 0.5 * s.dw * s.dw / a1;
