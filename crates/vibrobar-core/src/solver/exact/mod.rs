@@ -570,21 +570,7 @@ impl Solver for Exact {
                         ids[n] = 3;
                         n += 1;
                     }
-                    // A margin that is constant and not below −tol (the pair at rest and unforced)
-                    // never falls through zero: the mode holds, as the entry tests decide at
-                    // equality. Searched, an exact 0 would be a root at once and the release, the
-                    // graze back (ẅ ≡ 0, departure unconfirmed) and the contact test would loop
-                    // at one instant until the event limit.
-                    let mut k = 0;
-                    while k < n {
-                        if cands[k].g.is_constant() && cands[k].g.f0 >= -cands[k].tol {
-                            cands.swap(k, n - 1);
-                            ids.swap(k, n - 1);
-                            n -= 1;
-                        } else {
-                            k += 1;
-                        }
-                    }
+                    n = drop_constant_margins(&mut cands, &mut ids, n);
                     let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
                     let (best, which) = match root {
                         Root::At(t) => (t, ids[i]),
@@ -654,21 +640,7 @@ impl Solver for Exact {
                         }
                         _ => unreachable!(),
                     };
-                    // A margin that is constant and not below −tol (the pair at rest and unforced)
-                    // never falls through zero: the mode holds, as the entry tests decide at
-                    // equality. Searched, an exact 0 would be a root at once and the release, the
-                    // graze back (ẅ ≡ 0, departure unconfirmed) and the contact test would loop
-                    // at one instant until the event limit.
-                    let mut k = 0;
-                    while k < n {
-                        if cands[k].g.is_constant() && cands[k].g.f0 >= -cands[k].tol {
-                            cands.swap(k, n - 1);
-                            ids.swap(k, n - 1);
-                            n -= 1;
-                        } else {
-                            k += 1;
-                        }
-                    }
+                    n = drop_constant_margins(&mut cands, &mut ids, n);
                     let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
                     let (best, which) = match root {
                         Root::At(t) => (t, ids[i]),
@@ -930,6 +902,25 @@ fn contact_test(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
     } else {
         Ok(free_departing(-sw, Some(wall_of(sw))))
     }
+}
+
+/// Remove from the first `n` candidates those that are constant and not below `−tol`: such a
+/// margin (the pair at rest and unforced) never falls through zero, so the mode holds, as the
+/// entry tests decide at equality. Searched, an exact 0 would be a root at once, and the release,
+/// the graze back (ẅ ≡ 0, departure unconfirmed) and the contact test would loop at one instant
+/// until the event limit. Returns the new count; `ids` is permuted alongside.
+fn drop_constant_margins(cands: &mut [Cand], ids: &mut [u8], mut n: usize) -> usize {
+    let mut k = 0;
+    while k < n {
+        if cands[k].g.is_constant() && cands[k].g.f0 >= -cands[k].tol {
+            cands.swap(k, n - 1);
+            ids.swap(k, n - 1);
+            n -= 1;
+        } else {
+            k += 1;
+        }
+    }
+    n
 }
 
 #[cfg(test)]
