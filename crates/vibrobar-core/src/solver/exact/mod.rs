@@ -570,17 +570,8 @@ impl Solver for Exact {
                         ids[n] = 3;
                         n += 1;
                     }
-                    n = drop_constant_margins(&mut cands, &mut ids, n);
-                    let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
-                    let (best, which) = match root {
-                        Root::At(t) => (t, ids[i]),
-                        Root::None => (span, 0),
-                        Root::Stalled(t) => return Err(SimError::RootIsolation { t_s: s.t + t }),
-                    };
-                    let end = match trig {
-                        Some(tr) if tr.tau.to_bits() == best.to_bits() => tr,
-                        _ => Trig::new(best, u.om, u.al, u.wd),
-                    };
+                    let (best, which, end) =
+                        joint_search(&mut cands, &mut ids, n, span, tol_t, &u, s.t)?;
                     let seg = ExactSegment {
                         t0: s.t,
                         t1: if which == 0 { t_end_s } else { s.t + best },
@@ -626,7 +617,7 @@ impl Solver for Exact {
                     };
                     let mut cands = [mk(w); 2];
                     let mut ids = [0u8; 2];
-                    let mut n = match mode {
+                    let n = match mode {
                         Md::Stick => {
                             cands[0] = mk(ddu.affine(-cs.md, cs.fl)); // ball lags
                             cands[1] = mk(ddu.affine(cs.md, cs.fl)); // ball leads
@@ -640,17 +631,8 @@ impl Solver for Exact {
                         }
                         _ => unreachable!(),
                     };
-                    n = drop_constant_margins(&mut cands, &mut ids, n);
-                    let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
-                    let (best, which) = match root {
-                        Root::At(t) => (t, ids[i]),
-                        Root::None => (span, 0),
-                        Root::Stalled(t) => return Err(SimError::RootIsolation { t_s: s.t + t }),
-                    };
-                    let end = match trig {
-                        Some(tr) if tr.tau.to_bits() == best.to_bits() => tr,
-                        _ => Trig::new(best, u.om, u.al, u.wd),
-                    };
+                    let (best, which, end) =
+                        joint_search(&mut cands, &mut ids, n, span, tol_t, &u, s.t)?;
                     let seg = ExactSegment {
                         t0: s.t,
                         t1: if which == 0 { t_end_s } else { s.t + best },
@@ -902,6 +884,32 @@ fn contact_test(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
     } else {
         Ok(free_departing(-sw, Some(wall_of(sw))))
     }
+}
+
+/// The segment's joint event search: drop the margins that cannot fall, find the earliest zero
+/// on `[0, span]`, and return `(τ, which, Trig at τ)`; `which = 0` means no event before `span`.
+/// The transcendentals the search already has at the zero are reused for the end state.
+fn joint_search(
+    cands: &mut [Cand],
+    ids: &mut [u8],
+    n: usize,
+    span: f64,
+    tol_t: f64,
+    u: &ExpSum,
+    t0: f64,
+) -> Result<(f64, u8, Trig), SimError> {
+    let n = drop_constant_margins(cands, ids, n);
+    let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
+    let (best, which) = match root {
+        Root::At(t) => (t, ids[i]),
+        Root::None => (span, 0),
+        Root::Stalled(t) => return Err(SimError::RootIsolation { t_s: t0 + t }),
+    };
+    let end = match trig {
+        Some(tr) if tr.tau.to_bits() == best.to_bits() => tr,
+        _ => Trig::new(best, u.om, u.al, u.wd),
+    };
+    Ok((best, which, end))
 }
 
 /// Remove from the first `n` candidates those that are constant and not below `−tol`: such a
