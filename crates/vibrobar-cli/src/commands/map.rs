@@ -22,8 +22,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
 use vibrobar_core::analysis::map::{
-    compute_point_from, compute_solid, optimum, Axis, Grid, GridAxis, GridPoint, MapRow, MapSpec,
-    Optimum,
+    compute_point_from, compute_solid, optimum, Axis, BandBest, Grid, GridAxis, GridPoint, MapRow,
+    MapSpec, Optimum,
 };
 use vibrobar_core::analysis::regime::{Regime, Tolerances};
 use vibrobar_core::analysis::{par_map_with_progress, run_case, SweepBase};
@@ -284,21 +284,7 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
             indices: shard.map(|_| indices.clone()),
         }),
     );
-    let journal = Journal::open(
-        &args.out,
-        &job.header,
-        &meta.fingerprint,
-        &indices,
-        args.resume,
-    )?;
-    if journal.done_count() > 0 {
-        eprintln!(
-            "resuming {}: {} of {} rows already done",
-            args.out.display(),
-            journal.done_count(),
-            indices.len()
-        );
-    }
+    let journal = super::open_journal(&args.out, &meta, &indices, args.resume)?;
     let t0 = Instant::now();
     with_threads(args.threads, || {
         compute(&job, solver.as_ref(), &journal, indices.len())
@@ -622,12 +608,15 @@ pub fn postprocess(map_csv: &Path) -> anyhow::Result<()> {
         println!("{line}");
     }
     let figs = crate::figures::map::draw_map_figures(map_csv, &t, &o)?;
-    if let Some(b) = &o.best_mean_reduction {
-        let gap = b
-            .design
+    // Gap coordinate of a band design (NaN if the design has none).
+    let gap_of = |b: &BandBest| {
+        b.design
             .iter()
             .find(|(a, _)| *a == Axis::GapM)
-            .map_or(f64::NAN, |d| d.1);
+            .map_or(f64::NAN, |d| d.1)
+    };
+    if let Some(b) = &o.best_mean_reduction {
+        let gap = gap_of(b);
         println!(
             "best gap over the band (mean reduction): {} mm, {:.1} % mean reduction",
             fmt_coord(gap * 1e3),
@@ -635,11 +624,7 @@ pub fn postprocess(map_csv: &Path) -> anyhow::Result<()> {
         );
     }
     if let Some(b) = &o.best_minimax_rms {
-        let gap = b
-            .design
-            .iter()
-            .find(|(a, _)| *a == Axis::GapM)
-            .map_or(f64::NAN, |d| d.1);
+        let gap = gap_of(b);
         println!(
             "best gap over the band (minimax RMS): {} mm, worst RMS {:.3e} m",
             fmt_coord(gap * 1e3),

@@ -142,6 +142,27 @@ pub fn run_cases(
         .collect()
 }
 
+/// Open the row journal of `out` for the job described by `meta` (its header and fingerprint),
+/// saying on stderr how much a resumed run already has.
+pub fn open_journal(
+    out: &std::path::Path,
+    meta: &crate::store::Metadata,
+    indices: &[usize],
+    resume: bool,
+) -> Result<crate::store::Journal> {
+    let journal =
+        crate::store::Journal::open(out, &meta.header, &meta.fingerprint, indices, resume)?;
+    if journal.done_count() > 0 {
+        eprintln!(
+            "resuming {}: {} of {} rows already done",
+            out.display(),
+            journal.done_count(),
+            indices.len()
+        );
+    }
+    Ok(journal)
+}
+
 /// A sweep table row assembled from a solid and a damped outcome.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SweepResult {

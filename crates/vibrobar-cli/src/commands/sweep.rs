@@ -17,7 +17,7 @@ use crate::cli::SweepArgs;
 use crate::output::{sweep_csv_line, SWEEP_HEADER};
 use crate::progress::Progress;
 use crate::scenario::{check_positive, parse_ratios, ratio_range, Scenario};
-use crate::store::{GridInfo, Journal, Metadata};
+use crate::store::{GridInfo, Metadata};
 
 /// Run the command.
 pub fn sweep(args: &SweepArgs) -> Result<()> {
@@ -82,21 +82,7 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
             indices: None,
         }),
     );
-    let journal = Journal::open(
-        &args.out,
-        SWEEP_HEADER,
-        &meta.fingerprint,
-        &indices,
-        args.resume,
-    )?;
-    if journal.done_count() > 0 {
-        eprintln!(
-            "resuming {}: {} of {} rows already done",
-            args.out.display(),
-            journal.done_count(),
-            points.len()
-        );
-    }
+    let journal = super::open_journal(&args.out, &meta, &indices, args.resume)?;
     let pending = journal.pending();
     let base = sc.base();
     let init = sc.initial_state();
