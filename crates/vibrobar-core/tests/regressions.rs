@@ -12,14 +12,22 @@ fn rk4_accepted_nan_or_backward_end_time() {
         t_s: 0.5,
         ..State::REST
     };
-    for t_end in [f64::NAN, f64::INFINITY, 0.25] {
-        let r = Rk4 { dt_s: 1e-6 }.run(&sys, &init, t_end, &mut ());
-        match r {
-            Err(SimError::Param(ParamError::NotFinite { field, .. }))
-            | Err(SimError::Param(ParamError::OutOfRange { field, .. })) => {
-                assert_eq!(field, "t_end_s", "t_end = {t_end}")
+    // The same check guards every solver (it lives in `solver::validate_run`).
+    let exact = vibrobar_core::solver::Exact::default();
+    let solvers: [&dyn vibrobar_core::Solver; 2] = [&Rk4 { dt_s: 1e-6 }, &exact];
+    for solver in solvers {
+        for t_end in [f64::NAN, f64::INFINITY, 0.25] {
+            let r = solver.run(&sys, &init, t_end, &mut ());
+            match r {
+                Err(SimError::Param(ParamError::NotFinite { field, .. }))
+                | Err(SimError::Param(ParamError::OutOfRange { field, .. })) => {
+                    assert_eq!(field, "t_end_s", "{}: t_end = {t_end}", solver.name())
+                }
+                other => panic!(
+                    "{}: t_end = {t_end} (start 0.5 s): want a t_end_s error, got {other:?}",
+                    solver.name()
+                ),
             }
-            other => panic!("t_end = {t_end} (start 0.5 s): want a t_end_s error, got {other:?}"),
         }
     }
     // Zero-length runs stay allowed.

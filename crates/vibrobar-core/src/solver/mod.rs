@@ -197,6 +197,24 @@ pub trait Solver: Sync {
     ) -> Result<RunSummary, SimError>;
 }
 
+/// Checks every solver makes before it runs: the system, the initial state, and an end time that
+/// is finite and not before the start (a NaN or backward end would otherwise run nothing and
+/// return `Ok`, looking like a finished run).
+pub fn validate_run(sys: &System, init: &State, t_end_s: f64) -> Result<(), SimError> {
+    sys.validate()?;
+    init.validate(sys)?;
+    crate::params::finite("t_end_s", t_end_s)?;
+    if t_end_s < init.t_s {
+        return Err(crate::error::ParamError::OutOfRange {
+            field: "t_end_s",
+            value: t_end_s,
+            allowed: "[initial.t_s, ∞)",
+        }
+        .into());
+    }
+    Ok(())
+}
+
 /// Names of the solvers the library provides.
 pub const SOLVER_NAMES: [&str; 2] = ["rk4", "exact"];
 

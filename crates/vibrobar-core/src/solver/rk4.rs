@@ -276,19 +276,8 @@ impl Solver for Rk4 {
         t_end_s: f64,
         obs: &mut dyn Observer,
     ) -> Result<RunSummary, SimError> {
-        sys.validate()?;
-        init.validate(sys)?;
+        super::validate_run(sys, init, t_end_s)?;
         crate::params::positive("dt_s", self.dt_s)?;
-        // A NaN or backward end time would otherwise run zero steps and return Ok.
-        crate::params::finite("t_end_s", t_end_s)?;
-        if t_end_s < init.t_s {
-            return Err(crate::error::ParamError::OutOfRange {
-                field: "t_end_s",
-                value: t_end_s,
-                allowed: "[initial.t_s, ∞)",
-            }
-            .into());
-        }
         let rhs = Rhs::new(sys);
         let has_ball = sys.damper.is_some();
         let (lg, mu, e) = match &sys.damper {

@@ -421,8 +421,7 @@ impl Solver for Exact {
         t_end_s: f64,
         obs: &mut dyn Observer,
     ) -> Result<RunSummary, SimError> {
-        sys.validate()?;
-        init.validate(sys)?;
+        super::validate_run(sys, init, t_end_s)?;
         let om = sys.omega_rad_s();
         let (md, lg, e, model) = match &sys.damper {
             Some(d) => (d.ball_mass_kg, d.half_gap_m(), d.restitution, d.friction),
