@@ -272,7 +272,7 @@ impl BeamGeometry {
                 limits::BEAM_DENSITY_KG_M3,
             ),
         ] {
-            limits::check(field, v, lo, hi, "")?;
+            limits::check(field, v, lo, hi, "in SI units: m, Pa, kg/m³")?;
         }
         if let Some(c) = &self.cavity {
             positive("beam.cavity.hole_diameter_m", c.hole_diameter_m)?;

@@ -153,3 +153,62 @@ fn regression_lyapunov_d0_below_rounding_is_refused() {
     assert!(e.field().starts_with("intervals"), "{e}");
     assert!(t.elapsed().as_secs_f64() < 1.0);
 }
+
+#[test]
+fn regression_non_finite_rms_is_an_error_not_a_result() {
+    // The last line of defence: a force that passes validation (finite) but squares past the
+    // largest float gives an error naming the quantity and the likely cause, never an inf row.
+    let mut sys = System::paper_solid(1.0);
+    sys.forcing.amplitude_n = 1e200;
+    for solver in [&Exact::default() as &dyn Solver, &Rk4::default()] {
+        let r = run_case(&sys, &State::REST, &settings(0.01, 1e-6), solver, &mut ());
+        match r {
+            Err(SimError::Param(ParamError::NonFiniteResult {
+                quantity, cause, ..
+            })) => {
+                assert_eq!(quantity, "RMS of u");
+                assert!(cause.contains("forces"), "{cause}");
+            }
+            Err(other) => panic!("{}: expected NonFiniteResult, got {other}", solver.name()),
+            Ok(res) => panic!("{}: accepted {res:?}", solver.name()),
+        }
+    }
+}
+
+#[test]
+fn regression_grid_and_ensemble_sizes_are_bounded() {
+    use vibrobar_core::analysis::ensemble::{EnsembleParams, IcRanges};
+    use vibrobar_core::analysis::map::{Axis, Grid, GridAxis};
+    // A 9.4e9-point map allocated until killed: the product is checked before any point exists.
+    let axis = |axis, n: usize| GridAxis {
+        axis,
+        values: (0..n).map(|i| 1.0 + i as f64).collect(),
+    };
+    let e = Grid::new(vec![
+        axis(Axis::FreqRatio, 100_000),
+        axis(Axis::GapM, 94_000),
+    ])
+    .unwrap_err();
+    assert!(e.field().starts_with("grid points"), "{e}");
+    assert!(
+        e.to_string().contains("9.4e9") && e.to_string().contains("[1, 1e7]"),
+        "{e}"
+    );
+    assert!(Grid::new(vec![axis(Axis::FreqRatio, 1000), axis(Axis::GapM, 10_000)]).is_ok());
+    // `ensemble --members 1000000000`.
+    let p = EnsembleParams {
+        seed: 1,
+        members: 1_000_000_000,
+        ranges: IcRanges {
+            u_m: (0.0, 0.0),
+            du_m_s: (0.0, 0.0),
+            w_over_half_gap: (-1.0, 1.0),
+            dw_m_s: (0.0, 0.0),
+        },
+    };
+    let e = p.validate().unwrap_err();
+    assert!(
+        e.to_string().contains("1e9") && e.to_string().contains("[1, 100000]"),
+        "{e}"
+    );
+}

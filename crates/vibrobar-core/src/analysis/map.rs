@@ -134,6 +134,16 @@ impl Grid {
                 });
             }
         }
+        // Checked in floating point before anything is built: 1e5 × 1e5 points would
+        // overflow nothing but memory.
+        let n: f64 = axes.iter().map(|a| a.values.len() as f64).product();
+        crate::limits::check(
+            "grid points (product of the axis lengths)",
+            n,
+            1.0,
+            crate::limits::MAX_GRID_POINTS as f64,
+            "use a coarser STEP or split the grid",
+        )?;
         Ok(Grid { axes })
     }
 
