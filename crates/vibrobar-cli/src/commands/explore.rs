@@ -113,6 +113,11 @@ pub fn run_poincare(a: &PoincareArgs) -> anyhow::Result<()> {
     let solver = a.point.system.solver()?;
     let phase = check_value("--phase-deg", a.phase_deg, |_| true, "finite")?.to_radians();
     let transient = transient_or_default(a.transient, &a.point.system)?;
+    vibrobar_core::limits::check_samples(
+        "Poincaré points = (--duration − --transient) / forcing period",
+        a.point.system.duration - transient,
+        sys.forcing_period_s(),
+    )?;
     let mut strobe = Stroboscope::for_system(&sys, phase, transient);
     solver.run(&sys, &State::REST, a.point.system.duration, &mut strobe)?;
     let pts = &strobe.points;
