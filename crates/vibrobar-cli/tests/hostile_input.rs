@@ -246,6 +246,21 @@ fn regression_size_limits_refuse_before_allocating() {
             ],
             vec!["Poincaré points", "[1, 1e7]"],
         ),
+        (
+            vec![
+                "paper",
+                "--quick",
+                "--sample-interval-s",
+                "1e-12",
+                "--out",
+                "paper-out",
+            ],
+            vec!["--sample-interval-s", "[1, 1e7]"],
+        ),
+        (
+            map(&["--threads", "100000000"]),
+            vec!["--threads = 1e8", "[1, 1024]"],
+        ),
     ];
     for (args, want) in &probes {
         refused(d, args, want);
@@ -537,4 +552,30 @@ fn regression_broken_pipe_ends_quietly_by_sigpipe() {
             "vibrobar {args:?} ended with {s:?}, not by SIGPIPE"
         );
     }
+}
+
+#[test]
+fn regression_sweep_without_forcing_refuses_a_nan_reduction() {
+    // A bar with no force at rest has RMS 0: the reduction was written as NaN with exit 0.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("z.toml"), "[forcing]\namplitude_n = 0\n").unwrap();
+    refused(
+        d,
+        &[
+            "sweep",
+            "--scenario",
+            "z.toml",
+            "--ratios",
+            "1:1:1",
+            "--gap-mm",
+            "0.1",
+            "--duration",
+            "0.01",
+            "--out",
+            "z.csv",
+        ],
+        &["reduction_pct", "rms_solid = 0", "forcing.amplitude_n"],
+    );
+    assert!(!d.join("z.csv").exists());
 }

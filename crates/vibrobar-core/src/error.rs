@@ -56,7 +56,7 @@ pub enum ParamError {
         bound_m: f64,
     },
     /// A result came out NaN or infinite: the last line of defence before anything is written.
-    #[error("{quantity} is not finite ({}); likely cause: {cause}", Compact(*value))]
+    #[error("{quantity} is not finite (from {}); likely cause: {cause}", Compact(*value))]
     NonFiniteResult {
         /// What was computed.
         quantity: &'static str,

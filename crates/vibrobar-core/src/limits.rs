@@ -13,6 +13,7 @@
 //! | ensemble members per point | ≤ [`MAX_ENSEMBLE_MEMBERS`] = 1e5 | |
 //! | runs of one batch (points × members) | ≤ [`MAX_RUNS`] = 1e7 | |
 //! | shards `N` of `--shard K/N` | ≤ [`MAX_SHARDS`] = 1e6 | `merge` checks every shard 1..N |
+//! | worker threads `--threads` | ≤ [`MAX_THREADS`] = 1024 | OS threads |
 //! | Lyapunov renormalisation intervals | ≤ [`MAX_LYAPUNOV_INTERVALS`] = 1e6 | |
 //! | forcing phase `max(Ω, ω_n)·t` | ≤ [`MAX_PHASE_RAD`] = 1e10 rad | `sin(Ωt)` keeps 1e-6 rad of phase |
 //! | frequency ratio `Ω/√(K/M)` | [[`FREQ_RATIO_MIN`], [`FREQ_RATIO_MAX`]] = [1e-3, 1e3] | a one-mode model; outside, the response underflows or the period overflows |
@@ -49,6 +50,8 @@ pub const MAX_ENSEMBLE_MEMBERS: usize = 100_000;
 pub const MAX_RUNS: usize = 10_000_000;
 /// Most shards of a map (`--shard K/N`).
 pub const MAX_SHARDS: usize = 1_000_000;
+/// Most worker threads (`--threads`): each is an OS thread with its own stack.
+pub const MAX_THREADS: usize = 1024;
 /// Most renormalisation intervals of a Lyapunov estimate.
 pub const MAX_LYAPUNOV_INTERVALS: usize = 1_000_000;
 /// Largest phase `max(Ω, ω_n)·t` of a run: beyond it `sin(Ωt)` has lost more than 1e-6 rad.
@@ -137,6 +140,20 @@ pub fn finite_result(
             quantity,
             value,
             cause,
+        })
+    }
+}
+
+/// The solid bar's RMS as the reference of a reduction `100(1 − damped/solid)`: it must be
+/// positive, or every reduction is 0/0 (a bar without any force, started at rest).
+pub fn reference_rms(rms_solid_m: f64) -> Result<f64, ParamError> {
+    if rms_solid_m > 0.0 && rms_solid_m.is_finite() {
+        Ok(rms_solid_m)
+    } else {
+        Err(ParamError::NonFiniteResult {
+            quantity: "reduction_pct = 100(1 − rms_damped/rms_solid)",
+            value: rms_solid_m,
+            cause: "the solid bar does not move (rms_solid = 0): forcing.amplitude_n and static_force_n are 0 and it starts at rest",
         })
     }
 }

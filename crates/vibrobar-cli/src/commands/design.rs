@@ -214,7 +214,13 @@ pub fn with_threads<R: Send>(
         None => Ok(f()),
         Some(0) => bail!("--threads must be in [1, ∞), got 0"),
         Some(n) => Ok(rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
+            .num_threads(vibrobar_core::limits::check_count(
+                "--threads",
+                n,
+                1,
+                vibrobar_core::limits::MAX_THREADS,
+                "",
+            )?)
             .build()
             .context("--threads: cannot start the thread pool")?
             .install(f)),

@@ -344,6 +344,11 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
     }
     check_positive("--reproducing-friction-n", args.reproducing_friction_n, "N")?;
     check_positive("--sample-interval-s", args.sample_interval_s, "s")?;
+    vibrobar_core::limits::check_samples(
+        "history samples = --duration / --sample-interval-s",
+        settings.duration_s,
+        args.sample_interval_s,
+    )?;
     let solvers: Vec<String> = if args.solvers.is_empty() {
         vec![crate::DEFAULT_SOLVER.to_string()]
     } else {

@@ -106,6 +106,9 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
         })
         .collect();
     let solids = super::run_cases(&solid_cases, &settings, solver.as_ref(), "solid bar")?;
+    for s in &solids {
+        vibrobar_core::limits::reference_rms(s.result.rms_m)?;
+    }
     let bar = Progress::new("sweep", points.len(), journal.done_count());
     let res = pending.par_iter().try_for_each(|&i| -> Result<()> {
         let p = &points[i];

@@ -290,6 +290,10 @@ pub fn compute_point_from(
     rms_solid_m: f64,
 ) -> Result<MapRow, SimError> {
     let sys = spec.damped_system(p)?;
+    if !rms_solid_m.is_nan() {
+        // NaN means "no reference" (ensembles); 0 would make every reduction 0/0.
+        crate::limits::reference_rms(rms_solid_m)?;
+    }
     let t_end = init.t_s + spec.settings.duration_s;
     let mut reg = RegimeObserver::new(&sys, init.t_s + spec.settings.window_start_s(), t_end);
     let r = run_case(&sys, init, &spec.settings, solver, &mut reg)?;
