@@ -378,22 +378,38 @@ pub fn parse_ratios(spec: &str) -> Result<Vec<f64>> {
 pub fn ratio_range(start: f64, stop: f64, step: f64) -> Result<Vec<f64>> {
     for (name, x) in [("START", start), ("STOP", stop), ("STEP", step)] {
         if !x.is_finite() {
-            bail!("--ratios {name} must be a finite number, got {x}");
+            bail!(
+                "--ratios {name} must be a finite number, got {}",
+                Compact(x)
+            );
         }
     }
     if start <= 0.0 {
-        bail!("--ratios START = {start} is outside the allowed range (0, ∞)");
+        bail!(
+            "--ratios START = {} is outside the allowed range (0, ∞)",
+            Compact(start)
+        );
     }
     if step <= 0.0 {
-        bail!("--ratios STEP = {step} is outside the allowed range (0, ∞)");
+        bail!(
+            "--ratios STEP = {} is outside the allowed range (0, ∞)",
+            Compact(step)
+        );
     }
     if stop < start {
-        bail!("--ratios range is empty: STOP = {stop} < START = {start} (allowed: STOP ≥ START)");
+        bail!(
+            "--ratios range is empty: STOP = {} < START = {} (allowed: STOP ≥ START)",
+            Compact(stop),
+            Compact(start)
+        );
     }
-    let n = (stop - start) / step;
-    if n > 100_000.0 {
-        bail!("--ratios gives {n:.0} points; the allowed maximum is 100000 (raise STEP)");
-    }
+    vibrobar_core::limits::check(
+        "--ratios points (STOP − START)/STEP",
+        ((stop - start) / step).floor(),
+        0.0,
+        vibrobar_core::limits::MAX_SWEEP_RATIOS as f64,
+        "raise STEP",
+    )?;
     Ok(vibrobar_core::analysis::linspace_inclusive(
         start, stop, step,
     ))

@@ -10,6 +10,7 @@
 //! | `rk4` step, `ω_n·dt` | ≤ [`RK4_MAX_OMEGA_DT`] = 2.5 | RK4's stability region (radius ≥ 2.61 for every damping) |
 //! | samples of a history, Poincaré points, bifurcation points | ≤ [`MAX_SAMPLES`] = 1e7 | about 1.5 GB in memory |
 //! | grid points of a sweep, map, ensemble or bifurcation | ≤ [`MAX_GRID_POINTS`] = 1e7 | memory of the row tables |
+//! | ratios of a `sweep` | ≤ [`MAX_SWEEP_RATIOS`] = 1e5 | |
 //! | ensemble members per point | ≤ [`MAX_ENSEMBLE_MEMBERS`] = 1e5 | |
 //! | runs of one batch (points × members) | ≤ [`MAX_RUNS`] = 1e7 | |
 //! | shards `N` of `--shard K/N` | ≤ [`MAX_SHARDS`] = 1e6 | `merge` checks every shard 1..N |
@@ -44,6 +45,8 @@ pub const RK4_PENETRATION_WARN_FRACTION: f64 = 0.01;
 pub const MAX_SAMPLES: f64 = 1e7;
 /// Most points of one grid (sweep, map, ensemble, bifurcation values).
 pub const MAX_GRID_POINTS: usize = 10_000_000;
+/// Most ratios of one `sweep` (each gets a solid and a damped run per gap).
+pub const MAX_SWEEP_RATIOS: usize = 100_000;
 /// Most ensemble members per point.
 pub const MAX_ENSEMBLE_MEMBERS: usize = 100_000;
 /// Most runs of one batch (grid points × ensemble members).

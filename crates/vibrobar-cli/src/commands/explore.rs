@@ -377,7 +377,9 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
     if intervals < 2 {
         bail!(
             "--duration {} s leaves {} intervals of {:.3e} s after the transient; at least 2 are needed (raise --duration or lower --periods)",
-            a.point.system.duration, intervals, interval
+            vibrobar_core::error::Compact(a.point.system.duration),
+            intervals,
+            interval
         );
     }
     let mut p = LyapunovParams::periods(&sys, transient, periods, intervals);
