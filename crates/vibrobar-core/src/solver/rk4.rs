@@ -264,20 +264,6 @@ impl Segment for StepSegment<'_> {
     }
 }
 
-/// `|u|` beyond which a run has diverged: [`crate::limits::RK4_DIVERGENCE_FACTOR`] times the
-/// system's own displacement scale (static deflection under every force, initial state and
-/// velocities, half gap).
-fn divergence_bound_m(sys: &System, init: &State) -> f64 {
-    let k = sys.bar.stiffness_n_per_m;
-    let forces =
-        sys.forcing.static_force_n.abs() + sys.forcing.amplitude_n.abs() + sys.friction_level_n();
-    let scale = forces / k
-        + init.u_m.abs()
-        + (init.du_m_s.abs() + init.dw_m_s().abs()) / sys.bar.natural_freq_rad_s()
-        + sys.damper.map_or(0.0, |d| d.half_gap_m());
-    crate::limits::RK4_DIVERGENCE_FACTOR * scale
-}
-
 impl Solver for Rk4 {
     fn name(&self) -> &'static str {
         "rk4"
@@ -292,7 +278,7 @@ impl Solver for Rk4 {
     ) -> Result<RunSummary, SimError> {
         super::validate_run(sys, init, t_end_s)?;
         sys.validate_fixed_step(self.dt_s, t_end_s - init.t_s)?;
-        let u_bound = divergence_bound_m(sys, init);
+        let u_bound = crate::limits::rk4_divergence_bound_m(sys, init);
         let rhs = Rhs::new(sys);
         let has_ball = sys.damper.is_some();
         let (lg, mu, e) = match &sys.damper {
