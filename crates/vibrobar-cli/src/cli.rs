@@ -1,6 +1,6 @@
 //! Command-line definitions (clap derive). Units are in every flag name or help text.
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
 use vibrobar_core::FrictionModel;
 
@@ -12,6 +12,89 @@ pub struct Cli {
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
+}
+
+/// Parse the process arguments (see [`try_parse_from`]).
+pub fn parse() -> Cli {
+    try_parse_from(std::env::args_os()).unwrap_or_else(|e| e.exit())
+}
+
+/// Parse `args` (the first is the program name). A numeric flag followed by a negative number,
+/// `--dt -1e-6`, is read as `--dt=-1e-6` ([`join_negative_numbers`]).
+pub fn try_parse_from<I, T>(args: I) -> Result<Cli, clap::Error>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cmd = Cli::command();
+    let args = join_negative_numbers(&cmd, args.into_iter().map(Into::into).collect());
+    Cli::from_arg_matches(&cmd.try_get_matches_from(args)?)
+}
+
+/// Rewrite `--flag -1e-6` as `--flag=-1e-6` when `--flag` is a numeric option of the
+/// subcommand and the next word is a negative number.
+///
+/// clap's `allow_negative_numbers` only recognises digits with an exponent of digits, so
+/// `--dt -1e-6` (a minus in the exponent) was "unexpected argument '-1' found" while
+/// `--dt=-1e-6` gave the range error. `allow_hyphen_values` would fix that but also swallow the
+/// next flag when a value is forgotten (`--gap-mm --out x`). Joining only a word that parses as
+/// a number keeps clap's behaviour for everything else; the value's own parser and range check
+/// then report it. Numeric options are found by their value type, wherever they are declared.
+pub fn join_negative_numbers(
+    cmd: &clap::Command,
+    args: Vec<std::ffi::OsString>,
+) -> Vec<std::ffi::OsString> {
+    let mut out = Vec::with_capacity(args.len());
+    let mut sub: Option<&clap::Command> = None;
+    let mut it = args.into_iter().peekable();
+    out.extend(it.next());
+    while let Some(word) = it.next() {
+        let Some(w) = word.to_str() else {
+            out.push(word);
+            continue;
+        };
+        if w == "--" {
+            out.push(word);
+            out.extend(it);
+            break;
+        }
+        if sub.is_none() && !w.starts_with('-') {
+            sub = cmd.find_subcommand(w);
+        }
+        let numeric_flag = w
+            .strip_prefix("--")
+            .filter(|name| !name.contains('='))
+            .and_then(|name| sub?.get_arguments().find(|a| a.get_long() == Some(name)))
+            .is_some_and(is_numeric);
+        let negative_next = it.peek().and_then(|n| n.to_str()).is_some_and(|n| {
+            n.starts_with('-') && n.split(',').all(|x| x.trim().parse::<f64>().is_ok())
+        });
+        if numeric_flag && negative_next {
+            let value = it.next().expect("peeked");
+            let mut joined = word;
+            joined.push("=");
+            joined.push(value);
+            out.push(joined);
+        } else {
+            out.push(word);
+        }
+    }
+    out
+}
+
+fn is_numeric(a: &clap::Arg) -> bool {
+    use std::any::TypeId;
+    let t = a.get_value_parser().type_id();
+    a.get_action().takes_values()
+        && [
+            TypeId::of::<f64>(),
+            TypeId::of::<u64>(),
+            TypeId::of::<usize>(),
+            TypeId::of::<u32>(),
+            TypeId::of::<i64>(),
+        ]
+        .iter()
+        .any(|n| t == *n)
 }
 
 /// The commands.

@@ -1,10 +1,10 @@
 //! `vibrobar`: thin wrapper mapping errors to a message on stderr and a non-zero exit.
 
-use clap::Parser;
-use vibrobar_cli::{cli::Cli, commands};
+use vibrobar_cli::{cli, commands};
 
 fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
+    die_quietly_on_broken_pipe();
+    let cli = cli::parse();
     match commands::dispatch(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
@@ -16,3 +16,22 @@ fn main() -> std::process::ExitCode {
         }
     }
 }
+
+/// Rust starts programs with SIGPIPE ignored, so a write to a closed pipe (`vibrobar beam |
+/// head -1`) returns EPIPE and `println!` panics ("failed printing to stdout", status 101).
+/// Unix tools instead end quietly by SIGPIPE (the shell reports status 141). Restoring the
+/// default disposition does that for every write to stdout and stderr, progress bars included,
+/// without wrapping each print; files written so far are atomic or journalled, so nothing
+/// half-written looks complete.
+#[cfg(unix)]
+fn die_quietly_on_broken_pipe() {
+    // SAFETY: first thing in `main`, before any other thread exists; `SIG_DFL` is a valid
+    // disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
+/// Elsewhere a broken pipe stays an I/O error.
+#[cfg(not(unix))]
+fn die_quietly_on_broken_pipe() {}

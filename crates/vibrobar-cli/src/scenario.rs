@@ -6,6 +6,7 @@ use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use vibrobar_core::analysis::SweepBase;
+use vibrobar_core::error::Compact;
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
 use vibrobar_core::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};
 
@@ -320,7 +321,10 @@ impl Scenario {
 
 fn positive(field: &str, v: f64) -> Result<()> {
     if !v.is_finite() || v <= 0.0 {
-        bail!("{field} = {v} is outside the allowed range (0, ∞)");
+        bail!(
+            "{field} = {} is outside the allowed range (0, ∞)",
+            Compact(v)
+        );
     }
     Ok(())
 }
@@ -328,7 +332,10 @@ fn positive(field: &str, v: f64) -> Result<()> {
 /// A flag that must be finite and > 0.
 pub fn check_positive(flag: &str, v: f64, unit: &str) -> Result<()> {
     if !v.is_finite() || v <= 0.0 {
-        bail!("{flag} = {v} {unit} is outside the allowed range (0, ∞) {unit}");
+        bail!(
+            "{flag} = {} {unit} is outside the allowed range (0, ∞) {unit}",
+            Compact(v)
+        );
     }
     Ok(())
 }
@@ -336,7 +343,10 @@ pub fn check_positive(flag: &str, v: f64, unit: &str) -> Result<()> {
 /// A flag that must be finite and ≥ 0.
 pub fn check_non_negative(flag: &str, v: f64, unit: &str) -> Result<()> {
     if !v.is_finite() || v < 0.0 {
-        bail!("{flag} = {v} {unit} is outside the allowed range [0, ∞) {unit}");
+        bail!(
+            "{flag} = {} {unit} is outside the allowed range [0, ∞) {unit}",
+            Compact(v)
+        );
     }
     Ok(())
 }
@@ -344,7 +354,7 @@ pub fn check_non_negative(flag: &str, v: f64, unit: &str) -> Result<()> {
 /// A flag that must be finite.
 pub fn check_finite(flag: &str, v: f64) -> Result<()> {
     if !v.is_finite() {
-        bail!("{flag} must be a finite number, got {v}");
+        bail!("{flag} must be a finite number, got {}", Compact(v));
     }
     Ok(())
 }
@@ -368,22 +378,38 @@ pub fn parse_ratios(spec: &str) -> Result<Vec<f64>> {
 pub fn ratio_range(start: f64, stop: f64, step: f64) -> Result<Vec<f64>> {
     for (name, x) in [("START", start), ("STOP", stop), ("STEP", step)] {
         if !x.is_finite() {
-            bail!("--ratios {name} must be a finite number, got {x}");
+            bail!(
+                "--ratios {name} must be a finite number, got {}",
+                Compact(x)
+            );
         }
     }
     if start <= 0.0 {
-        bail!("--ratios START = {start} is outside the allowed range (0, ∞)");
+        bail!(
+            "--ratios START = {} is outside the allowed range (0, ∞)",
+            Compact(start)
+        );
     }
     if step <= 0.0 {
-        bail!("--ratios STEP = {step} is outside the allowed range (0, ∞)");
+        bail!(
+            "--ratios STEP = {} is outside the allowed range (0, ∞)",
+            Compact(step)
+        );
     }
     if stop < start {
-        bail!("--ratios range is empty: STOP = {stop} < START = {start} (allowed: STOP ≥ START)");
+        bail!(
+            "--ratios range is empty: STOP = {} < START = {} (allowed: STOP ≥ START)",
+            Compact(stop),
+            Compact(start)
+        );
     }
-    let n = (stop - start) / step;
-    if n > 100_000.0 {
-        bail!("--ratios gives {n:.0} points; the allowed maximum is 100000 (raise STEP)");
-    }
+    vibrobar_core::limits::check(
+        "--ratios points (STOP − START)/STEP",
+        ((stop - start) / step).floor(),
+        0.0,
+        vibrobar_core::limits::MAX_SWEEP_RATIOS as f64,
+        "raise STEP",
+    )?;
     Ok(vibrobar_core::analysis::linspace_inclusive(
         start, stop, step,
     ))

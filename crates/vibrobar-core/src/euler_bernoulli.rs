@@ -60,6 +60,7 @@
 //! frequency offset.
 
 use crate::error::ParamError;
+use crate::limits;
 use crate::params::{finite, positive, Bar};
 use std::f64::consts::PI;
 
@@ -248,6 +249,31 @@ impl BeamGeometry {
         positive("beam.outer_diameter_m", self.outer_diameter_m)?;
         positive("beam.youngs_modulus_pa", self.youngs_modulus_pa)?;
         positive("beam.density_kg_m3", self.density_kg_m3)?;
+        // Real bars: the ranges keep A, I, M and K finite (a 1e308 m diameter gives inf and NaN).
+        for (field, v, (lo, hi)) in [
+            (
+                "beam.length_m (--length-mm)",
+                self.length_m,
+                limits::BEAM_LENGTH_M,
+            ),
+            (
+                "beam.outer_diameter_m (--diameter-mm)",
+                self.outer_diameter_m,
+                limits::BEAM_DIAMETER_M,
+            ),
+            (
+                "beam.youngs_modulus_pa (--youngs-modulus-gpa)",
+                self.youngs_modulus_pa,
+                limits::BEAM_YOUNGS_MODULUS_PA,
+            ),
+            (
+                "beam.density_kg_m3 (--density-kg-m3)",
+                self.density_kg_m3,
+                limits::BEAM_DENSITY_KG_M3,
+            ),
+        ] {
+            limits::check(field, v, lo, hi, "in SI units: m, Pa, kg/m³")?;
+        }
         if let Some(c) = &self.cavity {
             positive("beam.cavity.hole_diameter_m", c.hole_diameter_m)?;
             positive("beam.cavity.length_m", c.length_m)?;
@@ -316,10 +342,15 @@ impl BeamGeometry {
             ),
             Reduction::TotalMass => (1.0, b4 * e * i / l.powi(3), 1.0),
         };
-        Ok(Lumped {
+        let lumped = Lumped {
             mass_kg: mass_coeff * m_bar - self.density_kg_m3 * self.cavity_volume_m3() * weight,
             stiffness_n_per_m: k0 * self.cavity_stiffness_ratio(),
-        })
+        };
+        // Last line of defence: nothing non-finite leaves this function.
+        let cause = "beam dimensions or material outside the range of real bars";
+        limits::finite_result("lumped mass M", lumped.mass_kg, cause)?;
+        limits::finite_result("lumped stiffness K", lumped.stiffness_n_per_m, cause)?;
+        Ok(lumped)
     }
 }
 
@@ -575,9 +606,7 @@ mod tests {
 
     #[test]
     fn validation_names_the_field() {
-        let field = |g: BeamGeometry| match g.lumped(Reduction::TotalMass).unwrap_err() {
-            ParamError::NotFinite { field, .. } | ParamError::OutOfRange { field, .. } => field,
-        };
+        let field = |g: BeamGeometry| g.lumped(Reduction::TotalMass).unwrap_err().field();
         let s = BeamGeometry::PAPER_SOLID;
         for bad in [0.0, -1.0, f64::NAN] {
             assert_eq!(field(BeamGeometry { length_m: bad, ..s }), "beam.length_m");
@@ -620,6 +649,75 @@ mod tests {
             let mut g = BeamGeometry::paper_cavity();
             g.cavity.as_mut().unwrap().distance_from_free_end_m = a;
             assert_eq!(field(g), "beam.cavity.distance_from_free_end_m", "a = {a}");
+        }
+    }
+
+    #[test]
+    fn regression_beam_huge_diameter_is_refused_not_inf() {
+        let s = BeamGeometry::PAPER_SOLID;
+        for (g, field) in [
+            (
+                BeamGeometry {
+                    outer_diameter_m: 1e305,
+                    ..s
+                },
+                "beam.outer_diameter_m (--diameter-mm)",
+            ),
+            (
+                BeamGeometry {
+                    length_m: 1e300,
+                    ..s
+                },
+                "beam.length_m (--length-mm)",
+            ),
+            (
+                BeamGeometry {
+                    youngs_modulus_pa: 1e300,
+                    ..s
+                },
+                "beam.youngs_modulus_pa (--youngs-modulus-gpa)",
+            ),
+            (
+                BeamGeometry {
+                    density_kg_m3: 1e-300,
+                    ..s
+                },
+                "beam.density_kg_m3 (--density-kg-m3)",
+            ),
+        ] {
+            for r in Reduction::ALL {
+                let e = g.lumped(r).unwrap_err();
+                assert_eq!(e.field(), field);
+                assert!(e.to_string().contains("allowed range ["), "{e}");
+            }
+        }
+        // Every corner of the allowed box gives finite, positive M and K.
+        let (l, d, e, rho) = (
+            limits::BEAM_LENGTH_M,
+            limits::BEAM_DIAMETER_M,
+            limits::BEAM_YOUNGS_MODULUS_PA,
+            limits::BEAM_DENSITY_KG_M3,
+        );
+        for ll in [l.0, l.1] {
+            for dd in [d.0, d.1] {
+                for ee in [e.0, e.1] {
+                    for rr in [rho.0, rho.1] {
+                        let g = BeamGeometry {
+                            length_m: ll,
+                            outer_diameter_m: dd,
+                            cavity: None,
+                            youngs_modulus_pa: ee,
+                            density_kg_m3: rr,
+                        };
+                        for r in Reduction::ALL {
+                            let m = g.lumped(r).unwrap();
+                            assert!(m.mass_kg.is_finite() && m.mass_kg > 0.0, "{g:?}");
+                            assert!(m.stiffness_n_per_m.is_finite() && m.stiffness_n_per_m > 0.0);
+                            assert!(m.natural_freq_rad_s().is_finite());
+                        }
+                    }
+                }
+            }
         }
     }
 }

@@ -9,6 +9,7 @@
 //! * [`solver`]: the [`solver::Solver`] trait and its implementations.
 //! * [`analysis`]: RMS, impact statistics, time histories, sweeps, energy audit.
 //! * [`euler_bernoulli`]: lumped `M`, `K` of a cantilever bar from its geometry.
+//! * [`limits`]: every size limit and input range, with the one checking helper.
 //!
 //! No I/O happens here: progress is reported through callbacks, results are returned as data.
 
@@ -18,6 +19,7 @@
 pub mod analysis;
 pub mod error;
 pub mod euler_bernoulli;
+pub mod limits;
 pub mod model;
 pub mod params;
 pub mod solver;

@@ -4,6 +4,7 @@
 //! assume finite, physically meaningful numbers.
 
 use crate::error::ParamError;
+use crate::limits;
 use serde::{Deserialize, Serialize};
 
 /// Standard gravity used for the derived rolling-friction force.
@@ -257,7 +258,16 @@ impl System {
         finite("forcing.amplitude_n", self.forcing.amplitude_n)?;
         finite("forcing.static_force_n", self.forcing.static_force_n)?;
         match self.forcing.frequency {
-            Frequency::Ratio(r) => positive("forcing.frequency_ratio", r)?,
+            Frequency::Ratio(r) => {
+                positive("forcing.frequency_ratio", r)?;
+                limits::check(
+                    "forcing.frequency_ratio",
+                    r,
+                    limits::FREQ_RATIO_MIN,
+                    limits::FREQ_RATIO_MAX,
+                    "Ω/√(K/M) of a one-mode bar",
+                )?;
+            }
             Frequency::RadPerS(w) => positive("forcing.omega_rad_s", w)?,
         }
         positive("gravity_m_s2", self.gravity_m_s2)?;
@@ -271,6 +281,43 @@ impl System {
                 non_negative("damper.friction_force_n", f)?;
             }
         }
+        Ok(())
+    }
+
+    /// Check that a run to `t_end_s` keeps the phase of `sin(Ωt)` and of the bar's own
+    /// oscillation accurate: `max(Ω, ω_n)·max(|t0|, |t_end|) ≤` [`limits::MAX_PHASE_RAD`].
+    pub fn validate_horizon(&self, t0_s: f64, t_end_s: f64) -> Result<(), ParamError> {
+        let rate = self.omega_rad_s().max(self.bar.natural_freq_rad_s());
+        limits::check(
+            "phase max(Ω, ω_n)·t_end in rad (duration_s, --duration)",
+            rate * t0_s.abs().max(t_end_s.abs()),
+            0.0,
+            limits::MAX_PHASE_RAD,
+            "beyond it sin(Ωt) loses its phase: shorten the run or lower the frequency",
+        )?;
+        Ok(())
+    }
+
+    /// Check a fixed step `dt_s` for a run over `span_s`: positive, at most
+    /// [`limits::MAX_STEPS`] steps, and `ω_n·dt` within RK4's stability limit
+    /// [`limits::RK4_MAX_OMEGA_DT`] (a larger step diverges).
+    pub fn validate_fixed_step(&self, dt_s: f64, span_s: f64) -> Result<(), ParamError> {
+        positive("dt_s", dt_s)?;
+        let wn = self.bar.natural_freq_rad_s();
+        limits::check(
+            "dt_s (--dt)",
+            dt_s,
+            0.0,
+            limits::RK4_MAX_OMEGA_DT / wn,
+            "rk4's stability limit ω_n·dt ≤ 2.5 for this bar; a larger step diverges",
+        )?;
+        limits::check(
+            "steps duration/dt (--duration, --dt)",
+            (span_s / dt_s).ceil(),
+            0.0,
+            limits::MAX_STEPS,
+            "bounded work: raise --dt or shorten the run",
+        )?;
         Ok(())
     }
 }
@@ -372,6 +419,14 @@ impl RunSettings {
                 allowed: "(0, 1]",
             });
         }
+        // An RMS window shorter than one step holds no sample of the motion: its RMS is 0/0.
+        limits::check(
+            "rms_fraction (--rms-fraction)",
+            self.rms_fraction,
+            self.dt_s / self.duration_s,
+            1.0,
+            "the RMS window rms_fraction·duration_s must cover at least one step dt_s",
+        )?;
         Ok(())
     }
 

@@ -6,9 +6,7 @@ use vibrobar_core::solver::Rk4;
 use vibrobar_core::{FrictionModel, ParamError, RunSettings, SimError, Solver, State, System};
 
 fn field_of(e: &ParamError) -> &'static str {
-    match e {
-        ParamError::NotFinite { field, .. } | ParamError::OutOfRange { field, .. } => field,
-    }
+    e.field()
 }
 
 /// `sys` must be rejected by `validate`, by `Rk4::run` and by `run_case`, naming `field`; the

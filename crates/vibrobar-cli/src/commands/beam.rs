@@ -23,11 +23,12 @@ pub struct BeamArgs {
     /// Diameter of the transverse cavity hole, mm (omit for a solid bar).
     #[arg(long, allow_negative_numbers = true, requires_all = ["cavity_length_mm", "cavity_distance_mm"])]
     pub cavity_hole_mm: Option<f64>,
-    /// Length of the cavity along the hole, mm.
-    #[arg(long, allow_negative_numbers = true)]
+    /// Length of the cavity along the hole, mm (with --cavity-hole-mm; alone it was silently
+    /// ignored, so clap now refuses it).
+    #[arg(long, allow_negative_numbers = true, requires = "cavity_hole_mm")]
     pub cavity_length_mm: Option<f64>,
-    /// Distance of the cavity centre from the free end, mm.
-    #[arg(long, allow_negative_numbers = true)]
+    /// Distance of the cavity centre from the free end, mm (with --cavity-hole-mm).
+    #[arg(long, allow_negative_numbers = true, requires = "cavity_hole_mm")]
     pub cavity_distance_mm: Option<f64>,
 }
 

@@ -3,6 +3,7 @@
 
 use anyhow::{bail, Context};
 use vibrobar_core::analysis::{checked_linspace_inclusive, SweepBase};
+use vibrobar_core::error::Compact;
 use vibrobar_core::params::{FrictionModel, RunSettings};
 use vibrobar_core::solver::{solver_by_name, Solver, SOLVER_NAMES};
 
@@ -55,26 +56,32 @@ impl SystemArgs {
     /// Checked run settings.
     pub fn settings(&self) -> anyhow::Result<RunSettings> {
         if !(self.duration.is_finite() && self.duration > 0.0) {
-            bail!("--duration must be in (0, ∞) s, got {}", self.duration);
+            bail!(
+                "--duration must be in (0, ∞) s, got {}",
+                Compact(self.duration)
+            );
         }
         if !(self.dt.is_finite() && self.dt > 0.0 && self.dt <= self.duration) {
             bail!(
                 "--dt must be in (0, --duration = {}] s, got {}",
-                self.duration,
-                self.dt
+                Compact(self.duration),
+                Compact(self.dt)
             );
         }
         if !(self.rms_fraction > 0.0 && self.rms_fraction <= 1.0) {
             bail!(
                 "--rms-fraction must be in (0, 1], got {}",
-                self.rms_fraction
+                Compact(self.rms_fraction)
             );
         }
-        Ok(RunSettings {
+        let settings = RunSettings {
             duration_s: self.duration,
             dt_s: self.dt,
             rms_fraction: self.rms_fraction,
-        })
+        };
+        // The core's limits (an RMS window of at least one step), before any file is opened.
+        settings.validate()?;
+        Ok(settings)
     }
 
     /// Preset base with the friction override applied and checked.
@@ -82,7 +89,7 @@ impl SystemArgs {
         let mut base = self.preset.base();
         if let Some(f) = self.friction_force_n {
             if !(f.is_finite() && f >= 0.0) {
-                bail!("--friction-force-n must be in [0, ∞) N, got {f}");
+                bail!("--friction-force-n must be in [0, ∞) N, got {}", Compact(f));
             }
             base.ball.friction_force_n = Some(f);
         }
@@ -149,16 +156,26 @@ pub fn parse_range(
         bail!("{flag} must be {form} with finite numbers, got {text:?}");
     }
     if stop < start {
-        bail!("{flag}: STOP {stop} is below START {start}; {flag} must be {form}");
+        bail!(
+            "{flag}: STOP {} is below START {}; {flag} must be {form}",
+            Compact(stop),
+            Compact(start)
+        );
     }
     if step <= 0.0 {
-        bail!("{flag}: STEP {step} must be > 0; {flag} must be {form}");
+        bail!(
+            "{flag}: STEP {} must be > 0; {flag} must be {form}",
+            Compact(step)
+        );
     }
     let v = checked_linspace_inclusive(start, stop, step)
         .map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
     for &x in &v {
         if !ok(x) {
-            bail!("{flag}: value {x} is outside the allowed range {allowed}");
+            bail!(
+                "{flag}: value {} is outside the allowed range {allowed}",
+                Compact(x)
+            );
         }
     }
     Ok(v)
@@ -174,7 +191,10 @@ pub fn check_value(
     if x.is_finite() && ok(x) {
         Ok(x)
     } else {
-        bail!("{flag} = {x} is outside the allowed range {allowed}")
+        bail!(
+            "{flag} = {} is outside the allowed range {allowed}",
+            Compact(x)
+        )
     }
 }
 
@@ -194,7 +214,13 @@ pub fn with_threads<R: Send>(
         None => Ok(f()),
         Some(0) => bail!("--threads must be in [1, ∞), got 0"),
         Some(n) => Ok(rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
+            .num_threads(vibrobar_core::limits::check_count(
+                "--threads",
+                n,
+                1,
+                vibrobar_core::limits::MAX_THREADS,
+                "",
+            )?)
             .build()
             .context("--threads: cannot start the thread pool")?
             .install(f)),

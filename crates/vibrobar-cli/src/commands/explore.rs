@@ -113,6 +113,11 @@ pub fn run_poincare(a: &PoincareArgs) -> anyhow::Result<()> {
     let solver = a.point.system.solver()?;
     let phase = check_value("--phase-deg", a.phase_deg, |_| true, "finite")?.to_radians();
     let transient = transient_or_default(a.transient, &a.point.system)?;
+    vibrobar_core::limits::check_samples(
+        "Poincaré points = (--duration − --transient) / forcing period",
+        a.point.system.duration - transient,
+        sys.forcing_period_s(),
+    )?;
     let mut strobe = Stroboscope::for_system(&sys, phase, transient);
     solver.run(&sys, &State::REST, a.point.system.duration, &mut strobe)?;
     let pts = &strobe.points;
@@ -372,7 +377,9 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
     if intervals < 2 {
         bail!(
             "--duration {} s leaves {} intervals of {:.3e} s after the transient; at least 2 are needed (raise --duration or lower --periods)",
-            a.point.system.duration, intervals, interval
+            vibrobar_core::error::Compact(a.point.system.duration),
+            intervals,
+            interval
         );
     }
     let mut p = LyapunovParams::periods(&sys, transient, periods, intervals);

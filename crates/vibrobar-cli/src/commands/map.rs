@@ -161,7 +161,10 @@ pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
     // Every point must be a valid system: fail before any run, naming the field.
     for p in grid.points() {
         spec.damped_system(&p)
-            .and_then(|s| s.validate())
+            .and_then(|s| {
+                s.validate()
+                    .and(s.validate_horizon(0.0, settings.duration_s))
+            })
             .map_err(|e| anyhow::anyhow!("{e} (at {})", describe(&p)))?;
     }
     let mut header = String::from(HEAD);
@@ -685,6 +688,14 @@ pub struct BenchMapResult {
 pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
     let n_r = check_value("--ratios", args.ratios as f64, |x| x >= 2.0, "[2, ∞)")? as usize;
     let n_g = check_value("--gaps", args.gaps as f64, |x| x >= 2.0, "[2, ∞)")? as usize;
+    // Before the axes are built: 2³² ratios alone would be 34 GB.
+    vibrobar_core::limits::check(
+        "map points --ratios × --gaps",
+        n_r as f64 * n_g as f64,
+        4.0,
+        vibrobar_core::limits::MAX_GRID_POINTS as f64,
+        "",
+    )?;
     let duration = check_value("--duration", args.duration, |x| x > 0.0, "(0, ∞) s")?;
     let ratios: Vec<f64> = (0..n_r)
         .map(|i| 0.9 + 0.2 * i as f64 / (n_r - 1) as f64)

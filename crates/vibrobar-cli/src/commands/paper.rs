@@ -332,8 +332,23 @@ const GAP10: RGBColor = RGBColor(31, 119, 180);
 pub fn paper(args: &PaperArgs) -> Result<()> {
     let t0 = Instant::now();
     let settings = settings(args)?;
+    if let Some(m) = args.ensemble_members {
+        // Before the sweeps, not after them.
+        vibrobar_core::limits::check_count(
+            "--ensemble-members",
+            m,
+            0,
+            vibrobar_core::limits::MAX_ENSEMBLE_MEMBERS,
+            "",
+        )?;
+    }
     check_positive("--reproducing-friction-n", args.reproducing_friction_n, "N")?;
     check_positive("--sample-interval-s", args.sample_interval_s, "s")?;
+    vibrobar_core::limits::check_samples(
+        "history samples = --duration / --sample-interval-s",
+        settings.duration_s,
+        args.sample_interval_s,
+    )?;
     let solvers: Vec<String> = if args.solvers.is_empty() {
         vec![crate::DEFAULT_SOLVER.to_string()]
     } else {

@@ -1,6 +1,7 @@
 //! `vibrobar run`: one run, its time history and a summary.
 
 use anyhow::Result;
+use vibrobar_core::limits;
 
 use super::{fmt_secs, run_one, solver, Case};
 use crate::cli::RunArgs;
@@ -35,6 +36,11 @@ pub fn run(args: &RunArgs) -> Result<()> {
     }
     sc.validate()?;
     let settings = sc.settings();
+    limits::check_samples(
+        "rows = --duration / (--sample-every · --dt)",
+        settings.duration_s,
+        args.sample_every as f64 * settings.dt_s,
+    )?;
     let solver = solver(&sc.run.solver, &settings)?;
     let sys = sc.damped_system();
     let case = Case {
@@ -44,6 +50,16 @@ pub fn run(args: &RunArgs) -> Result<()> {
         energy_audit: true,
     };
     let out = run_one(&case, &settings, solver.as_ref())?;
+    let gap_m = sys.damper.map_or(f64::INFINITY, |d| d.gap_m);
+    let pen_m = out.result.summary.max_penetration_m;
+    if let Some(f) = limits::excessive_penetration(pen_m, gap_m) {
+        eprintln!(
+            "warning: the ball went {pen_m:.2e} m beyond the wall, {:.1} % of the gap (warning above {} %): {} detects impacts only after a step; lower --dt or use --solver exact",
+            100.0 * f,
+            100.0 * limits::RK4_PENETRATION_WARN_FRACTION,
+            solver.name()
+        );
+    }
     let is_npy = args.out.extension().is_some_and(|e| e == "npy");
     if is_npy {
         let flat: Vec<f64> = out

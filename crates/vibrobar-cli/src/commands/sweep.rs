@@ -32,7 +32,10 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
         check_positive("--gap-mm", *g_mm, "mm")?;
     }
     if gaps_m.is_empty() {
-        anyhow::bail!("--gap-mm: no gap given (allowed: one or more values > 0 mm)");
+        // `--gap-mm` given is never empty: the empty list came from the scenario file.
+        anyhow::bail!(
+            "sweep.gaps_m = [] in the scenario file: no gap to sweep (allowed: one or more gaps > 0 m; or give --gap-mm)"
+        );
     }
     let ratios = match &args.ratios {
         Some(spec) => parse_ratios(spec)?,
@@ -103,6 +106,9 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
         })
         .collect();
     let solids = super::run_cases(&solid_cases, &settings, solver.as_ref(), "solid bar")?;
+    for s in &solids {
+        vibrobar_core::limits::reference_rms(s.result.rms_m)?;
+    }
     let bar = Progress::new("sweep", points.len(), journal.done_count());
     let res = pending.par_iter().try_for_each(|&i| -> Result<()> {
         let p = &points[i];

@@ -39,7 +39,23 @@ pub fn parse_shard(text: &str) -> Result<ShardInfo, ShardError> {
     if n == 0 || k == 0 || k > n {
         return Err(bad());
     }
+    check_shard_count(n).map_err(|e| ShardError::Read {
+        path: format!("--shard {text}"),
+        why: e.to_string(),
+    })?;
     Ok(ShardInfo { k, n })
+}
+
+/// `N` of `--shard K/N` (from the flag or a shard's metadata) within the core's limit: `merge`
+/// walks every shard 1..N.
+fn check_shard_count(n: usize) -> Result<usize, vibrobar_core::ParamError> {
+    vibrobar_core::limits::check_count(
+        "N of --shard K/N",
+        n,
+        1,
+        vibrobar_core::limits::MAX_SHARDS,
+        "",
+    )
 }
 
 /// Grid indices of a shard (all of them for `None`).
@@ -87,6 +103,15 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
             }
         }
         let shard = grid.shard.unwrap_or(ShardInfo { k: 1, n: 1 });
+        check_shard_count(shard.n).map_err(|e| read_err(path, e.to_string()))?;
+        vibrobar_core::limits::check_count(
+            "grid.total",
+            grid.total,
+            1,
+            vibrobar_core::limits::MAX_GRID_POINTS,
+            "",
+        )
+        .map_err(|e| read_err(path, e.to_string()))?;
         if let Some(prev) = seen_shards.insert(shard.k, path.clone()) {
             return Err(ShardError::Mismatch(format!(
                 "shard {}/{} given twice ({} and {})",

@@ -83,6 +83,13 @@ impl EnsembleParams {
                 allowed: "[1, ∞)",
             });
         }
+        crate::limits::check_count(
+            "ensemble.members (--members, --ensemble-members)",
+            self.members,
+            1,
+            crate::limits::MAX_ENSEMBLE_MEMBERS,
+            "",
+        )?;
         let r = &self.ranges;
         for (field, (lo, hi)) in [
             ("ensemble.u_m", r.u_m),
@@ -162,6 +169,13 @@ pub fn run_ensemble(
 ) -> Result<Vec<EnsembleStats>, SimError> {
     params.validate()?;
     let m = params.members;
+    crate::limits::check(
+        "ensemble runs (points × members)",
+        points.len() as f64 * m as f64,
+        0.0,
+        crate::limits::MAX_RUNS as f64,
+        "fewer points or members",
+    )?;
     let jobs: Vec<(usize, usize)> = (0..points.len())
         .flat_map(|p| (0..m).map(move |i| (p, i)))
         .collect();

@@ -27,6 +27,7 @@
 //!   perturbation persists and `w` drifts linearly, so the largest exponent is 0, not `−ζω_n`.
 
 use crate::error::{ParamError, SimError};
+use crate::limits;
 use crate::params::{State, System};
 use crate::solver::Solver;
 
@@ -142,6 +143,14 @@ pub fn max_lyapunov(
     crate::params::non_negative("transient_s", p.transient_s)?;
     crate::params::positive("interval_s", p.interval_s)?;
     crate::params::positive("d0", p.d0)?;
+    // Below the minimum `x + d0·e` rounds back to `x` and the estimate measures round-off.
+    limits::check(
+        "d0 (--d0)",
+        p.d0,
+        limits::LYAPUNOV_D0_MIN,
+        limits::LYAPUNOV_D0_MAX,
+        "the separation must survive rounding and stay in the linear range",
+    )?;
     if p.intervals == 0 {
         return Err(ParamError::OutOfRange {
             field: "intervals",
@@ -150,6 +159,13 @@ pub fn max_lyapunov(
         }
         .into());
     }
+    limits::check_count(
+        "intervals (--duration / (--periods · T))",
+        p.intervals,
+        1,
+        limits::MAX_LYAPUNOV_INTERVALS,
+        "raise --periods or shorten --duration",
+    )?;
     if p.blocks < 2 || p.blocks > p.intervals {
         return Err(ParamError::OutOfRange {
             field: "blocks",
@@ -248,6 +264,11 @@ pub fn max_lyapunov(
         .collect();
     let bm = block_means.iter().sum::<f64>() / b as f64;
     let var = block_means.iter().map(|m| (m - bm).powi(2)).sum::<f64>() / (b - 1) as f64;
+    limits::finite_result(
+        "Lyapunov exponent",
+        exponent,
+        "a renormalisation interval too short for the solver's step",
+    )?;
     Ok(LyapunovResult {
         exponent_per_s: exponent,
         std_error_per_s: (var / b as f64).sqrt(),

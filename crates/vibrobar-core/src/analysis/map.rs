@@ -134,6 +134,16 @@ impl Grid {
                 });
             }
         }
+        // Checked in floating point before anything is built: 1e5 × 1e5 points would
+        // overflow nothing but memory.
+        let n: f64 = axes.iter().map(|a| a.values.len() as f64).product();
+        crate::limits::check(
+            "grid points (product of the axis lengths)",
+            n,
+            1.0,
+            crate::limits::MAX_GRID_POINTS as f64,
+            "use a coarser STEP or split the grid",
+        )?;
         Ok(Grid { axes })
     }
 
@@ -280,6 +290,10 @@ pub fn compute_point_from(
     rms_solid_m: f64,
 ) -> Result<MapRow, SimError> {
     let sys = spec.damped_system(p)?;
+    if !rms_solid_m.is_nan() {
+        // NaN means "no reference" (ensembles); 0 would make every reduction 0/0.
+        crate::limits::reference_rms(rms_solid_m)?;
+    }
     let t_end = init.t_s + spec.settings.duration_s;
     let mut reg = RegimeObserver::new(&sys, init.t_s + spec.settings.window_start_s(), t_end);
     let r = run_case(&sys, init, &spec.settings, solver, &mut reg)?;

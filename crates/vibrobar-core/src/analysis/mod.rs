@@ -155,11 +155,17 @@ pub fn run_case(
         solver.run(sys, init, t_end, &mut Fanout(&mut obs))?
     };
     let cycles = (t_end - w0) / sys.forcing_period_s();
+    // Last line of defence: a NaN or inf never reaches a result table.
+    let cause = "parameters far outside the model's range (forces, masses or stiffness)";
     Ok(RunResult {
-        rms_m: rms.rms_m(),
+        rms_m: crate::limits::finite_result("RMS of u", rms.rms_m(), cause)?,
         impacts: imp.total,
         impacts_in_window: imp.in_window,
-        impacts_per_cycle: imp.in_window as f64 / cycles,
+        impacts_per_cycle: crate::limits::finite_result(
+            "impacts per cycle",
+            imp.in_window as f64 / cycles,
+            "an RMS window shorter than a forcing period's rounding",
+        )?,
         summary,
     })
 }

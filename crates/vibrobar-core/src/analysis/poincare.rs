@@ -210,6 +210,20 @@ pub fn bifurcation(
         }
         .into());
     }
+    // Every stroboscopic point is kept: bound their number before any run.
+    let mut points = 0.0;
+    for &p in values {
+        let mut sys = spec.system;
+        spec.axis.apply(&mut sys, p)?;
+        points += (spec.duration_s - spec.transient_s) / sys.forcing_period_s() + 1.0;
+    }
+    crate::limits::check(
+        "stroboscopic points (values × forcing periods after the transient)",
+        points,
+        0.0,
+        crate::limits::MAX_SAMPLES,
+        "fewer values or a shorter run",
+    )?;
     let per_value = par_map_with_progress(
         values,
         |&p| -> Result<(Vec<State>, Vec<ImpactPoint>), SimError> {

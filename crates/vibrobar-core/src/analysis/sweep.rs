@@ -21,8 +21,8 @@ pub fn linspace_inclusive(start: f64, stop: f64, step: f64) -> Vec<f64> {
     checked_linspace_inclusive(start, stop, step).unwrap_or_default()
 }
 
-/// Largest grid [`checked_linspace_inclusive`] builds.
-pub const MAX_GRID_POINTS: usize = 10_000_000;
+/// Largest grid [`checked_linspace_inclusive`] builds (defined in [`crate::limits`]).
+pub const MAX_GRID_POINTS: usize = crate::limits::MAX_GRID_POINTS;
 
 /// [`linspace_inclusive`] with an error naming the bad argument.
 pub fn checked_linspace_inclusive(

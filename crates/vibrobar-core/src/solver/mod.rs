@@ -212,6 +212,7 @@ pub fn validate_run(sys: &System, init: &State, t_end_s: f64) -> Result<(), SimE
         }
         .into());
     }
+    sys.validate_horizon(init.t_s, t_end_s)?;
     Ok(())
 }
 

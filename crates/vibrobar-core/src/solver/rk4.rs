@@ -277,7 +277,8 @@ impl Solver for Rk4 {
         obs: &mut dyn Observer,
     ) -> Result<RunSummary, SimError> {
         super::validate_run(sys, init, t_end_s)?;
-        crate::params::positive("dt_s", self.dt_s)?;
+        sys.validate_fixed_step(self.dt_s, t_end_s - init.t_s)?;
+        let u_bound = crate::limits::rk4_divergence_bound_m(sys, init);
         let rhs = Rhs::new(sys);
         let has_ball = sys.damper.is_some();
         let (lg, mu, e) = match &sys.damper {
@@ -320,6 +321,17 @@ impl Solver for Rk4 {
                 && next.dv_m_s.is_finite())
             {
                 return Err(SimError::NonFinite { t_s: t_next });
+            }
+            if next.u_m.abs() > u_bound {
+                return Err(crate::error::ParamError::Diverged {
+                    solver: "rk4",
+                    field: "dt_s (--dt)",
+                    value: self.dt_s,
+                    t_s: t_next,
+                    u_m: next.u_m,
+                    bound_m: u_bound,
+                }
+                .into());
             }
             obs.segment(&StepSegment {
                 rhs: &rhs,

@@ -1,0 +1,262 @@
+//! Every limit in one place: the sizes a user can inflate (steps, samples, grid points, members,
+//! shards, intervals) and the ranges outside which an input gives NaN, inf or numbers that mean
+//! nothing. Each bound is checked *before* anything is allocated or run, and the error
+//! ([`ParamError::Limit`]) names the field or flag and states the allowed range from the constant
+//! itself, so the message cannot drift from the code.
+//!
+//! | what | limit | why |
+//! |---|---|---|
+//! | fixed-step (`rk4`) steps per run, `duration/dt` | ≤ [`MAX_STEPS`] = 1e9 | bounded work: about 90 s of `rk4` |
+//! | `rk4` step, `ω_n·dt` | ≤ [`RK4_MAX_OMEGA_DT`] = 2.5 | RK4's stability region (radius ≥ 2.61 for every damping) |
+//! | samples of a history, Poincaré points, bifurcation points | ≤ [`MAX_SAMPLES`] = 1e7 | about 1.5 GB in memory |
+//! | grid points of a sweep, map, ensemble or bifurcation | ≤ [`MAX_GRID_POINTS`] = 1e7 | memory of the row tables |
+//! | ratios of a `sweep` | ≤ [`MAX_SWEEP_RATIOS`] = 1e5 | |
+//! | ensemble members per point | ≤ [`MAX_ENSEMBLE_MEMBERS`] = 1e5 | |
+//! | runs of one batch (points × members) | ≤ [`MAX_RUNS`] = 1e7 | |
+//! | shards `N` of `--shard K/N` | ≤ [`MAX_SHARDS`] = 1e6 | `merge` checks every shard 1..N |
+//! | worker threads `--threads` | ≤ [`MAX_THREADS`] = 1024 | OS threads |
+//! | Lyapunov renormalisation intervals | ≤ [`MAX_LYAPUNOV_INTERVALS`] = 1e6 | |
+//! | forcing phase `max(Ω, ω_n)·t` | ≤ [`MAX_PHASE_RAD`] = 1e10 rad | `sin(Ωt)` keeps 1e-6 rad of phase |
+//! | frequency ratio `Ω/√(K/M)` | [[`FREQ_RATIO_MIN`], [`FREQ_RATIO_MAX`]] = [1e-3, 1e3] | a one-mode model; outside, the response underflows or the period overflows |
+//! | RMS window `rms_fraction·duration` | ≥ `dt` | an empty window has no RMS |
+//! | Lyapunov `d0` | [[`LYAPUNOV_D0_MIN`], [`LYAPUNOV_D0_MAX`]] = [1e-12, 1e-2] | representable and still linear |
+//! | beam geometry and material | [`BEAM_LENGTH_M`], [`BEAM_DIAMETER_M`], [`BEAM_YOUNGS_MODULUS_PA`], [`BEAM_DENSITY_KG_M3`] | real bars; keeps `M`, `K` finite |
+//!
+//! Not an error but a warning: `rk4` leaves the ball beyond the wall by up to one step's travel;
+//! past [`RK4_PENETRATION_WARN_FRACTION`] of the gap the CLI says so with the figure.
+
+use crate::error::ParamError;
+use crate::params::{State, System};
+
+/// Most steps of a fixed-step run (`duration / dt`): about 90 s of `rk4` at 85 ns per step.
+pub const MAX_STEPS: f64 = 1e9;
+/// Largest `ω_n·dt` for `rk4`. RK4's stability region contains every eigenvalue
+/// `ω_n(−ζ ± i√(1−ζ²))` with `ω_n·dt` below 2.6156 (its smallest radius over the left half
+/// plane); 2.5 leaves a margin. Accuracy needs far smaller steps (the paper: 0.0038).
+pub const RK4_MAX_OMEGA_DT: f64 = 2.5;
+/// `rk4` divergence backstop: `|u|` beyond this many times the system's own displacement scale
+/// (static deflection under every force, initial state, half gap) is divergence, not physics
+/// (linear growth at resonance reaches it only after ~1e12 radians, beyond [`MAX_PHASE_RAD`]).
+pub const RK4_DIVERGENCE_FACTOR: f64 = 1e12;
+/// `rk4` penetration beyond this fraction of the gap draws a warning (the paper's runs stay
+/// below 0.4 %).
+pub const RK4_PENETRATION_WARN_FRACTION: f64 = 0.01;
+/// Most samples kept in memory: rows of a time history, Poincaré or bifurcation points
+/// (about 150 B each: 1.5 GB).
+pub const MAX_SAMPLES: f64 = 1e7;
+/// Most points of one grid (sweep, map, ensemble, bifurcation values).
+pub const MAX_GRID_POINTS: usize = 10_000_000;
+/// Most ratios of one `sweep` (each gets a solid and a damped run per gap).
+pub const MAX_SWEEP_RATIOS: usize = 100_000;
+/// Most ensemble members per point.
+pub const MAX_ENSEMBLE_MEMBERS: usize = 100_000;
+/// Most runs of one batch (grid points × ensemble members).
+pub const MAX_RUNS: usize = 10_000_000;
+/// Most shards of a map (`--shard K/N`).
+pub const MAX_SHARDS: usize = 1_000_000;
+/// Most worker threads (`--threads`): each is an OS thread with its own stack.
+pub const MAX_THREADS: usize = 1024;
+/// Most renormalisation intervals of a Lyapunov estimate.
+pub const MAX_LYAPUNOV_INTERVALS: usize = 1_000_000;
+/// Largest phase `max(Ω, ω_n)·t` of a run: beyond it `sin(Ωt)` has lost more than 1e-6 rad.
+pub const MAX_PHASE_RAD: f64 = 1e10;
+/// Smallest frequency ratio `Ω/√(K/M)`.
+pub const FREQ_RATIO_MIN: f64 = 1e-3;
+/// Largest frequency ratio `Ω/√(K/M)`.
+pub const FREQ_RATIO_MAX: f64 = 1e3;
+/// Smallest Lyapunov separation `d0` (scaled units, state components are O(1)–O(100)): below
+/// it the perturbation is lost to rounding and the estimate measures round-off.
+pub const LYAPUNOV_D0_MIN: f64 = 1e-12;
+/// Largest Lyapunov separation `d0`: beyond it the two trajectories no longer see the
+/// linearised flow.
+pub const LYAPUNOV_D0_MAX: f64 = 1e-2;
+/// Range of a beam's overhang length, m.
+pub const BEAM_LENGTH_M: (f64, f64) = (1e-3, 100.0);
+/// Range of a beam's outer diameter, m.
+pub const BEAM_DIAMETER_M: (f64, f64) = (1e-4, 10.0);
+/// Range of Young's modulus, Pa (soft polymers to diamond).
+pub const BEAM_YOUNGS_MODULUS_PA: (f64, f64) = (1e6, 1e13);
+/// Range of density, kg/m³.
+pub const BEAM_DENSITY_KG_M3: (f64, f64) = (1.0, 1e5);
+
+/// `value` must lie in `[min, max]` (NaN never does). `why` says why or how to get within it
+/// (may be empty). Returns the value.
+pub fn check(
+    field: &'static str,
+    value: f64,
+    min: f64,
+    max: f64,
+    why: &'static str,
+) -> Result<f64, ParamError> {
+    if value >= min && value <= max {
+        Ok(value)
+    } else {
+        Err(ParamError::Limit {
+            field,
+            value,
+            min,
+            max,
+            why,
+        })
+    }
+}
+
+/// A count must lie in `[min, max]`.
+pub fn check_count(
+    field: &'static str,
+    n: usize,
+    min: usize,
+    max: usize,
+    why: &'static str,
+) -> Result<usize, ParamError> {
+    check(field, n as f64, min as f64, max as f64, why).map(|_| n)
+}
+
+/// Number of samples `⌊duration/interval⌋ + 1` of a grid `0, interval, …` over `duration`,
+/// checked against [`MAX_SAMPLES`] before anything is sampled. `field` names what sets the
+/// interval.
+pub fn check_samples(
+    field: &'static str,
+    duration_s: f64,
+    interval_s: f64,
+) -> Result<u64, ParamError> {
+    let n = (duration_s / interval_s + 1e-9).floor() + 1.0;
+    check(
+        field,
+        n,
+        1.0,
+        MAX_SAMPLES,
+        "samples kept in memory; sample less often or run shorter",
+    )
+    .map(|n| n as u64)
+}
+
+/// The last line of defence: a result must be finite before it is written.
+pub fn finite_result(
+    quantity: &'static str,
+    value: f64,
+    cause: &'static str,
+) -> Result<f64, ParamError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(ParamError::NonFiniteResult {
+            quantity,
+            value,
+            cause,
+        })
+    }
+}
+
+/// `|u|` beyond which an `rk4` run has diverged: [`RK4_DIVERGENCE_FACTOR`] times the system's
+/// own displacement scale (static deflection under every force, initial displacement and
+/// velocities over `ω_n`, half gap).
+pub fn rk4_divergence_bound_m(sys: &System, init: &State) -> f64 {
+    let forces =
+        sys.forcing.static_force_n.abs() + sys.forcing.amplitude_n.abs() + sys.friction_level_n();
+    let scale = forces / sys.bar.stiffness_n_per_m
+        + init.u_m.abs()
+        + (init.du_m_s.abs() + init.dw_m_s().abs()) / sys.bar.natural_freq_rad_s()
+        + sys.damper.map_or(0.0, |d| d.half_gap_m());
+    RK4_DIVERGENCE_FACTOR * scale
+}
+
+/// The solid bar's RMS as the reference of a reduction `100(1 − damped/solid)`: it must be
+/// positive, or every reduction is 0/0 (a bar without any force, started at rest).
+pub fn reference_rms(rms_solid_m: f64) -> Result<f64, ParamError> {
+    if rms_solid_m > 0.0 && rms_solid_m.is_finite() {
+        Ok(rms_solid_m)
+    } else {
+        Err(ParamError::NonFiniteResult {
+            quantity: "reduction_pct = 100(1 − rms_damped/rms_solid)",
+            value: rms_solid_m,
+            cause: "the solid bar does not move (rms_solid = 0): forcing.amplitude_n and static_force_n are 0 and it starts at rest",
+        })
+    }
+}
+
+/// Penetration as a fraction of the gap when it exceeds [`RK4_PENETRATION_WARN_FRACTION`]
+/// (`None` otherwise): what the CLI warns about after an `rk4` run.
+pub fn excessive_penetration(max_penetration_m: f64, gap_m: f64) -> Option<f64> {
+    let f = max_penetration_m / gap_m;
+    (f > RK4_PENETRATION_WARN_FRACTION).then_some(f)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// RK4's amplification factor `R(z) = 1 + z + z²/2 + z³/6 + z⁴/24` stays within the unit
+    /// circle for every `|z| ≤ RK4_MAX_OMEGA_DT` in the left half plane (every damping ratio).
+    #[test]
+    fn rk4_limit_is_inside_the_stability_region() {
+        for k in 0..=2000 {
+            let th = std::f64::consts::FRAC_PI_2 * (1.0 + k as f64 / 2000.0);
+            for j in 1..=250 {
+                let r = RK4_MAX_OMEGA_DT * j as f64 / 250.0;
+                let (x, y) = (r * th.cos(), r * th.sin());
+                // Complex powers by hand.
+                let mul =
+                    |a: (f64, f64), b: (f64, f64)| (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
+                let z = (x, y);
+                let z2 = mul(z, z);
+                let z3 = mul(z2, z);
+                let z4 = mul(z3, z);
+                let re = 1.0 + z.0 + z2.0 / 2.0 + z3.0 / 6.0 + z4.0 / 24.0;
+                let im = z.1 + z2.1 / 2.0 + z3.1 / 6.0 + z4.1 / 24.0;
+                assert!(
+                    re * re + im * im <= 1.0 + 1e-12,
+                    "|R| > 1 at r = {r}, θ = {th}"
+                );
+            }
+        }
+    }
+
+    /// The backstop must never fire on physics: an undamped bar forced at resonance grows by
+    /// `F0/(2K)·ω_n t`, at most `F0/(2K)·MAX_PHASE_RAD` within the phase limit.
+    #[test]
+    fn rk4_divergence_bound_is_far_above_resonant_growth() {
+        let mut sys = System::paper_solid(1.0);
+        sys.bar.damping_ratio = 0.0;
+        let growth = sys.forcing.amplitude_n / (2.0 * sys.bar.stiffness_n_per_m) * MAX_PHASE_RAD;
+        let bound = rk4_divergence_bound_m(&sys, &State::REST);
+        assert!(bound > 100.0 * growth, "bound {bound} vs growth {growth}");
+        // Every term counts: a free bar launched at 1 m/s has a bound of 1e12 · 1/ω_n.
+        let mut sys = System::paper_solid(1.0);
+        sys.forcing.amplitude_n = 0.0;
+        let init = State {
+            du_m_s: 1.0,
+            dv_m_s: 1.0,
+            ..State::REST
+        };
+        let wn = sys.bar.natural_freq_rad_s();
+        let b = rk4_divergence_bound_m(&sys, &init);
+        assert!(
+            (b / (RK4_DIVERGENCE_FACTOR / wn) - 1.0).abs() < 1e-12,
+            "{b}"
+        );
+    }
+
+    #[test]
+    fn checks_name_the_field_and_the_range_from_the_constant() {
+        let e = check_count(
+            "ensemble.members (--members)",
+            1_000_000_000,
+            1,
+            MAX_ENSEMBLE_MEMBERS,
+            "",
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(
+            e,
+            "ensemble.members (--members) = 1e9 is outside the allowed range [1, 100000]"
+        );
+        assert!(check("x", f64::NAN, 0.0, 1.0, "").is_err());
+        assert_eq!(check_samples("s", 2.0, 1e-5).unwrap(), 200_001);
+        assert!(check_samples("s", 2.0, 1e-320).is_err());
+        assert!(finite_result("RMS", f64::NAN, "c").is_err());
+        assert_eq!(excessive_penetration(3.6e-7, 1e-4), None);
+        assert!(excessive_penetration(1.3e-4, 1e-4).unwrap() > 1.0);
+    }
+}
