@@ -12,12 +12,14 @@
 pub mod cli;
 pub mod commands;
 pub mod figures;
-pub mod output;
 pub mod plot;
 pub mod progress;
 pub mod report;
 pub mod scenario;
-pub mod store;
+/// Result storage, moved to `vibrobar-io` (re-exported here until the call sites move).
+pub use vibrobar_io as store;
+/// CSV/JSON writers, moved to `vibrobar_io::csv`.
+pub use vibrobar_io::csv as output;
 
 /// The default solver's name as a literal, so help texts can `concat!` it. Switching the default
 /// solver is this one line.

@@ -6,7 +6,7 @@ use std::io::Write;
 use std::path::Path;
 use vibrobar_core::State;
 
-use crate::store::AtomicFile;
+use crate::AtomicFile;
 
 /// Header of sweep CSVs (`sweep`, Figs. 3 and 5).
 pub const SWEEP_HEADER: &str =
@@ -15,15 +15,15 @@ pub const SWEEP_HEADER: &str =
 /// Header of time-history CSVs (`run`, Figs. 2 and 4).
 pub const HISTORY_HEADER: &str = "t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s";
 
-pub use crate::store::partial_path;
+pub use crate::partial_path;
 
 /// Create the parent directory of `path` if needed.
 pub fn ensure_parent(path: &Path) -> Result<()> {
-    crate::store::atomic::ensure_parent(path)
+    crate::atomic::ensure_parent(path)
         .with_context(|| format!("cannot create the directory of {}", path.display()))
 }
 
-/// Write `path` atomically through [`crate::store::AtomicFile`]: `fill` writes into
+/// Write `path` atomically through [`crate::AtomicFile`]: `fill` writes into
 /// `path.partial`, renamed on success. On failure the partial file is removed, so a failed
 /// command leaves nothing that could be mistaken for a result.
 pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
