@@ -1,10 +1,15 @@
 //! Files that are either complete or visibly incomplete: written to `NAME.partial` and renamed to
-//! `NAME` only by [`AtomicFile::commit`]. A crash, a kill or an error leaves `NAME.partial`, never a
-//! truncated `NAME`.
+//! `NAME` only by [`AtomicFile::commit`]. A crash or a kill leaves `NAME.partial`, never a
+//! truncated `NAME`; an error ([`AtomicFile::discard`], [`write_atomic`]) or a signal handled by
+//! the caller ([`remove_live_partials`]) leaves nothing. What a path is (regular, link, device,
+//! FIFO) is decided by the policy in [`crate::target`]: special files are written through.
 
-use std::fs::{self, File};
+use crate::error::{IoError, Result};
+use crate::target::{resolve_output, Output};
+use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 /// `path` with `.partial` appended to its file name.
 pub fn partial_path(path: &Path) -> PathBuf {
@@ -17,38 +22,123 @@ pub fn partial_path(path: &Path) -> PathBuf {
 }
 
 /// Create the parent directory of `path` if it has one.
-pub fn ensure_parent(path: &Path) -> io::Result<()> {
+pub fn ensure_parent(path: &Path) -> Result<()> {
     match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => fs::create_dir_all(p),
+        Some(p) if !p.as_os_str().is_empty() => fs::create_dir_all(p).map_err(IoError::os(p)),
         _ => Ok(()),
     }
 }
 
-/// A buffered writer to `NAME.partial` that becomes `NAME` on [`commit`](Self::commit).
+/// Partial files being written by this process, so that a signal handler can remove them.
+static LIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn live() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    LIVE.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+fn forget(partial: &Path) {
+    live().retain(|p| p != partial);
+}
+
+/// Remove every partial file this process is writing and return their names; for a
+/// SIGINT/SIGTERM handler. Journals are not partial files and survive, so `--resume` works.
+pub fn remove_live_partials() -> Vec<PathBuf> {
+    remove_live_partials_if(|_| true)
+}
+
+fn remove_live_partials_if(pick: impl Fn(&Path) -> bool) -> Vec<PathBuf> {
+    let mut g = live();
+    let (gone, keep): (Vec<PathBuf>, Vec<PathBuf>) = g.drain(..).partition(|p| pick(p));
+    *g = keep;
+    gone.into_iter()
+        .filter(|p| fs::remove_file(p).is_ok())
+        .collect()
+}
+
+/// A buffered writer to `NAME.partial` that becomes `NAME` on [`commit`](Self::commit); for a
+/// device or FIFO, a writer straight to it.
 pub struct AtomicFile {
-    target: PathBuf,
-    partial: PathBuf,
+    output: Output,
+    /// `None` when writing through a special file.
+    partial: Option<PathBuf>,
     out: BufWriter<File>,
 }
 
 impl AtomicFile {
     /// Start writing `path` (parent directories are created).
-    pub fn create(path: &Path) -> io::Result<AtomicFile> {
-        ensure_parent(path)?;
-        let partial = partial_path(path);
-        let out = BufWriter::new(File::create(&partial)?);
+    pub fn create(path: &Path) -> Result<AtomicFile> {
+        let output = resolve_output(path)?;
+        if !output.is_regular() {
+            let f = OpenOptions::new()
+                .write(true)
+                .open(&output.target)
+                .map_err(IoError::os(path))?;
+            return Ok(AtomicFile {
+                output,
+                partial: None,
+                out: BufWriter::new(f),
+            });
+        }
+        ensure_parent(&output.target)?;
+        let partial = partial_path(&output.target);
+        let f = File::create(&partial).map_err(IoError::os(&partial))?;
+        live().push(partial.clone());
         Ok(AtomicFile {
-            target: path.to_path_buf(),
-            partial,
-            out,
+            output,
+            partial: Some(partial),
+            out: BufWriter::with_capacity(1 << 16, f),
         })
     }
 
-    /// Flush, sync and rename into place.
-    pub fn commit(mut self) -> io::Result<()> {
-        self.out.flush()?;
-        self.out.get_ref().sync_all()?;
-        fs::rename(&self.partial, &self.target)
+    /// The policy's decision for this file.
+    pub fn output(&self) -> &Output {
+        &self.output
+    }
+
+    /// Flush, sync and rename into place. On failure the partial file is removed.
+    pub fn commit(mut self) -> Result<()> {
+        let res = self.finish();
+        if res.is_err() {
+            self.remove_partial();
+        }
+        res
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        let name = self.partial.clone().unwrap_or(self.output.target.clone());
+        self.out.flush().map_err(IoError::os(&name))?;
+        if let Some(partial) = &self.partial {
+            self.out
+                .get_ref()
+                .sync_all()
+                .map_err(IoError::os(partial))?;
+            fs::rename(partial, &self.output.target).map_err(IoError::os(&self.output.target))?;
+            forget(partial);
+        }
+        Ok(())
+    }
+
+    fn remove_partial(&self) {
+        if let Some(p) = &self.partial {
+            let _ = fs::remove_file(p);
+            forget(p);
+        }
+    }
+
+    /// Give up: remove the partial file (nothing is left that looks like a result).
+    pub fn discard(self) {
+        self.remove_partial();
+    }
+
+    /// An I/O error of this file, naming it.
+    pub fn error(&self, e: io::Error) -> IoError {
+        IoError::Os {
+            path: self
+                .partial
+                .clone()
+                .unwrap_or(self.output.requested.clone()),
+            source: e,
+        }
     }
 }
 
@@ -61,11 +151,23 @@ impl Write for AtomicFile {
     }
 }
 
-/// Write a whole file atomically.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
+/// Write a whole file atomically; nothing is left behind on failure.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_with(path, |w| w.write_all(bytes))
+}
+
+/// Write `path` atomically: `fill` writes into `path.partial`, renamed on success. On failure the
+/// partial file is removed and the error names the file.
+pub fn write_with(path: &Path, fill: impl FnOnce(&mut dyn Write) -> io::Result<()>) -> Result<()> {
     let mut f = AtomicFile::create(path)?;
-    f.write_all(bytes)?;
-    f.commit()
+    match fill(&mut f) {
+        Ok(()) => f.commit(),
+        Err(e) => {
+            let err = f.error(e);
+            f.discard();
+            Err(err)
+        }
+    }
 }
 
 #[cfg(test)]
@@ -87,5 +189,53 @@ mod tests {
         f.commit().unwrap();
         assert_eq!(fs::read(&p).unwrap(), b"a,b\n");
         assert!(!partial_path(&p).exists());
+    }
+
+    #[test]
+    fn failed_write_leaves_neither_file_nor_partial_and_names_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("a/b.csv");
+        let err = write_with(&target, |w| {
+            writeln!(w, "half a file")?;
+            Err(io::Error::other("simulated failure"))
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("b.csv"), "{err}");
+        assert!(!target.exists());
+        assert!(!partial_path(&target).exists());
+        write_atomic(&target, b"ok\n").unwrap();
+        assert_eq!(fs::read_to_string(&target).unwrap(), "ok\n");
+        assert!(!partial_path(&target).exists());
+    }
+
+    #[test]
+    fn regression_symlink_out_stays_a_link_and_its_target_is_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("real.csv");
+        fs::write(&real, "old\n").unwrap();
+        let link = dir.path().join("link.csv");
+        std::os::unix::fs::symlink("real.csv", &link).unwrap();
+        write_atomic(&link, b"new\n").unwrap();
+        assert!(fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert_eq!(fs::read_to_string(&real).unwrap(), "new\n");
+        assert!(!partial_path(&link).exists() && !partial_path(&real).exists());
+    }
+
+    #[test]
+    fn live_partials_are_removed_on_request() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("big.csv");
+        let mut f = AtomicFile::create(&p).unwrap();
+        f.write_all(b"t_s\n").unwrap();
+        f.flush().unwrap();
+        assert!(partial_path(&p).exists());
+        let removed = remove_live_partials_if(|q| q.starts_with(dir.path()));
+        assert!(removed.contains(&partial_path(&p)), "{removed:?}");
+        assert!(!partial_path(&p).exists());
+        drop(f);
     }
 }

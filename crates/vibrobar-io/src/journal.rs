@@ -8,70 +8,18 @@
 //! byte-identical whether or not the run was interrupted, and no file that looks complete is
 //! ever half written.
 
-use super::atomic::{ensure_parent, write_atomic};
+use crate::atomic::{ensure_parent, partial_path, write_atomic};
+use crate::csv::Schema;
+use crate::error::{IoError, Result};
+use crate::lock::LockFile;
+use crate::target::resolve_output;
 use std::collections::BTreeMap;
 use std::fs::{self, File, OpenOptions};
-use std::io::{self, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 const MAGIC: &str = "# vibrobar journal v1";
-
-/// Errors of the row store.
-#[derive(Debug, thiserror::Error)]
-pub enum StoreError {
-    /// Underlying I/O error, with the file.
-    #[error("{path}: {source}")]
-    Io {
-        /// File.
-        path: String,
-        /// Cause.
-        source: io::Error,
-    },
-    /// A journal exists and `--resume` was not given.
-    #[error("{journal} holds an interrupted run of this output; rerun with --resume to complete it, or delete it to start over")]
-    JournalExists {
-        /// Journal path.
-        journal: String,
-    },
-    /// The journal belongs to another job.
-    #[error("{journal} was written for different parameters (fingerprint {found}, this run {expected}); use another --out or delete the journal")]
-    Mismatch {
-        /// Journal path.
-        journal: String,
-        /// Fingerprint in the file.
-        found: String,
-        /// Fingerprint of this run.
-        expected: String,
-    },
-    /// The journal is damaged somewhere other than its last line.
-    #[error("{journal}: line {line} is damaged ({why}); the journal cannot be resumed safely")]
-    Corrupt {
-        /// Journal path.
-        journal: String,
-        /// 1-based line number.
-        line: usize,
-        /// What is wrong.
-        why: String,
-    },
-    /// `finish` was called with rows missing.
-    #[error("{missing} of {total} rows are missing; the output stays incomplete in {journal}")]
-    Incomplete {
-        /// Journal path.
-        journal: String,
-        /// Rows missing.
-        missing: usize,
-        /// Rows expected.
-        total: usize,
-    },
-}
-
-fn io_err(path: &Path) -> impl FnOnce(io::Error) -> StoreError + '_ {
-    move |source| StoreError::Io {
-        path: path.display().to_string(),
-        source,
-    }
-}
 
 /// `FILE.journal` for an output `FILE`.
 pub fn journal_path(out: &Path) -> PathBuf {
@@ -83,62 +31,87 @@ pub fn journal_path(out: &Path) -> PathBuf {
     out.with_file_name(name)
 }
 
-/// An open journal for one output file.
+/// The key columns a grid index must have: the text its row starts with (e.g. `0.95,0.1`).
+pub type KeyFn<'a> = &'a (dyn Fn(usize) -> String + Sync);
+
+/// An open journal for one output file. It holds the journal's lock until it is finished or
+/// dropped, so two processes never work on one journal.
 pub struct Journal {
     out: PathBuf,
     journal: PathBuf,
-    header: String,
+    schema: Schema,
     expected: Vec<usize>,
     rows: Mutex<(File, BTreeMap<usize, String>)>,
+    _lock: LockFile,
+}
+
+/// Write the preamble to `journal.partial` and rename it into place, so that a journal exists
+/// only with a whole preamble (a full disk leaves no empty journal that looks like progress).
+fn create_journal(journal: &Path, preamble: &str) -> Result<File> {
+    let partial = partial_path(journal);
+    let res = (|| -> std::io::Result<()> {
+        let mut f = File::create(&partial)?;
+        f.write_all(preamble.as_bytes())?;
+        f.sync_all()?;
+        fs::rename(&partial, journal)
+    })();
+    if let Err(e) = res {
+        let _ = fs::remove_file(&partial);
+        return Err(IoError::os(journal)(e));
+    }
+    OpenOptions::new()
+        .append(true)
+        .open(journal)
+        .map_err(IoError::os(journal))
 }
 
 impl Journal {
-    /// Open the journal of `out` for a job with `header` (CSV header without the index column),
-    /// `fingerprint` (identifies the job's parameters) and the grid indices it must produce.
-    /// With `resume`, an existing journal of the same job is continued; without it, an existing
-    /// journal is an error (nothing is silently thrown away).
+    /// Open the journal of `out` for a job whose rows follow `schema`, identified by
+    /// `fingerprint`, that must produce the grid indices `expected`; `key(i)` is the text of
+    /// index `i`'s key columns. With `resume`, an existing journal of the same job is continued
+    /// (every row is checked: field count, finite numbers, key matching its index); without it,
+    /// an existing journal is an error (nothing is silently thrown away). Special files
+    /// (devices, FIFOs) are refused: a journal needs a regular file beside it.
     pub fn open(
         out: &Path,
-        header: &str,
+        schema: &Schema,
         fingerprint: &str,
         expected: &[usize],
+        key: KeyFn,
         resume: bool,
-    ) -> Result<Journal, StoreError> {
+    ) -> Result<Journal> {
+        resolve_output(out)?.require_regular("a journaled map or sweep")?;
         let journal = journal_path(out);
-        ensure_parent(out).map_err(io_err(out))?;
+        ensure_parent(out)?;
+        let lock = LockFile::acquire(&journal)?;
+        let header = schema.header();
         let first = format!("{MAGIC} fingerprint={fingerprint}\n");
         let second = format!("index,{header}\n");
         let mut done = BTreeMap::new();
         let file = if journal.exists() {
             if !resume {
-                return Err(StoreError::JournalExists {
-                    journal: journal.display().to_string(),
-                });
+                return Err(IoError::JournalExists { journal });
             }
-            let text = fs::read(&journal).map_err(io_err(&journal))?;
+            let text = fs::read(&journal).map_err(IoError::os(&journal))?;
             let good = parse(
-                &text, &journal, &first, &second, header, expected, &mut done,
+                &text, &journal, &first, &second, schema, expected, key, &mut done,
             )?;
-            let f = OpenOptions::new()
-                .write(true)
-                .open(&journal)
-                .map_err(io_err(&journal))?;
-            // Drop a torn last line so appends start on a clean line.
-            f.set_len(good as u64).map_err(io_err(&journal))?;
-            let mut f = OpenOptions::new()
-                .append(true)
-                .open(&journal)
-                .map_err(io_err(&journal))?;
             if good == 0 {
-                f.write_all(format!("{first}{second}").as_bytes())
-                    .map_err(io_err(&journal))?;
+                create_journal(&journal, &format!("{first}{second}"))?
+            } else {
+                let f = OpenOptions::new()
+                    .write(true)
+                    .open(&journal)
+                    .map_err(IoError::os(&journal))?;
+                // Drop a torn last line so appends start on a clean line.
+                f.set_len(good as u64).map_err(IoError::os(&journal))?;
+                OpenOptions::new()
+                    .append(true)
+                    .open(&journal)
+                    .map_err(IoError::os(&journal))?
             }
-            f
         } else {
-            let mut f = File::create(&journal).map_err(io_err(&journal))?;
-            f.write_all(format!("{first}{second}").as_bytes())
-                .map_err(io_err(&journal))?;
-            f
+            create_journal(&journal, &format!("{first}{second}"))?
         };
         let mut expected = expected.to_vec();
         expected.sort_unstable();
@@ -146,9 +119,10 @@ impl Journal {
         Ok(Journal {
             out: out.to_path_buf(),
             journal,
-            header: header.to_string(),
+            schema: schema.clone(),
             expected,
             rows: Mutex::new((file, done)),
+            _lock: lock,
         })
     }
 
@@ -167,13 +141,21 @@ impl Journal {
         self.rows.lock().expect("journal lock").1.len()
     }
 
-    /// Append one finished row (CSV fields without the index, no newline). One `write` call, so
-    /// a kill cannot interleave rows; a torn last row is dropped on resume.
-    pub fn append(&self, index: usize, row: &str) -> Result<(), StoreError> {
+    /// Append one finished row (CSV fields without the index, no newline). The row is checked
+    /// against the schema first (no NaN or inf reaches a result file). One `write` call, so a
+    /// kill cannot interleave rows; a torn last row is dropped on resume.
+    pub fn append(&self, index: usize, row: &str) -> Result<()> {
+        if let Err(why) = self.schema.parse(row) {
+            return Err(IoError::BadRow {
+                path: self.out.clone(),
+                index,
+                why,
+            });
+        }
         let line = format!("{index},{row}\n");
         let mut g = self.rows.lock().expect("journal lock");
         g.0.write_all(line.as_bytes())
-            .map_err(io_err(&self.journal))?;
+            .map_err(IoError::os(&self.journal))?;
         g.1.insert(index, row.to_string());
         Ok(())
     }
@@ -186,46 +168,51 @@ impl Journal {
 
     /// Write the final file sorted by grid index and remove the journal. Fails, leaving the
     /// journal in place, if rows are missing.
-    pub fn finish(self) -> Result<PathBuf, StoreError> {
-        let (file, rows) = self.rows.into_inner().expect("journal lock");
-        file.sync_all().map_err(io_err(&self.journal))?;
-        let missing = self
-            .expected
-            .iter()
-            .filter(|i| !rows.contains_key(i))
-            .count();
+    pub fn finish(self) -> Result<PathBuf> {
+        let Journal {
+            out,
+            journal,
+            schema,
+            expected,
+            rows,
+            _lock,
+        } = self;
+        let (file, rows) = rows.into_inner().expect("journal lock");
+        file.sync_all().map_err(IoError::os(&journal))?;
+        let missing = expected.iter().filter(|i| !rows.contains_key(i)).count();
         if missing > 0 {
-            return Err(StoreError::Incomplete {
-                journal: self.journal.display().to_string(),
+            return Err(IoError::Incomplete {
+                journal,
                 missing,
-                total: self.expected.len(),
+                total: expected.len(),
             });
         }
         let mut text = String::with_capacity(64 * (rows.len() + 1));
-        text.push_str(&self.header);
+        text.push_str(&schema.header());
         text.push('\n');
-        for i in &self.expected {
+        for i in &expected {
             text.push_str(&rows[i]);
             text.push('\n');
         }
-        write_atomic(&self.out, text.as_bytes()).map_err(io_err(&self.out))?;
-        fs::remove_file(&self.journal).map_err(io_err(&self.journal))?;
-        Ok(self.out)
+        write_atomic(&out, text.as_bytes())?;
+        fs::remove_file(&journal).map_err(IoError::os(&journal))?;
+        drop(_lock);
+        Ok(out)
     }
 }
 
 /// Parse a journal; returns the byte length of its valid prefix (0 if even the preamble is torn).
+#[allow(clippy::too_many_arguments)]
 fn parse(
     text: &[u8],
     path: &Path,
     first: &str,
     second: &str,
-    header: &str,
+    schema: &Schema,
     expected: &[usize],
+    key: KeyFn,
     done: &mut BTreeMap<usize, String>,
-) -> Result<usize, StoreError> {
-    let name = path.display().to_string();
-    let fields = header.split(',').count() + 1;
+) -> Result<usize> {
     let expected: std::collections::HashSet<usize> = expected.iter().copied().collect();
     let mut pos = 0usize;
     let mut line_no = 0usize;
@@ -235,21 +222,21 @@ fn parse(
         };
         let line = &text[pos..pos + nl];
         line_no += 1;
-        let corrupt = |why: &str| StoreError::Corrupt {
-            journal: name.clone(),
+        let corrupt = |why: String| IoError::Corrupt {
+            path: path.to_path_buf(),
             line: line_no,
-            why: why.to_string(),
+            why,
         };
-        let line = std::str::from_utf8(line).map_err(|_| corrupt("not UTF-8"))?;
+        let line = std::str::from_utf8(line).map_err(|_| corrupt("not UTF-8".into()))?;
         match line_no {
             1 => {
                 if !line.starts_with(MAGIC) {
-                    return Err(corrupt("not a vibrobar journal"));
+                    return Err(corrupt("not a vibrobar journal".into()));
                 }
                 let want = first.trim_end();
                 if line != want {
-                    return Err(StoreError::Mismatch {
-                        journal: name,
+                    return Err(IoError::Mismatch {
+                        journal: path.to_path_buf(),
                         found: line.rsplit('=').next().unwrap_or("").to_string(),
                         expected: want.rsplit('=').next().unwrap_or("").to_string(),
                     });
@@ -257,21 +244,35 @@ fn parse(
             }
             2 => {
                 if line != second.trim_end() {
-                    return Err(corrupt("header differs from this run's"));
+                    return Err(corrupt("header differs from this run's".into()));
                 }
             }
             _ => {
-                if line.split(',').count() != fields {
-                    return Err(corrupt("wrong number of fields"));
-                }
-                let (idx, row) = line.split_once(',').ok_or_else(|| corrupt("no index"))?;
-                let idx: usize = idx.parse().map_err(|_| corrupt("bad index"))?;
+                let (idx, row) = line
+                    .split_once(',')
+                    .ok_or_else(|| corrupt("no index".into()))?;
+                schema.parse(row).map_err(corrupt)?;
+                let idx: usize = idx
+                    .parse()
+                    .map_err(|_| corrupt(format!("bad index {idx:?}")))?;
                 if !expected.contains(&idx) {
-                    return Err(corrupt("index outside this job's grid"));
+                    return Err(corrupt(format!("index {idx} outside this job's grid")));
+                }
+                let k = key(idx);
+                if row.len() <= k.len() || !row.starts_with(&k) || row.as_bytes()[k.len()] != b',' {
+                    return Err(corrupt(format!(
+                        "index {idx} is the grid point {k}, but the row is at {}",
+                        row.split(',')
+                            .take(k.split(',').count())
+                            .collect::<Vec<_>>()
+                            .join(",")
+                    )));
                 }
                 if let Some(prev) = done.insert(idx, row.to_string()) {
                     if prev != row {
-                        return Err(corrupt("index written twice with different rows"));
+                        return Err(corrupt(format!(
+                            "index {idx} written twice with different rows"
+                        )));
                     }
                 }
             }
@@ -284,15 +285,46 @@ fn parse(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::csv::{Column, Format};
 
     const HEADER: &str = "a,b";
+
+    fn schema() -> Schema {
+        Schema {
+            columns: vec![
+                Column {
+                    name: "a".into(),
+                    format: Format::Plain,
+                },
+                Column {
+                    name: "b".into(),
+                    format: Format::Plain,
+                },
+            ],
+        }
+    }
+
+    fn key(i: usize) -> String {
+        format!("{}", i as f64 * 0.5)
+    }
 
     fn row(i: usize) -> String {
         format!("{},{}", i as f64 * 0.5, (i as f64).sqrt())
     }
 
+    fn open(out: &Path, fp: &str, resume: bool) -> Result<Journal> {
+        Journal::open(
+            out,
+            &schema(),
+            fp,
+            &(0..10).collect::<Vec<_>>(),
+            &key,
+            resume,
+        )
+    }
+
     fn run_all(out: &Path, order: &[usize], resume: bool) -> Journal {
-        let j = Journal::open(out, HEADER, "abc", &(0..10).collect::<Vec<_>>(), resume).unwrap();
+        let j = open(out, "abc", resume).unwrap();
         for &i in order {
             j.append(i, &row(i)).unwrap();
         }
@@ -312,6 +344,7 @@ mod tests {
             .collect();
         assert_eq!(text, want);
         assert!(!journal_path(&out).exists());
+        assert!(!crate::lock::lock_path(&journal_path(&out)).exists());
     }
 
     #[test]
@@ -332,10 +365,10 @@ mod tests {
         drop(f);
         assert!(!out.exists(), "an interrupted run must not look complete");
         assert!(matches!(
-            Journal::open(&out, HEADER, "abc", &(0..10).collect::<Vec<_>>(), false),
-            Err(StoreError::JournalExists { .. })
+            open(&out, "abc", false),
+            Err(IoError::JournalExists { .. })
         ));
-        let j = Journal::open(&out, HEADER, "abc", &(0..10).collect::<Vec<_>>(), true).unwrap();
+        let j = open(&out, "abc", true).unwrap();
         assert_eq!(j.pending(), vec![0, 1, 3, 4, 6, 8, 9]);
         for i in j.pending() {
             j.append(i, &row(i)).unwrap();
@@ -349,8 +382,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("o.csv");
         drop(run_all(&out, &[1], false));
-        let e = Journal::open(&out, HEADER, "zzz", &(0..10).collect::<Vec<_>>(), true);
-        assert!(matches!(e, Err(StoreError::Mismatch { .. })));
+        let e = open(&out, "zzz", true);
+        assert!(matches!(e, Err(IoError::Mismatch { .. })));
     }
 
     #[test]
@@ -363,12 +396,83 @@ mod tests {
             .unwrap()
             .replacen("1,0.5,1", "1,0.5", 1);
         fs::write(&jp, text).unwrap();
-        let e = Journal::open(&out, HEADER, "abc", &(0..10).collect::<Vec<_>>(), true);
+        let e = open(&out, "abc", true);
         assert!(
-            matches!(e, Err(StoreError::Corrupt { line: 3, .. })),
+            matches!(e, Err(IoError::Corrupt { line: 3, .. })),
             "{:?}",
             e.err()
         );
+    }
+
+    /// Edit line 4 of a journal holding rows 1, 2, 3 and return the resume error.
+    fn resume_after_edit(from: &str, to: &str) -> String {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("o.csv");
+        drop(run_all(&out, &[1, 2, 3], false));
+        let jp = journal_path(&out);
+        let text = fs::read_to_string(&jp).unwrap();
+        assert!(text.contains(from), "{text}");
+        fs::write(&jp, text.replacen(from, to, 1)).unwrap();
+        let e = open(&out, "abc", true).err().expect("refused").to_string();
+        assert!(e.contains("o.csv.journal: line 4"), "{e}");
+        e
+    }
+
+    #[test]
+    fn regression_nan_edited_into_a_journal_row_is_refused_with_its_line() {
+        let e = resume_after_edit("2,1,1.4142135623730951", "2,1,NaN");
+        assert!(e.contains("b = NaN is not a finite number"), "{e}");
+        let e = resume_after_edit("2,1,1.4142135623730951", "2,1,-inf");
+        assert!(e.contains("not a finite number"), "{e}");
+    }
+
+    #[test]
+    fn regression_journal_index_not_matching_its_coordinates_is_refused() {
+        // Row of grid point 3 filed under index 2: the map would lose 2 and double 3.
+        let e = resume_after_edit("2,1,1.4142135623730951", "2,1.5,1.7320508075688772");
+        assert!(
+            e.contains("index 2 is the grid point 1, but the row is at 1.5"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn regression_nan_result_row_is_not_journaled() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("o.csv");
+        let j = open(&out, "abc", false).unwrap();
+        let e = j.append(4, "2,NaN").unwrap_err().to_string();
+        assert!(e.contains("grid index 4") && e.contains("NaN"), "{e}");
+        assert_eq!(j.done_count(), 0);
+    }
+
+    #[test]
+    fn regression_second_process_on_one_journal_is_told_who_holds_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("o.csv");
+        let first = run_all(&out, &[1], false);
+        let e = open(&out, "abc", true).err().expect("locked").to_string();
+        assert!(
+            e.contains("in use by another vibrobar process")
+                && e.contains(&format!("pid {}", std::process::id())),
+            "{e}"
+        );
+        drop(first);
+        // Released on drop (as on exit or a kill: the kernel drops the lock with the process).
+        let j = open(&out, "abc", true).unwrap();
+        assert_eq!(j.done_count(), 1);
+    }
+
+    #[test]
+    fn regression_journal_of_a_special_file_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = open(Path::new("/dev/null"), "abc", false)
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(e.contains("is a character device"), "{e}");
+        assert!(!Path::new("/dev/null.journal").exists());
+        drop(dir);
     }
 
     #[test]
@@ -378,7 +482,7 @@ mod tests {
         let j = run_all(&out, &[1, 2], false);
         assert!(matches!(
             j.finish(),
-            Err(StoreError::Incomplete {
+            Err(IoError::Incomplete {
                 missing: 8,
                 total: 10,
                 ..

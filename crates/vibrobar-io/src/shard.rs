@@ -6,33 +6,17 @@
 //! they come from the same job (fingerprint), that the shards are 1..N of the same N and that
 //! every grid index appears exactly once, and writes the rows sorted by grid index.
 
-use super::atomic::write_atomic;
-use super::meta::{GridInfo, Metadata, ShardInfo};
+use crate::atomic::write_atomic;
+use crate::csv::Schema;
+use crate::error::{IoError, Result};
+use crate::meta::{meta_path, GridInfo, Metadata, ShardInfo};
+use crate::target::check_not_input;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// Errors of sharding and merging.
-#[derive(Debug, thiserror::Error)]
-pub enum ShardError {
-    /// Bad `--shard` text.
-    #[error("--shard must be K/N with whole numbers 1 ≤ K ≤ N, got {0:?}")]
-    Parse(String),
-    /// Reading a shard failed.
-    #[error("{path}: {why}")]
-    Read {
-        /// File.
-        path: String,
-        /// Cause.
-        why: String,
-    },
-    /// The shards do not belong together or do not cover the grid.
-    #[error("cannot merge: {0}")]
-    Mismatch(String),
-}
-
 /// Parse `K/N`.
-pub fn parse_shard(text: &str) -> Result<ShardInfo, ShardError> {
-    let bad = || ShardError::Parse(text.to_string());
+pub fn parse_shard(text: &str) -> Result<ShardInfo> {
+    let bad = || IoError::ShardSpec(text.to_string());
     let (k, n) = text.split_once('/').ok_or_else(bad)?;
     let k: usize = k.trim().parse().map_err(|_| bad())?;
     let n: usize = n.trim().parse().map_err(|_| bad())?;
@@ -50,26 +34,32 @@ pub fn shard_indices(total: usize, shard: Option<ShardInfo>) -> Vec<usize> {
     }
 }
 
-/// Merge shard data files into `out` (plus `out.meta.json`). Returns the number of rows.
-pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
+/// Merge shard data files into `out` (plus `out.meta.json`). Returns the number of rows. Every
+/// row is read with the file kind's schema (field count, finite numbers), and `out` may not be
+/// one of the inputs or their metadata.
+pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize> {
     if inputs.is_empty() {
-        return Err(ShardError::Mismatch("no input files".into()));
+        return Err(IoError::Merge("no input files".into()));
     }
-    let read_err = |p: &Path, why: String| ShardError::Read {
-        path: p.display().to_string(),
+    let metas: Vec<PathBuf> = inputs.iter().map(|p| meta_path(p)).collect();
+    let all: Vec<&Path> = inputs.iter().chain(&metas).map(|p| p.as_path()).collect();
+    check_not_input(out, &all)?;
+    check_not_input(&meta_path(out), &all)?;
+    let read_err = |p: &Path, why: String| IoError::Metadata {
+        path: meta_path(p),
         why,
     };
     let mut first: Option<Metadata> = None;
     let mut seen_shards = BTreeMap::new();
     let mut rows: BTreeMap<usize, String> = BTreeMap::new();
     for path in inputs {
-        let meta = Metadata::read_beside(path).map_err(|e| read_err(path, e.to_string()))?;
+        let meta = Metadata::read_beside(path)?;
         let grid = meta.grid.clone().ok_or_else(|| {
             read_err(path, "metadata has no grid: not a sweep or map file".into())
         })?;
         if let Some(f) = &first {
             if f.fingerprint != meta.fingerprint || f.kind != meta.kind || f.header != meta.header {
-                return Err(ShardError::Mismatch(format!(
+                return Err(IoError::Merge(format!(
                     "{} comes from another job (fingerprint {} vs {})",
                     path.display(),
                     meta.fingerprint,
@@ -78,7 +68,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
             }
             let total = f.grid.as_ref().map(|g| g.total).unwrap_or(0);
             if total != grid.total {
-                return Err(ShardError::Mismatch(format!(
+                return Err(IoError::Merge(format!(
                     "{}: grid of {} points, others {}",
                     path.display(),
                     grid.total,
@@ -88,7 +78,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
         }
         let shard = grid.shard.unwrap_or(ShardInfo { k: 1, n: 1 });
         if let Some(prev) = seen_shards.insert(shard.k, path.clone()) {
-            return Err(ShardError::Mismatch(format!(
+            return Err(IoError::Merge(format!(
                 "shard {}/{} given twice ({} and {})",
                 shard.k,
                 shard.n,
@@ -100,21 +90,38 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
             .indices
             .clone()
             .unwrap_or_else(|| shard_indices(grid.total, grid.shard));
-        let text = std::fs::read_to_string(path).map_err(|e| read_err(path, e.to_string()))?;
+        let schema = Schema::for_file(&meta.kind, &meta.header).ok_or_else(|| {
+            read_err(
+                path,
+                format!("unknown {} header {:?}", meta.kind, meta.header),
+            )
+        })?;
+        let text = std::fs::read_to_string(path).map_err(IoError::os(path))?;
         let mut lines = text.lines();
         if lines.next() != Some(meta.header.as_str()) {
-            return Err(read_err(path, "header differs from its metadata".into()));
+            return Err(IoError::Corrupt {
+                path: path.clone(),
+                line: 1,
+                why: "header differs from its metadata".into(),
+            });
         }
         let body: Vec<&str> = lines.collect();
         if body.len() != indices.len() {
             return Err(read_err(
                 path,
-                format!("{} rows, metadata lists {}", body.len(), indices.len()),
+                format!(
+                    "{} rows in the data file, metadata lists {}",
+                    body.len(),
+                    indices.len()
+                ),
             ));
+        }
+        for (k, row) in body.iter().enumerate() {
+            schema.parse_at(row, path, k + 2)?;
         }
         for (i, row) in indices.iter().zip(body) {
             if rows.insert(*i, row.to_string()).is_some() {
-                return Err(ShardError::Mismatch(format!(
+                return Err(IoError::Merge(format!(
                     "grid index {i} appears in more than one file"
                 )));
             }
@@ -131,7 +138,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
         .unwrap_or(1);
     let missing_shards: Vec<usize> = (1..=n).filter(|k| !seen_shards.contains_key(k)).collect();
     if !missing_shards.is_empty() || rows.len() != total {
-        return Err(ShardError::Mismatch(format!(
+        return Err(IoError::Merge(format!(
             "grid incomplete: {} of {} points present; missing shards {:?} of {}",
             rows.len(),
             total,
@@ -146,7 +153,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
         text.push_str(r);
         text.push('\n');
     }
-    write_atomic(out, text.as_bytes()).map_err(|e| read_err(out, e.to_string()))?;
+    write_atomic(out, text.as_bytes())?;
     let merged = Metadata {
         grid: Some(GridInfo {
             total,
@@ -157,9 +164,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
         command: std::env::args().collect(),
         ..meta
     };
-    merged
-        .write_beside(out)
-        .map_err(|e| read_err(out, e.to_string()))?;
+    merged.write_beside(out)?;
     Ok(total)
 }
 
@@ -188,17 +193,25 @@ mod tests {
         }
     }
 
+    fn row(i: usize) -> String {
+        format!(
+            "{},0.1,none,exact,1e-5,{:e},50.0000,{i}",
+            i as f64 * 0.25,
+            5e-6 + i as f64 * 1e-7
+        )
+    }
+
     fn write_shard(dir: &Path, k: usize, n: usize, total: usize, fp_param: f64) -> PathBuf {
         let idx = shard_indices(total, Some(ShardInfo { k, n }));
         let p = dir.join(format!("s{k}.csv"));
-        let mut text = String::from("i,x\n");
+        let mut text = format!("{}\n", crate::csv::sweep_schema().header());
         for i in &idx {
-            text.push_str(&format!("{i},{}\n", *i as f64 * 0.25));
+            text.push_str(&format!("{}\n", row(*i)));
         }
         std::fs::write(&p, text).unwrap();
         Metadata::new(
-            "map",
-            "i,x",
+            "sweep",
+            &crate::csv::sweep_schema().header(),
             serde_json::json!({ "p": fp_param }),
             Some(GridInfo {
                 total,
@@ -220,8 +233,8 @@ mod tests {
             .collect();
         let out = dir.path().join("all.csv");
         assert_eq!(merge(&files, &out).unwrap(), 10);
-        let want: String = std::iter::once("i,x".to_string())
-            .chain((0..10).map(|i| format!("{i},{}", i as f64 * 0.25)))
+        let want: String = std::iter::once(crate::csv::sweep_schema().header())
+            .chain((0..10).map(row))
             .map(|l| l + "\n")
             .collect();
         assert_eq!(std::fs::read_to_string(&out).unwrap(), want);
@@ -249,5 +262,37 @@ mod tests {
         let c = write_shard(&sub, 3, 3, 10, 2.0);
         let e = merge(&[a, b, c], &out).unwrap_err().to_string();
         assert!(e.contains("another job"), "{e}");
+    }
+
+    #[test]
+    fn regression_nan_edited_into_a_shard_row_is_refused_with_its_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let files: Vec<PathBuf> = (1..=2)
+            .map(|k| write_shard(dir.path(), k, 2, 6, 1.0))
+            .collect();
+        // Shard 2 holds indices 1, 3, 5: line 3 is index 3.
+        let text = std::fs::read_to_string(&files[1]).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        let bad = lines[2].replace("1e-5", "NaN");
+        std::fs::write(&files[1], text.replace(lines[2], &bad)).unwrap();
+        let out = dir.path().join("all.csv");
+        let e = merge(&files, &out).unwrap_err().to_string();
+        assert!(
+            e.contains("s2.csv: line 3") && e.contains("rms_solid_m = NaN is not a finite number"),
+            "{e}"
+        );
+        assert!(!out.exists());
+    }
+
+    #[test]
+    fn regression_merge_into_one_of_its_inputs_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let files: Vec<PathBuf> = (1..=2)
+            .map(|k| write_shard(dir.path(), k, 2, 6, 1.0))
+            .collect();
+        let before = std::fs::read(&files[0]).unwrap();
+        let e = merge(&files, &files[0]).unwrap_err().to_string();
+        assert!(e.contains("is also an input"), "{e}");
+        assert_eq!(std::fs::read(&files[0]).unwrap(), before);
     }
 }

@@ -1,0 +1,48 @@
+//! Typed parameters of the metadata files: the spec types of `vibrobar-core` themselves,
+//! serialised by serde, so that what is written is exactly what is reloaded. The JSON is the
+//! same as the hand-built one it replaces (serde_json sorts object keys), so fingerprints of
+//! existing journals and shards stay valid.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use vibrobar_core::analysis::regime::Tolerances;
+use vibrobar_core::{Bar, Damper, Forcing, RunSettings};
+
+/// The system a command runs, as resolved from its flags: bars, ball, forcing, solver, settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SystemParams {
+    /// Says that `ball.gap_m` is a template.
+    pub note: String,
+    /// Preset name.
+    pub preset: String,
+    /// Friction model name.
+    pub friction: String,
+    /// Friction force override in N.
+    pub friction_force_n: Option<f64>,
+    /// Bar with the cavity.
+    pub damped_bar: Bar,
+    /// Reference bar without ball.
+    pub solid_bar: Bar,
+    /// Ball template.
+    pub ball: Damper,
+    /// Forcing template.
+    pub forcing: Forcing,
+    /// Solver name.
+    pub solver: String,
+    /// Run settings.
+    pub settings: RunSettings,
+}
+
+/// Parameters of a map file (`kind = "map"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MapParams {
+    /// The system.
+    #[serde(flatten)]
+    pub system: SystemParams,
+    /// The grid flags as given (`ratios`, `gaps_mm`, optional axes).
+    pub grid: BTreeMap<String, String>,
+    /// The grid's values in SI units, per axis name.
+    pub grid_values_si: BTreeMap<String, Vec<f64>>,
+    /// Tolerances of the regime classification.
+    pub regime_tolerances: Tolerances,
+}
