@@ -492,7 +492,7 @@ mod tests {
             solver: "exact".into(),
             rms_solid_m: 5.7e-5,
             rms_damped_m: 1.25e-5,
-            reduction_pct: 78.07017543859649,
+            reduction_pct: 78.070_175_438_596_5,
             impacts: 412,
         };
         let line = sweep_csv_line(&r);

@@ -18,7 +18,8 @@ pub const HISTORY_COLUMNS: usize = 7;
 /// as the core's `Sampler` evaluates them (a run's last segment ends at `t_end`).
 pub fn sample_count(t0_s: f64, interval_s: f64, t_end_s: f64) -> u64 {
     let at = |k: u64| t0_s + k as f64 * interval_s;
-    if !(interval_s > 0.0) || !(t_end_s >= t0_s) || !t_end_s.is_finite() {
+    let valid = interval_s > 0.0 && t_end_s >= t0_s && t_end_s.is_finite();
+    if !valid {
         return u64::from(t_end_s >= t0_s);
     }
     let mut k = ((t_end_s - t0_s) / interval_s)
