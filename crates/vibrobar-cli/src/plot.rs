@@ -60,7 +60,7 @@ fn render_both(
         draw_png(&root)?;
         root.present().map_err(pe)?;
     }
-    std::fs::rename(&tmp, &png)?;
+    vibrobar_io::publish(&tmp, &png)?;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();

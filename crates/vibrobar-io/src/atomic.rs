@@ -151,6 +151,28 @@ impl Write for AtomicFile {
     }
 }
 
+/// Put a finished temporary file `tmp` (written beside `path` by a library that insists on
+/// writing files itself, e.g. a bitmap encoder) in place under the output-path policy: renamed
+/// over a regular file or a link's target, copied through into a device or FIFO. `tmp` is gone
+/// afterwards, also on failure.
+pub fn publish(tmp: &Path, path: &Path) -> Result<()> {
+    let res = (|| {
+        let output = resolve_output(path)?;
+        if output.is_regular() {
+            fs::rename(tmp, &output.target).map_err(IoError::os(&output.target))
+        } else {
+            let bytes = fs::read(tmp).map_err(IoError::os(tmp))?;
+            let mut f = OpenOptions::new()
+                .write(true)
+                .open(&output.target)
+                .map_err(IoError::os(path))?;
+            f.write_all(&bytes).map_err(IoError::os(path))
+        }
+    })();
+    let _ = fs::remove_file(tmp);
+    res
+}
+
 /// Write a whole file atomically; nothing is left behind on failure.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     write_with(path, |w| w.write_all(bytes))
@@ -223,6 +245,23 @@ mod tests {
             .is_symlink());
         assert_eq!(fs::read_to_string(&real).unwrap(), "new\n");
         assert!(!partial_path(&link).exists() && !partial_path(&real).exists());
+    }
+
+    #[test]
+    fn publish_follows_links_and_removes_the_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("real.png");
+        let link = dir.path().join("fig.png");
+        std::os::unix::fs::symlink("real.png", &link).unwrap();
+        let tmp = dir.path().join("fig.partial.png");
+        fs::write(&tmp, b"png").unwrap();
+        publish(&tmp, &link).unwrap();
+        assert!(fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert_eq!(fs::read(&real).unwrap(), b"png");
+        assert!(!tmp.exists());
     }
 
     #[test]

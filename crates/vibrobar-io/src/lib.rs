@@ -22,7 +22,8 @@ pub mod shard;
 pub mod target;
 
 pub use atomic::{
-    ensure_parent, partial_path, remove_live_partials, write_atomic, write_with, AtomicFile,
+    ensure_parent, partial_path, publish, remove_live_partials, write_atomic, write_with,
+    AtomicFile,
 };
 pub use error::IoError;
 pub use journal::Journal;
