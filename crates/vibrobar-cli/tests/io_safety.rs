@@ -448,3 +448,37 @@ fn regression_map_journal_row_with_nan_is_refused_with_its_line() {
         "{e}"
     );
 }
+
+#[test]
+fn run_and_sweep_metadata_reload_as_their_typed_parameters() {
+    use vibrobar_io::params::{RunParams, SweepParams};
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("r.csv");
+    let mut args = SHORT_RUN.to_vec();
+    args.extend(["--out", s(&run)]);
+    assert!(vibrobar(&args).status.success());
+    let meta = vibrobar_io::Metadata::read_beside(&run).unwrap();
+    let p: RunParams<serde_json::Value> = meta.parameters_as(&run).unwrap();
+    assert_eq!(p.settings.duration_s, 0.01);
+    assert_eq!(p.sample_interval_s, Some(1e-5));
+    let sweep = dir.path().join("s.csv");
+    let o = vibrobar(&[
+        "sweep",
+        "--preset",
+        "paper",
+        "--gap-mm",
+        "0.1",
+        "--ratios",
+        "0.99:1.01:0.01",
+        "--duration",
+        "0.01",
+        "--out",
+        s(&sweep),
+    ]);
+    assert!(o.status.success(), "{}", err(&o));
+    let meta = vibrobar_io::Metadata::read_beside(&sweep).unwrap();
+    let p: SweepParams<serde_json::Value> = meta.parameters_as(&sweep).unwrap();
+    assert_eq!(p.gaps_m, vec![1e-4]);
+    assert_eq!(p.ratios.len(), 3);
+    assert_eq!(p.order, "gap-major");
+}

@@ -109,3 +109,28 @@ impl Drop for LockFile {
         let _ = &self.file;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stale_lock_file_of_a_dead_process_does_not_block() {
+        let dir = tempfile::tempdir().unwrap();
+        let journal = dir.path().join("m.csv.journal");
+        // Left by a process killed with SIGKILL: the file stays, its flock died with it.
+        fs::write(
+            lock_path(&journal),
+            "pid 4000000 on gone, since 2000-01-01T00:00:00Z",
+        )
+        .unwrap();
+        let l = LockFile::acquire(&journal).unwrap();
+        let text = fs::read_to_string(lock_path(&journal)).unwrap();
+        assert!(
+            text.starts_with(&format!("pid {} on ", std::process::id())),
+            "{text}"
+        );
+        drop(l);
+        assert!(!lock_path(&journal).exists());
+    }
+}

@@ -6,7 +6,7 @@
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use vibrobar_core::analysis::regime::Tolerances;
-use vibrobar_core::{Bar, Damper, Forcing, RunSettings};
+use vibrobar_core::{Bar, Damper, Forcing, RunSettings, State, System};
 
 /// The system a command runs, as resolved from its flags: bars, ball, forcing, solver, settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -45,4 +45,38 @@ pub struct MapParams {
     pub grid_values_si: BTreeMap<String, Vec<f64>>,
     /// Tolerances of the regime classification.
     pub regime_tolerances: Tolerances,
+}
+
+/// Parameters of a `run` history file (`kind = "run"`); `S` is the scenario type of the caller.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunParams<S> {
+    /// The scenario as resolved (file, preset and flags).
+    pub scenario: S,
+    /// The damped system that ran.
+    pub system: System,
+    /// Initial state.
+    pub initial: State,
+    /// Run settings.
+    pub settings: RunSettings,
+    /// Solver name.
+    pub solver: String,
+    /// Output interval in s.
+    pub sample_interval_s: Option<f64>,
+}
+
+/// Parameters of a sweep file (`kind = "sweep"`); `S` is the scenario type of the caller.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SweepParams<S> {
+    /// The scenario as resolved.
+    pub scenario: S,
+    /// Solver name.
+    pub solver: String,
+    /// Run settings.
+    pub settings: RunSettings,
+    /// Gaps in m, in row order.
+    pub gaps_m: Vec<f64>,
+    /// Frequency ratios, in row order within a gap.
+    pub ratios: Vec<f64>,
+    /// Row order (`gap-major`).
+    pub order: String,
 }

@@ -143,14 +143,14 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let interval_s = args.sample_every as f64 * settings.dt_s;
     let out = run_streamed(&case, &settings, solver.as_ref(), &args.out, interval_s)?;
     let is_npy = is_npy(&args.out);
-    let params = serde_json::json!({
-        "scenario": sc,
-        "system": sys,
-        "initial": case.init,
-        "settings": settings,
-        "solver": solver.name(),
-        "sample_interval_s": case.sample_interval_s,
-    });
+    let params = vibrobar_io::params::RunParams {
+        scenario: &sc,
+        system: sys,
+        initial: case.init,
+        settings,
+        solver: solver.name().to_string(),
+        sample_interval_s: case.sample_interval_s,
+    };
     vibrobar_io::Metadata::new(
         "run",
         &if is_npy {

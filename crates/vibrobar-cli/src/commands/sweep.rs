@@ -66,14 +66,14 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     }
     let settings = sc.settings();
     let solver = solver(&sc.run.solver, &settings)?;
-    let params = serde_json::json!({
-        "scenario": serde_json::to_value(&sc).context("serialising the scenario")?,
-        "solver": solver.name(),
-        "settings": serde_json::to_value(settings).context("serialising the settings")?,
-        "gaps_m": gaps_m,
-        "ratios": ratios,
-        "order": "gap-major",
-    });
+    let params = vibrobar_io::params::SweepParams {
+        scenario: &sc,
+        solver: solver.name().to_string(),
+        settings,
+        gaps_m: gaps_m.clone(),
+        ratios: ratios.clone(),
+        order: "gap-major".into(),
+    };
     let indices: Vec<usize> = (0..points.len()).collect();
     let schema = sweep_schema();
     let meta = Metadata::new(
