@@ -135,6 +135,7 @@ impl HistoryWriter {
 mod tests {
     use super::*;
     use crate::atomic::partial_path;
+    use std::os::unix::fs::FileTypeExt;
 
     fn states(n: usize) -> Vec<State> {
         (0..n)
@@ -180,12 +181,22 @@ mod tests {
 
     #[test]
     fn regression_npy_to_a_full_disk_names_the_file_and_leaves_no_partial() {
-        // /dev/full is a device: written through, every write fails with ENOSPC.
-        let p = Path::new("/dev/full");
-        let mut w = HistoryWriter::create(p, 100_000).unwrap();
+        // A FIFO whose reader has gone: every write fails (EPIPE), as on a full device. (Not
+        // /dev/full: CI runs as root, and a regression would rename a file over it.)
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("pipe");
+        crate::target::test_fifo(&p);
+        let reader = {
+            let p = p.clone();
+            std::thread::spawn(move || drop(std::fs::File::open(p).unwrap()))
+        };
+        let mut w = HistoryWriter::create(&p, 100_000).unwrap();
+        reader.join().unwrap();
         states(100_000).iter().for_each(|x| w.push(x));
         let e = w.finish().unwrap_err().to_string();
-        assert!(e.contains("/dev/full"), "{e}");
+        assert!(e.contains("pipe"), "{e}");
+        assert!(std::fs::symlink_metadata(&p).unwrap().file_type().is_fifo());
+        assert!(!partial_path(&p).exists());
     }
 
     #[test]

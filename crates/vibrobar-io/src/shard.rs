@@ -10,7 +10,7 @@ use crate::atomic::write_atomic;
 use crate::csv::Schema;
 use crate::error::{IoError, Result};
 use crate::meta::{meta_path, GridInfo, Metadata, ShardInfo};
-use crate::target::check_not_input;
+use crate::target::{check_not_input, resolve_output};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -44,6 +44,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize> {
     let metas: Vec<PathBuf> = inputs.iter().map(|p| meta_path(p)).collect();
     let all: Vec<&Path> = inputs.iter().chain(&metas).map(|p| p.as_path()).collect();
     check_not_input(out, &all)?;
+    resolve_output(out)?.require_regular("merge")?;
     check_not_input(&meta_path(out), &all)?;
     let read_err = |p: &Path, why: String| IoError::Metadata {
         path: meta_path(p),
@@ -282,6 +283,18 @@ mod tests {
             "{e}"
         );
         assert!(!out.exists());
+    }
+
+    #[test]
+    fn merge_into_a_special_file_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let files: Vec<PathBuf> = (1..=2)
+            .map(|k| write_shard(dir.path(), k, 2, 6, 1.0))
+            .collect();
+        let fifo = dir.path().join("pipe");
+        crate::target::test_fifo(&fifo);
+        let e = merge(&files, &fifo).unwrap_err().to_string();
+        assert!(e.contains("is a FIFO"), "{e}");
     }
 
     #[test]

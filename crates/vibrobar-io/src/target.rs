@@ -139,9 +139,30 @@ pub fn check_not_input(out: &Path, inputs: &[&Path]) -> Result<()> {
     Ok(())
 }
 
+/// A FIFO at `path`, for tests that need a special file they may safely write (CI runs as
+/// root: a test that regressed to replacing `/dev/null` would destroy it).
+#[cfg(test)]
+pub(crate) fn test_fifo(path: &Path) {
+    use std::os::unix::ffi::OsStrExt;
+    let c = std::ffi::CString::new(path.as_os_str().as_bytes()).unwrap();
+    // SAFETY: a valid NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fifo_is_special() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("pipe");
+        test_fifo(&p);
+        assert_eq!(
+            resolve_output(&p).unwrap().kind,
+            OutputKind::Special("FIFO")
+        );
+    }
 
     #[test]
     fn regression_out_dev_null_is_written_through_not_replaced() {
