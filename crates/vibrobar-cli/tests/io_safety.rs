@@ -482,3 +482,22 @@ fn run_and_sweep_metadata_reload_as_their_typed_parameters() {
     assert_eq!(p.ratios.len(), 3);
     assert_eq!(p.order, "gap-major");
 }
+
+#[test]
+fn regression_metadata_of_older_versions_still_loads() {
+    // The committed design maps were written before the typed metadata (no `note` field).
+    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/maps");
+    for d in [
+        "none_none",
+        "coulomb_stated",
+        "as-published_stated",
+        "as-published_20N",
+    ] {
+        let map = docs.join(d).join("map.csv");
+        let meta = vibrobar_io::Metadata::read_beside(&map).unwrap();
+        let p: vibrobar_io::params::MapParams = meta.parameters_as(&map).unwrap();
+        let (spec, _) = vibrobar_cli::commands::map::spec_from_params(&p).unwrap();
+        assert_eq!(spec.settings.duration_s, 2.0, "{d}");
+        assert_eq!(p.grid_values_si["freq_ratio"].len(), 41, "{d}");
+    }
+}

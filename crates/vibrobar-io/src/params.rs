@@ -1,7 +1,8 @@
 //! Typed parameters of the metadata files: the spec types of `vibrobar-core` themselves,
 //! serialised by serde, so that what is written is exactly what is reloaded. The JSON is the
 //! same as the hand-built one it replaces (serde_json sorts object keys), so fingerprints of
-//! existing journals and shards stay valid.
+//! existing journals and shards stay valid. Fields that older versions did not write default, so
+//! their files (e.g. `docs/maps/*/map.csv.meta.json`) still load.
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -11,9 +12,11 @@ use vibrobar_core::{Bar, Damper, Forcing, RunSettings, State, System};
 /// The system a command runs, as resolved from its flags: bars, ball, forcing, solver, settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SystemParams {
-    /// Says that `ball.gap_m` is a template.
+    /// Says that `ball.gap_m` is a template (absent in files of older versions).
+    #[serde(default)]
     pub note: String,
     /// Preset name.
+    #[serde(default)]
     pub preset: String,
     /// Friction model name.
     pub friction: String,
@@ -40,10 +43,15 @@ pub struct MapParams {
     #[serde(flatten)]
     pub system: SystemParams,
     /// The grid flags as given (`ratios`, `gaps_mm`, optional axes).
+    #[serde(default)]
     pub grid: BTreeMap<String, String>,
-    /// The grid's values in SI units, per axis name.
+    /// The grid's values in SI units, per axis name (absent in files of older versions: the
+    /// CSV's coordinates are used then).
+    #[serde(default)]
     pub grid_values_si: BTreeMap<String, Vec<f64>>,
-    /// Tolerances of the regime classification.
+    /// Tolerances of the regime classification (files of versions that did not write them
+    /// were classified with the defaults).
+    #[serde(default)]
     pub regime_tolerances: Tolerances,
 }
 
