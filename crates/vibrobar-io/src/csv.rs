@@ -8,7 +8,7 @@ use crate::error::{IoError, Result};
 use std::borrow::Cow;
 use std::fmt::Write as _;
 use std::path::Path;
-use vibrobar_core::analysis::map::{Axis, GridPoint, MapRow};
+use vibrobar_core::analysis::map::{Axis, GridPoint, MapRow, Optimum};
 use vibrobar_core::analysis::regime::Regime;
 use vibrobar_core::State;
 
@@ -38,12 +38,23 @@ pub struct Column {
     pub name: Cow<'static, str>,
     /// Formatter.
     pub format: Format,
+    /// May be empty ([`Value::Empty`]).
+    pub optional: bool,
 }
 
 const fn col(name: &'static str, format: Format) -> Column {
     Column {
         name: Cow::Borrowed(name),
         format,
+        optional: false,
+    }
+}
+
+const fn opt(name: &'static str, format: Format) -> Column {
+    Column {
+        name: Cow::Borrowed(name),
+        format,
+        optional: true,
     }
 }
 
@@ -56,6 +67,8 @@ pub enum Value {
     U(u64),
     /// Text.
     S(String),
+    /// An empty field (optional columns only).
+    Empty,
 }
 
 impl Value {
@@ -64,7 +77,7 @@ impl Value {
         match self {
             Value::F(x) => *x,
             Value::U(n) => *n as f64,
-            Value::S(_) => f64::NAN,
+            Value::S(_) | Value::Empty => f64::NAN,
         }
     }
     /// The text (empty for numbers).
@@ -133,6 +146,7 @@ impl Schema {
                 (Format::Plain, Value::F(x)) => write!(out, "{x}"),
                 (Format::Count, Value::U(n)) => write!(out, "{n}"),
                 (Format::Text, Value::S(s)) => write!(out, "{s}"),
+                (_, Value::Empty) if c.optional => Ok(()),
                 (f, v) => panic!("column {}: value {v:?} does not fit {f:?}", c.name),
             };
         }
@@ -159,6 +173,7 @@ impl Schema {
             .iter()
             .zip(fields)
             .map(|(c, f)| match c.format {
+                _ if c.optional && f.is_empty() => Ok(Value::Empty),
                 Format::Text => Ok(Value::S(f.to_string())),
                 Format::Count => f
                     .parse::<u64>()
@@ -427,6 +442,104 @@ pub fn read_map_csv(path: &Path) -> Result<MapTable> {
 }
 
 // ---------------------------------------------------------------------------------------------
+// optimum of a map
+
+/// Columns of a map's optimum file (`FILE.optimum.csv`).
+///
+/// * One row per ratio (`criterion = max-reduction`): the grid point with the largest
+///   `reduction_pct` at that ratio (over all gaps and optional axes), with its damped and solid
+///   RMS, impacts per cycle and regime.
+/// * Two band rows (`ratio = band`): the design (gap and optional axes) best over the whole band
+///   of ratios, among designs computed at every ratio: `band-mean-reduction` (largest mean
+///   reduction; `best_reduction_pct` is that mean, `rms_damped_m` the largest damped RMS over the
+///   band) and `band-minimax-rms` (smallest largest damped RMS: the robust choice; same columns).
+///   `rms_solid_m`, `impacts_per_cycle` and `regime` are empty on band rows.
+/// * `best_<axis>` columns follow for each optional axis.
+/// * Last, `friction_work_j,work_input_j`: the energy books of the per-ratio optimum point, rerun
+///   from rest with the energy audit over the whole run (`∫F_ball ẇ dt`, positive = friction put
+///   energy in; `∫F u̇ dt`, the cutting force's work). Empty on band rows (a band design is many
+///   runs, not one) and when the map's metadata is missing.
+pub fn optimum_schema(extra: &[Axis]) -> Schema {
+    let mut columns = vec![
+        // A ratio as `fmt_coord` writes it, or `band`.
+        col("ratio", Format::Text),
+        col("best_gap_mm", Format::Coord),
+        col("best_reduction_pct", Format::Plain),
+        col("rms_damped_m", Format::Sci),
+        opt("rms_solid_m", Format::Sci),
+        opt("impacts_per_cycle", Format::Plain),
+        opt("regime", Format::Text),
+        col("criterion", Format::Text),
+    ];
+    columns.extend(extra.iter().map(|a| Column {
+        name: Cow::Owned(format!("best_{}", a.as_str())),
+        format: Format::Coord,
+        optional: false,
+    }));
+    columns.push(opt("friction_work_j", Format::Sci));
+    columns.push(opt("work_input_j", Format::Sci));
+    Schema { columns }
+}
+
+/// The text of the optimum file of a map with optional axes `extra`; `energy[k]` are the
+/// energy books `(friction_work_j, work_input_j)` of `o.per_ratio[k]`, if audited.
+pub fn optimum_csv(extra: &[Axis], o: &Optimum, energy: &[Option<(f64, f64)>]) -> String {
+    let schema = optimum_schema(extra);
+    let mut s = schema.header();
+    s.push('\n');
+    for (k, r) in o.per_ratio.iter().enumerate() {
+        let mut v = vec![
+            Value::S(fmt_coord(r.ratio)),
+            Value::F(r.gap_m * 1e3),
+            Value::F(r.reduction_pct),
+            Value::F(r.rms_damped_m),
+            Value::F(r.rms_solid_m),
+            Value::F(r.impacts_per_cycle),
+            Value::S(r.regime.to_string()),
+            Value::S("max-reduction".into()),
+        ];
+        v.extend(
+            extra
+                .iter()
+                .map(|a| Value::F(r.point.get(*a).unwrap_or(f64::NAN))),
+        );
+        match energy.get(k).copied().flatten() {
+            Some((f, w)) => v.extend([Value::F(f), Value::F(w)]),
+            None => v.extend([Value::Empty, Value::Empty]),
+        }
+        schema.format_into(&v, &mut s);
+        s.push('\n');
+    }
+    for (name, b) in [
+        ("band-mean-reduction", &o.best_mean_reduction),
+        ("band-minimax-rms", &o.best_minimax_rms),
+    ] {
+        let Some(b) = b else { continue };
+        let coord = |axis: Axis| {
+            b.design
+                .iter()
+                .find(|(a, _)| *a == axis)
+                .map_or(f64::NAN, |d| d.1)
+        };
+        let mut v = vec![
+            Value::S("band".into()),
+            Value::F(coord(Axis::GapM) * 1e3),
+            Value::F(b.mean_reduction_pct),
+            Value::F(b.max_rms_damped_m),
+            Value::Empty,
+            Value::Empty,
+            Value::Empty,
+            Value::S(name.into()),
+        ];
+        v.extend(extra.iter().map(|a| Value::F(coord(*a))));
+        v.extend([Value::Empty, Value::Empty]);
+        schema.format_into(&v, &mut s);
+        s.push('\n');
+    }
+    s
+}
+
+// ---------------------------------------------------------------------------------------------
 // whole files
 
 /// Write any serializable value as pretty JSON.
@@ -481,6 +594,26 @@ mod tests {
             Some(vec![Axis::FrictionForceN, Axis::MassRatio])
         );
         assert_eq!(map_extra_axes("ratio,gap_mm,x"), None);
+    }
+
+    #[test]
+    fn optimum_rows_read_back_with_their_empty_fields() {
+        let sc = optimum_schema(&[Axis::Restitution]);
+        assert_eq!(
+            sc.header(),
+            "ratio,best_gap_mm,best_reduction_pct,rms_damped_m,rms_solid_m,impacts_per_cycle,\
+             regime,criterion,best_restitution,friction_work_j,work_input_j"
+        );
+        let band = sc
+            .parse("band,0.1,47.0,1.27e-5,,,,band-mean-reduction,0.5,,")
+            .unwrap();
+        assert_eq!(band[4], Value::Empty);
+        assert_eq!(band[9], Value::Empty);
+        // Empty only where the schema allows it.
+        let e = sc
+            .parse("band,,47.0,1.27e-5,,,,band-mean-reduction,0.5,,")
+            .unwrap_err();
+        assert!(e.contains("best_gap_mm"), "{e}");
     }
 
     #[test]

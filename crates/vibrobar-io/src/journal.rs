@@ -295,10 +295,12 @@ mod tests {
                 Column {
                     name: "a".into(),
                     format: Format::Plain,
+                    optional: false,
                 },
                 Column {
                     name: "b".into(),
                     format: Format::Plain,
+                    optional: false,
                 },
             ],
         }

@@ -28,7 +28,7 @@ use vibrobar_core::analysis::regime::Tolerances;
 use vibrobar_core::analysis::{par_map_with_progress, run_case, SweepBase};
 use vibrobar_core::params::{FrictionModel, RunSettings, State};
 use vibrobar_core::solver::{Solver, SOLVER_NAMES};
-use vibrobar_io::csv::{map_key, map_schema, map_values};
+use vibrobar_io::csv::{map_key, map_schema, map_values, optimum_schema};
 pub use vibrobar_io::csv::{read_map_csv, MapTable};
 use vibrobar_io::params::MapParams;
 use vibrobar_io::{shard, GridInfo, Journal, Metadata};
@@ -282,88 +282,19 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Header of the optimum file (`FILE.optimum.csv`, see [`optimum_path`]).
-///
-/// * One row per ratio (`criterion = max-reduction`): the grid point with the largest
-///   `reduction_pct` at that ratio (over all gaps and optional axes), with its damped and solid
-///   RMS, impacts per cycle and regime.
-/// * Two band rows (`ratio = band`): the design (gap and optional axes) best over the whole band
-///   of ratios, among designs computed at every ratio: `band-mean-reduction` (largest mean
-///   reduction; `best_reduction_pct` is that mean, `rms_damped_m` the largest damped RMS over the
-///   band) and `band-minimax-rms` (smallest largest damped RMS: the robust choice; same columns).
-///   `rms_solid_m`, `impacts_per_cycle` and `regime` are empty on band rows.
-/// * `best_<axis>` columns follow for each optional axis.
-/// * Last, `friction_work_j,work_input_j`: the energy books of the per-ratio optimum point, rerun
-///   from rest with [`EnergyAudit`] over the whole run (`∫F_ball ẇ dt`, positive = friction put
-///   energy in; `∫F u̇ dt`, the cutting force's work). Empty on band rows (a band design is many
-///   runs, not one) and when the map's metadata is missing.
+/// Header of the optimum file (`FILE.optimum.csv`, see [`optimum_path`]); the columns are
+/// defined by [`vibrobar_io::csv::optimum_schema`].
 pub fn optimum_header(extra: &[Axis]) -> String {
-    let mut h = String::from(
-        "ratio,best_gap_mm,best_reduction_pct,rms_damped_m,rms_solid_m,impacts_per_cycle,regime,criterion",
-    );
-    for a in extra {
-        h.push_str(",best_");
-        h.push_str(a.as_str());
-    }
-    h.push_str(",friction_work_j,work_input_j");
-    h
+    optimum_schema(extra).header()
 }
 
 /// The text of the optimum file for a map; `energy[k]` are the books of `o.per_ratio[k]`.
 pub fn optimum_csv(t: &MapTable, o: &Optimum, energy: &[Option<EnergyBalance>]) -> String {
-    let x = t.extra.len();
-    let mut s = optimum_header(&t.extra);
-    s.push('\n');
-    for (k, r) in o.per_ratio.iter().enumerate() {
-        let f = &t.fields[r.point.index];
-        s.push_str(&format!(
-            "{},{},{},{},{},{},{},max-reduction",
-            f[0],
-            f[1],
-            f[2 + x + 2],
-            f[2 + x + 1],
-            f[2 + x],
-            f[2 + x + 3],
-            f[2 + x + 4]
-        ));
-        for c in 0..x {
-            s.push(',');
-            s.push_str(&f[2 + c]);
-        }
-        match energy.get(k).copied().flatten() {
-            Some(e) => s.push_str(&format!(",{:e},{:e}", e.friction_work_j, e.work_input_j)),
-            None => s.push_str(",,"),
-        }
-        s.push('\n');
-    }
-    for (name, b) in [
-        ("band-mean-reduction", &o.best_mean_reduction),
-        ("band-minimax-rms", &o.best_minimax_rms),
-    ] {
-        let Some(b) = b else { continue };
-        let gap = b
-            .design
-            .iter()
-            .find(|(a, _)| *a == Axis::GapM)
-            .map_or(f64::NAN, |d| d.1);
-        s.push_str(&format!(
-            "band,{},{},{:e},,,,{name}",
-            fmt_coord(gap * 1e3),
-            b.mean_reduction_pct,
-            b.max_rms_damped_m
-        ));
-        for a in &t.extra {
-            let v = b
-                .design
-                .iter()
-                .find(|(d, _)| d == a)
-                .map_or(f64::NAN, |d| d.1);
-            s.push(',');
-            s.push_str(&fmt_coord(v));
-        }
-        s.push_str(",,\n");
-    }
-    s
+    let books: Vec<Option<(f64, f64)>> = energy
+        .iter()
+        .map(|e| e.map(|e| (e.friction_work_j, e.work_input_j)))
+        .collect();
+    vibrobar_io::csv::optimum_csv(&t.extra, o, &books)
 }
 
 /// The map's system, friction, solver and regime tolerances rebuilt from its typed metadata
