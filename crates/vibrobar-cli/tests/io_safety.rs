@@ -56,6 +56,11 @@ fn regression_run_out_fifo_is_written_through_not_replaced() {
     args.extend(["--out", s(&fifo)]);
     let o = vibrobar(&args);
     assert!(o.status.success(), "{}", err(&o));
+    let summary = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        summary.contains("(no .meta.json beside a special file)"),
+        "{summary}"
+    );
     let data = reader.join().unwrap();
     let text = String::from_utf8(data).unwrap();
     assert!(
@@ -500,4 +505,27 @@ fn regression_metadata_of_older_versions_still_loads() {
         assert_eq!(spec.settings.duration_s, 2.0, "{d}");
         assert_eq!(p.grid_values_si["freq_ratio"].len(), 41, "{d}");
     }
+}
+
+#[test]
+fn regression_out_link_to_stdout_writes_through_the_pipe() {
+    // As `--out /dev/stdout` (a link to /proc/self/fd/1), but through a link of our own, so that
+    // a regression replaces the temp link, never /dev/stdout.
+    let dir = tempfile::tempdir().unwrap();
+    let link = dir.path().join("out.csv");
+    std::os::unix::fs::symlink("/proc/self/fd/1", &link).unwrap();
+    let mut args = SHORT_RUN.to_vec();
+    args.extend(["--out", s(&link)]);
+    let o = vibrobar(&args);
+    assert!(o.status.success(), "{}", err(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.starts_with("t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s\n"),
+        "{stdout}"
+    );
+    assert!(fs::symlink_metadata(&link)
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    assert_eq!(names(dir.path()), vec!["out.csv"]);
 }

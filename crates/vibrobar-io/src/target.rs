@@ -75,6 +75,47 @@ fn special_kind(ft: fs::FileType) -> Option<&'static str> {
 /// Decide how to write `path`: follow symbolic links, and tell regular files (or absent ones)
 /// from special files. Refuses directories and link loops. Reads metadata only.
 pub fn resolve_output(path: &Path) -> Result<Output> {
+    // The kernel follows the links (also the magic ones of /proc, as /dev/stdout's).
+    match fs::metadata(path) {
+        Ok(md) => {
+            let ft = md.file_type();
+            if ft.is_dir() {
+                return Err(IoError::NotRegular {
+                    path: path.to_path_buf(),
+                    why: "is a directory; give a file name".into(),
+                });
+            }
+            if let Some(k) = special_kind(ft) {
+                return Ok(Output {
+                    requested: path.to_path_buf(),
+                    target: path.to_path_buf(),
+                    kind: OutputKind::Special(k),
+                });
+            }
+            let is_link = fs::symlink_metadata(path)
+                .map(|m| m.file_type().is_symlink())
+                .unwrap_or(false);
+            let target = if is_link {
+                fs::canonicalize(path).map_err(IoError::os(path))?
+            } else {
+                path.to_path_buf()
+            };
+            return Ok(Output {
+                requested: path.to_path_buf(),
+                target,
+                kind: OutputKind::Regular,
+            });
+        }
+        Err(e) if e.raw_os_error() == Some(libc::ELOOP) => {
+            return Err(IoError::NotRegular {
+                path: path.to_path_buf(),
+                why: format!("more than {MAX_LINKS} symbolic links (a loop?)"),
+            })
+        }
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(IoError::os(path)(e)),
+        Err(_) => {}
+    }
+    // Absent, or a chain of links ending in an absent file: create the file the chain names.
     let mut target = path.to_path_buf();
     for _ in 0..MAX_LINKS {
         let md = match fs::symlink_metadata(&target) {
@@ -201,7 +242,10 @@ mod tests {
         assert_eq!(o.target, dir.path().join("sub/real.csv"));
         assert!(o.is_regular());
         fs::write(&real, "x").unwrap();
-        assert_eq!(resolve_output(&link).unwrap().target, real.clone());
+        assert_eq!(
+            resolve_output(&link).unwrap().target,
+            fs::canonicalize(&real).unwrap()
+        );
         let a = dir.path().join("a");
         let b = dir.path().join("b");
         std::os::unix::fs::symlink(&b, &a).unwrap();

@@ -238,8 +238,12 @@ fn print_summary(
             e.residual_j
         ));
     }
+    let sidecar = match vibrobar_io::resolve_output(&args.out) {
+        Ok(o) if !o.is_regular() => "no .meta.json beside a special file",
+        _ => "+ .meta.json",
+    };
     say(format!(
-        "  output     : {} rows to {} (+ .meta.json)",
+        "  output     : {} rows to {} ({sidecar})",
         out.rows,
         args.out.display()
     ));
