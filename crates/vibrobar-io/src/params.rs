@@ -6,6 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+use vibrobar_core::analysis::map::{Axis, Grid, GridAxis};
 use vibrobar_core::analysis::regime::Tolerances;
 use vibrobar_core::{Bar, Damper, Forcing, RunSettings, State, System};
 
@@ -87,4 +88,31 @@ pub struct SweepParams<S> {
     pub ratios: Vec<f64>,
     /// Row order (`gap-major`).
     pub order: String,
+}
+
+impl MapParams {
+    /// The map's grid from `grid_values_si` (axes in [`Axis::ALL`] order, as `map` builds
+    /// them); `None` if absent or invalid.
+    pub fn grid(&self) -> Option<Grid> {
+        let axes = Axis::ALL
+            .iter()
+            .filter_map(|a| {
+                Some(GridAxis {
+                    axis: *a,
+                    values: self.grid_values_si.get(a.as_str())?.clone(),
+                })
+            })
+            .collect();
+        Grid::new(axes).ok()
+    }
+}
+
+impl<S> SweepParams<S> {
+    /// The key columns (ratio, gap) of grid index `i` (gap-major), as the row writes them.
+    pub fn key(&self, i: usize) -> Option<String> {
+        let n = self.ratios.len();
+        let ratio = *self.ratios.get(i.checked_rem(n)?)?;
+        let gap_m = *self.gaps_m.get(i / n)?;
+        Some(crate::csv::sweep_key(ratio, gap_m * 1e3))
+    }
 }

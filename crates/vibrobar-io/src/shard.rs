@@ -7,9 +7,10 @@
 //! every grid index appears exactly once, and writes the rows sorted by grid index.
 
 use crate::atomic::write_atomic;
-use crate::csv::Schema;
+use crate::csv::{map_extra_axes, map_key, Schema};
 use crate::error::{IoError, Result};
 use crate::meta::{meta_path, GridInfo, Metadata, ShardInfo};
+use crate::params::{MapParams, SweepParams};
 use crate::target::{check_not_input, resolve_output};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -31,6 +32,32 @@ pub fn shard_indices(total: usize, shard: Option<ShardInfo>) -> Vec<usize> {
     match shard {
         None => (0..total).collect(),
         Some(ShardInfo { k, n }) => (k - 1..total).step_by(n).collect(),
+    }
+}
+
+/// The key columns of each grid index of a shard's job, from its typed metadata; `None` when
+/// the metadata does not say (files of older versions), and then rows are not matched.
+#[allow(clippy::type_complexity)]
+fn grid_key(
+    meta: &Metadata,
+    path: &Path,
+    schema: &Schema,
+) -> Option<Box<dyn Fn(usize) -> Option<String>>> {
+    match meta.kind.as_str() {
+        "map" => {
+            let p: MapParams = meta.parameters_as(path).ok()?;
+            let grid = p.grid()?;
+            let extra = map_extra_axes(&meta.header)?;
+            let schema = schema.clone();
+            Some(Box::new(move |i| {
+                grid.point(i).map(|pt| schema.format(&map_key(&pt, &extra)))
+            }))
+        }
+        "sweep" => {
+            let p: SweepParams<serde_json::Value> = meta.parameters_as(path).ok()?;
+            Some(Box::new(move |i| p.key(i)))
+        }
+        _ => None,
     }
 }
 
@@ -117,8 +144,20 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize> {
                 ),
             ));
         }
-        for (k, row) in body.iter().enumerate() {
+        let key = grid_key(&meta, path, &schema);
+        for (k, (row, i)) in body.iter().zip(&indices).enumerate() {
             schema.parse_at(row, path, k + 2)?;
+            if let Some(want) = key.as_ref().and_then(|key| key(*i)) {
+                if !row.starts_with(&want) || row.as_bytes().get(want.len()) != Some(&b',') {
+                    return Err(IoError::Corrupt {
+                        path: path.clone(),
+                        line: k + 2,
+                        why: format!(
+                            "the metadata lists grid index {i} (grid point {want}) for this row"
+                        ),
+                    });
+                }
+            }
         }
         for (i, row) in indices.iter().zip(body) {
             if rows.insert(*i, row.to_string()).is_some() {
@@ -213,7 +252,14 @@ mod tests {
         Metadata::new(
             "sweep",
             &crate::csv::sweep_schema().header(),
-            serde_json::json!({ "p": fp_param }),
+            SweepParams {
+                scenario: serde_json::json!({ "p": fp_param }),
+                solver: "exact".into(),
+                settings: vibrobar_core::RunSettings::default(),
+                gaps_m: vec![1e-4],
+                ratios: (0..total).map(|i| i as f64 * 0.25).collect(),
+                order: "gap-major".into(),
+            },
             Some(GridInfo {
                 total,
                 shard: Some(ShardInfo { k, n }),
@@ -295,6 +341,26 @@ mod tests {
         crate::target::test_fifo(&fifo);
         let e = merge(&files, &fifo).unwrap_err().to_string();
         assert!(e.contains("is a FIFO"), "{e}");
+    }
+
+    #[test]
+    fn shard_row_not_matching_its_listed_index_is_refused_with_its_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let files: Vec<PathBuf> = (1..=2)
+            .map(|k| write_shard(dir.path(), k, 2, 6, 1.0))
+            .collect();
+        // Shard 1 holds indices 0, 2, 4: swap the rows of 2 and 4 (lines 3 and 4).
+        let text = std::fs::read_to_string(&files[0]).unwrap();
+        let mut lines: Vec<&str> = text.lines().collect();
+        lines.swap(2, 3);
+        std::fs::write(&files[0], lines.join("\n") + "\n").unwrap();
+        let out = dir.path().join("all.csv");
+        let e = merge(&files, &out).unwrap_err().to_string();
+        assert!(
+            e.contains("s1.csv: line 3") && e.contains("grid index 2 (grid point 0.5,0.1)"),
+            "{e}"
+        );
+        assert!(!out.exists());
     }
 
     #[test]

@@ -353,19 +353,9 @@ pub fn optimum_energy(
         .collect()
 }
 
-/// The map's grid from `grid_values_si` in the metadata (axes in [`Axis::ALL`] order, as
-/// [`job`] builds them); `None` if invalid.
+/// The map's grid from its metadata ([`MapParams::grid`]).
 fn grid_from_params(p: &MapParams) -> Option<Grid> {
-    let axes = Axis::ALL
-        .iter()
-        .filter_map(|a| {
-            Some(GridAxis {
-                axis: *a,
-                values: p.grid_values_si.get(a.as_str())?.clone(),
-            })
-        })
-        .collect();
-    Grid::new(axes).ok()
+    p.grid()
 }
 
 /// Same axes and values up to the CSV's 12-digit rounding.
