@@ -55,7 +55,11 @@ fn regression_run_out_fifo_is_written_through_not_replaced() {
     let mut args = SHORT_RUN.to_vec();
     args.extend(["--out", s(&fifo)]);
     let o = vibrobar(&args);
-    assert!(o.status.success(), "{}", err(&o));
+    if !o.status.success() {
+        // Release the reader (blocked in open) before failing, so the test cannot hang.
+        let _ = fs::OpenOptions::new().write(true).open(&fifo);
+        panic!("{}", err(&o));
+    }
     let summary = String::from_utf8_lossy(&o.stdout);
     assert!(
         summary.contains("(no .meta.json beside a special file)"),
@@ -306,13 +310,14 @@ fn regression_run_streams_its_history_in_constant_memory() {
 fn regression_sigint_during_run_removes_the_partial_and_says_so() {
     let dir = tempfile::tempdir().unwrap();
     let out: PathBuf = dir.path().join("long.csv");
-    let child = bin()
+    // 20 s of output (~200 MB) if the signal were ignored; stopped after the first 100 kB.
+    let mut child = bin()
         .args([
             "run",
             "--preset",
             "paper",
             "--duration",
-            "200",
+            "20",
             "--out",
             s(&out),
         ])
@@ -323,7 +328,10 @@ fn regression_sigint_during_run_removes_the_partial_and_says_so() {
     let partial = dir.path().join("long.csv.partial");
     let t0 = std::time::Instant::now();
     while fs::metadata(&partial).map_or(0, |m| m.len()) < 100_000 {
-        assert!(t0.elapsed().as_secs() < 60, "no partial output appeared");
+        if t0.elapsed().as_secs() > 60 {
+            let _ = child.kill();
+            panic!("no partial output appeared");
+        }
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     // SAFETY: signalling our own child.
