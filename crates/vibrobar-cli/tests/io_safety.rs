@@ -537,3 +537,46 @@ fn regression_out_link_to_stdout_writes_through_the_pipe() {
         .is_symlink());
     assert_eq!(names(dir.path()), vec!["out.csv"]);
 }
+
+#[test]
+fn streamed_npy_announces_exactly_the_rows_the_run_gives() {
+    // The NPY header is written before the run from the output grid; a wrong count would be
+    // refused at the end (RowCount). Odd steps, durations and intervals, both solvers.
+    let dir = tempfile::tempdir().unwrap();
+    for (solver, dt, duration, every) in [
+        ("rk4", "3e-6", "0.0123", "7"),
+        ("rk4", "1e-6", "0.01", "10"),
+        ("exact", "1e-6", "0.0137", "13"),
+        ("exact", "7e-7", "0.02", "1"),
+    ] {
+        let npy = dir.path().join("h.npy");
+        let csv = dir.path().join("h.csv");
+        for out in [&npy, &csv] {
+            let o = vibrobar(&[
+                "run",
+                "--preset",
+                "paper",
+                "--solver",
+                solver,
+                "--dt",
+                dt,
+                "--duration",
+                duration,
+                "--sample-every",
+                every,
+                "--out",
+                s(out),
+            ]);
+            assert!(
+                o.status.success(),
+                "{solver} {dt} {duration} {every}: {}",
+                err(&o)
+            );
+        }
+        let (shape, data) =
+            vibrobar_io::npy::decode_f64(&fs::read(&npy).unwrap(), "h.npy").unwrap();
+        let rows = fs::read_to_string(&csv).unwrap().lines().count() - 1;
+        assert_eq!(shape, vec![rows, 7], "{solver} {dt} {duration} {every}");
+        assert_eq!(data.len(), 7 * rows);
+    }
+}
