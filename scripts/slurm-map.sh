@@ -7,7 +7,7 @@
 # grid points i with i mod N = K-1 (round-robin, so each task gets a similar mix of cheap and
 # expensive points) and writes maps/map.K.csv + maps/map.K.csv.meta.json. The merge job checks
 # that all N shards come from the same job and cover the grid, then writes maps/map.csv (byte-
-# identical to a single-machine run), optimum.csv and the figures.
+# identical to a single-machine run), FILE.optimum.csv and the figures.
 #
 # A task that is killed (time limit, preemption) keeps its finished rows in
 # maps/map.K.csv.journal; resubmitting the same array resumes it (--resume is given, and is a

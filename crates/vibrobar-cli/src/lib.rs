@@ -1,10 +1,10 @@
 //! # vibrobar-cli
 //!
-//! The command-line front end of vibrobar. Everything with I/O lives here: argument parsing
-//! ([`cli`]), scenario files ([`scenario`]), CSV/JSON writers ([`output`]), figures ([`plot`]),
-//! the reproduction report ([`report`]), design-map figures ([`figures`]), progress bars
-//! ([`progress`]), result storage (atomic files, journals, NPY, shards: [`store`]) and one module
-//! per command ([`commands`]).
+//! The command-line front end of vibrobar: argument parsing ([`cli`]), scenario files
+//! ([`scenario`]), figures ([`plot`]), the reproduction report ([`report`]), design-map figures
+//! ([`figures`]), progress bars ([`progress`]) and one module per command ([`commands`]).
+//! Result files (atomic writes, journals, CSV schemas, NPY, metadata, shards) are written by
+//! `vibrobar-io`.
 //! The physics is in `vibrobar-core`; this crate never re-implements it.
 
 #![warn(missing_docs)]
@@ -12,12 +12,10 @@
 pub mod cli;
 pub mod commands;
 pub mod figures;
-pub mod output;
 pub mod plot;
 pub mod progress;
 pub mod report;
 pub mod scenario;
-pub mod store;
 
 /// The default solver's name as a literal, so help texts can `concat!` it. Switching the default
 /// solver is this one line.

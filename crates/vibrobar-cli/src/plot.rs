@@ -8,7 +8,8 @@ use std::path::Path;
 use std::sync::Once;
 use vibrobar_core::State;
 
-use crate::output::{ensure_parent, write_text};
+use vibrobar_io::csv::write_text;
+use vibrobar_io::ensure_parent;
 
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
@@ -59,7 +60,7 @@ fn render_both(
         draw_png(&root)?;
         root.present().map_err(pe)?;
     }
-    std::fs::rename(&tmp, &png)?;
+    vibrobar_io::publish(&tmp, &png)?;
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
@@ -67,7 +68,7 @@ fn render_both(
         draw(&root)?;
         root.present().map_err(pe)?;
     }
-    write_text(&with_suffix(stem, ".svg"), &svg)
+    Ok(write_text(&with_suffix(stem, ".svg"), &svg)?)
 }
 
 /// `stem` + `suffix` (stems may contain dots, e.g. `gap0.1mm`, so no `with_extension`).

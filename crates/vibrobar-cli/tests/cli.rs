@@ -626,8 +626,7 @@ fn run_writes_npy_matching_the_csv() {
         ]);
     }
     let (_, rows) = csv(&c);
-    let (shape, data) =
-        vibrobar_cli::store::npy::decode_f64(&std::fs::read(&n).unwrap(), "h.npy").unwrap();
+    let (shape, data) = vibrobar_io::npy::decode_f64(&std::fs::read(&n).unwrap(), "h.npy").unwrap();
     assert_eq!(shape, vec![rows.len(), 7]);
     for (i, row) in rows.iter().enumerate() {
         for (j, x) in row.iter().enumerate() {

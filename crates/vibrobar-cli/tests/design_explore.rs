@@ -2,7 +2,7 @@
 //! `vibrobar` binary (short rk4 runs).
 use std::fs;
 use std::process::{Command, Output};
-use vibrobar_cli::store::npy::decode_f64;
+use vibrobar_io::npy::decode_f64;
 
 const BIN: &str = env!("CARGO_BIN_EXE_vibrobar");
 

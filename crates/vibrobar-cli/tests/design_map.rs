@@ -90,14 +90,14 @@ fn map_writes_the_contract_header_metadata_optimum_and_figures() {
     assert_eq!(meta["parameters"]["friction"], "none");
     assert!(meta["fingerprint"].as_str().unwrap().len() == 16);
     for f in [
-        "optimum.csv",
+        "m.optimum.csv",
         "m.reduction.png",
         "m.reduction.svg",
         "m.impacts.png",
         "m.impacts.svg",
     ] {
         let len = fs::metadata(p(d.path(), f)).map(|m| m.len()).unwrap_or(0);
-        assert!(len > 1000 || f == "optimum.csv", "{f}: {len} bytes");
+        assert!(len > 1000 || f == "m.optimum.csv", "{f}: {len} bytes");
     }
     assert!(!p(d.path(), "m.csv.journal").exists());
 }
@@ -108,7 +108,7 @@ fn optimum_csv_agrees_with_the_map() {
     let out = p(d.path(), "m.csv");
     ok(&run(&map_args(s(&out), &[]), &[]));
     let rows = read_rows(&out);
-    let opt = fs::read_to_string(p(d.path(), "optimum.csv")).unwrap();
+    let opt = fs::read_to_string(p(d.path(), "m.optimum.csv")).unwrap();
     let mut lines = opt.lines();
     assert_eq!(
         lines.next(),
@@ -189,8 +189,8 @@ fn results_do_not_depend_on_the_thread_count() {
     ok(&run(&map_args(s(&b), &[]), &[("RAYON_NUM_THREADS", "2")]));
     assert_eq!(fs::read(&a).unwrap(), fs::read(&b).unwrap());
     assert_eq!(
-        fs::read(p(d.path(), "a/optimum.csv")).unwrap(),
-        fs::read(p(d.path(), "b/optimum.csv")).unwrap()
+        fs::read(p(d.path(), "a/m.optimum.csv")).unwrap(),
+        fs::read(p(d.path(), "b/m.optimum.csv")).unwrap()
     );
     let c = p(d.path(), "c/m.csv");
     ok(&run(&map_args(s(&c), &["--threads", "2"]), &[]));
@@ -214,7 +214,8 @@ fn shards_merged_equal_the_unsharded_map_byte_for_byte() {
         shards.push(f);
     }
     // Shards write only data and metadata.
-    assert!(!p(d.path(), "shards/optimum.csv").exists());
+    assert!(!p(d.path(), "shards/m.optimum.csv").exists());
+    assert!(!p(d.path(), "shards/m.1.optimum.csv").exists());
     assert!(!p(d.path(), "shards/m.1.reduction.png").exists());
     // Same fingerprint as the unsharded job: the shard is not a parameter.
     let fp = |f: &Path| {
@@ -231,8 +232,8 @@ fn shards_merged_equal_the_unsharded_map_byte_for_byte() {
     ok(&run(&args, &[]));
     assert_eq!(fs::read(&merged).unwrap(), fs::read(&full).unwrap());
     assert_eq!(
-        fs::read(p(d.path(), "merged/optimum.csv")).unwrap(),
-        fs::read(p(d.path(), "full/optimum.csv")).unwrap()
+        fs::read(p(d.path(), "merged/m.optimum.csv")).unwrap(),
+        fs::read(p(d.path(), "full/m.optimum.csv")).unwrap()
     );
     assert!(p(d.path(), "merged/m.reduction.png").exists());
     // A missing shard is refused.
@@ -541,7 +542,7 @@ fn optional_axes_add_columns_after_gap() {
     assert!(rows[0].starts_with("0.99,0.1,0,0.5,"), "{}", rows[0]);
     assert!(rows[1].starts_with("0.99,0.1,0,0.8,"), "{}", rows[1]);
     assert!(rows[2].starts_with("0.99,0.1,1,0.5,"), "{}", rows[2]);
-    let opt = fs::read_to_string(p(d.path(), "optimum.csv")).unwrap();
+    let opt = fs::read_to_string(p(d.path(), "m.optimum.csv")).unwrap();
     assert!(opt.lines().next().unwrap().ends_with(
         ",criterion,best_friction_force_n,best_restitution,friction_work_j,work_input_j"
     ));
@@ -581,7 +582,7 @@ fn optimum_friction_work_sign_follows_the_friction_law() {
             .unwrap_or_else(|| panic!("{friction}: no summary line in\n{stdout}"));
         assert!(line.contains(want), "{friction}: {line}");
         assert!(line.contains("cutting-force work"), "{line}");
-        let opt = fs::read_to_string(out.with_file_name("optimum.csv")).unwrap();
+        let opt = fs::read_to_string(out.with_file_name("m.optimum.csv")).unwrap();
         let per_ratio: Vec<Vec<&str>> = opt
             .lines()
             .skip(1)

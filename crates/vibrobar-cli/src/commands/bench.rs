@@ -123,8 +123,8 @@ fn print_rms_side_by_side(sweeps: &[(String, Vec<super::SweepResult>)]) {
                 .friction_force_n
                 .map(|f| format!("{f} N"))
                 .unwrap_or_else(|| "stated".into()),
-            crate::output::grid_num(r.point.gap_m * 1e3),
-            crate::output::grid_num(r.point.ratio)
+            vibrobar_io::csv::grid_num(r.point.gap_m * 1e3),
+            vibrobar_io::csv::grid_num(r.point.ratio)
         );
         print!("    {label:<34}");
         for (_, rows) in sweeps {

@@ -102,24 +102,31 @@ impl SystemArgs {
     }
 
     /// Parameters for metadata (SI units).
-    pub fn to_json(&self) -> anyhow::Result<serde_json::Value> {
+    pub fn to_params(&self) -> anyhow::Result<vibrobar_io::params::SystemParams> {
         let mut base = self.base()?;
         // The ball is a template: its gap is set per grid point (or by --gap-mm). Its friction
         // fields are made to say what the runs use, so the file does not contradict itself.
         base.ball.friction = self.friction.into();
         base.ball.friction_force_n = self.friction_force_n;
-        Ok(serde_json::json!({
-            "note": "ball.gap_m is a template value: each run's gap is its grid coordinate or --gap-mm",
-            "preset": self.preset.as_str(),
-            "friction": FrictionModel::from(self.friction).as_str(),
-            "friction_force_n": self.friction_force_n,
-            "damped_bar": base.damped_bar,
-            "solid_bar": base.solid_bar,
-            "ball": base.ball,
-            "forcing": base.forcing,
-            "solver": self.solver,
-            "settings": self.settings()?,
-        }))
+        Ok(vibrobar_io::params::SystemParams {
+            note:
+                "ball.gap_m is a template value: each run's gap is its grid coordinate or --gap-mm"
+                    .into(),
+            preset: self.preset.as_str().into(),
+            friction: FrictionModel::from(self.friction).as_str().into(),
+            friction_force_n: self.friction_force_n,
+            damped_bar: base.damped_bar,
+            solid_bar: base.solid_bar,
+            ball: base.ball,
+            forcing: base.forcing,
+            solver: self.solver.clone(),
+            settings: self.settings()?,
+        })
+    }
+
+    /// [`to_params`](Self::to_params) as JSON.
+    pub fn to_json(&self) -> anyhow::Result<serde_json::Value> {
+        Ok(serde_json::to_value(self.to_params()?)?)
     }
 }
 
@@ -198,12 +205,8 @@ pub fn check_value(
     }
 }
 
-/// A grid coordinate for CSV: rounded to 12 significant digits, so `0.95 + 1·0.01` prints as
-/// `0.96`, not `0.9600000000000001` (the run used the exact value; the difference is < 1e-15).
-pub fn fmt_coord(x: f64) -> String {
-    let y: f64 = format!("{x:.11e}").parse().expect("float round trip");
-    format!("{y}")
-}
+/// A grid coordinate as the map CSV writes it (12 significant digits), defined by the schema.
+pub use vibrobar_io::csv::fmt_coord;
 
 /// Run `f` on a pool of `threads` threads, or on rayon's global pool (`RAYON_NUM_THREADS`).
 pub fn with_threads<R: Send>(

@@ -5,7 +5,6 @@
 //! its data.
 use super::{check_value, fmt_coord, parse_range, with_threads, SystemArgs};
 use crate::progress::Progress;
-use crate::store::{npy, write_atomic, Metadata};
 use anyhow::{bail, Context};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -15,6 +14,7 @@ use vibrobar_core::analysis::map::{Axis, Grid, GridAxis, GridPoint, MapSpec};
 use vibrobar_core::analysis::poincare::{bifurcation, BifurcationSpec, Stroboscope};
 use vibrobar_core::analysis::regime::Tolerances;
 use vibrobar_core::params::{FrictionModel, State, System};
+use vibrobar_io::{npy, write_atomic, Metadata};
 
 /// One design point: system flags plus ratio and gap.
 #[derive(Debug, Clone, clap::Args)]

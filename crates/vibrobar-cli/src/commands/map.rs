@@ -8,15 +8,14 @@
 //!
 //! Rows go through a journal (`FILE.csv.journal`) as they finish, so a killed run loses at most
 //! the runs in flight and `--resume` completes it with a byte-identical result. Beside the data:
-//! `FILE.csv.meta.json`; for a whole (unsharded) map also `optimum.csv` (with the energy books of
+//! `FILE.csv.meta.json`; for a whole (unsharded) map also `FILE.optimum.csv` (with the energy books of
 //! each ratio's optimum point, rerun with the energy audit) and the figures
 //! `FILE.reduction.{png,svg}` and `FILE.impacts.{png,svg}` (see [`postprocess`]).
 use super::{
     check_value, fmt_coord, make_solver, parse_range, with_threads, SystemArgs, DEFAULT_SOLVER,
 };
 use crate::progress::Progress;
-use crate::store::{shard, GridInfo, Journal, Metadata};
-use anyhow::{bail, Context};
+use anyhow::Context;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -25,15 +24,14 @@ use vibrobar_core::analysis::map::{
     compute_point_from, compute_solid, optimum, Axis, BandBest, Grid, GridAxis, GridPoint, MapRow,
     MapSpec, Optimum,
 };
-use vibrobar_core::analysis::regime::{Regime, Tolerances};
+use vibrobar_core::analysis::regime::Tolerances;
 use vibrobar_core::analysis::{par_map_with_progress, run_case, SweepBase};
 use vibrobar_core::params::{FrictionModel, RunSettings, State};
 use vibrobar_core::solver::{Solver, SOLVER_NAMES};
-
-/// Fixed columns before the optional axes.
-pub const HEAD: &str = "ratio,gap_mm";
-/// Fixed columns after the optional axes.
-pub const TAIL: &str = "rms_solid_m,rms_damped_m,reduction_pct,impacts_per_cycle,regime";
+use vibrobar_io::csv::{map_key, map_schema, map_values, optimum_schema};
+pub use vibrobar_io::csv::{read_map_csv, MapTable};
+use vibrobar_io::params::MapParams;
+use vibrobar_io::{shard, GridInfo, Journal, Metadata};
 
 /// `vibrobar map`: design map over frequency ratio × gap.
 #[derive(Debug, Clone, clap::Args)]
@@ -82,11 +80,7 @@ pub struct MapJob {
     /// CSV header.
     pub header: String,
     /// Every parameter, for metadata and the fingerprint.
-    pub params: serde_json::Value,
-}
-
-fn extra_name(a: Axis) -> &'static str {
-    a.as_str()
+    pub params: MapParams,
 }
 
 /// Build and check the job from the flags (no shard, no output).
@@ -107,9 +101,9 @@ pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
         },
     ];
     let mut extra = Vec::new();
-    let mut axes_json = serde_json::Map::new();
-    axes_json.insert("ratios".into(), args.ratios.clone().into());
-    axes_json.insert("gaps_mm".into(), args.gaps_mm.clone().into());
+    let mut axes_flags = std::collections::BTreeMap::new();
+    axes_flags.insert("ratios".to_string(), args.ratios.clone());
+    axes_flags.insert("gaps_mm".to_string(), args.gaps_mm.clone());
     type Check = fn(f64) -> bool;
     let optional: [(&str, &Option<String>, Axis, Check, &str); 3] = [
         (
@@ -141,15 +135,12 @@ pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
                 values: parse_range(flag, t, ok, allowed)?,
             });
             extra.push(axis);
-            axes_json.insert(
-                flag.trim_start_matches("--").replace('-', "_"),
-                t.clone().into(),
-            );
+            axes_flags.insert(flag.trim_start_matches("--").replace('-', "_"), t.clone());
         }
     }
-    let values_json: serde_json::Map<String, serde_json::Value> = axes
+    let values_si: std::collections::BTreeMap<String, Vec<f64>> = axes
         .iter()
-        .map(|a| (a.axis.as_str().to_string(), serde_json::json!(a.values)))
+        .map(|a| (a.axis.as_str().to_string(), a.values.clone()))
         .collect();
     let grid = Grid::new(axes).map_err(|e| anyhow::anyhow!("grid: {e}"))?;
     let spec = MapSpec {
@@ -167,21 +158,13 @@ pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
             })
             .map_err(|e| anyhow::anyhow!("{e} (at {})", describe(&p)))?;
     }
-    let mut header = String::from(HEAD);
-    for a in &extra {
-        header.push(',');
-        header.push_str(extra_name(*a));
-    }
-    header.push(',');
-    header.push_str(TAIL);
-    let t = spec.tolerances;
-    let mut params = args.system.to_json()?;
-    params["grid"] = serde_json::Value::Object(axes_json);
-    params["grid_values_si"] = serde_json::Value::Object(values_json);
-    params["regime_tolerances"] = serde_json::json!({
-        "phase_tol": t.phase_tol, "state_rel": t.state_rel, "k_max": t.k_max,
-        "min_repeats": t.min_repeats, "contact_fraction": t.contact_fraction,
-    });
+    let header = map_schema(&extra).header();
+    let params = MapParams {
+        system: args.system.to_params()?,
+        grid: axes_flags,
+        grid_values_si: values_si,
+        regime_tolerances: spec.tolerances,
+    };
     Ok(MapJob {
         spec,
         grid,
@@ -202,19 +185,9 @@ fn describe(p: &GridPoint) -> String {
         .join(", ")
 }
 
-/// One CSV row (without the index).
+/// One CSV row (without the index), by the map's schema.
 pub fn format_row(row: &MapRow, extra: &[Axis]) -> String {
-    let mut s = format!("{},{}", fmt_coord(row.ratio), fmt_coord(row.gap_m * 1e3));
-    for a in extra {
-        let v = row.point.get(*a).unwrap_or(f64::NAN);
-        s.push(',');
-        s.push_str(&fmt_coord(v));
-    }
-    s.push_str(&format!(
-        ",{:e},{:e},{},{},{}",
-        row.rms_solid_m, row.rms_damped_m, row.reduction_pct, row.impacts_per_cycle, row.regime
-    ));
-    s
+    map_schema(extra).format(&map_values(row, extra))
 }
 
 /// Compute the journal's pending points: solid runs first (one per ratio), then the damped runs,
@@ -287,7 +260,12 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
             indices: shard.map(|_| indices.clone()),
         }),
     );
-    let journal = super::open_journal(&args.out, &meta, &indices, args.resume)?;
+    let schema = map_schema(&job.extra);
+    let key = |i: usize| match job.grid.point(i) {
+        Some(p) => schema.format(&map_key(&p, &job.extra)),
+        None => String::new(),
+    };
+    let journal = super::open_journal(&args.out, &meta, &schema, &indices, &key, args.resume)?;
     let t0 = Instant::now();
     with_threads(args.threads, || {
         compute(&job, solver.as_ref(), &journal, indices.len())
@@ -307,185 +285,45 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A map CSV read back: optional axes, rows as [`MapRow`]s and their text fields.
-pub struct MapTable {
-    /// Optional axes, in column order.
-    pub extra: Vec<Axis>,
-    /// Rows (grid index = row number).
-    pub rows: Vec<MapRow>,
-    /// Text fields of each row, as in the file.
-    pub fields: Vec<Vec<String>>,
-}
-
-/// Read a map CSV written by `map` or `merge`.
-pub fn read_map_csv(path: &Path) -> anyhow::Result<MapTable> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-    let mut lines = text.lines();
-    let header = lines.next().unwrap_or("");
-    let cols: Vec<&str> = header.split(',').collect();
-    let n_tail = TAIL.split(',').count();
-    if !header.starts_with(HEAD) || !header.ends_with(TAIL) || cols.len() < 2 + n_tail {
-        bail!("{}: not a map file (header {header:?})", path.display());
-    }
-    let extra = cols[2..cols.len() - n_tail]
-        .iter()
-        .map(|c| {
-            Axis::parse(c)
-                .filter(|a| !matches!(a, Axis::FreqRatio | Axis::GapM))
-                .with_context(|| format!("{}: unknown column {c:?}", path.display()))
-        })
-        .collect::<anyhow::Result<Vec<Axis>>>()?;
-    let mut rows = Vec::new();
-    let mut fields = Vec::new();
-    for (i, line) in lines.enumerate() {
-        let bad = |what: &str| anyhow::anyhow!("{}: line {}: {what}", path.display(), i + 2);
-        let f: Vec<String> = line.split(',').map(str::to_string).collect();
-        if f.len() != cols.len() {
-            return Err(bad("wrong number of fields"));
-        }
-        let num = |k: usize| -> anyhow::Result<f64> {
-            f[k].parse::<f64>()
-                .map_err(|_| bad(&format!("{} is not a number", cols[k])))
-        };
-        let ratio = num(0)?;
-        let gap_m = num(1)? * 1e-3;
-        let mut coords = vec![(Axis::FreqRatio, ratio), (Axis::GapM, gap_m)];
-        for (k, a) in extra.iter().enumerate() {
-            coords.push((*a, num(2 + k)?));
-        }
-        let t = 2 + extra.len();
-        let regime = Regime::parse(&f[t + 4]).ok_or_else(|| bad("unknown regime"))?;
-        rows.push(MapRow {
-            point: GridPoint { index: i, coords },
-            ratio,
-            gap_m,
-            rms_solid_m: num(t)?,
-            rms_damped_m: num(t + 1)?,
-            reduction_pct: num(t + 2)?,
-            impacts_per_cycle: num(t + 3)?,
-            regime,
-        });
-        fields.push(f);
-    }
-    Ok(MapTable {
-        extra,
-        rows,
-        fields,
-    })
-}
-
-/// Header of `optimum.csv`.
-///
-/// * One row per ratio (`criterion = max-reduction`): the grid point with the largest
-///   `reduction_pct` at that ratio (over all gaps and optional axes), with its damped and solid
-///   RMS, impacts per cycle and regime.
-/// * Two band rows (`ratio = band`): the design (gap and optional axes) best over the whole band
-///   of ratios, among designs computed at every ratio: `band-mean-reduction` (largest mean
-///   reduction; `best_reduction_pct` is that mean, `rms_damped_m` the largest damped RMS over the
-///   band) and `band-minimax-rms` (smallest largest damped RMS: the robust choice; same columns).
-///   `rms_solid_m`, `impacts_per_cycle` and `regime` are empty on band rows.
-/// * `best_<axis>` columns follow for each optional axis.
-/// * Last, `friction_work_j,work_input_j`: the energy books of the per-ratio optimum point, rerun
-///   from rest with [`EnergyAudit`] over the whole run (`∫F_ball ẇ dt`, positive = friction put
-///   energy in; `∫F u̇ dt`, the cutting force's work). Empty on band rows (a band design is many
-///   runs, not one) and when the map's metadata is missing.
+/// Header of the optimum file (`FILE.optimum.csv`, see [`optimum_path`]); the columns are
+/// defined by [`vibrobar_io::csv::optimum_schema`].
 pub fn optimum_header(extra: &[Axis]) -> String {
-    let mut h = String::from(
-        "ratio,best_gap_mm,best_reduction_pct,rms_damped_m,rms_solid_m,impacts_per_cycle,regime,criterion",
-    );
-    for a in extra {
-        h.push_str(",best_");
-        h.push_str(a.as_str());
-    }
-    h.push_str(",friction_work_j,work_input_j");
-    h
+    optimum_schema(extra).header()
 }
 
-/// The text of `optimum.csv` for a map; `energy[k]` are the books of `o.per_ratio[k]`.
+/// The text of the optimum file for a map; `energy[k]` are the books of `o.per_ratio[k]`.
 pub fn optimum_csv(t: &MapTable, o: &Optimum, energy: &[Option<EnergyBalance>]) -> String {
-    let x = t.extra.len();
-    let mut s = optimum_header(&t.extra);
-    s.push('\n');
-    for (k, r) in o.per_ratio.iter().enumerate() {
-        let f = &t.fields[r.point.index];
-        s.push_str(&format!(
-            "{},{},{},{},{},{},{},max-reduction",
-            f[0],
-            f[1],
-            f[2 + x + 2],
-            f[2 + x + 1],
-            f[2 + x],
-            f[2 + x + 3],
-            f[2 + x + 4]
-        ));
-        for c in 0..x {
-            s.push(',');
-            s.push_str(&f[2 + c]);
-        }
-        match energy.get(k).copied().flatten() {
-            Some(e) => s.push_str(&format!(",{:e},{:e}", e.friction_work_j, e.work_input_j)),
-            None => s.push_str(",,"),
-        }
-        s.push('\n');
-    }
-    for (name, b) in [
-        ("band-mean-reduction", &o.best_mean_reduction),
-        ("band-minimax-rms", &o.best_minimax_rms),
-    ] {
-        let Some(b) = b else { continue };
-        let gap = b
-            .design
-            .iter()
-            .find(|(a, _)| *a == Axis::GapM)
-            .map_or(f64::NAN, |d| d.1);
-        s.push_str(&format!(
-            "band,{},{},{:e},,,,{name}",
-            fmt_coord(gap * 1e3),
-            b.mean_reduction_pct,
-            b.max_rms_damped_m
-        ));
-        for a in &t.extra {
-            let v = b
-                .design
-                .iter()
-                .find(|(d, _)| d == a)
-                .map_or(f64::NAN, |d| d.1);
-            s.push(',');
-            s.push_str(&fmt_coord(v));
-        }
-        s.push_str(",,\n");
-    }
-    s
+    let books: Vec<Option<(f64, f64)>> = energy
+        .iter()
+        .map(|e| e.map(|e| (e.friction_work_j, e.work_input_j)))
+        .collect();
+    vibrobar_io::csv::optimum_csv(&t.extra, o, &books)
 }
 
-/// The map's system, friction and solver rebuilt from its metadata parameters
-/// ([`SystemArgs::to_json`] plus the regime tolerances).
-fn spec_from_params(p: &serde_json::Value) -> anyhow::Result<(MapSpec, String)> {
-    fn field<T: serde::de::DeserializeOwned>(p: &serde_json::Value, k: &str) -> anyhow::Result<T> {
-        serde_json::from_value(p[k].clone())
-            .with_context(|| format!("metadata parameter {k:?} missing or invalid"))
-    }
-    let friction: String = field(p, "friction")?;
-    let friction = FrictionModel::parse(&friction)
-        .with_context(|| format!("metadata: unknown friction model {friction:?}"))?;
+/// The map's system, friction, solver and regime tolerances rebuilt from its typed metadata
+/// parameters: everything [`job`] wrote is what is reloaded.
+pub fn spec_from_params(p: &MapParams) -> anyhow::Result<(MapSpec, String)> {
+    let s = &p.system;
+    let friction = FrictionModel::parse(&s.friction)
+        .with_context(|| format!("metadata: unknown friction model {:?}", s.friction))?;
     let spec = MapSpec {
         base: SweepBase {
-            damped_bar: field(p, "damped_bar")?,
-            solid_bar: field(p, "solid_bar")?,
-            ball: field(p, "ball")?,
-            forcing: field(p, "forcing")?,
+            damped_bar: s.damped_bar,
+            solid_bar: s.solid_bar,
+            ball: s.ball,
+            forcing: s.forcing,
         },
         friction,
-        settings: field(p, "settings")?,
-        tolerances: Tolerances::default(),
+        settings: s.settings,
+        tolerances: p.regime_tolerances,
     };
-    Ok((spec, field(p, "solver")?))
+    Ok((spec, s.solver.clone()))
 }
 
 /// Rerun each per-ratio optimum point (from rest, as the map ran it) with the energy audit.
 /// One short run per ratio, in parallel; the order of `o.per_ratio` is kept.
 pub fn optimum_energy(
-    params: &serde_json::Value,
+    params: &MapParams,
     o: &Optimum,
 ) -> anyhow::Result<Vec<Option<EnergyBalance>>> {
     let (spec, solver_name) = spec_from_params(params)?;
@@ -518,21 +356,9 @@ pub fn optimum_energy(
         .collect()
 }
 
-/// The map's grid from `grid_values_si` in the metadata (axes in [`Axis::ALL`] order, as
-/// [`job`] builds them); `None` if absent or invalid.
-fn grid_from_params(p: &serde_json::Value) -> Option<Grid> {
-    let values = p.get("grid_values_si")?.as_object()?;
-    let axes = Axis::ALL
-        .iter()
-        .filter_map(|a| {
-            let v: Vec<f64> = serde_json::from_value(values.get(a.as_str())?.clone()).ok()?;
-            Some(GridAxis {
-                axis: *a,
-                values: v,
-            })
-        })
-        .collect();
-    Grid::new(axes).ok()
+/// The map's grid from its metadata ([`MapParams::grid`]).
+fn grid_from_params(p: &MapParams) -> Option<Grid> {
+    p.grid()
 }
 
 /// Same axes and values up to the CSV's 12-digit rounding.
@@ -586,18 +412,25 @@ pub fn friction_work_summary(energy: &[Option<EnergyBalance>]) -> Option<String>
     ))
 }
 
-/// `optimum.csv` beside a map file.
+/// The optimum file of a map, named after it (`maps/c.csv` → `maps/c.optimum.csv`), so that
+/// two maps in one folder keep their own.
 pub fn optimum_path(map_csv: &Path) -> PathBuf {
-    map_csv.with_file_name("optimum.csv")
+    let stem = map_csv
+        .file_stem()
+        .map(|s| s.to_os_string())
+        .unwrap_or_default();
+    let mut name = stem;
+    name.push(".optimum.csv");
+    map_csv.with_file_name(name)
 }
 
-/// After a whole map is written (by `map` or `merge`): `optimum.csv` and the figures, all
+/// After a whole map is written (by `map` or `merge`): the optimum file and the figures, all
 /// computed from the CSV itself so both paths give the same result.
 pub fn postprocess(map_csv: &Path) -> anyhow::Result<()> {
     let t = read_map_csv(map_csv)?;
     let o = optimum(&t.rows);
     let energy = match Metadata::read_beside(map_csv) {
-        Ok(meta) => optimum_energy(&meta.parameters, &o)
+        Ok(meta) => optimum_energy(&meta.parameters_as(map_csv)?, &o)
             .with_context(|| format!("energy audit of the optimum of {}", map_csv.display()))?,
         Err(e) => {
             eprintln!("energy audit skipped: no metadata beside the map ({e})");
@@ -605,7 +438,7 @@ pub fn postprocess(map_csv: &Path) -> anyhow::Result<()> {
         }
     };
     let opt = optimum_path(map_csv);
-    crate::store::write_atomic(&opt, optimum_csv(&t, &o, &energy).as_bytes())
+    vibrobar_io::write_atomic(&opt, optimum_csv(&t, &o, &energy).as_bytes())
         .with_context(|| format!("writing {}", opt.display()))?;
     if let Some(line) = friction_work_summary(&energy) {
         println!("{line}");

@@ -1,9 +1,9 @@
 //! `merge`: join the shard files of a map (`map --shard K/N`) into the whole map, then write
-//! `optimum.csv` and the figures as an unsharded `map` would. The merged file is byte-identical
+//! `FILE.optimum.csv` and the figures as an unsharded `map` would. The merged file is byte-identical
 //! to the file an unsharded run writes.
-use crate::store::shard;
 use anyhow::Context;
 use std::path::PathBuf;
+use vibrobar_io::shard;
 
 /// `vibrobar merge --out FILE.csv SHARD.csv...`.
 #[derive(Debug, Clone, clap::Args)]
@@ -14,7 +14,7 @@ pub struct MergeArgs {
     /// Shard files (each with its FILE.meta.json), in any order.
     #[arg(required = true)]
     pub shards: Vec<PathBuf>,
-    /// Only merge; skip optimum.csv and the figures.
+    /// Only merge; skip FILE.optimum.csv and the figures.
     #[arg(long)]
     pub no_figures: bool,
 }
@@ -27,7 +27,7 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<()> {
         args.out.display(),
         args.shards.len()
     );
-    let meta = crate::store::Metadata::read_beside(&args.out)
+    let meta = vibrobar_io::Metadata::read_beside(&args.out)
         .with_context(|| format!("metadata beside {}", args.out.display()))?;
     if meta.kind == "map" && !args.no_figures {
         super::map::postprocess(&args.out)?;

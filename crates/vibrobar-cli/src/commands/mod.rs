@@ -142,16 +142,18 @@ pub fn run_cases(
         .collect()
 }
 
-/// Open the row journal of `out` for the job described by `meta` (its header and fingerprint),
-/// saying on stderr how much a resumed run already has.
+/// Open the row journal of `out` for the job described by `meta` (its fingerprint) with rows of
+/// `schema`, whose index `i` has the key columns `key(i)`; saying on stderr how much a resumed
+/// run already has.
 pub fn open_journal(
     out: &std::path::Path,
-    meta: &crate::store::Metadata,
+    meta: &vibrobar_io::Metadata,
+    schema: &vibrobar_io::csv::Schema,
     indices: &[usize],
+    key: vibrobar_io::journal::KeyFn,
     resume: bool,
-) -> Result<crate::store::Journal> {
-    let journal =
-        crate::store::Journal::open(out, &meta.header, &meta.fingerprint, indices, resume)?;
+) -> Result<vibrobar_io::Journal> {
+    let journal = vibrobar_io::Journal::open(out, schema, &meta.fingerprint, indices, key, resume)?;
     if journal.done_count() > 0 {
         eprintln!(
             "resuming {}: {} of {} rows already done",
@@ -185,8 +187,8 @@ impl SweepResult {
     }
 
     /// The CSV row.
-    pub fn csv_row(&self) -> crate::output::SweepCsvRow {
-        crate::output::SweepCsvRow {
+    pub fn csv_row(&self) -> vibrobar_io::csv::SweepCsvRow {
+        vibrobar_io::csv::SweepCsvRow {
             ratio: self.point.ratio,
             gap_mm: self.point.gap_m * 1e3,
             friction: self.point.friction.as_str().to_string(),

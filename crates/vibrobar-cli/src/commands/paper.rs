@@ -13,12 +13,12 @@ use vibrobar_core::{FrictionModel, RunSettings, State, System};
 
 use super::{assemble_sweep, fmt_secs, run_cases, solver, sweep_cases, Case};
 use crate::cli::PaperArgs;
-use crate::output::write_atomic;
-use crate::output::{grid_num, write_history_csv, write_json, write_sweep_csv, write_text};
 use crate::plot::{rms_vs_ratio, time_history, Curve};
 use crate::progress::Progress;
 use crate::report::{claims, render, IcEnsemble, IcPoint, ReportInput, Role, SolverData, Variant};
 use crate::scenario::{check_positive, ratio_range};
+use vibrobar_io::csv::{grid_num, write_history_csv, write_json, write_sweep_csv, write_text};
+use vibrobar_io::write_with;
 
 /// Friction force at which the as-published model reproduces the paper's friction figures.
 pub const REPRODUCING_FRICTION_N: f64 = 20.0;
@@ -184,7 +184,7 @@ min_rms_m,max_rms_m,impacting_members,impacting_fraction,regimes";
 /// Write `ic_ensemble.csv`: one row per point (`regimes` = `regime:count` joined by `;`;
 /// `friction_force_n` empty when the level is the stated η/r·m_d·g).
 fn write_ic_csv(path: &Path, e: &IcEnsemble, variants: &[Variant]) -> Result<()> {
-    write_atomic(path, |w| {
+    Ok(write_with(path, |w| {
         writeln!(w, "{IC_ENSEMBLE_HEADER}")?;
         for p in &e.points {
             let v = variants.iter().find(|v| v.key == p.variant_key);
@@ -220,7 +220,7 @@ fn write_ic_csv(path: &Path, e: &IcEnsemble, variants: &[Variant]) -> Result<()>
             )?;
         }
         Ok(())
-    })
+    })?)
 }
 
 /// Run settings of the paper command.

@@ -1,16 +1,112 @@
 //! `vibrobar run`: one run, its time history and a summary.
+//!
+//! The history is streamed to disk as the solver produces it (constant memory, whatever the
+//! duration), through the atomic writer: `FILE.partial` until the run is complete. SIGINT and
+//! SIGTERM remove the partial file and say what was interrupted.
 
-use anyhow::Result;
+use anyhow::{Context, Result};
+use std::path::{Path, PathBuf};
+use vibrobar_core::analysis::energy::EnergyAudit;
+use vibrobar_core::analysis::{run_case, RunResult, Sampler};
+use vibrobar_core::solver::{Fanout, Segment};
+use vibrobar_core::{Observer, RunSettings, Solver};
+use vibrobar_io::history::{is_npy, sample_count, HistoryWriter};
 use vibrobar_core::limits;
 
-use super::{fmt_secs, run_one, solver, Case};
+use super::{fmt_secs, solver, Case};
 use crate::cli::RunArgs;
-use crate::output::write_history_csv;
 use crate::scenario::{check_finite, check_positive, Scenario};
+
+/// On SIGINT/SIGTERM: remove the partial files being written, say so, exit 130. Journals are no
+/// partial files: an interrupted map or sweep keeps its journal for `--resume`.
+pub fn install_interrupt_cleanup(what: String) {
+    // A second call in one process (tests) keeps the first handler.
+    let _ = ctrlc::set_handler(move || {
+        let removed = vibrobar_io::remove_live_partials();
+        let names: Vec<String> = removed.iter().map(|p| p.display().to_string()).collect();
+        eprintln!(
+            "interrupted: {what} was not completed{}",
+            if names.is_empty() {
+                String::new()
+            } else {
+                format!("; removed {}", names.join(", "))
+            }
+        );
+        std::process::exit(130);
+    });
+}
+
+/// Feeds the core's [`Sampler`] and hands each sample to the writer as soon as it exists.
+struct Stream<'a> {
+    sampler: Sampler,
+    writer: &'a mut HistoryWriter,
+}
+
+impl Observer for Stream<'_> {
+    fn segment(&mut self, seg: &dyn Segment) {
+        self.sampler.segment(seg);
+        for s in self.sampler.samples.drain(..) {
+            self.writer.push(&s);
+        }
+    }
+}
+
+/// What the streamed run gave.
+struct Streamed {
+    result: RunResult,
+    energy: Option<vibrobar_core::analysis::energy::EnergyBalance>,
+    rows: u64,
+}
+
+/// Run `case` and stream its history to `out`; on failure nothing is left at `out`.
+fn run_streamed(
+    case: &Case,
+    settings: &RunSettings,
+    solver: &dyn Solver,
+    out: &Path,
+    interval_s: f64,
+) -> Result<Streamed> {
+    let t_end = case.init.t_s + settings.duration_s;
+    let mut writer = HistoryWriter::create(out, sample_count(case.init.t_s, interval_s, t_end))?;
+    let mut audit = case.energy_audit.then(|| EnergyAudit::new(&case.system));
+    let res = {
+        let mut stream = Stream {
+            sampler: Sampler::new(case.init.t_s, interval_s),
+            writer: &mut writer,
+        };
+        let mut obs: Vec<&mut dyn Observer> = Vec::with_capacity(2);
+        if let Some(a) = audit.as_mut() {
+            obs.push(a);
+        }
+        obs.push(&mut stream);
+        run_case(
+            &case.system,
+            &case.init,
+            settings,
+            solver,
+            &mut Fanout(&mut obs),
+        )
+    };
+    let result = match res {
+        Ok(r) => r,
+        Err(e) => {
+            writer.discard();
+            return Err(e.into());
+        }
+    };
+    let rows = writer.finish()?;
+    Ok(Streamed {
+        result,
+        energy: audit.and_then(|a| a.balance()),
+        rows,
+    })
+}
 
 /// Run the command.
 pub fn run(args: &RunArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
+    let inputs: Vec<&Path> = args.model.scenario.iter().map(PathBuf::as_path).collect();
+    vibrobar_io::check_not_input(&args.out, &inputs)?;
     let mut sc = Scenario::from_args(&args.model)?;
     if let Some(g) = args.gap_mm {
         check_positive("--gap-mm", g, "mm")?;
@@ -49,7 +145,9 @@ pub fn run(args: &RunArgs) -> Result<()> {
         sample_interval_s: Some(args.sample_every as f64 * settings.dt_s),
         energy_audit: true,
     };
-    let out = run_one(&case, &settings, solver.as_ref())?;
+    install_interrupt_cleanup(format!("the run to {}", args.out.display()));
+    let interval_s = args.sample_every as f64 * settings.dt_s;
+    let out = run_streamed(&case, &settings, solver.as_ref(), &args.out, interval_s)?;
     let gap_m = sys.damper.map_or(f64::INFINITY, |d| d.gap_m);
     let pen_m = out.result.summary.max_penetration_m;
     if let Some(f) = limits::excessive_penetration(pen_m, gap_m) {
@@ -60,36 +158,27 @@ pub fn run(args: &RunArgs) -> Result<()> {
             solver.name()
         );
     }
-    let is_npy = args.out.extension().is_some_and(|e| e == "npy");
-    if is_npy {
-        let flat: Vec<f64> = out
-            .samples
-            .iter()
-            .flat_map(|s| [s.t_s, s.u_m, s.du_m_s, s.v_m, s.dv_m_s, s.w_m(), s.dw_m_s()])
-            .collect();
-        crate::store::npy::write_f64(&args.out, &[out.samples.len(), 7], &flat)?;
-    } else {
-        write_history_csv(&args.out, &out.samples)?;
-    }
-    let params = serde_json::json!({
-        "scenario": sc,
-        "system": sys,
-        "initial": case.init,
-        "settings": settings,
-        "solver": solver.name(),
-        "sample_interval_s": case.sample_interval_s,
-    });
-    crate::store::Metadata::new(
+    let is_npy = is_npy(&args.out);
+    let params = vibrobar_io::params::RunParams {
+        scenario: &sc,
+        system: sys,
+        initial: case.init,
+        settings,
+        solver: solver.name().to_string(),
+        sample_interval_s: case.sample_interval_s,
+    };
+    vibrobar_io::Metadata::new(
         "run",
-        if is_npy {
-            ""
+        &if is_npy {
+            String::new()
         } else {
-            crate::output::HISTORY_HEADER
+            vibrobar_io::csv::history_schema().header()
         },
         params,
         None,
     )
-    .write_beside(&args.out)?;
+    .write_beside(&args.out)
+    .with_context(|| format!("metadata beside {}", args.out.display()))?;
     if args.energy {
         let e = out.energy.expect("energy audit requested");
         println!("{}", serde_json::to_string_pretty(&e)?);
@@ -116,7 +205,7 @@ fn print_summary(
     sys: &vibrobar_core::System,
     settings: &vibrobar_core::RunSettings,
     solver_name: &str,
-    out: &super::CaseOutcome,
+    out: &Streamed,
     args: &RunArgs,
 ) -> Result<()> {
     let d = sys.damper.expect("damped system");
@@ -165,9 +254,13 @@ fn print_summary(
             e.residual_j
         ));
     }
+    let sidecar = match vibrobar_io::resolve_output(&args.out) {
+        Ok(o) if !o.is_regular() => "no .meta.json beside a special file",
+        _ => "+ .meta.json",
+    };
     say(format!(
-        "  output     : {} rows to {} (+ .meta.json)",
-        out.samples.len(),
+        "  output     : {} rows to {} ({sidecar})",
+        out.rows,
         args.out.display()
     ));
     Ok(())

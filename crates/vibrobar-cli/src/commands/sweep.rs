@@ -14,14 +14,17 @@ use vibrobar_core::System;
 
 use super::{fmt_secs, run_one, solver, Case, SweepResult};
 use crate::cli::SweepArgs;
-use crate::output::{sweep_csv_line, SWEEP_HEADER};
 use crate::progress::Progress;
 use crate::scenario::{check_positive, parse_ratios, ratio_range, Scenario};
-use crate::store::{GridInfo, Metadata};
+use vibrobar_io::csv::{sweep_csv_line, sweep_key, sweep_schema};
+use vibrobar_io::{GridInfo, Metadata};
 
 /// Run the command.
 pub fn sweep(args: &SweepArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
+    if let Some(s) = &args.model.scenario {
+        vibrobar_io::check_not_input(&args.out, &[s.as_path()])?;
+    }
     let sc = Scenario::from_args(&args.model)?;
     let gaps_m: Vec<f64> = if args.gap_mm.is_empty() {
         sc.sweep.gaps_m.clone()
@@ -66,18 +69,19 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     }
     let settings = sc.settings();
     let solver = solver(&sc.run.solver, &settings)?;
-    let params = serde_json::json!({
-        "scenario": serde_json::to_value(&sc).context("serialising the scenario")?,
-        "solver": solver.name(),
-        "settings": serde_json::to_value(settings).context("serialising the settings")?,
-        "gaps_m": gaps_m,
-        "ratios": ratios,
-        "order": "gap-major",
-    });
+    let params = vibrobar_io::params::SweepParams {
+        scenario: &sc,
+        solver: solver.name().to_string(),
+        settings,
+        gaps_m: gaps_m.clone(),
+        ratios: ratios.clone(),
+        order: "gap-major".into(),
+    };
     let indices: Vec<usize> = (0..points.len()).collect();
+    let schema = sweep_schema();
     let meta = Metadata::new(
         "sweep",
-        SWEEP_HEADER,
+        &schema.header(),
         params,
         Some(GridInfo {
             total: points.len(),
@@ -85,7 +89,8 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
             indices: None,
         }),
     );
-    let journal = super::open_journal(&args.out, &meta, &indices, args.resume)?;
+    let key = |i: usize| sweep_key(points[i].ratio, points[i].gap_m * 1e3);
+    let journal = super::open_journal(&args.out, &meta, &schema, &indices, &key, args.resume)?;
     let pending = journal.pending();
     let base = sc.base();
     let init = sc.initial_state();

@@ -90,7 +90,7 @@ pub fn draw_map_figures(map_csv: &Path, t: &MapTable, o: &Optimum) -> anyhow::Re
         "RMS reduction vs solid bar (best over the other axes)".to_string()
     };
     // Say which model made the map: friction law, its level and the solver, from the metadata.
-    let title = match crate::store::Metadata::read_beside(map_csv) {
+    let title = match vibrobar_io::Metadata::read_beside(map_csv) {
         Ok(m) => {
             let p = &m.parameters;
             let friction = p["friction"].as_str().unwrap_or("?");

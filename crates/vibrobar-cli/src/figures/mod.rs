@@ -315,16 +315,20 @@ fn draw_heat<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, h: &Heat) -> any
 pub fn heat_files(stem: &Path, h: &Heat) -> anyhow::Result<Vec<PathBuf>> {
     let png = with_ext(stem, "png");
     let svg = with_ext(stem, "svg");
+    // Drawn to temporaries and published under the output-path policy (atomic, links followed).
+    let (png_tmp, svg_tmp) = (with_ext(stem, "partial.png"), with_ext(stem, "partial.svg"));
     {
-        let root = BitMapBackend::new(&png, (1000, 700)).into_drawing_area();
+        let root = BitMapBackend::new(&png_tmp, (1000, 700)).into_drawing_area();
         draw_heat(&root, h)?;
         root.present().map_err(err)?;
     }
+    vibrobar_io::publish(&png_tmp, &png)?;
     {
-        let root = SVGBackend::new(&svg, (1000, 700)).into_drawing_area();
+        let root = SVGBackend::new(&svg_tmp, (1000, 700)).into_drawing_area();
         draw_heat(&root, h)?;
         root.present().map_err(err)?;
     }
+    vibrobar_io::publish(&svg_tmp, &svg)?;
     Ok(vec![png, svg])
 }
 
@@ -414,16 +418,20 @@ fn draw_scatter<DB: DrawingBackend>(
 pub fn scatter_files(stem: &Path, s: &Scatter) -> anyhow::Result<Vec<PathBuf>> {
     let png = with_ext(stem, "png");
     let svg = with_ext(stem, "svg");
+    // Drawn to temporaries and published under the output-path policy (atomic, links followed).
+    let (png_tmp, svg_tmp) = (with_ext(stem, "partial.png"), with_ext(stem, "partial.svg"));
     {
-        let root = BitMapBackend::new(&png, (900, 650)).into_drawing_area();
+        let root = BitMapBackend::new(&png_tmp, (900, 650)).into_drawing_area();
         draw_scatter(&root, s)?;
         root.present().map_err(err)?;
     }
+    vibrobar_io::publish(&png_tmp, &png)?;
     {
-        let root = SVGBackend::new(&svg, (900, 650)).into_drawing_area();
+        let root = SVGBackend::new(&svg_tmp, (900, 650)).into_drawing_area();
         draw_scatter(&root, s)?;
         root.present().map_err(err)?;
     }
+    vibrobar_io::publish(&svg_tmp, &svg)?;
     Ok(vec![png, svg])
 }
 

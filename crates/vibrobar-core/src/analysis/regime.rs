@@ -93,7 +93,7 @@ impl std::fmt::Display for Regime {
 }
 
 /// Tolerances of [`classify`]; see the module documentation.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Tolerances {
     /// Impact-time tolerance, as a fraction of the forcing period.
     pub phase_tol: f64,

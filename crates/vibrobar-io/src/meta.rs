@@ -2,8 +2,10 @@
 //! settings, tool version, time stamp, the command line, and a fingerprint of the job that
 //! resume and merge use to refuse mixing different jobs.
 
-use super::atomic::write_atomic;
-use serde::{Deserialize, Serialize};
+use crate::atomic::write_atomic;
+use crate::error::{IoError, Result};
+use crate::target::resolve_output;
+use serde::{de::DeserializeOwned, Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// Sharding of a grid: this file holds slice `k` of `n` (1-based).
@@ -50,13 +52,15 @@ pub struct Metadata {
 }
 
 impl Metadata {
-    /// Metadata for a job; the fingerprint is computed from `kind` and `parameters`.
-    pub fn new(
+    /// Metadata for a job whose parameters are the typed value `parameters` (the spec types
+    /// themselves, serialised by serde); the fingerprint is computed from `kind` and them.
+    pub fn new<P: Serialize>(
         kind: &str,
         header: &str,
-        parameters: serde_json::Value,
+        parameters: P,
         grid: Option<GridInfo>,
     ) -> Self {
+        let parameters = serde_json::to_value(parameters).expect("parameters serialise to JSON");
         Metadata {
             tool: "vibrobar".into(),
             version: env!("CARGO_PKG_VERSION").into(),
@@ -70,23 +74,34 @@ impl Metadata {
         }
     }
 
-    /// Write beside `data_path` (atomically).
-    pub fn write_beside(&self, data_path: &Path) -> std::io::Result<PathBuf> {
+    /// Write beside `data_path` (atomically) and return its path; `None` when `data_path` is a
+    /// device or FIFO, which gets no sidecar files (see [`crate::target`]).
+    pub fn write_beside(&self, data_path: &Path) -> Result<Option<PathBuf>> {
+        if !resolve_output(data_path)?.is_regular() {
+            return Ok(None);
+        }
         let p = meta_path(data_path);
         let text = serde_json::to_string_pretty(self).expect("metadata serialises");
         write_atomic(&p, (text + "\n").as_bytes())?;
-        Ok(p)
+        Ok(Some(p))
     }
 
     /// Read the metadata beside `data_path`.
-    pub fn read_beside(data_path: &Path) -> std::io::Result<Metadata> {
+    pub fn read_beside(data_path: &Path) -> Result<Metadata> {
         let p = meta_path(data_path);
-        let text = std::fs::read_to_string(&p)?;
-        serde_json::from_str(&text).map_err(|e| {
-            std::io::Error::new(
-                std::io::ErrorKind::InvalidData,
-                format!("{}: {e}", p.display()),
-            )
+        let text = std::fs::read_to_string(&p).map_err(IoError::os(&p))?;
+        serde_json::from_str(&text).map_err(|e| IoError::Metadata {
+            path: p.clone(),
+            why: e.to_string(),
+        })
+    }
+
+    /// The parameters as the typed value they were written from (`data_path` names the file
+    /// in errors).
+    pub fn parameters_as<P: DeserializeOwned>(&self, data_path: &Path) -> Result<P> {
+        P::deserialize(&self.parameters).map_err(|e| IoError::Metadata {
+            path: meta_path(data_path),
+            why: format!("parameters: {e}"),
         })
     }
 }
@@ -166,6 +181,16 @@ mod tests {
     }
 
     #[test]
+    fn regression_special_file_gets_no_metadata_sidecar() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("pipe");
+        crate::target::test_fifo(&fifo);
+        let m = Metadata::new("run", "", serde_json::json!({}), None);
+        assert_eq!(m.write_beside(&fifo).unwrap(), None);
+        assert!(!meta_path(&fifo).exists());
+    }
+
+    #[test]
     fn round_trip_beside_a_file() {
         let dir = tempfile::tempdir().unwrap();
         let data = dir.path().join("m.csv");
@@ -179,7 +204,7 @@ mod tests {
                 indices: Some(vec![0, 2]),
             }),
         );
-        let p = m.write_beside(&data).unwrap();
+        let p = m.write_beside(&data).unwrap().unwrap();
         assert!(p.ends_with("m.csv.meta.json"));
         assert_eq!(Metadata::read_beside(&data).unwrap(), m);
     }

@@ -1,41 +1,15 @@
 //! NumPy `.npy` (format 1.0) for little-endian `f64` arrays, so that `numpy.load` and MATLAB
 //! readers (e.g. `readNPY`) open time histories and Poincaré points directly.
 
-use super::atomic::AtomicFile;
-use std::io::Write;
-use std::path::Path;
+use crate::atomic::write_atomic;
+use crate::error::{IoError, Result};
+use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8] = b"\x93NUMPY";
 
-/// Errors of the NPY reader.
-#[derive(Debug, thiserror::Error)]
-pub enum NpyError {
-    /// Underlying I/O error.
-    #[error(transparent)]
-    Io(#[from] std::io::Error),
-    /// Not a file this module wrote.
-    #[error("{path}: not an f64 .npy file this tool can read ({why})")]
-    Format {
-        /// File.
-        path: String,
-        /// What was wrong.
-        why: String,
-    },
-    /// Shape and data disagree.
-    #[error("shape {shape:?} needs {expected} values, got {got}")]
-    Shape {
-        /// Requested shape.
-        shape: Vec<usize>,
-        /// Product of the shape.
-        expected: usize,
-        /// Data length.
-        got: usize,
-    },
-}
-
 /// The header block: magic, version 1.0, header length, the dict padded so that the data start
 /// on a 64-byte boundary (the format's requirement for version 1.0 readers that memory-map).
-fn header(shape: &[usize]) -> Vec<u8> {
+pub fn header(shape: &[usize]) -> Vec<u8> {
     let dims = match shape.len() {
         1 => format!("({},)", shape[0]),
         _ => format!(
@@ -59,11 +33,12 @@ fn header(shape: &[usize]) -> Vec<u8> {
     out
 }
 
-/// Encode a C-order `f64` array of the given shape.
-pub fn encode_f64(shape: &[usize], data: &[f64]) -> Result<Vec<u8>, NpyError> {
+/// Encode a C-order `f64` array of the given shape (`path` names the file in errors).
+pub fn encode_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<Vec<u8>> {
     let expected: usize = shape.iter().product();
     if expected != data.len() {
-        return Err(NpyError::Shape {
+        return Err(IoError::NpyShape {
+            path: path.to_path_buf(),
             shape: shape.to_vec(),
             expected,
             got: data.len(),
@@ -77,19 +52,17 @@ pub fn encode_f64(shape: &[usize], data: &[f64]) -> Result<Vec<u8>, NpyError> {
     Ok(out)
 }
 
-/// Write a C-order `f64` array atomically (`path.partial`, then rename).
-pub fn write_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<(), NpyError> {
-    let bytes = encode_f64(shape, data)?;
-    let mut f = AtomicFile::create(path)?;
-    f.write_all(&bytes)?;
-    f.commit()?;
-    Ok(())
+/// Write a C-order `f64` array atomically (`path.partial`, then rename); on failure nothing is
+/// left behind and the error names the file.
+pub fn write_f64(path: &Path, shape: &[usize], data: &[f64]) -> Result<()> {
+    let bytes = encode_f64(path, shape, data)?;
+    write_atomic(path, &bytes)
 }
 
 /// Decode what [`encode_f64`] writes: `(shape, data)`.
-pub fn decode_f64(bytes: &[u8], path: &str) -> Result<(Vec<usize>, Vec<f64>), NpyError> {
-    let bad = |why: &str| NpyError::Format {
-        path: path.to_string(),
+pub fn decode_f64(bytes: &[u8], path: &str) -> Result<(Vec<usize>, Vec<f64>)> {
+    let bad = |why: &str| IoError::NpyFormat {
+        path: PathBuf::from(path),
         why: why.to_string(),
     };
     if bytes.len() < 10 || &bytes[..6] != MAGIC {
@@ -162,7 +135,7 @@ mod tests {
             .map(|i| (i as f64 * 0.1).sin() * 1e-5)
             .chain([f64::MIN_POSITIVE, -0.0])
             .collect();
-        let bytes = encode_f64(&[7, 2], &data).unwrap();
+        let bytes = encode_f64(Path::new("mem"), &[7, 2], &data).unwrap();
         let (shape, back) = decode_f64(&bytes, "mem").unwrap();
         assert_eq!(shape, vec![7, 2]);
         assert!(data
@@ -181,8 +154,8 @@ mod tests {
     #[test]
     fn shape_mismatch_is_an_error() {
         assert!(matches!(
-            encode_f64(&[2, 2], &[1.0, 2.0, 3.0]),
-            Err(NpyError::Shape {
+            encode_f64(Path::new("x.npy"), &[2, 2], &[1.0, 2.0, 3.0]),
+            Err(IoError::NpyShape {
                 expected: 4,
                 got: 3,
                 ..

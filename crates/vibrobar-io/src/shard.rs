@@ -6,49 +6,31 @@
 //! they come from the same job (fingerprint), that the shards are 1..N of the same N and that
 //! every grid index appears exactly once, and writes the rows sorted by grid index.
 
-use super::atomic::write_atomic;
-use super::meta::{GridInfo, Metadata, ShardInfo};
+use crate::atomic::write_atomic;
+use crate::csv::{map_extra_axes, map_key, Schema};
+use crate::error::{IoError, Result};
+use crate::meta::{meta_path, GridInfo, Metadata, ShardInfo};
+use crate::params::{MapParams, SweepParams};
+use crate::target::{check_not_input, resolve_output};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// Errors of sharding and merging.
-#[derive(Debug, thiserror::Error)]
-pub enum ShardError {
-    /// Bad `--shard` text.
-    #[error("--shard must be K/N with whole numbers 1 ≤ K ≤ N, got {0:?}")]
-    Parse(String),
-    /// Reading a shard failed.
-    #[error("{path}: {why}")]
-    Read {
-        /// File.
-        path: String,
-        /// Cause.
-        why: String,
-    },
-    /// The shards do not belong together or do not cover the grid.
-    #[error("cannot merge: {0}")]
-    Mismatch(String),
-}
-
 /// Parse `K/N`.
-pub fn parse_shard(text: &str) -> Result<ShardInfo, ShardError> {
-    let bad = || ShardError::Parse(text.to_string());
+pub fn parse_shard(text: &str) -> Result<ShardInfo> {
+    let bad = || IoError::ShardSpec(text.to_string());
     let (k, n) = text.split_once('/').ok_or_else(bad)?;
     let k: usize = k.trim().parse().map_err(|_| bad())?;
     let n: usize = n.trim().parse().map_err(|_| bad())?;
     if n == 0 || k == 0 || k > n {
         return Err(bad());
     }
-    check_shard_count(n).map_err(|e| ShardError::Read {
-        path: format!("--shard {text}"),
-        why: e.to_string(),
-    })?;
+    check_shard_count(n).map_err(|e| IoError::ShardSpec(format!("{text}: {e}")))?;
     Ok(ShardInfo { k, n })
 }
 
 /// `N` of `--shard K/N` (from the flag or a shard's metadata) within the core's limit: `merge`
 /// walks every shard 1..N.
-fn check_shard_count(n: usize) -> Result<usize, vibrobar_core::ParamError> {
+fn check_shard_count(n: usize) -> std::result::Result<usize, vibrobar_core::ParamError> {
     vibrobar_core::limits::check_count(
         "N of --shard K/N",
         n,
@@ -66,26 +48,59 @@ pub fn shard_indices(total: usize, shard: Option<ShardInfo>) -> Vec<usize> {
     }
 }
 
-/// Merge shard data files into `out` (plus `out.meta.json`). Returns the number of rows.
-pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
-    if inputs.is_empty() {
-        return Err(ShardError::Mismatch("no input files".into()));
+/// The key columns of each grid index of a shard's job, from its typed metadata; `None` when
+/// the metadata does not say (files of older versions), and then rows are not matched.
+#[allow(clippy::type_complexity)]
+fn grid_key(
+    meta: &Metadata,
+    path: &Path,
+    schema: &Schema,
+) -> Option<Box<dyn Fn(usize) -> Option<String>>> {
+    match meta.kind.as_str() {
+        "map" => {
+            let p: MapParams = meta.parameters_as(path).ok()?;
+            let grid = p.grid()?;
+            let extra = map_extra_axes(&meta.header)?;
+            let schema = schema.clone();
+            Some(Box::new(move |i| {
+                grid.point(i).map(|pt| schema.format(&map_key(&pt, &extra)))
+            }))
+        }
+        "sweep" => {
+            let p: SweepParams<serde_json::Value> = meta.parameters_as(path).ok()?;
+            Some(Box::new(move |i| p.key(i)))
+        }
+        _ => None,
     }
-    let read_err = |p: &Path, why: String| ShardError::Read {
-        path: p.display().to_string(),
+}
+
+/// Merge shard data files into `out` (plus `out.meta.json`). Returns the number of rows. Every
+/// row is read with the file kind's schema (field count, finite numbers), and `out` may not be
+/// one of the inputs or their metadata.
+pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize> {
+    if inputs.is_empty() {
+        return Err(IoError::Merge("no input files".into()));
+    }
+    let metas: Vec<PathBuf> = inputs.iter().map(|p| meta_path(p)).collect();
+    let all: Vec<&Path> = inputs.iter().chain(&metas).map(|p| p.as_path()).collect();
+    check_not_input(out, &all)?;
+    resolve_output(out)?.require_regular("merge")?;
+    check_not_input(&meta_path(out), &all)?;
+    let read_err = |p: &Path, why: String| IoError::Metadata {
+        path: meta_path(p),
         why,
     };
     let mut first: Option<Metadata> = None;
     let mut seen_shards = BTreeMap::new();
     let mut rows: BTreeMap<usize, String> = BTreeMap::new();
     for path in inputs {
-        let meta = Metadata::read_beside(path).map_err(|e| read_err(path, e.to_string()))?;
+        let meta = Metadata::read_beside(path)?;
         let grid = meta.grid.clone().ok_or_else(|| {
             read_err(path, "metadata has no grid: not a sweep or map file".into())
         })?;
         if let Some(f) = &first {
             if f.fingerprint != meta.fingerprint || f.kind != meta.kind || f.header != meta.header {
-                return Err(ShardError::Mismatch(format!(
+                return Err(IoError::Merge(format!(
                     "{} comes from another job (fingerprint {} vs {})",
                     path.display(),
                     meta.fingerprint,
@@ -94,7 +109,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
             }
             let total = f.grid.as_ref().map(|g| g.total).unwrap_or(0);
             if total != grid.total {
-                return Err(ShardError::Mismatch(format!(
+                return Err(IoError::Merge(format!(
                     "{}: grid of {} points, others {}",
                     path.display(),
                     grid.total,
@@ -113,7 +128,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
         )
         .map_err(|e| read_err(path, e.to_string()))?;
         if let Some(prev) = seen_shards.insert(shard.k, path.clone()) {
-            return Err(ShardError::Mismatch(format!(
+            return Err(IoError::Merge(format!(
                 "shard {}/{} given twice ({} and {})",
                 shard.k,
                 shard.n,
@@ -125,21 +140,50 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
             .indices
             .clone()
             .unwrap_or_else(|| shard_indices(grid.total, grid.shard));
-        let text = std::fs::read_to_string(path).map_err(|e| read_err(path, e.to_string()))?;
+        let schema = Schema::for_file(&meta.kind, &meta.header).ok_or_else(|| {
+            read_err(
+                path,
+                format!("unknown {} header {:?}", meta.kind, meta.header),
+            )
+        })?;
+        let text = std::fs::read_to_string(path).map_err(IoError::os(path))?;
         let mut lines = text.lines();
         if lines.next() != Some(meta.header.as_str()) {
-            return Err(read_err(path, "header differs from its metadata".into()));
+            return Err(IoError::Corrupt {
+                path: path.clone(),
+                line: 1,
+                why: "header differs from its metadata".into(),
+            });
         }
         let body: Vec<&str> = lines.collect();
         if body.len() != indices.len() {
             return Err(read_err(
                 path,
-                format!("{} rows, metadata lists {}", body.len(), indices.len()),
+                format!(
+                    "{} rows in the data file, metadata lists {}",
+                    body.len(),
+                    indices.len()
+                ),
             ));
+        }
+        let key = grid_key(&meta, path, &schema);
+        for (k, (row, i)) in body.iter().zip(&indices).enumerate() {
+            schema.parse_at(row, path, k + 2)?;
+            if let Some(want) = key.as_ref().and_then(|key| key(*i)) {
+                if !row.starts_with(&want) || row.as_bytes().get(want.len()) != Some(&b',') {
+                    return Err(IoError::Corrupt {
+                        path: path.clone(),
+                        line: k + 2,
+                        why: format!(
+                            "the metadata lists grid index {i} (grid point {want}) for this row"
+                        ),
+                    });
+                }
+            }
         }
         for (i, row) in indices.iter().zip(body) {
             if rows.insert(*i, row.to_string()).is_some() {
-                return Err(ShardError::Mismatch(format!(
+                return Err(IoError::Merge(format!(
                     "grid index {i} appears in more than one file"
                 )));
             }
@@ -156,7 +200,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
         .unwrap_or(1);
     let missing_shards: Vec<usize> = (1..=n).filter(|k| !seen_shards.contains_key(k)).collect();
     if !missing_shards.is_empty() || rows.len() != total {
-        return Err(ShardError::Mismatch(format!(
+        return Err(IoError::Merge(format!(
             "grid incomplete: {} of {} points present; missing shards {:?} of {}",
             rows.len(),
             total,
@@ -171,7 +215,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
         text.push_str(r);
         text.push('\n');
     }
-    write_atomic(out, text.as_bytes()).map_err(|e| read_err(out, e.to_string()))?;
+    write_atomic(out, text.as_bytes())?;
     let merged = Metadata {
         grid: Some(GridInfo {
             total,
@@ -182,9 +226,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize, ShardError> {
         command: std::env::args().collect(),
         ..meta
     };
-    merged
-        .write_beside(out)
-        .map_err(|e| read_err(out, e.to_string()))?;
+    merged.write_beside(out)?;
     Ok(total)
 }
 
@@ -213,18 +255,33 @@ mod tests {
         }
     }
 
+    fn row(i: usize) -> String {
+        format!(
+            "{},0.1,none,exact,1e-5,{:e},50.0000,{i}",
+            i as f64 * 0.25,
+            5e-6 + i as f64 * 1e-7
+        )
+    }
+
     fn write_shard(dir: &Path, k: usize, n: usize, total: usize, fp_param: f64) -> PathBuf {
         let idx = shard_indices(total, Some(ShardInfo { k, n }));
         let p = dir.join(format!("s{k}.csv"));
-        let mut text = String::from("i,x\n");
+        let mut text = format!("{}\n", crate::csv::sweep_schema().header());
         for i in &idx {
-            text.push_str(&format!("{i},{}\n", *i as f64 * 0.25));
+            text.push_str(&format!("{}\n", row(*i)));
         }
         std::fs::write(&p, text).unwrap();
         Metadata::new(
-            "map",
-            "i,x",
-            serde_json::json!({ "p": fp_param }),
+            "sweep",
+            &crate::csv::sweep_schema().header(),
+            SweepParams {
+                scenario: serde_json::json!({ "p": fp_param }),
+                solver: "exact".into(),
+                settings: vibrobar_core::RunSettings::default(),
+                gaps_m: vec![1e-4],
+                ratios: (0..total).map(|i| i as f64 * 0.25).collect(),
+                order: "gap-major".into(),
+            },
             Some(GridInfo {
                 total,
                 shard: Some(ShardInfo { k, n }),
@@ -245,8 +302,8 @@ mod tests {
             .collect();
         let out = dir.path().join("all.csv");
         assert_eq!(merge(&files, &out).unwrap(), 10);
-        let want: String = std::iter::once("i,x".to_string())
-            .chain((0..10).map(|i| format!("{i},{}", i as f64 * 0.25)))
+        let want: String = std::iter::once(crate::csv::sweep_schema().header())
+            .chain((0..10).map(row))
             .map(|l| l + "\n")
             .collect();
         assert_eq!(std::fs::read_to_string(&out).unwrap(), want);
@@ -274,5 +331,69 @@ mod tests {
         let c = write_shard(&sub, 3, 3, 10, 2.0);
         let e = merge(&[a, b, c], &out).unwrap_err().to_string();
         assert!(e.contains("another job"), "{e}");
+    }
+
+    #[test]
+    fn regression_nan_edited_into_a_shard_row_is_refused_with_its_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let files: Vec<PathBuf> = (1..=2)
+            .map(|k| write_shard(dir.path(), k, 2, 6, 1.0))
+            .collect();
+        // Shard 2 holds indices 1, 3, 5: line 3 is index 3.
+        let text = std::fs::read_to_string(&files[1]).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        let bad = lines[2].replace("1e-5", "NaN");
+        std::fs::write(&files[1], text.replace(lines[2], &bad)).unwrap();
+        let out = dir.path().join("all.csv");
+        let e = merge(&files, &out).unwrap_err().to_string();
+        assert!(
+            e.contains("s2.csv: line 3") && e.contains("rms_solid_m = NaN is not a finite number"),
+            "{e}"
+        );
+        assert!(!out.exists());
+    }
+
+    #[test]
+    fn merge_into_a_special_file_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let files: Vec<PathBuf> = (1..=2)
+            .map(|k| write_shard(dir.path(), k, 2, 6, 1.0))
+            .collect();
+        let fifo = dir.path().join("pipe");
+        crate::target::test_fifo(&fifo);
+        let e = merge(&files, &fifo).unwrap_err().to_string();
+        assert!(e.contains("is a FIFO"), "{e}");
+    }
+
+    #[test]
+    fn shard_row_not_matching_its_listed_index_is_refused_with_its_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let files: Vec<PathBuf> = (1..=2)
+            .map(|k| write_shard(dir.path(), k, 2, 6, 1.0))
+            .collect();
+        // Shard 1 holds indices 0, 2, 4: swap the rows of 2 and 4 (lines 3 and 4).
+        let text = std::fs::read_to_string(&files[0]).unwrap();
+        let mut lines: Vec<&str> = text.lines().collect();
+        lines.swap(2, 3);
+        std::fs::write(&files[0], lines.join("\n") + "\n").unwrap();
+        let out = dir.path().join("all.csv");
+        let e = merge(&files, &out).unwrap_err().to_string();
+        assert!(
+            e.contains("s1.csv: line 3") && e.contains("grid index 2 (grid point 0.5,0.1)"),
+            "{e}"
+        );
+        assert!(!out.exists());
+    }
+
+    #[test]
+    fn regression_merge_into_one_of_its_inputs_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let files: Vec<PathBuf> = (1..=2)
+            .map(|k| write_shard(dir.path(), k, 2, 6, 1.0))
+            .collect();
+        let before = std::fs::read(&files[0]).unwrap();
+        let e = merge(&files, &files[0]).unwrap_err().to_string();
+        assert!(e.contains("is also an input"), "{e}");
+        assert_eq!(std::fs::read(&files[0]).unwrap(), before);
     }
 }

@@ -1,0 +1,664 @@
+//! CSV schemas, each defined once: a [`Schema`] lists the columns with their formatters, and the
+//! same list gives the header, formats a row and reads one back (checking the field count and
+//! that every number is finite). Writers, journals, merge and the map reader all use it, so the
+//! text written and the text accepted cannot drift apart.
+
+use crate::atomic::write_with;
+use crate::error::{IoError, Result};
+use std::borrow::Cow;
+use std::fmt::Write as _;
+use std::path::Path;
+use vibrobar_core::analysis::map::{Axis, GridPoint, MapRow, Optimum};
+use vibrobar_core::analysis::regime::Regime;
+use vibrobar_core::State;
+
+/// How a column is written (and so how it is read back).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// Grid coordinate, 12 significant digits ([`fmt_coord`]).
+    Coord,
+    /// Short grid value, binary noise removed ([`grid_num`]).
+    Grid,
+    /// Rust's shortest exponent form `{:e}`.
+    Sci,
+    /// Fixed decimals `{:.N}`.
+    Fixed(usize),
+    /// Rust's shortest plain form `{}`.
+    Plain,
+    /// Whole count.
+    Count,
+    /// Text without commas.
+    Text,
+}
+
+/// One column.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Column {
+    /// Header name.
+    pub name: Cow<'static, str>,
+    /// Formatter.
+    pub format: Format,
+    /// May be empty ([`Value::Empty`]).
+    pub optional: bool,
+}
+
+const fn col(name: &'static str, format: Format) -> Column {
+    Column {
+        name: Cow::Borrowed(name),
+        format,
+        optional: false,
+    }
+}
+
+const fn opt(name: &'static str, format: Format) -> Column {
+    Column {
+        name: Cow::Borrowed(name),
+        format,
+        optional: true,
+    }
+}
+
+/// One field of a row.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Value {
+    /// A number (formats other than `Count` and `Text`).
+    F(f64),
+    /// A count.
+    U(u64),
+    /// Text.
+    S(String),
+    /// An empty field (optional columns only).
+    Empty,
+}
+
+impl Value {
+    /// The number (a count as f64); `NaN` for text.
+    pub fn f(&self) -> f64 {
+        match self {
+            Value::F(x) => *x,
+            Value::U(n) => *n as f64,
+            Value::S(_) | Value::Empty => f64::NAN,
+        }
+    }
+    /// The text (empty for numbers).
+    pub fn s(&self) -> &str {
+        match self {
+            Value::S(s) => s,
+            _ => "",
+        }
+    }
+}
+
+/// A grid coordinate for CSV: rounded to 12 significant digits, so `0.95 + 1·0.01` prints as
+/// `0.96`, not `0.9600000000000001` (the run used the exact value; the difference is < 1e-15).
+pub fn fmt_coord(x: f64) -> String {
+    let y: f64 = format!("{x:.11e}").parse().expect("float round trip");
+    format!("{y}")
+}
+
+/// Short decimal for grid values (ratios, gaps): rounds away binary noise like 1.0000000000000002.
+pub fn grid_num(x: f64) -> String {
+    let s = format!("{x:.9}");
+    let s = s.trim_end_matches('0');
+    s.trim_end_matches('.').to_string()
+}
+
+/// The columns of one CSV file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Schema {
+    /// Columns, in file order.
+    pub columns: Vec<Column>,
+}
+
+impl Schema {
+    /// The header line (no newline).
+    pub fn header(&self) -> String {
+        self.columns
+            .iter()
+            .map(|c| c.name.as_ref())
+            .collect::<Vec<_>>()
+            .join(",")
+    }
+
+    /// Number of columns.
+    pub fn len(&self) -> usize {
+        self.columns.len()
+    }
+
+    /// True for a schema without columns.
+    pub fn is_empty(&self) -> bool {
+        self.columns.is_empty()
+    }
+
+    /// Append the first `values.len()` fields of a row to `out` (no newline). Panics on a value
+    /// of the wrong kind: that is a bug of the caller, not of the data.
+    pub fn format_into(&self, values: &[Value], out: &mut String) {
+        assert!(values.len() <= self.columns.len(), "too many fields");
+        for (k, (c, v)) in self.columns.iter().zip(values).enumerate() {
+            if k > 0 {
+                out.push(',');
+            }
+            let _ = match (c.format, v) {
+                (Format::Coord, Value::F(x)) => write!(out, "{}", fmt_coord(*x)),
+                (Format::Grid, Value::F(x)) => write!(out, "{}", grid_num(*x)),
+                (Format::Sci, Value::F(x)) => write!(out, "{x:e}"),
+                (Format::Fixed(d), Value::F(x)) => write!(out, "{x:.d$}"),
+                (Format::Plain, Value::F(x)) => write!(out, "{x}"),
+                (Format::Count, Value::U(n)) => write!(out, "{n}"),
+                (Format::Text, Value::S(s)) => write!(out, "{s}"),
+                (_, Value::Empty) if c.optional => Ok(()),
+                (f, v) => panic!("column {}: value {v:?} does not fit {f:?}", c.name),
+            };
+        }
+    }
+
+    /// A row (or its first fields) as text, no newline.
+    pub fn format(&self, values: &[Value]) -> String {
+        let mut s = String::with_capacity(16 * values.len());
+        self.format_into(values, &mut s);
+        s
+    }
+
+    /// Read one row back. The error says which column is wrong; callers add file and line.
+    pub fn parse(&self, line: &str) -> std::result::Result<Vec<Value>, String> {
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != self.columns.len() {
+            return Err(format!(
+                "{} fields, the header has {}",
+                fields.len(),
+                self.columns.len()
+            ));
+        }
+        self.columns
+            .iter()
+            .zip(fields)
+            .map(|(c, f)| match c.format {
+                _ if c.optional && f.is_empty() => Ok(Value::Empty),
+                Format::Text => Ok(Value::S(f.to_string())),
+                Format::Count => f
+                    .parse::<u64>()
+                    .map(Value::U)
+                    .map_err(|_| format!("{} = {f:?} is not a whole number", c.name)),
+                _ => match f.parse::<f64>() {
+                    Ok(x) if x.is_finite() => Ok(Value::F(x)),
+                    Ok(_) => Err(format!("{} = {f} is not a finite number", c.name)),
+                    Err(_) => Err(format!("{} = {f:?} is not a number", c.name)),
+                },
+            })
+            .collect()
+    }
+
+    /// Read a row of `path` at 1-based `line`, as [`parse`](Self::parse) with the place named.
+    pub fn parse_at(&self, text: &str, path: &Path, line: usize) -> Result<Vec<Value>> {
+        self.parse(text).map_err(|why| IoError::Corrupt {
+            path: path.to_path_buf(),
+            line,
+            why,
+        })
+    }
+
+    /// The schema of a data file of `kind` (as in its metadata) with this `header`.
+    pub fn for_file(kind: &str, header: &str) -> Option<Schema> {
+        let s = match kind {
+            "sweep" => sweep_schema(),
+            "map" => map_schema(&map_extra_axes(header)?),
+            _ => return None,
+        };
+        (s.header() == header).then_some(s)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// sweep
+
+/// One row of a sweep CSV (`sweep`, Figs. 3 and 5).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SweepCsvRow {
+    /// Frequency ratio.
+    pub ratio: f64,
+    /// Total clearance in mm.
+    pub gap_mm: f64,
+    /// Friction model name.
+    pub friction: String,
+    /// Solver name.
+    pub solver: String,
+    /// RMS of the solid bar (last 80 %).
+    pub rms_solid_m: f64,
+    /// RMS of the damped bar.
+    pub rms_damped_m: f64,
+    /// `100(1 − damped/solid)`.
+    pub reduction_pct: f64,
+    /// Impacts over the whole damped run.
+    pub impacts: u64,
+}
+
+/// Columns of a sweep CSV; the first two (ratio, gap) identify the grid point.
+pub fn sweep_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("ratio", Format::Grid),
+            col("gap_mm", Format::Grid),
+            col("friction", Format::Text),
+            col("solver", Format::Text),
+            col("rms_solid_m", Format::Sci),
+            col("rms_damped_m", Format::Sci),
+            col("reduction_pct", Format::Fixed(4)),
+            col("impacts", Format::Count),
+        ],
+    }
+}
+
+impl SweepCsvRow {
+    /// The fields in column order.
+    pub fn values(&self) -> Vec<Value> {
+        vec![
+            Value::F(self.ratio),
+            Value::F(self.gap_mm),
+            Value::S(self.friction.clone()),
+            Value::S(self.solver.clone()),
+            Value::F(self.rms_solid_m),
+            Value::F(self.rms_damped_m),
+            Value::F(self.reduction_pct),
+            Value::U(self.impacts),
+        ]
+    }
+}
+
+/// The key columns (ratio, gap) of a sweep grid point, as the row writes them.
+pub fn sweep_key(ratio: f64, gap_mm: f64) -> String {
+    sweep_schema().format(&[Value::F(ratio), Value::F(gap_mm)])
+}
+
+/// One sweep CSV line (no newline); the same text whether written directly or via the journal.
+pub fn sweep_csv_line(r: &SweepCsvRow) -> String {
+    sweep_schema().format(&r.values())
+}
+
+/// Write a sweep CSV.
+pub fn write_sweep_csv(path: &Path, rows: &[SweepCsvRow]) -> Result<()> {
+    let schema = sweep_schema();
+    write_with(path, |w| {
+        writeln!(w, "{}", schema.header())?;
+        for r in rows {
+            writeln!(w, "{}", schema.format(&r.values()))?;
+        }
+        Ok(())
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// time history
+
+/// Columns of a time-history CSV (`run`, Figs. 2 and 4); the NPY form has the same columns.
+pub fn history_schema() -> Schema {
+    Schema {
+        columns: ["t_s", "u_m", "du_m_s", "v_m", "dv_m_s", "w_m", "dw_m_s"]
+            .into_iter()
+            .map(|n| col(n, Format::Sci))
+            .collect(),
+    }
+}
+
+/// The fields of one history row, in column order.
+pub fn history_values(s: &State) -> [f64; 7] {
+    [s.t_s, s.u_m, s.du_m_s, s.v_m, s.dv_m_s, s.w_m(), s.dw_m_s()]
+}
+
+/// Write a time-history CSV (small histories; `run` streams through [`crate::history`]).
+pub fn write_history_csv(path: &Path, samples: &[State]) -> Result<()> {
+    let schema = history_schema();
+    write_with(path, |w| {
+        writeln!(w, "{}", schema.header())?;
+        let mut line = String::with_capacity(128);
+        for s in samples {
+            line.clear();
+            schema.format_into(&history_values(s).map(Value::F), &mut line);
+            line.push('\n');
+            w.write_all(line.as_bytes())?;
+        }
+        Ok(())
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// map
+
+/// Fixed columns of a map before its optional axes.
+const MAP_HEAD: [(&str, Format); 2] = [("ratio", Format::Coord), ("gap_mm", Format::Coord)];
+/// Fixed columns after the optional axes.
+const MAP_TAIL: [(&str, Format); 5] = [
+    ("rms_solid_m", Format::Sci),
+    ("rms_damped_m", Format::Sci),
+    ("reduction_pct", Format::Plain),
+    ("impacts_per_cycle", Format::Plain),
+    ("regime", Format::Text),
+];
+
+/// Columns of a map CSV: `ratio,gap_mm`, one column per optional axis (named after the axis),
+/// then `rms_solid_m,rms_damped_m,reduction_pct,impacts_per_cycle,regime`.
+pub fn map_schema(extra: &[Axis]) -> Schema {
+    let mut columns: Vec<Column> = MAP_HEAD.iter().map(|&(n, f)| col(n, f)).collect();
+    columns.extend(extra.iter().map(|a| col(a.as_str(), Format::Coord)));
+    columns.extend(MAP_TAIL.iter().map(|&(n, f)| col(n, f)));
+    Schema { columns }
+}
+
+/// The optional axes named by a map header; `None` if it is not a map header.
+pub fn map_extra_axes(header: &str) -> Option<Vec<Axis>> {
+    let cols: Vec<&str> = header.split(',').collect();
+    let (h, t) = (MAP_HEAD.len(), MAP_TAIL.len());
+    if cols.len() < h + t
+        || cols[..h] != MAP_HEAD.map(|c| c.0)[..]
+        || cols[cols.len() - t..] != MAP_TAIL.map(|c| c.0)[..]
+    {
+        return None;
+    }
+    cols[h..cols.len() - t]
+        .iter()
+        .map(|c| Axis::parse(c).filter(|a| !matches!(a, Axis::FreqRatio | Axis::GapM)))
+        .collect()
+}
+
+/// The key columns (ratio, gap, optional axes) of a grid point in a map with `extra` axes.
+pub fn map_key(point: &GridPoint, extra: &[Axis]) -> Vec<Value> {
+    let get = |a: Axis| Value::F(point.get(a).unwrap_or(f64::NAN));
+    let mut v = vec![
+        get(Axis::FreqRatio),
+        Value::F(point.get(Axis::GapM).unwrap_or(f64::NAN) * 1e3),
+    ];
+    v.extend(extra.iter().map(|a| get(*a)));
+    v
+}
+
+/// The fields of one map row, in column order.
+pub fn map_values(row: &MapRow, extra: &[Axis]) -> Vec<Value> {
+    let mut v = vec![Value::F(row.ratio), Value::F(row.gap_m * 1e3)];
+    v.extend(
+        extra
+            .iter()
+            .map(|a| Value::F(row.point.get(*a).unwrap_or(f64::NAN))),
+    );
+    v.extend([
+        Value::F(row.rms_solid_m),
+        Value::F(row.rms_damped_m),
+        Value::F(row.reduction_pct),
+        Value::F(row.impacts_per_cycle),
+        Value::S(row.regime.to_string()),
+    ]);
+    v
+}
+
+/// A map CSV read back: optional axes, rows as [`MapRow`]s and their text fields.
+pub struct MapTable {
+    /// Optional axes, in column order.
+    pub extra: Vec<Axis>,
+    /// Rows (grid index = row number).
+    pub rows: Vec<MapRow>,
+    /// Text fields of each row, as in the file.
+    pub fields: Vec<Vec<String>>,
+}
+
+/// Read a map CSV written by `map` or `merge`, refusing (with the line) any damaged row.
+pub fn read_map_csv(path: &Path) -> Result<MapTable> {
+    let text = std::fs::read_to_string(path).map_err(IoError::os(path))?;
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or("");
+    let corrupt = |line: usize, why: String| IoError::Corrupt {
+        path: path.to_path_buf(),
+        line,
+        why,
+    };
+    let extra = map_extra_axes(header)
+        .ok_or_else(|| corrupt(1, format!("not a map file (header {header:?})")))?;
+    let schema = map_schema(&extra);
+    let mut rows = Vec::new();
+    let mut fields = Vec::new();
+    for (i, line) in lines.enumerate() {
+        let v = schema.parse_at(line, path, i + 2)?;
+        let t = 2 + extra.len();
+        let regime = Regime::parse(v[t + 4].s())
+            .ok_or_else(|| corrupt(i + 2, format!("unknown regime {:?}", v[t + 4].s())))?;
+        let ratio = v[0].f();
+        let gap_m = v[1].f() * 1e-3;
+        let mut coords = vec![(Axis::FreqRatio, ratio), (Axis::GapM, gap_m)];
+        coords.extend(extra.iter().enumerate().map(|(k, a)| (*a, v[2 + k].f())));
+        rows.push(MapRow {
+            point: GridPoint { index: i, coords },
+            ratio,
+            gap_m,
+            rms_solid_m: v[t].f(),
+            rms_damped_m: v[t + 1].f(),
+            reduction_pct: v[t + 2].f(),
+            impacts_per_cycle: v[t + 3].f(),
+            regime,
+        });
+        fields.push(line.split(',').map(str::to_string).collect());
+    }
+    Ok(MapTable {
+        extra,
+        rows,
+        fields,
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// optimum of a map
+
+/// Columns of a map's optimum file (`FILE.optimum.csv`).
+///
+/// * One row per ratio (`criterion = max-reduction`): the grid point with the largest
+///   `reduction_pct` at that ratio (over all gaps and optional axes), with its damped and solid
+///   RMS, impacts per cycle and regime.
+/// * Two band rows (`ratio = band`): the design (gap and optional axes) best over the whole band
+///   of ratios, among designs computed at every ratio: `band-mean-reduction` (largest mean
+///   reduction; `best_reduction_pct` is that mean, `rms_damped_m` the largest damped RMS over the
+///   band) and `band-minimax-rms` (smallest largest damped RMS: the robust choice; same columns).
+///   `rms_solid_m`, `impacts_per_cycle` and `regime` are empty on band rows.
+/// * `best_<axis>` columns follow for each optional axis.
+/// * Last, `friction_work_j,work_input_j`: the energy books of the per-ratio optimum point, rerun
+///   from rest with the energy audit over the whole run (`∫F_ball ẇ dt`, positive = friction put
+///   energy in; `∫F u̇ dt`, the cutting force's work). Empty on band rows (a band design is many
+///   runs, not one) and when the map's metadata is missing.
+pub fn optimum_schema(extra: &[Axis]) -> Schema {
+    let mut columns = vec![
+        // A ratio as `fmt_coord` writes it, or `band`.
+        col("ratio", Format::Text),
+        col("best_gap_mm", Format::Coord),
+        col("best_reduction_pct", Format::Plain),
+        col("rms_damped_m", Format::Sci),
+        opt("rms_solid_m", Format::Sci),
+        opt("impacts_per_cycle", Format::Plain),
+        opt("regime", Format::Text),
+        col("criterion", Format::Text),
+    ];
+    columns.extend(extra.iter().map(|a| Column {
+        name: Cow::Owned(format!("best_{}", a.as_str())),
+        format: Format::Coord,
+        optional: false,
+    }));
+    columns.push(opt("friction_work_j", Format::Sci));
+    columns.push(opt("work_input_j", Format::Sci));
+    Schema { columns }
+}
+
+/// The text of the optimum file of a map with optional axes `extra`; `energy[k]` are the
+/// energy books `(friction_work_j, work_input_j)` of `o.per_ratio[k]`, if audited.
+pub fn optimum_csv(extra: &[Axis], o: &Optimum, energy: &[Option<(f64, f64)>]) -> String {
+    let schema = optimum_schema(extra);
+    let mut s = schema.header();
+    s.push('\n');
+    for (k, r) in o.per_ratio.iter().enumerate() {
+        let mut v = vec![
+            Value::S(fmt_coord(r.ratio)),
+            Value::F(r.gap_m * 1e3),
+            Value::F(r.reduction_pct),
+            Value::F(r.rms_damped_m),
+            Value::F(r.rms_solid_m),
+            Value::F(r.impacts_per_cycle),
+            Value::S(r.regime.to_string()),
+            Value::S("max-reduction".into()),
+        ];
+        v.extend(
+            extra
+                .iter()
+                .map(|a| Value::F(r.point.get(*a).unwrap_or(f64::NAN))),
+        );
+        match energy.get(k).copied().flatten() {
+            Some((f, w)) => v.extend([Value::F(f), Value::F(w)]),
+            None => v.extend([Value::Empty, Value::Empty]),
+        }
+        schema.format_into(&v, &mut s);
+        s.push('\n');
+    }
+    for (name, b) in [
+        ("band-mean-reduction", &o.best_mean_reduction),
+        ("band-minimax-rms", &o.best_minimax_rms),
+    ] {
+        let Some(b) = b else { continue };
+        let coord = |axis: Axis| {
+            b.design
+                .iter()
+                .find(|(a, _)| *a == axis)
+                .map_or(f64::NAN, |d| d.1)
+        };
+        let mut v = vec![
+            Value::S("band".into()),
+            Value::F(coord(Axis::GapM) * 1e3),
+            Value::F(b.mean_reduction_pct),
+            Value::F(b.max_rms_damped_m),
+            Value::Empty,
+            Value::Empty,
+            Value::Empty,
+            Value::S(name.into()),
+        ];
+        v.extend(extra.iter().map(|a| Value::F(coord(*a))));
+        v.extend([Value::Empty, Value::Empty]);
+        schema.format_into(&v, &mut s);
+        s.push('\n');
+    }
+    s
+}
+
+// ---------------------------------------------------------------------------------------------
+// whole files
+
+/// Write any serializable value as pretty JSON.
+pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
+    write_with(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, value)?;
+        writeln!(w)
+    })
+}
+
+/// Write a text file.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    crate::atomic::write_atomic(path, text.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::atomic::partial_path;
+
+    #[test]
+    fn partial_sits_beside_the_target() {
+        let p = partial_path(Path::new("out/dir/sweep.csv"));
+        assert_eq!(p, Path::new("out/dir/sweep.csv.partial"));
+    }
+
+    #[test]
+    fn grid_numbers_lose_binary_noise_only() {
+        assert_eq!(grid_num(0.95 + 5.0 * 0.01), "1");
+        assert_eq!(grid_num(0.1), "0.1");
+        assert_eq!(grid_num(0.25), "0.25");
+        assert_eq!(grid_num(1.0e-3 * 1e3), "1");
+        assert_eq!(grid_num(20.0), "20");
+    }
+
+    #[test]
+    fn headers_are_the_contract() {
+        assert_eq!(
+            sweep_schema().header(),
+            "ratio,gap_mm,friction,solver,rms_solid_m,rms_damped_m,reduction_pct,impacts"
+        );
+        assert_eq!(
+            history_schema().header(),
+            "t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s"
+        );
+        assert_eq!(
+            map_schema(&[Axis::Restitution]).header(),
+            "ratio,gap_mm,restitution,rms_solid_m,rms_damped_m,reduction_pct,impacts_per_cycle,regime"
+        );
+        assert_eq!(
+            map_extra_axes(&map_schema(&[Axis::FrictionForceN, Axis::MassRatio]).header()),
+            Some(vec![Axis::FrictionForceN, Axis::MassRatio])
+        );
+        assert_eq!(map_extra_axes("ratio,gap_mm,x"), None);
+    }
+
+    #[test]
+    fn optimum_rows_read_back_with_their_empty_fields() {
+        let sc = optimum_schema(&[Axis::Restitution]);
+        assert_eq!(
+            sc.header(),
+            "ratio,best_gap_mm,best_reduction_pct,rms_damped_m,rms_solid_m,impacts_per_cycle,\
+             regime,criterion,best_restitution,friction_work_j,work_input_j"
+        );
+        let band = sc
+            .parse("band,0.1,47.0,1.27e-5,,,,band-mean-reduction,0.5,,")
+            .unwrap();
+        assert_eq!(band[4], Value::Empty);
+        assert_eq!(band[9], Value::Empty);
+        // Empty only where the schema allows it.
+        let e = sc
+            .parse("band,,47.0,1.27e-5,,,,band-mean-reduction,0.5,,")
+            .unwrap_err();
+        assert!(e.contains("best_gap_mm"), "{e}");
+    }
+
+    #[test]
+    fn sweep_row_formats_and_reads_back() {
+        let r = SweepCsvRow {
+            ratio: 0.95 + 5.0 * 0.01,
+            gap_mm: 0.1,
+            friction: "coulomb".into(),
+            solver: "exact".into(),
+            rms_solid_m: 5.7e-5,
+            rms_damped_m: 1.25e-5,
+            reduction_pct: 78.070_175_438_596_5,
+            impacts: 412,
+        };
+        let line = sweep_csv_line(&r);
+        assert_eq!(line, "1,0.1,coulomb,exact,5.7e-5,1.25e-5,78.0702,412");
+        let back = sweep_schema().parse(&line).unwrap();
+        assert_eq!(back[6], Value::F(78.0702));
+        assert_eq!(back[7], Value::U(412));
+        assert!(line.starts_with(&(sweep_key(1.0, 0.1) + ",")));
+    }
+
+    #[test]
+    fn reader_refuses_non_finite_numbers_and_wrong_field_counts() {
+        let s = sweep_schema();
+        for (line, want) in [
+            (
+                "1,0.1,none,exact,NaN,1e-5,3.0,4",
+                "rms_solid_m = NaN is not a finite number",
+            ),
+            (
+                "1,0.1,none,exact,1e-5,inf,3.0,4",
+                "rms_damped_m = inf is not a finite number",
+            ),
+            (
+                "1,0.1,none,exact,1e-5,1e-5,3.0",
+                "7 fields, the header has 8",
+            ),
+            (
+                "1,0.1,none,exact,1e-5,1e-5,3.0,-4",
+                "impacts = \"-4\" is not a whole number",
+            ),
+        ] {
+            let e = s.parse(line).unwrap_err();
+            assert!(e.contains(want), "{line}: {e}");
+        }
+    }
+}

@@ -1,0 +1,118 @@
+//! Typed parameters of the metadata files: the spec types of `vibrobar-core` themselves,
+//! serialised by serde, so that what is written is exactly what is reloaded. The JSON is the
+//! same as the hand-built one it replaces (serde_json sorts object keys), so fingerprints of
+//! existing journals and shards stay valid. Fields that older versions did not write default, so
+//! their files (e.g. `docs/maps/*/map.csv.meta.json`) still load.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use vibrobar_core::analysis::map::{Axis, Grid, GridAxis};
+use vibrobar_core::analysis::regime::Tolerances;
+use vibrobar_core::{Bar, Damper, Forcing, RunSettings, State, System};
+
+/// The system a command runs, as resolved from its flags: bars, ball, forcing, solver, settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SystemParams {
+    /// Says that `ball.gap_m` is a template (absent in files of older versions).
+    #[serde(default)]
+    pub note: String,
+    /// Preset name.
+    #[serde(default)]
+    pub preset: String,
+    /// Friction model name.
+    pub friction: String,
+    /// Friction force override in N.
+    pub friction_force_n: Option<f64>,
+    /// Bar with the cavity.
+    pub damped_bar: Bar,
+    /// Reference bar without ball.
+    pub solid_bar: Bar,
+    /// Ball template.
+    pub ball: Damper,
+    /// Forcing template.
+    pub forcing: Forcing,
+    /// Solver name.
+    pub solver: String,
+    /// Run settings.
+    pub settings: RunSettings,
+}
+
+/// Parameters of a map file (`kind = "map"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MapParams {
+    /// The system.
+    #[serde(flatten)]
+    pub system: SystemParams,
+    /// The grid flags as given (`ratios`, `gaps_mm`, optional axes).
+    #[serde(default)]
+    pub grid: BTreeMap<String, String>,
+    /// The grid's values in SI units, per axis name (absent in files of older versions: the
+    /// CSV's coordinates are used then).
+    #[serde(default)]
+    pub grid_values_si: BTreeMap<String, Vec<f64>>,
+    /// Tolerances of the regime classification (files of versions that did not write them
+    /// were classified with the defaults).
+    #[serde(default)]
+    pub regime_tolerances: Tolerances,
+}
+
+/// Parameters of a `run` history file (`kind = "run"`); `S` is the scenario type of the caller.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunParams<S> {
+    /// The scenario as resolved (file, preset and flags).
+    pub scenario: S,
+    /// The damped system that ran.
+    pub system: System,
+    /// Initial state.
+    pub initial: State,
+    /// Run settings.
+    pub settings: RunSettings,
+    /// Solver name.
+    pub solver: String,
+    /// Output interval in s.
+    pub sample_interval_s: Option<f64>,
+}
+
+/// Parameters of a sweep file (`kind = "sweep"`); `S` is the scenario type of the caller.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SweepParams<S> {
+    /// The scenario as resolved.
+    pub scenario: S,
+    /// Solver name.
+    pub solver: String,
+    /// Run settings.
+    pub settings: RunSettings,
+    /// Gaps in m, in row order.
+    pub gaps_m: Vec<f64>,
+    /// Frequency ratios, in row order within a gap.
+    pub ratios: Vec<f64>,
+    /// Row order (`gap-major`).
+    pub order: String,
+}
+
+impl MapParams {
+    /// The map's grid from `grid_values_si` (axes in [`Axis::ALL`] order, as `map` builds
+    /// them); `None` if absent or invalid.
+    pub fn grid(&self) -> Option<Grid> {
+        let axes = Axis::ALL
+            .iter()
+            .filter_map(|a| {
+                Some(GridAxis {
+                    axis: *a,
+                    values: self.grid_values_si.get(a.as_str())?.clone(),
+                })
+            })
+            .collect();
+        Grid::new(axes).ok()
+    }
+}
+
+impl<S> SweepParams<S> {
+    /// The key columns (ratio, gap) of grid index `i` (gap-major), as the row writes them.
+    pub fn key(&self, i: usize) -> Option<String> {
+        let n = self.ratios.len();
+        let ratio = *self.ratios.get(i.checked_rem(n)?)?;
+        let gap_m = *self.gaps_m.get(i / n)?;
+        Some(crate::csv::sweep_key(ratio, gap_m * 1e3))
+    }
+}
