@@ -8,10 +8,10 @@ use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use vibrobar_core::analysis::energy::EnergyAudit;
 use vibrobar_core::analysis::{run_case, RunResult, Sampler};
+use vibrobar_core::limits;
 use vibrobar_core::solver::{Fanout, Segment};
 use vibrobar_core::{Observer, RunSettings, Solver};
 use vibrobar_io::history::{is_npy, sample_count, HistoryWriter};
-use vibrobar_core::limits;
 
 use super::{fmt_secs, solver, Case};
 use crate::cli::RunArgs;
