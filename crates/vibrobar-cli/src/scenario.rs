@@ -276,6 +276,8 @@ impl Scenario {
                 frequency: Frequency::Ratio(self.forcing.frequency_ratio),
                 static_force_n: self.forcing.static_force_n,
             },
+            gravity_m_s2: self.gravity_m_s2,
+            init: self.initial_state(),
         }
     }
 

@@ -471,6 +471,7 @@ fn spec_from_params(p: &serde_json::Value) -> anyhow::Result<(MapSpec, String)> 
             solid_bar: field(p, "solid_bar")?,
             ball: field(p, "ball")?,
             forcing: field(p, "forcing")?,
+            ..SweepBase::paper()
         },
         friction,
         settings: field(p, "settings")?,

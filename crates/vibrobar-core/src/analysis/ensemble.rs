@@ -10,8 +10,9 @@
 //! Per point, the statistics are reduced in member order after all runs finished, so the result
 //! is bit-identical for any thread count.
 
-use super::map::{compute_point_from, GridPoint, MapSpec};
-use super::par_map_with_progress;
+use super::batch::par_map_with_progress;
+use super::grid::GridPoint;
+use super::map::{compute_point_from, MapSpec};
 use super::regime::Regime;
 use crate::error::{ParamError, SimError};
 use crate::params::State;

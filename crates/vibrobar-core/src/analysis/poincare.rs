@@ -7,8 +7,8 @@
 //! * [`bifurcation`]: for each value of a swept parameter, the stroboscopic points after the
 //!   transient and the impact velocities, as rows `(param, …)`.
 
-use super::map::Axis;
-use super::par_map_with_progress;
+use super::batch::par_map_with_progress;
+use super::grid::Axis;
 use crate::error::{ParamError, SimError};
 use crate::params::{State, System};
 use crate::solver::{Event, EventKind, Fanout, Observer, Segment, Solver, Wall};

@@ -1,0 +1,392 @@
+//! The batch runner: every analysis that runs many cases (sweeps, maps, and later placement,
+//! ensembles, time-domain lobes, Python and cluster front ends) calls it and only stores its rows.
+//!
+//! The runner owns the loop over the points, the thread pool (rayon), cancellation and the progress
+//! callback. It runs the solid (no-ball) reference bar once per distinct frequency ratio, then
+//! hands each point and the solid result at its ratio to the caller's damped job. Every run is
+//! independent and results come back in the order of the points, so they do not depend on the
+//! thread count.
+
+use super::case::{run_case, RunResult};
+use crate::error::{ParamError, SimError};
+use crate::params::{
+    Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System,
+    STANDARD_GRAVITY_M_S2,
+};
+use crate::solver::Solver;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+/// Parallel, order-preserving map with a progress callback `(done, total)`.
+/// Results do not depend on the thread count: each item is computed independently.
+pub fn par_map_with_progress<T, R, F>(
+    items: &[T],
+    f: F,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Vec<R>
+where
+    T: Sync,
+    R: Send,
+    F: Fn(&T) -> R + Sync,
+{
+    let done = AtomicUsize::new(0);
+    let total = items.len();
+    items
+        .par_iter()
+        .map(|it| {
+            let r = f(it);
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+            r
+        })
+        .collect()
+}
+
+/// One point of a paper-style sweep.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SweepPoint {
+    /// Frequency ratio (against each bar's own `√(K/M)`).
+    pub ratio: f64,
+    /// Total clearance.
+    pub gap_m: f64,
+    /// Friction model.
+    pub friction: FrictionModel,
+    /// Override of the friction force level.
+    pub friction_force_n: Option<f64>,
+}
+
+/// Everything fixed across a batch: the bars, the ball and forcing templates the points vary,
+/// gravity and the initial state of every run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SweepBase {
+    /// Bar with the cavity.
+    pub damped_bar: Bar,
+    /// Reference bar without ball.
+    pub solid_bar: Bar,
+    /// Ball template; each point sets gap, friction model and friction override.
+    pub ball: Damper,
+    /// Forcing template; each point sets the frequency ratio.
+    pub forcing: Forcing,
+    /// Gravity for the derived friction force.
+    pub gravity_m_s2: f64,
+    /// Initial state of every run (solid and damped; the paper: at rest, ball centred).
+    pub init: State,
+}
+
+impl SweepBase {
+    /// The paper's bars, ball and 15 N forcing, from rest.
+    pub fn paper() -> Self {
+        SweepBase {
+            damped_bar: Bar::PAPER_CAVITY,
+            solid_bar: Bar::PAPER_SOLID,
+            ball: Damper::paper(1e-3, FrictionModel::None),
+            forcing: Forcing::paper(1.0),
+            gravity_m_s2: STANDARD_GRAVITY_M_S2,
+            init: State::REST,
+        }
+    }
+
+    /// The damped system of a point.
+    pub fn damped_system(&self, p: &SweepPoint) -> System {
+        System {
+            bar: self.damped_bar,
+            damper: Some(Damper {
+                gap_m: p.gap_m,
+                friction: p.friction,
+                friction_force_n: p.friction_force_n,
+                ..self.ball
+            }),
+            forcing: Forcing {
+                frequency: Frequency::Ratio(p.ratio),
+                ..self.forcing
+            },
+            gravity_m_s2: self.gravity_m_s2,
+        }
+    }
+
+    /// The solid-bar system at a ratio.
+    pub fn solid_system(&self, ratio: f64) -> System {
+        System {
+            bar: self.solid_bar,
+            damper: None,
+            forcing: Forcing {
+                frequency: Frequency::Ratio(ratio),
+                ..self.forcing
+            },
+            gravity_m_s2: self.gravity_m_s2,
+        }
+    }
+}
+
+/// Why a batch stopped.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BatchError<E> {
+    /// The solid bar failed at a ratio.
+    #[error("solid bar at ratio {ratio}: {source}")]
+    Solid {
+        /// The ratio.
+        ratio: f64,
+        /// What the run said.
+        source: SimError,
+    },
+    /// The caller's job failed at a point.
+    #[error(transparent)]
+    Point(E),
+    /// The cancel flag was raised; rows finished before it are kept by the caller's job.
+    #[error("cancelled after {done} of {total} runs")]
+    Cancelled {
+        /// Runs finished.
+        done: usize,
+        /// Runs in the batch.
+        total: usize,
+    },
+    /// No thread pool of the requested size.
+    #[error("threads: {0}")]
+    Threads(String),
+    /// Invalid input of the runner itself.
+    #[error(transparent)]
+    Param(ParamError),
+}
+
+/// A batch: fixed parameters, solver and the runner's controls.
+#[derive(Clone, Copy)]
+pub struct Batch<'a> {
+    /// Bars, ball and forcing templates, gravity and initial state.
+    pub base: &'a SweepBase,
+    /// Duration, step and RMS window of every run.
+    pub settings: &'a RunSettings,
+    /// The solver.
+    pub solver: &'a dyn Solver,
+    /// Worker threads: `None` uses rayon's global pool (`RAYON_NUM_THREADS`).
+    pub threads: Option<usize>,
+    /// Raised from outside (e.g. on SIGINT) to stop before the next run.
+    pub cancel: Option<&'a AtomicBool>,
+    /// `(done, total)` over every run of the batch, solid runs first.
+    pub progress: &'a (dyn Fn(usize, usize) + Sync),
+}
+
+impl<'a> Batch<'a> {
+    /// A batch on rayon's global pool, without cancellation or progress.
+    pub fn new(base: &'a SweepBase, settings: &'a RunSettings, solver: &'a dyn Solver) -> Self {
+        Batch {
+            base,
+            settings,
+            solver,
+            threads: None,
+            cancel: None,
+            progress: &|_, _| {},
+        }
+    }
+
+    /// The solid bar at `ratio`, from the base's initial state.
+    pub fn solid(&self, ratio: f64) -> Result<RunResult, SimError> {
+        run_case(
+            &self.base.solid_system(ratio),
+            &self.base.init,
+            self.settings,
+            self.solver,
+            &mut (),
+        )
+    }
+
+    /// Run the solid bar once per distinct `ratio(p)` of `points`, then `damped(p, solid)` for
+    /// every point, where `solid` is the solid run at the point's ratio. Rows come back in the
+    /// order of `points`. The first failure (in point order among those that ran) stops the
+    /// batch: runs not yet started are skipped.
+    pub fn run<P, R, E>(
+        &self,
+        points: &[P],
+        ratio: impl Fn(&P) -> f64 + Sync,
+        damped: impl Fn(&P, &RunResult) -> Result<R, E> + Sync,
+    ) -> Result<Vec<R>, BatchError<E>>
+    where
+        P: Sync,
+        R: Send,
+        E: Send,
+    {
+        match self.threads {
+            None => self.run_here(points, &ratio, &damped),
+            Some(0) => Err(BatchError::Param(ParamError::OutOfRange {
+                field: "threads",
+                value: 0.0,
+                allowed: "[1, ∞)",
+            })),
+            Some(n) => rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| BatchError::Threads(e.to_string()))?
+                .install(|| self.run_here(points, &ratio, &damped)),
+        }
+    }
+
+    fn run_here<P, R, E>(
+        &self,
+        points: &[P],
+        ratio: &(impl Fn(&P) -> f64 + Sync),
+        damped: &(impl Fn(&P, &RunResult) -> Result<R, E> + Sync),
+    ) -> Result<Vec<R>, BatchError<E>>
+    where
+        P: Sync,
+        R: Send,
+        E: Send,
+    {
+        let mut ratios: Vec<f64> = points.iter().map(ratio).collect();
+        ratios.sort_by(f64::total_cmp);
+        ratios.dedup_by(|a, b| a.total_cmp(b).is_eq());
+        let n_solid = ratios.len();
+        let total = n_solid + points.len();
+        let failed = AtomicBool::new(false);
+        let stop = || {
+            failed.load(Ordering::Relaxed) || self.cancel.is_some_and(|c| c.load(Ordering::Relaxed))
+        };
+        // `None`: skipped (cancelled, or after a failure).
+        let solids = par_map_with_progress(
+            &ratios,
+            |&r| {
+                if stop() {
+                    return None;
+                }
+                let s = self.solid(r);
+                if s.is_err() {
+                    failed.store(true, Ordering::Relaxed);
+                }
+                Some(s)
+            },
+            &|d, _| (self.progress)(d, total),
+        );
+        let mut solid = Vec::with_capacity(n_solid);
+        let mut done = 0;
+        for (r, s) in ratios.iter().zip(solids) {
+            match s {
+                Some(Ok(s)) => {
+                    solid.push(s);
+                    done += 1;
+                }
+                Some(Err(source)) => return Err(BatchError::Solid { ratio: *r, source }),
+                None => {}
+            }
+        }
+        if solid.len() < n_solid {
+            return Err(BatchError::Cancelled { done, total });
+        }
+        let rows = par_map_with_progress(
+            points,
+            |p| {
+                if stop() {
+                    return None;
+                }
+                let r = ratio(p);
+                let i = ratios
+                    .binary_search_by(|x| x.total_cmp(&r))
+                    .expect("every ratio has its solid run");
+                let row = damped(p, &solid[i]);
+                if row.is_err() {
+                    failed.store(true, Ordering::Relaxed);
+                }
+                Some(row)
+            },
+            &|d, _| (self.progress)(n_solid + d, total),
+        );
+        let mut out = Vec::with_capacity(points.len());
+        let mut skipped = false;
+        for r in rows {
+            match r {
+                Some(Ok(row)) => {
+                    out.push(row);
+                    done += 1;
+                }
+                Some(Err(e)) => return Err(BatchError::Point(e)),
+                None => skipped = true,
+            }
+        }
+        if skipped {
+            return Err(BatchError::Cancelled { done, total });
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::solver::Rk4;
+
+    fn short() -> RunSettings {
+        RunSettings {
+            duration_s: 0.01,
+            dt_s: 1e-5,
+            rms_fraction: 0.5,
+        }
+    }
+
+    #[test]
+    fn solid_runs_are_shared_per_ratio_and_rows_keep_the_point_order() {
+        let base = SweepBase::paper();
+        let st = short();
+        let solver = Rk4 { dt_s: 1e-5 };
+        let points = [1.0, 0.95, 1.0, 0.95, 1.05];
+        let solid_calls = AtomicUsize::new(0);
+        let batch = Batch::new(&base, &st, &solver);
+        let rows = batch
+            .run(
+                &points,
+                |&r| r,
+                |&r, s| -> Result<_, SimError> {
+                    solid_calls.fetch_add(1, Ordering::Relaxed);
+                    Ok((r, s.rms_m))
+                },
+            )
+            .unwrap();
+        assert_eq!(solid_calls.into_inner(), 5);
+        for (&(r, rms), &p) in rows.iter().zip(&points) {
+            assert_eq!(r, p);
+            assert_eq!(rms.to_bits(), batch.solid(p).unwrap().rms_m.to_bits());
+        }
+    }
+
+    #[test]
+    fn a_raised_cancel_flag_stops_before_any_run() {
+        let base = SweepBase::paper();
+        let st = short();
+        let solver = Rk4 { dt_s: 1e-5 };
+        let cancel = AtomicBool::new(true);
+        let batch = Batch {
+            cancel: Some(&cancel),
+            ..Batch::new(&base, &st, &solver)
+        };
+        let e = batch
+            .run(
+                &[1.0, 0.9],
+                |&r| r,
+                |_, _| -> Result<(), SimError> { Ok(()) },
+            )
+            .unwrap_err();
+        assert_eq!(e, BatchError::Cancelled { done: 0, total: 4 });
+    }
+
+    #[test]
+    fn the_first_failing_point_is_reported_and_zero_threads_is_refused() {
+        let base = SweepBase::paper();
+        let st = short();
+        let solver = Rk4 { dt_s: 1e-5 };
+        let batch = Batch {
+            threads: Some(1),
+            ..Batch::new(&base, &st, &solver)
+        };
+        let e = batch
+            .run(
+                &[1.0, 2.0, 3.0],
+                |&r| r,
+                |&r, _| if r >= 2.0 { Err(r) } else { Ok(r) },
+            )
+            .unwrap_err();
+        assert_eq!(e, BatchError::Point(2.0));
+        let zero = Batch {
+            threads: Some(0),
+            ..batch
+        };
+        let e = zero
+            .run(&[1.0], |&r| r, |&r, _| -> Result<f64, SimError> { Ok(r) })
+            .unwrap_err();
+        assert!(e.to_string().contains("threads"), "{e}");
+    }
+}
