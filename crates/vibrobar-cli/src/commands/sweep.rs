@@ -58,7 +58,7 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     for p in &points {
         let mut s = sc.clone();
         s.damper.gap_m = p.gap_m;
-        s.forcing.frequency_ratio = p.ratio;
+        s.forcing.frequency = vibrobar_core::Frequency::Ratio(p.ratio);
         s.validate()?;
     }
     let settings = sc.settings();

@@ -5,9 +5,43 @@ use super::case::{run_case, RunResult};
 use crate::error::SimError;
 use crate::params::RunSettings;
 use crate::solver::Solver;
+use serde::{Deserialize, Serialize};
 
 pub use super::batch::{SweepBase, SweepPoint};
 pub use super::grid::{checked_linspace_inclusive, linspace_inclusive, MAX_GRID_POINTS};
+
+/// Frequency ratios (an inclusive range) and gaps of a sweep: the `[sweep]` section of a
+/// scenario. Missing fields deserialise to [`SweepRange::paper`]; unknown fields are errors.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SweepRange {
+    /// First ratio.
+    pub ratio_start: f64,
+    /// Last ratio (included).
+    pub ratio_stop: f64,
+    /// Ratio step.
+    pub ratio_step: f64,
+    /// Total clearances.
+    pub gaps_m: Vec<f64>,
+}
+
+impl SweepRange {
+    /// The paper's sweep: ratios 0.95 to 1.05 in steps of 0.01 (11 points), gaps 0.1 and 1.0 mm.
+    pub fn paper() -> Self {
+        SweepRange {
+            ratio_start: 0.95,
+            ratio_stop: 1.05,
+            ratio_step: 0.01,
+            gaps_m: vec![0.1e-3, 1.0e-3],
+        }
+    }
+}
+
+impl Default for SweepRange {
+    fn default() -> Self {
+        Self::paper()
+    }
+}
 
 /// Result of one sweep point.
 #[derive(Debug, Clone, Copy, PartialEq)]
