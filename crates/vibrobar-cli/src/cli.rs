@@ -1,49 +1,10 @@
-//! Command-line definitions (clap derive). Units are in every flag name or help text.
+//! Command-line argument types shared by the commands (clap derive). Units are in every flag
+//! name or help text. This module imports nothing from the commands: the subcommand table that
+//! ties each command's arguments to its function is [`crate::app`].
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use vibrobar_core::FrictionModel;
-
-/// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
-/// "The effect of rolling friction on vibro-impact damped boring bars".
-#[derive(Debug, Parser)]
-#[command(name = "vibrobar", version)]
-pub struct Cli {
-    /// What to do.
-    #[command(subcommand)]
-    pub command: Command,
-}
-
-/// The commands.
-#[derive(Debug, Subcommand)]
-pub enum Command {
-    /// Frequency sweep: RMS of the damped and the solid bar for each ratio and gap, as CSV.
-    Sweep(SweepArgs),
-    /// One run: time history as CSV and a one-screen summary.
-    Run(RunArgs),
-    /// Reproduce the paper: Figs. 2–5 (PNG + SVG), their CSVs and REPORT.md.
-    Paper(PaperArgs),
-    /// Time one paper run and the whole paper sweep set for every solver, in one process.
-    Bench(BenchArgs),
-    /// Lumped M, K of a round cantilever bar (optionally with a transverse cavity) from
-    /// Euler–Bernoulli theory, for each reduction to one degree of freedom.
-    Beam(crate::commands::beam::BeamArgs),
-    /// Design map over frequency ratio × gap: RMS reduction, impacts per cycle, regime, optimum
-    /// and heat maps; resumable (--resume) and shardable (--shard K/N).
-    Map(crate::commands::map::MapArgs),
-    /// Merge map shards written with --shard K/N into the whole map (checks completeness).
-    Merge(crate::commands::merge::MergeArgs),
-    /// Stroboscopic Poincaré section of one run (CSV, NPY, figure).
-    Poincare(crate::commands::explore::PoincareArgs),
-    /// Bifurcation diagram over the frequency ratio or the gap (CSV, NPY, figure).
-    Bifurcation(crate::commands::explore::BifurcationArgs),
-    /// Maximal Lyapunov exponent at one point (two-trajectory divergence with renormalisation).
-    Lyapunov(crate::commands::explore::LyapunovArgs),
-    /// Seeded initial-condition ensemble: spread of RMS and regime counts per point.
-    Ensemble(crate::commands::explore::EnsembleArgs),
-    /// Time a 200 × 100 ratio × gap map (from a subsample) for each solver.
-    BenchMap(crate::commands::map::BenchMapArgs),
-}
 
 /// Built-in parameter sets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -168,6 +129,9 @@ pub struct RunArgs {
     pub energy: bool,
 }
 
+/// Friction force at which the as-published model reproduces the paper's friction figures.
+pub const REPRODUCING_FRICTION_N: f64 = 20.0;
+
 /// `vibrobar paper`.
 #[derive(Debug, Args)]
 pub struct PaperArgs {
@@ -195,7 +159,7 @@ pub struct PaperArgs {
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub dt: Option<f64>,
     /// Friction force in N at which the as-published model reproduces the paper's Figs. 4–5.
-    #[arg(long, value_name = "F_N", allow_negative_numbers = true, default_value_t = crate::commands::paper::REPRODUCING_FRICTION_N)]
+    #[arg(long, value_name = "F_N", allow_negative_numbers = true, default_value_t = REPRODUCING_FRICTION_N)]
     pub reproducing_friction_n: f64,
     /// Sampling interval of the time histories (Figs. 2 and 4 and their CSVs) in s.
     #[arg(

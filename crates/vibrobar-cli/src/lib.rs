@@ -1,14 +1,15 @@
 //! # vibrobar-cli
 //!
-//! The command-line front end of vibrobar. Everything with I/O lives here: argument parsing
-//! ([`cli`]), scenario files ([`scenario`]), CSV/JSON writers ([`output`]), figures ([`plot`]),
-//! the reproduction report ([`report`]), design-map figures ([`figures`]), progress bars
-//! ([`progress`]), result storage (atomic files, journals, NPY, shards: [`store`]) and one module
-//! per command ([`commands`]).
+//! The command-line front end of vibrobar. Everything with I/O lives here: the subcommand table
+//! ([`app`]), argument types ([`cli`]), scenario files ([`scenario`]), CSV/JSON writers
+//! ([`output`]), figures ([`plot`]), the reproduction report ([`report`]), design-map figures
+//! ([`figures`]), progress bars ([`progress`]), result storage (atomic files, journals, NPY,
+//! shards: [`store`]) and one module per command ([`commands`]).
 //! The physics is in `vibrobar-core`; this crate never re-implements it.
 
 #![warn(missing_docs)]
 
+pub mod app;
 pub mod cli;
 pub mod commands;
 pub mod figures;

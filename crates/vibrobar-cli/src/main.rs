@@ -1,11 +1,11 @@
 //! `vibrobar`: thin wrapper mapping errors to a message on stderr and a non-zero exit.
 
 use clap::Parser;
-use vibrobar_cli::{cli::Cli, commands};
+use vibrobar_cli::app::{dispatch, Cli};
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
-    match commands::dispatch(cli) {
+    match dispatch(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");

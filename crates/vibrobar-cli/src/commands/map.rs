@@ -12,9 +12,11 @@
 //! each ratio's optimum point, rerun with the energy audit) and the figures
 //! `FILE.reduction.{png,svg}` and `FILE.impacts.{png,svg}` (see [`postprocess`]).
 use super::{
-    check_value, fmt_coord, make_solver, parse_range, with_threads, SystemArgs, DEFAULT_SOLVER,
+    batch_error, check_value, fmt_coord, initial_from_params, make_solver, parse_range,
+    with_threads, SystemArgs, DEFAULT_SOLVER,
 };
 use crate::progress::Progress;
+use crate::scenario::{Scenario, Source};
 use crate::store::{shard, GridInfo, Journal, Metadata};
 use anyhow::{bail, Context};
 use rayon::prelude::*;
@@ -22,12 +24,12 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
 use vibrobar_core::analysis::map::{
-    compute_point_from, compute_solid, optimum, Axis, BandBest, Grid, GridAxis, GridPoint, MapRow,
-    MapSpec, Optimum,
+    compute_point_from, optimum, Axis, BandBest, Grid, GridAxis, GridPoint, MapRow, MapSpec,
+    Optimum,
 };
 use vibrobar_core::analysis::regime::{Regime, Tolerances};
-use vibrobar_core::analysis::{par_map_with_progress, run_case, SweepBase};
-use vibrobar_core::params::{FrictionModel, RunSettings, State};
+use vibrobar_core::analysis::{run_case, Batch, SweepBase};
+use vibrobar_core::params::{FrictionModel, STANDARD_GRAVITY_M_S2};
 use vibrobar_core::solver::{Solver, SOLVER_NAMES};
 
 /// Fixed columns before the optional axes.
@@ -83,6 +85,8 @@ pub struct MapJob {
     pub header: String,
     /// Every parameter, for metadata and the fingerprint.
     pub params: serde_json::Value,
+    /// Solver name.
+    pub solver: String,
 }
 
 fn extra_name(a: Axis) -> &'static str {
@@ -91,9 +95,10 @@ fn extra_name(a: Axis) -> &'static str {
 
 /// Build and check the job from the flags (no shard, no output).
 pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
-    let settings = args.system.settings()?;
-    let base = args.system.base()?;
-    make_solver(&args.system.solver, &settings)?;
+    let sc = args.system.scenario()?;
+    let settings = sc.settings();
+    let base = sc.base();
+    make_solver(&sc.run.solver, &settings)?;
     let ratios = parse_range("--ratios", &args.ratios, |x| x > 0.0, "(0, ∞)")?;
     let gaps_mm = parse_range("--gaps-mm", &args.gaps_mm, |x| x > 0.0, "(0, ∞) mm")?;
     let mut axes = vec![
@@ -154,7 +159,7 @@ pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
     let grid = Grid::new(axes).map_err(|e| anyhow::anyhow!("grid: {e}"))?;
     let spec = MapSpec {
         base,
-        friction: FrictionModel::from(args.system.friction),
+        friction: sc.damper.friction,
         settings,
         tolerances: Tolerances::default(),
     };
@@ -185,6 +190,7 @@ pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
         extra,
         header,
         params,
+        solver: sc.run.solver,
     })
 }
 
@@ -214,13 +220,14 @@ pub fn format_row(row: &MapRow, extra: &[Axis]) -> String {
     s
 }
 
-/// Compute the journal's pending points: solid runs first (one per ratio), then the damped runs,
-/// each row appended to the journal as soon as it is done.
+/// Compute the journal's pending points through the batch runner (solid runs first, one per
+/// ratio, then the damped runs), each row appended to the journal as soon as it is done.
 fn compute(
     job: &MapJob,
     solver: &dyn Solver,
     journal: &Journal,
     total_in_job: usize,
+    threads: Option<usize>,
 ) -> anyhow::Result<()> {
     let pending: Vec<GridPoint> = journal
         .pending()
@@ -230,35 +237,25 @@ fn compute(
     if pending.is_empty() {
         return Ok(());
     }
-    let mut ratios: Vec<f64> = pending.iter().map(|p| job.spec.ratio(p)).collect();
-    ratios.sort_by(f64::total_cmp);
-    ratios.dedup_by(|a, b| a.total_cmp(b).is_eq());
-    let bar = Progress::new("solid bar", ratios.len(), 0);
-    let solids = par_map_with_progress(
-        &ratios,
-        |&r| compute_solid(&job.spec, solver, r),
-        &bar.callback(),
+    let bar = Progress::new("map", total_in_job, journal.done_count());
+    let spec = &job.spec;
+    let res = Batch {
+        threads,
+        progress: &bar.callback(),
+        ..spec.batch(solver)
+    }
+    .run(
+        &pending,
+        |p| spec.ratio(p),
+        |p, solid| -> anyhow::Result<()> {
+            let row = compute_point_from(spec, solver, p, &spec.base.init, solid.rms_m)
+                .with_context(|| format!("damped bar at {}", describe(p)))?;
+            journal.append(p.index, &format_row(&row, &job.extra))?;
+            Ok(())
+        },
     );
     bar.finish();
-    let solids = ratios
-        .iter()
-        .zip(solids)
-        .map(|(r, s)| s.with_context(|| format!("solid bar at ratio {}", fmt_coord(*r))))
-        .collect::<anyhow::Result<Vec<f64>>>()?;
-    let bar = Progress::new("map", total_in_job, journal.done_count());
-    let res = pending.par_iter().try_for_each(|p| -> anyhow::Result<()> {
-        let r = job.spec.ratio(p);
-        let i = ratios
-            .binary_search_by(|x| x.total_cmp(&r))
-            .expect("ratio listed");
-        let row = compute_point_from(&job.spec, solver, p, &State::REST, solids[i])
-            .with_context(|| format!("damped bar at {}", describe(p)))?;
-        journal.append(p.index, &format_row(&row, &job.extra))?;
-        bar.inc();
-        Ok(())
-    });
-    bar.finish();
-    res
+    res.map(|_| ()).map_err(batch_error)
 }
 
 /// `vibrobar map`.
@@ -271,7 +268,10 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
         .transpose()
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     let settings = job.spec.settings;
-    let solver = make_solver(&args.system.solver, &settings)?;
+    let solver = make_solver(&job.solver, &settings)?;
+    if args.threads == Some(0) {
+        bail!("--threads must be in [1, ∞), got 0");
+    }
     let total = job.grid.len();
     let indices = shard::shard_indices(total, shard);
     let meta = Metadata::new(
@@ -286,9 +286,7 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
     );
     let journal = super::open_journal(&args.out, &meta, &indices, args.resume)?;
     let t0 = Instant::now();
-    with_threads(args.threads, || {
-        compute(&job, solver.as_ref(), &journal, indices.len())
-    })??;
+    compute(&job, solver.as_ref(), &journal, indices.len(), args.threads)?;
     journal.finish()?;
     meta.write_beside(&args.out)
         .with_context(|| format!("writing metadata beside {}", args.out.display()))?;
@@ -471,7 +469,11 @@ fn spec_from_params(p: &serde_json::Value) -> anyhow::Result<(MapSpec, String)> 
             solid_bar: field(p, "solid_bar")?,
             ball: field(p, "ball")?,
             forcing: field(p, "forcing")?,
-            ..SweepBase::paper()
+            gravity_m_s2: match p.get("gravity_m_s2") {
+                Some(_) => field(p, "gravity_m_s2")?,
+                None => STANDARD_GRAVITY_M_S2,
+            },
+            init: initial_from_params(p)?,
         },
         friction,
         settings: field(p, "settings")?,
@@ -480,7 +482,8 @@ fn spec_from_params(p: &serde_json::Value) -> anyhow::Result<(MapSpec, String)> 
     Ok((spec, field(p, "solver")?))
 }
 
-/// Rerun each per-ratio optimum point (from rest, as the map ran it) with the energy audit.
+/// Rerun each per-ratio optimum point (from the map's initial state, as it ran) with the energy
+/// audit.
 /// One short run per ratio, in parallel; the order of `o.per_ratio` is kept.
 pub fn optimum_energy(
     params: &serde_json::Value,
@@ -505,7 +508,7 @@ pub fn optimum_energy(
             let mut audit = EnergyAudit::new(&sys);
             run_case(
                 &sys,
-                &State::REST,
+                &spec.base.init,
                 &spec.settings,
                 solver.as_ref(),
                 &mut audit,
@@ -652,12 +655,16 @@ pub struct BenchMapArgs {
     /// Damped runs actually timed per solver (spread over the grid); 0 = the whole map.
     #[arg(long, default_value_t = 40)]
     pub subsample: usize,
-    /// Simulated time per run, s.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 2.0)]
-    pub duration: f64,
+    /// Simulated time per run, s [default: the scenario's, else 2].
+    #[arg(long, allow_negative_numbers = true)]
+    pub duration: Option<f64>,
     /// Solvers to time (default: all).
     #[arg(long)]
     pub solver: Vec<String>,
+    /// Scenario file (TOML, as for `run`): bars, ball, forcing, friction and run settings of the
+    /// map [default: the paper's, frictionless].
+    #[arg(long, value_name = "FILE.toml")]
+    pub scenario: Option<PathBuf>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -686,7 +693,14 @@ pub struct BenchMapResult {
 pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
     let n_r = check_value("--ratios", args.ratios as f64, |x| x >= 2.0, "[2, ∞)")? as usize;
     let n_g = check_value("--gaps", args.gaps as f64, |x| x >= 2.0, "[2, ∞)")? as usize;
-    let duration = check_value("--duration", args.duration, |x| x > 0.0, "(0, ∞) s")?;
+    let sc = match &args.scenario {
+        Some(p) => Scenario::from_source(Source::File(p))?,
+        None => Scenario::paper(),
+    };
+    let duration = match args.duration {
+        Some(d) => check_value("--duration", d, |x| x > 0.0, "(0, ∞) s")?,
+        None => sc.settings().duration_s,
+    };
     let ratios: Vec<f64> = (0..n_r)
         .map(|i| 0.9 + 0.2 * i as f64 / (n_r - 1) as f64)
         .collect();
@@ -717,9 +731,15 @@ pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
         v
     };
     let points: Vec<GridPoint> = idx.iter().filter_map(|&i| grid.point(i)).collect();
-    let settings = RunSettings {
+    let settings = vibrobar_core::RunSettings {
         duration_s: duration,
-        ..RunSettings::default()
+        ..sc.settings()
+    };
+    settings.validate()?;
+    // The preset bench keeps its historical template (the paper's ball at 1 mm, frictionless).
+    let (base, friction) = match &args.scenario {
+        Some(_) => (sc.base(), sc.damper.friction),
+        None => (SweepBase::paper(), FrictionModel::None),
     };
     let names: Vec<String> = if args.solver.is_empty() {
         SOLVER_NAMES.iter().map(|s| s.to_string()).collect()
@@ -730,8 +750,8 @@ pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
     for name in names {
         let solver = make_solver(&name, &settings)?;
         let spec = MapSpec {
-            base: vibrobar_core::analysis::SweepBase::paper(),
-            friction: FrictionModel::None,
+            base,
+            friction,
             settings,
             tolerances: Tolerances::default(),
         };
@@ -777,7 +797,10 @@ pub fn run_bench(args: &BenchMapArgs) -> anyhow::Result<()> {
     let threads = args.threads.unwrap_or_else(rayon::current_num_threads);
     println!(
         "map {} ratios × {} gaps, {} s per run, {} threads (default solver {DEFAULT_SOLVER})",
-        args.ratios, args.gaps, args.duration, threads
+        args.ratios,
+        args.gaps,
+        args.duration.map_or("2".to_string(), |d| d.to_string()),
+        threads
     );
     for r in bench_map(args)? {
         println!(

@@ -1,4 +1,5 @@
-//! One module per command, plus the case runner they share.
+//! One module per command, plus what they share: one case ([`run_one`]), sweep rows through the
+//! core's batch runner ([`sweep_rows`]), journals. The subcommand table is [`crate::app`].
 
 pub mod beam;
 pub mod bench;
@@ -11,43 +12,30 @@ pub mod run;
 pub mod sweep;
 
 pub use design::{
-    check_value, fmt_coord, make_solver, parse_range, with_threads, SystemArgs, DEFAULT_SOLVER,
+    check_value, fmt_coord, initial_from_params, make_solver, parse_range, with_threads,
+    SystemArgs, DEFAULT_SOLVER,
 };
 
 use anyhow::{anyhow, Result};
 use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
-use vibrobar_core::analysis::{par_map_with_progress, run_case, RunResult, Sampler, SweepPoint};
-use vibrobar_core::solver::{solver_by_name, Fanout, SOLVER_NAMES};
+use vibrobar_core::analysis::{
+    par_map_with_progress, run_case, Batch, BatchError, RunResult, Sampler, SweepBase, SweepPoint,
+};
+use vibrobar_core::solver::Fanout;
 use vibrobar_core::{Observer, RunSettings, SimError, Solver, State, System};
-
-use crate::cli::{Cli, Command};
-
-/// Run the parsed command line.
-pub fn dispatch(cli: Cli) -> Result<()> {
-    match cli.command {
-        Command::Sweep(a) => sweep::sweep(&a),
-        Command::Run(a) => run::run(&a),
-        Command::Paper(a) => paper::paper(&a),
-        Command::Beam(a) => beam::beam(&a),
-        Command::Map(a) => map::run(&a),
-        Command::Merge(a) => merge::run(&a),
-        Command::Poincare(a) => explore::run_poincare(&a),
-        Command::Bifurcation(a) => explore::run_bifurcation(&a),
-        Command::Lyapunov(a) => explore::run_lyapunov(&a),
-        Command::Ensemble(a) => explore::run_ensemble_cmd(&a),
-        Command::BenchMap(a) => map::run_bench(&a),
-        Command::Bench(a) => bench::bench(&a),
-    }
-}
 
 /// Look a solver up by name; the error lists the names the library provides.
 pub fn solver(name: &str, settings: &RunSettings) -> Result<Box<dyn Solver>> {
-    solver_by_name(name, settings).ok_or_else(|| {
-        anyhow!(
-            "unknown solver {name:?}; available: {}",
-            SOLVER_NAMES.join(", ")
-        )
-    })
+    make_solver(name, settings)
+}
+
+/// A batch runner error as one message: the job's own error as it is, the runner's (a solid
+/// run, cancellation, the pool) with its numbers.
+pub fn batch_error(e: BatchError<anyhow::Error>) -> anyhow::Error {
+    match e {
+        BatchError::Point(e) => e,
+        other => anyhow!("{other}"),
+    }
 }
 
 /// One simulation to do.
@@ -199,75 +187,50 @@ impl SweepResult {
     }
 }
 
-/// Cases of a sweep: the solid bar once per distinct ratio, then every damped point.
-/// Returns the cases and, per point, the index of its solid case.
-pub fn sweep_cases(
+/// Sweep rows through the core's batch runner (one solid run per distinct ratio, shared), with
+/// a progress bar on stderr. The damped runs carry the energy audit when `energy_audit` is set
+/// (their friction work goes into the rows).
+pub fn sweep_rows(
     points: &[SweepPoint],
-    base: &vibrobar_core::analysis::SweepBase,
-    gravity_m_s2: f64,
-    init: &State,
+    base: &SweepBase,
+    settings: &RunSettings,
+    solver: &dyn Solver,
+    label: &str,
     energy_audit: bool,
-) -> (Vec<Case>, Vec<usize>) {
-    let mut ratios: Vec<f64> = points.iter().map(|p| p.ratio).collect();
-    ratios.sort_by(f64::total_cmp);
-    ratios.dedup();
-    let mut cases: Vec<Case> = ratios
-        .iter()
-        .map(|&r| Case {
-            system: System {
-                gravity_m_s2,
-                ..base.solid_system(r)
-            },
-            init: *init,
-            sample_interval_s: None,
-            energy_audit: false,
-        })
-        .collect();
-    let mut solid_index = Vec::with_capacity(points.len());
-    for p in points {
-        cases.push(Case {
-            system: System {
-                gravity_m_s2,
-                ..base.damped_system(p)
-            },
-            init: *init,
-            sample_interval_s: None,
-            energy_audit,
-        });
-        solid_index.push(
-            ratios
-                .iter()
-                .position(|r| r.total_cmp(&p.ratio).is_eq())
-                .expect("ratio listed"),
-        );
+) -> Result<Vec<SweepResult>> {
+    let bar = crate::progress::Progress::new(label, points.len(), 0);
+    let rows = Batch {
+        progress: &bar.callback(),
+        ..Batch::new(base, settings, solver)
     }
-    (cases, solid_index)
-}
-
-/// Assemble sweep rows from the outcomes of [`sweep_cases`] (outcomes may be a longer list:
-/// only the first `n_solid + points.len()` are read, starting at `offset`).
-pub fn assemble_sweep(
-    points: &[SweepPoint],
-    solid_index: &[usize],
-    outcomes: &[CaseOutcome],
-    offset: usize,
-    solver: &str,
-) -> Vec<SweepResult> {
-    let n_solid = solid_index.iter().copied().max().map_or(0, |m| m + 1);
-    points
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let d = &outcomes[offset + n_solid + i];
-            SweepResult {
+    .run(
+        points,
+        |p| p.ratio,
+        |p, solid| -> Result<SweepResult> {
+            let case = Case {
+                system: base.damped_system(p),
+                init: base.init,
+                sample_interval_s: None,
+                energy_audit,
+            };
+            let d = run_one(&case, settings, solver).map_err(|e| {
+                anyhow!(
+                    "{label}: run at ratio {:.4}, gap {} mm failed: {e}",
+                    p.ratio,
+                    p.gap_m * 1e3
+                )
+            })?;
+            Ok(SweepResult {
                 point: *p,
-                solver: solver.to_string(),
-                solid: outcomes[offset + solid_index[i]].result,
+                solver: solver.name().to_string(),
+                solid: *solid,
                 damped: d.result,
                 friction_work_j: d.friction_work_j,
-            }
-        })
-        .collect()
+            })
+        },
+    );
+    bar.finish();
+    rows.map_err(batch_error)
 }
 
 /// Wall time formatted for humans.

@@ -8,11 +8,9 @@
 //! stamp and the job's fingerprint (which `--resume` checks).
 
 use anyhow::{Context, Result};
-use rayon::prelude::*;
-use vibrobar_core::analysis::SweepPoint;
-use vibrobar_core::System;
+use vibrobar_core::analysis::{Batch, SweepPoint};
 
-use super::{fmt_secs, run_one, solver, Case, SweepResult};
+use super::{batch_error, fmt_secs, run_one, solver, Case, SweepResult};
 use crate::cli::SweepArgs;
 use crate::output::{sweep_csv_line, SWEEP_HEADER};
 use crate::progress::Progress;
@@ -85,66 +83,50 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     let journal = super::open_journal(&args.out, &meta, &indices, args.resume)?;
     let pending = journal.pending();
     let base = sc.base();
-    let init = sc.initial_state();
-    // Solid bar once per distinct ratio among the pending points.
-    let mut solid_ratios: Vec<f64> = pending.iter().map(|&i| points[i].ratio).collect();
-    solid_ratios.sort_by(f64::total_cmp);
-    solid_ratios.dedup_by(|a, b| a.total_cmp(b).is_eq());
-    let solid_cases: Vec<Case> = solid_ratios
-        .iter()
-        .map(|&r| Case {
-            system: System {
-                gravity_m_s2: sc.gravity_m_s2,
-                ..base.solid_system(r)
-            },
-            init,
-            sample_interval_s: None,
-            energy_audit: false,
-        })
-        .collect();
-    let solids = super::run_cases(&solid_cases, &settings, solver.as_ref(), "solid bar")?;
     let bar = Progress::new("sweep", points.len(), journal.done_count());
-    let res = pending.par_iter().try_for_each(|&i| -> Result<()> {
-        let p = &points[i];
-        let case = Case {
-            system: System {
-                gravity_m_s2: sc.gravity_m_s2,
-                ..base.damped_system(p)
-            },
-            init,
-            sample_interval_s: None,
-            energy_audit: false,
-        };
-        let d = run_one(&case, &settings, solver.as_ref()).map_err(|e| {
-            anyhow::anyhow!(
-                "sweep: run at ratio {:.4}, gap {} mm failed: {e}",
-                p.ratio,
-                p.gap_m * 1e3
-            )
-        })?;
-        let k = solid_ratios
-            .binary_search_by(|x| x.total_cmp(&p.ratio))
-            .expect("ratio listed");
-        let row = SweepResult {
-            point: *p,
-            solver: solver.name().to_string(),
-            solid: solids[k].result,
-            damped: d.result,
-            friction_work_j: d.friction_work_j,
-        };
-        journal.append(i, &sweep_csv_line(&row.csv_row()))?;
-        bar.inc();
-        Ok(())
-    });
+    let batch = Batch {
+        progress: &bar.callback(),
+        ..Batch::new(&base, &settings, solver.as_ref())
+    };
+    let n_solid = batch.distinct_ratios(&pending, |&i| points[i].ratio).len();
+    let res = batch.run(
+        &pending,
+        |&i| points[i].ratio,
+        |&i, solid| -> Result<()> {
+            let p = &points[i];
+            let case = Case {
+                system: base.damped_system(p),
+                init: base.init,
+                sample_interval_s: None,
+                energy_audit: false,
+            };
+            let d = run_one(&case, &settings, solver.as_ref()).map_err(|e| {
+                anyhow::anyhow!(
+                    "sweep: run at ratio {:.4}, gap {} mm failed: {e}",
+                    p.ratio,
+                    p.gap_m * 1e3
+                )
+            })?;
+            let row = SweepResult {
+                point: *p,
+                solver: solver.name().to_string(),
+                solid: *solid,
+                damped: d.result,
+                friction_work_j: d.friction_work_j,
+            };
+            journal.append(i, &sweep_csv_line(&row.csv_row()))?;
+            Ok(())
+        },
+    );
     bar.finish();
-    res?;
+    res.map_err(batch_error)?;
     journal.finish()?;
     meta.write_beside(&args.out)
         .with_context(|| format!("writing metadata beside {}", args.out.display()))?;
     eprintln!(
         "sweep: {} points ({} runs this time, solver {}, {} s at dt {:e} s) written to {} in {}",
         points.len(),
-        solid_cases.len() + pending.len(),
+        n_solid + pending.len(),
         solver.name(),
         settings.duration_s,
         settings.dt_s,

@@ -188,6 +188,14 @@ impl<'a> Batch<'a> {
         )
     }
 
+    /// The ratios the solid bar runs at for `points`: each distinct `ratio(p)` once, ascending.
+    pub fn distinct_ratios<P>(&self, points: &[P], ratio: impl Fn(&P) -> f64) -> Vec<f64> {
+        let mut ratios: Vec<f64> = points.iter().map(ratio).collect();
+        ratios.sort_by(f64::total_cmp);
+        ratios.dedup_by(|a, b| a.total_cmp(b).is_eq());
+        ratios
+    }
+
     /// Run the solid bar once per distinct `ratio(p)` of `points`, then `damped(p, solid)` for
     /// every point, where `solid` is the solid run at the point's ratio. Rows come back in the
     /// order of `points`. The first failure (in point order among those that ran) stops the
@@ -229,9 +237,7 @@ impl<'a> Batch<'a> {
         R: Send,
         E: Send,
     {
-        let mut ratios: Vec<f64> = points.iter().map(ratio).collect();
-        ratios.sort_by(f64::total_cmp);
-        ratios.dedup_by(|a, b| a.total_cmp(b).is_eq());
+        let ratios = self.distinct_ratios(points, ratio);
         let n_solid = ratios.len();
         let total = n_solid + points.len();
         let failed = AtomicBool::new(false);
