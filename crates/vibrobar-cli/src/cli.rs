@@ -195,4 +195,9 @@ pub struct BenchArgs {
     /// Time only the single run, not the sweep set.
     #[arg(long)]
     pub single_only: bool,
+    /// Scenario file (TOML, as for `run`): time its damped run (gap, ratio, friction, initial
+    /// state as given) and its `[sweep]` (ratios × gaps) instead of the paper's run and sweep
+    /// set. --duration and --dt override the file.
+    #[arg(long, value_name = "FILE.toml")]
+    pub scenario: Option<PathBuf>,
 }

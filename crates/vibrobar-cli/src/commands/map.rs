@@ -689,18 +689,25 @@ pub struct BenchMapResult {
     pub measured: bool,
 }
 
-/// Run the bench (library entry point for `vibrobar bench`).
-pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
-    let n_r = check_value("--ratios", args.ratios as f64, |x| x >= 2.0, "[2, ∞)")? as usize;
-    let n_g = check_value("--gaps", args.gaps as f64, |x| x >= 2.0, "[2, ∞)")? as usize;
+/// The bench's scenario (the file's, or the paper's) and run settings with `--duration` applied.
+fn bench_settings(args: &BenchMapArgs) -> anyhow::Result<(Scenario, vibrobar_core::RunSettings)> {
     let sc = match &args.scenario {
         Some(p) => Scenario::from_source(Source::File(p))?,
         None => Scenario::paper(),
     };
-    let duration = match args.duration {
-        Some(d) => check_value("--duration", d, |x| x > 0.0, "(0, ∞) s")?,
-        None => sc.settings().duration_s,
-    };
+    let mut settings = sc.settings();
+    if let Some(d) = args.duration {
+        settings.duration_s = check_value("--duration", d, |x| x > 0.0, "(0, ∞) s")?;
+    }
+    settings.validate()?;
+    Ok((sc, settings))
+}
+
+/// Run the bench (library entry point for `vibrobar bench`).
+pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
+    let n_r = check_value("--ratios", args.ratios as f64, |x| x >= 2.0, "[2, ∞)")? as usize;
+    let n_g = check_value("--gaps", args.gaps as f64, |x| x >= 2.0, "[2, ∞)")? as usize;
+    let (sc, settings) = bench_settings(args)?;
     let ratios: Vec<f64> = (0..n_r)
         .map(|i| 0.9 + 0.2 * i as f64 / (n_r - 1) as f64)
         .collect();
@@ -731,11 +738,6 @@ pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
         v
     };
     let points: Vec<GridPoint> = idx.iter().filter_map(|&i| grid.point(i)).collect();
-    let settings = vibrobar_core::RunSettings {
-        duration_s: duration,
-        ..sc.settings()
-    };
-    settings.validate()?;
     // The preset bench keeps its historical template (the paper's ball at 1 mm, frictionless).
     let (base, friction) = match &args.scenario {
         Some(_) => (sc.base(), sc.damper.friction),
@@ -799,7 +801,7 @@ pub fn run_bench(args: &BenchMapArgs) -> anyhow::Result<()> {
         "map {} ratios × {} gaps, {} s per run, {} threads (default solver {DEFAULT_SOLVER})",
         args.ratios,
         args.gaps,
-        args.duration.map_or("2".to_string(), |d| d.to_string()),
+        bench_settings(args)?.1.duration_s,
         threads
     );
     for r in bench_map(args)? {
