@@ -211,8 +211,69 @@ impl<'a> Batch<'a> {
         R: Send,
         E: Send,
     {
+        self.in_pool(|| {
+            let ratios = self.distinct_ratios(points, &ratio);
+            let n_solid = ratios.len();
+            let total = n_solid + points.len();
+            let failed = AtomicBool::new(false);
+            let solid = self
+                .phase(&ratios, 0, total, &failed, |&r| self.solid(r))
+                .map_err(|(e, i)| match e {
+                    Some(source) => BatchError::Solid {
+                        ratio: ratios[i],
+                        source,
+                    },
+                    None => BatchError::Cancelled { done: i, total },
+                })?;
+            self.phase(points, n_solid, total, &failed, |p| {
+                let r = ratio(p);
+                let i = ratios
+                    .binary_search_by(|x| x.total_cmp(&r))
+                    .expect("every ratio has its solid run");
+                damped(p, &solid[i])
+            })
+            .map_err(|(e, done)| match e {
+                Some(e) => BatchError::Point(e),
+                None => BatchError::Cancelled {
+                    done: n_solid + done,
+                    total,
+                },
+            })
+        })
+    }
+
+    /// Run `job` for every point, without solid runs (ensembles, bifurcation diagrams), with the
+    /// same pool, cancellation, progress and failure rules as [`Batch::run`].
+    pub fn each<P, R, E>(
+        &self,
+        points: &[P],
+        job: impl Fn(&P) -> Result<R, E> + Sync,
+    ) -> Result<Vec<R>, BatchError<E>>
+    where
+        P: Sync,
+        R: Send,
+        E: Send,
+    {
+        self.in_pool(|| {
+            let failed = AtomicBool::new(false);
+            self.phase(points, 0, points.len(), &failed, &job)
+                .map_err(|(e, done)| match e {
+                    Some(e) => BatchError::Point(e),
+                    None => BatchError::Cancelled {
+                        done,
+                        total: points.len(),
+                    },
+                })
+        })
+    }
+
+    /// `f` on the requested pool: `threads` workers, or rayon's global pool.
+    fn in_pool<R: Send, E: Send>(
+        &self,
+        f: impl FnOnce() -> Result<R, BatchError<E>> + Send,
+    ) -> Result<R, BatchError<E>> {
         match self.threads {
-            None => self.run_here(points, &ratio, &damped),
+            None => f(),
             Some(0) => Err(BatchError::Param(ParamError::OutOfRange {
                 field: "threads",
                 value: 0.0,
@@ -222,90 +283,50 @@ impl<'a> Batch<'a> {
                 .num_threads(n)
                 .build()
                 .map_err(|e| BatchError::Threads(e.to_string()))?
-                .install(|| self.run_here(points, &ratio, &damped)),
+                .install(f),
         }
     }
 
-    fn run_here<P, R, E>(
+    /// One parallel phase: `f` on every item, in order, progress counted from `offset` of
+    /// `total`. A failure sets `failed`, after which (or after a raised cancel flag) items not yet
+    /// started are skipped. Errors: `(Some(e), index)` for the first failing item in order,
+    /// `(None, finished)` when items were skipped without a failure.
+    fn phase<T: Sync, R: Send, E: Send>(
         &self,
-        points: &[P],
-        ratio: &(impl Fn(&P) -> f64 + Sync),
-        damped: &(impl Fn(&P, &RunResult) -> Result<R, E> + Sync),
-    ) -> Result<Vec<R>, BatchError<E>>
-    where
-        P: Sync,
-        R: Send,
-        E: Send,
-    {
-        let ratios = self.distinct_ratios(points, ratio);
-        let n_solid = ratios.len();
-        let total = n_solid + points.len();
-        let failed = AtomicBool::new(false);
+        items: &[T],
+        offset: usize,
+        total: usize,
+        failed: &AtomicBool,
+        f: impl Fn(&T) -> Result<R, E> + Sync,
+    ) -> Result<Vec<R>, (Option<E>, usize)> {
         let stop = || {
             failed.load(Ordering::Relaxed) || self.cancel.is_some_and(|c| c.load(Ordering::Relaxed))
         };
-        // `None`: skipped (cancelled, or after a failure).
-        let solids = par_map_with_progress(
-            &ratios,
-            |&r| {
+        let results = par_map_with_progress(
+            items,
+            |it| {
                 if stop() {
                     return None;
                 }
-                let s = self.solid(r);
-                if s.is_err() {
+                let r = f(it);
+                if r.is_err() {
                     failed.store(true, Ordering::Relaxed);
                 }
-                Some(s)
+                Some(r)
             },
-            &|d, _| (self.progress)(d, total),
+            &|d, _| (self.progress)(offset + d, total),
         );
-        let mut solid = Vec::with_capacity(n_solid);
-        let mut done = 0;
-        for (r, s) in ratios.iter().zip(solids) {
-            match s {
-                Some(Ok(s)) => {
-                    solid.push(s);
-                    done += 1;
-                }
-                Some(Err(source)) => return Err(BatchError::Solid { ratio: *r, source }),
-                None => {}
-            }
-        }
-        if solid.len() < n_solid {
-            return Err(BatchError::Cancelled { done, total });
-        }
-        let rows = par_map_with_progress(
-            points,
-            |p| {
-                if stop() {
-                    return None;
-                }
-                let r = ratio(p);
-                let i = ratios
-                    .binary_search_by(|x| x.total_cmp(&r))
-                    .expect("every ratio has its solid run");
-                let row = damped(p, &solid[i]);
-                if row.is_err() {
-                    failed.store(true, Ordering::Relaxed);
-                }
-                Some(row)
-            },
-            &|d, _| (self.progress)(n_solid + d, total),
-        );
-        let mut out = Vec::with_capacity(points.len());
+        let mut out = Vec::with_capacity(items.len());
         let mut skipped = false;
-        for r in rows {
+        for (i, r) in results.into_iter().enumerate() {
             match r {
-                Some(Ok(row)) => {
-                    out.push(row);
-                    done += 1;
-                }
-                Some(Err(e)) => return Err(BatchError::Point(e)),
+                Some(Ok(r)) => out.push(r),
+                Some(Err(e)) => return Err((Some(e), i)),
                 None => skipped = true,
             }
         }
         if skipped {
-            return Err(BatchError::Cancelled { done, total });
+            return Err((None, out.len()));
         }
         Ok(out)
     }
@@ -394,5 +415,28 @@ mod tests {
             .run(&[1.0], |&r| r, |&r, _| -> Result<f64, SimError> { Ok(r) })
             .unwrap_err();
         assert!(e.to_string().contains("threads"), "{e}");
+    }
+
+    #[test]
+    fn each_keeps_the_order_and_reports_every_item() {
+        let base = SweepBase::paper();
+        let st = short();
+        let solver = Rk4 { dt_s: 1e-5 };
+        let calls = AtomicUsize::new(0);
+        let progress = |_: usize, total: usize| {
+            assert_eq!(total, 100);
+            calls.fetch_add(1, Ordering::Relaxed);
+        };
+        let batch = Batch {
+            progress: &progress,
+            threads: Some(2),
+            ..Batch::new(&base, &st, &solver)
+        };
+        let items: Vec<u32> = (0..100).collect();
+        let out = batch
+            .each(&items, |&i| -> Result<u32, SimError> { Ok(2 * i) })
+            .unwrap();
+        assert_eq!(out, items.iter().map(|i| 2 * i).collect::<Vec<_>>());
+        assert_eq!(calls.into_inner(), 100);
     }
 }

@@ -10,7 +10,7 @@
 //! Per point, the statistics are reduced in member order after all runs finished, so the result
 //! is bit-identical for any thread count.
 
-use super::batch::par_map_with_progress;
+use super::batch::{Batch, BatchError};
 use super::grid::GridPoint;
 use super::map::{compute_point_from, MapSpec};
 use super::regime::Regime;
@@ -153,34 +153,33 @@ pub struct EnsembleStats {
     pub impacting_members: usize,
 }
 
-/// Run the ensemble at each point (damped bar only) in parallel.
+/// Run the ensemble at each point (damped bar only) through the batch runner ([`Batch::each`]).
 pub fn run_ensemble(
     spec: &MapSpec,
     solver: &dyn Solver,
     points: &[GridPoint],
     params: &EnsembleParams,
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> Result<Vec<EnsembleStats>, SimError> {
-    params.validate()?;
+) -> Result<Vec<EnsembleStats>, BatchError<SimError>> {
+    params.validate().map_err(BatchError::Param)?;
     let m = params.members;
     let jobs: Vec<(usize, usize)> = (0..points.len())
         .flat_map(|p| (0..m).map(move |i| (p, i)))
         .collect();
-    let results = par_map_with_progress(
-        &jobs,
-        |&(p, i)| {
-            let pt = &points[p];
-            let lg = spec
-                .damped_system(pt)?
-                .damper
-                .map_or(0.0, |d| d.half_gap_m());
-            let init = params.initial_state(i, lg);
-            compute_point_from(spec, solver, pt, &init, f64::NAN)
-                .map(|r| (r.rms_damped_m, r.regime, r.impacts_per_cycle > 0.0))
-        },
+    let batch = Batch {
         progress,
-    );
-    let results = results.into_iter().collect::<Result<Vec<_>, SimError>>()?;
+        ..spec.batch(solver)
+    };
+    let results = batch.each(&jobs, |&(p, i)| {
+        let pt = &points[p];
+        let lg = spec
+            .damped_system(pt)?
+            .damper
+            .map_or(0.0, |d| d.half_gap_m());
+        let init = params.initial_state(i, lg);
+        compute_point_from(spec, solver, pt, &init, f64::NAN)
+            .map(|r| (r.rms_damped_m, r.regime, r.impacts_per_cycle > 0.0))
+    })?;
     Ok(points
         .iter()
         .zip(results.chunks(m))
