@@ -70,7 +70,8 @@ pub struct SweepArgs {
     /// Model and run settings.
     #[command(flatten)]
     pub model: ModelArgs,
-    /// Total clearance(s) in mm, comma-separated (the ball moves ±gap/2) [default: from the scenario: 0.1,1.0].
+    /// Total clearance(s) in mm, comma-separated (the ball moves ±gap/2) [default: the scenario's
+    /// [sweep] gaps_m; a file without them sweeps its [damper] gap_m; the paper preset: 0.1,1.0].
     #[arg(
         long,
         value_name = "G[,G...]",

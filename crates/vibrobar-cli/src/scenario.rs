@@ -13,7 +13,7 @@ use serde::de::{DeserializeOwned, Error as _};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::path::Path;
 use vibrobar_core::analysis::sweep::SweepRange;
-use vibrobar_core::analysis::SweepBase;
+use vibrobar_core::analysis::{SweepBase, SweepPoint};
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
 use vibrobar_core::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};
 
@@ -392,6 +392,22 @@ impl Scenario {
             gravity_m_s2: self.gravity_m_s2,
             init: self.initial,
         }
+    }
+
+    /// Sweep points in grid order, gap-major (every ratio of the first gap, then the next gap),
+    /// with the scenario's friction.
+    pub fn sweep_points(&self, gaps_m: &[f64], ratios: &[f64]) -> Vec<SweepPoint> {
+        gaps_m
+            .iter()
+            .flat_map(|&gap_m| {
+                ratios.iter().map(move |&ratio| SweepPoint {
+                    ratio,
+                    gap_m,
+                    friction: self.damper.friction,
+                    friction_force_n: self.damper.friction_force_n,
+                })
+            })
+            .collect()
     }
 
     /// The damped system as given (gap, friction, ratio from the scenario).

@@ -3,7 +3,6 @@
 
 use anyhow::Result;
 use std::time::Instant;
-use vibrobar_core::analysis::SweepPoint;
 use vibrobar_core::solver::SOLVER_NAMES;
 
 use super::{fmt_secs, run_one, solver, sweep_rows, Case};
@@ -84,19 +83,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
                 Some(s) => {
                     let ratios =
                         ratio_range(s.sweep.ratio_start, s.sweep.ratio_stop, s.sweep.ratio_step)?;
-                    let points: Vec<SweepPoint> = s
-                        .sweep
-                        .gaps_m
-                        .iter()
-                        .flat_map(|&gap_m| {
-                            ratios.iter().map(move |&ratio| SweepPoint {
-                                ratio,
-                                gap_m,
-                                friction: s.damper.friction,
-                                friction_force_n: s.damper.friction_force_n,
-                            })
-                        })
-                        .collect();
+                    let points = s.sweep_points(&s.sweep.gaps_m, &ratios);
                     sweep_rows(
                         &points,
                         &s.base(),

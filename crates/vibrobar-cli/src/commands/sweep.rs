@@ -8,7 +8,7 @@
 //! stamp and the job's fingerprint (which `--resume` checks).
 
 use anyhow::{Context, Result};
-use vibrobar_core::analysis::{Batch, SweepPoint};
+use vibrobar_core::analysis::Batch;
 
 use super::{batch_error, fmt_secs, run_one, solver, Case, SweepResult};
 use crate::cli::SweepArgs;
@@ -41,17 +41,7 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
         )?,
     };
     // Grid order (= row order and journal index): gap-major.
-    let points: Vec<SweepPoint> = gaps_m
-        .iter()
-        .flat_map(|&gap_m| {
-            ratios.iter().map(move |&ratio| SweepPoint {
-                ratio,
-                gap_m,
-                friction: sc.damper.friction,
-                friction_force_n: sc.damper.friction_force_n,
-            })
-        })
-        .collect();
+    let points = sc.sweep_points(&gaps_m, &ratios);
     // Validate every point before starting, so bad input fails fast with the field's name.
     for p in &points {
         let mut s = sc.clone();
