@@ -487,6 +487,11 @@ pub fn parse_ratios(spec: &str) -> Result<Vec<f64>> {
     ratio_range(v[0], v[1], v[2])
 }
 
+/// The ratios of a `[sweep]` range, checked ([`ratio_range`]).
+pub fn sweep_ratios(r: &SweepRange) -> Result<Vec<f64>> {
+    ratio_range(r.ratio_start, r.ratio_stop, r.ratio_step)
+}
+
 /// Check and expand a ratio range.
 pub fn ratio_range(start: f64, stop: f64, step: f64) -> Result<Vec<f64>> {
     for (name, x) in [("START", start), ("STOP", stop), ("STEP", step)] {

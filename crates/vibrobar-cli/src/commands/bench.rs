@@ -8,7 +8,8 @@ use vibrobar_core::solver::SOLVER_NAMES;
 use super::{fmt_secs, run_one, solver, sweep_rows, Case};
 use crate::cli::{BenchArgs, REPRODUCING_FRICTION_N};
 use crate::commands::paper::{run_solver, variants};
-use crate::scenario::{ratio_range, Overrides, Scenario};
+use crate::scenario::{sweep_ratios, Overrides, Scenario};
+use vibrobar_core::analysis::sweep::SweepRange;
 
 /// Run the command.
 pub fn bench(args: &BenchArgs) -> Result<()> {
@@ -77,12 +78,11 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
             let rows = match sc {
                 None => {
                     let v = variants(REPRODUCING_FRICTION_N);
-                    let ratios = ratio_range(0.95, 1.05, 0.01)?;
+                    let ratios = sweep_ratios(&SweepRange::paper())?;
                     run_solver(n, &st, &v, &ratios, None)?.sweep
                 }
                 Some(s) => {
-                    let ratios =
-                        ratio_range(s.sweep.ratio_start, s.sweep.ratio_stop, s.sweep.ratio_step)?;
+                    let ratios = sweep_ratios(&s.sweep)?;
                     let points = s.sweep_points(&s.sweep.gaps_m, &ratios);
                     sweep_rows(
                         &points,

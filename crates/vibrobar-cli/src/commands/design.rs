@@ -52,11 +52,23 @@ pub struct SystemArgs {
     /// [default: the scenario's, else 0.8].
     #[arg(long, allow_negative_numbers = true)]
     pub rms_fraction: Option<f64>,
+    /// The scenario, read once: every later use (runs, metadata) sees the same values even if
+    /// the file changes meanwhile.
+    #[arg(skip)]
+    pub loaded: std::sync::OnceLock<Scenario>,
 }
 
 impl SystemArgs {
-    /// The scenario (preset or file) with the flags applied, checked.
+    /// The scenario (preset or file) with the flags applied, checked; the file is read once.
     pub fn scenario(&self) -> anyhow::Result<Scenario> {
+        if let Some(s) = self.loaded.get() {
+            return Ok(s.clone());
+        }
+        let s = self.load()?;
+        Ok(self.loaded.get_or_init(|| s).clone())
+    }
+
+    fn load(&self) -> anyhow::Result<Scenario> {
         let src = match (&self.scenario, self.preset) {
             (Some(p), _) => Source::File(p),
             (None, p) => Source::Preset(p.unwrap_or(Preset::Paper)),

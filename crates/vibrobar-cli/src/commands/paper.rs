@@ -18,7 +18,7 @@ use crate::output::{grid_num, write_history_csv, write_json, write_sweep_csv, wr
 use crate::plot::{rms_vs_ratio, time_history, Curve};
 use crate::progress::Progress;
 use crate::report::{claims, render, IcEnsemble, IcPoint, ReportInput, Role, SolverData, Variant};
-use crate::scenario::{check_positive, ratio_range};
+use crate::scenario::{check_positive, sweep_ratios};
 
 pub use crate::cli::REPRODUCING_FRICTION_N;
 
@@ -354,7 +354,7 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
         bail!("--solvers lists a solver twice: {}", solvers.join(","));
     }
     let variants = variants(args.reproducing_friction_n);
-    let ratios = ratio_range(0.95, 1.05, 0.01)?;
+    let ratios = sweep_ratios(&vibrobar_core::analysis::sweep::SweepRange::paper())?;
     let sample = args.sample_interval_s.max(settings.dt_s);
     let out = &args.out;
     eprintln!(

@@ -14,7 +14,7 @@ use super::{batch_error, fmt_secs, run_one, solver, Case, SweepResult};
 use crate::cli::SweepArgs;
 use crate::output::{sweep_csv_line, SWEEP_HEADER};
 use crate::progress::Progress;
-use crate::scenario::{check_positive, parse_ratios, ratio_range, Scenario};
+use crate::scenario::{check_positive, parse_ratios, sweep_ratios, Scenario};
 use crate::store::{GridInfo, Metadata};
 
 /// Run the command.
@@ -34,11 +34,7 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     }
     let ratios = match &args.ratios {
         Some(spec) => parse_ratios(spec)?,
-        None => ratio_range(
-            sc.sweep.ratio_start,
-            sc.sweep.ratio_stop,
-            sc.sweep.ratio_step,
-        )?,
+        None => sweep_ratios(&sc.sweep)?,
     };
     // Grid order (= row order and journal index): gap-major.
     let points = sc.sweep_points(&gaps_m, &ratios);
