@@ -409,3 +409,93 @@ fn regression_bar_or_solid_bar_with_one_field_runs() {
         ]);
     }
 }
+
+#[test]
+fn a_bad_scenario_fails_every_command_before_any_run_naming_the_field() {
+    let d = tempfile::tempdir().unwrap();
+    let solid = write(d.path(), "solid.toml", "[solid_bar]\nmass_kg = 0\n");
+    let ball = write(d.path(), "ball.toml", "[initial]\nw_m = 4.0e-5\n");
+    let out = d.path().join("x.csv");
+    let o = s(&out);
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec![
+                "map",
+                "--scenario",
+                s(&solid),
+                "--ratios",
+                "1:1:0.1",
+                "--gaps-mm",
+                "0.1:0.1:0.1",
+                "--out",
+                o,
+            ],
+            "solid_bar.mass_kg",
+        ),
+        (
+            vec![
+                "poincare",
+                "--scenario",
+                s(&solid),
+                "--ratio",
+                "1",
+                "--gap-mm",
+                "0.1",
+                "--out",
+                o,
+            ],
+            "solid_bar.mass_kg",
+        ),
+        // w = 40 µm fits the file's 0.1 mm gap but not a 0.05 mm grid point.
+        (
+            vec![
+                "map",
+                "--scenario",
+                s(&ball),
+                "--ratios",
+                "1:1:0.1",
+                "--gaps-mm",
+                "0.05:0.1:0.05",
+                "--out",
+                o,
+            ],
+            "initial.w_m",
+        ),
+        (
+            vec![
+                "lyapunov",
+                "--scenario",
+                s(&ball),
+                "--ratio",
+                "1",
+                "--gap-mm",
+                "0.05",
+            ],
+            "initial.w_m",
+        ),
+        (
+            vec![
+                "bifurcation",
+                "--scenario",
+                s(&ball),
+                "--param",
+                "gap-mm",
+                "--values",
+                "0.05:0.1:0.05",
+                "--ratio",
+                "1",
+                "--out",
+                o,
+            ],
+            "initial.w_m",
+        ),
+    ];
+    for (args, want) in cases {
+        let r = run(&args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success(), "{args:?} accepted");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(!out.exists(), "{args:?} wrote output");
+    }
+}

@@ -90,7 +90,9 @@ impl SystemArgs {
                 st.dt_s
             );
         }
-        st.validate()?;
+        // The base as loaded (bars, ball, forcing, gravity, initial state, settings) must be
+        // valid before any point varies it; errors name the scenario field.
+        sc.validate()?;
         Ok(sc)
     }
 

@@ -52,8 +52,10 @@ fn point(ratio: f64, gap_mm: f64) -> anyhow::Result<GridPoint> {
 impl PointArgs {
     /// The damped system at the point, validated.
     pub fn system(&self) -> anyhow::Result<System> {
-        let sys = spec(&self.system)?.damped_system(&point(self.ratio, self.gap_mm)?)?;
+        let spec = spec(&self.system)?;
+        let sys = spec.damped_system(&point(self.ratio, self.gap_mm)?)?;
         sys.validate()?;
+        spec.base.init.validate(&sys)?;
         Ok(sys)
     }
 
@@ -248,6 +250,7 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> anyhow::Result<()> {
         let mut s = sys;
         axis.apply(&mut s, v)?;
         s.validate()?;
+        spec.base.init.validate(&s)?;
     }
     let transient = transient_or_default(a.transient, &a.system)?;
     let phase = check_value("--phase-deg", a.phase_deg, |_| true, "finite")?.to_radians();

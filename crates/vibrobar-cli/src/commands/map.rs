@@ -163,10 +163,14 @@ pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
         settings,
         tolerances: Tolerances::default(),
     };
-    // Every point must be a valid system: fail before any run, naming the field.
+    // Every point must be a valid system with the initial state inside its cavity: fail before
+    // any run, naming the field.
     for p in grid.points() {
         spec.damped_system(&p)
-            .and_then(|s| s.validate())
+            .and_then(|s| {
+                s.validate()?;
+                spec.base.init.validate(&s)
+            })
             .map_err(|e| anyhow::anyhow!("{e} (at {})", describe(&p)))?;
     }
     let mut header = String::from(HEAD);
