@@ -28,7 +28,7 @@ use vibrobar_core::analysis::map::{
     Optimum,
 };
 use vibrobar_core::analysis::regime::{Regime, Tolerances};
-use vibrobar_core::analysis::{run_case, Batch, SweepBase};
+use vibrobar_core::analysis::{run_case, Runner, SweepBase};
 use vibrobar_core::params::{FrictionModel, STANDARD_GRAVITY_M_S2};
 use vibrobar_core::solver::{Solver, SOLVER_NAMES};
 
@@ -243,21 +243,22 @@ fn compute(
     }
     let bar = Progress::new("map", total_in_job, journal.done_count());
     let spec = &job.spec;
-    let res = Batch {
-        threads,
-        progress: &bar.callback(),
-        ..spec.batch(solver)
-    }
-    .run(
-        &pending,
-        |p| spec.ratio(p),
-        |p, solid| -> anyhow::Result<()> {
-            let row = compute_point_from(spec, solver, p, &spec.base.init, solid.rms_m)
-                .with_context(|| format!("damped bar at {}", describe(p)))?;
-            journal.append(p.index, &format_row(&row, &job.extra))?;
-            Ok(())
-        },
-    );
+    let progress = bar.callback();
+    let res = spec
+        .batch(solver)
+        .on(Runner::default()
+            .with_threads(threads)
+            .with_progress(&progress))
+        .run(
+            &pending,
+            |p| spec.ratio(p),
+            |p, solid| -> anyhow::Result<()> {
+                let row = compute_point_from(spec, solver, p, &spec.base.init, solid.rms_m)
+                    .with_context(|| format!("damped bar at {}", describe(p)))?;
+                journal.append(p.index, &format_row(&row, &job.extra))?;
+                Ok(())
+            },
+        );
     bar.finish();
     res.map(|_| ()).map_err(batch_error)
 }

@@ -19,7 +19,7 @@ pub use design::{
 use anyhow::{anyhow, Result};
 use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
 use vibrobar_core::analysis::{
-    par_map_with_progress, run_case, Batch, BatchError, RunResult, Sampler, SweepBase, SweepPoint,
+    run_case, Batch, BatchError, RunResult, Runner, Sampler, SweepBase, SweepPoint,
 };
 use vibrobar_core::solver::Fanout;
 use vibrobar_core::{Observer, RunSettings, SimError, Solver, State, System};
@@ -104,7 +104,8 @@ pub fn run_one(
     })
 }
 
-/// Run many cases in parallel (rayon), in order, with a progress bar on stderr.
+/// Run independent cases through the core's runner (parallel, in order), with a progress bar
+/// on stderr.
 pub fn run_cases(
     cases: &[Case],
     settings: &RunSettings,
@@ -112,22 +113,20 @@ pub fn run_cases(
     label: &str,
 ) -> Result<Vec<CaseOutcome>> {
     let bar = crate::progress::Progress::new(label, cases.len(), 0);
-    let out = par_map_with_progress(cases, |c| run_one(c, settings, solver), &bar.callback());
-    bar.finish();
-    out.into_iter()
-        .zip(cases)
-        .map(|(r, c)| {
-            r.map_err(|e| {
-                anyhow!(
-                    "{label}: run at ratio {} failed: {e}",
-                    match c.system.forcing.frequency {
-                        vibrobar_core::Frequency::Ratio(r) => format!("{r:.4}"),
-                        vibrobar_core::Frequency::RadPerS(w) => format!("{w} rad/s"),
-                    }
-                )
-            })
+    let progress = bar.callback();
+    let out = Runner::default().with_progress(&progress).each(cases, |c| {
+        run_one(c, settings, solver).map_err(|e| {
+            anyhow!(
+                "{label}: run at ratio {} failed: {e}",
+                match c.system.forcing.frequency {
+                    vibrobar_core::Frequency::Ratio(r) => format!("{r:.4}"),
+                    vibrobar_core::Frequency::RadPerS(w) => format!("{w} rad/s"),
+                }
+            )
         })
-        .collect()
+    });
+    bar.finish();
+    out.map_err(batch_error)
 }
 
 /// Open the row journal of `out` for the job described by `meta` (its header and fingerprint),
@@ -199,36 +198,35 @@ pub fn sweep_rows(
     energy_audit: bool,
 ) -> Result<Vec<SweepResult>> {
     let bar = crate::progress::Progress::new(label, points.len(), 0);
-    let rows = Batch {
-        progress: &bar.callback(),
-        ..Batch::new(base, settings, solver)
-    }
-    .run(
-        points,
-        |p| p.ratio,
-        |p, solid| -> Result<SweepResult> {
-            let case = Case {
-                system: base.damped_system(p),
-                init: base.init,
-                sample_interval_s: None,
-                energy_audit,
-            };
-            let d = run_one(&case, settings, solver).map_err(|e| {
-                anyhow!(
-                    "{label}: run at ratio {:.4}, gap {} mm failed: {e}",
-                    p.ratio,
-                    p.gap_m * 1e3
-                )
-            })?;
-            Ok(SweepResult {
-                point: *p,
-                solver: solver.name().to_string(),
-                solid: *solid,
-                damped: d.result,
-                friction_work_j: d.friction_work_j,
-            })
-        },
-    );
+    let progress = bar.callback();
+    let rows = Batch::new(base, settings, solver)
+        .on(Runner::default().with_progress(&progress))
+        .run(
+            points,
+            |p| p.ratio,
+            |p, solid| -> Result<SweepResult> {
+                let case = Case {
+                    system: base.damped_system(p),
+                    init: base.init,
+                    sample_interval_s: None,
+                    energy_audit,
+                };
+                let d = run_one(&case, settings, solver).map_err(|e| {
+                    anyhow!(
+                        "{label}: run at ratio {:.4}, gap {} mm failed: {e}",
+                        p.ratio,
+                        p.gap_m * 1e3
+                    )
+                })?;
+                Ok(SweepResult {
+                    point: *p,
+                    solver: solver.name().to_string(),
+                    solid: *solid,
+                    damped: d.result,
+                    friction_work_j: d.friction_work_j,
+                })
+            },
+        );
     bar.finish();
     rows.map_err(batch_error)
 }

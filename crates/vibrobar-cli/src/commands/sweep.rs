@@ -8,7 +8,7 @@
 //! stamp and the job's fingerprint (which `--resume` checks).
 
 use anyhow::{Context, Result};
-use vibrobar_core::analysis::Batch;
+use vibrobar_core::analysis::{Batch, Runner};
 
 use super::{batch_error, fmt_secs, run_one, solver, Case, SweepResult};
 use crate::cli::SweepArgs;
@@ -70,10 +70,9 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     let pending = journal.pending();
     let base = sc.base();
     let bar = Progress::new("sweep", points.len(), journal.done_count());
-    let batch = Batch {
-        progress: &bar.callback(),
-        ..Batch::new(&base, &settings, solver.as_ref())
-    };
+    let progress = bar.callback();
+    let batch = Batch::new(&base, &settings, solver.as_ref())
+        .on(Runner::default().with_progress(&progress));
     let n_solid = batch.distinct_ratios(&pending, |&i| points[i].ratio).len();
     let res = batch.run(
         &pending,

@@ -142,126 +142,75 @@ pub enum BatchError<E> {
     /// No thread pool of the requested size.
     #[error("threads: {0}")]
     Threads(String),
-    /// Invalid input of the runner itself.
+    /// Invalid input (of the runner, or checked before any run).
     #[error(transparent)]
-    Param(ParamError),
+    Param(#[from] ParamError),
 }
 
-/// A batch: fixed parameters, solver and the runner's controls.
+/// The runner's controls: the thread pool, cancellation and the progress callback. It runs
+/// independent jobs in parallel ([`Runner::each`]); [`Batch`] adds the solid runs shared per
+/// ratio on top of it.
 #[derive(Clone, Copy)]
-pub struct Batch<'a> {
-    /// Bars, ball and forcing templates, gravity and initial state.
-    pub base: &'a SweepBase,
-    /// Duration, step and RMS window of every run.
-    pub settings: &'a RunSettings,
-    /// The solver.
-    pub solver: &'a dyn Solver,
+pub struct Runner<'a> {
     /// Worker threads: `None` uses rayon's global pool (`RAYON_NUM_THREADS`).
     pub threads: Option<usize>,
     /// Raised from outside (e.g. on SIGINT) to stop before the next run.
     pub cancel: Option<&'a AtomicBool>,
-    /// `(done, total)` over every run of the batch, solid runs first.
+    /// `(done, total)` over every run (for a [`Batch`], solid runs first).
     pub progress: &'a (dyn Fn(usize, usize) + Sync),
 }
 
-impl<'a> Batch<'a> {
-    /// A batch on rayon's global pool, without cancellation or progress.
-    pub fn new(base: &'a SweepBase, settings: &'a RunSettings, solver: &'a dyn Solver) -> Self {
-        Batch {
-            base,
-            settings,
-            solver,
+impl Default for Runner<'_> {
+    /// Rayon's global pool, no cancellation, no progress.
+    fn default() -> Self {
+        Runner {
             threads: None,
             cancel: None,
             progress: &|_, _| {},
         }
     }
+}
 
-    /// The solid bar at `ratio`, from the base's initial state.
-    pub fn solid(&self, ratio: f64) -> Result<RunResult, SimError> {
-        run_case(
-            &self.base.solid_system(ratio),
-            &self.base.init,
-            self.settings,
-            self.solver,
-            &mut (),
-        )
+impl<'a> Runner<'a> {
+    /// With a progress callback.
+    pub fn with_progress(self, progress: &'a (dyn Fn(usize, usize) + Sync)) -> Self {
+        Runner { progress, ..self }
     }
 
-    /// The ratios the solid bar runs at for `points`: each distinct `ratio(p)` once, ascending.
-    pub fn distinct_ratios<P>(&self, points: &[P], ratio: impl Fn(&P) -> f64) -> Vec<f64> {
-        let mut ratios: Vec<f64> = points.iter().map(ratio).collect();
-        ratios.sort_by(f64::total_cmp);
-        ratios.dedup_by(|a, b| a.total_cmp(b).is_eq());
-        ratios
+    /// On a pool of `threads` workers (`None`: rayon's global pool).
+    pub fn with_threads(self, threads: Option<usize>) -> Self {
+        Runner { threads, ..self }
     }
 
-    /// Run the solid bar once per distinct `ratio(p)` of `points`, then `damped(p, solid)` for
-    /// every point, where `solid` is the solid run at the point's ratio. Rows come back in the
-    /// order of `points`. The first failure (in point order among those that ran) stops the
-    /// batch: runs not yet started are skipped.
-    pub fn run<P, R, E>(
+    /// Stopped by `cancel`.
+    pub fn with_cancel(self, cancel: &'a AtomicBool) -> Self {
+        Runner {
+            cancel: Some(cancel),
+            ..self
+        }
+    }
+
+    /// Run `job` for every item in parallel; results in the order of `items`, independent of
+    /// the thread count. The first failure (in item order among those that ran) stops the
+    /// batch: jobs not yet started are skipped; so does a raised cancel flag.
+    pub fn each<T, R, E>(
         &self,
-        points: &[P],
-        ratio: impl Fn(&P) -> f64 + Sync,
-        damped: impl Fn(&P, &RunResult) -> Result<R, E> + Sync,
+        items: &[T],
+        job: impl Fn(&T) -> Result<R, E> + Sync,
     ) -> Result<Vec<R>, BatchError<E>>
     where
-        P: Sync,
-        R: Send,
-        E: Send,
-    {
-        self.in_pool(|| {
-            let ratios = self.distinct_ratios(points, &ratio);
-            let n_solid = ratios.len();
-            let total = n_solid + points.len();
-            let failed = AtomicBool::new(false);
-            let solid = self
-                .phase(&ratios, 0, total, &failed, |&r| self.solid(r))
-                .map_err(|(e, i)| match e {
-                    Some(source) => BatchError::Solid {
-                        ratio: ratios[i],
-                        source,
-                    },
-                    None => BatchError::Cancelled { done: i, total },
-                })?;
-            self.phase(points, n_solid, total, &failed, |p| {
-                let r = ratio(p);
-                let i = ratios
-                    .binary_search_by(|x| x.total_cmp(&r))
-                    .expect("every ratio has its solid run");
-                damped(p, &solid[i])
-            })
-            .map_err(|(e, done)| match e {
-                Some(e) => BatchError::Point(e),
-                None => BatchError::Cancelled {
-                    done: n_solid + done,
-                    total,
-                },
-            })
-        })
-    }
-
-    /// Run `job` for every point, without solid runs (ensembles, bifurcation diagrams), with the
-    /// same pool, cancellation, progress and failure rules as [`Batch::run`].
-    pub fn each<P, R, E>(
-        &self,
-        points: &[P],
-        job: impl Fn(&P) -> Result<R, E> + Sync,
-    ) -> Result<Vec<R>, BatchError<E>>
-    where
-        P: Sync,
+        T: Sync,
         R: Send,
         E: Send,
     {
         self.in_pool(|| {
             let failed = AtomicBool::new(false);
-            self.phase(points, 0, points.len(), &failed, &job)
+            self.phase(items, 0, items.len(), &failed, &job)
                 .map_err(|(e, done)| match e {
                     Some(e) => BatchError::Point(e),
                     None => BatchError::Cancelled {
                         done,
-                        total: points.len(),
+                        total: items.len(),
                     },
                 })
         })
@@ -332,6 +281,102 @@ impl<'a> Batch<'a> {
     }
 }
 
+/// A batch of damped runs beside solid (no-ball) runs shared per frequency ratio, on a
+/// [`Runner`].
+#[derive(Clone, Copy)]
+pub struct Batch<'a> {
+    /// Bars, ball and forcing templates, gravity and initial state.
+    pub base: &'a SweepBase,
+    /// Duration, step and RMS window of every run.
+    pub settings: &'a RunSettings,
+    /// The solver.
+    pub solver: &'a dyn Solver,
+    /// Pool, cancellation and progress.
+    pub runner: Runner<'a>,
+}
+
+impl<'a> Batch<'a> {
+    /// A batch on the default [`Runner`] (global pool, no cancellation, no progress).
+    pub fn new(base: &'a SweepBase, settings: &'a RunSettings, solver: &'a dyn Solver) -> Self {
+        Batch {
+            base,
+            settings,
+            solver,
+            runner: Runner::default(),
+        }
+    }
+
+    /// On another runner.
+    pub fn on(self, runner: Runner<'a>) -> Self {
+        Batch { runner, ..self }
+    }
+
+    /// The solid bar at `ratio`, from the base's initial state.
+    pub fn solid(&self, ratio: f64) -> Result<RunResult, SimError> {
+        run_case(
+            &self.base.solid_system(ratio),
+            &self.base.init,
+            self.settings,
+            self.solver,
+            &mut (),
+        )
+    }
+
+    /// The ratios the solid bar runs at for `points`: each distinct `ratio(p)` once, ascending.
+    pub fn distinct_ratios<P>(&self, points: &[P], ratio: impl Fn(&P) -> f64) -> Vec<f64> {
+        let mut ratios: Vec<f64> = points.iter().map(ratio).collect();
+        ratios.sort_by(f64::total_cmp);
+        ratios.dedup_by(|a, b| a.total_cmp(b).is_eq());
+        ratios
+    }
+
+    /// Run the solid bar once per distinct `ratio(p)` of `points`, then `damped(p, solid)` for
+    /// every point, where `solid` is the solid run at the point's ratio. Rows come back in the
+    /// order of `points`; failures and cancellation as in [`Runner::each`].
+    pub fn run<P, R, E>(
+        &self,
+        points: &[P],
+        ratio: impl Fn(&P) -> f64 + Sync,
+        damped: impl Fn(&P, &RunResult) -> Result<R, E> + Sync,
+    ) -> Result<Vec<R>, BatchError<E>>
+    where
+        P: Sync,
+        R: Send,
+        E: Send,
+    {
+        let run = &self.runner;
+        run.in_pool(|| {
+            let ratios = self.distinct_ratios(points, &ratio);
+            let n_solid = ratios.len();
+            let total = n_solid + points.len();
+            let failed = AtomicBool::new(false);
+            let solid = run
+                .phase(&ratios, 0, total, &failed, |&r| self.solid(r))
+                .map_err(|(e, i)| match e {
+                    Some(source) => BatchError::Solid {
+                        ratio: ratios[i],
+                        source,
+                    },
+                    None => BatchError::Cancelled { done: i, total },
+                })?;
+            run.phase(points, n_solid, total, &failed, |p| {
+                let r = ratio(p);
+                let i = ratios
+                    .binary_search_by(|x| x.total_cmp(&r))
+                    .expect("every ratio has its solid run");
+                damped(p, &solid[i])
+            })
+            .map_err(|(e, done)| match e {
+                Some(e) => BatchError::Point(e),
+                None => BatchError::Cancelled {
+                    done: n_solid + done,
+                    total,
+                },
+            })
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -376,10 +421,7 @@ mod tests {
         let st = short();
         let solver = Rk4 { dt_s: 1e-5 };
         let cancel = AtomicBool::new(true);
-        let batch = Batch {
-            cancel: Some(&cancel),
-            ..Batch::new(&base, &st, &solver)
-        };
+        let batch = Batch::new(&base, &st, &solver).on(Runner::default().with_cancel(&cancel));
         let e = batch
             .run(
                 &[1.0, 0.9],
@@ -395,10 +437,7 @@ mod tests {
         let base = SweepBase::paper();
         let st = short();
         let solver = Rk4 { dt_s: 1e-5 };
-        let batch = Batch {
-            threads: Some(1),
-            ..Batch::new(&base, &st, &solver)
-        };
+        let batch = Batch::new(&base, &st, &solver).on(Runner::default().with_threads(Some(1)));
         let e = batch
             .run(
                 &[1.0, 2.0, 3.0],
@@ -407,10 +446,7 @@ mod tests {
             )
             .unwrap_err();
         assert_eq!(e, BatchError::Point(2.0));
-        let zero = Batch {
-            threads: Some(0),
-            ..batch
-        };
+        let zero = batch.on(Runner::default().with_threads(Some(0)));
         let e = zero
             .run(&[1.0], |&r| r, |&r, _| -> Result<f64, SimError> { Ok(r) })
             .unwrap_err();
@@ -419,21 +455,16 @@ mod tests {
 
     #[test]
     fn each_keeps_the_order_and_reports_every_item() {
-        let base = SweepBase::paper();
-        let st = short();
-        let solver = Rk4 { dt_s: 1e-5 };
         let calls = AtomicUsize::new(0);
         let progress = |_: usize, total: usize| {
             assert_eq!(total, 100);
             calls.fetch_add(1, Ordering::Relaxed);
         };
-        let batch = Batch {
-            progress: &progress,
-            threads: Some(2),
-            ..Batch::new(&base, &st, &solver)
-        };
+        let runner = Runner::default()
+            .with_progress(&progress)
+            .with_threads(Some(2));
         let items: Vec<u32> = (0..100).collect();
-        let out = batch
+        let out = runner
             .each(&items, |&i| -> Result<u32, SimError> { Ok(2 * i) })
             .unwrap();
         assert_eq!(out, items.iter().map(|i| 2 * i).collect::<Vec<_>>());

@@ -10,7 +10,7 @@
 //! Per point, the statistics are reduced in member order after all runs finished, so the result
 //! is bit-identical for any thread count.
 
-use super::batch::{Batch, BatchError};
+use super::batch::{BatchError, Runner};
 use super::grid::GridPoint;
 use super::map::{compute_point_from, MapSpec};
 use super::regime::Regime;
@@ -153,7 +153,7 @@ pub struct EnsembleStats {
     pub impacting_members: usize,
 }
 
-/// Run the ensemble at each point (damped bar only) through the batch runner ([`Batch::each`]).
+/// Run the ensemble at each point (damped bar only) through the batch runner ([`Runner::each`]).
 pub fn run_ensemble(
     spec: &MapSpec,
     solver: &dyn Solver,
@@ -166,11 +166,8 @@ pub fn run_ensemble(
     let jobs: Vec<(usize, usize)> = (0..points.len())
         .flat_map(|p| (0..m).map(move |i| (p, i)))
         .collect();
-    let batch = Batch {
-        progress,
-        ..spec.batch(solver)
-    };
-    let results = batch.each(&jobs, |&(p, i)| {
+    let runner = Runner::default().with_progress(progress);
+    let results = runner.each(&jobs, |&(p, i)| {
         let pt = &points[p];
         let lg = spec
             .damped_system(pt)?

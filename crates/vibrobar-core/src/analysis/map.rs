@@ -2,7 +2,7 @@
 //! ratio), the damped and solid RMS at each point, the impact regime, and the optimum. The grid
 //! (index, shards) is [`super::grid`]; the runs go through the batch runner [`Batch`].
 
-use super::batch::{Batch, BatchError, SweepBase, SweepPoint};
+use super::batch::{Batch, BatchError, Runner, SweepBase, SweepPoint};
 use super::case::run_case;
 use super::regime::{classify, Regime, RegimeObserver, Tolerances};
 use crate::error::{ParamError, SimError};
@@ -130,10 +130,9 @@ pub fn run_map(
     points: &[GridPoint],
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Vec<MapRow>, BatchError<SimError>> {
-    let batch = Batch {
-        progress,
-        ..spec.batch(solver)
-    };
+    let batch = spec
+        .batch(solver)
+        .on(Runner::default().with_progress(progress));
     batch.run(
         points,
         |p| spec.ratio(p),

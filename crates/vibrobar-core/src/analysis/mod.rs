@@ -15,7 +15,7 @@ pub mod poincare;
 pub mod regime;
 pub mod sweep;
 
-pub use batch::{par_map_with_progress, Batch, BatchError, SweepBase};
+pub use batch::{par_map_with_progress, Batch, BatchError, Runner, SweepBase};
 pub use case::{run_case, ImpactCounter, RmsObserver, RunResult, Sampler};
 pub use grid::{checked_linspace_inclusive, linspace_inclusive, MAX_GRID_POINTS};
 pub use sweep::{sweep, SweepPoint, SweepRow};

@@ -1,6 +1,6 @@
 //! Frequency sweeps: damped bar beside the solid bar, through the batch runner.
 
-use super::batch::{Batch, BatchError};
+use super::batch::{Batch, BatchError, Runner};
 use super::case::{run_case, RunResult};
 use crate::error::SimError;
 use crate::params::RunSettings;
@@ -71,10 +71,7 @@ pub fn sweep(
     solver: &dyn Solver,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Vec<SweepRow>, BatchError<SimError>> {
-    let batch = Batch {
-        progress,
-        ..Batch::new(base, settings, solver)
-    };
+    let batch = Batch::new(base, settings, solver).on(Runner::default().with_progress(progress));
     batch.run(
         points,
         |p| p.ratio,
