@@ -1,8 +1,10 @@
 //! Analyses built on the observer protocol. They work with every solver.
 //!
-//! Module dependencies point one way: `case` (one run) ← `grid` ← `batch` (the batch runner:
-//! pool, shared solid runs, cancellation, progress) ← `sweep`, `poincare` ← `regime` ← `map` ←
-//! `ensemble`. This file only declares the modules and re-exports; no child imports it.
+//! Module dependencies point one way (this file only declares and re-exports; no child imports
+//! it): `case` (one run and its observers) and `grid` (ranges, axes, grids) are leaves; `batch`
+//! (the batch runner: pool, cancellation, progress, solid runs shared per ratio) uses `case`;
+//! `sweep` and `poincare` use `batch`; `regime` uses `poincare`; `map` uses `regime` and
+//! `batch`; `ensemble` uses `map`. `scripts/module_deps.py` lists the edges.
 
 pub mod batch;
 pub mod case;
