@@ -42,7 +42,8 @@ where
 }
 
 /// One point of a paper-style sweep.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SweepPoint {
     /// Frequency ratio (against each bar's own `√(K/M)`).
     pub ratio: f64,
@@ -55,8 +56,10 @@ pub struct SweepPoint {
 }
 
 /// Everything fixed across a batch: the bars, the ball and forcing templates the points vary,
-/// gravity and the initial state of every run.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// gravity and the initial state of every run. Deserialised with missing fields from
+/// [`SweepBase::paper`].
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SweepBase {
     /// Bar with the cavity.
     pub damped_bar: Bar,
@@ -70,6 +73,12 @@ pub struct SweepBase {
     pub gravity_m_s2: f64,
     /// Initial state of every run (solid and damped; the paper: at rest, ball centred).
     pub init: State,
+}
+
+impl Default for SweepBase {
+    fn default() -> Self {
+        Self::paper()
+    }
 }
 
 impl SweepBase {

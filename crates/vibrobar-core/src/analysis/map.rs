@@ -12,8 +12,9 @@ use std::collections::BTreeMap;
 
 pub use super::grid::{Axis, Grid, GridAxis, GridPoint};
 
-/// Everything fixed across a map.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Everything fixed across a map (serialisable, for typed metadata).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct MapSpec {
     /// Bars, ball template and forcing; grid axes override fields.
     pub base: SweepBase,
