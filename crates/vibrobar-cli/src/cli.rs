@@ -1,132 +1,10 @@
-//! Command-line definitions (clap derive). Units are in every flag name or help text.
+//! Command-line argument types shared by the commands (clap derive). Units are in every flag
+//! name or help text. This module imports nothing from the commands: the subcommand table that
+//! ties each command's arguments to its function is [`crate::app`].
 
-use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand, ValueEnum};
+use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use vibrobar_core::FrictionModel;
-
-/// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
-/// "The effect of rolling friction on vibro-impact damped boring bars".
-#[derive(Debug, Parser)]
-#[command(name = "vibrobar", version)]
-pub struct Cli {
-    /// What to do.
-    #[command(subcommand)]
-    pub command: Command,
-}
-
-/// Parse the process arguments (see [`try_parse_from`]).
-pub fn parse() -> Cli {
-    try_parse_from(std::env::args_os()).unwrap_or_else(|e| e.exit())
-}
-
-/// Parse `args` (the first is the program name). A numeric flag followed by a negative number,
-/// `--dt -1e-6`, is read as `--dt=-1e-6` ([`join_negative_numbers`]).
-pub fn try_parse_from<I, T>(args: I) -> Result<Cli, clap::Error>
-where
-    I: IntoIterator<Item = T>,
-    T: Into<std::ffi::OsString> + Clone,
-{
-    let cmd = Cli::command();
-    let args = join_negative_numbers(&cmd, args.into_iter().map(Into::into).collect());
-    Cli::from_arg_matches(&cmd.try_get_matches_from(args)?)
-}
-
-/// Rewrite `--flag -1e-6` as `--flag=-1e-6` when `--flag` is a numeric option of the
-/// subcommand and the next word is a negative number.
-///
-/// clap's `allow_negative_numbers` only recognises digits with an exponent of digits, so
-/// `--dt -1e-6` (a minus in the exponent) was "unexpected argument '-1' found" while
-/// `--dt=-1e-6` gave the range error. `allow_hyphen_values` would fix that but also swallow the
-/// next flag when a value is forgotten (`--gap-mm --out x`). Joining only a word that parses as
-/// a number keeps clap's behaviour for everything else; the value's own parser and range check
-/// then report it. Numeric options are found by their value type, wherever they are declared.
-pub fn join_negative_numbers(
-    cmd: &clap::Command,
-    args: Vec<std::ffi::OsString>,
-) -> Vec<std::ffi::OsString> {
-    let mut out = Vec::with_capacity(args.len());
-    let mut sub: Option<&clap::Command> = None;
-    let mut it = args.into_iter().peekable();
-    out.extend(it.next());
-    while let Some(word) = it.next() {
-        let Some(w) = word.to_str() else {
-            out.push(word);
-            continue;
-        };
-        if w == "--" {
-            out.push(word);
-            out.extend(it);
-            break;
-        }
-        if sub.is_none() && !w.starts_with('-') {
-            sub = cmd.find_subcommand(w);
-        }
-        let numeric_flag = w
-            .strip_prefix("--")
-            .filter(|name| !name.contains('='))
-            .and_then(|name| sub?.get_arguments().find(|a| a.get_long() == Some(name)))
-            .is_some_and(is_numeric);
-        let negative_next = it.peek().and_then(|n| n.to_str()).is_some_and(|n| {
-            n.starts_with('-') && n.split(',').all(|x| x.trim().parse::<f64>().is_ok())
-        });
-        if numeric_flag && negative_next {
-            let value = it.next().expect("peeked");
-            let mut joined = word;
-            joined.push("=");
-            joined.push(value);
-            out.push(joined);
-        } else {
-            out.push(word);
-        }
-    }
-    out
-}
-
-fn is_numeric(a: &clap::Arg) -> bool {
-    use std::any::TypeId;
-    let t = a.get_value_parser().type_id();
-    a.get_action().takes_values()
-        && [
-            TypeId::of::<f64>(),
-            TypeId::of::<u64>(),
-            TypeId::of::<usize>(),
-            TypeId::of::<u32>(),
-            TypeId::of::<i64>(),
-        ]
-        .iter()
-        .any(|n| t == *n)
-}
-
-/// The commands.
-#[derive(Debug, Subcommand)]
-pub enum Command {
-    /// Frequency sweep: RMS of the damped and the solid bar for each ratio and gap, as CSV.
-    Sweep(SweepArgs),
-    /// One run: time history as CSV and a one-screen summary.
-    Run(RunArgs),
-    /// Reproduce the paper: Figs. 2–5 (PNG + SVG), their CSVs and REPORT.md.
-    Paper(PaperArgs),
-    /// Time one paper run and the whole paper sweep set for every solver, in one process.
-    Bench(BenchArgs),
-    /// Lumped M, K of a round cantilever bar (optionally with a transverse cavity) from
-    /// Euler–Bernoulli theory, for each reduction to one degree of freedom.
-    Beam(crate::commands::beam::BeamArgs),
-    /// Design map over frequency ratio × gap: RMS reduction, impacts per cycle, regime, optimum
-    /// and heat maps; resumable (--resume) and shardable (--shard K/N).
-    Map(crate::commands::map::MapArgs),
-    /// Merge map shards written with --shard K/N into the whole map (checks completeness).
-    Merge(crate::commands::merge::MergeArgs),
-    /// Stroboscopic Poincaré section of one run (CSV, NPY, figure).
-    Poincare(crate::commands::explore::PoincareArgs),
-    /// Bifurcation diagram over the frequency ratio or the gap (CSV, NPY, figure).
-    Bifurcation(crate::commands::explore::BifurcationArgs),
-    /// Maximal Lyapunov exponent at one point (two-trajectory divergence with renormalisation).
-    Lyapunov(crate::commands::explore::LyapunovArgs),
-    /// Seeded initial-condition ensemble: spread of RMS and regime counts per point.
-    Ensemble(crate::commands::explore::EnsembleArgs),
-    /// Time a 200 × 100 ratio × gap map (from a subsample) for each solver.
-    BenchMap(crate::commands::map::BenchMapArgs),
-}
 
 /// Built-in parameter sets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -192,7 +70,8 @@ pub struct SweepArgs {
     /// Model and run settings.
     #[command(flatten)]
     pub model: ModelArgs,
-    /// Total clearance(s) in mm, comma-separated (the ball moves ±gap/2) [default: from the scenario: 0.1,1.0].
+    /// Total clearance(s) in mm, comma-separated (the ball moves ±gap/2) [default: the scenario's
+    /// [sweep] gaps_m; a file without them sweeps its [damper] gap_m; the paper preset: 0.1,1.0].
     #[arg(
         long,
         value_name = "G[,G...]",
@@ -251,6 +130,9 @@ pub struct RunArgs {
     pub energy: bool,
 }
 
+/// Friction force at which the as-published model reproduces the paper's friction figures.
+pub const REPRODUCING_FRICTION_N: f64 = 20.0;
+
 /// `vibrobar paper`.
 #[derive(Debug, Args)]
 pub struct PaperArgs {
@@ -278,7 +160,7 @@ pub struct PaperArgs {
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub dt: Option<f64>,
     /// Friction force in N at which the as-published model reproduces the paper's Figs. 4–5.
-    #[arg(long, value_name = "F_N", allow_negative_numbers = true, default_value_t = crate::commands::paper::REPRODUCING_FRICTION_N)]
+    #[arg(long, value_name = "F_N", allow_negative_numbers = true, default_value_t = REPRODUCING_FRICTION_N)]
     pub reproducing_friction_n: f64,
     /// Sampling interval of the time histories (Figs. 2 and 4 and their CSVs) in s.
     #[arg(
@@ -314,4 +196,9 @@ pub struct BenchArgs {
     /// Time only the single run, not the sweep set.
     #[arg(long)]
     pub single_only: bool,
+    /// Scenario file (TOML, as for `run`): time its damped run (gap, ratio, friction, initial
+    /// state as given) and its `[sweep]` (ratios × gaps) instead of the paper's run and sweep
+    /// set. --duration and --dt override the file.
+    #[arg(long, value_name = "FILE.toml")]
+    pub scenario: Option<PathBuf>,
 }

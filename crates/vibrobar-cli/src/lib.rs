@@ -1,14 +1,15 @@
 //! # vibrobar-cli
 //!
-//! The command-line front end of vibrobar: argument parsing ([`cli`]), scenario files
-//! ([`scenario`]), figures ([`plot`]), the reproduction report ([`report`]), design-map figures
-//! ([`figures`]), progress bars ([`progress`]) and one module per command ([`commands`]).
-//! Result files (atomic writes, journals, CSV schemas, NPY, metadata, shards) are written by
-//! `vibrobar-io`.
+//! The command-line front end of vibrobar: the subcommand table ([`app`]), argument types
+//! ([`cli`]), scenario files ([`scenario`]), figures ([`plot`]), the reproduction report
+//! ([`report`]), design-map figures ([`figures`]), progress bars ([`progress`]) and one module
+//! per command ([`commands`]). Result files (atomic writes, journals, CSV schemas, NPY, metadata,
+//! shards) are written by `vibrobar-io`.
 //! The physics is in `vibrobar-core`; this crate never re-implements it.
 
 #![warn(missing_docs)]
 
+pub mod app;
 pub mod cli;
 pub mod commands;
 pub mod figures;

@@ -1,11 +1,11 @@
 //! `vibrobar`: thin wrapper mapping errors to a message on stderr and a non-zero exit.
 
-use vibrobar_cli::{cli, commands};
+use vibrobar_cli::app;
 
 fn main() -> std::process::ExitCode {
     die_quietly_on_broken_pipe();
-    let cli = cli::parse();
-    match commands::dispatch(cli) {
+    let cli = app::parse();
+    match app::dispatch(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");

@@ -34,9 +34,13 @@ impl Progress {
         }
     }
 
-    /// `(done, total)` callback for the core; `done` counts from this bar's start.
+    /// `(done, total)` callback for the core; `done` and `total` count from this bar's start
+    /// (the batch runner's total includes its solid runs).
     pub fn callback(&self) -> impl Fn(usize, usize) + Sync + '_ {
-        move |done, _total| self.bar.set_position(self.offset + done as u64)
+        move |done, total| {
+            self.bar.set_length(self.offset + total as u64);
+            self.bar.set_position(self.offset + done as u64)
+        }
     }
 
     /// Count one more item.

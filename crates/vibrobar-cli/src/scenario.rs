@@ -1,170 +1,22 @@
-//! Scenario files: TOML in SI units with unit-bearing names, mirroring the core parameters.
-//! Every field is optional and defaults to the paper's value; unknown fields are errors, so a
-//! typo never silently falls back to a default.
+//! Scenario files: TOML in SI units with unit-bearing names. Each section deserialises into the
+//! core's parameter type (`[bar]` → [`Bar`], `[damper]` → [`Damper`], `[forcing]` → [`Forcing`],
+//! `[run]` → [`RunSettings`] and the solver's name, `[initial]` → [`State`]), whose serde
+//! defaults are the paper's values: every field is optional. Unknown fields are errors, so a typo
+//! never silently falls back to a default.
+//!
+//! Where the TOML layout differs from the core type (`[solid_bar]` defaults to the paper's solid
+//! bar, `[forcing] frequency_ratio`, `[run] solver`, `[initial]` relative to the cavity centre),
+//! a thin adapter below maps the section onto the core type; no value is repeated here.
 
 use anyhow::{bail, Context, Result};
-use serde::{Deserialize, Serialize};
+use serde::de::{DeserializeOwned, Error as _};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::path::Path;
-use vibrobar_core::analysis::SweepBase;
+use vibrobar_core::analysis::sweep::SweepRange;
+use vibrobar_core::analysis::{SweepBase, SweepPoint};
 use vibrobar_core::error::Compact;
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
 use vibrobar_core::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};
-
-use crate::cli::{ModelArgs, Preset};
-
-/// A bar (`[bar]` with the cavity, `[solid_bar]` the reference).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BarToml {
-    /// Lumped mass `M` in kg.
-    pub mass_kg: f64,
-    /// Lumped stiffness `K` in N/m.
-    pub stiffness_n_per_m: f64,
-    /// Damping ratio ζ, `C = 2ζ√(KM)`.
-    pub damping_ratio: f64,
-}
-
-impl From<Bar> for BarToml {
-    fn from(b: Bar) -> Self {
-        BarToml {
-            mass_kg: b.mass_kg,
-            stiffness_n_per_m: b.stiffness_n_per_m,
-            damping_ratio: b.damping_ratio,
-        }
-    }
-}
-
-impl From<BarToml> for Bar {
-    fn from(b: BarToml) -> Self {
-        Bar {
-            mass_kg: b.mass_kg,
-            stiffness_n_per_m: b.stiffness_n_per_m,
-            damping_ratio: b.damping_ratio,
-        }
-    }
-}
-
-/// `[damper]`: the ball in its cavity.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DamperToml {
-    /// Ball mass `m_d` in kg.
-    pub ball_mass_kg: f64,
-    /// Ball radius in m.
-    pub ball_radius_m: f64,
-    /// Coefficient of restitution, in [0, 1].
-    pub restitution: f64,
-    /// Total clearance in m (the ball moves ±gap/2).
-    pub gap_m: f64,
-    /// Coefficient of rolling friction η in m.
-    pub rolling_friction_m: f64,
-    /// `none`, `as-published` or `coulomb`.
-    pub friction: FrictionModel,
-    /// Friction force in N overriding η/r·m_d·g.
-    pub friction_force_n: Option<f64>,
-}
-
-impl Default for DamperToml {
-    fn default() -> Self {
-        let d = Damper::paper(0.1e-3, FrictionModel::None);
-        DamperToml {
-            ball_mass_kg: d.ball_mass_kg,
-            ball_radius_m: d.ball_radius_m,
-            restitution: d.restitution,
-            gap_m: d.gap_m,
-            rolling_friction_m: d.rolling_friction_m,
-            friction: d.friction,
-            friction_force_n: d.friction_force_n,
-        }
-    }
-}
-
-/// `[forcing]`: `F(t) = F_s + F0 sin(Ωt)`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ForcingToml {
-    /// `F0` in N.
-    pub amplitude_n: f64,
-    /// `F_s` in N.
-    pub static_force_n: f64,
-    /// `Ω / √(K/M)` of the bar simulated.
-    pub frequency_ratio: f64,
-}
-
-impl Default for ForcingToml {
-    fn default() -> Self {
-        ForcingToml {
-            amplitude_n: 15.0,
-            static_force_n: 0.0,
-            frequency_ratio: 1.0,
-        }
-    }
-}
-
-/// `[run]`: duration, step, RMS window, solver.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct RunToml {
-    /// Simulated time in s.
-    pub duration_s: f64,
-    /// Time step in s.
-    pub dt_s: f64,
-    /// Fraction of the run, from the end, over which RMS is taken.
-    pub rms_fraction: f64,
-    /// Solver name.
-    pub solver: String,
-}
-
-impl Default for RunToml {
-    fn default() -> Self {
-        let s = RunSettings::default();
-        RunToml {
-            duration_s: s.duration_s,
-            dt_s: s.dt_s,
-            rms_fraction: s.rms_fraction,
-            solver: crate::DEFAULT_SOLVER.to_string(),
-        }
-    }
-}
-
-/// `[initial]`: initial conditions (the paper: all zero, ball centred).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct InitialToml {
-    /// Bar displacement in m.
-    pub u_m: f64,
-    /// Bar velocity in m/s.
-    pub du_m_s: f64,
-    /// Ball position relative to the cavity centre, `w = v − u`, in m.
-    pub w_m: f64,
-    /// Relative velocity `ẇ` in m/s.
-    pub dw_m_s: f64,
-}
-
-/// `[sweep]`: ratio range and gaps of `vibrobar sweep`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SweepToml {
-    /// First ratio.
-    pub ratio_start: f64,
-    /// Last ratio (included).
-    pub ratio_stop: f64,
-    /// Ratio step.
-    pub ratio_step: f64,
-    /// Total clearances in m.
-    pub gaps_m: Vec<f64>,
-}
-
-impl Default for SweepToml {
-    fn default() -> Self {
-        SweepToml {
-            ratio_start: 0.95,
-            ratio_stop: 1.05,
-            ratio_step: 0.01,
-            gaps_m: vec![0.1e-3, 1.0e-3],
-        }
-    }
-}
 
 /// A whole scenario. Missing fields keep the paper's values.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -172,35 +24,234 @@ impl Default for SweepToml {
 pub struct Scenario {
     /// Gravity in m/s² (enters the derived friction force).
     pub gravity_m_s2: f64,
-    /// Bar with the cavity.
-    pub bar: BarToml,
-    /// Solid reference bar.
-    pub solid_bar: BarToml,
+    /// Bar with the cavity (missing fields: [`Bar::PAPER_CAVITY`]).
+    pub bar: Bar,
+    /// Solid reference bar (missing fields: [`Bar::PAPER_SOLID`]).
+    #[serde(deserialize_with = "solid_bar")]
+    pub solid_bar: Bar,
     /// The ball.
-    pub damper: DamperToml,
-    /// External force.
-    pub forcing: ForcingToml,
-    /// Run settings.
-    pub run: RunToml,
-    /// Initial conditions.
-    pub initial: InitialToml,
-    /// Sweep range.
-    pub sweep: SweepToml,
+    pub damper: Damper,
+    /// External force; `frequency_ratio` in the file.
+    #[serde(with = "forcing_section")]
+    pub forcing: Forcing,
+    /// Run settings and solver.
+    pub run: RunSection,
+    /// Initial conditions; in the file relative to the cavity centre (`w_m`, `dw_m_s`).
+    #[serde(with = "initial_section")]
+    pub initial: State,
+    /// Sweep range of `vibrobar sweep`.
+    pub sweep: SweepRange,
 }
 
 impl Default for Scenario {
     fn default() -> Self {
         Scenario {
             gravity_m_s2: STANDARD_GRAVITY_M_S2,
-            bar: Bar::PAPER_CAVITY.into(),
-            solid_bar: Bar::PAPER_SOLID.into(),
-            damper: DamperToml::default(),
-            forcing: ForcingToml::default(),
-            run: RunToml::default(),
-            initial: InitialToml::default(),
-            sweep: SweepToml::default(),
+            bar: Bar::PAPER_CAVITY,
+            solid_bar: Bar::PAPER_SOLID,
+            damper: Damper::default(),
+            forcing: Forcing::default(),
+            run: RunSection::default(),
+            initial: State::default(),
+            sweep: SweepRange::default(),
         }
     }
+}
+
+/// `[run]`: the core's [`RunSettings`] plus the solver's name, flat in one TOML table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunSection {
+    /// Duration, step, RMS window.
+    pub settings: RunSettings,
+    /// Solver name.
+    pub solver: String,
+}
+
+impl Default for RunSection {
+    fn default() -> Self {
+        RunSection {
+            settings: RunSettings::default(),
+            solver: crate::DEFAULT_SOLVER.to_string(),
+        }
+    }
+}
+
+/// Reject keys of `section` outside `allowed`, as `deny_unknown_fields` would.
+fn check_keys<E: serde::de::Error>(
+    section: &str,
+    t: &toml::Table,
+    allowed: &[&'static str],
+) -> Result<(), E> {
+    match t.keys().find(|k| !allowed.contains(&k.as_str())) {
+        Some(k) => Err(E::custom(format!(
+            "[{section}]: unknown field `{k}`, expected one of {}",
+            allowed
+                .iter()
+                .map(|a| format!("`{a}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Deserialise `T` from a table; the core type's serde defaults fill the missing fields.
+fn from_table<T: DeserializeOwned, E: serde::de::Error>(t: toml::Table) -> Result<T, E> {
+    T::deserialize(toml::Value::Table(t)).map_err(E::custom)
+}
+
+/// A value of a table as `f64` (integers accepted).
+fn take_f64<E: serde::de::Error>(t: &mut toml::Table, key: &str) -> Result<Option<f64>, E> {
+    t.remove(key)
+        .map(|v| f64::deserialize(v).map_err(|e| E::custom(format!("{key}: {e}"))))
+        .transpose()
+}
+
+/// `[solid_bar]`: a [`Bar`] whose missing fields are the paper's solid bar.
+fn solid_bar<'de, D: Deserializer<'de>>(d: D) -> Result<Bar, D::Error> {
+    let given = toml::Table::deserialize(d)?;
+    let mut t = match toml::Value::try_from(Bar::PAPER_SOLID).map_err(D::Error::custom)? {
+        toml::Value::Table(t) => t,
+        _ => return Err(D::Error::custom("a bar serialises to a table")),
+    };
+    // Unknown keys pass through and are refused by `Bar`'s `deny_unknown_fields`.
+    t.extend(given);
+    from_table(t)
+}
+
+impl Serialize for RunSection {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::Error as _;
+        let mut t = match toml::Value::try_from(self.settings).map_err(S::Error::custom)? {
+            toml::Value::Table(t) => t,
+            _ => return Err(S::Error::custom("run settings serialise to a table")),
+        };
+        t.insert("solver".into(), self.solver.clone().into());
+        t.serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for RunSection {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let mut t = toml::Table::deserialize(d)?;
+        check_keys("run", &t, &["duration_s", "dt_s", "rms_fraction", "solver"])?;
+        let solver = match t.remove("solver") {
+            Some(v) => {
+                String::deserialize(v).map_err(|e| D::Error::custom(format!("solver: {e}")))?
+            }
+            None => crate::DEFAULT_SOLVER.to_string(),
+        };
+        Ok(RunSection {
+            settings: from_table(t)?,
+            solver,
+        })
+    }
+}
+
+/// `[forcing]` as in the file: `amplitude_n`, `static_force_n` and `frequency_ratio`
+/// (`Ω / √(K/M)` of the bar simulated) or `omega_rad_s`.
+mod forcing_section {
+    use super::*;
+
+    pub fn serialize<S: Serializer>(f: &Forcing, s: S) -> Result<S::Ok, S::Error> {
+        let mut t = toml::Table::new();
+        t.insert("amplitude_n".into(), f.amplitude_n.into());
+        t.insert("static_force_n".into(), f.static_force_n.into());
+        match f.frequency {
+            Frequency::Ratio(r) => t.insert("frequency_ratio".into(), r.into()),
+            Frequency::RadPerS(w) => t.insert("omega_rad_s".into(), w.into()),
+        };
+        t.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Forcing, D::Error> {
+        let mut t = toml::Table::deserialize(d)?;
+        check_keys(
+            "forcing",
+            &t,
+            &[
+                "amplitude_n",
+                "static_force_n",
+                "frequency_ratio",
+                "omega_rad_s",
+            ],
+        )?;
+        let ratio = take_f64::<D::Error>(&mut t, "frequency_ratio")?;
+        let omega = take_f64::<D::Error>(&mut t, "omega_rad_s")?;
+        let mut f: Forcing = from_table(t)?;
+        match (ratio, omega) {
+            (Some(_), Some(_)) => {
+                return Err(D::Error::custom(
+                    "[forcing]: give frequency_ratio or omega_rad_s, not both",
+                ))
+            }
+            (Some(r), None) => f.frequency = Frequency::Ratio(r),
+            (None, Some(w)) => f.frequency = Frequency::RadPerS(w),
+            (None, None) => {}
+        }
+        Ok(f)
+    }
+}
+
+/// `[initial]` as in the file: bar `u_m`, `du_m_s`; ball relative to the cavity centre `w_m`,
+/// `dw_m_s`. Missing fields keep [`State::default`] (at rest, ball centred).
+mod initial_section {
+    use super::*;
+
+    pub fn serialize<S: Serializer>(st: &State, s: S) -> Result<S::Ok, S::Error> {
+        let mut t = toml::Table::new();
+        t.insert("u_m".into(), st.u_m.into());
+        t.insert("du_m_s".into(), st.du_m_s.into());
+        t.insert("w_m".into(), st.w_m().into());
+        t.insert("dw_m_s".into(), st.dw_m_s().into());
+        t.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<State, D::Error> {
+        let mut t = toml::Table::deserialize(d)?;
+        check_keys("initial", &t, &["u_m", "du_m_s", "w_m", "dw_m_s"])?;
+        let d0 = State::default();
+        let mut get = |k: &str, default: f64| -> Result<f64, D::Error> {
+            Ok(take_f64::<D::Error>(&mut t, k)?.unwrap_or(default))
+        };
+        let u = get("u_m", d0.u_m)?;
+        let du = get("du_m_s", d0.du_m_s)?;
+        let w = get("w_m", d0.w_m())?;
+        let dw = get("dw_m_s", d0.dw_m_s())?;
+        Ok(State {
+            u_m: u,
+            du_m_s: du,
+            v_m: u + w,
+            dv_m_s: du + dw,
+            ..d0
+        })
+    }
+}
+
+/// Where the parameters come from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Source<'a> {
+    /// A built-in set.
+    Preset(crate::cli::Preset),
+    /// A scenario file.
+    File(&'a Path),
+}
+
+/// Command-line overrides of a scenario, shared by every command that takes a system.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Overrides {
+    /// `--friction`.
+    pub friction: Option<FrictionModel>,
+    /// `--friction-force-n`.
+    pub friction_force_n: Option<f64>,
+    /// `--solver`.
+    pub solver: Option<String>,
+    /// `--dt`.
+    pub dt: Option<f64>,
+    /// `--duration`.
+    pub duration: Option<f64>,
+    /// `--rms-fraction`.
+    pub rms_fraction: Option<f64>,
 }
 
 impl Scenario {
@@ -210,8 +261,18 @@ impl Scenario {
     }
 
     /// Parse TOML text.
+    ///
+    /// A file that sets `[damper] gap_m` but has no `[sweep] gaps_m` sweeps that gap (not the
+    /// paper's two): the file's gap is what its author asked for.
     pub fn from_toml(text: &str) -> Result<Self> {
-        Ok(toml::from_str(text)?)
+        let raw: toml::Table = toml::from_str(text)?;
+        let gap_given = raw.get("damper").and_then(|d| d.get("gap_m")).is_some();
+        let gaps_given = raw.get("sweep").and_then(|s| s.get("gaps_m")).is_some();
+        let mut s: Scenario = toml::from_str(text)?;
+        if gap_given && !gaps_given {
+            s.sweep.gaps_m = vec![s.damper.gap_m];
+        }
+        Ok(s)
     }
 
     /// Read a scenario file.
@@ -221,86 +282,148 @@ impl Scenario {
         Self::from_toml(&text).with_context(|| format!("invalid scenario file {}", path.display()))
     }
 
-    /// Preset or file, then the flags on top.
-    pub fn from_args(args: &ModelArgs) -> Result<Self> {
-        let mut s = match (&args.scenario, args.preset) {
-            (Some(p), _) => Self::load(p)?,
-            (None, Some(Preset::Paper)) | (None, None) => Self::paper(),
-        };
-        if let Some(f) = args.friction {
-            s.damper.friction = f.into();
+    /// A preset or a file.
+    pub fn from_source(src: Source) -> Result<Self> {
+        match src {
+            Source::Preset(crate::cli::Preset::Paper) => Ok(Self::paper()),
+            Source::File(p) => Self::load(p),
         }
-        if let Some(f) = args.friction_force_n {
+    }
+
+    /// Apply command-line overrides; errors name the flag and its allowed range.
+    pub fn apply(&mut self, o: &Overrides) -> Result<()> {
+        if let Some(f) = o.friction {
+            self.damper.friction = f;
+        }
+        if let Some(f) = o.friction_force_n {
             check_non_negative("--friction-force-n", f, "N")?;
-            s.damper.friction_force_n = Some(f);
+            self.damper.friction_force_n = Some(f);
         }
-        if let Some(name) = &args.solver {
-            s.run.solver = name.clone();
+        if let Some(name) = &o.solver {
+            self.run.solver = name.clone();
         }
-        if let Some(dt) = args.dt {
+        if let Some(dt) = o.dt {
             check_positive("--dt", dt, "s")?;
-            s.run.dt_s = dt;
+            self.run.settings.dt_s = dt;
         }
-        if let Some(d) = args.duration {
+        if let Some(d) = o.duration {
             check_positive("--duration", d, "s")?;
-            s.run.duration_s = d;
+            self.run.settings.duration_s = d;
         }
+        if let Some(f) = o.rms_fraction {
+            if !(f > 0.0 && f <= 1.0) {
+                bail!("--rms-fraction = {f} is outside the allowed range (0, 1]");
+            }
+            self.run.settings.rms_fraction = f;
+        }
+        Ok(())
+    }
+
+    /// Preset or file, then the flags on top.
+    pub fn from_args(args: &crate::cli::ModelArgs) -> Result<Self> {
+        let src = match (&args.scenario, args.preset) {
+            (Some(p), _) => Source::File(p),
+            (None, p) => Source::Preset(p.unwrap_or(crate::cli::Preset::Paper)),
+        };
+        let mut s = Self::from_source(src)?;
+        s.apply(&Overrides {
+            friction: args.friction.map(Into::into),
+            friction_force_n: args.friction_force_n,
+            solver: args.solver.clone(),
+            dt: args.dt,
+            duration: args.duration,
+            rms_fraction: None,
+        })?;
         Ok(s)
+    }
+
+    /// Override the initial state from flags (`None` keeps the scenario's value); the ball's
+    /// flags are relative to the cavity centre.
+    pub fn override_initial(
+        &mut self,
+        u0_m: Option<f64>,
+        du0_m_s: Option<f64>,
+        w0_m: Option<f64>,
+        dw0_m_s: Option<f64>,
+    ) -> Result<()> {
+        let i = self.initial;
+        let mut v = [i.u_m, i.du_m_s, i.w_m(), i.dw_m_s()];
+        for (slot, (flag, x)) in v.iter_mut().zip([
+            ("--u0-m", u0_m),
+            ("--du0-m-s", du0_m_s),
+            ("--w0-m", w0_m),
+            ("--dw0-m-s", dw0_m_s),
+        ]) {
+            if let Some(x) = x {
+                check_finite(flag, x)?;
+                *slot = x;
+            }
+        }
+        let [u, du, w, dw] = v;
+        self.initial = State {
+            u_m: u,
+            du_m_s: du,
+            v_m: u + w,
+            dv_m_s: du + dw,
+            ..i
+        };
+        Ok(())
     }
 
     /// Run settings.
     pub fn settings(&self) -> RunSettings {
-        RunSettings {
-            duration_s: self.run.duration_s,
-            dt_s: self.run.dt_s,
-            rms_fraction: self.run.rms_fraction,
+        self.run.settings
+    }
+
+    /// The forcing's frequency ratio against the bar with the cavity.
+    pub fn frequency_ratio(&self) -> f64 {
+        match self.forcing.frequency {
+            Frequency::Ratio(r) => r,
+            Frequency::RadPerS(w) => w / self.bar.natural_freq_rad_s(),
         }
     }
 
-    /// Bars, ball and forcing of a sweep.
+    /// Bars, ball, forcing, gravity and initial state of a batch.
     pub fn base(&self) -> SweepBase {
-        let d = &self.damper;
         SweepBase {
-            damped_bar: self.bar.into(),
-            solid_bar: self.solid_bar.into(),
-            ball: Damper {
-                ball_mass_kg: d.ball_mass_kg,
-                ball_radius_m: d.ball_radius_m,
-                restitution: d.restitution,
-                gap_m: d.gap_m,
-                rolling_friction_m: d.rolling_friction_m,
-                friction: d.friction,
-                friction_force_n: d.friction_force_n,
-            },
-            forcing: Forcing {
-                amplitude_n: self.forcing.amplitude_n,
-                frequency: Frequency::Ratio(self.forcing.frequency_ratio),
-                static_force_n: self.forcing.static_force_n,
-            },
+            damped_bar: self.bar,
+            solid_bar: self.solid_bar,
+            ball: self.damper,
+            forcing: self.forcing,
+            gravity_m_s2: self.gravity_m_s2,
+            init: self.initial,
         }
+    }
+
+    /// Sweep points in grid order, gap-major (every ratio of the first gap, then the next gap),
+    /// with the scenario's friction.
+    pub fn sweep_points(&self, gaps_m: &[f64], ratios: &[f64]) -> Vec<SweepPoint> {
+        gaps_m
+            .iter()
+            .flat_map(|&gap_m| {
+                ratios.iter().map(move |&ratio| SweepPoint {
+                    ratio,
+                    gap_m,
+                    friction: self.damper.friction,
+                    friction_force_n: self.damper.friction_force_n,
+                })
+            })
+            .collect()
     }
 
     /// The damped system as given (gap, friction, ratio from the scenario).
     pub fn damped_system(&self) -> System {
-        let b = self.base();
         System {
-            bar: b.damped_bar,
-            damper: Some(b.ball),
-            forcing: b.forcing,
+            bar: self.bar,
+            damper: Some(self.damper),
+            forcing: self.forcing,
             gravity_m_s2: self.gravity_m_s2,
         }
     }
 
     /// Initial state from `[initial]`.
     pub fn initial_state(&self) -> State {
-        let i = &self.initial;
-        State {
-            t_s: 0.0,
-            u_m: i.u_m,
-            du_m_s: i.du_m_s,
-            v_m: i.u_m + i.w_m,
-            dv_m_s: i.du_m_s + i.dw_m_s,
-        }
+        self.initial
     }
 
     /// Validate everything a run needs; errors name the scenario field and its allowed range.
@@ -308,7 +431,7 @@ impl Scenario {
         positive("gravity_m_s2", self.gravity_m_s2)?;
         self.damped_system().validate()?;
         let solid = System {
-            bar: self.solid_bar.into(),
+            bar: self.solid_bar,
             damper: None,
             ..self.damped_system()
         };
@@ -374,6 +497,11 @@ pub fn parse_ratios(spec: &str) -> Result<Vec<f64>> {
     ratio_range(v[0], v[1], v[2])
 }
 
+/// The ratios of a `[sweep]` range, checked ([`ratio_range`]).
+pub fn sweep_ratios(r: &SweepRange) -> Result<Vec<f64>> {
+    ratio_range(r.ratio_start, r.ratio_stop, r.ratio_step)
+}
+
 /// Check and expand a ratio range.
 pub fn ratio_range(start: f64, stop: f64, step: f64) -> Result<Vec<f64>> {
     for (name, x) in [("START", start), ("STOP", stop), ("STEP", step)] {
@@ -413,4 +541,129 @@ pub fn ratio_range(start: f64, stop: f64, step: f64) -> Result<Vec<f64>> {
     Ok(vibrobar_core::analysis::linspace_inclusive(
         start, stop, step,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn regression_bar_section_with_one_field_keeps_the_paper_values() {
+        let s = Scenario::from_toml("[bar]\ndamping_ratio = 0.02\n").unwrap();
+        assert_eq!(
+            s.bar,
+            Bar {
+                damping_ratio: 0.02,
+                ..Bar::PAPER_CAVITY
+            }
+        );
+        assert_eq!(s.solid_bar, Bar::PAPER_SOLID);
+        s.validate().unwrap();
+    }
+
+    #[test]
+    fn regression_solid_bar_section_with_one_field_keeps_the_paper_solid_values() {
+        let s = Scenario::from_toml("[solid_bar]\ndamping_ratio = 0.02\n").unwrap();
+        assert_eq!(
+            s.solid_bar,
+            Bar {
+                damping_ratio: 0.02,
+                ..Bar::PAPER_SOLID
+            }
+        );
+        assert_eq!(s.bar, Bar::PAPER_CAVITY);
+        let m = Scenario::from_toml("[solid_bar]\nmass_kg = 1\n").unwrap();
+        assert_eq!(
+            m.solid_bar.stiffness_n_per_m,
+            Bar::PAPER_SOLID.stiffness_n_per_m
+        );
+        assert_eq!(m.solid_bar.mass_kg, 1.0);
+    }
+
+    #[test]
+    fn regression_damper_gap_without_sweep_section_is_the_gap_swept() {
+        let s = Scenario::from_toml("[damper]\ngap_m = 5e-4\n").unwrap();
+        assert_eq!(s.sweep.gaps_m, vec![5e-4]);
+        // A [sweep] section without gaps_m does not hide the file's gap either.
+        let s =
+            Scenario::from_toml("[damper]\ngap_m = 5e-4\n[sweep]\nratio_step = 0.02\n").unwrap();
+        assert_eq!(s.sweep.gaps_m, vec![5e-4]);
+        // Explicit gaps win; no gap anywhere keeps the paper's two.
+        let s = Scenario::from_toml("[damper]\ngap_m = 5e-4\n[sweep]\ngaps_m = [1e-3]\n").unwrap();
+        assert_eq!(s.sweep.gaps_m, vec![1e-3]);
+        let s = Scenario::from_toml("[bar]\nmass_kg = 0.7\n").unwrap();
+        assert_eq!(s.sweep.gaps_m, SweepRange::paper().gaps_m);
+    }
+
+    #[test]
+    fn every_section_defaults_and_refuses_unknown_fields() {
+        assert_eq!(Scenario::from_toml("").unwrap(), Scenario::paper());
+        for (text, want) in [
+            ("[bar]\nmas_kg = 1\n", "mas_kg"),
+            ("[solid_bar]\nmas_kg = 1\n", "mas_kg"),
+            ("[damper]\nrestitutio = 0.5\n", "restitutio"),
+            ("[forcing]\nfrequency = 1.0\n", "frequency"),
+            (
+                "[forcing]\nfrequency_ratio = 1.0\nomega_rad_s = 3.0\n",
+                "not both",
+            ),
+            ("[run]\nsolverr = \"rk4\"\n", "solverr"),
+            ("[initial]\nv_m = 0.0\n", "v_m"),
+            ("[sweep]\ngap_m = [1e-4]\n", "gap_m"),
+            ("[forcing]\nfrequency_ratio = \"x\"\n", "frequency_ratio"),
+            ("colour = 1\n", "colour"),
+        ] {
+            let e = format!("{:#}", Scenario::from_toml(text).unwrap_err());
+            assert!(e.contains(want), "{text:?}: {e}");
+        }
+        let s = Scenario::from_toml(
+            "[forcing]\nfrequency_ratio = 0.97\n[run]\nsolver = \"rk4\"\ndt_s = 2e-6\n\
+             [initial]\nw_m = 1e-5\ndw_m_s = 0.1\nu_m = 2e-6\n",
+        )
+        .unwrap();
+        assert_eq!(s.forcing.frequency, Frequency::Ratio(0.97));
+        assert_eq!(s.forcing.amplitude_n, Forcing::default().amplitude_n);
+        assert_eq!(s.run.solver, "rk4");
+        assert_eq!(s.run.settings.dt_s, 2e-6);
+        assert_eq!(s.run.settings.duration_s, RunSettings::default().duration_s);
+        assert_eq!(s.initial.u_m, 2e-6);
+        assert_eq!(s.initial.v_m, 2e-6 + 1e-5);
+        assert_eq!(s.initial.dv_m_s, 0.1);
+    }
+
+    /// The scenario's JSON (written into every run and sweep metadata, and so into the sweep's
+    /// fingerprint) keeps the file's layout.
+    #[test]
+    fn scenario_serialises_in_the_file_layout() {
+        let j = serde_json::to_value(Scenario::paper()).unwrap();
+        let keys = |v: &serde_json::Value| -> Vec<String> {
+            v.as_object().unwrap().keys().cloned().collect()
+        };
+        assert_eq!(
+            keys(&j),
+            [
+                "bar",
+                "damper",
+                "forcing",
+                "gravity_m_s2",
+                "initial",
+                "run",
+                "solid_bar",
+                "sweep"
+            ]
+        );
+        assert_eq!(
+            keys(&j["forcing"]),
+            ["amplitude_n", "frequency_ratio", "static_force_n"]
+        );
+        assert_eq!(
+            keys(&j["run"]),
+            ["dt_s", "duration_s", "rms_fraction", "solver"]
+        );
+        assert_eq!(keys(&j["initial"]), ["du_m_s", "dw_m_s", "u_m", "w_m"]);
+        assert_eq!(j["solid_bar"]["mass_kg"], 0.668);
+        // And it reads back as the same scenario.
+        let toml_text = toml::to_string(&Scenario::paper()).unwrap();
+        assert_eq!(Scenario::from_toml(&toml_text).unwrap(), Scenario::paper());
+    }
 }

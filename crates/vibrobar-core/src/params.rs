@@ -11,7 +11,11 @@ use serde::{Deserialize, Serialize};
 pub const STANDARD_GRAVITY_M_S2: f64 = 9.806_65;
 
 /// Lumped SDOF bar: `M ü + C u̇ + K u = F(t) − F_rf`, with `C = 2ζ√(KM)`.
+///
+/// Deserialised (scenario files, metadata) with every missing field taken from [`Bar::default`],
+/// the paper's bar with the cavity; unknown fields are errors.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Bar {
     /// Lumped modal mass `M`.
     pub mass_kg: f64,
@@ -43,6 +47,13 @@ impl Bar {
     /// Undamped natural frequency `√(K/M)`.
     pub fn natural_freq_rad_s(&self) -> f64 {
         (self.stiffness_n_per_m / self.mass_kg).sqrt()
+    }
+}
+
+impl Default for Bar {
+    /// The paper's bar with the cavity, [`Bar::PAPER_CAVITY`].
+    fn default() -> Self {
+        Bar::PAPER_CAVITY
     }
 }
 
@@ -90,7 +101,10 @@ impl std::fmt::Display for FrictionModel {
 }
 
 /// The free ball in its cavity.
+///
+/// Deserialised with every missing field taken from [`Damper::default`]; unknown fields are errors.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Damper {
     /// Ball mass `m_d`.
     pub ball_mass_kg: f64,
@@ -146,6 +160,13 @@ impl Damper {
     }
 }
 
+impl Default for Damper {
+    /// The paper's ball at its smaller gap (0.1 mm), frictionless.
+    fn default() -> Self {
+        Damper::paper(0.1e-3, FrictionModel::None)
+    }
+}
+
 /// How the forcing frequency is given.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -157,7 +178,10 @@ pub enum Frequency {
 }
 
 /// Cutting force `F(t) = F_s + F0 sin(Ωt)`.
+///
+/// Deserialised with every missing field taken from [`Forcing::default`]; unknown fields are errors.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Forcing {
     /// Amplitude `F0` of the oscillatory part.
     pub amplitude_n: f64,
@@ -175,6 +199,13 @@ impl Forcing {
             frequency: Frequency::Ratio(ratio),
             static_force_n: 0.0,
         }
+    }
+}
+
+impl Default for Forcing {
+    /// The paper's forcing at resonance, `Forcing::paper(1.0)`.
+    fn default() -> Self {
+        Forcing::paper(1.0)
     }
 }
 
@@ -323,7 +354,10 @@ impl System {
 }
 
 /// Full state of bar and ball. Without a damper the ball fields are ignored.
+///
+/// The default is [`State::REST`]; missing fields deserialise to it, unknown fields are errors.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct State {
     /// Time.
     pub t_s: f64,
@@ -379,7 +413,10 @@ impl State {
 }
 
 /// Settings shared by every run: duration, step, RMS window.
+///
+/// Missing fields deserialise to [`RunSettings::default`] (the paper's); unknown fields are errors.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct RunSettings {
     /// Simulated time.
     pub duration_s: f64,

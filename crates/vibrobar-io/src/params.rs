@@ -16,9 +16,12 @@ pub struct SystemParams {
     /// Says that `ball.gap_m` is a template (absent in files of older versions).
     #[serde(default)]
     pub note: String,
-    /// Preset name.
+    /// Preset name (`None` when the system comes from a scenario file).
     #[serde(default)]
-    pub preset: String,
+    pub preset: Option<String>,
+    /// Scenario file the system was read from (absent in files of older versions).
+    #[serde(default)]
+    pub scenario_file: Option<String>,
     /// Friction model name.
     pub friction: String,
     /// Friction force override in N.
@@ -31,10 +34,20 @@ pub struct SystemParams {
     pub ball: Damper,
     /// Forcing template.
     pub forcing: Forcing,
+    /// Gravity in m/s² (files of older versions ran with standard gravity).
+    #[serde(default = "standard_gravity")]
+    pub gravity_m_s2: f64,
+    /// Initial state of every run (files of older versions started at rest).
+    #[serde(default)]
+    pub initial: State,
     /// Solver name.
     pub solver: String,
     /// Run settings.
     pub settings: RunSettings,
+}
+
+fn standard_gravity() -> f64 {
+    vibrobar_core::params::STANDARD_GRAVITY_M_S2
 }
 
 /// Parameters of a map file (`kind = "map"`).

@@ -1,28 +1,31 @@
-//! `vibrobar bench`: wall times of one paper run and of the whole paper sweep set, per solver,
-//! in one process, with ratios against `rk4`.
+//! `vibrobar bench`: wall times of one paper run and of the whole paper sweep set (or of a
+//! scenario's run and sweep), per solver, in one process, with ratios against `rk4`.
 
 use anyhow::Result;
 use std::time::Instant;
 use vibrobar_core::solver::SOLVER_NAMES;
-use vibrobar_core::{FrictionModel, RunSettings, State, System};
 
-use super::{fmt_secs, run_one, solver, Case};
-use crate::cli::BenchArgs;
-use crate::commands::paper::{run_solver, variants, REPRODUCING_FRICTION_N};
-use crate::scenario::{check_positive, ratio_range};
+use super::{fmt_secs, run_one, solver, sweep_rows, Case};
+use crate::cli::{BenchArgs, REPRODUCING_FRICTION_N};
+use crate::commands::paper::{run_solver, variants};
+use crate::scenario::{sweep_ratios, Overrides, Scenario};
+use vibrobar_core::analysis::sweep::SweepRange;
 
 /// Run the command.
 pub fn bench(args: &BenchArgs) -> Result<()> {
-    let mut st = RunSettings::default();
-    if let Some(d) = args.duration {
-        check_positive("--duration", d, "s")?;
-        st.duration_s = d;
-    }
-    if let Some(dt) = args.dt {
-        check_positive("--dt", dt, "s")?;
-        st.dt_s = dt;
-    }
-    st.validate()?;
+    // The paper's single run is the paper scenario's damped system; only the sweep set differs.
+    let mut run_sc = match &args.scenario {
+        Some(p) => Scenario::load(p)?,
+        None => Scenario::paper(),
+    };
+    run_sc.apply(&Overrides {
+        duration: args.duration,
+        dt: args.dt,
+        ..Overrides::default()
+    })?;
+    run_sc.validate()?;
+    let st = run_sc.settings();
+    let sc = args.scenario.is_some().then_some(&run_sc);
     let names: Vec<String> = if args.solvers.is_empty() {
         SOLVER_NAMES.iter().map(|s| s.to_string()).collect()
     } else {
@@ -39,10 +42,25 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         rayon::current_num_threads()
     );
     let single = Case {
-        system: System::paper_damped(0.1e-3, FrictionModel::None, 1.0),
-        init: State::REST,
+        system: run_sc.damped_system(),
+        init: run_sc.initial_state(),
         sample_interval_s: None,
         energy_audit: false,
+    };
+    let (single_label, set_label) = match sc {
+        None => (
+            "r = 1, gap 0.1 mm, frictionless".to_string(),
+            "paper sweep set",
+        ),
+        Some(s) => (
+            format!(
+                "scenario: r = {}, gap {} mm, friction {}",
+                s.frequency_ratio(),
+                s.damper.gap_m * 1e3,
+                s.damper.friction
+            ),
+            "scenario sweep",
+        ),
     };
     let mut rows = Vec::new();
     let mut sweeps = Vec::new();
@@ -56,24 +74,40 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         let t_sweep = if args.single_only {
             None
         } else {
-            let v = variants(REPRODUCING_FRICTION_N);
-            let ratios = ratio_range(0.95, 1.05, 0.01)?;
             let t = Instant::now();
-            let d = run_solver(n, &st, &v, &ratios, None)?;
+            let rows = match sc {
+                None => {
+                    let v = variants(REPRODUCING_FRICTION_N);
+                    let ratios = sweep_ratios(&SweepRange::paper())?;
+                    run_solver(n, &st, &v, &ratios, None)?.sweep
+                }
+                Some(s) => {
+                    let ratios = sweep_ratios(&s.sweep)?;
+                    let points = s.sweep_points(&s.sweep.gaps_m, &ratios);
+                    sweep_rows(
+                        &points,
+                        &s.base(),
+                        &st,
+                        solver(n, &st)?.as_ref(),
+                        &format!("bench [{n}]"),
+                        true,
+                    )?
+                }
+            };
             let el = t.elapsed().as_secs_f64();
-            let npts = d.sweep.len();
-            sweeps.push((n.clone(), d.sweep));
+            let npts = rows.len();
+            sweeps.push((n.clone(), rows));
             Some((el, npts))
         };
         println!(
-            "  {n:<6} single run (r = 1, gap 0.1 mm, frictionless): {} (RMS {:.4e} m, {} impacts)",
+            "  {n:<6} single run ({single_label}): {} (RMS {:.4e} m, {} impacts)",
             fmt_secs(t_single),
             o.result.rms_m,
             o.result.impacts
         );
         if let Some((ts, npts)) = t_sweep {
             println!(
-                "  {n:<6} paper sweep set ({npts} damped points + solid bars): {}",
+                "  {n:<6} {set_label} ({npts} damped points + solid bars): {}",
                 fmt_secs(ts)
             );
         }

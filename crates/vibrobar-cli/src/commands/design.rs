@@ -2,22 +2,17 @@
 //! ensemble): system flags, checked ranges, thread pools, grid-coordinate formatting.
 
 use anyhow::{bail, Context};
+use std::path::PathBuf;
 use vibrobar_core::analysis::{checked_linspace_inclusive, SweepBase};
 use vibrobar_core::error::Compact;
 use vibrobar_core::params::{FrictionModel, RunSettings};
 use vibrobar_core::solver::{solver_by_name, Solver, SOLVER_NAMES};
 
 pub use crate::cli::{FrictionArg, Preset};
+use crate::scenario::{Overrides, Scenario, Source};
 pub use crate::DEFAULT_SOLVER;
 
 impl Preset {
-    /// The bars, ball and forcing of the preset.
-    pub fn base(self) -> SweepBase {
-        match self {
-            Preset::Paper => SweepBase::paper(),
-        }
-    }
-
     /// Name in output files.
     pub fn as_str(self) -> &'static str {
         match self {
@@ -26,101 +21,131 @@ impl Preset {
     }
 }
 
-/// Flags shared by every design command: system, friction and solver settings.
+/// Flags shared by every design command: where the system comes from (a preset or a scenario
+/// file), and the friction and run settings on top of it.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SystemArgs {
-    /// Bars, ball and forcing.
-    #[arg(long, value_enum, default_value = "paper")]
-    pub preset: Preset,
-    /// Friction law between ball and bar.
-    #[arg(long, value_enum)]
-    pub friction: FrictionArg,
-    /// Friction force level in N (default: the preset's η/r·m_d·g = 0.0204 N).
+    /// Built-in bars, ball and forcing (the default when no --scenario is given).
+    #[arg(long, value_enum, conflicts_with = "scenario")]
+    pub preset: Option<Preset>,
+    /// Scenario file (TOML, SI units, as for `run` and `sweep`; fields not given keep the paper's
+    /// values): bars, ball, forcing, gravity, initial state, run settings and solver. The grid or
+    /// point flags set the ratio and gap; the flags below override the file.
+    #[arg(long, value_name = "FILE.toml")]
+    pub scenario: Option<PathBuf>,
+    /// Friction law between ball and bar (required without --scenario) [default: the scenario's].
+    #[arg(long, value_enum, required_unless_present = "scenario")]
+    pub friction: Option<FrictionArg>,
+    /// Friction force level in N (default: the scenario's, else η/r·m_d·g = 0.0204 N).
     #[arg(long, allow_negative_numbers = true)]
     pub friction_force_n: Option<f64>,
-    /// Solver (`exact` event-driven when available, or `rk4` with fixed step `--dt`).
-    #[arg(long, default_value = DEFAULT_SOLVER)]
-    pub solver: String,
-    /// Simulated time of each run, in s.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 2.0)]
-    pub duration: f64,
-    /// Step of `rk4` (output-grid unit for `exact`), in s.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 1e-6)]
-    pub dt: f64,
-    /// Fraction of the run, from the end, over which RMS and impact rates are taken.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.8)]
-    pub rms_fraction: f64,
+    /// Solver (`exact` event-driven when available, or `rk4` with fixed step `--dt`)
+    /// [default: the scenario's, else exact].
+    #[arg(long)]
+    pub solver: Option<String>,
+    /// Simulated time of each run, in s [default: the scenario's, else 2].
+    #[arg(long, allow_negative_numbers = true)]
+    pub duration: Option<f64>,
+    /// Step of `rk4` (output-grid unit for `exact`), in s [default: the scenario's, else 1e-6].
+    #[arg(long, allow_negative_numbers = true)]
+    pub dt: Option<f64>,
+    /// Fraction of the run, from the end, over which RMS and impact rates are taken
+    /// [default: the scenario's, else 0.8].
+    #[arg(long, allow_negative_numbers = true)]
+    pub rms_fraction: Option<f64>,
+    /// The scenario, read once: every later use (runs, metadata) sees the same values even if
+    /// the file changes meanwhile.
+    #[arg(skip)]
+    pub loaded: std::sync::OnceLock<Scenario>,
 }
 
 impl SystemArgs {
-    /// Checked run settings.
-    pub fn settings(&self) -> anyhow::Result<RunSettings> {
-        if !(self.duration.is_finite() && self.duration > 0.0) {
-            bail!(
-                "--duration must be in (0, ∞) s, got {}",
-                Compact(self.duration)
-            );
+    /// The scenario (preset or file) with the flags applied, checked; the file is read once.
+    pub fn scenario(&self) -> anyhow::Result<Scenario> {
+        if let Some(s) = self.loaded.get() {
+            return Ok(s.clone());
         }
-        if !(self.dt.is_finite() && self.dt > 0.0 && self.dt <= self.duration) {
+        let s = self.load()?;
+        Ok(self.loaded.get_or_init(|| s).clone())
+    }
+
+    fn load(&self) -> anyhow::Result<Scenario> {
+        let src = match (&self.scenario, self.preset) {
+            (Some(p), _) => Source::File(p),
+            (None, p) => Source::Preset(p.unwrap_or(Preset::Paper)),
+        };
+        let mut sc = Scenario::from_source(src)?;
+        sc.apply(&Overrides {
+            friction: self.friction.map(Into::into),
+            friction_force_n: self.friction_force_n,
+            solver: self.solver.clone(),
+            dt: self.dt,
+            duration: self.duration,
+            rms_fraction: self.rms_fraction,
+        })?;
+        let st = sc.settings();
+        if self.dt.is_some() && st.dt_s > st.duration_s {
             bail!(
                 "--dt must be in (0, --duration = {}] s, got {}",
-                Compact(self.duration),
-                Compact(self.dt)
+                Compact(st.duration_s),
+                Compact(st.dt_s)
             );
         }
-        if !(self.rms_fraction > 0.0 && self.rms_fraction <= 1.0) {
-            bail!(
-                "--rms-fraction must be in (0, 1], got {}",
-                Compact(self.rms_fraction)
-            );
-        }
-        let settings = RunSettings {
-            duration_s: self.duration,
-            dt_s: self.dt,
-            rms_fraction: self.rms_fraction,
-        };
-        // The core's limits (an RMS window of at least one step), before any file is opened.
-        settings.validate()?;
-        Ok(settings)
+        // The base as loaded (bars, ball, forcing, gravity, initial state, settings) must be
+        // valid before any point varies it; errors name the scenario field.
+        sc.validate()?;
+        Ok(sc)
     }
 
-    /// Preset base with the friction override applied and checked.
+    /// Checked run settings.
+    pub fn settings(&self) -> anyhow::Result<RunSettings> {
+        Ok(self.scenario()?.settings())
+    }
+
+    /// Bars, ball, forcing, gravity and initial state, with the friction flags applied.
     pub fn base(&self) -> anyhow::Result<SweepBase> {
-        let mut base = self.preset.base();
-        if let Some(f) = self.friction_force_n {
-            if !(f.is_finite() && f >= 0.0) {
-                bail!("--friction-force-n must be in [0, ∞) N, got {}", Compact(f));
-            }
-            base.ball.friction_force_n = Some(f);
-        }
-        Ok(base)
+        Ok(self.scenario()?.base())
     }
 
-    /// The solver named by `--solver`.
+    /// The friction law the runs use.
+    pub fn friction(&self) -> anyhow::Result<FrictionModel> {
+        Ok(self.scenario()?.damper.friction)
+    }
+
+    /// Name of the solver the runs use.
+    pub fn solver_name(&self) -> anyhow::Result<String> {
+        Ok(self.scenario()?.run.solver)
+    }
+
+    /// The solver named by `--solver` (or the scenario).
     pub fn solver(&self) -> anyhow::Result<Box<dyn Solver>> {
-        make_solver(&self.solver, &self.settings()?)
+        let sc = self.scenario()?;
+        make_solver(&sc.run.solver, &sc.settings())
     }
 
     /// Parameters for metadata (SI units).
     pub fn to_params(&self) -> anyhow::Result<vibrobar_io::params::SystemParams> {
-        let mut base = self.base()?;
-        // The ball is a template: its gap is set per grid point (or by --gap-mm). Its friction
-        // fields are made to say what the runs use, so the file does not contradict itself.
-        base.ball.friction = self.friction.into();
-        base.ball.friction_force_n = self.friction_force_n;
+        let sc = self.scenario()?;
+        let base = sc.base();
         Ok(vibrobar_io::params::SystemParams {
             note:
                 "ball.gap_m is a template value: each run's gap is its grid coordinate or --gap-mm"
                     .into(),
-            preset: self.preset.as_str().into(),
-            friction: FrictionModel::from(self.friction).as_str().into(),
-            friction_force_n: self.friction_force_n,
+            preset: self
+                .scenario
+                .is_none()
+                .then(|| self.preset.unwrap_or(Preset::Paper).as_str().into()),
+            scenario_file: self.scenario.as_ref().map(|p| p.display().to_string()),
+            friction: sc.damper.friction.as_str().into(),
+            friction_force_n: base.ball.friction_force_n,
             damped_bar: base.damped_bar,
             solid_bar: base.solid_bar,
             ball: base.ball,
             forcing: base.forcing,
-            solver: self.solver.clone(),
-            settings: self.settings()?,
+            gravity_m_s2: base.gravity_m_s2,
+            initial: base.init,
+            solver: sc.run.solver.clone(),
+            settings: sc.settings(),
         })
     }
 

@@ -1,8 +1,8 @@
 //! Exploration of single design points: stroboscopic Poincaré section, bifurcation diagram over
 //! the ratio or the gap, largest Lyapunov exponent, and initial-condition ensembles.
-//! Every command takes the same system flags as `map` (`--preset`, `--friction`,
-//! `--friction-force-n`, `--solver`, `--duration`, `--dt`) and writes `FILE.meta.json` beside
-//! its data.
+//! Every command takes the same system flags as `map` (`--preset` or `--scenario`, `--friction`,
+//! `--friction-force-n`, `--solver`, `--duration`, `--dt`, `--rms-fraction`), starts from the
+//! scenario's initial state (at rest for the preset) and writes `FILE.meta.json` beside its data.
 use super::{check_value, fmt_coord, parse_range, with_threads, SystemArgs};
 use crate::progress::Progress;
 use anyhow::{bail, Context};
@@ -13,7 +13,7 @@ use vibrobar_core::analysis::lyapunov::{max_lyapunov, LyapunovParams};
 use vibrobar_core::analysis::map::{Axis, Grid, GridAxis, GridPoint, MapSpec};
 use vibrobar_core::analysis::poincare::{bifurcation, BifurcationSpec, Stroboscope};
 use vibrobar_core::analysis::regime::Tolerances;
-use vibrobar_core::params::{FrictionModel, State, System};
+use vibrobar_core::params::System;
 use vibrobar_io::{npy, write_atomic, Metadata};
 
 /// One design point: system flags plus ratio and gap.
@@ -31,10 +31,11 @@ pub struct PointArgs {
 }
 
 fn spec(s: &SystemArgs) -> anyhow::Result<MapSpec> {
+    let sc = s.scenario()?;
     Ok(MapSpec {
-        base: s.base()?,
-        friction: FrictionModel::from(s.friction),
-        settings: s.settings()?,
+        base: sc.base(),
+        friction: sc.damper.friction,
+        settings: sc.settings(),
         tolerances: Tolerances::default(),
     })
 }
@@ -51,8 +52,10 @@ fn point(ratio: f64, gap_mm: f64) -> anyhow::Result<GridPoint> {
 impl PointArgs {
     /// The damped system at the point, validated.
     pub fn system(&self) -> anyhow::Result<System> {
-        let sys = spec(&self.system)?.damped_system(&point(self.ratio, self.gap_mm)?)?;
+        let spec = spec(&self.system)?;
+        let sys = spec.damped_system(&point(self.ratio, self.gap_mm)?)?;
         sys.validate()?;
+        spec.base.init.validate(&sys)?;
         Ok(sys)
     }
 
@@ -66,11 +69,12 @@ impl PointArgs {
 }
 
 fn transient_or_default(flag: Option<f64>, s: &SystemArgs) -> anyhow::Result<f64> {
-    let t = flag.unwrap_or(s.duration * (1.0 - s.rms_fraction));
+    let st = s.settings()?;
+    let t = flag.unwrap_or(st.duration_s * (1.0 - st.rms_fraction));
     check_value(
         "--transient",
         t,
-        |x| x >= 0.0 && x < s.duration,
+        |x| x >= 0.0 && x < st.duration_s,
         "[0, --duration) s",
     )
 }
@@ -113,13 +117,20 @@ pub fn run_poincare(a: &PoincareArgs) -> anyhow::Result<()> {
     let solver = a.point.system.solver()?;
     let phase = check_value("--phase-deg", a.phase_deg, |_| true, "finite")?.to_radians();
     let transient = transient_or_default(a.transient, &a.point.system)?;
+    let spec = spec(&a.point.system)?;
     vibrobar_core::limits::check_samples(
         "Poincaré points = (--duration − --transient) / forcing period",
-        a.point.system.duration - transient,
+        spec.settings.duration_s - transient,
         sys.forcing_period_s(),
     )?;
     let mut strobe = Stroboscope::for_system(&sys, phase, transient);
-    solver.run(&sys, &State::REST, a.point.system.duration, &mut strobe)?;
+    let init = spec.base.init;
+    solver.run(
+        &sys,
+        &init,
+        init.t_s + spec.settings.duration_s,
+        &mut strobe,
+    )?;
     let pts = &strobe.points;
     let header = "t_s,u_m,du_m_s,w_m,dw_m_s";
     let mut body = String::new();
@@ -238,11 +249,13 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> anyhow::Result<()> {
     };
     let scale = if axis == Axis::GapM { 1e-3 } else { 1.0 };
     let si: Vec<f64> = values.iter().map(|v| v * scale).collect();
-    let sys = spec(&a.system)?.damped_system(&fixed)?;
+    let spec = spec(&a.system)?;
+    let sys = spec.damped_system(&fixed)?;
     for &v in &si {
         let mut s = sys;
         axis.apply(&mut s, v)?;
         s.validate()?;
+        spec.base.init.validate(&s)?;
     }
     let transient = transient_or_default(a.transient, &a.system)?;
     let phase = check_value("--phase-deg", a.phase_deg, |_| true, "finite")?.to_radians();
@@ -250,8 +263,8 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> anyhow::Result<()> {
     let bs = BifurcationSpec {
         system: sys,
         axis,
-        init: State::REST,
-        duration_s: a.system.duration,
+        init: spec.base.init,
+        duration_s: spec.settings.duration_s,
         transient_s: transient,
         phase_rad: phase,
         impact_wall: None,
@@ -373,11 +386,13 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
     let periods = check_value("--periods", a.periods, |x| x > 0.0, "(0, ∞)")?;
     let d0 = check_value("--d0", a.d0, |x| x > 0.0, "(0, ∞)")?;
     let interval = periods * sys.forcing_period_s();
-    let intervals = ((a.point.system.duration - transient) / interval).floor() as usize;
+    let spec = spec(&a.point.system)?;
+    let duration = spec.settings.duration_s;
+    let intervals = ((duration - transient) / interval).floor() as usize;
     if intervals < 2 {
         bail!(
             "--duration {} s leaves {} intervals of {:.3e} s after the transient; at least 2 are needed (raise --duration or lower --periods)",
-            vibrobar_core::error::Compact(a.point.system.duration),
+            vibrobar_core::error::Compact(duration),
             intervals,
             interval
         );
@@ -385,7 +400,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
     let mut p = LyapunovParams::periods(&sys, transient, periods, intervals);
     p.d0 = d0;
     p.blocks = p.blocks.min(intervals);
-    let r = max_lyapunov(&sys, &State::REST, solver.as_ref(), &p)?;
+    let r = max_lyapunov(&sys, &spec.base.init, solver.as_ref(), &p)?;
     if a.json {
         let j = serde_json::json!({
             "exponent_per_s": r.exponent_per_s,

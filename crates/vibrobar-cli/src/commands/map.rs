@@ -12,21 +12,23 @@
 //! each ratio's optimum point, rerun with the energy audit) and the figures
 //! `FILE.reduction.{png,svg}` and `FILE.impacts.{png,svg}` (see [`postprocess`]).
 use super::{
-    check_value, fmt_coord, make_solver, parse_range, with_threads, SystemArgs, DEFAULT_SOLVER,
+    batch_error, check_value, fmt_coord, make_solver, parse_range, with_threads, SystemArgs,
+    DEFAULT_SOLVER,
 };
 use crate::progress::Progress;
+use crate::scenario::{Scenario, Source};
 use anyhow::Context;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
 use vibrobar_core::analysis::map::{
-    compute_point_from, compute_solid, optimum, Axis, BandBest, Grid, GridAxis, GridPoint, MapRow,
-    MapSpec, Optimum,
+    compute_point_from, optimum, Axis, BandBest, Grid, GridAxis, GridPoint, MapRow, MapSpec,
+    Optimum,
 };
 use vibrobar_core::analysis::regime::Tolerances;
-use vibrobar_core::analysis::{par_map_with_progress, run_case, SweepBase};
-use vibrobar_core::params::{FrictionModel, RunSettings, State};
+use vibrobar_core::analysis::{run_case, Runner, SweepBase};
+use vibrobar_core::params::FrictionModel;
 use vibrobar_core::solver::{Solver, SOLVER_NAMES};
 use vibrobar_io::csv::{map_key, map_schema, map_values, optimum_schema};
 pub use vibrobar_io::csv::{read_map_csv, MapTable};
@@ -81,13 +83,16 @@ pub struct MapJob {
     pub header: String,
     /// Every parameter, for metadata and the fingerprint.
     pub params: MapParams,
+    /// Solver name.
+    pub solver: String,
 }
 
 /// Build and check the job from the flags (no shard, no output).
 pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
-    let settings = args.system.settings()?;
-    let base = args.system.base()?;
-    make_solver(&args.system.solver, &settings)?;
+    let sc = args.system.scenario()?;
+    let settings = sc.settings();
+    let base = sc.base();
+    make_solver(&sc.run.solver, &settings)?;
     let ratios = parse_range("--ratios", &args.ratios, |x| x > 0.0, "(0, ∞)")?;
     let gaps_mm = parse_range("--gaps-mm", &args.gaps_mm, |x| x > 0.0, "(0, ∞) mm")?;
     let mut axes = vec![
@@ -145,16 +150,18 @@ pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
     let grid = Grid::new(axes).map_err(|e| anyhow::anyhow!("grid: {e}"))?;
     let spec = MapSpec {
         base,
-        friction: FrictionModel::from(args.system.friction),
+        friction: sc.damper.friction,
         settings,
         tolerances: Tolerances::default(),
     };
-    // Every point must be a valid system: fail before any run, naming the field.
+    // Every point must be a valid system with the initial state inside its cavity: fail before
+    // any run, naming the field.
     for p in grid.points() {
         spec.damped_system(&p)
             .and_then(|s| {
-                s.validate()
-                    .and(s.validate_horizon(0.0, settings.duration_s))
+                s.validate()?;
+                s.validate_horizon(0.0, settings.duration_s)?;
+                spec.base.init.validate(&s)
             })
             .map_err(|e| anyhow::anyhow!("{e} (at {})", describe(&p)))?;
     }
@@ -171,6 +178,7 @@ pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
         extra,
         header,
         params,
+        solver: sc.run.solver,
     })
 }
 
@@ -190,13 +198,14 @@ pub fn format_row(row: &MapRow, extra: &[Axis]) -> String {
     map_schema(extra).format(&map_values(row, extra))
 }
 
-/// Compute the journal's pending points: solid runs first (one per ratio), then the damped runs,
-/// each row appended to the journal as soon as it is done.
+/// Compute the journal's pending points through the batch runner (solid runs first, one per
+/// ratio, then the damped runs), each row appended to the journal as soon as it is done.
 fn compute(
     job: &MapJob,
     solver: &dyn Solver,
     journal: &Journal,
     total_in_job: usize,
+    threads: Option<usize>,
 ) -> anyhow::Result<()> {
     let pending: Vec<GridPoint> = journal
         .pending()
@@ -206,35 +215,26 @@ fn compute(
     if pending.is_empty() {
         return Ok(());
     }
-    let mut ratios: Vec<f64> = pending.iter().map(|p| job.spec.ratio(p)).collect();
-    ratios.sort_by(f64::total_cmp);
-    ratios.dedup_by(|a, b| a.total_cmp(b).is_eq());
-    let bar = Progress::new("solid bar", ratios.len(), 0);
-    let solids = par_map_with_progress(
-        &ratios,
-        |&r| compute_solid(&job.spec, solver, r),
-        &bar.callback(),
-    );
-    bar.finish();
-    let solids = ratios
-        .iter()
-        .zip(solids)
-        .map(|(r, s)| s.with_context(|| format!("solid bar at ratio {}", fmt_coord(*r))))
-        .collect::<anyhow::Result<Vec<f64>>>()?;
     let bar = Progress::new("map", total_in_job, journal.done_count());
-    let res = pending.par_iter().try_for_each(|p| -> anyhow::Result<()> {
-        let r = job.spec.ratio(p);
-        let i = ratios
-            .binary_search_by(|x| x.total_cmp(&r))
-            .expect("ratio listed");
-        let row = compute_point_from(&job.spec, solver, p, &State::REST, solids[i])
-            .with_context(|| format!("damped bar at {}", describe(p)))?;
-        journal.append(p.index, &format_row(&row, &job.extra))?;
-        bar.inc();
-        Ok(())
-    });
+    let spec = &job.spec;
+    let progress = bar.callback();
+    let res = spec
+        .batch(solver)
+        .on(Runner::default()
+            .with_threads(threads)
+            .with_progress(&progress))
+        .run(
+            &pending,
+            |p| spec.ratio(p),
+            |p, solid| -> anyhow::Result<()> {
+                let row = compute_point_from(spec, solver, p, &spec.base.init, solid.rms_m)
+                    .with_context(|| format!("damped bar at {}", describe(p)))?;
+                journal.append(p.index, &format_row(&row, &job.extra))?;
+                Ok(())
+            },
+        );
     bar.finish();
-    res
+    res.map(|_| ()).map_err(batch_error)
 }
 
 /// `vibrobar map`.
@@ -247,7 +247,17 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
         .transpose()
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     let settings = job.spec.settings;
-    let solver = make_solver(&args.system.solver, &settings)?;
+    let solver = make_solver(&job.solver, &settings)?;
+    // Before the journal is opened: a refused pool must not leave a header-only journal.
+    if let Some(n) = args.threads {
+        vibrobar_core::limits::check_count(
+            "--threads",
+            n,
+            1,
+            vibrobar_core::limits::MAX_THREADS,
+            "",
+        )?;
+    }
     let total = job.grid.len();
     let indices = shard::shard_indices(total, shard);
     let meta = Metadata::new(
@@ -267,9 +277,7 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
     };
     let journal = super::open_journal(&args.out, &meta, &schema, &indices, &key, args.resume)?;
     let t0 = Instant::now();
-    with_threads(args.threads, || {
-        compute(&job, solver.as_ref(), &journal, indices.len())
-    })??;
+    compute(&job, solver.as_ref(), &journal, indices.len(), args.threads)?;
     journal.finish()?;
     meta.write_beside(&args.out)
         .with_context(|| format!("writing metadata beside {}", args.out.display()))?;
@@ -312,6 +320,8 @@ pub fn spec_from_params(p: &MapParams) -> anyhow::Result<(MapSpec, String)> {
             solid_bar: s.solid_bar,
             ball: s.ball,
             forcing: s.forcing,
+            gravity_m_s2: s.gravity_m_s2,
+            init: s.initial,
         },
         friction,
         settings: s.settings,
@@ -320,7 +330,8 @@ pub fn spec_from_params(p: &MapParams) -> anyhow::Result<(MapSpec, String)> {
     Ok((spec, s.solver.clone()))
 }
 
-/// Rerun each per-ratio optimum point (from rest, as the map ran it) with the energy audit.
+/// Rerun each per-ratio optimum point (from the map's initial state, as it ran) with the energy
+/// audit.
 /// One short run per ratio, in parallel; the order of `o.per_ratio` is kept.
 pub fn optimum_energy(
     params: &MapParams,
@@ -345,7 +356,7 @@ pub fn optimum_energy(
             let mut audit = EnergyAudit::new(&sys);
             run_case(
                 &sys,
-                &State::REST,
+                &spec.base.init,
                 &spec.settings,
                 solver.as_ref(),
                 &mut audit,
@@ -487,12 +498,16 @@ pub struct BenchMapArgs {
     /// Damped runs actually timed per solver (spread over the grid); 0 = the whole map.
     #[arg(long, default_value_t = 40)]
     pub subsample: usize,
-    /// Simulated time per run, s.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 2.0)]
-    pub duration: f64,
+    /// Simulated time per run, s [default: the scenario's, else 2].
+    #[arg(long, allow_negative_numbers = true)]
+    pub duration: Option<f64>,
     /// Solvers to time (default: all).
     #[arg(long)]
     pub solver: Vec<String>,
+    /// Scenario file (TOML, as for `run`): bars, ball, forcing, friction and run settings of the
+    /// map [default: the paper's, frictionless].
+    #[arg(long, value_name = "FILE.toml")]
+    pub scenario: Option<PathBuf>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -517,6 +532,20 @@ pub struct BenchMapResult {
     pub measured: bool,
 }
 
+/// The bench's scenario (the file's, or the paper's) and run settings with `--duration` applied.
+fn bench_settings(args: &BenchMapArgs) -> anyhow::Result<(Scenario, vibrobar_core::RunSettings)> {
+    let sc = match &args.scenario {
+        Some(p) => Scenario::from_source(Source::File(p))?,
+        None => Scenario::paper(),
+    };
+    let mut settings = sc.settings();
+    if let Some(d) = args.duration {
+        settings.duration_s = check_value("--duration", d, |x| x > 0.0, "(0, ∞) s")?;
+    }
+    settings.validate()?;
+    Ok((sc, settings))
+}
+
 /// Run the bench (library entry point for `vibrobar bench`).
 pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
     let n_r = check_value("--ratios", args.ratios as f64, |x| x >= 2.0, "[2, ∞)")? as usize;
@@ -529,7 +558,7 @@ pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
         vibrobar_core::limits::MAX_GRID_POINTS as f64,
         "",
     )?;
-    let duration = check_value("--duration", args.duration, |x| x > 0.0, "(0, ∞) s")?;
+    let (sc, settings) = bench_settings(args)?;
     let ratios: Vec<f64> = (0..n_r)
         .map(|i| 0.9 + 0.2 * i as f64 / (n_r - 1) as f64)
         .collect();
@@ -560,9 +589,10 @@ pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
         v
     };
     let points: Vec<GridPoint> = idx.iter().filter_map(|&i| grid.point(i)).collect();
-    let settings = RunSettings {
-        duration_s: duration,
-        ..RunSettings::default()
+    // The preset bench keeps its historical template (the paper's ball at 1 mm, frictionless).
+    let (base, friction) = match &args.scenario {
+        Some(_) => (sc.base(), sc.damper.friction),
+        None => (SweepBase::paper(), FrictionModel::None),
     };
     let names: Vec<String> = if args.solver.is_empty() {
         SOLVER_NAMES.iter().map(|s| s.to_string()).collect()
@@ -573,8 +603,8 @@ pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
     for name in names {
         let solver = make_solver(&name, &settings)?;
         let spec = MapSpec {
-            base: vibrobar_core::analysis::SweepBase::paper(),
-            friction: FrictionModel::None,
+            base,
+            friction,
             settings,
             tolerances: Tolerances::default(),
         };
@@ -620,7 +650,10 @@ pub fn run_bench(args: &BenchMapArgs) -> anyhow::Result<()> {
     let threads = args.threads.unwrap_or_else(rayon::current_num_threads);
     println!(
         "map {} ratios × {} gaps, {} s per run, {} threads (default solver {DEFAULT_SOLVER})",
-        args.ratios, args.gaps, args.duration, threads
+        args.ratios,
+        args.gaps,
+        bench_settings(args)?.1.duration_s,
+        threads
     );
     for r in bench_map(args)? {
         println!(

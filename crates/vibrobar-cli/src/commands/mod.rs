@@ -1,4 +1,5 @@
-//! One module per command, plus the case runner they share.
+//! One module per command, plus what they share: one case ([`run_one`]), sweep rows through the
+//! core's batch runner ([`sweep_rows`]), journals. The subcommand table is [`crate::app`].
 
 pub mod beam;
 pub mod bench;
@@ -16,38 +17,24 @@ pub use design::{
 
 use anyhow::{anyhow, Result};
 use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
-use vibrobar_core::analysis::{par_map_with_progress, run_case, RunResult, Sampler, SweepPoint};
-use vibrobar_core::solver::{solver_by_name, Fanout, SOLVER_NAMES};
+use vibrobar_core::analysis::{
+    run_case, Batch, BatchError, RunResult, Runner, Sampler, SweepBase, SweepPoint,
+};
+use vibrobar_core::solver::Fanout;
 use vibrobar_core::{Observer, RunSettings, SimError, Solver, State, System};
-
-use crate::cli::{Cli, Command};
-
-/// Run the parsed command line.
-pub fn dispatch(cli: Cli) -> Result<()> {
-    match cli.command {
-        Command::Sweep(a) => sweep::sweep(&a),
-        Command::Run(a) => run::run(&a),
-        Command::Paper(a) => paper::paper(&a),
-        Command::Beam(a) => beam::beam(&a),
-        Command::Map(a) => map::run(&a),
-        Command::Merge(a) => merge::run(&a),
-        Command::Poincare(a) => explore::run_poincare(&a),
-        Command::Bifurcation(a) => explore::run_bifurcation(&a),
-        Command::Lyapunov(a) => explore::run_lyapunov(&a),
-        Command::Ensemble(a) => explore::run_ensemble_cmd(&a),
-        Command::BenchMap(a) => map::run_bench(&a),
-        Command::Bench(a) => bench::bench(&a),
-    }
-}
 
 /// Look a solver up by name; the error lists the names the library provides.
 pub fn solver(name: &str, settings: &RunSettings) -> Result<Box<dyn Solver>> {
-    solver_by_name(name, settings).ok_or_else(|| {
-        anyhow!(
-            "unknown solver {name:?}; available: {}",
-            SOLVER_NAMES.join(", ")
-        )
-    })
+    make_solver(name, settings)
+}
+
+/// A batch runner error as one message: the job's own error as it is, the runner's (a solid
+/// run, cancellation, the pool) with its numbers.
+pub fn batch_error(e: BatchError<anyhow::Error>) -> anyhow::Error {
+    match e {
+        BatchError::Point(e) => e,
+        other => anyhow!("{other}"),
+    }
 }
 
 /// One simulation to do.
@@ -116,7 +103,8 @@ pub fn run_one(
     })
 }
 
-/// Run many cases in parallel (rayon), in order, with a progress bar on stderr.
+/// Run independent cases through the core's runner (parallel, in order), with a progress bar
+/// on stderr.
 pub fn run_cases(
     cases: &[Case],
     settings: &RunSettings,
@@ -124,22 +112,20 @@ pub fn run_cases(
     label: &str,
 ) -> Result<Vec<CaseOutcome>> {
     let bar = crate::progress::Progress::new(label, cases.len(), 0);
-    let out = par_map_with_progress(cases, |c| run_one(c, settings, solver), &bar.callback());
-    bar.finish();
-    out.into_iter()
-        .zip(cases)
-        .map(|(r, c)| {
-            r.map_err(|e| {
-                anyhow!(
-                    "{label}: run at ratio {} failed: {e}",
-                    match c.system.forcing.frequency {
-                        vibrobar_core::Frequency::Ratio(r) => format!("{r:.4}"),
-                        vibrobar_core::Frequency::RadPerS(w) => format!("{w} rad/s"),
-                    }
-                )
-            })
+    let progress = bar.callback();
+    let out = Runner::default().with_progress(&progress).each(cases, |c| {
+        run_one(c, settings, solver).map_err(|e| {
+            anyhow!(
+                "{label}: run at ratio {} failed: {e}",
+                match c.system.forcing.frequency {
+                    vibrobar_core::Frequency::Ratio(r) => format!("{r:.4}"),
+                    vibrobar_core::Frequency::RadPerS(w) => format!("{w} rad/s"),
+                }
+            )
         })
-        .collect()
+    });
+    bar.finish();
+    out.map_err(batch_error)
 }
 
 /// Open the row journal of `out` for the job described by `meta` (its fingerprint) with rows of
@@ -201,75 +187,49 @@ impl SweepResult {
     }
 }
 
-/// Cases of a sweep: the solid bar once per distinct ratio, then every damped point.
-/// Returns the cases and, per point, the index of its solid case.
-pub fn sweep_cases(
+/// Sweep rows through the core's batch runner (one solid run per distinct ratio, shared), with
+/// a progress bar on stderr. The damped runs carry the energy audit when `energy_audit` is set
+/// (their friction work goes into the rows).
+pub fn sweep_rows(
     points: &[SweepPoint],
-    base: &vibrobar_core::analysis::SweepBase,
-    gravity_m_s2: f64,
-    init: &State,
+    base: &SweepBase,
+    settings: &RunSettings,
+    solver: &dyn Solver,
+    label: &str,
     energy_audit: bool,
-) -> (Vec<Case>, Vec<usize>) {
-    let mut ratios: Vec<f64> = points.iter().map(|p| p.ratio).collect();
-    ratios.sort_by(f64::total_cmp);
-    ratios.dedup();
-    let mut cases: Vec<Case> = ratios
-        .iter()
-        .map(|&r| Case {
-            system: System {
-                gravity_m_s2,
-                ..base.solid_system(r)
+) -> Result<Vec<SweepResult>> {
+    let bar = crate::progress::Progress::new(label, points.len(), 0);
+    let progress = bar.callback();
+    let rows = Batch::new(base, settings, solver)
+        .on(Runner::default().with_progress(&progress))
+        .run(
+            points,
+            |p| p.ratio,
+            |p, solid| -> Result<SweepResult> {
+                let case = Case {
+                    system: base.damped_system(p),
+                    init: base.init,
+                    sample_interval_s: None,
+                    energy_audit,
+                };
+                let d = run_one(&case, settings, solver).map_err(|e| {
+                    anyhow!(
+                        "{label}: run at ratio {:.4}, gap {} mm failed: {e}",
+                        p.ratio,
+                        p.gap_m * 1e3
+                    )
+                })?;
+                Ok(SweepResult {
+                    point: *p,
+                    solver: solver.name().to_string(),
+                    solid: *solid,
+                    damped: d.result,
+                    friction_work_j: d.friction_work_j,
+                })
             },
-            init: *init,
-            sample_interval_s: None,
-            energy_audit: false,
-        })
-        .collect();
-    let mut solid_index = Vec::with_capacity(points.len());
-    for p in points {
-        cases.push(Case {
-            system: System {
-                gravity_m_s2,
-                ..base.damped_system(p)
-            },
-            init: *init,
-            sample_interval_s: None,
-            energy_audit,
-        });
-        solid_index.push(
-            ratios
-                .iter()
-                .position(|r| r.total_cmp(&p.ratio).is_eq())
-                .expect("ratio listed"),
         );
-    }
-    (cases, solid_index)
-}
-
-/// Assemble sweep rows from the outcomes of [`sweep_cases`] (outcomes may be a longer list:
-/// only the first `n_solid + points.len()` are read, starting at `offset`).
-pub fn assemble_sweep(
-    points: &[SweepPoint],
-    solid_index: &[usize],
-    outcomes: &[CaseOutcome],
-    offset: usize,
-    solver: &str,
-) -> Vec<SweepResult> {
-    let n_solid = solid_index.iter().copied().max().map_or(0, |m| m + 1);
-    points
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let d = &outcomes[offset + n_solid + i];
-            SweepResult {
-                point: *p,
-                solver: solver.to_string(),
-                solid: outcomes[offset + solid_index[i]].result,
-                damped: d.result,
-                friction_work_j: d.friction_work_j,
-            }
-        })
-        .collect()
+    bar.finish();
+    rows.map_err(batch_error)
 }
 
 /// Wall time formatted for humans.

@@ -11,17 +11,16 @@ use vibrobar_core::analysis::{SweepBase, SweepPoint};
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
 use vibrobar_core::{FrictionModel, RunSettings, State, System};
 
-use super::{assemble_sweep, fmt_secs, run_cases, solver, sweep_cases, Case};
+use super::{fmt_secs, run_cases, solver, sweep_rows, Case};
 use crate::cli::PaperArgs;
 use crate::plot::{rms_vs_ratio, time_history, Curve};
 use crate::progress::Progress;
 use crate::report::{claims, render, IcEnsemble, IcPoint, ReportInput, Role, SolverData, Variant};
-use crate::scenario::{check_positive, ratio_range};
+use crate::scenario::{check_positive, sweep_ratios};
 use vibrobar_io::csv::{grid_num, write_history_csv, write_json, write_sweep_csv, write_text};
 use vibrobar_io::write_with;
 
-/// Friction force at which the as-published model reproduces the paper's friction figures.
-pub const REPRODUCING_FRICTION_N: f64 = 20.0;
+pub use crate::cli::REPRODUCING_FRICTION_N;
 
 /// Gaps of the frictionless sweep: the paper's two plus the ones behind "no impacts ≥ 0.25 mm".
 pub const FRICTIONLESS_GAPS_M: [f64; 4] = [0.1e-3, 0.25e-3, 0.5e-3, 1.0e-3];
@@ -286,9 +285,15 @@ pub fn run_solver(
     let solver = solver(name, settings)?;
     let base = SweepBase::paper();
     let points = paper_points(variants, ratios);
-    let (mut cases, solid_index) =
-        sweep_cases(&points, &base, STANDARD_GRAVITY_M_S2, &State::REST, true);
-    let n_sweep = cases.len();
+    let sweep = sweep_rows(
+        &points,
+        &base,
+        settings,
+        solver.as_ref(),
+        &format!("paper [{name}]"),
+        true,
+    )?;
+    let mut cases = Vec::new();
     if let Some(dt) = sample_interval_s {
         for v in variants {
             cases.push(Case {
@@ -308,12 +313,11 @@ pub fn run_solver(
         &cases,
         settings,
         solver.as_ref(),
-        &format!("paper [{name}]"),
+        &format!("paper [{name}] histories"),
     )?;
-    let sweep = assemble_sweep(&points, &solid_index, &outcomes, 0, solver.name());
     let histories = variants
         .iter()
-        .zip(outcomes.into_iter().skip(n_sweep))
+        .zip(outcomes)
         .map(|(v, o)| (v.key.clone(), history_gap_m(v), o))
         .collect();
     Ok(SolverData {
@@ -365,7 +369,7 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
         bail!("--solvers lists a solver twice: {}", solvers.join(","));
     }
     let variants = variants(args.reproducing_friction_n);
-    let ratios = ratio_range(0.95, 1.05, 0.01)?;
+    let ratios = sweep_ratios(&vibrobar_core::analysis::sweep::SweepRange::paper())?;
     let sample = args.sample_interval_s.max(settings.dt_s);
     let out = &args.out;
     eprintln!(

@@ -15,7 +15,7 @@ use vibrobar_io::history::{is_npy, sample_count, HistoryWriter};
 
 use super::{fmt_secs, solver, Case};
 use crate::cli::RunArgs;
-use crate::scenario::{check_finite, check_positive, Scenario};
+use crate::scenario::{check_positive, Scenario};
 
 /// On SIGINT/SIGTERM: remove the partial files being written, say so, exit 130. Journals are no
 /// partial files: an interrupted map or sweep keeps its journal for `--resume`.
@@ -114,19 +114,9 @@ pub fn run(args: &RunArgs) -> Result<()> {
     }
     if let Some(r) = args.ratio {
         check_positive("--ratio", r, "")?;
-        sc.forcing.frequency_ratio = r;
+        sc.forcing.frequency = vibrobar_core::Frequency::Ratio(r);
     }
-    for (flag, v, field) in [
-        ("--u0-m", args.u0_m, &mut sc.initial.u_m),
-        ("--w0-m", args.w0_m, &mut sc.initial.w_m),
-        ("--dw0-m-s", args.dw0_m_s, &mut sc.initial.dw_m_s),
-        ("--du0-m-s", args.du0_m_s, &mut sc.initial.du_m_s),
-    ] {
-        if let Some(v) = v {
-            check_finite(flag, v)?;
-            *field = v;
-        }
-    }
+    sc.override_initial(args.u0_m, args.du0_m_s, args.w0_m, args.dw0_m_s)?;
     if args.sample_every == 0 {
         anyhow::bail!("--sample-every = 0 is outside the allowed range [1, ∞) steps");
     }
@@ -214,7 +204,7 @@ fn print_summary(
     say(format!(
         "  model      : gap {} mm, ratio {}, friction {} ({:.4} N), e = {}, F0 = {} N",
         d.gap_m * 1e3,
-        sc.forcing.frequency_ratio,
+        sc.frequency_ratio(),
         d.friction,
         sys.friction_level_n(),
         d.restitution,

@@ -8,14 +8,12 @@
 //! stamp and the job's fingerprint (which `--resume` checks).
 
 use anyhow::{Context, Result};
-use rayon::prelude::*;
-use vibrobar_core::analysis::SweepPoint;
-use vibrobar_core::System;
+use vibrobar_core::analysis::{Batch, Runner};
 
-use super::{fmt_secs, run_one, solver, Case, SweepResult};
+use super::{batch_error, fmt_secs, run_one, solver, Case, SweepResult};
 use crate::cli::SweepArgs;
 use crate::progress::Progress;
-use crate::scenario::{check_positive, parse_ratios, ratio_range, Scenario};
+use crate::scenario::{check_positive, parse_ratios, sweep_ratios, Scenario};
 use vibrobar_io::csv::{sweep_csv_line, sweep_key, sweep_schema};
 use vibrobar_io::{GridInfo, Metadata};
 
@@ -42,29 +40,15 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     }
     let ratios = match &args.ratios {
         Some(spec) => parse_ratios(spec)?,
-        None => ratio_range(
-            sc.sweep.ratio_start,
-            sc.sweep.ratio_stop,
-            sc.sweep.ratio_step,
-        )?,
+        None => sweep_ratios(&sc.sweep)?,
     };
     // Grid order (= row order and journal index): gap-major.
-    let points: Vec<SweepPoint> = gaps_m
-        .iter()
-        .flat_map(|&gap_m| {
-            ratios.iter().map(move |&ratio| SweepPoint {
-                ratio,
-                gap_m,
-                friction: sc.damper.friction,
-                friction_force_n: sc.damper.friction_force_n,
-            })
-        })
-        .collect();
+    let points = sc.sweep_points(&gaps_m, &ratios);
     // Validate every point before starting, so bad input fails fast with the field's name.
     for p in &points {
         let mut s = sc.clone();
         s.damper.gap_m = p.gap_m;
-        s.forcing.frequency_ratio = p.ratio;
+        s.forcing.frequency = vibrobar_core::Frequency::Ratio(p.ratio);
         s.validate()?;
     }
     let settings = sc.settings();
@@ -93,69 +77,49 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     let journal = super::open_journal(&args.out, &meta, &schema, &indices, &key, args.resume)?;
     let pending = journal.pending();
     let base = sc.base();
-    let init = sc.initial_state();
-    // Solid bar once per distinct ratio among the pending points.
-    let mut solid_ratios: Vec<f64> = pending.iter().map(|&i| points[i].ratio).collect();
-    solid_ratios.sort_by(f64::total_cmp);
-    solid_ratios.dedup_by(|a, b| a.total_cmp(b).is_eq());
-    let solid_cases: Vec<Case> = solid_ratios
-        .iter()
-        .map(|&r| Case {
-            system: System {
-                gravity_m_s2: sc.gravity_m_s2,
-                ..base.solid_system(r)
-            },
-            init,
-            sample_interval_s: None,
-            energy_audit: false,
-        })
-        .collect();
-    let solids = super::run_cases(&solid_cases, &settings, solver.as_ref(), "solid bar")?;
-    for s in &solids {
-        vibrobar_core::limits::reference_rms(s.result.rms_m)?;
-    }
     let bar = Progress::new("sweep", points.len(), journal.done_count());
-    let res = pending.par_iter().try_for_each(|&i| -> Result<()> {
-        let p = &points[i];
-        let case = Case {
-            system: System {
-                gravity_m_s2: sc.gravity_m_s2,
-                ..base.damped_system(p)
-            },
-            init,
-            sample_interval_s: None,
-            energy_audit: false,
-        };
-        let d = run_one(&case, &settings, solver.as_ref()).map_err(|e| {
-            anyhow::anyhow!(
-                "sweep: run at ratio {:.4}, gap {} mm failed: {e}",
-                p.ratio,
-                p.gap_m * 1e3
-            )
-        })?;
-        let k = solid_ratios
-            .binary_search_by(|x| x.total_cmp(&p.ratio))
-            .expect("ratio listed");
-        let row = SweepResult {
-            point: *p,
-            solver: solver.name().to_string(),
-            solid: solids[k].result,
-            damped: d.result,
-            friction_work_j: d.friction_work_j,
-        };
-        journal.append(i, &sweep_csv_line(&row.csv_row()))?;
-        bar.inc();
-        Ok(())
-    });
+    let progress = bar.callback();
+    let batch = Batch::new(&base, &settings, solver.as_ref())
+        .on(Runner::default().with_progress(&progress));
+    let n_solid = batch.distinct_ratios(&pending, |&i| points[i].ratio).len();
+    let res = batch.run(
+        &pending,
+        |&i| points[i].ratio,
+        |&i, solid| -> Result<()> {
+            let p = &points[i];
+            let case = Case {
+                system: base.damped_system(p),
+                init: base.init,
+                sample_interval_s: None,
+                energy_audit: false,
+            };
+            let d = run_one(&case, &settings, solver.as_ref()).map_err(|e| {
+                anyhow::anyhow!(
+                    "sweep: run at ratio {:.4}, gap {} mm failed: {e}",
+                    p.ratio,
+                    p.gap_m * 1e3
+                )
+            })?;
+            let row = SweepResult {
+                point: *p,
+                solver: solver.name().to_string(),
+                solid: *solid,
+                damped: d.result,
+                friction_work_j: d.friction_work_j,
+            };
+            journal.append(i, &sweep_csv_line(&row.csv_row()))?;
+            Ok(())
+        },
+    );
     bar.finish();
-    res?;
+    res.map_err(batch_error)?;
     journal.finish()?;
     meta.write_beside(&args.out)
         .with_context(|| format!("writing metadata beside {}", args.out.display()))?;
     eprintln!(
         "sweep: {} points ({} runs this time, solver {}, {} s at dt {:e} s) written to {} in {}",
         points.len(),
-        solid_cases.len() + pending.len(),
+        n_solid + pending.len(),
         solver.name(),
         settings.duration_s,
         settings.dt_s,

@@ -10,8 +10,9 @@
 //! Per point, the statistics are reduced in member order after all runs finished, so the result
 //! is bit-identical for any thread count.
 
-use super::map::{compute_point_from, GridPoint, MapSpec};
-use super::par_map_with_progress;
+use super::batch::{BatchError, Runner};
+use super::grid::GridPoint;
+use super::map::{compute_point_from, MapSpec};
 use super::regime::Regime;
 use crate::error::{ParamError, SimError};
 use crate::params::State;
@@ -159,15 +160,15 @@ pub struct EnsembleStats {
     pub impacting_members: usize,
 }
 
-/// Run the ensemble at each point (damped bar only) in parallel.
+/// Run the ensemble at each point (damped bar only) through the batch runner ([`Runner::each`]).
 pub fn run_ensemble(
     spec: &MapSpec,
     solver: &dyn Solver,
     points: &[GridPoint],
     params: &EnsembleParams,
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> Result<Vec<EnsembleStats>, SimError> {
-    params.validate()?;
+) -> Result<Vec<EnsembleStats>, BatchError<SimError>> {
+    params.validate().map_err(BatchError::Param)?;
     let m = params.members;
     crate::limits::check(
         "ensemble runs (points × members)",
@@ -179,21 +180,17 @@ pub fn run_ensemble(
     let jobs: Vec<(usize, usize)> = (0..points.len())
         .flat_map(|p| (0..m).map(move |i| (p, i)))
         .collect();
-    let results = par_map_with_progress(
-        &jobs,
-        |&(p, i)| {
-            let pt = &points[p];
-            let lg = spec
-                .damped_system(pt)?
-                .damper
-                .map_or(0.0, |d| d.half_gap_m());
-            let init = params.initial_state(i, lg);
-            compute_point_from(spec, solver, pt, &init, f64::NAN)
-                .map(|r| (r.rms_damped_m, r.regime, r.impacts_per_cycle > 0.0))
-        },
-        progress,
-    );
-    let results = results.into_iter().collect::<Result<Vec<_>, SimError>>()?;
+    let runner = Runner::default().with_progress(progress);
+    let results = runner.each(&jobs, |&(p, i)| {
+        let pt = &points[p];
+        let lg = spec
+            .damped_system(pt)?
+            .damper
+            .map_or(0.0, |d| d.half_gap_m());
+        let init = params.initial_state(i, lg);
+        compute_point_from(spec, solver, pt, &init, f64::NAN)
+            .map(|r| (r.rms_damped_m, r.regime, r.impacts_per_cycle > 0.0))
+    })?;
     Ok(points
         .iter()
         .zip(results.chunks(m))

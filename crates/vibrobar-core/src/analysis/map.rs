@@ -1,212 +1,20 @@
 //! Design maps: a grid of frequency ratio × gap (and optionally friction level, restitution, mass
-//! ratio), the damped and solid RMS at each point, the impact regime, and the optimum.
-//!
-//! **Grid index**: row-major over the axes in the order given, the last axis varying fastest.
-//! With axes `[ratio (n_r values), gap (n_g values)]`, point `i` has ratio index `i / n_g` and gap
-//! index `i % n_g`. The index is stable: it depends only on the axes, never on sharding or on the
-//! thread count, so a CLI can resume by index.
-//!
-//! **Shards**: [`Grid::shard`]`(k, n)` holds the points with `index ≡ k − 1 (mod n)`
-//! (round-robin, so expensive regions such as the resonance band spread over all shards).
+//! ratio), the damped and solid RMS at each point, the impact regime, and the optimum. The grid
+//! (index, shards) is [`super::grid`]; the runs go through the batch runner [`Batch`].
 
+use super::batch::{Batch, BatchError, Runner, SweepBase, SweepPoint};
+use super::case::run_case;
 use super::regime::{classify, Regime, RegimeObserver, Tolerances};
-use super::{par_map_with_progress, run_case, SweepBase};
 use crate::error::{ParamError, SimError};
 use crate::params::{Frequency, FrictionModel, RunSettings, State, System};
 use crate::solver::Solver;
 use std::collections::BTreeMap;
 
-/// A parameter a grid (or a bifurcation diagram) can vary.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Axis {
-    /// Forcing frequency over the natural frequency of the bar simulated.
-    FreqRatio,
-    /// Total clearance `gap_m`.
-    GapM,
-    /// Friction force level (sets the override `friction_force_n`).
-    FrictionForceN,
-    /// Coefficient of restitution.
-    Restitution,
-    /// Mass ratio `μ = m_d / M` (sets the ball mass from the damped bar's mass).
-    MassRatio,
-}
+pub use super::grid::{Axis, Grid, GridAxis, GridPoint};
 
-impl Axis {
-    /// All axes, in a stable order.
-    pub const ALL: [Axis; 5] = [
-        Axis::FreqRatio,
-        Axis::GapM,
-        Axis::FrictionForceN,
-        Axis::Restitution,
-        Axis::MassRatio,
-    ];
-
-    /// Column name: `freq_ratio`, `gap_m`, `friction_force_n`, `restitution`, `mass_ratio`.
-    pub fn as_str(&self) -> &'static str {
-        match self {
-            Axis::FreqRatio => "freq_ratio",
-            Axis::GapM => "gap_m",
-            Axis::FrictionForceN => "friction_force_n",
-            Axis::Restitution => "restitution",
-            Axis::MassRatio => "mass_ratio",
-        }
-    }
-
-    /// Parse [`Axis::as_str`].
-    pub fn parse(s: &str) -> Option<Axis> {
-        Self::ALL.into_iter().find(|a| a.as_str() == s)
-    }
-
-    /// Set this parameter of `sys` to `value`. Axes other than the ratio need a damper.
-    /// The value itself is checked later by [`System::validate`].
-    pub fn apply(&self, sys: &mut System, value: f64) -> Result<(), ParamError> {
-        if *self == Axis::FreqRatio {
-            sys.forcing.frequency = Frequency::Ratio(value);
-            return Ok(());
-        }
-        let bar_mass = sys.bar.mass_kg;
-        let d = sys.damper.as_mut().ok_or(ParamError::OutOfRange {
-            field: self.as_str(),
-            value,
-            allowed: "only with a damper (the system has no ball)",
-        })?;
-        match self {
-            Axis::FreqRatio => unreachable!("handled above"),
-            Axis::GapM => d.gap_m = value,
-            Axis::FrictionForceN => d.friction_force_n = Some(value),
-            Axis::Restitution => d.restitution = value,
-            Axis::MassRatio => d.ball_mass_kg = value * bar_mass,
-        }
-        Ok(())
-    }
-}
-
-/// One axis of a grid: a parameter and its values.
-#[derive(Debug, Clone, PartialEq)]
-pub struct GridAxis {
-    /// Parameter.
-    pub axis: Axis,
-    /// Values, in the order they index.
-    pub values: Vec<f64>,
-}
-
-/// A point of a grid: its stable index and the value of each axis.
-#[derive(Debug, Clone, PartialEq)]
-pub struct GridPoint {
-    /// Row-major index.
-    pub index: usize,
-    /// `(axis, value)` in the grid's axis order.
-    pub coords: Vec<(Axis, f64)>,
-}
-
-impl GridPoint {
-    /// Value of `axis` at this point, if the grid has that axis.
-    pub fn get(&self, axis: Axis) -> Option<f64> {
-        self.coords.iter().find(|(a, _)| *a == axis).map(|c| c.1)
-    }
-}
-
-/// A rectangular grid over several axes.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Grid {
-    axes: Vec<GridAxis>,
-}
-
-impl Grid {
-    /// Build a grid. Each axis needs at least one finite value; an axis may appear only once.
-    pub fn new(axes: Vec<GridAxis>) -> Result<Grid, ParamError> {
-        for (i, a) in axes.iter().enumerate() {
-            if a.values.is_empty() {
-                return Err(ParamError::OutOfRange {
-                    field: a.axis.as_str(),
-                    value: 0.0,
-                    allowed: "at least one value",
-                });
-            }
-            for &v in &a.values {
-                crate::params::finite(a.axis.as_str(), v)?;
-            }
-            if axes[..i].iter().any(|b| b.axis == a.axis) {
-                return Err(ParamError::OutOfRange {
-                    field: a.axis.as_str(),
-                    value: a.values[0],
-                    allowed: "each axis once per grid",
-                });
-            }
-        }
-        // Checked in floating point before anything is built: 1e5 × 1e5 points would
-        // overflow nothing but memory.
-        let n: f64 = axes.iter().map(|a| a.values.len() as f64).product();
-        crate::limits::check(
-            "grid points (product of the axis lengths)",
-            n,
-            1.0,
-            crate::limits::MAX_GRID_POINTS as f64,
-            "use a coarser STEP or split the grid",
-        )?;
-        Ok(Grid { axes })
-    }
-
-    /// The axes.
-    pub fn axes(&self) -> &[GridAxis] {
-        &self.axes
-    }
-
-    /// Number of points (product of the axis lengths; 1 for no axes).
-    pub fn len(&self) -> usize {
-        self.axes.iter().map(|a| a.values.len()).product()
-    }
-
-    /// True when the grid has no point (never: every axis has a value).
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// Point `index` (row-major, last axis fastest); `None` past the end.
-    pub fn point(&self, index: usize) -> Option<GridPoint> {
-        if index >= self.len() {
-            return None;
-        }
-        let mut coords = vec![(Axis::FreqRatio, 0.0); self.axes.len()];
-        let mut rest = index;
-        for (slot, a) in coords.iter_mut().zip(&self.axes).rev() {
-            let n = a.values.len();
-            *slot = (a.axis, a.values[rest % n]);
-            rest /= n;
-        }
-        Some(GridPoint { index, coords })
-    }
-
-    /// All points, in index order.
-    pub fn points(&self) -> Vec<GridPoint> {
-        (0..self.len()).filter_map(|i| self.point(i)).collect()
-    }
-
-    /// Shard `k` of `n` (1-based `k`): the points with `index ≡ k − 1 (mod n)`, in index order.
-    pub fn shard(&self, k: usize, n: usize) -> Result<Vec<GridPoint>, ParamError> {
-        if n == 0 {
-            return Err(ParamError::OutOfRange {
-                field: "shard count",
-                value: 0.0,
-                allowed: "[1, ∞)",
-            });
-        }
-        if k == 0 || k > n {
-            return Err(ParamError::OutOfRange {
-                field: "shard index",
-                value: k as f64,
-                allowed: "[1, shard count]",
-            });
-        }
-        Ok((k - 1..self.len())
-            .step_by(n)
-            .filter_map(|i| self.point(i))
-            .collect())
-    }
-}
-
-/// Everything fixed across a map.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Everything fixed across a map (serialisable, for typed metadata).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct MapSpec {
     /// Bars, ball template and forcing; grid axes override fields.
     pub base: SweepBase,
@@ -230,7 +38,7 @@ impl MapSpec {
 
     /// The damped system at a point.
     pub fn damped_system(&self, p: &GridPoint) -> Result<System, ParamError> {
-        let mut sys = self.base.damped_system(&super::SweepPoint {
+        let mut sys = self.base.damped_system(&SweepPoint {
             ratio: self.ratio(p),
             gap_m: self.base.ball.gap_m,
             friction: self.friction,
@@ -245,6 +53,11 @@ impl MapSpec {
     /// The solid bar at a ratio (only the ratio matters for the bar without ball).
     pub fn solid_system(&self, ratio: f64) -> System {
         self.base.solid_system(ratio)
+    }
+
+    /// A batch of this map's runs with `solver` (global pool, no cancellation, no progress).
+    pub fn batch<'a>(&'a self, solver: &'a dyn Solver) -> Batch<'a> {
+        Batch::new(&self.base, &self.settings, solver)
     }
 }
 
@@ -269,16 +82,9 @@ pub struct MapRow {
     pub regime: Regime,
 }
 
-/// RMS of the solid bar at `ratio`, from rest.
+/// RMS of the solid bar at `ratio`, from the base's initial state (as [`Batch::solid`]).
 pub fn compute_solid(spec: &MapSpec, solver: &dyn Solver, ratio: f64) -> Result<f64, SimError> {
-    Ok(run_case(
-        &spec.solid_system(ratio),
-        &State::REST,
-        &spec.settings,
-        solver,
-        &mut (),
-    )?
-    .rms_m)
+    Ok(spec.batch(solver).solid(ratio)?.rms_m)
 }
 
 /// The damped run at a point from `init`, given the solid RMS at its ratio.
@@ -310,45 +116,33 @@ pub fn compute_point_from(
     })
 }
 
-/// One point, solid and damped runs, both from rest: what a CLI calls to write rows as they
-/// finish (it may cache [`compute_solid`] per ratio and call [`compute_point_from`] instead).
+/// One point, solid and damped runs, both from the base's initial state (a whole map shares the
+/// solid runs instead: [`run_map`]).
 pub fn compute_point(
     spec: &MapSpec,
     solver: &dyn Solver,
     p: &GridPoint,
 ) -> Result<MapRow, SimError> {
     let solid = compute_solid(spec, solver, spec.ratio(p))?;
-    compute_point_from(spec, solver, p, &State::REST, solid)
+    compute_point_from(spec, solver, p, &spec.base.init, solid)
 }
 
-/// Compute `points` in parallel; solid runs are shared between points with the same ratio.
-/// Rows come back in the order of `points`; results do not depend on the thread count.
+/// Compute `points` through the batch runner (solid runs shared per ratio, in parallel). Rows
+/// come back in the order of `points`; results do not depend on the thread count.
 pub fn run_map(
     spec: &MapSpec,
     solver: &dyn Solver,
     points: &[GridPoint],
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> Result<Vec<MapRow>, SimError> {
-    let mut ratios: Vec<f64> = points.iter().map(|p| spec.ratio(p)).collect();
-    ratios.sort_by(f64::total_cmp);
-    ratios.dedup_by(|a, b| a.total_cmp(b).is_eq());
-    let solids = par_map_with_progress(&ratios, |&r| compute_solid(spec, solver, r), &|d, _| {
-        progress(d, ratios.len() + points.len())
-    });
-    let solids = solids.into_iter().collect::<Result<Vec<f64>, SimError>>()?;
-    let n_solid = ratios.len();
-    let rows = par_map_with_progress(
+) -> Result<Vec<MapRow>, BatchError<SimError>> {
+    let batch = spec
+        .batch(solver)
+        .on(Runner::default().with_progress(progress));
+    batch.run(
         points,
-        |p| {
-            let r = spec.ratio(p);
-            let i = ratios
-                .binary_search_by(|x| x.total_cmp(&r))
-                .expect("ratio listed");
-            compute_point_from(spec, solver, p, &State::REST, solids[i])
-        },
-        &|d, t| progress(n_solid + d, n_solid + t),
-    );
-    rows.into_iter().collect()
+        |p| spec.ratio(p),
+        |p, solid| compute_point_from(spec, solver, p, &spec.base.init, solid.rms_m),
+    )
 }
 
 /// The best design over the whole band of ratios.

@@ -7,8 +7,8 @@
 //! * [`bifurcation`]: for each value of a swept parameter, the stroboscopic points after the
 //!   transient and the impact velocities, as rows `(param, …)`.
 
-use super::map::Axis;
-use super::par_map_with_progress;
+use super::batch::{BatchError, Runner};
+use super::grid::Axis;
 use crate::error::{ParamError, SimError};
 use crate::params::{State, System};
 use crate::solver::{Event, EventKind, Fanout, Observer, Segment, Solver, Wall};
@@ -191,14 +191,14 @@ pub struct Bifurcation {
 }
 
 /// For each value of `spec.axis`, run `spec.system` and collect the stroboscopic points and
-/// impacts after the transient. Runs are independent and in parallel; the result does not depend
-/// on the thread count.
+/// impacts after the transient. Runs are independent and in parallel through the batch runner
+/// ([`Runner::each`]); the result does not depend on the thread count.
 pub fn bifurcation(
     spec: &BifurcationSpec,
     values: &[f64],
     solver: &dyn Solver,
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> Result<Bifurcation, SimError> {
+) -> Result<Bifurcation, BatchError<SimError>> {
     crate::params::positive("duration_s", spec.duration_s)?;
     crate::params::non_negative("transient_s", spec.transient_s)?;
     crate::params::finite("phase_rad", spec.phase_rad)?;
@@ -224,7 +224,7 @@ pub fn bifurcation(
         crate::limits::MAX_SAMPLES,
         "fewer values or a shorter run",
     )?;
-    let per_value = par_map_with_progress(
+    let per_value = Runner::default().with_progress(progress).each(
         values,
         |&p| -> Result<(Vec<State>, Vec<ImpactPoint>), SimError> {
             let mut sys = spec.system;
@@ -244,11 +244,9 @@ pub fn bifurcation(
             }
             Ok((strobe.points, imp.points))
         },
-        progress,
-    );
+    )?;
     let mut out = Bifurcation::default();
-    for (&p, r) in values.iter().zip(per_value) {
-        let (pts, imps) = r?;
+    for (&p, (pts, imps)) in values.iter().zip(per_value) {
         out.points.extend(pts.iter().map(|s| BifurcationPoint {
             param: p,
             t_s: s.t_s,

@@ -92,8 +92,10 @@ impl std::fmt::Display for Regime {
     }
 }
 
-/// Tolerances of [`classify`]; see the module documentation.
+/// Tolerances of [`classify`]; see the module documentation. Deserialised with missing fields
+/// from [`Tolerances::default`] (so metadata can persist and reload them).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Tolerances {
     /// Impact-time tolerance, as a fraction of the forcing period.
     pub phase_tol: f64,

@@ -1,0 +1,150 @@
+//! The application root: the subcommand table (clap) and the function each command runs.
+//! Arrows point one way: this module uses [`crate::cli`] (shared argument types) and
+//! [`crate::commands`]; neither imports it.
+
+use anyhow::Result;
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+
+use crate::commands::{beam, bench, explore, map, merge, paper, run, sweep};
+
+/// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
+/// "The effect of rolling friction on vibro-impact damped boring bars".
+#[derive(Debug, Parser)]
+#[command(name = "vibrobar", version)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Parse the process arguments (see [`try_parse_from`]).
+pub fn parse() -> Cli {
+    try_parse_from(std::env::args_os()).unwrap_or_else(|e| e.exit())
+}
+
+/// Parse `args` (the first is the program name). A numeric flag followed by a negative number,
+/// `--dt -1e-6`, is read as `--dt=-1e-6` ([`join_negative_numbers`]).
+pub fn try_parse_from<I, T>(args: I) -> Result<Cli, clap::Error>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cmd = Cli::command();
+    let args = join_negative_numbers(&cmd, args.into_iter().map(Into::into).collect());
+    Cli::from_arg_matches(&cmd.try_get_matches_from(args)?)
+}
+
+/// Rewrite `--flag -1e-6` as `--flag=-1e-6` when `--flag` is a numeric option of the
+/// subcommand and the next word is a negative number.
+///
+/// clap's `allow_negative_numbers` only recognises digits with an exponent of digits, so
+/// `--dt -1e-6` (a minus in the exponent) was "unexpected argument '-1' found" while
+/// `--dt=-1e-6` gave the range error. `allow_hyphen_values` would fix that but also swallow the
+/// next flag when a value is forgotten (`--gap-mm --out x`). Joining only a word that parses as
+/// a number keeps clap's behaviour for everything else; the value's own parser and range check
+/// then report it. Numeric options are found by their value type, wherever they are declared.
+pub fn join_negative_numbers(
+    cmd: &clap::Command,
+    args: Vec<std::ffi::OsString>,
+) -> Vec<std::ffi::OsString> {
+    let mut out = Vec::with_capacity(args.len());
+    let mut sub: Option<&clap::Command> = None;
+    let mut it = args.into_iter().peekable();
+    out.extend(it.next());
+    while let Some(word) = it.next() {
+        let Some(w) = word.to_str() else {
+            out.push(word);
+            continue;
+        };
+        if w == "--" {
+            out.push(word);
+            out.extend(it);
+            break;
+        }
+        if sub.is_none() && !w.starts_with('-') {
+            sub = cmd.find_subcommand(w);
+        }
+        let numeric_flag = w
+            .strip_prefix("--")
+            .filter(|name| !name.contains('='))
+            .and_then(|name| sub?.get_arguments().find(|a| a.get_long() == Some(name)))
+            .is_some_and(is_numeric);
+        let negative_next = it.peek().and_then(|n| n.to_str()).is_some_and(|n| {
+            n.starts_with('-') && n.split(',').all(|x| x.trim().parse::<f64>().is_ok())
+        });
+        if numeric_flag && negative_next {
+            let value = it.next().expect("peeked");
+            let mut joined = word;
+            joined.push("=");
+            joined.push(value);
+            out.push(joined);
+        } else {
+            out.push(word);
+        }
+    }
+    out
+}
+
+fn is_numeric(a: &clap::Arg) -> bool {
+    use std::any::TypeId;
+    let t = a.get_value_parser().type_id();
+    a.get_action().takes_values()
+        && [
+            TypeId::of::<f64>(),
+            TypeId::of::<u64>(),
+            TypeId::of::<usize>(),
+            TypeId::of::<u32>(),
+            TypeId::of::<i64>(),
+        ]
+        .iter()
+        .any(|n| t == *n)
+}
+
+/// The commands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Frequency sweep: RMS of the damped and the solid bar for each ratio and gap, as CSV.
+    Sweep(crate::cli::SweepArgs),
+    /// One run: time history as CSV and a one-screen summary.
+    Run(crate::cli::RunArgs),
+    /// Reproduce the paper: Figs. 2–5 (PNG + SVG), their CSVs and REPORT.md.
+    Paper(crate::cli::PaperArgs),
+    /// Time one paper run and the whole paper sweep set for every solver, in one process.
+    Bench(crate::cli::BenchArgs),
+    /// Lumped M, K of a round cantilever bar (optionally with a transverse cavity) from
+    /// Euler–Bernoulli theory, for each reduction to one degree of freedom.
+    Beam(crate::commands::beam::BeamArgs),
+    /// Design map over frequency ratio × gap: RMS reduction, impacts per cycle, regime, optimum
+    /// and heat maps; resumable (--resume) and shardable (--shard K/N).
+    Map(crate::commands::map::MapArgs),
+    /// Merge map shards written with --shard K/N into the whole map (checks completeness).
+    Merge(crate::commands::merge::MergeArgs),
+    /// Stroboscopic Poincaré section of one run (CSV, NPY, figure).
+    Poincare(crate::commands::explore::PoincareArgs),
+    /// Bifurcation diagram over the frequency ratio or the gap (CSV, NPY, figure).
+    Bifurcation(crate::commands::explore::BifurcationArgs),
+    /// Maximal Lyapunov exponent at one point (two-trajectory divergence with renormalisation).
+    Lyapunov(crate::commands::explore::LyapunovArgs),
+    /// Seeded initial-condition ensemble: spread of RMS and regime counts per point.
+    Ensemble(crate::commands::explore::EnsembleArgs),
+    /// Time a 200 × 100 ratio × gap map (from a subsample) for each solver.
+    BenchMap(crate::commands::map::BenchMapArgs),
+}
+
+/// Run the parsed command line.
+pub fn dispatch(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Sweep(a) => sweep::sweep(&a),
+        Command::Run(a) => run::run(&a),
+        Command::Paper(a) => paper::paper(&a),
+        Command::Beam(a) => beam::beam(&a),
+        Command::Map(a) => map::run(&a),
+        Command::Merge(a) => merge::run(&a),
+        Command::Poincare(a) => explore::run_poincare(&a),
+        Command::Bifurcation(a) => explore::run_bifurcation(&a),
+        Command::Lyapunov(a) => explore::run_lyapunov(&a),
+        Command::Ensemble(a) => explore::run_ensemble_cmd(&a),
+        Command::BenchMap(a) => map::run_bench(&a),
+        Command::Bench(a) => bench::bench(&a),
+    }
+}
