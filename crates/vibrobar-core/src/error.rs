@@ -55,12 +55,6 @@ pub enum SimError {
         /// Time.
         t_s: f64,
     },
-    /// An event search did not converge within its iteration limit (never expected).
-    #[error("event search did not converge near t = {t_s} s")]
-    RootIsolation {
-        /// Time reached.
-        t_s: f64,
-    },
     /// The closed form has no bounded solution (undamped bar forced exactly at resonance).
     #[error("undamped bar forced exactly at its natural frequency ({omega_rad_s} rad/s): the response is unbounded; give damping_ratio > 0 or another frequency")]
     UndampedResonance {

@@ -12,7 +12,10 @@
 //! pair moves as one body of mass `M + m_d`), wall contact (pair as one body, ball pressed on a
 //! wall). Events are the zeros of exponential sums (walls `l_g ∓ w`, `σẇ`, the force margins
 //! `f ∓ m_d ü_pair`), found by [`roots::first_root`], which cannot miss a root (see its docs for
-//! the argument, the departure rule at a segment start and the grazing case).
+//! the argument, the departure rule at a segment start and the grazing case). One search does a
+//! bounded amount of work: at its horizon it stops at its last proven point, the segment ends
+//! there without an event, and the same mode goes on from the closed-form state (long
+//! event-free flights, a ball stuck for good).
 //!
 //! Transitions (each derived from the forces, each tested): impact at `w = ±l_g` (Eqs. 4–5, `w`
 //! set to exactly `±l_g`); `ẇ = 0` in free flight (as-published: the sign reverses, the crossing
@@ -570,7 +573,7 @@ impl Solver for Exact {
                         n += 1;
                     }
                     let (best, which, end) =
-                        joint_search(&mut cands, &mut ids, n, span, tol_t, &u, s.t)?;
+                        joint_search(&mut cands, &mut ids, n, span, tol_t, &u)?;
                     let seg = ExactSegment {
                         t0: s.t,
                         t1: if which == 0 { t_end_s } else { s.t + best },
@@ -591,6 +594,17 @@ impl Solver for Exact {
                     if which == 0 {
                         s = next;
                         break;
+                    }
+                    if which == HORIZON {
+                        // Same flight on from the proven point, no zero at hand any more.
+                        mode = Md::Free {
+                            sigma,
+                            k_plus: 0,
+                            k_minus: 0,
+                            k_sw: 0,
+                        };
+                        s = next;
+                        continue;
                     }
                     mode = match which {
                         1 | 2 => {
@@ -631,7 +645,7 @@ impl Solver for Exact {
                         _ => unreachable!(),
                     };
                     let (best, which, end) =
-                        joint_search(&mut cands, &mut ids, n, span, tol_t, &u, s.t)?;
+                        joint_search(&mut cands, &mut ids, n, span, tol_t, &u)?;
                     let seg = ExactSegment {
                         t0: s.t,
                         t1: if which == 0 { t_end_s } else { s.t + best },
@@ -657,6 +671,10 @@ impl Solver for Exact {
                     if which == 0 {
                         s = next;
                         break;
+                    }
+                    if which == HORIZON {
+                        s = next;
+                        continue;
                     }
                     let (kind, new_mode) = match which {
                         1 => (EventKind::Unstick, free_departing(-1.0, None)),
@@ -885,8 +903,13 @@ fn contact_test(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
     }
 }
 
+/// `which` of a search that reached its work bound ([`roots::Root::Horizon`]): the segment ends
+/// at the proven point without an event and the same mode goes on from there.
+const HORIZON: u8 = u8::MAX;
+
 /// The segment's joint event search: drop the margins that cannot fall, find the earliest zero
-/// on `[0, span]`, and return `(τ, which, Trig at τ)`; `which = 0` means no event before `span`.
+/// on `[0, span]`, and return `(τ, which, Trig at τ)`; `which = 0` means no event before `span`,
+/// [`HORIZON`] no event before `τ < span` with the search's work bound reached.
 /// The transcendentals the search already has at the zero are reused for the end state.
 fn joint_search(
     cands: &mut [Cand],
@@ -895,14 +918,13 @@ fn joint_search(
     span: f64,
     tol_t: f64,
     u: &ExpSum,
-    t0: f64,
 ) -> Result<(f64, u8, Trig), SimError> {
     let n = drop_constant_margins(cands, ids, n);
     let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
     let (best, which) = match root {
         Root::At(t) => (t, ids[i]),
         Root::None => (span, 0),
-        Root::Stalled(t) => return Err(SimError::RootIsolation { t_s: t0 + t }),
+        Root::Horizon(t) => (t, HORIZON),
     };
     let end = match trig {
         Some(tr) if tr.tau.to_bits() == best.to_bits() => tr,

@@ -36,6 +36,41 @@
 //! bracket and `τ + h*` is returned, so the reported event is never past the zero; it is returned
 //! only when no other function's proven step is shorter (none of them can vanish first).
 //!
+//! **Bounded work over an interval without a root.** The steps above prove that no root is
+//! missed, but their number over an interval is bounded only by its length: where `g ≥ m > 0`,
+//! `|g'| ≤ V` and `|g''| ≤ B`, every proven step is at least `h_min = 2m/(V + √(V² + 2Bm))`, so a
+//! root-free interval of length `T` costs up to `T/h_min` steps, with `h_min` a fraction of a
+//! forcing period for an oscillating bar. A segment without events (a frictionless ball that
+//! never meets a wall, a ball stuck for good) is one search over the whole rest of the run,
+//! and that search used to stop with an error after 1e5 steps (~1e5 half periods, t ≈ 28–115 s
+//! on the paper's bar; issue #7 A3). Hence the search horizon: after [`SEARCH_HORIZON_ITER`]
+//! steps the search returns [`Root::Horizon`] at its last proven point `τ_h > t0` (every step
+//! advanced `τ` and was proven root-free, so no root lies in `[t0, τ_h)`); the solver ends the
+//! segment there without an event and starts the same mode afresh from the closed-form state at
+//! `τ_h`. The work of one search is bounded by a constant, the work of a run by
+//! `T/h_min + (number of events + restarts) × const`, and a search that needed fewer steps is
+//! unchanged bit for bit (the horizon is the former cap).
+//!
+//! **Slow beat (a lightly damped bar near resonance).** With `ε = −α + i(ω_d − Ω)` small, the
+//! steady part `Ĥe^{iΩτ}` and the transient part `D̂e^{λτ}` of the bar motion are each
+//! `~F0/(2MΩ|ε|)` (metres for an undamped bar at ratio 1 + 1e-7) and nearly cancel: their sum is
+//! the beat `Ĥe^{iΩτ}(1 − e^{ετ}) + …`, of size `~F0 τ/(2MΩ)` while `|ε|τ ≪ 1`. The amplitude
+//! bound `Ω²|Ĥ| + ω_n²|D̂|` then exceeds `|g''|` by `~1/(|ε|τ)` (1e5 in the reported case), the
+//! proven steps shrink by its square root, and even a run of 0.06 s reached the step cap.
+//! The envelope `|Z₂(τ)| + ω_n²|D̂|e^{−ατ}(α + |ω_d − Ω|)s` (see [`envelope`]) is the
+//! cancellation-free bound: `Z₂` is the second derivative of the two parts taken together
+//! (computed from their phasors, to an absolute rounding of `8ε_mach` times the amplitude bound,
+//! which is added), and the drift term is the beat's own growth, `|D̂||ε|ω_n² s ≈ F0 ω_n s/(2M)`.
+//! When `(α + |ω_d − Ω|) ≤ BEAT_RATE·Ω` ([`BEAT_RATE`]) the envelope step is taken on its own
+//! horizon `H_e` = the step with the envelope without drift (no proof with a larger bound can
+//! reach further), with the drift at its largest on `[τ, τ + H_e]`; the resulting step is
+//! `≤ H_e`, so the bound holds on all of it. Elsewhere (the paper's bar is 10× above the rate)
+//! the envelope step stays capped at 8 amplitude steps as before. The closed form itself is
+//! still the sum of the two parts, so its values carry an absolute rounding of
+//! `~ε_mach F0/(2MΩ|ε|)`: harmless down to `|ε|/Ω ~ 1e-9` on the paper's bar; closer to an
+//! undamped resonance the secular form `Ĥ e^{iΩτ}(1 − e^{ετ})` (with `1 − e^{ετ}` from a
+//! series) would be needed and is not implemented.
+//!
 //! **Departure.** A segment often starts *on* the zero set of one of its functions (the wall just
 //! hit, `ẇ = 0` just crossed, a wall just released). There `g(0) = 0` analytically, and round-off
 //! of 1e-15 in its leading Taylor coefficients would create a spurious root and an endless event
@@ -63,12 +98,21 @@ pub enum Root {
     At(f64),
     /// Proven positive on the whole interval.
     None,
-    /// Iteration limit reached at this `τ` (never expected; reported as an error).
-    Stalled(f64),
+    /// The search horizon: [`SEARCH_HORIZON_ITER`] steps were taken without reaching a zero or
+    /// the end; every function is proven positive on `[t0, τ)`, `τ > t0`. The caller ends the
+    /// segment there without an event and searches on from the closed-form state at `τ`.
+    Horizon(f64),
 }
 
-/// Iteration limit of one search (steps are counted, nothing hangs).
-pub const MAX_ITER: u32 = 100_000;
+/// Work bound of one search: after this many proven steps it stops at its proven point
+/// ([`Root::Horizon`]). This is the former iteration cap (then an error): a search that needs
+/// fewer steps is unchanged, bit for bit. A 2 s paper run needs at most a few thousand.
+pub const SEARCH_HORIZON_ITER: u32 = 100_000;
+
+/// The relative beat/decay rate `(α + |ω_d − Ω|)/Ω` below which a search treats the bar motion
+/// as a slow beat of two nearly cancelling parts (see the module docs). The paper's bar
+/// (`ζ = 0.01`, ratios 0.95–1.05) is ten times above it.
+pub const BEAT_RATE: f64 = 1e-3;
 
 /// One event function of a joint search.
 #[derive(Debug, Clone, Copy)]
@@ -164,13 +208,16 @@ pub fn first_root_multi_trig(
         }
     }
     let env = Envelope::new(om, al, wd);
+    // Slow beat: the steady and transient parts of the bar motion are each far larger than
+    // their sum for ~1/(α + |ω_d − Ω|) ≥ 1000/Ω (a lightly damped bar near resonance).
+    let beat = al + (wd - om).abs() <= BEAT_RATE * om;
     // Every evaluation proves its function positive on [τ, τ + hᵢ); `proven[i]` keeps the
     // furthest such point. A function proven beyond the step the others allow need not be
     // evaluated again (its proof still holds); one that would limit the step is evaluated
     // afresh and the longer of the two proofs is kept.
     let mut proven = [t0; 4];
     let mut tau = tau;
-    for _ in 0..MAX_ITER {
+    for _ in 0..SEARCH_HORIZON_ITER {
         let trig = Trig::new(tau, om, al, wd);
         let decay = 1.0 + trig.em1;
         let mut st = Step {
@@ -211,20 +258,30 @@ pub fn first_root_multi_trig(
             } else {
                 f64::INFINITY
             };
+            // Severe cancellation (see `beat`): the amplitude bound is useless, so the envelope
+            // step is taken on its own horizon, `H_e` = the step the envelope allows without
+            // its drift (no proven step can be longer), the drift at its largest there; the
+            // step is ≤ H_e, so the bound holds on it.
+            let h_e = if beat { quad_step(f, f1, bz) } else { 0.0 };
+            let h2_base = if h_e.is_finite() && h_e > h2_amp {
+                h2_amp.max(quad_step(f, f1, bz + bdrift[i] * e * h_e).min(h_e))
+            } else {
+                h2_amp
+            };
             // (Capped with the amplitude step: H does not wait for the envelope.)
-            let big_h = (1.1 * h_model).min(8.0 * h2_amp);
+            let big_h = (1.1 * h_model).min(8.0 * h2_base);
             // The envelope step over the same horizon: valid on [0, H] with the drift term at
             // its largest there. Only worth it when the envelope is the smaller bound
             // (quad_step is non-increasing in the bound) and H reaches beyond the amplitude step.
-            let h2 = if b_amp > bz && big_h > h2_amp {
-                h2_amp.max(quad_step(f, f1, bz + bdrift[i] * e * big_h).min(big_h))
+            let h2 = if b_amp > bz && big_h > h2_base {
+                h2_base.max(quad_step(f, f1, bz + bdrift[i] * e * big_h).min(big_h))
             } else {
-                h2_amp
+                h2_base
             };
             // Upper bound within the horizon (cubic step only): g ≤ f + f1 h + c_up h² on
             // [0, H], c_up = f2/2 + B₃H/6, since B₃h³/6 ≤ B₃Hh²/6 there.
             let mut c_up = f64::INFINITY;
-            let h3 = if big_h.is_finite() && big_h > h2_amp {
+            let h3 = if big_h.is_finite() && big_h > h2_base {
                 // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
                 let b3_amp = b3const[i] + b3dec[i] * decay;
                 let round3 = 8.0 * f64::EPSILON * b3_amp;
@@ -315,7 +372,8 @@ pub fn first_root_multi_trig(
         }
         tau = next;
     }
-    (Root::Stalled(tau), 0, None)
+    // Every step so far was proven root-free and strictly advanced τ (`next > tau` above).
+    (Root::Horizon(tau), 0, None)
 }
 
 /// The shortest proven step of one iteration, the function giving it, and the earliest
