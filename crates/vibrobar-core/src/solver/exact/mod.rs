@@ -54,7 +54,7 @@ use crate::error::SimError;
 use crate::model::impact_energy_loss_j;
 use crate::params::{FrictionModel, State, System};
 use expsum::{integral_product, integral_square, integral_square_to, ExpSum, Trig};
-use roots::{first_root_multi_trig, Cand, Root};
+use roots::{first_root_multi_trig, Cand, Root, Scratch};
 
 /// The exact event-driven solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -412,19 +412,9 @@ impl Book<'_> {
     }
 }
 
-impl Solver for Exact {
-    fn name(&self) -> &'static str {
-        "exact"
-    }
-
-    fn run(
-        &self,
-        sys: &System,
-        init: &State,
-        t_end_s: f64,
-        obs: &mut dyn Observer,
-    ) -> Result<RunSummary, SimError> {
-        super::validate_run(sys, init, t_end_s)?;
+impl Consts {
+    /// The constants of a run of `sys` (validated).
+    fn new(sys: &System) -> Consts {
         let om = sys.omega_rad_s();
         let (md, lg, e, model) = match &sys.damper {
             Some(d) => (d.ball_mass_kg, d.half_gap_m(), d.restitution, d.friction),
@@ -467,6 +457,24 @@ impl Solver for Exact {
             }; 2],
         };
         cs.osc = [Osc::new(&cs, cs.m), Osc::new(&cs, cs.m + cs.md)];
+        cs
+    }
+}
+
+impl Solver for Exact {
+    fn name(&self) -> &'static str {
+        "exact"
+    }
+
+    fn run(
+        &self,
+        sys: &System,
+        init: &State,
+        t_end_s: f64,
+        obs: &mut dyn Observer,
+    ) -> Result<RunSummary, SimError> {
+        super::validate_run(sys, init, t_end_s)?;
+        let cs = Consts::new(sys);
         let mut book = Book {
             obs,
             summary: RunSummary {
@@ -476,7 +484,7 @@ impl Solver for Exact {
             },
             max_events: self.max_events,
             check: self.check_invariants,
-            lg,
+            lg: cs.lg,
         };
         let mut s = St {
             t: init.t_s,
@@ -487,218 +495,251 @@ impl Solver for Exact {
             force: sys.force_n(init.t_s),
         };
         if sys.damper.is_none() {
-            s.w = 0.0;
-            s.dw = 0.0;
-            let (u, force) = cs.bar_sum(cs.m, 0.0, s.t, s.u, s.du)?;
-            let seg = ExactSegment {
-                t0: s.t,
-                t1: t_end_s,
-                mode: Mode::NoBall,
-                u,
-                w: u.zero_like(),
-                force,
-                c: cs.c,
-                fb: 0.0,
-                end: Trig::new(t_end_s - s.t, u.om, u.al, u.wd),
-            };
-            if t_end_s > s.t {
-                book.obs.segment(&seg);
-                s = seg.at_end();
-                s.t = t_end_s;
-            }
-            if self.check_invariants && !(s.u.is_finite() && s.du.is_finite()) {
-                return Err(SimError::NonFinite { t_s: s.t });
-            }
-            book.summary.final_state = s.public();
-            return Ok(book.summary);
+            return solid_bar(&cs, s, t_end_s, &mut book);
         }
+        let mut search = Search::default();
         let mut mode = initial_mode(&cs, &mut s, &mut book)?;
         while s.t < t_end_s {
-            let span = t_end_s - s.t;
-            let tol_t = cs.tol_t + 4.0 * f64::EPSILON * s.t.abs();
-            match mode {
+            let next = match mode {
                 Md::Free {
                     sigma,
                     k_plus,
                     k_minus,
                     k_sw,
-                } => {
-                    let fb = cs.fb(sigma);
-                    let (u, force) = cs.bar_sum(cs.m, -fb, s.t, s.u, s.du)?;
-                    let w = ExpSum {
-                        f0: s.w,
-                        k0: s.w + u.a + u.p,
-                        c1: s.du + s.dw,
-                        c2: 0.5 * fb / cs.md,
-                        a: -u.a,
-                        b: -u.b,
-                        p: -u.p,
-                        q: -u.q,
-                        ..u
-                    };
-                    // Candidates and what they mean: 1 wall +, 2 wall −, 3 ẇ = 0.
-                    let both_walls = !cs.frictional() || sigma == 0.0;
-                    let mut cands = [Cand {
-                        g: w,
-                        order: 0,
-                        tol: 0.0,
-                    }; 3];
-                    let mut ids = [0u8; 3];
-                    let mut n = 0;
-                    if both_walls || sigma > 0.0 {
-                        cands[n] = Cand {
-                            g: w.affine(-1.0, cs.lg),
-                            order: k_plus,
-                            tol: cs.tol_x,
-                        };
-                        ids[n] = 1;
-                        n += 1;
-                    }
-                    if both_walls || sigma < 0.0 {
-                        cands[n] = Cand {
-                            g: w.affine(1.0, cs.lg),
-                            order: k_minus,
-                            tol: cs.tol_x,
-                        };
-                        ids[n] = 2;
-                        n += 1;
-                    }
-                    if cs.frictional() && sigma != 0.0 {
-                        cands[n] = Cand {
-                            g: w.deriv().affine(sigma, 0.0),
-                            order: k_sw,
-                            tol: cs.tol_v,
-                        };
-                        ids[n] = 3;
-                        n += 1;
-                    }
-                    let (best, which, end) =
-                        joint_search(&mut cands, &mut ids, n, span, tol_t, &u)?;
-                    let seg = ExactSegment {
-                        t0: s.t,
-                        t1: if which == 0 { t_end_s } else { s.t + best },
-                        mode: Mode::Free,
-                        u,
-                        w,
-                        force,
-                        c: cs.c,
-                        fb,
-                        end,
-                    };
-                    if seg.t1 > seg.t0 {
-                        book.obs.segment(&seg);
-                    }
-                    let mut next = seg.at_end();
-                    next.t = seg.t1;
-                    book.check_state(&next)?;
-                    if which == 0 {
-                        s = next;
-                        break;
-                    }
-                    if which == HORIZON {
-                        // Same flight on from the proven point, no zero at hand any more.
-                        mode = Md::Free {
-                            sigma,
-                            k_plus: 0,
-                            k_minus: 0,
-                            k_sw: 0,
-                        };
-                        s = next;
-                        continue;
-                    }
-                    mode = match which {
-                        1 | 2 => {
-                            let sw = if which == 1 { 1.0 } else { -1.0 };
-                            impact(&cs, sw, &mut next, &mut book)?
-                        }
-                        _ => {
-                            next.dw = 0.0;
-                            friction_zero(&cs, sigma, &next, &mut book)?
-                        }
-                    };
-                    s = next;
-                }
+                } => free_flight(
+                    &cs,
+                    sigma,
+                    [k_plus, k_minus, k_sw],
+                    &mut s,
+                    t_end_s,
+                    &mut book,
+                    &mut search,
+                )?,
                 Md::Stick | Md::Contact(_) => {
-                    let (u, force) = cs.bar_sum(cs.m + cs.md, 0.0, s.t, s.u, s.du)?;
-                    let ddu = u.deriv().deriv();
-                    let w = ExpSum::constant(s.w, &u);
-                    // Margins that stay positive while the mode holds.
-                    let mk = |g: ExpSum| Cand {
-                        g,
-                        order: 0,
-                        tol: cs.tol_f,
-                    };
-                    let mut cands = [mk(w); 2];
-                    let mut ids = [0u8; 2];
-                    let n = match mode {
-                        Md::Stick => {
-                            cands[0] = mk(ddu.affine(-cs.md, cs.fl)); // ball lags
-                            cands[1] = mk(ddu.affine(cs.md, cs.fl)); // ball leads
-                            ids = [1, 2];
-                            2
-                        }
-                        Md::Contact(wall) => {
-                            cands[0] = mk(ddu.affine(-wall.sign() * cs.md, cs.f_hold()));
-                            ids[0] = 3;
-                            1
-                        }
-                        _ => unreachable!(),
-                    };
-                    let (best, which, end) =
-                        joint_search(&mut cands, &mut ids, n, span, tol_t, &u)?;
-                    let seg = ExactSegment {
-                        t0: s.t,
-                        t1: if which == 0 { t_end_s } else { s.t + best },
-                        mode: match mode {
-                            Md::Stick => Mode::Stick,
-                            Md::Contact(wl) => Mode::Contact(wl),
-                            _ => unreachable!(),
-                        },
-                        u,
-                        w,
-                        force,
-                        c: cs.c,
-                        fb: 0.0,
-                        end,
-                    };
-                    if seg.t1 > seg.t0 {
-                        book.obs.segment(&seg);
-                    }
-                    let mut next = seg.at_end();
-                    next.t = seg.t1;
-                    next.dw = 0.0;
-                    book.check_state(&next)?;
-                    if which == 0 {
-                        s = next;
-                        break;
-                    }
-                    if which == HORIZON {
-                        s = next;
-                        continue;
-                    }
-                    let (kind, new_mode) = match which {
-                        1 => (EventKind::Unstick, free_departing(-1.0, None)),
-                        2 => (EventKind::Unstick, free_departing(1.0, None)),
-                        _ => {
-                            let wl = match mode {
-                                Md::Contact(wl) => wl,
-                                _ => unreachable!(),
-                            };
-                            (
-                                EventKind::ContactRelease { wall: wl },
-                                free_departing(-wl.sign(), Some(wl)),
-                            )
-                        }
-                    };
-                    book.event(next.t, kind, &next, &next)?;
-                    mode = new_mode;
-                    s = next;
+                    pair_motion(&cs, mode, &mut s, t_end_s, &mut book, &mut search)?
                 }
+            };
+            match next {
+                Some(m) => mode = m,
+                None => break,
             }
         }
         book.summary.final_state = s.public();
         Ok(book.summary)
     }
+}
+
+/// The bar without a ball: one closed-form segment to the end.
+fn solid_bar(
+    cs: &Consts,
+    mut s: St,
+    t_end_s: f64,
+    book: &mut Book,
+) -> Result<RunSummary, SimError> {
+    s.w = 0.0;
+    s.dw = 0.0;
+    let (u, force) = cs.bar_sum(cs.m, 0.0, s.t, s.u, s.du)?;
+    let seg = ExactSegment {
+        t0: s.t,
+        t1: t_end_s,
+        mode: Mode::NoBall,
+        u,
+        w: u.zero_like(),
+        force,
+        c: cs.c,
+        fb: 0.0,
+        end: Trig::new(t_end_s - s.t, u.om, u.al, u.wd),
+    };
+    if t_end_s > s.t {
+        book.obs.segment(&seg);
+        s = seg.at_end();
+        s.t = t_end_s;
+    }
+    if book.check && !(s.u.is_finite() && s.du.is_finite()) {
+        return Err(SimError::NonFinite { t_s: s.t });
+    }
+    book.summary.final_state = s.public();
+    Ok(book.summary)
+}
+
+/// Per-run scratch of the event searches: candidate functions, what each one means, and the
+/// root finder's own buffers. Grows to the largest candidate set and is reused, so no search
+/// allocates once the run has seen it.
+#[derive(Default)]
+struct Search {
+    cands: Vec<Cand>,
+    ids: Vec<u8>,
+    roots: Scratch,
+}
+
+impl Search {
+    fn clear(&mut self) {
+        self.cands.clear();
+        self.ids.clear();
+    }
+    fn push(&mut self, id: u8, c: Cand) {
+        self.cands.push(c);
+        self.ids.push(id);
+    }
+}
+
+/// Hand a finished segment to the observer (if not empty) and return the state at its end.
+fn close_segment(seg: &ExactSegment, book: &mut Book) -> Result<St, SimError> {
+    if seg.t1 > seg.t0 {
+        book.obs.segment(seg);
+    }
+    let mut next = seg.at_end();
+    next.t = seg.t1;
+    Ok(next)
+}
+
+/// One free-flight segment with friction sign `σ` (0: no friction force) and the departure
+/// orders `[wall +, wall −, ẇ = 0]` of its event functions; returns the next mode, or `None` at
+/// the end of the run. Events: impact at a wall, `ẇ = 0` (friction switch or stick).
+fn free_flight(
+    cs: &Consts,
+    sigma: f64,
+    [k_plus, k_minus, k_sw]: [usize; 3],
+    s: &mut St,
+    t_end_s: f64,
+    book: &mut Book,
+    search: &mut Search,
+) -> Result<Option<Md>, SimError> {
+    let span = t_end_s - s.t;
+    let tol_t = cs.tol_t + 4.0 * f64::EPSILON * s.t.abs();
+    let fb = cs.fb(sigma);
+    let (u, force) = cs.bar_sum(cs.m, -fb, s.t, s.u, s.du)?;
+    let w = ExpSum {
+        f0: s.w,
+        k0: s.w + u.a + u.p,
+        c1: s.du + s.dw,
+        c2: 0.5 * fb / cs.md,
+        a: -u.a,
+        b: -u.b,
+        p: -u.p,
+        q: -u.q,
+        ..u
+    };
+    // Candidates and what they mean: 1 wall +, 2 wall −, 3 ẇ = 0.
+    let both_walls = !cs.frictional() || sigma == 0.0;
+    search.clear();
+    if both_walls || sigma > 0.0 {
+        let g = w.affine(-1.0, cs.lg);
+        search.push(1, Cand::new(g, k_plus, cs.tol_x));
+    }
+    if both_walls || sigma < 0.0 {
+        let g = w.affine(1.0, cs.lg);
+        search.push(2, Cand::new(g, k_minus, cs.tol_x));
+    }
+    if cs.frictional() && sigma != 0.0 {
+        let g = w.deriv().affine(sigma, 0.0);
+        search.push(3, Cand::new(g, k_sw, cs.tol_v));
+    }
+    let (best, which, end) = joint_search(search, span, tol_t, &u)?;
+    let seg = ExactSegment {
+        t0: s.t,
+        t1: if which == 0 { t_end_s } else { s.t + best },
+        mode: Mode::Free,
+        u,
+        w,
+        force,
+        c: cs.c,
+        fb,
+        end,
+    };
+    let mut next = close_segment(&seg, book)?;
+    book.check_state(&next)?;
+    *s = next;
+    match which {
+        0 => return Ok(None),
+        // Same flight on from the proven point, no zero at hand any more.
+        HORIZON => {
+            return Ok(Some(Md::Free {
+                sigma,
+                k_plus: 0,
+                k_minus: 0,
+                k_sw: 0,
+            }))
+        }
+        _ => {}
+    }
+    let mode = match which {
+        1 | 2 => {
+            let sw = if which == 1 { 1.0 } else { -1.0 };
+            impact(cs, sw, &mut next, book)?
+        }
+        _ => {
+            next.dw = 0.0;
+            friction_zero(cs, sigma, &next, book)?
+        }
+    };
+    *s = next;
+    Ok(Some(mode))
+}
+
+/// One segment of the pair moving as one body: stuck together away from the walls (`coulomb`)
+/// or the ball pressed on a wall. Events: unstick when `|m_d ü_pair|` reaches `f`, release when
+/// the force pressing the ball on the wall reaches 0 (`f_hold`).
+fn pair_motion(
+    cs: &Consts,
+    mode: Md,
+    s: &mut St,
+    t_end_s: f64,
+    book: &mut Book,
+    search: &mut Search,
+) -> Result<Option<Md>, SimError> {
+    let span = t_end_s - s.t;
+    let tol_t = cs.tol_t + 4.0 * f64::EPSILON * s.t.abs();
+    let (u, force) = cs.bar_sum(cs.m + cs.md, 0.0, s.t, s.u, s.du)?;
+    let ddu = u.deriv().deriv();
+    let w = ExpSum::constant(s.w, &u);
+    // Margins that stay positive while the mode holds.
+    let mk = |g: ExpSum| Cand::new(g, 0, cs.tol_f);
+    search.clear();
+    let seg_mode = match mode {
+        Md::Stick => {
+            search.push(1, mk(ddu.affine(-cs.md, cs.fl))); // ball lags
+            search.push(2, mk(ddu.affine(cs.md, cs.fl))); // ball leads
+            Mode::Stick
+        }
+        Md::Contact(wall) => {
+            search.push(3, mk(ddu.affine(-wall.sign() * cs.md, cs.f_hold())));
+            Mode::Contact(wall)
+        }
+        Md::Free { .. } => unreachable!("pair_motion is called for stick and contact"),
+    };
+    let (best, which, end) = joint_search(search, span, tol_t, &u)?;
+    let seg = ExactSegment {
+        t0: s.t,
+        t1: if which == 0 { t_end_s } else { s.t + best },
+        mode: seg_mode,
+        u,
+        w,
+        force,
+        c: cs.c,
+        fb: 0.0,
+        end,
+    };
+    let mut next = close_segment(&seg, book)?;
+    next.dw = 0.0;
+    book.check_state(&next)?;
+    *s = next;
+    match which {
+        0 => return Ok(None),
+        HORIZON => return Ok(Some(mode)),
+        _ => {}
+    }
+    let (kind, new_mode) = match (which, mode) {
+        (1, _) => (EventKind::Unstick, free_departing(-1.0, None)),
+        (2, _) => (EventKind::Unstick, free_departing(1.0, None)),
+        (_, Md::Contact(wl)) => (
+            EventKind::ContactRelease { wall: wl },
+            free_departing(-wl.sign(), Some(wl)),
+        ),
+        _ => unreachable!("only contact has a release margin"),
+    };
+    book.event(next.t, kind, &next, &next)?;
+    Ok(Some(new_mode))
 }
 
 /// Free flight leaving `ẇ = 0` in direction `σ` (the switch function departs with order 1),
@@ -912,17 +953,15 @@ const HORIZON: u8 = u8::MAX;
 /// [`HORIZON`] no event before `τ < span` with the search's work bound reached.
 /// The transcendentals the search already has at the zero are reused for the end state.
 fn joint_search(
-    cands: &mut [Cand],
-    ids: &mut [u8],
-    n: usize,
+    search: &mut Search,
     span: f64,
     tol_t: f64,
     u: &ExpSum,
 ) -> Result<(f64, u8, Trig), SimError> {
-    let n = drop_constant_margins(cands, ids, n);
-    let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
+    drop_constant_margins(&mut search.cands, &mut search.ids);
+    let (root, i, trig) = first_root_multi_trig(&search.cands, 0.0, span, tol_t, &mut search.roots);
     let (best, which) = match root {
-        Root::At(t) => (t, ids[i]),
+        Root::At(t) => (t, search.ids[i]),
         Root::None => (span, 0),
         Root::Horizon(t) => (t, HORIZON),
     };
@@ -933,23 +972,21 @@ fn joint_search(
     Ok((best, which, end))
 }
 
-/// Remove from the first `n` candidates those that are constant and not below `−tol`: such a
-/// margin (the pair at rest and unforced) never falls through zero, so the mode holds, as the
-/// entry tests decide at equality. Searched, an exact 0 would be a root at once, and the release,
-/// the graze back (ẅ ≡ 0, departure unconfirmed) and the contact test would loop at one instant
-/// until the event limit. Returns the new count; `ids` is permuted alongside.
-fn drop_constant_margins(cands: &mut [Cand], ids: &mut [u8], mut n: usize) -> usize {
+/// Remove the candidates that are constant and not below `−tol`: such a margin (the pair at
+/// rest and unforced) never falls through zero, so the mode holds, as the entry tests decide at
+/// equality. Searched, an exact 0 would be a root at once, and the release, the graze back
+/// (ẅ ≡ 0, departure unconfirmed) and the contact test would loop at one instant until the
+/// event limit. `ids` is permuted alongside (the order of the others as before: swap-remove).
+fn drop_constant_margins(cands: &mut Vec<Cand>, ids: &mut Vec<u8>) {
     let mut k = 0;
-    while k < n {
+    while k < cands.len() {
         if cands[k].g.is_constant() && cands[k].g.f0 >= -cands[k].tol {
-            cands.swap(k, n - 1);
-            ids.swap(k, n - 1);
-            n -= 1;
+            cands.swap_remove(k);
+            ids.swap_remove(k);
         } else {
             k += 1;
         }
     }
-    n
 }
 
 #[cfg(test)]

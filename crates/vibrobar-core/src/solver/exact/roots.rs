@@ -125,6 +125,13 @@ pub struct Cand {
     pub tol: f64,
 }
 
+impl Cand {
+    /// `g` with the order of its known zero at the start and its tolerance.
+    pub fn new(g: ExpSum, order: usize, tol: f64) -> Cand {
+        Cand { g, order, tol }
+    }
+}
+
 /// Departure step: `g > 0` is proven on `(t0, t0 + h₁)`; returns `h₁/2`, or `None` if the
 /// clamped Taylor bracket does not confirm the departure.
 /// `rh`, `rd` bound the harmonic and decaying amplitudes `|Ĥ|`, `|D̂|` (as in the search); the
@@ -158,64 +165,101 @@ fn departure_step(g: &ExpSum, order: usize, t0: f64, rh: f64, rd: f64) -> Option
     }
 }
 
+/// Per-run scratch space of the searches: the bounds and proof state of each function. It grows
+/// to the largest number of functions a search has had and is reused, so a search allocates
+/// nothing once the run has seen its largest candidate set, and no candidate is ever dropped.
+#[derive(Debug, Clone, Default)]
+pub struct Scratch {
+    bounds: Vec<FnBounds>,
+    proof: Vec<FnProof>,
+}
+
+/// Constant parts of the derivative bounds of one function over a search.
+#[derive(Debug, Clone, Copy, Default)]
+struct FnBounds {
+    /// `|g''|` bound: constant part, and decaying amplitude (times `e^{−ατ}`).
+    bconst: f64,
+    bdec: f64,
+    /// The same for `|g'''|`.
+    b3const: f64,
+    b3dec: f64,
+    /// Drift rate of the envelope (times `e^{−ατ}` and the horizon).
+    bdrift: f64,
+}
+
+/// What is proven about one function so far in a search.
+#[derive(Debug, Clone, Copy, Default)]
+struct FnProof {
+    /// Proven positive up to here by its departure bracket.
+    free_until: f64,
+    /// Proven positive up to here by an evaluation.
+    proven: f64,
+    /// Proof still valid this iteration, to be compared with the step of the others.
+    pending: bool,
+}
+
 /// First zero among several functions sharing the frequencies of the first one, in
 /// `[t0, t_max]`: returns the root and the index of the function. All functions are stepped
 /// together (the step is the smallest proven root-free step), so the work is bounded by the
 /// earliest event, not by the interval.
 pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Root, usize) {
-    let (r, i, _) = first_root_multi_trig(cands, t0, t_max, tol_t);
+    let (r, i, _) = first_root_multi_trig(cands, t0, t_max, tol_t, &mut Scratch::default());
     (r, i)
 }
 
-/// [`first_root_multi`], also returning the transcendentals at the root when they were
-/// computed there (the caller evaluates the state at the root with them).
+/// [`first_root_multi`] with the run's [`Scratch`], also returning the transcendentals at the
+/// root when they were computed there (the caller evaluates the state at the root with them).
 pub fn first_root_multi_trig(
     cands: &[Cand],
     t0: f64,
     t_max: f64,
     tol_t: f64,
+    scratch: &mut Scratch,
 ) -> (Root, usize, Option<Trig>) {
     let Some(first) = cands.first() else {
         return (Root::None, 0, None);
     };
     let (om, al, wd) = (first.g.om, first.g.al, first.g.wd);
     let wn2 = al * al + wd * wd;
-    // Per function: constant part of the |g''| bound and the decaying amplitude.
-    let mut bconst = [0.0f64; 4];
-    let mut bdec = [0.0f64; 4];
-    let mut b3const = [0.0f64; 4];
-    let mut b3dec = [0.0f64; 4];
-    let mut bdrift = [0.0f64; 4];
     let wn = wn2.sqrt();
-    let n = cands.len().min(4);
     let tau = t0;
-    // Departing functions are proven positive up to `free_until` by their Taylor bracket.
-    let mut free_until = [t0; 4];
-    for (i, c) in cands.iter().take(n).enumerate() {
+    scratch.bounds.clear();
+    scratch.proof.clear();
+    for (i, c) in cands.iter().enumerate() {
         // Amplitudes (the relative margin covers the rounding of the bounds themselves).
         let rh = (c.g.a * c.g.a + c.g.b * c.g.b).sqrt() * (1.0 + 1e-12);
         let rd = (c.g.p * c.g.p + c.g.q * c.g.q).sqrt() * (1.0 + 1e-12);
-        bconst[i] = 2.0 * c.g.c2.abs() * (1.0 + 1e-12) + om * om * rh;
-        bdec[i] = wn2 * rd;
-        b3const[i] = om * om * om * rh;
-        b3dec[i] = wn2 * wn2.sqrt() * rd;
-        bdrift[i] = wn2 * rd * (al + (wd - om).abs()) * (1.0 + 1e-12);
+        scratch.bounds.push(FnBounds {
+            bconst: 2.0 * c.g.c2.abs() * (1.0 + 1e-12) + om * om * rh,
+            bdec: wn2 * rd,
+            b3const: om * om * om * rh,
+            b3dec: wn2 * wn2.sqrt() * rd,
+            bdrift: wn2 * rd * (al + (wd - om).abs()) * (1.0 + 1e-12),
+        });
+        // Departing functions are proven positive up to `free_until` by their Taylor bracket.
+        let mut free_until = t0;
         if c.order > 0 {
             match departure_step(&c.g, c.order, t0, rh, rd) {
-                Some(h) => free_until[i] = t0 + h,
+                Some(h) => free_until = t0 + h,
                 None => return (Root::At(t0), i, None),
             }
         }
+        scratch.proof.push(FnProof {
+            free_until,
+            proven: t0,
+            pending: false,
+        });
     }
+    let bounds = &scratch.bounds[..];
+    let proof = &mut scratch.proof[..];
     let env = Envelope::new(om, al, wd);
     // Slow beat: the steady and transient parts of the bar motion are each far larger than
     // their sum for ~1/(α + |ω_d − Ω|) ≥ 1000/Ω (a lightly damped bar near resonance).
     let beat = al + (wd - om).abs() <= BEAT_RATE * om;
-    // Every evaluation proves its function positive on [τ, τ + hᵢ); `proven[i]` keeps the
+    // Every evaluation proves its function positive on [τ, τ + hᵢ); `proven` keeps the
     // furthest such point. A function proven beyond the step the others allow need not be
     // evaluated again (its proof still holds); one that would limit the step is evaluated
     // afresh and the longer of the two proofs is kept.
-    let mut proven = [t0; 4];
     let mut tau = tau;
     for _ in 0..SEARCH_HORIZON_ITER {
         let trig = Trig::new(tau, om, al, wd);
@@ -225,7 +269,6 @@ pub fn first_root_multi_trig(
             imin: 0,
             bracket: None,
         };
-        let mut pending = [false; 4];
         // One evaluation of function `i` at τ: `Err(root)` or its proven step and whether the
         // zero is bracketed to the time resolution just after it.
         let eval = |i: usize, prev: f64| -> Result<(f64, bool), Root> {
@@ -236,7 +279,8 @@ pub fn first_root_multi_trig(
             }
             let f = f.max(0.0);
             // Quadratic bound with B ≥ |g''| on the rest of the interval …
-            let b_amp = bconst[i] + bdec[i] * decay;
+            let bd = &bounds[i];
+            let b_amp = bd.bconst + bd.bdec * decay;
             // … or with the envelope of the oscillating parts taken together: at τ+s,
             // H'' + D'' = Re[e^{iΩs}(Z + λ²D̂e^{λτ}(e^{(−α+iδ)s} − 1))], Z = −Ω²Ĥe^{iΩτ} + λ²D̂e^{λτ},
             // δ = ω_d − Ω, so |g''| ≤ 2|c2| + |Z| + ω_n²|D̂|e^{−ατ}(α + |δ|)s. Near resonance the
@@ -264,7 +308,7 @@ pub fn first_root_multi_trig(
             // step is ≤ H_e, so the bound holds on it.
             let h_e = if beat { quad_step(f, f1, bz) } else { 0.0 };
             let h2_base = if h_e.is_finite() && h_e > h2_amp {
-                h2_amp.max(quad_step(f, f1, bz + bdrift[i] * e * h_e).min(h_e))
+                h2_amp.max(quad_step(f, f1, bz + bd.bdrift * e * h_e).min(h_e))
             } else {
                 h2_amp
             };
@@ -274,7 +318,7 @@ pub fn first_root_multi_trig(
             // its largest there. Only worth it when the envelope is the smaller bound
             // (quad_step is non-increasing in the bound) and H reaches beyond the amplitude step.
             let h2 = if b_amp > bz && big_h > h2_base {
-                h2_base.max(quad_step(f, f1, bz + bdrift[i] * e * big_h).min(big_h))
+                h2_base.max(quad_step(f, f1, bz + bd.bdrift * e * big_h).min(big_h))
             } else {
                 h2_base
             };
@@ -283,9 +327,9 @@ pub fn first_root_multi_trig(
             let mut c_up = f64::INFINITY;
             let h3 = if big_h.is_finite() && big_h > h2_base {
                 // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
-                let b3_amp = b3const[i] + b3dec[i] * decay;
+                let b3_amp = bd.b3const + bd.b3dec * decay;
                 let round3 = 8.0 * f64::EPSILON * b3_amp;
-                let b3_env = env.z3(&ph) * (1.0 + 1e-12) + round3 + bdrift[i] * wn * e * big_h;
+                let b3_env = env.z3(&ph) * (1.0 + 1e-12) + round3 + bd.bdrift * wn * e * big_h;
                 let b3 = b3_amp.min(b3_env);
                 c_up = 0.5 * f2 + b3 * big_h / 6.0;
                 let b_eff = b3 * big_h / 3.0 - f2;
@@ -325,26 +369,27 @@ pub fn first_root_multi_trig(
             }
             Ok((hi, bracketed))
         };
-        for i in 0..n {
-            if free_until[i] > tau {
-                st.take(i, free_until[i] - tau, false);
-            } else if proven[i] > tau {
-                pending[i] = true;
+        for (i, pf) in proof.iter_mut().enumerate() {
+            pf.pending = false;
+            if pf.free_until > tau {
+                st.take(i, pf.free_until - tau, false);
+            } else if pf.proven > tau {
+                pf.pending = true;
             } else {
                 match eval(i, 0.0) {
                     Ok((hi, br)) => {
-                        proven[i] = tau + hi;
+                        pf.proven = tau + hi;
                         st.take(i, hi, br);
                     }
                     Err(r) => return (r, i, Some(trig)),
                 }
             }
         }
-        for i in 0..n {
-            if !pending[i] {
+        for (i, pf) in proof.iter_mut().enumerate() {
+            if !pf.pending {
                 continue;
             }
-            let hl = proven[i] - tau;
+            let hl = pf.proven - tau;
             if hl >= st.h {
                 // Proven beyond the step: not limiting, no evaluation needed.
                 st.take(i, hl, false);
@@ -352,7 +397,7 @@ pub fn first_root_multi_trig(
             }
             match eval(i, hl) {
                 Ok((hi, br)) => {
-                    proven[i] = tau + hi;
+                    pf.proven = tau + hi;
                     st.take(i, hi, br);
                 }
                 Err(r) => return (r, i, Some(trig)),
@@ -556,6 +601,28 @@ mod tests {
             first_root(&es(1.0 + 1e-12, -2.0, 1.0), 0, 0.0, 10.0, 1e-15, 0.0),
             Root::None
         );
+    }
+
+    /// Bug (B7): the joint search kept its per-function bounds in arrays of 4 and searched only
+    /// `cands.len().min(4)` functions, so a fifth event function was silently never looked at.
+    #[test]
+    fn regression_joint_search_dropped_candidates_beyond_four() {
+        // Parabolas 1 + k − τ²: roots at √(1 + k); the last one listed has the earliest root.
+        let mut cands: Vec<Cand> = (1..=7)
+            .map(|k| Cand::new(es(1.0 + k as f64, 0.0, -1.0), 0, 1e-15))
+            .collect();
+        cands.push(Cand::new(es(0.25, 0.0, -1.0), 0, 1e-15));
+        let mut scratch = Scratch::default();
+        let (r, i, _) = first_root_multi_trig(&cands, 0.0, 10.0, 0.0, &mut scratch);
+        assert_eq!(i, 7);
+        match r {
+            Root::At(t) => assert!((t - 0.5).abs() < 1e-14, "{t}"),
+            r => panic!("{r:?}"),
+        }
+        // The scratch is reused by a smaller search without leftovers.
+        let (r, i, _) = first_root_multi_trig(&cands[..2], 0.0, 10.0, 0.0, &mut scratch);
+        assert_eq!(i, 0);
+        assert!(matches!(r, Root::At(t) if (t - 2f64.sqrt()).abs() < 1e-14));
     }
 
     #[test]
