@@ -17,6 +17,9 @@
 //! there without an event, and the same mode goes on from the closed-form state (long
 //! event-free flights, a ball stuck for good).
 //!
+//! The laws are those of [`crate::damper`]: the friction force of a slide, whether and how
+//! strongly friction holds a ball at rest, the impact map and its plastic limit.
+//!
 //! Transitions (each derived from the forces, each tested): impact at `w = ±l_g` (Eqs. 4–5, `w`
 //! set to exactly `±l_g`); `ẇ = 0` in free flight (as-published: the sign reverses, the crossing
 //! is transversal; coulomb: stick if `|a_b| ≤ fκ`, else slide on reversed); unstick when
@@ -50,8 +53,9 @@ pub mod roots;
 use super::{
     Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Solver, Wall,
 };
+use crate::damper::friction::{can_stick, holding_capacity_n, sgn0, sliding_friction_on_ball_n};
+use crate::damper::impact::{impact_energy_loss_j, impact_relative, plastic_limit};
 use crate::error::SimError;
-use crate::model::impact_energy_loss_j;
 use crate::params::{FrictionModel, State, System};
 use expsum::{integral_product, integral_square, integral_square_to, ExpSum, Trig};
 use roots::{first_root_multi_trig, Cand, Root, Scratch};
@@ -114,24 +118,16 @@ impl Consts {
     fn a_b(&self, s: &St) -> f64 {
         (s.force - self.c * s.du - self.k * s.u) / self.m
     }
-    /// Friction force on the ball while sliding with sign `σ`.
+    /// Friction force on the ball while sliding with sign `σ` (the law of `damper::friction`).
     fn fb(&self, sigma: f64) -> f64 {
-        match self.model {
-            FrictionModel::None => 0.0,
-            FrictionModel::AsPublished => self.fl * sigma,
-            FrictionModel::Coulomb => -self.fl * sigma,
-        }
+        sliding_friction_on_ball_n(self.model, self.fl, sigma)
     }
     fn frictional(&self) -> bool {
         self.model != FrictionModel::None && self.fl > 0.0
     }
     /// Largest `s·m_d ü_pair` for which the ball stays on wall `s`.
     fn f_hold(&self) -> f64 {
-        if self.model == FrictionModel::Coulomb {
-            self.fl
-        } else {
-            0.0
-        }
+        holding_capacity_n(self.model, self.fl)
     }
 
     /// Bar (or pair, with `mass`) closed form from `(u0, du0)` at `t_seg`, extra constant force
@@ -357,7 +353,7 @@ fn wall_of(s: f64) -> Wall {
 }
 
 fn sign_or_zero(x: f64) -> f64 {
-    crate::model::sgn0(x)
+    sgn0(x)
 }
 
 /// Run bookkeeping: counters, invariant checks, observer.
@@ -799,7 +795,7 @@ fn at_zero_velocity(cs: &Consts, s: &St) -> Result<Md, SimError> {
         });
     }
     let ab = cs.a_b(s);
-    if cs.model == FrictionModel::Coulomb {
+    if can_stick(cs.model) {
         if ab.abs() <= cs.fl * cs.kappa() {
             return Ok(Md::Stick);
         }
@@ -831,7 +827,7 @@ fn at_zero_velocity(cs: &Consts, s: &St) -> Result<Md, SimError> {
 /// `ẇ` reached 0 in free flight with friction sign `σ`.
 fn friction_zero(cs: &Consts, sigma: f64, s: &St, book: &mut Book) -> Result<Md, SimError> {
     let ab = cs.a_b(s);
-    if cs.model == FrictionModel::Coulomb && ab.abs() <= cs.fl * cs.kappa() {
+    if can_stick(cs.model) && ab.abs() <= cs.fl * cs.kappa() {
         book.event(s.t, EventKind::Stick, s, s)?;
         return Ok(Md::Stick);
     }
@@ -847,10 +843,10 @@ fn impact(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<Md, SimEr
     // A graze (touch with ẇ ≈ 0 or already leaving by round-off) hits with ẇ− = 0.
     let dw = if sw * s.dw > 0.0 { s.dw } else { 0.0 };
     let before = St { dw, ..*s };
-    let du_plus = s.du + cs.mu * (1.0 + cs.e) / (1.0 + cs.mu) * dw;
+    let (du_plus, dw_plus) = impact_relative(cs.mu, cs.e, s.du, dw);
     let after = St {
         du: du_plus,
-        dw: -cs.e * dw,
+        dw: dw_plus,
         ..*s
     };
     book.event(
@@ -900,9 +896,7 @@ struct ChatterJump {
 /// contact test at the accumulation point.
 fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Result<Md, SimError> {
     let mtot = cs.m + cs.md;
-    let dv = s.du + s.dw;
-    let v = (cs.m * s.du + cs.md * dv) / mtot;
-    let loss = 0.5 * cs.m * s.du * s.du + 0.5 * cs.md * dv * dv - 0.5 * mtot * v * v;
+    let (v, loss) = plastic_limit(cs.m, cs.md, s.du, s.du + s.dw);
     let (u, force) = cs.bar_sum(mtot, 0.0, s.t, s.u, v)?;
     let seg = ExactSegment {
         t0: s.t,
