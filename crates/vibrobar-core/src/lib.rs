@@ -25,6 +25,6 @@ pub mod model;
 pub mod params;
 pub mod solver;
 
-pub use error::{ParamError, SimError};
+pub use error::{EventLimitCause, ParamError, SimError};
 pub use params::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};
 pub use solver::{Observer, Solver};

@@ -26,6 +26,11 @@
 //! never end). The energy residual is held to 1e-9 of the largest of input work, |friction
 //! work|, impact loss, viscous loss and the largest mechanical energy at the start or a sample
 //! (an unforced run's only budget; net work over whole periods can be ~0).
+//! The error now names these causes itself (`EventLimitCause`; at the last inspection 37 of the
+//! 38 limit hits said "as-published friction runaway", one "elastic micro-bouncing").
+//!
+//! A second set (issue #7 A3) adds runs of 1000–3000 s and nearly undamped bars forced within
+//! 1e-7–1e-3 of resonance (see [`long_and_near_resonant_cases`]), with an event limit of 5e4.
 //! `VIBROBAR_FUZZ_SEED` / `VIBROBAR_FUZZ_CASES` explore other samples by hand.
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::Instant;
@@ -196,10 +201,10 @@ fn cases() -> Vec<Case> {
 
 /// What a run of the exact solver gave, checked against the properties; `Err` describes a
 /// violation.
-fn check_exact(c: &Case) -> Result<&'static str, String> {
+fn check_exact(c: &Case, max_events: u64) -> Result<&'static str, String> {
     let solver = Exact {
         check_invariants: true,
-        max_events: MAX_EVENTS,
+        max_events,
     };
     let lg = c.sys.damper.unwrap().half_gap_m();
     let run = catch_unwind(AssertUnwindSafe(|| {
@@ -236,7 +241,7 @@ fn check_exact(c: &Case) -> Result<&'static str, String> {
     match r {
         // Bounded work is fine, but an event loop at one instant is a bug, not a busy run.
         Err(SimError::TooManyEvents { t_s, .. }) if t_s <= c.init.t_s => {
-            Err(format!("{MAX_EVENTS} events without time advancing"))
+            Err(format!("{max_events} events without time advancing"))
         }
         Err(SimError::TooManyEvents { .. }) => Ok("too-many-events"),
         Err(e) => Err(format!("error: {e} ({e:?})")),
@@ -318,25 +323,26 @@ const NEAR_RESONANT_CASES: usize = 40;
 
 #[test]
 fn exact_holds_its_promises_on_long_and_near_resonant_runs() {
-    run_cases(&long_and_near_resonant_cases(), 0);
+    // A lower event limit keeps the busy ones (as-published runaways) cheap.
+    run_cases(&long_and_near_resonant_cases(), 0, 50_000);
 }
 
 #[test]
 fn exact_holds_its_promises_on_random_systems() {
     let cases = cases();
     let n = cases.len();
-    run_cases(&cases, n / 2);
+    run_cases(&cases, n / 2, MAX_EVENTS);
 }
 
 /// Check every case; `min_ok` runs must finish (or the sampling checks little).
-fn run_cases(cases: &[Case], min_ok: usize) {
+fn run_cases(cases: &[Case], min_ok: usize, max_events: u64) {
     let start = Instant::now();
     let mut failures = Vec::new();
     let (mut ok, mut too_many) = (0, 0);
     let n = cases.len();
     for c in cases {
         let t = Instant::now();
-        match check_exact(c) {
+        match check_exact(c, max_events) {
             Ok("ok") => ok += 1,
             Ok(_) => too_many += 1,
             Err(why) => failures.push(format!("case {}: {why}\n  {c:?}", c.index)),
@@ -347,7 +353,7 @@ fn run_cases(cases: &[Case], min_ok: usize) {
         }
     }
     eprintln!(
-        "{n} cases: {ok} ok, {too_many} hit max_events = {MAX_EVENTS}, {} failures, {:.1} s",
+        "{n} cases: {ok} ok, {too_many} hit max_events = {max_events}, {} failures, {:.1} s",
         failures.len(),
         start.elapsed().as_secs_f64()
     );

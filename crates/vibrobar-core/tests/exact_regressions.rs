@@ -9,6 +9,7 @@
 mod common;
 
 use vibrobar_core::solver::{Event, Exact, Observer, Rk4, Segment, Solver};
+use vibrobar_core::EventLimitCause;
 use vibrobar_core::*;
 
 /// Counts segments, those that end without an event (work-bound restarts of a search, and the
@@ -152,5 +153,65 @@ fn regression_undamped_bar_near_resonance_failed_at_0_059_s() {
         for (a, b) in exact_ev.first_events.iter().zip(&rk.first_events).take(3) {
             assert!((a - b).abs() < 1e-7, "gap {gap_m}: exact {a} s, rk4 {b} s");
         }
+    }
+}
+
+/// Bug A10: "more than N events before t" named no cause. e = 1 without friction, the ball
+/// dropped onto the wall a constant load presses it on: elastic bounces of 1e-12 m that never
+/// end.
+#[test]
+fn regression_event_limit_named_no_cause_elastic_micro_bouncing() {
+    let sys = common::constant_push(1.0, 1e-3, 1.0);
+    let lg = 0.5e-3;
+    let init = State {
+        v_m: -lg + 1e-12,
+        ..State::REST
+    };
+    let r = Exact {
+        max_events: 2000,
+        ..Default::default()
+    }
+    .run(&sys, &init, 1.0, &mut ());
+    match r {
+        Err(
+            e @ SimError::TooManyEvents {
+                cause: EventLimitCause::ElasticMicroBouncing { largest_dw_m_s },
+                ..
+            },
+        ) => {
+            assert!(largest_dw_m_s > 1e-7 && largest_dw_m_s < 1e-5, "{e}");
+            let msg = e.to_string();
+            assert!(msg.contains("restitution = 1"), "{msg}");
+        }
+        other => panic!("want an elastic micro-bouncing cause, got {other:?}"),
+    }
+}
+
+/// Bug A10: the same for the energy-injecting as-published law at 100 N (0.1 mm gap, e = 1,
+/// r = 1): the relative speed runs away to ~1e2 m/s.
+#[test]
+fn regression_event_limit_named_no_cause_as_published_runaway() {
+    let mut sys = System::paper_damped(0.1e-3, FrictionModel::AsPublished, 1.0);
+    let d = sys.damper.as_mut().unwrap();
+    d.friction_force_n = Some(100.0);
+    d.restitution = 1.0;
+    let r = Exact {
+        max_events: 20_000,
+        ..Default::default()
+    }
+    .run(&sys, &State::REST, 2.0, &mut ());
+    match r {
+        Err(
+            e @ SimError::TooManyEvents {
+                cause: EventLimitCause::FrictionRunaway { largest_dw_m_s },
+                events_per_period,
+                ..
+            },
+        ) => {
+            assert!(largest_dw_m_s > 10.0, "{e}");
+            assert!(events_per_period > 100.0, "{e}");
+            assert!(e.to_string().contains("as-published"), "{e}");
+        }
+        other => panic!("want an as-published runaway cause, got {other:?}"),
     }
 }

@@ -55,7 +55,7 @@ use super::{
 };
 use crate::damper::friction::{can_stick, holding_capacity_n, sgn0, sliding_friction_on_ball_n};
 use crate::damper::impact::{impact_energy_loss_j, impact_relative, plastic_limit};
-use crate::error::SimError;
+use crate::error::{EventLimitCause, SimError};
 use crate::params::{FrictionModel, State, System};
 use expsum::{integral_product, integral_square, integral_square_to, ExpSum, Trig};
 use roots::{first_root_multi_trig, Cand, Root, Scratch};
@@ -147,10 +147,18 @@ impl Consts {
         };
         let (a, b) = if self.f0 == 0.0 {
             (0.0, 0.0)
-        } else if o.resonant {
+        } else if o.undamped_resonance {
             // Undamped and at resonance to rounding: no bounded closed form.
             return Err(SimError::UndampedResonance {
                 omega_rad_s: self.om,
+            });
+        } else if o.out_of_range {
+            let dyn_k = o.kk.hypot(o.cw);
+            return Err(SimError::ResponseOutOfRange {
+                dynamic_stiffness_n_per_m: dyn_k,
+                mass_kg: o.mass,
+                omega_rad_s: self.om,
+                amplitude_m: self.f0.abs() / dyn_k,
             });
         } else {
             (
@@ -200,7 +208,11 @@ struct Osc {
     cw: f64,
     /// `F0 / ((K − mΩ²)² + (CΩ)²)`.
     f0_d: f64,
-    resonant: bool,
+    /// `C = 0` and `K − mΩ² = 0` to rounding: the response grows without bound.
+    undamped_resonance: bool,
+    /// `(K − mΩ²)² + (CΩ)²` is not a normal `f64` (underflow or overflow) or the amplitude
+    /// overflows: the closed form cannot be evaluated, whatever the damping.
+    out_of_range: bool,
     al: f64,
     wd: f64,
 }
@@ -216,7 +228,8 @@ impl Osc {
             kk,
             cw,
             f0_d: cs.f0 / d,
-            resonant: d == 0.0 || (cw == 0.0 && kk.abs() <= 8.0 * f64::EPSILON * cs.k),
+            undamped_resonance: cw == 0.0 && kk.abs() <= 8.0 * f64::EPSILON * cs.k,
+            out_of_range: !d.is_normal() || !(cs.f0 / d).is_finite(),
             al,
             wd: (cs.k / mass - al * al).sqrt(),
         }
@@ -363,6 +376,90 @@ struct Book<'a> {
     max_events: u64,
     check: bool,
     lg: f64,
+    /// What the last events before the event limit did (recorded only near the limit).
+    tail: Tail,
+}
+
+/// How many events before the limit [`Tail`] looks at.
+const TAIL_EVENTS: u64 = 1024;
+
+/// The last events before the event limit, by kind, to name the likely cause.
+#[derive(Debug, Clone, Copy, Default)]
+struct Tail {
+    /// Recording starts after this many events.
+    from: u64,
+    t_first: f64,
+    n: u64,
+    impacts: u64,
+    /// Impacts with `ẇ− = 0` (touches), contact releases and chatter limits: a ball on a wall.
+    on_wall: u64,
+    switches: u64,
+    stick_slip: u64,
+    largest_dw: f64,
+}
+
+impl Tail {
+    fn new(max_events: u64) -> Tail {
+        Tail {
+            from: max_events.saturating_sub(TAIL_EVENTS),
+            ..Default::default()
+        }
+    }
+
+    fn record(&mut self, t: f64, kind: &EventKind) {
+        if self.n == 0 {
+            self.t_first = t;
+        }
+        self.n += 1;
+        match *kind {
+            EventKind::Impact { dw_m_s, .. } => {
+                self.impacts += 1;
+                if dw_m_s == 0.0 {
+                    self.on_wall += 1;
+                }
+                self.largest_dw = self.largest_dw.max(dw_m_s.abs());
+            }
+            EventKind::ContactRelease { .. } | EventKind::ChatterLimit { .. } => self.on_wall += 1,
+            EventKind::FrictionSwitch => self.switches += 1,
+            EventKind::Stick | EventKind::Unstick => self.stick_slip += 1,
+        }
+    }
+
+    /// The error at the limit: the event rate and the likely cause.
+    fn error(&self, cs: &Consts, limit: u64, t: f64) -> SimError {
+        let half = self.n / 2;
+        let elastic = cs.e >= 1.0 && !cs.frictional();
+        // Relative speeds beyond what the bar's motion over the gap gives.
+        let fast = self.largest_dw > 10.0 * cs.lg * cs.om.max(cs.osc[0].wd);
+        let cause = if self.n == 0 {
+            EventLimitCause::Dense
+        } else if self.on_wall > half {
+            EventLimitCause::RestingOnWall
+        } else if self.stick_slip > half {
+            EventLimitCause::StickSlip
+        } else if elastic && self.impacts > half {
+            EventLimitCause::ElasticMicroBouncing {
+                largest_dw_m_s: self.largest_dw,
+            }
+        } else if cs.model == FrictionModel::AsPublished
+            && cs.frictional()
+            && self.impacts + self.switches > half
+            && fast
+        {
+            EventLimitCause::FrictionRunaway {
+                largest_dw_m_s: self.largest_dw,
+            }
+        } else {
+            EventLimitCause::Dense
+        };
+        let periods = (t - self.t_first) * cs.om / (2.0 * std::f64::consts::PI);
+        SimError::TooManyEvents {
+            limit,
+            t_s: t,
+            events_per_period: self.n as f64 / periods,
+            cause,
+        }
+    }
 }
 
 impl Book<'_> {
@@ -386,16 +483,23 @@ impl Book<'_> {
         Ok(())
     }
 
-    fn event(&mut self, t: f64, kind: EventKind, before: &St, after: &St) -> Result<(), SimError> {
+    fn event(
+        &mut self,
+        cs: &Consts,
+        t: f64,
+        kind: EventKind,
+        before: &St,
+        after: &St,
+    ) -> Result<(), SimError> {
         self.summary.events += 1;
         if let EventKind::Impact { .. } = kind {
             self.summary.impacts += 1;
         }
-        if self.summary.events > self.max_events {
-            return Err(SimError::TooManyEvents {
-                limit: self.max_events,
-                t_s: t,
-            });
+        if self.summary.events > self.tail.from {
+            if self.summary.events > self.max_events {
+                return Err(self.tail.error(cs, self.max_events, t));
+            }
+            self.tail.record(t, &kind);
         }
         self.check_state(after)?;
         self.obs.event(&Event {
@@ -447,7 +551,8 @@ impl Consts {
                 kk: 0.0,
                 cw: 0.0,
                 f0_d: 0.0,
-                resonant: false,
+                undamped_resonance: false,
+                out_of_range: false,
                 al: 0.0,
                 wd: 0.0,
             }; 2],
@@ -481,6 +586,7 @@ impl Solver for Exact {
             max_events: self.max_events,
             check: self.check_invariants,
             lg: cs.lg,
+            tail: Tail::new(self.max_events),
         };
         let mut s = St {
             t: init.t_s,
@@ -734,7 +840,7 @@ fn pair_motion(
         ),
         _ => unreachable!("only contact has a release margin"),
     };
-    book.event(next.t, kind, &next, &next)?;
+    book.event(cs, next.t, kind, &next, &next)?;
     Ok(Some(new_mode))
 }
 
@@ -828,10 +934,10 @@ fn at_zero_velocity(cs: &Consts, s: &St) -> Result<Md, SimError> {
 fn friction_zero(cs: &Consts, sigma: f64, s: &St, book: &mut Book) -> Result<Md, SimError> {
     let ab = cs.a_b(s);
     if can_stick(cs.model) && ab.abs() <= cs.fl * cs.kappa() {
-        book.event(s.t, EventKind::Stick, s, s)?;
+        book.event(cs, s.t, EventKind::Stick, s, s)?;
         return Ok(Md::Stick);
     }
-    book.event(s.t, EventKind::FrictionSwitch, s, s)?;
+    book.event(cs, s.t, EventKind::FrictionSwitch, s, s)?;
     // as-published: the crossing is transversal, the sign simply reverses. coulomb: not
     // sticking means |a_b| > fκ, and the ball slides on against a_b, i.e. reversed too.
     Ok(free_departing(-sigma, None))
@@ -850,6 +956,7 @@ fn impact(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<Md, SimEr
         ..*s
     };
     book.event(
+        cs,
         s.t,
         EventKind::Impact {
             wall: wall_of(sw),
@@ -916,6 +1023,7 @@ fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Re
     next.t = seg.t1;
     next.dw = 0.0;
     book.event(
+        cs,
         next.t,
         EventKind::ChatterLimit {
             wall: wall_of(j.sw),
@@ -997,6 +1105,7 @@ mod tests {
             max_events: 10,
             check,
             lg: 1e-4,
+            tail: Tail::new(10),
         }
     }
 
@@ -1009,6 +1118,82 @@ mod tests {
             dw: 0.0,
             force: 0.0,
         }
+    }
+
+    fn tail_cause(cs: &Consts, kinds: &[EventKind]) -> EventLimitCause {
+        let mut t = Tail::new(kinds.len() as u64);
+        for (i, k) in kinds.iter().enumerate() {
+            t.record(i as f64 * 1e-6, k);
+        }
+        match t.error(cs, kinds.len() as u64, 1e-3) {
+            SimError::TooManyEvents { cause, .. } => cause,
+            e => panic!("{e:?}"),
+        }
+    }
+
+    /// Bug A10: the event-limit error named no cause. The last events before the limit name it.
+    #[test]
+    fn regression_event_limit_names_a_ball_resting_on_a_wall_and_stick_slip() {
+        let sys = System::paper_damped(1e-3, FrictionModel::Coulomb, 1.0);
+        let cs = Consts::new(&sys);
+        let wall = Wall::Plus;
+        let graze = EventKind::Impact {
+            wall,
+            dw_m_s: 0.0,
+            energy_loss_j: 0.0,
+        };
+        let release = EventKind::ContactRelease { wall };
+        let on_wall: Vec<EventKind> = (0..100)
+            .map(|i| if i % 2 == 0 { graze } else { release })
+            .collect();
+        assert_eq!(tail_cause(&cs, &on_wall), EventLimitCause::RestingOnWall);
+        let stick_slip: Vec<EventKind> = (0..100)
+            .map(|i| {
+                if i % 2 == 0 {
+                    EventKind::Stick
+                } else {
+                    EventKind::Unstick
+                }
+            })
+            .collect();
+        assert_eq!(tail_cause(&cs, &stick_slip), EventLimitCause::StickSlip);
+        // Ordinary impacts at modest speed, coulomb: just many events.
+        let hits: Vec<EventKind> = (0..100)
+            .map(|_| EventKind::Impact {
+                wall,
+                dw_m_s: 1e-3,
+                energy_loss_j: 0.0,
+            })
+            .collect();
+        assert_eq!(tail_cause(&cs, &hits), EventLimitCause::Dense);
+    }
+
+    /// Bug A10: K = 1e-300 N/m with ζ = 0.01 was called an "undamped bar" forced at resonance:
+    /// `(K − MΩ²)² + (CΩ)²` underflowed to 0, which the resonance test took for resonance. It
+    /// is a response outside floating-point range, damped or not; only C = 0 at K = MΩ² (to
+    /// rounding) is the undamped resonance.
+    #[test]
+    fn regression_tiny_stiffness_with_damping_was_called_an_undamped_bar() {
+        let mut sys = System::paper_damped(1e-3, FrictionModel::None, 1.0);
+        sys.bar.stiffness_n_per_m = 1e-300;
+        let cs = Consts::new(&sys);
+        match cs.bar_sum(cs.m, 0.0, 0.0, 0.0, 0.0) {
+            Err(e @ SimError::ResponseOutOfRange { .. }) => {
+                assert!(!e.to_string().contains("undamped"), "{e}")
+            }
+            other => panic!("{other:?}"),
+        }
+        // The genuine case keeps its name.
+        let mut und = System::paper_damped(1e-3, FrictionModel::None, 1.0);
+        und.bar.damping_ratio = 0.0;
+        let cs = Consts::new(&und);
+        assert!(matches!(
+            cs.bar_sum(cs.m, 0.0, 0.0, 0.0, 0.0),
+            Err(SimError::UndampedResonance { .. })
+        ));
+        // And a damped bar at resonance is fine.
+        let cs = Consts::new(&System::paper_damped(1e-3, FrictionModel::None, 1.0));
+        assert!(cs.bar_sum(cs.m, 0.0, 0.0, 0.0, 0.0).is_ok());
     }
 
     #[test]
