@@ -483,6 +483,7 @@ impl Book<'_> {
         Ok(())
     }
 
+    #[inline]
     fn event(
         &mut self,
         cs: &Consts,
@@ -664,35 +665,45 @@ fn solid_bar(
     Ok(book.summary)
 }
 
-/// Per-run scratch of the event searches: candidate functions, what each one means, and the
-/// root finder's own buffers. Grows to the largest candidate set and is reused, so no search
-/// allocates once the run has seen it.
-#[derive(Default)]
-struct Search {
-    cands: Vec<Cand>,
-    ids: Vec<u8>,
-    roots: Scratch,
+/// Per-run scratch of the event searches (the root finder's buffers for large candidate sets).
+type Search = Scratch;
+
+/// The event functions of one segment and what each means (`ids`), on the stack: the capacity
+/// `N` is the number of event functions the mode has (a wider set is a wider `N`); pushing more
+/// fails loudly, nothing is ever dropped silently.
+struct EventSet<const N: usize> {
+    cands: [Cand; N],
+    ids: [u8; N],
+    n: usize,
 }
 
-impl Search {
-    fn clear(&mut self) {
-        self.cands.clear();
-        self.ids.clear();
+impl<const N: usize> EventSet<N> {
+    fn new(like: &ExpSum) -> Self {
+        EventSet {
+            cands: [Cand::new(*like, 0, 0.0); N],
+            ids: [0; N],
+            n: 0,
+        }
     }
     fn push(&mut self, id: u8, c: Cand) {
-        self.cands.push(c);
-        self.ids.push(id);
+        assert!(
+            self.n < N,
+            "a mode declared {N} event functions and pushed more"
+        );
+        self.cands[self.n] = c;
+        self.ids[self.n] = id;
+        self.n += 1;
     }
 }
 
 /// Hand a finished segment to the observer (if not empty) and return the state at its end.
-fn close_segment(seg: &ExactSegment, book: &mut Book) -> Result<St, SimError> {
+fn close_segment(seg: &ExactSegment, book: &mut Book) -> St {
     if seg.t1 > seg.t0 {
         book.obs.segment(seg);
     }
     let mut next = seg.at_end();
     next.t = seg.t1;
-    Ok(next)
+    next
 }
 
 /// One free-flight segment with friction sign `σ` (0: no friction force) and the departure
@@ -724,20 +735,20 @@ fn free_flight(
     };
     // Candidates and what they mean: 1 wall +, 2 wall −, 3 ẇ = 0.
     let both_walls = !cs.frictional() || sigma == 0.0;
-    search.clear();
+    let mut set = EventSet::<3>::new(&w);
     if both_walls || sigma > 0.0 {
         let g = w.affine(-1.0, cs.lg);
-        search.push(1, Cand::new(g, k_plus, cs.tol_x));
+        set.push(1, Cand::new(g, k_plus, cs.tol_x));
     }
     if both_walls || sigma < 0.0 {
         let g = w.affine(1.0, cs.lg);
-        search.push(2, Cand::new(g, k_minus, cs.tol_x));
+        set.push(2, Cand::new(g, k_minus, cs.tol_x));
     }
     if cs.frictional() && sigma != 0.0 {
         let g = w.deriv().affine(sigma, 0.0);
-        search.push(3, Cand::new(g, k_sw, cs.tol_v));
+        set.push(3, Cand::new(g, k_sw, cs.tol_v));
     }
-    let (best, which, end) = joint_search(search, span, tol_t, &u)?;
+    let (best, which, end) = joint_search(&mut set, search, span, tol_t, &u)?;
     let seg = ExactSegment {
         t0: s.t,
         t1: if which == 0 { t_end_s } else { s.t + best },
@@ -749,7 +760,7 @@ fn free_flight(
         fb,
         end,
     };
-    let mut next = close_segment(&seg, book)?;
+    let mut next = close_segment(&seg, book);
     book.check_state(&next)?;
     *s = next;
     match which {
@@ -797,20 +808,20 @@ fn pair_motion(
     let w = ExpSum::constant(s.w, &u);
     // Margins that stay positive while the mode holds.
     let mk = |g: ExpSum| Cand::new(g, 0, cs.tol_f);
-    search.clear();
+    let mut set = EventSet::<2>::new(&w);
     let seg_mode = match mode {
         Md::Stick => {
-            search.push(1, mk(ddu.affine(-cs.md, cs.fl))); // ball lags
-            search.push(2, mk(ddu.affine(cs.md, cs.fl))); // ball leads
+            set.push(1, mk(ddu.affine(-cs.md, cs.fl))); // ball lags
+            set.push(2, mk(ddu.affine(cs.md, cs.fl))); // ball leads
             Mode::Stick
         }
         Md::Contact(wall) => {
-            search.push(3, mk(ddu.affine(-wall.sign() * cs.md, cs.f_hold())));
+            set.push(3, mk(ddu.affine(-wall.sign() * cs.md, cs.f_hold())));
             Mode::Contact(wall)
         }
         Md::Free { .. } => unreachable!("pair_motion is called for stick and contact"),
     };
-    let (best, which, end) = joint_search(search, span, tol_t, &u)?;
+    let (best, which, end) = joint_search(&mut set, search, span, tol_t, &u)?;
     let seg = ExactSegment {
         t0: s.t,
         t1: if which == 0 { t_end_s } else { s.t + best },
@@ -822,7 +833,7 @@ fn pair_motion(
         fb: 0.0,
         end,
     };
-    let mut next = close_segment(&seg, book)?;
+    let mut next = close_segment(&seg, book);
     next.dw = 0.0;
     book.check_state(&next)?;
     *s = next;
@@ -1054,16 +1065,17 @@ const HORIZON: u8 = u8::MAX;
 /// on `[0, span]`, and return `(τ, which, Trig at τ)`; `which = 0` means no event before `span`,
 /// [`HORIZON`] no event before `τ < span` with the search's work bound reached.
 /// The transcendentals the search already has at the zero are reused for the end state.
-fn joint_search(
-    search: &mut Search,
+fn joint_search<const N: usize>(
+    set: &mut EventSet<N>,
+    scratch: &mut Scratch,
     span: f64,
     tol_t: f64,
     u: &ExpSum,
 ) -> Result<(f64, u8, Trig), SimError> {
-    drop_constant_margins(&mut search.cands, &mut search.ids);
-    let (root, i, trig) = first_root_multi_trig(&search.cands, 0.0, span, tol_t, &mut search.roots);
+    let n = drop_constant_margins(&mut set.cands[..set.n], &mut set.ids[..set.n]);
+    let (root, i, trig) = first_root_multi_trig(&set.cands[..n], 0.0, span, tol_t, scratch);
     let (best, which) = match root {
-        Root::At(t) => (t, search.ids[i]),
+        Root::At(t) => (t, set.ids[i]),
         Root::None => (span, 0),
         Root::Horizon(t) => (t, HORIZON),
     };
@@ -1074,21 +1086,24 @@ fn joint_search(
     Ok((best, which, end))
 }
 
-/// Remove the candidates that are constant and not below `−tol`: such a margin (the pair at
-/// rest and unforced) never falls through zero, so the mode holds, as the entry tests decide at
-/// equality. Searched, an exact 0 would be a root at once, and the release, the graze back
-/// (ẅ ≡ 0, departure unconfirmed) and the contact test would loop at one instant until the
-/// event limit. `ids` is permuted alongside (the order of the others as before: swap-remove).
-fn drop_constant_margins(cands: &mut Vec<Cand>, ids: &mut Vec<u8>) {
+/// Move the candidates that are constant and not below `−tol` past the returned count: such a
+/// margin (the pair at rest and unforced) never falls through zero, so the mode holds, as the
+/// entry tests decide at equality. Searched, an exact 0 would be a root at once, and the
+/// release, the graze back (ẅ ≡ 0, departure unconfirmed) and the contact test would loop at one
+/// instant until the event limit. `ids` is permuted alongside.
+fn drop_constant_margins(cands: &mut [Cand], ids: &mut [u8]) -> usize {
+    let mut n = cands.len();
     let mut k = 0;
-    while k < cands.len() {
+    while k < n {
         if cands[k].g.is_constant() && cands[k].g.f0 >= -cands[k].tol {
-            cands.swap_remove(k);
-            ids.swap_remove(k);
+            cands.swap(k, n - 1);
+            ids.swap(k, n - 1);
+            n -= 1;
         } else {
             k += 1;
         }
     }
+    n
 }
 
 #[cfg(test)]

@@ -165,9 +165,13 @@ fn departure_step(g: &ExpSum, order: usize, t0: f64, rh: f64, rd: f64) -> Option
     }
 }
 
-/// Per-run scratch space of the searches: the bounds and proof state of each function. It grows
-/// to the largest number of functions a search has had and is reused, so a search allocates
-/// nothing once the run has seen its largest candidate set, and no candidate is ever dropped.
+/// Functions a search keeps on the stack; more go to the run's [`Scratch`].
+const INLINE_FNS: usize = 4;
+
+/// Per-run scratch space of the searches with more than [`INLINE_FNS`] functions: the bounds and
+/// proof state of each function. It grows to the largest number of functions a search has had
+/// and is reused, so a search allocates nothing once the run has seen its largest candidate
+/// set, and no candidate is ever dropped.
 #[derive(Debug, Clone, Default)]
 pub struct Scratch {
     bounds: Vec<FnBounds>,
@@ -223,19 +227,30 @@ pub fn first_root_multi_trig(
     let wn2 = al * al + wd * wd;
     let wn = wn2.sqrt();
     let tau = t0;
-    scratch.bounds.clear();
-    scratch.proof.clear();
-    for (i, c) in cands.iter().enumerate() {
+    // Per-function bounds and proofs: on the stack for the usual few functions, in the run's
+    // scratch beyond that (never truncated).
+    let n = cands.len();
+    let mut inline_b = [FnBounds::default(); INLINE_FNS];
+    let mut inline_p = [FnProof::default(); INLINE_FNS];
+    let (bounds, proof): (&mut [FnBounds], &mut [FnProof]) = if n <= INLINE_FNS {
+        (&mut inline_b[..n], &mut inline_p[..n])
+    } else {
+        scratch.bounds.resize(n, FnBounds::default());
+        scratch.proof.resize(n, FnProof::default());
+        (&mut scratch.bounds[..n], &mut scratch.proof[..n])
+    };
+    for i in 0..n {
+        let c = &cands[i];
         // Amplitudes (the relative margin covers the rounding of the bounds themselves).
         let rh = (c.g.a * c.g.a + c.g.b * c.g.b).sqrt() * (1.0 + 1e-12);
         let rd = (c.g.p * c.g.p + c.g.q * c.g.q).sqrt() * (1.0 + 1e-12);
-        scratch.bounds.push(FnBounds {
+        bounds[i] = FnBounds {
             bconst: 2.0 * c.g.c2.abs() * (1.0 + 1e-12) + om * om * rh,
             bdec: wn2 * rd,
             b3const: om * om * om * rh,
             b3dec: wn2 * wn2.sqrt() * rd,
             bdrift: wn2 * rd * (al + (wd - om).abs()) * (1.0 + 1e-12),
-        });
+        };
         // Departing functions are proven positive up to `free_until` by their Taylor bracket.
         let mut free_until = t0;
         if c.order > 0 {
@@ -244,139 +259,210 @@ pub fn first_root_multi_trig(
                 None => return (Root::At(t0), i, None),
             }
         }
-        scratch.proof.push(FnProof {
+        proof[i] = FnProof {
             free_until,
             proven: t0,
             pending: false,
-        });
-    }
-    let bounds = &scratch.bounds[..];
-    let proof = &mut scratch.proof[..];
-    let env = Envelope::new(om, al, wd);
-    // Slow beat: the steady and transient parts of the bar motion are each far larger than
-    // their sum for ~1/(α + |ω_d − Ω|) ≥ 1000/Ω (a lightly damped bar near resonance).
-    let beat = al + (wd - om).abs() <= BEAT_RATE * om;
-    // Every evaluation proves its function positive on [τ, τ + hᵢ); `proven` keeps the
-    // furthest such point. A function proven beyond the step the others allow need not be
-    // evaluated again (its proof still holds); one that would limit the step is evaluated
-    // afresh and the longer of the two proofs is kept.
-    let mut tau = tau;
-    for _ in 0..SEARCH_HORIZON_ITER {
-        let trig = Trig::new(tau, om, al, wd);
-        let decay = 1.0 + trig.em1;
-        let mut st = Step {
-            h: f64::INFINITY,
-            imin: 0,
-            bracket: None,
         };
-        // One evaluation of function `i` at τ: `Err(root)` or its proven step and whether the
-        // zero is bracketed to the time resolution just after it.
-        let eval = |i: usize, prev: f64| -> Result<(f64, bool), Root> {
-            let c = &cands[i];
-            let [f, f1, f2]: [f64; 3] = c.g.derivs_t(&trig);
-            if f <= c.tol && f1 <= 0.0 {
-                return Err(Root::At(tau));
-            }
-            let f = f.max(0.0);
-            // Quadratic bound with B ≥ |g''| on the rest of the interval …
-            let bd = &bounds[i];
-            let b_amp = bd.bconst + bd.bdec * decay;
-            // … or with the envelope of the oscillating parts taken together: at τ+s,
-            // H'' + D'' = Re[e^{iΩs}(Z + λ²D̂e^{λτ}(e^{(−α+iδ)s} − 1))], Z = −Ω²Ĥe^{iΩτ} + λ²D̂e^{λτ},
-            // δ = ω_d − Ω, so |g''| ≤ 2|c2| + |Z| + ω_n²|D̂|e^{−ατ}(α + |δ|)s. Near resonance the
-            // steady and transient parts cancel and |Z| ≪ Ω²|Ĥ| + ω_n²|D̂|.
-            let g = &c.g;
-            let e = decay;
-            let ph = env.phasors(g, &trig);
-            let round = 8.0 * f64::EPSILON * b_amp;
-            let bz = (2.0 * g.c2.abs() + env.z2(&ph)) * (1.0 + 1e-12) + round;
-            let h2_amp = quad_step(f, f1, b_amp);
-            // … and, within a horizon H, the cubic bound with the actual g'':
-            // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6) h² for h ≤ H. Both are proofs; take the longer.
-            // H is set a little beyond the zero of the local quadratic model, so that near a
-            // root the step lands next to it (Newton-like), far from one it is long.
-            let h_model = if f2 < 0.0 {
-                quad_step(f, f1, -f2)
-            } else if f1 < 0.0 && f1 * f1 >= 2.0 * f2 * f {
-                2.0 * f / (-f1 + (f1 * f1 - 2.0 * f2 * f).sqrt())
-            } else {
-                f64::INFINITY
+    }
+    // Slow beat: the steady and transient parts of the bar motion are each far larger than
+    // their sum for ~1/(α + |ω_d − Ω|) ≥ 1000/Ω (a lightly damped bar near resonance). The
+    // advancement is compiled for each case, so the usual one pays nothing for the other.
+    let search = Advance {
+        cands,
+        bounds,
+        t_max,
+        tol_t,
+        om,
+        al,
+        wd,
+        wn,
+    };
+    if al + (wd - om).abs() <= BEAT_RATE * om {
+        search.run::<true>(proof, tau)
+    } else {
+        search.run::<false>(proof, tau)
+    }
+}
+
+/// The advancement of one search over its functions, from their bounds.
+struct Advance<'a> {
+    cands: &'a [Cand],
+    bounds: &'a [FnBounds],
+    t_max: f64,
+    tol_t: f64,
+    om: f64,
+    al: f64,
+    wd: f64,
+    wn: f64,
+}
+
+impl Advance<'_> {
+    /// Step all functions together from `tau`; `BEAT`: the bar motion is a slow beat.
+    #[inline(always)]
+    fn run<const BEAT: bool>(
+        &self,
+        proof: &mut [FnProof],
+        tau: f64,
+    ) -> (Root, usize, Option<Trig>) {
+        let Advance {
+            cands,
+            bounds,
+            t_max,
+            tol_t,
+            om,
+            al,
+            wd,
+            wn,
+        } = *self;
+        let n = cands.len();
+        let bounds = &bounds[..n];
+        let proof = &mut proof[..n];
+        let env = Envelope::new(om, al, wd);
+        // Every evaluation proves its function positive on [τ, τ + hᵢ); `proven` keeps the
+        // furthest such point. A function proven beyond the step the others allow need not be
+        // evaluated again (its proof still holds); one that would limit the step is evaluated
+        // afresh and the longer of the two proofs is kept.
+        let mut tau = tau;
+        for _ in 0..SEARCH_HORIZON_ITER {
+            let trig = Trig::new(tau, om, al, wd);
+            let decay = 1.0 + trig.em1;
+            let mut st = Step {
+                h: f64::INFINITY,
+                imin: 0,
+                bracket: None,
             };
-            // Severe cancellation (see `beat`): the amplitude bound is useless, so the envelope
-            // step is taken on its own horizon, `H_e` = the step the envelope allows without
-            // its drift (no proven step can be longer), the drift at its largest there; the
-            // step is ≤ H_e, so the bound holds on it.
-            let h_e = if beat { quad_step(f, f1, bz) } else { 0.0 };
-            let h2_base = if h_e.is_finite() && h_e > h2_amp {
-                h2_amp.max(quad_step(f, f1, bz + bd.bdrift * e * h_e).min(h_e))
-            } else {
-                h2_amp
-            };
-            // (Capped with the amplitude step: H does not wait for the envelope.)
-            let big_h = (1.1 * h_model).min(8.0 * h2_base);
-            // The envelope step over the same horizon: valid on [0, H] with the drift term at
-            // its largest there. Only worth it when the envelope is the smaller bound
-            // (quad_step is non-increasing in the bound) and H reaches beyond the amplitude step.
-            let h2 = if b_amp > bz && big_h > h2_base {
-                h2_base.max(quad_step(f, f1, bz + bd.bdrift * e * big_h).min(big_h))
-            } else {
-                h2_base
-            };
-            // Upper bound within the horizon (cubic step only): g ≤ f + f1 h + c_up h² on
-            // [0, H], c_up = f2/2 + B₃H/6, since B₃h³/6 ≤ B₃Hh²/6 there.
-            let mut c_up = f64::INFINITY;
-            let h3 = if big_h.is_finite() && big_h > h2_base {
-                // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
-                let b3_amp = bd.b3const + bd.b3dec * decay;
-                let round3 = 8.0 * f64::EPSILON * b3_amp;
-                let b3_env = env.z3(&ph) * (1.0 + 1e-12) + round3 + bd.bdrift * wn * e * big_h;
-                let b3 = b3_amp.min(b3_env);
-                c_up = 0.5 * f2 + b3 * big_h / 6.0;
-                let b_eff = b3 * big_h / 3.0 - f2;
-                quad_step(f, f1, b_eff.max(0.0)).min(big_h)
-            } else {
-                0.0
-            };
-            // An earlier proof may reach further.
-            let hi = h2.max(h3).max(prev);
-            let mut bracketed = false;
-            if f1 < 0.0 {
-                if hi <= tol_t {
-                    // Within the time resolution of the zero, approaching it: it is here.
+            // One evaluation of function `i` at τ: `Err(root)` or its proven step and whether the
+            // zero is bracketed to the time resolution just after it.
+            let eval = |c: &Cand, bd: &FnBounds, prev: f64| -> Result<(f64, bool), Root> {
+                let [f, f1, f2]: [f64; 3] = c.g.derivs_t(&trig);
+                if f <= c.tol && f1 <= 0.0 {
                     return Err(Root::At(tau));
                 }
-                // Upper bound g ≤ f + f1 h + B h²/2: if it reaches 0 by `h_up`, a zero lies in
-                // [τ + hi, τ + h_up]; once that bracket is below the time resolution, stop at
-                // its proven-free left end (if no other function may vanish before it).
-                let disc = f1 * f1 - 2.0 * b_amp * f;
-                if disc >= 0.0 {
-                    let h_up = 2.0 * f / (-f1 + disc.sqrt());
-                    bracketed = h_up - hi <= tol_t && tau + hi < t_max;
+                let f = f.max(0.0);
+                // Quadratic bound with B ≥ |g''| on the rest of the interval …
+                let b_amp = bd.bconst + bd.bdec * decay;
+                // … or with the envelope of the oscillating parts taken together: at τ+s,
+                // H'' + D'' = Re[e^{iΩs}(Z + λ²D̂e^{λτ}(e^{(−α+iδ)s} − 1))], Z = −Ω²Ĥe^{iΩτ} + λ²D̂e^{λτ},
+                // δ = ω_d − Ω, so |g''| ≤ 2|c2| + |Z| + ω_n²|D̂|e^{−ατ}(α + |δ|)s. Near resonance the
+                // steady and transient parts cancel and |Z| ≪ Ω²|Ĥ| + ω_n²|D̂|.
+                let g = &c.g;
+                let e = decay;
+                let ph = env.phasors(g, &trig);
+                let round = 8.0 * f64::EPSILON * b_amp;
+                let bz = (2.0 * g.c2.abs() + env.z2(&ph)) * (1.0 + 1e-12) + round;
+                let h2_amp = quad_step(f, f1, b_amp);
+                // … and, within a horizon H, the cubic bound with the actual g'':
+                // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6) h² for h ≤ H. Both are proofs; take the longer.
+                // H is set a little beyond the zero of the local quadratic model, so that near a
+                // root the step lands next to it (Newton-like), far from one it is long.
+                let h_model = if f2 < 0.0 {
+                    quad_step(f, f1, -f2)
+                } else if f1 < 0.0 && f1 * f1 >= 2.0 * f2 * f {
+                    2.0 * f / (-f1 + (f1 * f1 - 2.0 * f2 * f).sqrt())
+                } else {
+                    f64::INFINITY
+                };
+                // Severe cancellation (see `beat`): the amplitude bound is useless, so the envelope
+                // step is taken on its own horizon, `H_e` = the step the envelope allows without
+                // its drift (no proven step can be longer), the drift at its largest there; the
+                // step is ≤ H_e, so the bound holds on it.
+                let h2_base = if BEAT {
+                    let h_e = quad_step(f, f1, bz);
+                    if h_e.is_finite() && h_e > h2_amp {
+                        h2_amp.max(quad_step(f, f1, bz + bd.bdrift * e * h_e).min(h_e))
+                    } else {
+                        h2_amp
+                    }
+                } else {
+                    h2_amp
+                };
+                // (Capped with the amplitude step: H does not wait for the envelope.)
+                let big_h = (1.1 * h_model).min(8.0 * h2_base);
+                // The envelope step over the same horizon: valid on [0, H] with the drift term at
+                // its largest there. Only worth it when the envelope is the smaller bound
+                // (quad_step is non-increasing in the bound) and H reaches beyond the amplitude step.
+                let h2 = if b_amp > bz && big_h > h2_base {
+                    h2_base.max(quad_step(f, f1, bz + bd.bdrift * e * big_h).min(big_h))
+                } else {
+                    h2_base
+                };
+                // Upper bound within the horizon (cubic step only): g ≤ f + f1 h + c_up h² on
+                // [0, H], c_up = f2/2 + B₃H/6, since B₃h³/6 ≤ B₃Hh²/6 there.
+                let mut c_up = f64::INFINITY;
+                let h3 = if big_h.is_finite() && big_h > h2_base {
+                    // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
+                    let b3_amp = bd.b3const + bd.b3dec * decay;
+                    let round3 = 8.0 * f64::EPSILON * b3_amp;
+                    let b3_env = env.z3(&ph) * (1.0 + 1e-12) + round3 + bd.bdrift * wn * e * big_h;
+                    let b3 = b3_amp.min(b3_env);
+                    c_up = 0.5 * f2 + b3 * big_h / 6.0;
+                    let b_eff = b3 * big_h / 3.0 - f2;
+                    quad_step(f, f1, b_eff.max(0.0)).min(big_h)
+                } else {
+                    0.0
+                };
+                // An earlier proof may reach further.
+                let hi = h2.max(h3).max(prev);
+                let mut bracketed = false;
+                if f1 < 0.0 {
+                    if hi <= tol_t {
+                        // Within the time resolution of the zero, approaching it: it is here.
+                        return Err(Root::At(tau));
+                    }
+                    // Upper bound g ≤ f + f1 h + B h²/2: if it reaches 0 by `h_up`, a zero lies in
+                    // [τ + hi, τ + h_up]; once that bracket is below the time resolution, stop at
+                    // its proven-free left end (if no other function may vanish before it).
+                    let disc = f1 * f1 - 2.0 * b_amp * f;
+                    if disc >= 0.0 {
+                        let h_up = 2.0 * f / (-f1 + disc.sqrt());
+                        bracketed = h_up - hi <= tol_t && tau + hi < t_max;
+                    }
+                    // The same with the cubic upper bound (valid up to H), which brackets the zero
+                    // to the resolution from much farther away; tried only when the bracket width,
+                    // about (c_up − f2/2 + B₃H/6)·hi²/|f1| = B₃H·hi²/(3|f1|), may be that small.
+                    if !bracketed
+                        && c_up.is_finite()
+                        && (c_up - 0.5 * f2) * hi * hi <= 4.0 * tol_t * -f1
+                    {
+                        let d3 = f1 * f1 - 4.0 * c_up * f;
+                        if d3 >= 0.0 {
+                            let h_up3 = 2.0 * f / (-f1 + d3.sqrt());
+                            bracketed = h_up3 <= big_h && h_up3 - hi <= tol_t && tau + hi < t_max;
+                        }
+                    }
                 }
-                // The same with the cubic upper bound (valid up to H), which brackets the zero
-                // to the resolution from much farther away; tried only when the bracket width,
-                // about (c_up − f2/2 + B₃H/6)·hi²/|f1| = B₃H·hi²/(3|f1|), may be that small.
-                if !bracketed
-                    && c_up.is_finite()
-                    && (c_up - 0.5 * f2) * hi * hi <= 4.0 * tol_t * -f1
-                {
-                    let d3 = f1 * f1 - 4.0 * c_up * f;
-                    if d3 >= 0.0 {
-                        let h_up3 = 2.0 * f / (-f1 + d3.sqrt());
-                        bracketed = h_up3 <= big_h && h_up3 - hi <= tol_t && tau + hi < t_max;
+                Ok((hi, bracketed))
+            };
+            for i in 0..n {
+                let pf = &mut proof[i];
+                pf.pending = false;
+                if pf.free_until > tau {
+                    st.take(i, pf.free_until - tau, false);
+                } else if pf.proven > tau {
+                    pf.pending = true;
+                } else {
+                    match eval(&cands[i], &bounds[i], 0.0) {
+                        Ok((hi, br)) => {
+                            pf.proven = tau + hi;
+                            st.take(i, hi, br);
+                        }
+                        Err(r) => return (r, i, Some(trig)),
                     }
                 }
             }
-            Ok((hi, bracketed))
-        };
-        for (i, pf) in proof.iter_mut().enumerate() {
-            pf.pending = false;
-            if pf.free_until > tau {
-                st.take(i, pf.free_until - tau, false);
-            } else if pf.proven > tau {
-                pf.pending = true;
-            } else {
-                match eval(i, 0.0) {
+            for i in 0..n {
+                let pf = &mut proof[i];
+                if !pf.pending {
+                    continue;
+                }
+                let hl = pf.proven - tau;
+                if hl >= st.h {
+                    // Proven beyond the step: not limiting, no evaluation needed.
+                    st.take(i, hl, false);
+                    continue;
+                }
+                match eval(&cands[i], &bounds[i], hl) {
                     Ok((hi, br)) => {
                         pf.proven = tau + hi;
                         st.take(i, hi, br);
@@ -384,41 +470,23 @@ pub fn first_root_multi_trig(
                     Err(r) => return (r, i, Some(trig)),
                 }
             }
-        }
-        for (i, pf) in proof.iter_mut().enumerate() {
-            if !pf.pending {
-                continue;
-            }
-            let hl = pf.proven - tau;
-            if hl >= st.h {
-                // Proven beyond the step: not limiting, no evaluation needed.
-                st.take(i, hl, false);
-                continue;
-            }
-            match eval(i, hl) {
-                Ok((hi, br)) => {
-                    pf.proven = tau + hi;
-                    st.take(i, hi, br);
+            if let Some((i, hb)) = st.bracket {
+                if hb <= st.h {
+                    return (Root::At(tau + hb), i, None);
                 }
-                Err(r) => return (r, i, Some(trig)),
             }
-        }
-        if let Some((i, hb)) = st.bracket {
-            if hb <= st.h {
-                return (Root::At(tau + hb), i, None);
+            let next = tau + st.h;
+            if next >= t_max {
+                return (Root::None, 0, None);
             }
+            if next <= tau {
+                return (Root::At(tau), st.imin, Some(trig));
+            }
+            tau = next;
         }
-        let next = tau + st.h;
-        if next >= t_max {
-            return (Root::None, 0, None);
-        }
-        if next <= tau {
-            return (Root::At(tau), st.imin, Some(trig));
-        }
-        tau = next;
+        // Every step so far was proven root-free and strictly advanced τ (`next > tau` above).
+        (Root::Horizon(tau), 0, None)
     }
-    // Every step so far was proven root-free and strictly advanced τ (`next > tau` above).
-    (Root::Horizon(tau), 0, None)
 }
 
 /// The shortest proven step of one iteration, the function giving it, and the earliest
