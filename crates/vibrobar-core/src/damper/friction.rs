@@ -5,6 +5,7 @@
 use crate::params::FrictionModel;
 
 /// Sign function with `sgn(0) = 0`, as in the paper's Eq. 3.
+#[inline]
 pub fn sgn0(x: f64) -> f64 {
     if x > 0.0 {
         1.0
@@ -18,6 +19,7 @@ pub fn sgn0(x: f64) -> f64 {
 /// `s` in `F_ball = s·F·sgn(ẇ)`: `+1` as published (power `F_ball ẇ = F|ẇ| ≥ 0`, it injects
 /// energy), `−1` coulomb (power `≤ 0`, it dissipates), `0` frictionless. The friction work of a
 /// slide is `s·F` times the distance slid, `∫|ẇ| dt`.
+#[inline]
 pub fn sign_factor(model: FrictionModel) -> f64 {
     match model {
         FrictionModel::None => 0.0,
@@ -33,6 +35,7 @@ pub fn sign_factor(model: FrictionModel) -> f64 {
 /// * `Coulomb`: `−F sgn(ẇ)`.
 ///
 /// At `ẇ = 0` this returns 0; what holds a ball at rest is [`holding_capacity_n`].
+#[inline]
 pub fn sliding_friction_on_ball_n(model: FrictionModel, level_n: f64, dw_m_s: f64) -> f64 {
     match model {
         FrictionModel::None => 0.0,
@@ -43,12 +46,14 @@ pub fn sliding_friction_on_ball_n(model: FrictionModel, level_n: f64, dw_m_s: f6
 
 /// Whether friction can hold the ball at relative rest (stick): only `Coulomb`. The paper's law
 /// has `sgn(0) = 0`, so at `ẇ = 0` it exerts no force and the ball moves on.
+#[inline]
 pub fn can_stick(model: FrictionModel) -> bool {
     model == FrictionModel::Coulomb
 }
 
 /// The largest friction force available to hold the ball at relative rest (against the bar, or
 /// on a wall against being pulled off it): `F` for `Coulomb`, else 0.
+#[inline]
 pub fn holding_capacity_n(model: FrictionModel, level_n: f64) -> f64 {
     if can_stick(model) {
         level_n

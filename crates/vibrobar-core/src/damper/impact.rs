@@ -14,6 +14,7 @@ pub fn impact_relative(mass_ratio: f64, restitution: f64, du_m_s: f64, dw_m_s: f
 ///
 /// Returns `(u̇+, v̇+)`. Momentum `M u̇ + m_d v̇` is conserved exactly in exact arithmetic; the
 /// kinetic-energy loss is [`impact_energy_loss_j`].
+#[inline]
 pub fn impact_map(mass_ratio: f64, restitution: f64, du_m_s: f64, dv_m_s: f64) -> (f64, f64) {
     let (du_plus, dw_plus) = impact_relative(mass_ratio, restitution, du_m_s, dv_m_s - du_m_s);
     (du_plus, du_plus + dw_plus)
@@ -21,6 +22,7 @@ pub fn impact_map(mass_ratio: f64, restitution: f64, du_m_s: f64, dv_m_s: f64) -
 
 /// Kinetic energy lost in one impact with pre-impact relative velocity `dw`:
 /// `½ m_eff (1 − e²) ẇ−²`, `m_eff = M m_d / (M + m_d)`.
+#[inline]
 pub fn impact_energy_loss_j(
     bar_mass_kg: f64,
     ball_mass_kg: f64,
@@ -34,6 +36,7 @@ pub fn impact_energy_loss_j(
 /// The limit of a chatter sequence (infinitely many impacts at one wall in a vanishing time):
 /// bar and ball take the common momentum-conserving velocity. Returns `(v, loss)`: the common
 /// velocity and the kinetic energy the sequence removed.
+#[inline]
 pub fn plastic_limit(bar_mass_kg: f64, ball_mass_kg: f64, du_m_s: f64, dv_m_s: f64) -> (f64, f64) {
     let (m, md) = (bar_mass_kg, ball_mass_kg);
     let mtot = m + md;

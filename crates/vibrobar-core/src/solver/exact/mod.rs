@@ -483,6 +483,18 @@ impl Book<'_> {
         Ok(())
     }
 
+    /// The last events before the limit: recorded, and the error at the limit (kept out of
+    /// line, it runs for the last [`TAIL_EVENTS`] events of a run at most).
+    #[cold]
+    #[inline(never)]
+    fn near_limit(&mut self, cs: &Consts, t: f64, kind: &EventKind) -> Result<(), SimError> {
+        if self.summary.events > self.max_events {
+            return Err(self.tail.error(cs, self.max_events, t));
+        }
+        self.tail.record(t, kind);
+        Ok(())
+    }
+
     #[inline]
     fn event(
         &mut self,
@@ -497,10 +509,7 @@ impl Book<'_> {
             self.summary.impacts += 1;
         }
         if self.summary.events > self.tail.from {
-            if self.summary.events > self.max_events {
-                return Err(self.tail.error(cs, self.max_events, t));
-            }
-            self.tail.record(t, &kind);
+            self.near_limit(cs, t, &kind)?;
         }
         self.check_state(after)?;
         self.obs.event(&Event {

@@ -198,8 +198,6 @@ struct FnProof {
     free_until: f64,
     /// Proven positive up to here by an evaluation.
     proven: f64,
-    /// Proof still valid this iteration, to be compared with the step of the others.
-    pending: bool,
 }
 
 /// First zero among several functions sharing the frequencies of the first one, in
@@ -262,7 +260,6 @@ pub fn first_root_multi_trig(
         proof[i] = FnProof {
             free_until,
             proven: t0,
-            pending: false,
         };
     }
     // Slow beat: the steady and transient parts of the bar motion are each far larger than
@@ -434,15 +431,22 @@ impl Advance<'_> {
                 }
                 Ok((hi, bracketed))
             };
+            // Functions whose earlier proof still holds, to be compared with the step of the
+            // others (bit i; from the 64th on they are simply evaluated again, which is valid).
+            let mut pending = 0u64;
             for i in 0..n {
                 let pf = &mut proof[i];
-                pf.pending = false;
                 if pf.free_until > tau {
                     st.take(i, pf.free_until - tau, false);
-                } else if pf.proven > tau {
-                    pf.pending = true;
+                } else if pf.proven > tau && i < 64 {
+                    pending |= 1 << i;
                 } else {
-                    match eval(&cands[i], &bounds[i], 0.0) {
+                    let prev = if pf.proven > tau {
+                        pf.proven - tau
+                    } else {
+                        0.0
+                    };
+                    match eval(&cands[i], &bounds[i], prev) {
                         Ok((hi, br)) => {
                             pf.proven = tau + hi;
                             st.take(i, hi, br);
@@ -451,11 +455,10 @@ impl Advance<'_> {
                     }
                 }
             }
-            for i in 0..n {
+            while pending != 0 {
+                let i = pending.trailing_zeros() as usize;
+                pending &= pending - 1;
                 let pf = &mut proof[i];
-                if !pf.pending {
-                    continue;
-                }
                 let hl = pf.proven - tau;
                 if hl >= st.h {
                     // Proven beyond the step: not limiting, no evaluation needed.
