@@ -5,7 +5,9 @@
 //! vibro-impact damped boring bars".
 //!
 //! * [`params`]: plain-data parameters in SI units, presets, validation.
-//! * [`model`]: the friction law (as published and dissipative), the impact law (Eqs. 4–5).
+//! * [`damper`]: the ball's laws, each in one place: friction (as published and dissipative),
+//!   impact (Eqs. 4–5) and its plastic limit.
+//! * [`model`]: the equations of motion and the mechanical energy.
 //! * [`solver`]: the [`solver::Solver`] trait and its implementations.
 //! * [`analysis`]: RMS, impact statistics, time histories, sweeps, energy audit.
 //! * [`euler_bernoulli`]: lumped `M`, `K` of a cantilever bar from its geometry.
@@ -17,6 +19,7 @@
 #![deny(clippy::float_cmp)]
 
 pub mod analysis;
+pub mod damper;
 pub mod error;
 pub mod euler_bernoulli;
 pub mod limits;
@@ -24,6 +27,6 @@ pub mod model;
 pub mod params;
 pub mod solver;
 
-pub use error::{ParamError, SimError};
+pub use error::{EventLimitCause, ParamError, SimError};
 pub use params::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};
 pub use solver::{Observer, Solver};

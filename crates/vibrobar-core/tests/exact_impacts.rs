@@ -262,7 +262,7 @@ fn event_limit_bounds_the_work() {
     };
     let r = solver.run(&sys, &launched(1.0), 1.0, &mut ());
     match r {
-        Err(SimError::TooManyEvents { limit, t_s }) => {
+        Err(SimError::TooManyEvents { limit, t_s, .. }) => {
             assert_eq!(limit, 5);
             assert!(t_s > 0.0 && t_s < 1.0);
         }

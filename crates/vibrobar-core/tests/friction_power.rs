@@ -1,7 +1,7 @@
 //! The sign of the friction power along whole rk4 runs: `as-published` (paper Eq. 2) puts energy
 //! in (`F_ball·ẇ ≥ 0`), `coulomb` takes it out (`≤ 0`), step by step and over the run.
 
-use vibrobar_core::model::sliding_friction_on_ball_n;
+use vibrobar_core::damper::friction::sliding_friction_on_ball_n;
 use vibrobar_core::solver::{Observer, Rk4, Segment};
 use vibrobar_core::{FrictionModel, Solver, State, System};
 

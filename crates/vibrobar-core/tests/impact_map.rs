@@ -2,7 +2,7 @@
 //! closed-form kinetic-energy loss `½ m_eff (1 − e²) ẇ−²`, and `ẇ+ = −e ẇ−`, over many random
 //! pre-impact states.
 
-use vibrobar_core::model::{impact_energy_loss_j, impact_map};
+use vibrobar_core::damper::impact::{impact_energy_loss_j, impact_map};
 
 /// SplitMix64: a tiny deterministic generator, so the test needs no extra dependency.
 struct Rng(u64);

@@ -4,7 +4,10 @@
 //! `E_mech = ½Mu̇² + ½Ku² + ½m_d v̇²` ([`mechanical_energy_j`]). In stick and contact segments the
 //! pair moves together and the same formula holds. [`EnergyAudit`] sums the right-hand side from
 //! the segments' [`Segment::integrals`] and the events' energy losses, so it works with every
-//! solver; the residual measures the solver's (and its quadrature's) error.
+//! solver; the residual measures the solver's (and its quadrature's) error. The losses and the
+//! friction work come from the laws of [`crate::damper`] (impact loss and plastic limit in
+//! `damper::impact`, the friction sign in `damper::friction`), the same ones the solvers apply,
+//! so the audit checks the motion against the laws, not one re-derivation against another.
 //!
 //! With `rk4` the residual falls as dt² (its segment integrals are trapezoids), e.g. 3.3e-10 J
 //! of 1.3e-2 J input for the linear bar over 20 ms at dt = 1 µs. Exception: `coulomb` friction

@@ -183,8 +183,10 @@ pub struct RunSummary {
     pub max_penetration_m: f64,
 }
 
-/// Every solver implements this; every analysis is written against it.
-pub trait Solver: Sync {
+/// Every solver implements this; every analysis is written against it. Solvers are plain
+/// settings (`Send + Sync`): one may be shared by threads or moved into one, and a run keeps its
+/// own scratch space.
+pub trait Solver: Send + Sync {
     /// Short name used in the CLI and in output files (`rk4`, `exact`).
     fn name(&self) -> &'static str;
     /// Integrate `sys` from `init` (at `init.t_s`) until `t_end_s`, reporting to `obs`.
@@ -227,5 +229,20 @@ pub fn solver_by_name(name: &str, settings: &RunSettings) -> Option<Box<dyn Solv
         })),
         "exact" => Some(Box::new(Exact::default())),
         _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// B7: solvers (and boxed ones) can be sent to and shared between threads.
+    #[test]
+    fn solvers_are_send_and_sync() {
+        fn send_sync<T: Send + Sync + ?Sized>() {}
+        send_sync::<Exact>();
+        send_sync::<Rk4>();
+        send_sync::<dyn Solver>();
+        send_sync::<Box<dyn Solver>>();
     }
 }

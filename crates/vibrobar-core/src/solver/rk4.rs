@@ -9,8 +9,9 @@
 use super::{
     Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Solver, Wall,
 };
+use crate::damper::friction::{sign_factor, sliding_friction_on_ball_n};
+use crate::damper::impact::{impact_energy_loss_j, impact_map};
 use crate::error::SimError;
-use crate::model::{impact_energy_loss_j, impact_map, sliding_friction_on_ball_n};
 use crate::params::{FrictionModel, State, System};
 
 /// Fixed-step classical Runge–Kutta 4 with the paper's after-step impact check.
@@ -246,11 +247,7 @@ impl Segment for StepSegment<'_> {
         let r = self.rhs;
         // `F_ball ẇ = ±F|ẇ|`, so the friction work is ±F times the total variation of `w`: this
         // keeps its sign on steps where ẇ reverses (the start-of-step force times Δw did not).
-        let sign = match r.friction {
-            FrictionModel::None => 0.0,
-            FrictionModel::AsPublished => 1.0,
-            FrictionModel::Coulomb => -1.0,
-        };
+        let sign = sign_factor(r.friction);
         SegmentIntegrals {
             u2_m2_s: trap(&|s| s.u_m * s.u_m),
             forcing_work_j: trap(&|s| r.force(s.t_s) * s.du_m_s),

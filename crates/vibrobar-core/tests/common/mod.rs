@@ -1,6 +1,7 @@
 //! Shared helpers of the `exact_*` tests: a recording observer and test systems.
 #![allow(dead_code)]
 
+pub mod golden;
 pub mod orbit;
 
 use vibrobar_core::solver::{Event, EventKind, Mode, Observer, Segment, SegmentIntegrals};

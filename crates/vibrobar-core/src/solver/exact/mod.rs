@@ -12,7 +12,13 @@
 //! pair moves as one body of mass `M + m_d`), wall contact (pair as one body, ball pressed on a
 //! wall). Events are the zeros of exponential sums (walls `l_g ∓ w`, `σẇ`, the force margins
 //! `f ∓ m_d ü_pair`), found by [`roots::first_root`], which cannot miss a root (see its docs for
-//! the argument, the departure rule at a segment start and the grazing case).
+//! the argument, the departure rule at a segment start and the grazing case). One search does a
+//! bounded amount of work: at its horizon it stops at its last proven point, the segment ends
+//! there without an event, and the same mode goes on from the closed-form state (long
+//! event-free flights, a ball stuck for good).
+//!
+//! The laws are those of [`crate::damper`]: the friction force of a slide, whether and how
+//! strongly friction holds a ball at rest, the impact map and its plastic limit.
 //!
 //! Transitions (each derived from the forces, each tested): impact at `w = ±l_g` (Eqs. 4–5, `w`
 //! set to exactly `±l_g`); `ẇ = 0` in free flight (as-published: the sign reverses, the crossing
@@ -47,11 +53,12 @@ pub mod roots;
 use super::{
     Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Solver, Wall,
 };
-use crate::error::SimError;
-use crate::model::impact_energy_loss_j;
+use crate::damper::friction::{can_stick, holding_capacity_n, sgn0, sliding_friction_on_ball_n};
+use crate::damper::impact::{impact_energy_loss_j, impact_relative, plastic_limit};
+use crate::error::{EventLimitCause, SimError};
 use crate::params::{FrictionModel, State, System};
 use expsum::{integral_product, integral_square, integral_square_to, ExpSum, Trig};
-use roots::{first_root_multi_trig, Cand, Root};
+use roots::{first_root_multi_trig, Cand, Root, Scratch};
 
 /// The exact event-driven solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -111,24 +118,16 @@ impl Consts {
     fn a_b(&self, s: &St) -> f64 {
         (s.force - self.c * s.du - self.k * s.u) / self.m
     }
-    /// Friction force on the ball while sliding with sign `σ`.
+    /// Friction force on the ball while sliding with sign `σ` (the law of `damper::friction`).
     fn fb(&self, sigma: f64) -> f64 {
-        match self.model {
-            FrictionModel::None => 0.0,
-            FrictionModel::AsPublished => self.fl * sigma,
-            FrictionModel::Coulomb => -self.fl * sigma,
-        }
+        sliding_friction_on_ball_n(self.model, self.fl, sigma)
     }
     fn frictional(&self) -> bool {
         self.model != FrictionModel::None && self.fl > 0.0
     }
     /// Largest `s·m_d ü_pair` for which the ball stays on wall `s`.
     fn f_hold(&self) -> f64 {
-        if self.model == FrictionModel::Coulomb {
-            self.fl
-        } else {
-            0.0
-        }
+        holding_capacity_n(self.model, self.fl)
     }
 
     /// Bar (or pair, with `mass`) closed form from `(u0, du0)` at `t_seg`, extra constant force
@@ -148,10 +147,18 @@ impl Consts {
         };
         let (a, b) = if self.f0 == 0.0 {
             (0.0, 0.0)
-        } else if o.resonant {
+        } else if o.undamped_resonance {
             // Undamped and at resonance to rounding: no bounded closed form.
             return Err(SimError::UndampedResonance {
                 omega_rad_s: self.om,
+            });
+        } else if o.out_of_range {
+            let dyn_k = o.kk.hypot(o.cw);
+            return Err(SimError::ResponseOutOfRange {
+                dynamic_stiffness_n_per_m: dyn_k,
+                mass_kg: o.mass,
+                omega_rad_s: self.om,
+                amplitude_m: self.f0.abs() / dyn_k,
             });
         } else {
             (
@@ -201,7 +208,11 @@ struct Osc {
     cw: f64,
     /// `F0 / ((K − mΩ²)² + (CΩ)²)`.
     f0_d: f64,
-    resonant: bool,
+    /// `C = 0` and `K − mΩ² = 0` to rounding: the response grows without bound.
+    undamped_resonance: bool,
+    /// `(K − mΩ²)² + (CΩ)²` is not a normal `f64` (underflow or overflow) or the amplitude
+    /// overflows: the closed form cannot be evaluated, whatever the damping.
+    out_of_range: bool,
     al: f64,
     wd: f64,
 }
@@ -217,7 +228,8 @@ impl Osc {
             kk,
             cw,
             f0_d: cs.f0 / d,
-            resonant: d == 0.0 || (cw == 0.0 && kk.abs() <= 8.0 * f64::EPSILON * cs.k),
+            undamped_resonance: cw == 0.0 && kk.abs() <= 8.0 * f64::EPSILON * cs.k,
+            out_of_range: !d.is_normal() || !(cs.f0 / d).is_finite(),
             al,
             wd: (cs.k / mass - al * al).sqrt(),
         }
@@ -354,7 +366,7 @@ fn wall_of(s: f64) -> Wall {
 }
 
 fn sign_or_zero(x: f64) -> f64 {
-    crate::model::sgn0(x)
+    sgn0(x)
 }
 
 /// Run bookkeeping: counters, invariant checks, observer.
@@ -364,6 +376,90 @@ struct Book<'a> {
     max_events: u64,
     check: bool,
     lg: f64,
+    /// What the last events before the event limit did (recorded only near the limit).
+    tail: Tail,
+}
+
+/// How many events before the limit [`Tail`] looks at.
+const TAIL_EVENTS: u64 = 1024;
+
+/// The last events before the event limit, by kind, to name the likely cause.
+#[derive(Debug, Clone, Copy, Default)]
+struct Tail {
+    /// Recording starts after this many events.
+    from: u64,
+    t_first: f64,
+    n: u64,
+    impacts: u64,
+    /// Impacts with `ẇ− = 0` (touches), contact releases and chatter limits: a ball on a wall.
+    on_wall: u64,
+    switches: u64,
+    stick_slip: u64,
+    largest_dw: f64,
+}
+
+impl Tail {
+    fn new(max_events: u64) -> Tail {
+        Tail {
+            from: max_events.saturating_sub(TAIL_EVENTS),
+            ..Default::default()
+        }
+    }
+
+    fn record(&mut self, t: f64, kind: &EventKind) {
+        if self.n == 0 {
+            self.t_first = t;
+        }
+        self.n += 1;
+        match *kind {
+            EventKind::Impact { dw_m_s, .. } => {
+                self.impacts += 1;
+                if dw_m_s == 0.0 {
+                    self.on_wall += 1;
+                }
+                self.largest_dw = self.largest_dw.max(dw_m_s.abs());
+            }
+            EventKind::ContactRelease { .. } | EventKind::ChatterLimit { .. } => self.on_wall += 1,
+            EventKind::FrictionSwitch => self.switches += 1,
+            EventKind::Stick | EventKind::Unstick => self.stick_slip += 1,
+        }
+    }
+
+    /// The error at the limit: the event rate and the likely cause.
+    fn error(&self, cs: &Consts, limit: u64, t: f64) -> SimError {
+        let half = self.n / 2;
+        let elastic = cs.e >= 1.0 && !cs.frictional();
+        // Relative speeds beyond what the bar's motion over the gap gives.
+        let fast = self.largest_dw > 10.0 * cs.lg * cs.om.max(cs.osc[0].wd);
+        let cause = if self.n == 0 {
+            EventLimitCause::Dense
+        } else if self.on_wall > half {
+            EventLimitCause::RestingOnWall
+        } else if self.stick_slip > half {
+            EventLimitCause::StickSlip
+        } else if elastic && self.impacts > half {
+            EventLimitCause::ElasticMicroBouncing {
+                largest_dw_m_s: self.largest_dw,
+            }
+        } else if cs.model == FrictionModel::AsPublished
+            && cs.frictional()
+            && self.impacts + self.switches > half
+            && fast
+        {
+            EventLimitCause::FrictionRunaway {
+                largest_dw_m_s: self.largest_dw,
+            }
+        } else {
+            EventLimitCause::Dense
+        };
+        let periods = (t - self.t_first) * cs.om / (2.0 * std::f64::consts::PI);
+        SimError::TooManyEvents {
+            limit,
+            t_s: t,
+            events_per_period: self.n as f64 / periods,
+            cause,
+        }
+    }
 }
 
 impl Book<'_> {
@@ -387,16 +483,33 @@ impl Book<'_> {
         Ok(())
     }
 
-    fn event(&mut self, t: f64, kind: EventKind, before: &St, after: &St) -> Result<(), SimError> {
+    /// The last events before the limit: recorded, and the error at the limit (kept out of
+    /// line, it runs for the last [`TAIL_EVENTS`] events of a run at most).
+    #[cold]
+    #[inline(never)]
+    fn near_limit(&mut self, cs: &Consts, t: f64, kind: &EventKind) -> Result<(), SimError> {
+        if self.summary.events > self.max_events {
+            return Err(self.tail.error(cs, self.max_events, t));
+        }
+        self.tail.record(t, kind);
+        Ok(())
+    }
+
+    #[inline]
+    fn event(
+        &mut self,
+        cs: &Consts,
+        t: f64,
+        kind: EventKind,
+        before: &St,
+        after: &St,
+    ) -> Result<(), SimError> {
         self.summary.events += 1;
         if let EventKind::Impact { .. } = kind {
             self.summary.impacts += 1;
         }
-        if self.summary.events > self.max_events {
-            return Err(SimError::TooManyEvents {
-                limit: self.max_events,
-                t_s: t,
-            });
+        if self.summary.events > self.tail.from {
+            self.near_limit(cs, t, &kind)?;
         }
         self.check_state(after)?;
         self.obs.event(&Event {
@@ -409,19 +522,9 @@ impl Book<'_> {
     }
 }
 
-impl Solver for Exact {
-    fn name(&self) -> &'static str {
-        "exact"
-    }
-
-    fn run(
-        &self,
-        sys: &System,
-        init: &State,
-        t_end_s: f64,
-        obs: &mut dyn Observer,
-    ) -> Result<RunSummary, SimError> {
-        super::validate_run(sys, init, t_end_s)?;
+impl Consts {
+    /// The constants of a run of `sys` (validated).
+    fn new(sys: &System) -> Consts {
         let om = sys.omega_rad_s();
         let (md, lg, e, model) = match &sys.damper {
             Some(d) => (d.ball_mass_kg, d.half_gap_m(), d.restitution, d.friction),
@@ -458,12 +561,31 @@ impl Solver for Exact {
                 kk: 0.0,
                 cw: 0.0,
                 f0_d: 0.0,
-                resonant: false,
+                undamped_resonance: false,
+                out_of_range: false,
                 al: 0.0,
                 wd: 0.0,
             }; 2],
         };
         cs.osc = [Osc::new(&cs, cs.m), Osc::new(&cs, cs.m + cs.md)];
+        cs
+    }
+}
+
+impl Solver for Exact {
+    fn name(&self) -> &'static str {
+        "exact"
+    }
+
+    fn run(
+        &self,
+        sys: &System,
+        init: &State,
+        t_end_s: f64,
+        obs: &mut dyn Observer,
+    ) -> Result<RunSummary, SimError> {
+        super::validate_run(sys, init, t_end_s)?;
+        let cs = Consts::new(sys);
         let mut book = Book {
             obs,
             summary: RunSummary {
@@ -473,7 +595,8 @@ impl Solver for Exact {
             },
             max_events: self.max_events,
             check: self.check_invariants,
-            lg,
+            lg: cs.lg,
+            tail: Tail::new(self.max_events),
         };
         let mut s = St {
             t: init.t_s,
@@ -484,203 +607,261 @@ impl Solver for Exact {
             force: sys.force_n(init.t_s),
         };
         if sys.damper.is_none() {
-            s.w = 0.0;
-            s.dw = 0.0;
-            let (u, force) = cs.bar_sum(cs.m, 0.0, s.t, s.u, s.du)?;
-            let seg = ExactSegment {
-                t0: s.t,
-                t1: t_end_s,
-                mode: Mode::NoBall,
-                u,
-                w: u.zero_like(),
-                force,
-                c: cs.c,
-                fb: 0.0,
-                end: Trig::new(t_end_s - s.t, u.om, u.al, u.wd),
-            };
-            if t_end_s > s.t {
-                book.obs.segment(&seg);
-                s = seg.at_end();
-                s.t = t_end_s;
-            }
-            if self.check_invariants && !(s.u.is_finite() && s.du.is_finite()) {
-                return Err(SimError::NonFinite { t_s: s.t });
-            }
-            book.summary.final_state = s.public();
-            return Ok(book.summary);
+            return solid_bar(&cs, s, t_end_s, &mut book);
         }
+        let mut search = Search::default();
         let mut mode = initial_mode(&cs, &mut s, &mut book)?;
         while s.t < t_end_s {
-            let span = t_end_s - s.t;
-            let tol_t = cs.tol_t + 4.0 * f64::EPSILON * s.t.abs();
-            match mode {
+            let next = match mode {
                 Md::Free {
                     sigma,
                     k_plus,
                     k_minus,
                     k_sw,
-                } => {
-                    let fb = cs.fb(sigma);
-                    let (u, force) = cs.bar_sum(cs.m, -fb, s.t, s.u, s.du)?;
-                    let w = ExpSum {
-                        f0: s.w,
-                        k0: s.w + u.a + u.p,
-                        c1: s.du + s.dw,
-                        c2: 0.5 * fb / cs.md,
-                        a: -u.a,
-                        b: -u.b,
-                        p: -u.p,
-                        q: -u.q,
-                        ..u
-                    };
-                    // Candidates and what they mean: 1 wall +, 2 wall −, 3 ẇ = 0.
-                    let both_walls = !cs.frictional() || sigma == 0.0;
-                    let mut cands = [Cand {
-                        g: w,
-                        order: 0,
-                        tol: 0.0,
-                    }; 3];
-                    let mut ids = [0u8; 3];
-                    let mut n = 0;
-                    if both_walls || sigma > 0.0 {
-                        cands[n] = Cand {
-                            g: w.affine(-1.0, cs.lg),
-                            order: k_plus,
-                            tol: cs.tol_x,
-                        };
-                        ids[n] = 1;
-                        n += 1;
-                    }
-                    if both_walls || sigma < 0.0 {
-                        cands[n] = Cand {
-                            g: w.affine(1.0, cs.lg),
-                            order: k_minus,
-                            tol: cs.tol_x,
-                        };
-                        ids[n] = 2;
-                        n += 1;
-                    }
-                    if cs.frictional() && sigma != 0.0 {
-                        cands[n] = Cand {
-                            g: w.deriv().affine(sigma, 0.0),
-                            order: k_sw,
-                            tol: cs.tol_v,
-                        };
-                        ids[n] = 3;
-                        n += 1;
-                    }
-                    let (best, which, end) =
-                        joint_search(&mut cands, &mut ids, n, span, tol_t, &u, s.t)?;
-                    let seg = ExactSegment {
-                        t0: s.t,
-                        t1: if which == 0 { t_end_s } else { s.t + best },
-                        mode: Mode::Free,
-                        u,
-                        w,
-                        force,
-                        c: cs.c,
-                        fb,
-                        end,
-                    };
-                    if seg.t1 > seg.t0 {
-                        book.obs.segment(&seg);
-                    }
-                    let mut next = seg.at_end();
-                    next.t = seg.t1;
-                    book.check_state(&next)?;
-                    if which == 0 {
-                        s = next;
-                        break;
-                    }
-                    mode = match which {
-                        1 | 2 => {
-                            let sw = if which == 1 { 1.0 } else { -1.0 };
-                            impact(&cs, sw, &mut next, &mut book)?
-                        }
-                        _ => {
-                            next.dw = 0.0;
-                            friction_zero(&cs, sigma, &next, &mut book)?
-                        }
-                    };
-                    s = next;
-                }
+                } => free_flight(
+                    &cs,
+                    sigma,
+                    [k_plus, k_minus, k_sw],
+                    &mut s,
+                    t_end_s,
+                    &mut book,
+                    &mut search,
+                )?,
                 Md::Stick | Md::Contact(_) => {
-                    let (u, force) = cs.bar_sum(cs.m + cs.md, 0.0, s.t, s.u, s.du)?;
-                    let ddu = u.deriv().deriv();
-                    let w = ExpSum::constant(s.w, &u);
-                    // Margins that stay positive while the mode holds.
-                    let mk = |g: ExpSum| Cand {
-                        g,
-                        order: 0,
-                        tol: cs.tol_f,
-                    };
-                    let mut cands = [mk(w); 2];
-                    let mut ids = [0u8; 2];
-                    let n = match mode {
-                        Md::Stick => {
-                            cands[0] = mk(ddu.affine(-cs.md, cs.fl)); // ball lags
-                            cands[1] = mk(ddu.affine(cs.md, cs.fl)); // ball leads
-                            ids = [1, 2];
-                            2
-                        }
-                        Md::Contact(wall) => {
-                            cands[0] = mk(ddu.affine(-wall.sign() * cs.md, cs.f_hold()));
-                            ids[0] = 3;
-                            1
-                        }
-                        _ => unreachable!(),
-                    };
-                    let (best, which, end) =
-                        joint_search(&mut cands, &mut ids, n, span, tol_t, &u, s.t)?;
-                    let seg = ExactSegment {
-                        t0: s.t,
-                        t1: if which == 0 { t_end_s } else { s.t + best },
-                        mode: match mode {
-                            Md::Stick => Mode::Stick,
-                            Md::Contact(wl) => Mode::Contact(wl),
-                            _ => unreachable!(),
-                        },
-                        u,
-                        w,
-                        force,
-                        c: cs.c,
-                        fb: 0.0,
-                        end,
-                    };
-                    if seg.t1 > seg.t0 {
-                        book.obs.segment(&seg);
-                    }
-                    let mut next = seg.at_end();
-                    next.t = seg.t1;
-                    next.dw = 0.0;
-                    book.check_state(&next)?;
-                    if which == 0 {
-                        s = next;
-                        break;
-                    }
-                    let (kind, new_mode) = match which {
-                        1 => (EventKind::Unstick, free_departing(-1.0, None)),
-                        2 => (EventKind::Unstick, free_departing(1.0, None)),
-                        _ => {
-                            let wl = match mode {
-                                Md::Contact(wl) => wl,
-                                _ => unreachable!(),
-                            };
-                            (
-                                EventKind::ContactRelease { wall: wl },
-                                free_departing(-wl.sign(), Some(wl)),
-                            )
-                        }
-                    };
-                    book.event(next.t, kind, &next, &next)?;
-                    mode = new_mode;
-                    s = next;
+                    pair_motion(&cs, mode, &mut s, t_end_s, &mut book, &mut search)?
                 }
+            };
+            match next {
+                Some(m) => mode = m,
+                None => break,
             }
         }
         book.summary.final_state = s.public();
         Ok(book.summary)
     }
+}
+
+/// The bar without a ball: one closed-form segment to the end.
+fn solid_bar(
+    cs: &Consts,
+    mut s: St,
+    t_end_s: f64,
+    book: &mut Book,
+) -> Result<RunSummary, SimError> {
+    s.w = 0.0;
+    s.dw = 0.0;
+    let (u, force) = cs.bar_sum(cs.m, 0.0, s.t, s.u, s.du)?;
+    let seg = ExactSegment {
+        t0: s.t,
+        t1: t_end_s,
+        mode: Mode::NoBall,
+        u,
+        w: u.zero_like(),
+        force,
+        c: cs.c,
+        fb: 0.0,
+        end: Trig::new(t_end_s - s.t, u.om, u.al, u.wd),
+    };
+    if t_end_s > s.t {
+        book.obs.segment(&seg);
+        s = seg.at_end();
+        s.t = t_end_s;
+    }
+    if book.check && !(s.u.is_finite() && s.du.is_finite()) {
+        return Err(SimError::NonFinite { t_s: s.t });
+    }
+    book.summary.final_state = s.public();
+    Ok(book.summary)
+}
+
+/// Per-run scratch of the event searches (the root finder's buffers for large candidate sets).
+type Search = Scratch;
+
+/// The event functions of one segment and what each means (`ids`), on the stack: the capacity
+/// `N` is the number of event functions the mode has (a wider set is a wider `N`); pushing more
+/// fails loudly, nothing is ever dropped silently.
+struct EventSet<const N: usize> {
+    cands: [Cand; N],
+    ids: [u8; N],
+    n: usize,
+}
+
+impl<const N: usize> EventSet<N> {
+    fn new(like: &ExpSum) -> Self {
+        EventSet {
+            cands: [Cand::new(*like, 0, 0.0); N],
+            ids: [0; N],
+            n: 0,
+        }
+    }
+    fn push(&mut self, id: u8, c: Cand) {
+        assert!(
+            self.n < N,
+            "a mode declared {N} event functions and pushed more"
+        );
+        self.cands[self.n] = c;
+        self.ids[self.n] = id;
+        self.n += 1;
+    }
+}
+
+/// Hand a finished segment to the observer (if not empty) and return the state at its end.
+fn close_segment(seg: &ExactSegment, book: &mut Book) -> St {
+    if seg.t1 > seg.t0 {
+        book.obs.segment(seg);
+    }
+    let mut next = seg.at_end();
+    next.t = seg.t1;
+    next
+}
+
+/// One free-flight segment with friction sign `σ` (0: no friction force) and the departure
+/// orders `[wall +, wall −, ẇ = 0]` of its event functions; returns the next mode, or `None` at
+/// the end of the run. Events: impact at a wall, `ẇ = 0` (friction switch or stick).
+fn free_flight(
+    cs: &Consts,
+    sigma: f64,
+    [k_plus, k_minus, k_sw]: [usize; 3],
+    s: &mut St,
+    t_end_s: f64,
+    book: &mut Book,
+    search: &mut Search,
+) -> Result<Option<Md>, SimError> {
+    let span = t_end_s - s.t;
+    let tol_t = cs.tol_t + 4.0 * f64::EPSILON * s.t.abs();
+    let fb = cs.fb(sigma);
+    let (u, force) = cs.bar_sum(cs.m, -fb, s.t, s.u, s.du)?;
+    let w = ExpSum {
+        f0: s.w,
+        k0: s.w + u.a + u.p,
+        c1: s.du + s.dw,
+        c2: 0.5 * fb / cs.md,
+        a: -u.a,
+        b: -u.b,
+        p: -u.p,
+        q: -u.q,
+        ..u
+    };
+    // Candidates and what they mean: 1 wall +, 2 wall −, 3 ẇ = 0.
+    let both_walls = !cs.frictional() || sigma == 0.0;
+    let mut set = EventSet::<3>::new(&w);
+    if both_walls || sigma > 0.0 {
+        let g = w.affine(-1.0, cs.lg);
+        set.push(1, Cand::new(g, k_plus, cs.tol_x));
+    }
+    if both_walls || sigma < 0.0 {
+        let g = w.affine(1.0, cs.lg);
+        set.push(2, Cand::new(g, k_minus, cs.tol_x));
+    }
+    if cs.frictional() && sigma != 0.0 {
+        let g = w.deriv().affine(sigma, 0.0);
+        set.push(3, Cand::new(g, k_sw, cs.tol_v));
+    }
+    let (best, which, end) = joint_search(&mut set, search, span, tol_t, &u)?;
+    let seg = ExactSegment {
+        t0: s.t,
+        t1: if which == 0 { t_end_s } else { s.t + best },
+        mode: Mode::Free,
+        u,
+        w,
+        force,
+        c: cs.c,
+        fb,
+        end,
+    };
+    let mut next = close_segment(&seg, book);
+    book.check_state(&next)?;
+    *s = next;
+    match which {
+        0 => return Ok(None),
+        // Same flight on from the proven point, no zero at hand any more.
+        HORIZON => {
+            return Ok(Some(Md::Free {
+                sigma,
+                k_plus: 0,
+                k_minus: 0,
+                k_sw: 0,
+            }))
+        }
+        _ => {}
+    }
+    let mode = match which {
+        1 | 2 => {
+            let sw = if which == 1 { 1.0 } else { -1.0 };
+            impact(cs, sw, &mut next, book)?
+        }
+        _ => {
+            next.dw = 0.0;
+            friction_zero(cs, sigma, &next, book)?
+        }
+    };
+    *s = next;
+    Ok(Some(mode))
+}
+
+/// One segment of the pair moving as one body: stuck together away from the walls (`coulomb`)
+/// or the ball pressed on a wall. Events: unstick when `|m_d ü_pair|` reaches `f`, release when
+/// the force pressing the ball on the wall reaches 0 (`f_hold`).
+fn pair_motion(
+    cs: &Consts,
+    mode: Md,
+    s: &mut St,
+    t_end_s: f64,
+    book: &mut Book,
+    search: &mut Search,
+) -> Result<Option<Md>, SimError> {
+    let span = t_end_s - s.t;
+    let tol_t = cs.tol_t + 4.0 * f64::EPSILON * s.t.abs();
+    let (u, force) = cs.bar_sum(cs.m + cs.md, 0.0, s.t, s.u, s.du)?;
+    let ddu = u.deriv().deriv();
+    let w = ExpSum::constant(s.w, &u);
+    // Margins that stay positive while the mode holds.
+    let mk = |g: ExpSum| Cand::new(g, 0, cs.tol_f);
+    let mut set = EventSet::<2>::new(&w);
+    let seg_mode = match mode {
+        Md::Stick => {
+            set.push(1, mk(ddu.affine(-cs.md, cs.fl))); // ball lags
+            set.push(2, mk(ddu.affine(cs.md, cs.fl))); // ball leads
+            Mode::Stick
+        }
+        Md::Contact(wall) => {
+            set.push(3, mk(ddu.affine(-wall.sign() * cs.md, cs.f_hold())));
+            Mode::Contact(wall)
+        }
+        Md::Free { .. } => unreachable!("pair_motion is called for stick and contact"),
+    };
+    let (best, which, end) = joint_search(&mut set, search, span, tol_t, &u)?;
+    let seg = ExactSegment {
+        t0: s.t,
+        t1: if which == 0 { t_end_s } else { s.t + best },
+        mode: seg_mode,
+        u,
+        w,
+        force,
+        c: cs.c,
+        fb: 0.0,
+        end,
+    };
+    let mut next = close_segment(&seg, book);
+    next.dw = 0.0;
+    book.check_state(&next)?;
+    *s = next;
+    match which {
+        0 => return Ok(None),
+        HORIZON => return Ok(Some(mode)),
+        _ => {}
+    }
+    let (kind, new_mode) = match (which, mode) {
+        (1, _) => (EventKind::Unstick, free_departing(-1.0, None)),
+        (2, _) => (EventKind::Unstick, free_departing(1.0, None)),
+        (_, Md::Contact(wl)) => (
+            EventKind::ContactRelease { wall: wl },
+            free_departing(-wl.sign(), Some(wl)),
+        ),
+        _ => unreachable!("only contact has a release margin"),
+    };
+    book.event(cs, next.t, kind, &next, &next)?;
+    Ok(Some(new_mode))
 }
 
 /// Free flight leaving `ẇ = 0` in direction `σ` (the switch function departs with order 1),
@@ -740,7 +921,7 @@ fn at_zero_velocity(cs: &Consts, s: &St) -> Result<Md, SimError> {
         });
     }
     let ab = cs.a_b(s);
-    if cs.model == FrictionModel::Coulomb {
+    if can_stick(cs.model) {
         if ab.abs() <= cs.fl * cs.kappa() {
             return Ok(Md::Stick);
         }
@@ -772,11 +953,11 @@ fn at_zero_velocity(cs: &Consts, s: &St) -> Result<Md, SimError> {
 /// `ẇ` reached 0 in free flight with friction sign `σ`.
 fn friction_zero(cs: &Consts, sigma: f64, s: &St, book: &mut Book) -> Result<Md, SimError> {
     let ab = cs.a_b(s);
-    if cs.model == FrictionModel::Coulomb && ab.abs() <= cs.fl * cs.kappa() {
-        book.event(s.t, EventKind::Stick, s, s)?;
+    if can_stick(cs.model) && ab.abs() <= cs.fl * cs.kappa() {
+        book.event(cs, s.t, EventKind::Stick, s, s)?;
         return Ok(Md::Stick);
     }
-    book.event(s.t, EventKind::FrictionSwitch, s, s)?;
+    book.event(cs, s.t, EventKind::FrictionSwitch, s, s)?;
     // as-published: the crossing is transversal, the sign simply reverses. coulomb: not
     // sticking means |a_b| > fκ, and the ball slides on against a_b, i.e. reversed too.
     Ok(free_departing(-sigma, None))
@@ -788,13 +969,14 @@ fn impact(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<Md, SimEr
     // A graze (touch with ẇ ≈ 0 or already leaving by round-off) hits with ẇ− = 0.
     let dw = if sw * s.dw > 0.0 { s.dw } else { 0.0 };
     let before = St { dw, ..*s };
-    let du_plus = s.du + cs.mu * (1.0 + cs.e) / (1.0 + cs.mu) * dw;
+    let (du_plus, dw_plus) = impact_relative(cs.mu, cs.e, s.du, dw);
     let after = St {
         du: du_plus,
-        dw: -cs.e * dw,
+        dw: dw_plus,
         ..*s
     };
     book.event(
+        cs,
         s.t,
         EventKind::Impact {
             wall: wall_of(sw),
@@ -841,9 +1023,7 @@ struct ChatterJump {
 /// contact test at the accumulation point.
 fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Result<Md, SimError> {
     let mtot = cs.m + cs.md;
-    let dv = s.du + s.dw;
-    let v = (cs.m * s.du + cs.md * dv) / mtot;
-    let loss = 0.5 * cs.m * s.du * s.du + 0.5 * cs.md * dv * dv - 0.5 * mtot * v * v;
+    let (v, loss) = plastic_limit(cs.m, cs.md, s.du, s.du + s.dw);
     let (u, force) = cs.bar_sum(mtot, 0.0, s.t, s.u, v)?;
     let seg = ExactSegment {
         t0: s.t,
@@ -863,6 +1043,7 @@ fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Re
     next.t = seg.t1;
     next.dw = 0.0;
     book.event(
+        cs,
         next.t,
         EventKind::ChatterLimit {
             wall: wall_of(j.sw),
@@ -885,24 +1066,27 @@ fn contact_test(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
     }
 }
 
+/// `which` of a search that reached its work bound ([`roots::Root::Horizon`]): the segment ends
+/// at the proven point without an event and the same mode goes on from there.
+const HORIZON: u8 = u8::MAX;
+
 /// The segment's joint event search: drop the margins that cannot fall, find the earliest zero
-/// on `[0, span]`, and return `(τ, which, Trig at τ)`; `which = 0` means no event before `span`.
+/// on `[0, span]`, and return `(τ, which, Trig at τ)`; `which = 0` means no event before `span`,
+/// [`HORIZON`] no event before `τ < span` with the search's work bound reached.
 /// The transcendentals the search already has at the zero are reused for the end state.
-fn joint_search(
-    cands: &mut [Cand],
-    ids: &mut [u8],
-    n: usize,
+fn joint_search<const N: usize>(
+    set: &mut EventSet<N>,
+    scratch: &mut Scratch,
     span: f64,
     tol_t: f64,
     u: &ExpSum,
-    t0: f64,
 ) -> Result<(f64, u8, Trig), SimError> {
-    let n = drop_constant_margins(cands, ids, n);
-    let (root, i, trig) = first_root_multi_trig(&cands[..n], 0.0, span, tol_t);
+    let n = drop_constant_margins(&mut set.cands[..set.n], &mut set.ids[..set.n]);
+    let (root, i, trig) = first_root_multi_trig(&set.cands[..n], 0.0, span, tol_t, scratch);
     let (best, which) = match root {
-        Root::At(t) => (t, ids[i]),
+        Root::At(t) => (t, set.ids[i]),
         Root::None => (span, 0),
-        Root::Stalled(t) => return Err(SimError::RootIsolation { t_s: t0 + t }),
+        Root::Horizon(t) => (t, HORIZON),
     };
     let end = match trig {
         Some(tr) if tr.tau.to_bits() == best.to_bits() => tr,
@@ -911,12 +1095,13 @@ fn joint_search(
     Ok((best, which, end))
 }
 
-/// Remove from the first `n` candidates those that are constant and not below `−tol`: such a
+/// Move the candidates that are constant and not below `−tol` past the returned count: such a
 /// margin (the pair at rest and unforced) never falls through zero, so the mode holds, as the
-/// entry tests decide at equality. Searched, an exact 0 would be a root at once, and the release,
-/// the graze back (ẅ ≡ 0, departure unconfirmed) and the contact test would loop at one instant
-/// until the event limit. Returns the new count; `ids` is permuted alongside.
-fn drop_constant_margins(cands: &mut [Cand], ids: &mut [u8], mut n: usize) -> usize {
+/// entry tests decide at equality. Searched, an exact 0 would be a root at once, and the
+/// release, the graze back (ẅ ≡ 0, departure unconfirmed) and the contact test would loop at one
+/// instant until the event limit. `ids` is permuted alongside.
+fn drop_constant_margins(cands: &mut [Cand], ids: &mut [u8]) -> usize {
+    let mut n = cands.len();
     let mut k = 0;
     while k < n {
         if cands[k].g.is_constant() && cands[k].g.f0 >= -cands[k].tol {
@@ -944,6 +1129,7 @@ mod tests {
             max_events: 10,
             check,
             lg: 1e-4,
+            tail: Tail::new(10),
         }
     }
 
@@ -956,6 +1142,82 @@ mod tests {
             dw: 0.0,
             force: 0.0,
         }
+    }
+
+    fn tail_cause(cs: &Consts, kinds: &[EventKind]) -> EventLimitCause {
+        let mut t = Tail::new(kinds.len() as u64);
+        for (i, k) in kinds.iter().enumerate() {
+            t.record(i as f64 * 1e-6, k);
+        }
+        match t.error(cs, kinds.len() as u64, 1e-3) {
+            SimError::TooManyEvents { cause, .. } => cause,
+            e => panic!("{e:?}"),
+        }
+    }
+
+    /// Bug A10: the event-limit error named no cause. The last events before the limit name it.
+    #[test]
+    fn regression_event_limit_names_a_ball_resting_on_a_wall_and_stick_slip() {
+        let sys = System::paper_damped(1e-3, FrictionModel::Coulomb, 1.0);
+        let cs = Consts::new(&sys);
+        let wall = Wall::Plus;
+        let graze = EventKind::Impact {
+            wall,
+            dw_m_s: 0.0,
+            energy_loss_j: 0.0,
+        };
+        let release = EventKind::ContactRelease { wall };
+        let on_wall: Vec<EventKind> = (0..100)
+            .map(|i| if i % 2 == 0 { graze } else { release })
+            .collect();
+        assert_eq!(tail_cause(&cs, &on_wall), EventLimitCause::RestingOnWall);
+        let stick_slip: Vec<EventKind> = (0..100)
+            .map(|i| {
+                if i % 2 == 0 {
+                    EventKind::Stick
+                } else {
+                    EventKind::Unstick
+                }
+            })
+            .collect();
+        assert_eq!(tail_cause(&cs, &stick_slip), EventLimitCause::StickSlip);
+        // Ordinary impacts at modest speed, coulomb: just many events.
+        let hits: Vec<EventKind> = (0..100)
+            .map(|_| EventKind::Impact {
+                wall,
+                dw_m_s: 1e-3,
+                energy_loss_j: 0.0,
+            })
+            .collect();
+        assert_eq!(tail_cause(&cs, &hits), EventLimitCause::Dense);
+    }
+
+    /// Bug A10: K = 1e-300 N/m with ζ = 0.01 was called an "undamped bar" forced at resonance:
+    /// `(K − MΩ²)² + (CΩ)²` underflowed to 0, which the resonance test took for resonance. It
+    /// is a response outside floating-point range, damped or not; only C = 0 at K = MΩ² (to
+    /// rounding) is the undamped resonance.
+    #[test]
+    fn regression_tiny_stiffness_with_damping_was_called_an_undamped_bar() {
+        let mut sys = System::paper_damped(1e-3, FrictionModel::None, 1.0);
+        sys.bar.stiffness_n_per_m = 1e-300;
+        let cs = Consts::new(&sys);
+        match cs.bar_sum(cs.m, 0.0, 0.0, 0.0, 0.0) {
+            Err(e @ SimError::ResponseOutOfRange { .. }) => {
+                assert!(!e.to_string().contains("undamped"), "{e}")
+            }
+            other => panic!("{other:?}"),
+        }
+        // The genuine case keeps its name.
+        let mut und = System::paper_damped(1e-3, FrictionModel::None, 1.0);
+        und.bar.damping_ratio = 0.0;
+        let cs = Consts::new(&und);
+        assert!(matches!(
+            cs.bar_sum(cs.m, 0.0, 0.0, 0.0, 0.0),
+            Err(SimError::UndampedResonance { .. })
+        ));
+        // And a damped bar at resonance is fine.
+        let cs = Consts::new(&System::paper_damped(1e-3, FrictionModel::None, 1.0));
+        assert!(cs.bar_sum(cs.m, 0.0, 0.0, 0.0, 0.0).is_ok());
     }
 
     #[test]

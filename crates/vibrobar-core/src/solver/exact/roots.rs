@@ -36,6 +36,45 @@
 //! bracket and `τ + h*` is returned, so the reported event is never past the zero; it is returned
 //! only when no other function's proven step is shorter (none of them can vanish first).
 //!
+//! **Bounded work over an interval without a root.** The steps above prove that no root is
+//! missed, but their number over an interval is bounded only by its length: where `g ≥ m > 0`,
+//! `|g'| ≤ V` and `|g''| ≤ B`, every proven step is at least `h_min = 2m/(V + √(V² + 2Bm))`, so a
+//! root-free interval of length `T` costs up to `T/h_min` steps, with `h_min` a fraction of a
+//! forcing period for an oscillating bar. A segment without events (a frictionless ball that
+//! never meets a wall, a ball stuck for good) is one search over the whole rest of the run,
+//! and that search used to stop with an error after 1e5 steps (~1e5 half periods, t ≈ 28–115 s
+//! on the paper's bar; issue #7 A3). Hence the search horizon: after [`SEARCH_HORIZON_ITER`]
+//! steps the search returns [`Root::Horizon`] at its last proven point `τ_h > t0` (every step
+//! advanced `τ` and was proven root-free, so no root lies in `[t0, τ_h)`); the solver ends the
+//! segment there without an event and starts the same mode afresh from the closed-form state at
+//! `τ_h`. The work of one search is bounded by a constant, the work of a run by
+//! `T/h_min + (number of events + restarts) × const`, and a search that needed fewer steps is
+//! unchanged bit for bit (the horizon is the former cap).
+//!
+//! **Slow beat (a lightly damped bar near resonance).** With `ε = −α + i(ω_d − Ω)` small, the
+//! steady part `Ĥe^{iΩτ}` and the transient part `D̂e^{λτ}` of the bar motion are each
+//! `~F0/(2MΩ|ε|)` (metres for an undamped bar at ratio 1 + 1e-7) and nearly cancel: their sum is
+//! the beat `Ĥe^{iΩτ}(1 − e^{ετ}) + …`, of size `~F0 τ/(2MΩ)` while `|ε|τ ≪ 1`. The amplitude
+//! bound `Ω²|Ĥ| + ω_n²|D̂|` then exceeds `|g''|` by `~1/(|ε|τ)` (1e5 in the reported case), the
+//! proven steps shrink by its square root, and even a run of 0.06 s reached the step cap.
+//! The envelope `|Z₂(τ)| + ω_n²|D̂|e^{−ατ}(α + |ω_d − Ω|)s` (see [`envelope`]) is the
+//! cancellation-free bound: `Z₂` is the second derivative of the two parts taken together
+//! (computed from their phasors, to an absolute rounding of `8ε_mach` times the amplitude bound,
+//! which is added), and the drift term is the beat's own growth, `|D̂||ε|ω_n² s ≈ F0 ω_n s/(2M)`.
+//! When `(α + |ω_d − Ω|) ≤ BEAT_RATE·Ω` ([`BEAT_RATE`]) the envelope step is taken on its own
+//! horizon `H_e` = the step with the envelope without drift (no proof with a larger bound can
+//! reach further), with the drift at its largest on `[τ, τ + H_e]`; the resulting step is
+//! `≤ H_e`, so the bound holds on all of it. Elsewhere (the paper's bar is 10× above the rate)
+//! the envelope step stays capped at 8 amplitude steps as before. The closed form itself is
+//! still the sum of the two parts, so its values carry an absolute rounding of
+//! `~ε_mach F0/(MΩ|ε|)`, and so do the event positions. Measured on the paper's bar with
+//! `ζ = 0` over 10 s: largest penetration 5e-15 m at `|ε|/Ω = 1e-7`, 4e-14 m at 1e-8, 8e-13 m
+//! at 1e-9; at 1e-10 and closer it exceeds the 1e-12 m confinement tolerance (2e-12 m to
+//! 3e-9 m; `check_invariants` reports it). Closer to an undamped resonance the secular form
+//! `−Ĥε e^{iΩτ}(e^{ετ} − 1)/ε` (finite as `ε → 0`, with `(e^{ετ} − 1)/ε` from a series) would
+//! be needed as a term of its own in [`ExpSum`], with its bounds and integrals; it is not
+//! implemented.
+//!
 //! **Departure.** A segment often starts *on* the zero set of one of its functions (the wall just
 //! hit, `ẇ = 0` just crossed, a wall just released). There `g(0) = 0` analytically, and round-off
 //! of 1e-15 in its leading Taylor coefficients would create a spurious root and an endless event
@@ -63,12 +102,21 @@ pub enum Root {
     At(f64),
     /// Proven positive on the whole interval.
     None,
-    /// Iteration limit reached at this `τ` (never expected; reported as an error).
-    Stalled(f64),
+    /// The search horizon: [`SEARCH_HORIZON_ITER`] steps were taken without reaching a zero or
+    /// the end; every function is proven positive on `[t0, τ)`, `τ > t0`. The caller ends the
+    /// segment there without an event and searches on from the closed-form state at `τ`.
+    Horizon(f64),
 }
 
-/// Iteration limit of one search (steps are counted, nothing hangs).
-pub const MAX_ITER: u32 = 100_000;
+/// Work bound of one search: after this many proven steps it stops at its proven point
+/// ([`Root::Horizon`]). This is the former iteration cap (then an error): a search that needs
+/// fewer steps is unchanged, bit for bit. A 2 s paper run needs at most a few thousand.
+pub const SEARCH_HORIZON_ITER: u32 = 100_000;
+
+/// The relative beat/decay rate `(α + |ω_d − Ω|)/Ω` below which a search treats the bar motion
+/// as a slow beat of two nearly cancelling parts (see the module docs). The paper's bar
+/// (`ζ = 0.01`, ratios 0.95–1.05) is ten times above it.
+pub const BEAT_RATE: f64 = 1e-3;
 
 /// One event function of a joint search.
 #[derive(Debug, Clone, Copy)]
@@ -79,6 +127,13 @@ pub struct Cand {
     pub order: usize,
     /// Absolute tolerance on `g`.
     pub tol: f64,
+}
+
+impl Cand {
+    /// `g` with the order of its known zero at the start and its tolerance.
+    pub fn new(g: ExpSum, order: usize, tol: f64) -> Cand {
+        Cand { g, order, tol }
+    }
 }
 
 /// Departure step: `g > 0` is proven on `(t0, t0 + h₁)`; returns `h₁/2`, or `None` if the
@@ -114,208 +169,331 @@ fn departure_step(g: &ExpSum, order: usize, t0: f64, rh: f64, rd: f64) -> Option
     }
 }
 
+/// Functions a search keeps on the stack; more go to the run's [`Scratch`].
+const INLINE_FNS: usize = 4;
+
+/// Per-run scratch space of the searches with more than 4 functions (fewer live on the stack):
+/// the bounds and proof state of each function. It grows to the largest number of functions a
+/// search has had and is reused, so a search allocates nothing once the run has seen its
+/// largest candidate set, and no candidate is ever dropped.
+#[derive(Debug, Clone, Default)]
+pub struct Scratch {
+    bounds: Vec<FnBounds>,
+    proof: Vec<FnProof>,
+}
+
+/// Constant parts of the derivative bounds of one function over a search.
+#[derive(Debug, Clone, Copy, Default)]
+struct FnBounds {
+    /// `|g''|` bound: constant part, and decaying amplitude (times `e^{−ατ}`).
+    bconst: f64,
+    bdec: f64,
+    /// The same for `|g'''|`.
+    b3const: f64,
+    b3dec: f64,
+    /// Drift rate of the envelope (times `e^{−ατ}` and the horizon).
+    bdrift: f64,
+}
+
+/// What is proven about one function so far in a search.
+#[derive(Debug, Clone, Copy, Default)]
+struct FnProof {
+    /// Proven positive up to here by its departure bracket.
+    free_until: f64,
+    /// Proven positive up to here by an evaluation.
+    proven: f64,
+}
+
 /// First zero among several functions sharing the frequencies of the first one, in
 /// `[t0, t_max]`: returns the root and the index of the function. All functions are stepped
 /// together (the step is the smallest proven root-free step), so the work is bounded by the
 /// earliest event, not by the interval.
 pub fn first_root_multi(cands: &[Cand], t0: f64, t_max: f64, tol_t: f64) -> (Root, usize) {
-    let (r, i, _) = first_root_multi_trig(cands, t0, t_max, tol_t);
+    let (r, i, _) = first_root_multi_trig(cands, t0, t_max, tol_t, &mut Scratch::default());
     (r, i)
 }
 
-/// [`first_root_multi`], also returning the transcendentals at the root when they were
-/// computed there (the caller evaluates the state at the root with them).
+/// [`first_root_multi`] with the run's [`Scratch`], also returning the transcendentals at the
+/// root when they were computed there (the caller evaluates the state at the root with them).
 pub fn first_root_multi_trig(
     cands: &[Cand],
     t0: f64,
     t_max: f64,
     tol_t: f64,
+    scratch: &mut Scratch,
 ) -> (Root, usize, Option<Trig>) {
     let Some(first) = cands.first() else {
         return (Root::None, 0, None);
     };
     let (om, al, wd) = (first.g.om, first.g.al, first.g.wd);
     let wn2 = al * al + wd * wd;
-    // Per function: constant part of the |g''| bound and the decaying amplitude.
-    let mut bconst = [0.0f64; 4];
-    let mut bdec = [0.0f64; 4];
-    let mut b3const = [0.0f64; 4];
-    let mut b3dec = [0.0f64; 4];
-    let mut bdrift = [0.0f64; 4];
     let wn = wn2.sqrt();
-    let n = cands.len().min(4);
     let tau = t0;
-    // Departing functions are proven positive up to `free_until` by their Taylor bracket.
-    let mut free_until = [t0; 4];
-    for (i, c) in cands.iter().take(n).enumerate() {
+    // Per-function bounds and proofs: on the stack for the usual few functions, in the run's
+    // scratch beyond that (never truncated).
+    let n = cands.len();
+    let mut inline_b = [FnBounds::default(); INLINE_FNS];
+    let mut inline_p = [FnProof::default(); INLINE_FNS];
+    let (bounds, proof): (&mut [FnBounds], &mut [FnProof]) = if n <= INLINE_FNS {
+        (&mut inline_b[..n], &mut inline_p[..n])
+    } else {
+        scratch.bounds.resize(n, FnBounds::default());
+        scratch.proof.resize(n, FnProof::default());
+        (&mut scratch.bounds[..n], &mut scratch.proof[..n])
+    };
+    for i in 0..n {
+        let c = &cands[i];
         // Amplitudes (the relative margin covers the rounding of the bounds themselves).
         let rh = (c.g.a * c.g.a + c.g.b * c.g.b).sqrt() * (1.0 + 1e-12);
         let rd = (c.g.p * c.g.p + c.g.q * c.g.q).sqrt() * (1.0 + 1e-12);
-        bconst[i] = 2.0 * c.g.c2.abs() * (1.0 + 1e-12) + om * om * rh;
-        bdec[i] = wn2 * rd;
-        b3const[i] = om * om * om * rh;
-        b3dec[i] = wn2 * wn2.sqrt() * rd;
-        bdrift[i] = wn2 * rd * (al + (wd - om).abs()) * (1.0 + 1e-12);
+        bounds[i] = FnBounds {
+            bconst: 2.0 * c.g.c2.abs() * (1.0 + 1e-12) + om * om * rh,
+            bdec: wn2 * rd,
+            b3const: om * om * om * rh,
+            b3dec: wn2 * wn2.sqrt() * rd,
+            bdrift: wn2 * rd * (al + (wd - om).abs()) * (1.0 + 1e-12),
+        };
+        // Departing functions are proven positive up to `free_until` by their Taylor bracket.
+        let mut free_until = t0;
         if c.order > 0 {
             match departure_step(&c.g, c.order, t0, rh, rd) {
-                Some(h) => free_until[i] = t0 + h,
+                Some(h) => free_until = t0 + h,
                 None => return (Root::At(t0), i, None),
             }
         }
-    }
-    let env = Envelope::new(om, al, wd);
-    // Every evaluation proves its function positive on [τ, τ + hᵢ); `proven[i]` keeps the
-    // furthest such point. A function proven beyond the step the others allow need not be
-    // evaluated again (its proof still holds); one that would limit the step is evaluated
-    // afresh and the longer of the two proofs is kept.
-    let mut proven = [t0; 4];
-    let mut tau = tau;
-    for _ in 0..MAX_ITER {
-        let trig = Trig::new(tau, om, al, wd);
-        let decay = 1.0 + trig.em1;
-        let mut st = Step {
-            h: f64::INFINITY,
-            imin: 0,
-            bracket: None,
+        proof[i] = FnProof {
+            free_until,
+            proven: t0,
         };
-        let mut pending = [false; 4];
-        // One evaluation of function `i` at τ: `Err(root)` or its proven step and whether the
-        // zero is bracketed to the time resolution just after it.
-        let eval = |i: usize, prev: f64| -> Result<(f64, bool), Root> {
-            let c = &cands[i];
-            let [f, f1, f2]: [f64; 3] = c.g.derivs_t(&trig);
-            if f <= c.tol && f1 <= 0.0 {
-                return Err(Root::At(tau));
-            }
-            let f = f.max(0.0);
-            // Quadratic bound with B ≥ |g''| on the rest of the interval …
-            let b_amp = bconst[i] + bdec[i] * decay;
-            // … or with the envelope of the oscillating parts taken together: at τ+s,
-            // H'' + D'' = Re[e^{iΩs}(Z + λ²D̂e^{λτ}(e^{(−α+iδ)s} − 1))], Z = −Ω²Ĥe^{iΩτ} + λ²D̂e^{λτ},
-            // δ = ω_d − Ω, so |g''| ≤ 2|c2| + |Z| + ω_n²|D̂|e^{−ατ}(α + |δ|)s. Near resonance the
-            // steady and transient parts cancel and |Z| ≪ Ω²|Ĥ| + ω_n²|D̂|.
-            let g = &c.g;
-            let e = decay;
-            let ph = env.phasors(g, &trig);
-            let round = 8.0 * f64::EPSILON * b_amp;
-            let bz = (2.0 * g.c2.abs() + env.z2(&ph)) * (1.0 + 1e-12) + round;
-            let h2_amp = quad_step(f, f1, b_amp);
-            // … and, within a horizon H, the cubic bound with the actual g'':
-            // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6) h² for h ≤ H. Both are proofs; take the longer.
-            // H is set a little beyond the zero of the local quadratic model, so that near a
-            // root the step lands next to it (Newton-like), far from one it is long.
-            let h_model = if f2 < 0.0 {
-                quad_step(f, f1, -f2)
-            } else if f1 < 0.0 && f1 * f1 >= 2.0 * f2 * f {
-                2.0 * f / (-f1 + (f1 * f1 - 2.0 * f2 * f).sqrt())
-            } else {
-                f64::INFINITY
+    }
+    // Slow beat: the steady and transient parts of the bar motion are each far larger than
+    // their sum for ~1/(α + |ω_d − Ω|) ≥ 1000/Ω (a lightly damped bar near resonance). The
+    // advancement is compiled for each case, so the usual one pays nothing for the other.
+    let search = Advance {
+        cands,
+        bounds,
+        t_max,
+        tol_t,
+        om,
+        al,
+        wd,
+        wn,
+    };
+    if al + (wd - om).abs() <= BEAT_RATE * om {
+        search.run::<true>(proof, tau)
+    } else {
+        search.run::<false>(proof, tau)
+    }
+}
+
+/// The advancement of one search over its functions, from their bounds.
+struct Advance<'a> {
+    cands: &'a [Cand],
+    bounds: &'a [FnBounds],
+    t_max: f64,
+    tol_t: f64,
+    om: f64,
+    al: f64,
+    wd: f64,
+    wn: f64,
+}
+
+impl Advance<'_> {
+    /// Step all functions together from `tau`; `BEAT`: the bar motion is a slow beat.
+    #[inline(always)]
+    fn run<const BEAT: bool>(
+        &self,
+        proof: &mut [FnProof],
+        tau: f64,
+    ) -> (Root, usize, Option<Trig>) {
+        let Advance {
+            cands,
+            bounds,
+            t_max,
+            tol_t,
+            om,
+            al,
+            wd,
+            wn,
+        } = *self;
+        let n = cands.len();
+        let bounds = &bounds[..n];
+        let proof = &mut proof[..n];
+        let env = Envelope::new(om, al, wd);
+        // Every evaluation proves its function positive on [τ, τ + hᵢ); `proven` keeps the
+        // furthest such point. A function proven beyond the step the others allow need not be
+        // evaluated again (its proof still holds); one that would limit the step is evaluated
+        // afresh and the longer of the two proofs is kept.
+        let mut tau = tau;
+        for _ in 0..SEARCH_HORIZON_ITER {
+            let trig = Trig::new(tau, om, al, wd);
+            let decay = 1.0 + trig.em1;
+            let mut st = Step {
+                h: f64::INFINITY,
+                imin: 0,
+                bracket: None,
             };
-            // (Capped with the amplitude step: H does not wait for the envelope.)
-            let big_h = (1.1 * h_model).min(8.0 * h2_amp);
-            // The envelope step over the same horizon: valid on [0, H] with the drift term at
-            // its largest there. Only worth it when the envelope is the smaller bound
-            // (quad_step is non-increasing in the bound) and H reaches beyond the amplitude step.
-            let h2 = if b_amp > bz && big_h > h2_amp {
-                h2_amp.max(quad_step(f, f1, bz + bdrift[i] * e * big_h).min(big_h))
-            } else {
-                h2_amp
-            };
-            // Upper bound within the horizon (cubic step only): g ≤ f + f1 h + c_up h² on
-            // [0, H], c_up = f2/2 + B₃H/6, since B₃h³/6 ≤ B₃Hh²/6 there.
-            let mut c_up = f64::INFINITY;
-            let h3 = if big_h.is_finite() && big_h > h2_amp {
-                // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
-                let b3_amp = b3const[i] + b3dec[i] * decay;
-                let round3 = 8.0 * f64::EPSILON * b3_amp;
-                let b3_env = env.z3(&ph) * (1.0 + 1e-12) + round3 + bdrift[i] * wn * e * big_h;
-                let b3 = b3_amp.min(b3_env);
-                c_up = 0.5 * f2 + b3 * big_h / 6.0;
-                let b_eff = b3 * big_h / 3.0 - f2;
-                quad_step(f, f1, b_eff.max(0.0)).min(big_h)
-            } else {
-                0.0
-            };
-            // An earlier proof may reach further.
-            let hi = h2.max(h3).max(prev);
-            let mut bracketed = false;
-            if f1 < 0.0 {
-                if hi <= tol_t {
-                    // Within the time resolution of the zero, approaching it: it is here.
+            // One evaluation of function `i` at τ: `Err(root)` or its proven step and whether the
+            // zero is bracketed to the time resolution just after it.
+            let eval = |c: &Cand, bd: &FnBounds, prev: f64| -> Result<(f64, bool), Root> {
+                let [f, f1, f2]: [f64; 3] = c.g.derivs_t(&trig);
+                if f <= c.tol && f1 <= 0.0 {
                     return Err(Root::At(tau));
                 }
-                // Upper bound g ≤ f + f1 h + B h²/2: if it reaches 0 by `h_up`, a zero lies in
-                // [τ + hi, τ + h_up]; once that bracket is below the time resolution, stop at
-                // its proven-free left end (if no other function may vanish before it).
-                let disc = f1 * f1 - 2.0 * b_amp * f;
-                if disc >= 0.0 {
-                    let h_up = 2.0 * f / (-f1 + disc.sqrt());
-                    bracketed = h_up - hi <= tol_t && tau + hi < t_max;
+                let f = f.max(0.0);
+                // Quadratic bound with B ≥ |g''| on the rest of the interval …
+                let b_amp = bd.bconst + bd.bdec * decay;
+                // … or with the envelope of the oscillating parts taken together: at τ+s,
+                // H'' + D'' = Re[e^{iΩs}(Z + λ²D̂e^{λτ}(e^{(−α+iδ)s} − 1))], Z = −Ω²Ĥe^{iΩτ} + λ²D̂e^{λτ},
+                // δ = ω_d − Ω, so |g''| ≤ 2|c2| + |Z| + ω_n²|D̂|e^{−ατ}(α + |δ|)s. Near resonance the
+                // steady and transient parts cancel and |Z| ≪ Ω²|Ĥ| + ω_n²|D̂|.
+                let g = &c.g;
+                let e = decay;
+                let ph = env.phasors(g, &trig);
+                let round = 8.0 * f64::EPSILON * b_amp;
+                let bz = (2.0 * g.c2.abs() + env.z2(&ph)) * (1.0 + 1e-12) + round;
+                let h2_amp = quad_step(f, f1, b_amp);
+                // … and, within a horizon H, the cubic bound with the actual g'':
+                // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6) h² for h ≤ H. Both are proofs; take the longer.
+                // H is set a little beyond the zero of the local quadratic model, so that near a
+                // root the step lands next to it (Newton-like), far from one it is long.
+                let h_model = if f2 < 0.0 {
+                    quad_step(f, f1, -f2)
+                } else if f1 < 0.0 && f1 * f1 >= 2.0 * f2 * f {
+                    2.0 * f / (-f1 + (f1 * f1 - 2.0 * f2 * f).sqrt())
+                } else {
+                    f64::INFINITY
+                };
+                // Severe cancellation (see `beat`): the amplitude bound is useless, so the envelope
+                // step is taken on its own horizon, `H_e` = the step the envelope allows without
+                // its drift (no proven step can be longer), the drift at its largest there; the
+                // step is ≤ H_e, so the bound holds on it.
+                let h2_base = if BEAT {
+                    let h_e = quad_step(f, f1, bz);
+                    if h_e.is_finite() && h_e > h2_amp {
+                        h2_amp.max(quad_step(f, f1, bz + bd.bdrift * e * h_e).min(h_e))
+                    } else {
+                        h2_amp
+                    }
+                } else {
+                    h2_amp
+                };
+                // (Capped with the amplitude step: H does not wait for the envelope.)
+                let big_h = (1.1 * h_model).min(8.0 * h2_base);
+                // The envelope step over the same horizon: valid on [0, H] with the drift term at
+                // its largest there. Only worth it when the envelope is the smaller bound
+                // (quad_step is non-increasing in the bound) and H reaches beyond the amplitude step.
+                let h2 = if b_amp > bz && big_h > h2_base {
+                    h2_base.max(quad_step(f, f1, bz + bd.bdrift * e * big_h).min(big_h))
+                } else {
+                    h2_base
+                };
+                // Upper bound within the horizon (cubic step only): g ≤ f + f1 h + c_up h² on
+                // [0, H], c_up = f2/2 + B₃H/6, since B₃h³/6 ≤ B₃Hh²/6 there.
+                let mut c_up = f64::INFINITY;
+                let h3 = if big_h.is_finite() && big_h > h2_base {
+                    // |g'''| on [τ, τ+H]: amplitude bound, or the envelope as for g'' above.
+                    let b3_amp = bd.b3const + bd.b3dec * decay;
+                    let round3 = 8.0 * f64::EPSILON * b3_amp;
+                    let b3_env = env.z3(&ph) * (1.0 + 1e-12) + round3 + bd.bdrift * wn * e * big_h;
+                    let b3 = b3_amp.min(b3_env);
+                    c_up = 0.5 * f2 + b3 * big_h / 6.0;
+                    let b_eff = b3 * big_h / 3.0 - f2;
+                    quad_step(f, f1, b_eff.max(0.0)).min(big_h)
+                } else {
+                    0.0
+                };
+                // An earlier proof may reach further.
+                let hi = h2.max(h3).max(prev);
+                let mut bracketed = false;
+                if f1 < 0.0 {
+                    if hi <= tol_t {
+                        // Within the time resolution of the zero, approaching it: it is here.
+                        return Err(Root::At(tau));
+                    }
+                    // Upper bound g ≤ f + f1 h + B h²/2: if it reaches 0 by `h_up`, a zero lies in
+                    // [τ + hi, τ + h_up]; once that bracket is below the time resolution, stop at
+                    // its proven-free left end (if no other function may vanish before it).
+                    let disc = f1 * f1 - 2.0 * b_amp * f;
+                    if disc >= 0.0 {
+                        let h_up = 2.0 * f / (-f1 + disc.sqrt());
+                        bracketed = h_up - hi <= tol_t && tau + hi < t_max;
+                    }
+                    // The same with the cubic upper bound (valid up to H), which brackets the zero
+                    // to the resolution from much farther away; tried only when the bracket width,
+                    // about (c_up − f2/2 + B₃H/6)·hi²/|f1| = B₃H·hi²/(3|f1|), may be that small.
+                    if !bracketed
+                        && c_up.is_finite()
+                        && (c_up - 0.5 * f2) * hi * hi <= 4.0 * tol_t * -f1
+                    {
+                        let d3 = f1 * f1 - 4.0 * c_up * f;
+                        if d3 >= 0.0 {
+                            let h_up3 = 2.0 * f / (-f1 + d3.sqrt());
+                            bracketed = h_up3 <= big_h && h_up3 - hi <= tol_t && tau + hi < t_max;
+                        }
+                    }
                 }
-                // The same with the cubic upper bound (valid up to H), which brackets the zero
-                // to the resolution from much farther away; tried only when the bracket width,
-                // about (c_up − f2/2 + B₃H/6)·hi²/|f1| = B₃H·hi²/(3|f1|), may be that small.
-                if !bracketed
-                    && c_up.is_finite()
-                    && (c_up - 0.5 * f2) * hi * hi <= 4.0 * tol_t * -f1
-                {
-                    let d3 = f1 * f1 - 4.0 * c_up * f;
-                    if d3 >= 0.0 {
-                        let h_up3 = 2.0 * f / (-f1 + d3.sqrt());
-                        bracketed = h_up3 <= big_h && h_up3 - hi <= tol_t && tau + hi < t_max;
+                Ok((hi, bracketed))
+            };
+            // Functions whose earlier proof still holds, to be compared with the step of the
+            // others (bit i; from the 64th on they are simply evaluated again, which is valid).
+            let mut pending = 0u64;
+            for i in 0..n {
+                let pf = &mut proof[i];
+                if pf.free_until > tau {
+                    st.take(i, pf.free_until - tau, false);
+                } else if pf.proven > tau && i < 64 {
+                    pending |= 1 << i;
+                } else {
+                    let prev = if pf.proven > tau {
+                        pf.proven - tau
+                    } else {
+                        0.0
+                    };
+                    match eval(&cands[i], &bounds[i], prev) {
+                        Ok((hi, br)) => {
+                            pf.proven = tau + hi;
+                            st.take(i, hi, br);
+                        }
+                        Err(r) => return (r, i, Some(trig)),
                     }
                 }
             }
-            Ok((hi, bracketed))
-        };
-        for i in 0..n {
-            if free_until[i] > tau {
-                st.take(i, free_until[i] - tau, false);
-            } else if proven[i] > tau {
-                pending[i] = true;
-            } else {
-                match eval(i, 0.0) {
+            while pending != 0 {
+                let i = pending.trailing_zeros() as usize;
+                pending &= pending - 1;
+                let pf = &mut proof[i];
+                let hl = pf.proven - tau;
+                if hl >= st.h {
+                    // Proven beyond the step: not limiting, no evaluation needed.
+                    st.take(i, hl, false);
+                    continue;
+                }
+                match eval(&cands[i], &bounds[i], hl) {
                     Ok((hi, br)) => {
-                        proven[i] = tau + hi;
+                        pf.proven = tau + hi;
                         st.take(i, hi, br);
                     }
                     Err(r) => return (r, i, Some(trig)),
                 }
             }
-        }
-        for i in 0..n {
-            if !pending[i] {
-                continue;
-            }
-            let hl = proven[i] - tau;
-            if hl >= st.h {
-                // Proven beyond the step: not limiting, no evaluation needed.
-                st.take(i, hl, false);
-                continue;
-            }
-            match eval(i, hl) {
-                Ok((hi, br)) => {
-                    proven[i] = tau + hi;
-                    st.take(i, hi, br);
+            if let Some((i, hb)) = st.bracket {
+                if hb <= st.h {
+                    return (Root::At(tau + hb), i, None);
                 }
-                Err(r) => return (r, i, Some(trig)),
             }
-        }
-        if let Some((i, hb)) = st.bracket {
-            if hb <= st.h {
-                return (Root::At(tau + hb), i, None);
+            let next = tau + st.h;
+            if next >= t_max {
+                return (Root::None, 0, None);
             }
+            if next <= tau {
+                return (Root::At(tau), st.imin, Some(trig));
+            }
+            tau = next;
         }
-        let next = tau + st.h;
-        if next >= t_max {
-            return (Root::None, 0, None);
-        }
-        if next <= tau {
-            return (Root::At(tau), st.imin, Some(trig));
-        }
-        tau = next;
+        // Every step so far was proven root-free and strictly advanced τ (`next > tau` above).
+        (Root::Horizon(tau), 0, None)
     }
-    (Root::Stalled(tau), 0, None)
 }
 
 /// The shortest proven step of one iteration, the function giving it, and the earliest
@@ -498,6 +676,28 @@ mod tests {
             first_root(&es(1.0 + 1e-12, -2.0, 1.0), 0, 0.0, 10.0, 1e-15, 0.0),
             Root::None
         );
+    }
+
+    /// Bug (B7): the joint search kept its per-function bounds in arrays of 4 and searched only
+    /// `cands.len().min(4)` functions, so a fifth event function was silently never looked at.
+    #[test]
+    fn regression_joint_search_dropped_candidates_beyond_four() {
+        // Parabolas 1 + k − τ²: roots at √(1 + k); the last one listed has the earliest root.
+        let mut cands: Vec<Cand> = (1..=7)
+            .map(|k| Cand::new(es(1.0 + k as f64, 0.0, -1.0), 0, 1e-15))
+            .collect();
+        cands.push(Cand::new(es(0.25, 0.0, -1.0), 0, 1e-15));
+        let mut scratch = Scratch::default();
+        let (r, i, _) = first_root_multi_trig(&cands, 0.0, 10.0, 0.0, &mut scratch);
+        assert_eq!(i, 7);
+        match r {
+            Root::At(t) => assert!((t - 0.5).abs() < 1e-14, "{t}"),
+            r => panic!("{r:?}"),
+        }
+        // The scratch is reused by a smaller search without leftovers.
+        let (r, i, _) = first_root_multi_trig(&cands[..2], 0.0, 10.0, 0.0, &mut scratch);
+        assert_eq!(i, 0);
+        assert!(matches!(r, Root::At(t) if (t - 2f64.sqrt()).abs() < 1e-14));
     }
 
     #[test]
