@@ -5,7 +5,7 @@ use serde::Serialize;
 use vibrobar_core::analysis::ensemble::{EnsembleStats, IcRanges};
 use vibrobar_core::{FrictionModel, RunSettings};
 
-use crate::commands::{CaseOutcome, SweepResult};
+use crate::commands::{CaseOutcome, SweepRow};
 
 /// Percentage points within which a reduction counts as reproduced.
 pub const REDUCTION_TOL_PP: f64 = 5.0;
@@ -56,7 +56,7 @@ pub struct SolverData {
     /// Solver name.
     pub name: String,
     /// All sweep rows (every variant and gap).
-    pub sweep: Vec<SweepResult>,
+    pub sweep: Vec<SweepRow>,
     /// Time histories at r = 1: (variant key, gap in m, outcome).
     pub histories: Vec<(String, f64, CaseOutcome)>,
     /// Wall time of this solver's runs, s.
@@ -218,7 +218,7 @@ fn close(a: f64, b: f64) -> bool {
 }
 
 impl SolverData {
-    fn rows(&self, v: &Variant, gap_m: f64) -> Vec<&SweepResult> {
+    fn rows(&self, v: &Variant, gap_m: f64) -> Vec<&SweepRow> {
         self.sweep
             .iter()
             .filter(|r| {
@@ -229,7 +229,7 @@ impl SolverData {
             .collect()
     }
 
-    fn at(&self, v: &Variant, gap_m: f64, ratio: f64) -> Option<&SweepResult> {
+    fn at(&self, v: &Variant, gap_m: f64, ratio: f64) -> Option<&SweepRow> {
         self.rows(v, gap_m)
             .into_iter()
             .find(|r| close(r.point.ratio, ratio))

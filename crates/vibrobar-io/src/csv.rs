@@ -264,6 +264,21 @@ impl SweepCsvRow {
     }
 }
 
+impl From<&vibrobar_core::analysis::SweepRow> for SweepCsvRow {
+    fn from(r: &vibrobar_core::analysis::SweepRow) -> Self {
+        SweepCsvRow {
+            ratio: r.point.ratio,
+            gap_mm: r.point.gap_m * 1e3,
+            friction: r.point.friction.as_str().to_string(),
+            solver: r.solver.clone(),
+            rms_solid_m: r.solid.rms_m,
+            rms_damped_m: r.damped.rms_m,
+            reduction_pct: r.reduction_pct(),
+            impacts: r.damped.impacts,
+        }
+    }
+}
+
 /// The key columns (ratio, gap) of a sweep grid point, as the row writes them.
 pub fn sweep_key(ratio: f64, gap_mm: f64) -> String {
     sweep_schema().format(&[Value::F(ratio), Value::F(gap_mm)])

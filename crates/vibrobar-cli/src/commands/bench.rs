@@ -130,7 +130,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
 /// RMS of every sweep point for each solver, side by side, with the relative difference to the
 /// first solver. Chaotic points (impacting, near resonance) differ by a few per cent between any
 /// two correct solvers; the others agree to the accuracy of the cruder one.
-fn print_rms_side_by_side(sweeps: &[(String, Vec<super::SweepResult>)]) {
+fn print_rms_side_by_side(sweeps: &[(String, Vec<super::SweepRow>)]) {
     let Some((first, base)) = sweeps.first() else {
         return;
     };

@@ -16,12 +16,11 @@ pub use design::{
 };
 
 use anyhow::{anyhow, Result};
-use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
-use vibrobar_core::analysis::{
-    run_case, Batch, BatchError, RunResult, Runner, Sampler, SweepBase, SweepPoint,
-};
-use vibrobar_core::solver::Fanout;
-use vibrobar_core::{Observer, RunSettings, SimError, Solver, State, System};
+pub use vibrobar_core::analysis::case::{run_one, Case, CaseOutcome};
+use vibrobar_core::analysis::sweep::sweep_audited;
+pub use vibrobar_core::analysis::SweepRow;
+use vibrobar_core::analysis::{BatchError, Runner, SweepBase, SweepPoint};
+use vibrobar_core::{RunSettings, Solver};
 
 /// Look a solver up by name; the error lists the names the library provides.
 pub fn solver(name: &str, settings: &RunSettings) -> Result<Box<dyn Solver>> {
@@ -35,72 +34,6 @@ pub fn batch_error(e: BatchError<anyhow::Error>) -> anyhow::Error {
         BatchError::Point(e) => e,
         other => anyhow!("{other}"),
     }
-}
-
-/// One simulation to do.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Case {
-    /// The system.
-    pub system: System,
-    /// Initial state.
-    pub init: State,
-    /// Sample the history every this many seconds.
-    pub sample_interval_s: Option<f64>,
-    /// Audit the energy (core `EnergyAudit`: forcing, viscous, impact and friction work); costs
-    /// the full segment integrals per step.
-    pub energy_audit: bool,
-}
-
-/// What a case gave.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CaseOutcome {
-    /// RMS and impact statistics.
-    pub result: RunResult,
-    /// Friction work in J (0 without friction or without audit).
-    pub friction_work_j: f64,
-    /// Energy books of the whole run, when audited.
-    pub energy: Option<EnergyBalance>,
-    /// Sampled history (empty unless asked for).
-    pub samples: Vec<State>,
-    /// Wall time of this run in s.
-    pub wall_s: f64,
-}
-
-/// Run one case.
-pub fn run_one(
-    case: &Case,
-    settings: &RunSettings,
-    solver: &dyn Solver,
-) -> Result<CaseOutcome, SimError> {
-    let t0 = std::time::Instant::now();
-    let mut audit = case.energy_audit.then(|| EnergyAudit::new(&case.system));
-    let mut sampler = case
-        .sample_interval_s
-        .map(|dt| Sampler::new(case.init.t_s, dt));
-    let result = {
-        let mut obs: Vec<&mut dyn Observer> = Vec::with_capacity(2);
-        if let Some(a) = audit.as_mut() {
-            obs.push(a);
-        }
-        if let Some(s) = sampler.as_mut() {
-            obs.push(s);
-        }
-        run_case(
-            &case.system,
-            &case.init,
-            settings,
-            solver,
-            &mut Fanout(&mut obs),
-        )?
-    };
-    let energy = audit.and_then(|a| a.balance());
-    Ok(CaseOutcome {
-        result,
-        friction_work_j: energy.map_or(0.0, |e| e.friction_work_j),
-        energy,
-        samples: sampler.map(|s| s.samples).unwrap_or_default(),
-        wall_s: t0.elapsed().as_secs_f64(),
-    })
 }
 
 /// Run independent cases through the core's runner (parallel, in order), with a progress bar
@@ -151,45 +84,9 @@ pub fn open_journal(
     Ok(journal)
 }
 
-/// A sweep table row assembled from a solid and a damped outcome.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SweepResult {
-    /// The point.
-    pub point: SweepPoint,
-    /// Solver name.
-    pub solver: String,
-    /// Solid bar.
-    pub solid: RunResult,
-    /// Damped bar.
-    pub damped: RunResult,
-    /// Friction work in the damped run, J.
-    pub friction_work_j: f64,
-}
-
-impl SweepResult {
-    /// `100(1 − damped/solid)`.
-    pub fn reduction_pct(&self) -> f64 {
-        100.0 * (1.0 - self.damped.rms_m / self.solid.rms_m)
-    }
-
-    /// The CSV row.
-    pub fn csv_row(&self) -> vibrobar_io::csv::SweepCsvRow {
-        vibrobar_io::csv::SweepCsvRow {
-            ratio: self.point.ratio,
-            gap_mm: self.point.gap_m * 1e3,
-            friction: self.point.friction.as_str().to_string(),
-            solver: self.solver.clone(),
-            rms_solid_m: self.solid.rms_m,
-            rms_damped_m: self.damped.rms_m,
-            reduction_pct: self.reduction_pct(),
-            impacts: self.damped.impacts,
-        }
-    }
-}
-
-/// Sweep rows through the core's batch runner (one solid run per distinct ratio, shared), with
-/// a progress bar on stderr. The damped runs carry the energy audit when `energy_audit` is set
-/// (their friction work goes into the rows).
+/// Sweep rows through the core's batch runner ([`sweep_audited`]: one solid run per distinct
+/// ratio, shared), with a progress bar on stderr. The damped runs carry the energy audit when
+/// `energy_audit` is set (their friction work goes into the rows).
 pub fn sweep_rows(
     points: &[SweepPoint],
     base: &SweepBase,
@@ -197,39 +94,19 @@ pub fn sweep_rows(
     solver: &dyn Solver,
     label: &str,
     energy_audit: bool,
-) -> Result<Vec<SweepResult>> {
+) -> Result<Vec<SweepRow>> {
     let bar = crate::progress::Progress::new(label, points.len(), 0);
     let progress = bar.callback();
-    let rows = Batch::new(base, settings, solver)
-        .on(Runner::default().with_progress(&progress))
-        .run(
-            points,
-            |p| p.ratio,
-            |p, solid| -> Result<SweepResult> {
-                let case = Case {
-                    system: base.damped_system(p),
-                    init: base.init,
-                    sample_interval_s: None,
-                    energy_audit,
-                };
-                let d = run_one(&case, settings, solver).map_err(|e| {
-                    anyhow!(
-                        "{label}: run at ratio {:.4}, gap {} mm failed: {e}",
-                        p.ratio,
-                        p.gap_m * 1e3
-                    )
-                })?;
-                Ok(SweepResult {
-                    point: *p,
-                    solver: solver.name().to_string(),
-                    solid: *solid,
-                    damped: d.result,
-                    friction_work_j: d.friction_work_j,
-                })
-            },
-        );
+    let rows = sweep_audited(
+        points,
+        base,
+        settings,
+        solver,
+        Runner::default().with_progress(&progress),
+        energy_audit,
+    );
     bar.finish();
-    rows.map_err(batch_error)
+    rows.map_err(|e| anyhow!("{label}: {e}"))
 }
 
 /// Wall time formatted for humans.

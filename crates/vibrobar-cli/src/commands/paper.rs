@@ -17,7 +17,9 @@ use crate::plot::{rms_vs_ratio, time_history, Curve};
 use crate::progress::Progress;
 use crate::report::{claims, render, IcEnsemble, IcPoint, ReportInput, Role, SolverData, Variant};
 use crate::scenario::{check_positive, sweep_ratios};
-use vibrobar_io::csv::{grid_num, write_history_csv, write_json, write_sweep_csv, write_text};
+use vibrobar_io::csv::{
+    grid_num, write_history_csv, write_json, write_sweep_csv, write_text, SweepCsvRow,
+};
 use vibrobar_io::write_with;
 
 pub use crate::cli::REPRODUCING_FRICTION_N;
@@ -445,7 +447,7 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
             ("fig5", v.label.clone())
         };
         let stem = format!("{fig}_rms_{}", v.key);
-        let rows_of = |d: &SolverData, g: f64| -> Vec<super::SweepResult> {
+        let rows_of = |d: &SolverData, g: f64| -> Vec<super::SweepRow> {
             d.sweep
                 .iter()
                 .filter(|r| {
@@ -464,13 +466,13 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
         let mut csv = Vec::new();
         for d in &data {
             for &g in gaps {
-                csv.extend(rows_of(d, g).iter().map(|r| r.csv_row()));
+                csv.extend(rows_of(d, g).iter().map(SweepCsvRow::from));
             }
         }
         write_sweep_csv(&out.join(format!("{stem}.csv")), &csv)?;
         let r01 = rows_of(first, 0.1e-3);
         let r10 = rows_of(first, 1.0e-3);
-        let curve = |label: String, rows: &[super::SweepResult], color, solid: bool| Curve {
+        let curve = |label: String, rows: &[super::SweepRow], color, solid: bool| Curve {
             label,
             points: rows
                 .iter()
@@ -532,7 +534,7 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
                 "solver": d.name,
                 "wall_s": d.wall_s,
                 "rows": d.sweep.iter().map(|r| serde_json::json!({
-                    "row": r.csv_row(),
+                    "row": SweepCsvRow::from(r),
                     "friction_force_n": r.point.friction_force_n,
                     "impacts_per_cycle": r.damped.impacts_per_cycle,
                     "friction_work_j": r.friction_work_j,

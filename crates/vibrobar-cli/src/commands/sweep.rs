@@ -10,11 +10,11 @@
 use anyhow::{Context, Result};
 use vibrobar_core::analysis::{Batch, Runner};
 
-use super::{batch_error, fmt_secs, run_one, solver, Case, SweepResult};
+use super::{batch_error, fmt_secs, run_one, solver, Case, SweepRow};
 use crate::cli::SweepArgs;
 use crate::progress::Progress;
 use crate::scenario::{check_positive, parse_ratios, sweep_ratios, Scenario};
-use vibrobar_io::csv::{sweep_csv_line, sweep_key, sweep_schema};
+use vibrobar_io::csv::{sweep_csv_line, sweep_key, sweep_schema, SweepCsvRow};
 use vibrobar_io::{GridInfo, Metadata};
 
 /// Run the command.
@@ -100,14 +100,14 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
                     p.gap_m * 1e3
                 )
             })?;
-            let row = SweepResult {
+            let row = SweepRow {
                 point: *p,
                 solver: solver.name().to_string(),
                 solid: *solid,
                 damped: d.result,
                 friction_work_j: d.friction_work_j,
             };
-            journal.append(i, &sweep_csv_line(&row.csv_row()))?;
+            journal.append(i, &sweep_csv_line(&SweepCsvRow::from(&row)))?;
             Ok(())
         },
     );

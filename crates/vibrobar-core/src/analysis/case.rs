@@ -1,6 +1,7 @@
 //! One case: run a system from a state and take its RMS and impact statistics, through the
 //! observers every analysis builds on (RMS integral, impact counter, output-grid sampler).
 
+use super::energy::{EnergyAudit, EnergyBalance};
 use crate::error::SimError;
 use crate::params::{RunSettings, State, System};
 use crate::solver::{Event, EventKind, Fanout, Observer, RunSummary, Segment, Solver};
@@ -155,5 +156,71 @@ pub fn run_case(
             "an RMS window shorter than a forcing period's rounding",
         )?,
         summary,
+    })
+}
+
+/// One simulation to do.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Case {
+    /// The system.
+    pub system: System,
+    /// Initial state.
+    pub init: State,
+    /// Sample the history every this many seconds.
+    pub sample_interval_s: Option<f64>,
+    /// Audit the energy (core `EnergyAudit`: forcing, viscous, impact and friction work); costs
+    /// the full segment integrals per step.
+    pub energy_audit: bool,
+}
+
+/// What a case gave.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaseOutcome {
+    /// RMS and impact statistics.
+    pub result: RunResult,
+    /// Friction work in J (0 without friction or without audit).
+    pub friction_work_j: f64,
+    /// Energy books of the whole run, when audited.
+    pub energy: Option<EnergyBalance>,
+    /// Sampled history (empty unless asked for).
+    pub samples: Vec<State>,
+    /// Wall time of this run in s.
+    pub wall_s: f64,
+}
+
+/// Run one case.
+pub fn run_one(
+    case: &Case,
+    settings: &RunSettings,
+    solver: &dyn Solver,
+) -> Result<CaseOutcome, SimError> {
+    let t0 = std::time::Instant::now();
+    let mut audit = case.energy_audit.then(|| EnergyAudit::new(&case.system));
+    let mut sampler = case
+        .sample_interval_s
+        .map(|dt| Sampler::new(case.init.t_s, dt));
+    let result = {
+        let mut obs: Vec<&mut dyn Observer> = Vec::with_capacity(2);
+        if let Some(a) = audit.as_mut() {
+            obs.push(a);
+        }
+        if let Some(s) = sampler.as_mut() {
+            obs.push(s);
+        }
+        run_case(
+            &case.system,
+            &case.init,
+            settings,
+            solver,
+            &mut Fanout(&mut obs),
+        )?
+    };
+    let energy = audit.and_then(|a| a.balance());
+    Ok(CaseOutcome {
+        result,
+        friction_work_j: energy.map_or(0.0, |e| e.friction_work_j),
+        energy,
+        samples: sampler.map(|s| s.samples).unwrap_or_default(),
+        wall_s: t0.elapsed().as_secs_f64(),
     })
 }

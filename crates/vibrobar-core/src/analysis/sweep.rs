@@ -1,7 +1,7 @@
 //! Frequency sweeps: damped bar beside the solid bar, through the batch runner.
 
 use super::batch::{Batch, BatchError, Runner};
-use super::case::{run_case, RunResult};
+use super::case::{run_one, Case, RunResult};
 use crate::error::SimError;
 use crate::params::RunSettings;
 use crate::solver::Solver;
@@ -43,15 +43,19 @@ impl Default for SweepRange {
     }
 }
 
-/// Result of one sweep point.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Result of one sweep point: a row of the sweep table.
+#[derive(Debug, Clone, PartialEq)]
 pub struct SweepRow {
     /// The point.
     pub point: SweepPoint,
+    /// Name of the solver that ran it.
+    pub solver: String,
     /// Solid bar.
     pub solid: RunResult,
     /// Impact-damped bar.
     pub damped: RunResult,
+    /// Friction work in the damped run, J (0 unless the run was audited).
+    pub friction_work_j: f64,
 }
 
 impl SweepRow {
@@ -59,6 +63,16 @@ impl SweepRow {
     pub fn reduction_pct(&self) -> f64 {
         100.0 * (1.0 - self.damped.rms_m / self.solid.rms_m)
     }
+}
+
+/// A damped run of a sweep failed: which point, and what the solver said.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("run at ratio {:.4}, gap {} mm failed: {source}", point.ratio, point.gap_m * 1e3)]
+pub struct PointFailed {
+    /// The point.
+    pub point: SweepPoint,
+    /// The error.
+    pub source: SimError,
 }
 
 /// Run a sweep: for each point the damped bar (with the ball) and the solid bar (no ball), each
@@ -70,23 +84,45 @@ pub fn sweep(
     settings: &RunSettings,
     solver: &dyn Solver,
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> Result<Vec<SweepRow>, BatchError<SimError>> {
-    let batch = Batch::new(base, settings, solver).on(Runner::default().with_progress(progress));
-    batch.run(
+) -> Result<Vec<SweepRow>, BatchError<PointFailed>> {
+    sweep_audited(
+        points,
+        base,
+        settings,
+        solver,
+        Runner::default().with_progress(progress),
+        false,
+    )
+}
+
+/// [`sweep`] on a given runner; with `energy_audit` every damped run carries the energy audit
+/// and its friction work goes into the row (the audit observes the run, it does not change it).
+pub fn sweep_audited(
+    points: &[SweepPoint],
+    base: &SweepBase,
+    settings: &RunSettings,
+    solver: &dyn Solver,
+    runner: Runner<'_>,
+    energy_audit: bool,
+) -> Result<Vec<SweepRow>, BatchError<PointFailed>> {
+    Batch::new(base, settings, solver).on(runner).run(
         points,
         |p| p.ratio,
         |p, solid| {
-            let damped = run_case(
-                &base.damped_system(p),
-                &base.init,
-                settings,
-                solver,
-                &mut (),
-            )?;
+            let case = Case {
+                system: base.damped_system(p),
+                init: base.init,
+                sample_interval_s: None,
+                energy_audit,
+            };
+            let damped = run_one(&case, settings, solver)
+                .map_err(|source| PointFailed { point: *p, source })?;
             Ok(SweepRow {
                 point: *p,
+                solver: solver.name().to_string(),
                 solid: *solid,
-                damped,
+                damped: damped.result,
+                friction_work_j: damped.friction_work_j,
             })
         },
     )
