@@ -1,21 +1,17 @@
 //! # vibrobar-cli
 //!
-//! The command-line front end of vibrobar: the subcommand table ([`app`]), argument types
-//! ([`cli`]), scenario files ([`scenario`]), figures ([`plot`]), the reproduction report
-//! ([`report`]), design-map figures ([`figures`]), progress bars ([`progress`]) and one module
-//! per command ([`commands`]). Result files (atomic writes, journals, CSV schemas, NPY, metadata,
-//! shards) are written by `vibrobar-io`.
-//! The physics is in `vibrobar-core`; this crate never re-implements it.
+//! The command line of vibrobar, and only that: the subcommand table ([`app`]), argument types
+//! ([`cli`]), scenario files ([`scenario`]), progress bars ([`progress`]) and one module per
+//! command ([`commands`]) that turns flags into calls of the other crates. The physics and the
+//! batch runner are in `vibrobar-core`, result files (atomic writes, journals, CSV schemas, NPY,
+//! metadata, shards) in `vibrobar-io`, the paper report and every figure in `vibrobar-report`.
 
 #![warn(missing_docs)]
 
 pub mod app;
 pub mod cli;
 pub mod commands;
-pub mod figures;
-pub mod plot;
 pub mod progress;
-pub mod report;
 pub mod scenario;
 
 /// The default solver's name as a literal, so help texts can `concat!` it. Switching the default
@@ -30,5 +26,5 @@ macro_rules! default_solver {
 /// Solver used when none is given.
 pub const DEFAULT_SOLVER: &str = default_solver!();
 
-/// Version of this tool, written into every report.
-pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+/// Version of this tool (the report crate's, the workspace's one version).
+pub const VERSION: &str = vibrobar_report::VERSION;

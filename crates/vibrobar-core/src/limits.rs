@@ -26,7 +26,6 @@
 //! past [`RK4_PENETRATION_WARN_FRACTION`] of the gap the CLI says so with the figure.
 
 use crate::error::ParamError;
-use crate::params::{State, System};
 
 /// Most steps of a fixed-step run (`duration / dt`): about 90 s of `rk4` at 85 ns per step.
 pub const MAX_STEPS: f64 = 1e9;
@@ -148,19 +147,6 @@ pub fn finite_result(
     }
 }
 
-/// `|u|` beyond which an `rk4` run has diverged: [`RK4_DIVERGENCE_FACTOR`] times the system's
-/// own displacement scale (static deflection under every force, initial displacement and
-/// velocities over `ω_n`, half gap).
-pub fn rk4_divergence_bound_m(sys: &System, init: &State) -> f64 {
-    let forces =
-        sys.forcing.static_force_n.abs() + sys.forcing.amplitude_n.abs() + sys.friction_level_n();
-    let scale = forces / sys.bar.stiffness_n_per_m
-        + init.u_m.abs()
-        + (init.du_m_s.abs() + init.dw_m_s().abs()) / sys.bar.natural_freq_rad_s()
-        + sys.damper.map_or(0.0, |d| d.half_gap_m());
-    RK4_DIVERGENCE_FACTOR * scale
-}
-
 /// The solid bar's RMS as the reference of a reduction `100(1 − damped/solid)`: it must be
 /// positive, or every reduction is 0/0 (a bar without any force, started at rest).
 pub fn reference_rms(rms_solid_m: f64) -> Result<f64, ParamError> {
@@ -210,31 +196,6 @@ mod tests {
                 );
             }
         }
-    }
-
-    /// The backstop must never fire on physics: an undamped bar forced at resonance grows by
-    /// `F0/(2K)·ω_n t`, at most `F0/(2K)·MAX_PHASE_RAD` within the phase limit.
-    #[test]
-    fn rk4_divergence_bound_is_far_above_resonant_growth() {
-        let mut sys = System::paper_solid(1.0);
-        sys.bar.damping_ratio = 0.0;
-        let growth = sys.forcing.amplitude_n / (2.0 * sys.bar.stiffness_n_per_m) * MAX_PHASE_RAD;
-        let bound = rk4_divergence_bound_m(&sys, &State::REST);
-        assert!(bound > 100.0 * growth, "bound {bound} vs growth {growth}");
-        // Every term counts: a free bar launched at 1 m/s has a bound of 1e12 · 1/ω_n.
-        let mut sys = System::paper_solid(1.0);
-        sys.forcing.amplitude_n = 0.0;
-        let init = State {
-            du_m_s: 1.0,
-            dv_m_s: 1.0,
-            ..State::REST
-        };
-        let wn = sys.bar.natural_freq_rad_s();
-        let b = rk4_divergence_bound_m(&sys, &init);
-        assert!(
-            (b / (RK4_DIVERGENCE_FACTOR / wn) - 1.0).abs() < 1e-12,
-            "{b}"
-        );
     }
 
     #[test]

@@ -7,9 +7,10 @@ use vibrobar_core::solver::SOLVER_NAMES;
 
 use super::{fmt_secs, run_one, solver, sweep_rows, Case};
 use crate::cli::{BenchArgs, REPRODUCING_FRICTION_N};
-use crate::commands::paper::{run_solver, variants};
+use crate::commands::paper::run_solver;
 use crate::scenario::{sweep_ratios, Overrides, Scenario};
 use vibrobar_core::analysis::sweep::SweepRange;
+use vibrobar_report::report::variants;
 
 /// Run the command.
 pub fn bench(args: &BenchArgs) -> Result<()> {

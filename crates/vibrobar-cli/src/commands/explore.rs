@@ -157,9 +157,9 @@ pub fn run_poincare(a: &PoincareArgs) -> anyhow::Result<()> {
         fmt_coord(a.point.ratio),
         fmt_coord(a.point.gap_mm)
     );
-    let files = crate::figures::scatter_files(
+    let files = vibrobar_report::figures::scatter_files(
         &a.out.with_extension(""),
-        &crate::figures::Scatter {
+        &vibrobar_report::figures::Scatter {
             title: &title,
             x_label: "bar displacement u (µm)",
             y_label: "bar velocity du/dt (mm/s)",
@@ -295,7 +295,7 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> anyhow::Result<()> {
     let npy_path = a.out.with_extension("npy");
     npy::write_f64(&npy_path, &[b.points.len(), 4], &data)?;
     Metadata::new("bifurcation", "", params.clone(), None).write_beside(&npy_path)?;
-    let imp_path = crate::figures::with_ext(&a.out.with_extension(""), "impacts.csv");
+    let imp_path = vibrobar_report::figures::with_ext(&a.out.with_extension(""), "impacts.csv");
     let mut ib = String::new();
     for i in &b.impacts {
         ib.push_str(&format!(
@@ -334,9 +334,9 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> anyhow::Result<()> {
             ),
         ),
     };
-    let files = crate::figures::scatter_files(
+    let files = vibrobar_report::figures::scatter_files(
         &a.out.with_extension(""),
-        &crate::figures::Scatter {
+        &vibrobar_report::figures::Scatter {
             title: &title,
             x_label,
             y_label: "stroboscopic u (µm)",

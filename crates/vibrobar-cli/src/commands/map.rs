@@ -454,7 +454,7 @@ pub fn postprocess(map_csv: &Path) -> anyhow::Result<()> {
     if let Some(line) = friction_work_summary(&energy) {
         println!("{line}");
     }
-    let figs = crate::figures::map::draw_map_figures(map_csv, &t, &o)?;
+    let figs = vibrobar_report::figures::map::draw_map_figures(map_csv, &t, &o)?;
     // Gap coordinate of a band design (NaN if the design has none).
     let gap_of = |b: &BandBest| {
         b.design

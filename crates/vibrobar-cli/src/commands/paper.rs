@@ -8,19 +8,20 @@ use vibrobar_core::analysis::ensemble::{run_ensemble, EnsembleParams, IcRanges};
 use vibrobar_core::analysis::map::{run_map, Axis, Grid, GridAxis, MapSpec};
 use vibrobar_core::analysis::regime::Tolerances;
 use vibrobar_core::analysis::{SweepBase, SweepPoint};
-use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
 use vibrobar_core::{FrictionModel, RunSettings, State, System};
 
 use super::{fmt_secs, run_cases, solver, sweep_rows, Case};
 use crate::cli::PaperArgs;
-use crate::plot::{rms_vs_ratio, time_history, Curve};
 use crate::progress::Progress;
-use crate::report::{claims, render, IcEnsemble, IcPoint, ReportInput, Role, SolverData, Variant};
 use crate::scenario::{check_positive, sweep_ratios};
 use vibrobar_io::csv::{
     grid_num, write_history_csv, write_json, write_sweep_csv, write_text, SweepCsvRow,
 };
 use vibrobar_io::write_with;
+use vibrobar_report::plot::{rms_vs_ratio, time_history, Curve};
+use vibrobar_report::report::{
+    claims, render, variants, IcEnsemble, IcPoint, ReportInput, SolverData, Variant,
+};
 
 pub use crate::cli::REPRODUCING_FRICTION_N;
 
@@ -28,60 +29,6 @@ pub use crate::cli::REPRODUCING_FRICTION_N;
 pub const FRICTIONLESS_GAPS_M: [f64; 4] = [0.1e-3, 0.25e-3, 0.5e-3, 1.0e-3];
 /// Gaps of the friction sweeps.
 pub const FRICTION_GAPS_M: [f64; 2] = [0.1e-3, 1.0e-3];
-
-/// The parameter sets of the paper run.
-pub fn variants(reproducing_n: f64) -> Vec<Variant> {
-    let stated = vibrobar_core::Damper {
-        friction: FrictionModel::AsPublished,
-        ..SweepBase::paper().ball
-    }
-    .friction_level_n(STANDARD_GRAVITY_M_S2);
-    let v = |key: &str, label: String, role, friction, force_n: Option<f64>| Variant {
-        key: key.to_string(),
-        label,
-        role,
-        friction,
-        force_n,
-        level_n: force_n.unwrap_or(if friction == FrictionModel::None {
-            0.0
-        } else {
-            stated
-        }),
-    };
-    vec![
-        v(
-            "frictionless",
-            "frictionless (stated)".into(),
-            Role::Stated,
-            FrictionModel::None,
-            None,
-        ),
-        v(
-            "as-published_stated",
-            format!("as published, F = {stated:.4} N (stated)"),
-            Role::Stated,
-            FrictionModel::AsPublished,
-            None,
-        ),
-        v(
-            &format!("as-published_{}N", grid_num(reproducing_n)),
-            format!(
-                "as published, F = {} N (reproduces the paper)",
-                grid_num(reproducing_n)
-            ),
-            Role::Reproducing,
-            FrictionModel::AsPublished,
-            Some(reproducing_n),
-        ),
-        v(
-            "coulomb_stated",
-            format!("coulomb, F = {stated:.4} N (physically consistent)"),
-            Role::Physical,
-            FrictionModel::Coulomb,
-            None,
-        ),
-    ]
-}
 
 /// Seed of the initial-condition ensemble.
 pub const ENSEMBLE_SEED: u64 = 1;
@@ -574,7 +521,12 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_summary(out: &Path, input: &ReportInput, cl: &[crate::report::Claim], wall: f64) {
+fn print_summary(
+    out: &Path,
+    input: &ReportInput,
+    cl: &[vibrobar_report::report::Claim],
+    wall: f64,
+) {
     println!(
         "vibrobar paper ({}): wrote {} files to {}",
         crate::VERSION,

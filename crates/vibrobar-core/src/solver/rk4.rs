@@ -275,7 +275,7 @@ impl Solver for Rk4 {
     ) -> Result<RunSummary, SimError> {
         super::validate_run(sys, init, t_end_s)?;
         sys.validate_fixed_step(self.dt_s, t_end_s - init.t_s)?;
-        let u_bound = crate::limits::rk4_divergence_bound_m(sys, init);
+        let u_bound = divergence_bound_m(sys, init);
         let rhs = Rhs::new(sys);
         let has_ball = sys.damper.is_some();
         let (lg, mu, e) = match &sys.damper {
@@ -382,5 +382,50 @@ impl Solver for Rk4 {
             summary.max_penetration_m = f64::NEG_INFINITY;
         }
         Ok(summary)
+    }
+}
+
+/// `|u|` beyond which an `rk4` run has diverged: [`crate::limits::RK4_DIVERGENCE_FACTOR`] times the system's
+/// own displacement scale (static deflection under every force, initial displacement and
+/// velocities over `ω_n`, half gap).
+pub fn divergence_bound_m(sys: &System, init: &State) -> f64 {
+    let forces =
+        sys.forcing.static_force_n.abs() + sys.forcing.amplitude_n.abs() + sys.friction_level_n();
+    let scale = forces / sys.bar.stiffness_n_per_m
+        + init.u_m.abs()
+        + (init.du_m_s.abs() + init.dw_m_s().abs()) / sys.bar.natural_freq_rad_s()
+        + sys.damper.map_or(0.0, |d| d.half_gap_m());
+    crate::limits::RK4_DIVERGENCE_FACTOR * scale
+}
+
+#[cfg(test)]
+mod divergence_tests {
+    use super::*;
+    use crate::params::{State, System};
+
+    /// The backstop must never fire on physics: an undamped bar forced at resonance grows by
+    /// `F0/(2K)·ω_n t`, at most `F0/(2K)·crate::limits::MAX_PHASE_RAD` within the phase limit.
+    #[test]
+    fn rk4_divergence_bound_is_far_above_resonant_growth() {
+        let mut sys = System::paper_solid(1.0);
+        sys.bar.damping_ratio = 0.0;
+        let growth = sys.forcing.amplitude_n / (2.0 * sys.bar.stiffness_n_per_m)
+            * crate::limits::MAX_PHASE_RAD;
+        let bound = divergence_bound_m(&sys, &State::REST);
+        assert!(bound > 100.0 * growth, "bound {bound} vs growth {growth}");
+        // Every term counts: a free bar launched at 1 m/s has a bound of 1e12 · 1/ω_n.
+        let mut sys = System::paper_solid(1.0);
+        sys.forcing.amplitude_n = 0.0;
+        let init = State {
+            du_m_s: 1.0,
+            dv_m_s: 1.0,
+            ..State::REST
+        };
+        let wn = sys.bar.natural_freq_rad_s();
+        let b = divergence_bound_m(&sys, &init);
+        assert!(
+            (b / (crate::limits::RK4_DIVERGENCE_FACTOR / wn) - 1.0).abs() < 1e-12,
+            "{b}"
+        );
     }
 }

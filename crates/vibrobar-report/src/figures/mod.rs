@@ -4,23 +4,11 @@ pub mod map;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 use std::path::{Path, PathBuf};
-use std::sync::Once;
-
-static FONT: Once = Once::new();
 
 /// Register the embedded font as "sans-serif" (once per process).
 pub fn init_font() {
-    FONT.call_once(|| {
-        plotters::style::register_font(
-            "sans-serif",
-            FontStyle::Normal,
-            include_bytes!("../../assets/DejaVuSans.ttf"),
-        )
-        .map_err(|_| ())
-        .expect("embedded font parses");
-    });
+    crate::plot::register_font();
 }
 
 /// Error of a drawing call, as text (plotters' errors are generic over the backend).

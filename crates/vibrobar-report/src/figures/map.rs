@@ -4,10 +4,10 @@
 //! With optional axes (friction level, restitution, mass ratio) each ratio × gap cell shows the
 //! best reduction over those axes (and the impacts per cycle of that best point).
 use super::{heat_files, nice_levels, Heat};
-use crate::commands::map::MapTable;
 use plotters::style::RGBColor;
 use std::path::{Path, PathBuf};
 use vibrobar_core::analysis::map::{Axis, Optimum};
+use vibrobar_io::csv::MapTable;
 
 fn sorted_unique(mut v: Vec<f64>) -> Vec<f64> {
     v.sort_by(f64::total_cmp);
@@ -52,7 +52,7 @@ pub fn draw_map_figures(map_csv: &Path, t: &MapTable, o: &Optimum) -> anyhow::Re
     }
     let gap_of = |d: &[(Axis, f64)]| d.iter().find(|(a, _)| *a == Axis::GapM).map(|x| x.1 * 1e3);
     let mut hlines = Vec::new();
-    let fmt = crate::commands::fmt_coord;
+    let fmt = vibrobar_io::csv::fmt_coord;
     let mean = o
         .best_mean_reduction
         .as_ref()

@@ -5,7 +5,10 @@ use serde::Serialize;
 use vibrobar_core::analysis::ensemble::{EnsembleStats, IcRanges};
 use vibrobar_core::{FrictionModel, RunSettings};
 
-use crate::commands::{CaseOutcome, SweepRow};
+use vibrobar_core::analysis::case::CaseOutcome;
+use vibrobar_core::analysis::{SweepBase, SweepRow};
+use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
+use vibrobar_io::csv::grid_num;
 
 /// Percentage points within which a reduction counts as reproduced.
 pub const REDUCTION_TOL_PP: f64 = 5.0;
@@ -1194,6 +1197,60 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
     s
 }
 
+/// The parameter sets of the paper run.
+pub fn variants(reproducing_n: f64) -> Vec<Variant> {
+    let stated = vibrobar_core::Damper {
+        friction: FrictionModel::AsPublished,
+        ..SweepBase::paper().ball
+    }
+    .friction_level_n(STANDARD_GRAVITY_M_S2);
+    let v = |key: &str, label: String, role, friction, force_n: Option<f64>| Variant {
+        key: key.to_string(),
+        label,
+        role,
+        friction,
+        force_n,
+        level_n: force_n.unwrap_or(if friction == FrictionModel::None {
+            0.0
+        } else {
+            stated
+        }),
+    };
+    vec![
+        v(
+            "frictionless",
+            "frictionless (stated)".into(),
+            Role::Stated,
+            FrictionModel::None,
+            None,
+        ),
+        v(
+            "as-published_stated",
+            format!("as published, F = {stated:.4} N (stated)"),
+            Role::Stated,
+            FrictionModel::AsPublished,
+            None,
+        ),
+        v(
+            &format!("as-published_{}N", grid_num(reproducing_n)),
+            format!(
+                "as published, F = {} N (reproduces the paper)",
+                grid_num(reproducing_n)
+            ),
+            Role::Reproducing,
+            FrictionModel::AsPublished,
+            Some(reproducing_n),
+        ),
+        v(
+            "coulomb_stated",
+            format!("coulomb, F = {stated:.4} N (physically consistent)"),
+            Role::Physical,
+            FrictionModel::Coulomb,
+            None,
+        ),
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1240,7 +1297,7 @@ mod tests {
 
     fn ic_input(impacting: &[(f64, usize)], spread: f64) -> ReportInput {
         use vibrobar_core::analysis::map::{Axis, GridPoint};
-        let variants = crate::commands::paper::variants(20.0);
+        let variants = variants(20.0);
         let stats = |ratio: f64, k: usize, mean: f64| EnsembleStats {
             point: GridPoint {
                 index: 0,

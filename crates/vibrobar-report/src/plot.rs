@@ -14,7 +14,8 @@ use vibrobar_io::ensure_parent;
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
 
-fn register_font() {
+/// Register the embedded font as "sans-serif" (once per process); every figure calls it.
+pub fn register_font() {
     REGISTER.call_once(|| {
         // The font is embedded and known to be valid; failure would be a build defect.
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
