@@ -64,6 +64,16 @@ pub enum IoError {
         /// What is wrong.
         why: String,
     },
+    /// A row of a whole file does not fit its schema (e.g. a NaN): the file is not written.
+    #[error("{}: line {line} would not read back ({why}); the file was not written", path.display())]
+    BadFileRow {
+        /// Output file.
+        path: PathBuf,
+        /// 1-based line number the row would have had.
+        line: usize,
+        /// What is wrong.
+        why: String,
+    },
     /// A freshly computed row does not fit its schema (e.g. a NaN), so it is not stored.
     #[error("{}: the result row of grid index {index} is refused ({why})", path.display())]
     BadRow {
