@@ -23,7 +23,7 @@ pub enum IoError {
         why: String,
     },
     /// An output is also one of the command's inputs.
-    #[error("--out {} is also an input ({}); writing it would destroy the input: choose another output", out.display(), input.display())]
+    #[error("output {} is also an input ({}); writing it would destroy the input: choose another --out", out.display(), input.display())]
     OutputIsInput {
         /// Output as given.
         out: PathBuf,

@@ -20,9 +20,6 @@ use vibrobar_io::{GridInfo, Metadata};
 /// Run the command.
 pub fn sweep(args: &SweepArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
-    if let Some(s) = &args.model.scenario {
-        vibrobar_io::check_not_input(&args.out, &[s.as_path()])?;
-    }
     let sc = Scenario::from_args(&args.model)?;
     let gaps_m: Vec<f64> = if args.gap_mm.is_empty() {
         sc.sweep.gaps_m.clone()
