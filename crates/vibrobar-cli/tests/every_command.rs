@@ -295,3 +295,31 @@ fn regression_sigint_during_poincare_and_paper_leaves_no_partial() {
     );
     assert!(!left.iter().any(|n| n.contains("partial")), "{left:?}");
 }
+
+#[test]
+fn regression_duration_1e308_error_shows_the_value_given_not_inf() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for args in [
+        &["run", "--duration", "1e308", "--out", "r.csv"][..],
+        &[
+            "map",
+            "--friction",
+            "none",
+            "--ratios",
+            "1:1:1",
+            "--gaps-mm",
+            "0.1:0.1:0.1",
+            "--duration",
+            "1e308",
+            "--out",
+            "m.csv",
+        ][..],
+    ] {
+        let o = vibrobar_in(d, args);
+        let e = err(&o);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(e.contains("1e308 s") && !e.contains("inf"), "{args:?}: {e}");
+        assert_eq!(names(d), Vec::<String>::new());
+    }
+}
