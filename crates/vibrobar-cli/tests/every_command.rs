@@ -323,3 +323,66 @@ fn regression_duration_1e308_error_shows_the_value_given_not_inf() {
         assert_eq!(names(d), Vec::<String>::new());
     }
 }
+
+#[test]
+fn regression_rk4_penetration_in_sweep_and_map_warns_once_with_the_worst_point() {
+    // Only `run` warned; a sweep or map of the same rk4 runs said nothing.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fs::write(
+        d.join("push.toml"),
+        "[forcing]\nstatic_force_n = 1e6\n[damper]\ngap_m = 1e-4\n",
+    )
+    .unwrap();
+    let common = [
+        "--scenario",
+        "push.toml",
+        "--solver",
+        "rk4",
+        "--duration",
+        "0.01",
+        "--ratios",
+        "0.9:1.1:0.1",
+    ];
+    for (cmd, extra, runs) in [
+        ("sweep", &[][..], 3),
+        ("map", &["--gaps-mm", "0.1:0.2:0.1"][..], 6),
+    ] {
+        let mut args = vec![cmd];
+        args.extend(common);
+        args.extend(extra);
+        args.extend(["--out", "o.csv"]);
+        let o = vibrobar_in(d, &args);
+        let e = err(&o);
+        assert!(o.status.success(), "{cmd}: {e}");
+        assert_eq!(e.matches("warning: the ball went").count(), 1, "{cmd}: {e}");
+        assert!(
+            e.contains("% of the gap (warning above 1 %) at ratio")
+                && e.contains(&format!("the worst of {runs} such runs")),
+            "{cmd}: {e}"
+        );
+        fs::remove_file(d.join("o.csv")).unwrap();
+    }
+    // The paper's own rk4 sweep stays below the limit: no warning.
+    let o = vibrobar_in(
+        d,
+        &[
+            "sweep",
+            "--solver",
+            "rk4",
+            "--duration",
+            "0.05",
+            "--ratios",
+            "1:1:1",
+            "--gap-mm",
+            "0.1",
+            "--out",
+            "p.csv",
+        ],
+    );
+    assert!(
+        o.status.success() && !err(&o).contains("warning"),
+        "{}",
+        err(&o)
+    );
+}

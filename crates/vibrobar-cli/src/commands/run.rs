@@ -120,10 +120,8 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let pen_m = out.result.summary.max_penetration_m;
     if let Some(f) = limits::excessive_penetration(pen_m, gap_m) {
         eprintln!(
-            "warning: the ball went {pen_m:.2e} m beyond the wall, {:.1} % of the gap (warning above {} %): {} detects impacts only after a step; lower --dt or use --solver exact",
-            100.0 * f,
-            100.0 * limits::RK4_PENETRATION_WARN_FRACTION,
-            solver.name()
+            "{}",
+            super::penetration_warning(pen_m, f, solver.name(), None)
         );
     }
     let is_npy = is_npy(&args.out);
