@@ -249,9 +249,12 @@ pub fn penetration_warning(pen_m: f64, f: f64, solver: &str, at: Option<&str>) -
 /// leaving it unsaid; results are the inner solver's, untouched.
 pub struct PenetrationWatch<'a> {
     inner: &'a dyn Solver,
-    /// Worst `(fraction of the gap, penetration m, ratio, gap m)` and how many runs exceeded.
-    worst: std::sync::Mutex<(Option<(f64, f64, f64, f64)>, usize)>,
+    /// The worst run and how many runs exceeded the limit.
+    worst: std::sync::Mutex<(Option<Penetration>, usize)>,
 }
+
+/// `(fraction of the gap, penetration m, ratio, gap m)` of one run.
+type Penetration = (f64, f64, f64, f64);
 
 impl<'a> PenetrationWatch<'a> {
     /// Watch `inner`.

@@ -196,12 +196,13 @@ pub struct Bifurcation {
 /// skipped), so memory stays bounded whatever the impact rate (rk4 in wall contact counts one
 /// impact per step).
 struct BudgetedImpacts<'a> {
+    param: f64,
     wall: Option<Wall>,
     after_s: f64,
     used: &'a AtomicUsize,
     budget: usize,
     over: &'a AtomicBool,
-    kept: Vec<(f64, Wall, f64)>,
+    kept: Vec<BifurcationImpact>,
 }
 
 impl Observer for BudgetedImpacts<'_> {
@@ -214,7 +215,12 @@ impl Observer for BudgetedImpacts<'_> {
                 self.over.store(true, Ordering::Relaxed);
                 return;
             }
-            self.kept.push((ev.t_s, wall, dw_m_s));
+            self.kept.push(BifurcationImpact {
+                param: self.param,
+                t_s: ev.t_s,
+                wall,
+                dw_m_s,
+            });
         }
     }
 }
@@ -278,13 +284,14 @@ fn bifurcation_with_budget(
         .with_cancel(&over)
         .each(
             values,
-            |&p| -> Result<(Vec<State>, Vec<(f64, Wall, f64)>), SimError> {
+            |&p| -> Result<(Vec<State>, Vec<BifurcationImpact>), SimError> {
                 let mut sys = spec.system;
                 spec.axis.apply(&mut sys, p)?;
                 let t0 = spec.init.t_s;
                 let after = t0 + spec.transient_s;
                 let mut strobe = Stroboscope::for_system(&sys, spec.phase_rad, after);
                 let mut imp = BudgetedImpacts {
+                    param: p,
                     wall: spec.impact_wall,
                     after_s: after,
                     used: &used,
@@ -325,13 +332,7 @@ fn bifurcation_with_budget(
             u_m: s.u_m,
             du_m_s: s.du_m_s,
         }));
-        out.impacts
-            .extend(imps.iter().map(|&(t_s, wall, dw_m_s)| BifurcationImpact {
-                param: p,
-                t_s,
-                wall,
-                dw_m_s,
-            }));
+        out.impacts.extend(imps);
     }
     Ok(out)
 }
@@ -379,7 +380,7 @@ mod tests {
         let first: Vec<f64> = all
             .impacts
             .iter()
-            .filter(|i| i.param == 0.99)
+            .filter(|i| i.param < 0.995)
             .map(|i| i.t_s)
             .collect();
         assert_eq!(first, sec.points.iter().map(|p| p.t_s).collect::<Vec<_>>());
