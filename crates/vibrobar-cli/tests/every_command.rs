@@ -173,7 +173,7 @@ fn regression_sweep_and_map_without_forcing_refuse_before_any_journal() {
 
 /// Start `args` in `dir`, wait until `ready(dir)`, send SIGINT, and return its output.
 fn interrupt(dir: &Path, args: &[&str], ready: impl Fn(&Path) -> bool) -> Output {
-    let child = bin()
+    let mut child = bin()
         .current_dir(dir)
         .args(args)
         .stdout(Stdio::null())
@@ -182,6 +182,9 @@ fn interrupt(dir: &Path, args: &[&str], ready: impl Fn(&Path) -> bool) -> Output
         .unwrap();
     let t0 = std::time::Instant::now();
     while !ready(dir) {
+        if let Some(st) = child.try_wait().unwrap() {
+            panic!("{args:?} ended ({st:?}) before it was interrupted");
+        }
         if t0.elapsed().as_secs() > 60 {
             // SAFETY: signalling our own child.
             unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGKILL) };
@@ -200,16 +203,19 @@ fn journal_rows(p: &Path) -> usize {
         .unwrap_or(0)
 }
 
-const MAP: [&str; 12] = [
+/// About 1.5 s of rk4 work on two threads: long enough to be interrupted in the middle.
+const MAP: [&str; 14] = [
     "map",
     "--friction",
     "none",
+    "--solver",
+    "rk4",
     "--ratios",
-    "0.9:1.1:0.01",
+    "0.95:1.05:0.01",
     "--gaps-mm",
     "0.1:0.5:0.1",
     "--duration",
-    "0.2",
+    "0.5",
     "--threads",
     "2",
     "--out",
@@ -222,7 +228,7 @@ fn regression_sigint_during_map_keeps_a_resumable_journal_and_no_partial() {
     let mut args = MAP.to_vec();
     args.push("m.csv");
     let journal: PathBuf = d.join("m.csv.journal");
-    let o = interrupt(d, &args, |_| journal_rows(&journal) >= 5);
+    let o = interrupt(d, &args, |_| journal_rows(&journal) >= 3);
     let e = err(&o);
     assert_eq!(o.status.code(), Some(130), "{e}");
     assert!(
