@@ -25,10 +25,11 @@ use std::sync::Mutex;
 static INPUTS: Mutex<Vec<(u64, u64, PathBuf)>> = Mutex::new(Vec::new());
 
 /// Record `path` as an input of this process: from now on [`resolve_output`] (and so every
-/// writer of this crate) refuses to write it, under any name or link. A path that does not
-/// exist is no input and is ignored.
+/// writer of this crate) refuses to write it, under any name or link. Only regular files are
+/// inputs that an output could destroy: an absent path, a terminal or a pipe (`--scenario
+/// /dev/stdin` with `--out /dev/stdout` on one terminal) is ignored.
 pub fn register_input(path: &Path) {
-    if let Ok(md) = fs::metadata(path) {
+    if let Some(md) = fs::metadata(path).ok().filter(fs::Metadata::is_file) {
         let mut g = INPUTS.lock().unwrap_or_else(|p| p.into_inner());
         // Forget inputs deleted since (their inode may be this file's now).
         g.retain(|(d, i, p)| fs::metadata(p).is_ok_and(|m| m.dev() == *d && m.ino() == *i));
