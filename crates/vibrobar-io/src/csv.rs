@@ -305,16 +305,9 @@ pub fn sweep_csv_line(r: &SweepCsvRow) -> String {
     sweep_schema().format(&r.values())
 }
 
-/// Write a sweep CSV.
+/// Write a sweep CSV (rows checked by [`write_csv`]).
 pub fn write_sweep_csv(path: &Path, rows: &[SweepCsvRow]) -> Result<()> {
-    let schema = sweep_schema();
-    write_with(path, |w| {
-        writeln!(w, "{}", schema.header())?;
-        for r in rows {
-            writeln!(w, "{}", schema.format(&r.values()))?;
-        }
-        Ok(())
-    })
+    write_csv(path, &sweep_schema(), rows.iter().map(SweepCsvRow::values))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -335,20 +328,14 @@ pub fn history_values(s: &State) -> [f64; 7] {
     [s.t_s, s.u_m, s.du_m_s, s.v_m, s.dv_m_s, s.w_m(), s.dw_m_s()]
 }
 
-/// Write a time-history CSV (small histories; `run` streams through [`crate::history`]).
+/// Write a time-history CSV (small histories, rows checked by [`write_csv`]; `run` streams
+/// through [`crate::history`]).
 pub fn write_history_csv(path: &Path, samples: &[State]) -> Result<()> {
-    let schema = history_schema();
-    write_with(path, |w| {
-        writeln!(w, "{}", schema.header())?;
-        let mut line = String::with_capacity(128);
-        for s in samples {
-            line.clear();
-            schema.format_into(&history_values(s).map(Value::F), &mut line);
-            line.push('\n');
-            w.write_all(line.as_bytes())?;
-        }
-        Ok(())
-    })
+    write_csv(
+        path,
+        &history_schema(),
+        samples.iter().map(|s| history_values(s).map(Value::F)),
+    )
 }
 
 // ---------------------------------------------------------------------------------------------
