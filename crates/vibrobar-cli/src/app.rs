@@ -198,7 +198,7 @@ pub fn install_interrupt_cleanup(what: String) {
     // A second call in one process (tests) keeps the first handler.
     let _ = ctrlc::set_handler(move || {
         let removed = vibrobar_io::close_for_exit();
-        let kept = vibrobar_io::journal::open_journals();
+        let kept = vibrobar_io::journal::close_for_exit();
         let list = |v: &[PathBuf]| {
             v.iter()
                 .map(|p| p.display().to_string())

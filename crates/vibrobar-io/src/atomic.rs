@@ -319,4 +319,20 @@ mod tests {
         assert!(!partial_path(&p).exists());
         drop(f);
     }
+
+    #[test]
+    fn tracked_temporaries_are_removed_on_request_and_forgotten_when_published() {
+        let dir = tempfile::tempdir().unwrap();
+        let tmp = dir.path().join("fig.partial.png");
+        track_partial(&tmp);
+        fs::write(&tmp, b"png").unwrap();
+        let removed = remove_live_partials_if(|q| q.starts_with(dir.path()));
+        assert_eq!(removed, vec![tmp.clone()]);
+        assert!(!tmp.exists());
+        track_partial(&tmp);
+        fs::write(&tmp, b"png").unwrap();
+        publish(&tmp, &dir.path().join("fig.png")).unwrap();
+        assert!(remove_live_partials_if(|q| q.starts_with(dir.path())).is_empty());
+        assert_eq!(fs::read(dir.path().join("fig.png")).unwrap(), b"png");
+    }
 }

@@ -80,6 +80,17 @@ pub fn open_journals() -> Vec<PathBuf> {
     g.iter().filter(|p| p.exists()).cloned().collect()
 }
 
+/// For a SIGINT/SIGTERM handler about to exit: remove the lock files of the open journals (this
+/// process holds their locks; the kernel releases them with it, and a later holder would only
+/// overwrite them) and return the journals kept for `--resume`.
+pub fn close_for_exit() -> Vec<PathBuf> {
+    let g = OPEN.lock().unwrap_or_else(|p| p.into_inner());
+    for j in g.iter() {
+        let _ = fs::remove_file(crate::lock::lock_path(j));
+    }
+    g.iter().filter(|p| p.exists()).cloned().collect()
+}
+
 /// Write the preamble to `journal.partial` and rename it into place, so that a journal exists
 /// only with a whole preamble (a full disk leaves no empty journal that looks like progress).
 fn create_journal(journal: &Path, preamble: &str) -> Result<File> {
