@@ -174,9 +174,7 @@ impl Command {
             Command::BenchMap(a) => (one(&a.scenario), None),
         }
     }
-}
 
-impl Command {
     /// What an interrupt stops, for its message: `the map to m.csv`.
     pub fn describe(&self) -> String {
         match self.files().1 {
