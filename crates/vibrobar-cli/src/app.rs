@@ -4,6 +4,7 @@
 
 use anyhow::Result;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+use std::path::{Path, PathBuf};
 
 use crate::commands::{beam, bench, explore, map, merge, paper, run, sweep};
 
@@ -131,8 +132,106 @@ pub enum Command {
     BenchMap(crate::commands::map::BenchMapArgs),
 }
 
+impl Command {
+    /// The command's name, as typed.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Command::Sweep(_) => "sweep",
+            Command::Run(_) => "run",
+            Command::Paper(_) => "paper",
+            Command::Bench(_) => "bench",
+            Command::Beam(_) => "beam",
+            Command::Map(_) => "map",
+            Command::Merge(_) => "merge",
+            Command::Poincare(_) => "poincare",
+            Command::Bifurcation(_) => "bifurcation",
+            Command::Lyapunov(_) => "lyapunov",
+            Command::Ensemble(_) => "ensemble",
+            Command::BenchMap(_) => "bench-map",
+        }
+    }
+
+    /// The files the command reads (scenario, shards) and the output it is asked for.
+    pub fn files(&self) -> (Vec<&Path>, Option<&Path>) {
+        fn one(p: &Option<PathBuf>) -> Vec<&Path> {
+            p.iter().map(PathBuf::as_path).collect()
+        }
+        match self {
+            Command::Sweep(a) => (one(&a.model.scenario), Some(a.out.as_path())),
+            Command::Run(a) => (one(&a.model.scenario), Some(a.out.as_path())),
+            Command::Paper(a) => (vec![], Some(a.out.as_path())),
+            Command::Bench(a) => (one(&a.scenario), None),
+            Command::Beam(_) => (vec![], None),
+            Command::Map(a) => (one(&a.system.scenario), Some(a.out.as_path())),
+            Command::Merge(a) => (
+                a.shards.iter().map(PathBuf::as_path).collect(),
+                Some(a.out.as_path()),
+            ),
+            Command::Poincare(a) => (one(&a.point.system.scenario), Some(a.out.as_path())),
+            Command::Bifurcation(a) => (one(&a.system.scenario), Some(a.out.as_path())),
+            Command::Lyapunov(a) => (one(&a.point.system.scenario), None),
+            Command::Ensemble(a) => (one(&a.system.scenario), Some(a.out.as_path())),
+            Command::BenchMap(a) => (one(&a.scenario), None),
+        }
+    }
+
+    /// What an interrupt stops, for its message: `the map to m.csv`.
+    pub fn describe(&self) -> String {
+        match self.files().1 {
+            Some(out) => format!("the {} to {}", self.name(), out.display()),
+            None => format!("the {}", self.name()),
+        }
+    }
+}
+
+/// On SIGINT/SIGTERM, for every command: remove the partial files being written (no new one is
+/// started from then on), say what was interrupted and which journals are kept, exit 130.
+///
+/// The process exits at once rather than raising the batch runner's cancel flag and waiting for
+/// the runs in flight (which can each take minutes): every file it writes is either atomic
+/// (`NAME.partial`, removed here) or a journal, whose rows are each one `write` (a torn last row
+/// is dropped by `--resume`) and whose lock the kernel releases with the process. So an
+/// interrupted `map` or `sweep` resumes to the byte-identical result.
+pub fn install_interrupt_cleanup(what: String) {
+    // A second call in one process (tests) keeps the first handler.
+    let _ = ctrlc::set_handler(move || {
+        let removed = vibrobar_io::close_for_exit();
+        let kept = vibrobar_io::journal::close_for_exit();
+        let list = |v: &[PathBuf]| {
+            v.iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let mut msg = format!("interrupted: {what} was not completed");
+        if !removed.is_empty() {
+            msg += &format!("; removed {}", list(&removed));
+        }
+        if !kept.is_empty() {
+            msg += &format!("; kept {} (complete it with --resume)", list(&kept));
+        }
+        eprintln!("{msg}");
+        std::process::exit(130);
+    });
+}
+
+/// Before any command runs: its inputs become inputs of the process (no writer may replace them,
+/// [`vibrobar_io::register_input`]), and an output that is one of them is refused at once, not
+/// after the computation.
+fn preflight(cmd: &Command) -> Result<()> {
+    let (inputs, out) = cmd.files();
+    for p in &inputs {
+        vibrobar_io::register_input(p);
+    }
+    if let Some(out) = out {
+        vibrobar_io::refuse_input(out)?;
+    }
+    Ok(())
+}
+
 /// Run the parsed command line.
 pub fn dispatch(cli: Cli) -> Result<()> {
+    preflight(&cli.command)?;
     match cli.command {
         Command::Sweep(a) => sweep::sweep(&a),
         Command::Run(a) => run::run(&a),

@@ -5,6 +5,7 @@ use vibrobar_cli::app;
 fn main() -> std::process::ExitCode {
     die_quietly_on_broken_pipe();
     let cli = app::parse();
+    app::install_interrupt_cleanup(cli.command.describe());
     match app::dispatch(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {

@@ -275,8 +275,10 @@ impl Scenario {
         Ok(s)
     }
 
-    /// Read a scenario file.
+    /// Read a scenario file. It becomes an input of this process: no output may replace it
+    /// ([`vibrobar_io::register_input`]).
     pub fn load(path: &Path) -> Result<Self> {
+        vibrobar_io::register_input(path);
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read scenario file {}", path.display()))?;
         Self::from_toml(&text).with_context(|| format!("invalid scenario file {}", path.display()))

@@ -39,6 +39,24 @@ pub enum ParamError {
         /// Why the limit exists or how to get within it (may be empty).
         why: &'static str,
     },
+    /// A quantity derived from several inputs (a product, a quotient) outside a limit of
+    /// [`crate::limits`]. The inputs are shown as given: from huge inputs the quantity itself
+    /// overflows to inf, which would not say what was given.
+    #[error("{field} = {inputs}{} is outside the allowed range [{}, {}]{}", derived_value(*value), Compact(*min), Compact(*max), why_suffix(why))]
+    DerivedLimit {
+        /// The quantity and the flags it comes from.
+        field: &'static str,
+        /// The inputs as given, e.g. `3783.6 rad/s · 1e308 s`.
+        inputs: String,
+        /// The quantity (may be inf).
+        value: f64,
+        /// Smallest allowed value.
+        min: f64,
+        /// Largest allowed value.
+        max: f64,
+        /// Why the limit exists or how to get within it (may be empty).
+        why: &'static str,
+    },
     /// A fixed-step integration blew up although its step passed the stability check.
     #[error("{solver} diverged at t = {} s: |u| = {} m exceeds {} m; {field} = {} is too large for this system, lower it", Compact(*t_s), Compact(*u_m), Compact(*bound_m), Compact(*value))]
     Diverged {
@@ -74,9 +92,19 @@ impl ParamError {
             ParamError::NotFinite { field, .. }
             | ParamError::OutOfRange { field, .. }
             | ParamError::Limit { field, .. }
+            | ParamError::DerivedLimit { field, .. }
             | ParamError::Diverged { field, .. } => field,
             ParamError::NonFiniteResult { quantity, .. } => quantity,
         }
+    }
+}
+
+/// ` = value` when the value is finite (an overflow to inf says nothing the inputs do not).
+fn derived_value(value: f64) -> String {
+    if value.is_finite() {
+        format!(" = {}", Compact(value))
+    } else {
+        String::new()
     }
 }
 

@@ -25,7 +25,7 @@
 //! Not an error but a warning: `rk4` leaves the ball beyond the wall by up to one step's travel;
 //! past [`RK4_PENETRATION_WARN_FRACTION`] of the gap the CLI says so with the figure.
 
-use crate::error::ParamError;
+use crate::error::{Compact, ParamError};
 
 /// Most steps of a fixed-step run (`duration / dt`): about 90 s of `rk4` at 85 ns per step.
 pub const MAX_STEPS: f64 = 1e9;
@@ -111,6 +111,50 @@ pub fn check_count(
     check(field, n as f64, min as f64, max as f64, why).map(|_| n)
 }
 
+/// A quantity derived from inputs must lie in `[min, max]`; the error shows the inputs
+/// (`inputs()`, e.g. `"1e308 s / 1e-5 s"`) as given, not only the quantity (which overflows to
+/// inf for huge inputs).
+pub fn check_derived(
+    field: &'static str,
+    inputs: impl FnOnce() -> String,
+    value: f64,
+    min: f64,
+    max: f64,
+    why: &'static str,
+) -> Result<f64, ParamError> {
+    if value >= min && value <= max {
+        Ok(value)
+    } else {
+        Err(ParamError::DerivedLimit {
+            field,
+            inputs: inputs(),
+            value,
+            min,
+            max,
+            why,
+        })
+    }
+}
+
+/// A derived input for a message: 4 significant digits, compact (`9.999999999999999e-6` of
+/// `10 · 1e-6` prints as `1e-5`).
+fn short(x: f64) -> Compact {
+    Compact(format!("{x:.3e}").parse().unwrap_or(x))
+}
+
+/// The phase `rate·t` of a run reaching time `t_s` (largest `|t|` of the run) at the fastest
+/// rate `rate_rad_s = max(Ω, ω_n)` must stay within [`MAX_PHASE_RAD`].
+pub fn check_phase(rate_rad_s: f64, t_s: f64) -> Result<f64, ParamError> {
+    check_derived(
+        "phase max(Ω, ω_n)·t_end in rad (duration_s, --duration)",
+        || format!("{} rad/s · {} s", short(rate_rad_s), Compact(t_s)),
+        rate_rad_s * t_s,
+        0.0,
+        MAX_PHASE_RAD,
+        "beyond it sin(Ωt) loses its phase: shorten the run or lower the frequency",
+    )
+}
+
 /// Number of samples `⌊duration/interval⌋ + 1` of a grid `0, interval, …` over `duration`,
 /// checked against [`MAX_SAMPLES`] before anything is sampled. `field` names what sets the
 /// interval.
@@ -120,8 +164,9 @@ pub fn check_samples(
     interval_s: f64,
 ) -> Result<u64, ParamError> {
     let n = (duration_s / interval_s + 1e-9).floor() + 1.0;
-    check(
+    check_derived(
         field,
+        || format!("{} s / {} s", Compact(duration_s), short(interval_s)),
         n,
         1.0,
         MAX_SAMPLES,
@@ -217,6 +262,24 @@ mod tests {
         assert_eq!(check_samples("s", 2.0, 1e-5).unwrap(), 200_001);
         assert!(check_samples("s", 2.0, 1e-320).is_err());
         assert!(finite_result("RMS", f64::NAN, "c").is_err());
+        // `--duration 1e308` was reported as `= inf`: the value given is shown, compactly.
+        let e = check_samples("rows", 1e308, 1e-5).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "rows = 1e308 s / 1e-5 s is outside the allowed range [1, 1e7] (samples kept in \
+             memory; sample less often or run shorter)"
+        );
+        let e = check_phase(3783.5, 1e308).unwrap_err().to_string();
+        assert!(
+            e.contains("= 3784 rad/s · 1e308 s is outside the allowed range [0, 1e10]"),
+            "{e}"
+        );
+        assert!(!e.contains("inf"), "{e}");
+        let e = check_phase(3783.5, 1e7).unwrap_err().to_string();
+        assert!(
+            e.contains("3784 rad/s · 1e7 s = 3.7835e10 is outside"),
+            "{e}"
+        );
         assert_eq!(excessive_penetration(3.6e-7, 1e-4), None);
         assert!(excessive_penetration(1.3e-4, 1e-4).unwrap() > 1.0);
     }

@@ -29,15 +29,41 @@ pub fn ensure_parent(path: &Path) -> Result<()> {
     }
 }
 
-/// Partial files being written by this process, so that a signal handler can remove them.
-static LIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+/// Partial files being written by this process, so that a signal handler can remove them; and
+/// whether the process is closing (after which no new partial file is started).
+struct Live {
+    partials: Vec<PathBuf>,
+    closing: bool,
+}
 
-fn live() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+static LIVE: Mutex<Live> = Mutex::new(Live {
+    partials: Vec::new(),
+    closing: false,
+});
+
+fn live() -> std::sync::MutexGuard<'static, Live> {
     LIVE.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-fn forget(partial: &Path) {
-    live().retain(|p| p != partial);
+/// Create the partial file `partial` and register it, in one step under the registry's lock,
+/// so that [`close_for_exit`] sees every partial file that exists. Once the process is closing,
+/// the calling thread waits for the exit instead (no partial file appears after the cleanup).
+pub(crate) fn create_tracked(partial: &Path) -> Result<File> {
+    let mut g = live();
+    if g.closing {
+        drop(g);
+        loop {
+            std::thread::park();
+        }
+    }
+    let f = File::create(partial).map_err(IoError::os(partial))?;
+    g.partials.push(partial.to_path_buf());
+    Ok(f)
+}
+
+/// Forget a partial file that was renamed into place or removed.
+pub(crate) fn forget(partial: &Path) {
+    live().partials.retain(|p| p != partial);
 }
 
 /// Remove every partial file this process is writing and return their names; for a
@@ -46,10 +72,26 @@ pub fn remove_live_partials() -> Vec<PathBuf> {
     remove_live_partials_if(|_| true)
 }
 
+/// Register a temporary file that a library writes itself (e.g. a bitmap encoder, before
+/// [`publish`]), so that an interrupt removes it like a partial file. [`publish`] forgets it.
+pub fn track_partial(tmp: &Path) {
+    let mut g = live();
+    if !g.partials.iter().any(|p| p == tmp) {
+        g.partials.push(tmp.to_path_buf());
+    }
+}
+
+/// For a SIGINT/SIGTERM handler about to exit: from now on no partial file is started (a thread
+/// that tries waits for the exit), and every partial file is removed; returns their names.
+pub fn close_for_exit() -> Vec<PathBuf> {
+    live().closing = true;
+    remove_live_partials()
+}
+
 fn remove_live_partials_if(pick: impl Fn(&Path) -> bool) -> Vec<PathBuf> {
     let mut g = live();
-    let (gone, keep): (Vec<PathBuf>, Vec<PathBuf>) = g.drain(..).partition(|p| pick(p));
-    *g = keep;
+    let (gone, keep): (Vec<PathBuf>, Vec<PathBuf>) = g.partials.drain(..).partition(|p| pick(p));
+    g.partials = keep;
     gone.into_iter()
         .filter(|p| fs::remove_file(p).is_ok())
         .collect()
@@ -81,8 +123,7 @@ impl AtomicFile {
         }
         ensure_parent(&output.target)?;
         let partial = partial_path(&output.target);
-        let f = File::create(&partial).map_err(IoError::os(&partial))?;
-        live().push(partial.clone());
+        let f = create_tracked(&partial)?;
         Ok(AtomicFile {
             output,
             partial: Some(partial),
@@ -156,6 +197,7 @@ impl Write for AtomicFile {
 /// over a regular file or a link's target, copied through into a device or FIFO. `tmp` is gone
 /// afterwards, also on failure.
 pub fn publish(tmp: &Path, path: &Path) -> Result<()> {
+    forget(tmp);
     let res = (|| {
         let output = resolve_output(path)?;
         if output.is_regular() {
@@ -276,5 +318,21 @@ mod tests {
         assert!(removed.contains(&partial_path(&p)), "{removed:?}");
         assert!(!partial_path(&p).exists());
         drop(f);
+    }
+
+    #[test]
+    fn tracked_temporaries_are_removed_on_request_and_forgotten_when_published() {
+        let dir = tempfile::tempdir().unwrap();
+        let tmp = dir.path().join("fig.partial.png");
+        track_partial(&tmp);
+        fs::write(&tmp, b"png").unwrap();
+        let removed = remove_live_partials_if(|q| q.starts_with(dir.path()));
+        assert_eq!(removed, vec![tmp.clone()]);
+        assert!(!tmp.exists());
+        track_partial(&tmp);
+        fs::write(&tmp, b"png").unwrap();
+        publish(&tmp, &dir.path().join("fig.png")).unwrap();
+        assert!(remove_live_partials_if(|q| q.starts_with(dir.path())).is_empty());
+        assert_eq!(fs::read(dir.path().join("fig.png")).unwrap(), b"png");
     }
 }

@@ -159,6 +159,37 @@ impl Schema {
         s
     }
 
+    /// Check a row before it is written: one value per column, of the column's kind, every
+    /// number finite, empty only where the column allows it. The error names the column.
+    pub fn check(&self, values: &[Value]) -> std::result::Result<(), String> {
+        if values.len() != self.columns.len() {
+            return Err(format!(
+                "{} fields, the header has {}",
+                values.len(),
+                self.columns.len()
+            ));
+        }
+        for (c, v) in self.columns.iter().zip(values) {
+            let name = &c.name;
+            match (c.format, v) {
+                (_, Value::Empty) if c.optional => {}
+                (_, Value::Empty) => return Err(format!("{name} may not be empty")),
+                (Format::Text, Value::S(s)) if s.contains([',', '\n']) => {
+                    return Err(format!("{name} = {s:?} holds a comma or a newline"))
+                }
+                (Format::Text, Value::S(_)) | (Format::Count, Value::U(_)) => {}
+                (Format::Text | Format::Count, _) | (_, Value::S(_) | Value::U(_)) => {
+                    return Err(format!("{name}: {v:?} does not fit {:?}", c.format))
+                }
+                (_, Value::F(x)) if !x.is_finite() => {
+                    return Err(format!("{name} = {x} is not a finite number"))
+                }
+                (_, Value::F(_)) => {}
+            }
+        }
+        Ok(())
+    }
+
     /// Read one row back. The error says which column is wrong; callers add file and line.
     pub fn parse(&self, line: &str) -> std::result::Result<Vec<Value>, String> {
         let fields: Vec<&str> = line.split(',').collect();
@@ -289,16 +320,9 @@ pub fn sweep_csv_line(r: &SweepCsvRow) -> String {
     sweep_schema().format(&r.values())
 }
 
-/// Write a sweep CSV.
+/// Write a sweep CSV (rows checked by [`write_csv`]).
 pub fn write_sweep_csv(path: &Path, rows: &[SweepCsvRow]) -> Result<()> {
-    let schema = sweep_schema();
-    write_with(path, |w| {
-        writeln!(w, "{}", schema.header())?;
-        for r in rows {
-            writeln!(w, "{}", schema.format(&r.values()))?;
-        }
-        Ok(())
-    })
+    write_csv(path, &sweep_schema(), rows.iter().map(SweepCsvRow::values))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -319,20 +343,14 @@ pub fn history_values(s: &State) -> [f64; 7] {
     [s.t_s, s.u_m, s.du_m_s, s.v_m, s.dv_m_s, s.w_m(), s.dw_m_s()]
 }
 
-/// Write a time-history CSV (small histories; `run` streams through [`crate::history`]).
+/// Write a time-history CSV (small histories, rows checked by [`write_csv`]; `run` streams
+/// through [`crate::history`]).
 pub fn write_history_csv(path: &Path, samples: &[State]) -> Result<()> {
-    let schema = history_schema();
-    write_with(path, |w| {
-        writeln!(w, "{}", schema.header())?;
-        let mut line = String::with_capacity(128);
-        for s in samples {
-            line.clear();
-            schema.format_into(&history_values(s).map(Value::F), &mut line);
-            line.push('\n');
-            w.write_all(line.as_bytes())?;
-        }
-        Ok(())
-    })
+    write_csv(
+        path,
+        &history_schema(),
+        samples.iter().map(|s| history_values(s).map(Value::F)),
+    )
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -555,6 +573,306 @@ pub fn optimum_csv(extra: &[Axis], o: &Optimum, energy: &[Option<(f64, f64)>]) -
 }
 
 // ---------------------------------------------------------------------------------------------
+// Poincaré section, bifurcation diagram, ensembles
+
+/// Regime counts as one text field: `regime:count` joined by `;` (no commas).
+pub fn regime_counts(regimes: &[(Regime, usize)]) -> String {
+    regimes
+        .iter()
+        .map(|(r, n)| format!("{r}:{n}"))
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+/// Columns of a Poincaré section (`poincare`): the state at each stroboscopic instant.
+pub fn poincare_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("t_s", Format::Plain),
+            col("u_m", Format::Sci),
+            col("du_m_s", Format::Sci),
+            col("w_m", Format::Sci),
+            col("dw_m_s", Format::Sci),
+        ],
+    }
+}
+
+/// The fields of one Poincaré point, in column order (the NPY form has the same columns).
+pub fn poincare_values(s: &State) -> [f64; 5] {
+    [s.t_s, s.u_m, s.du_m_s, s.w_m(), s.dw_m_s()]
+}
+
+/// The swept parameter's column of a bifurcation diagram (`ratio` or `gap_mm`), as the user
+/// wrote it (12 significant digits).
+fn param_col(param: &'static str) -> Column {
+    col(param, Format::Coord)
+}
+
+/// Columns of a bifurcation diagram (`bifurcation`): `PARAM,t_s,u_m,du_m_s`, `PARAM` being
+/// `ratio` or `gap_mm`.
+pub fn bifurcation_schema(param: &'static str) -> Schema {
+    Schema {
+        columns: vec![
+            param_col(param),
+            col("t_s", Format::Plain),
+            col("u_m", Format::Sci),
+            col("du_m_s", Format::Sci),
+        ],
+    }
+}
+
+/// Columns of the impacts of a bifurcation diagram (`FILE.impacts.csv`):
+/// `PARAM,t_s,wall,dw_m_s` (`wall` = `plus` or `minus`, `dw_m_s` the pre-impact ẇ).
+pub fn bifurcation_impacts_schema(param: &'static str) -> Schema {
+    Schema {
+        columns: vec![
+            param_col(param),
+            col("t_s", Format::Plain),
+            col("wall", Format::Text),
+            col("dw_m_s", Format::Sci),
+        ],
+    }
+}
+
+/// One row of an ensemble CSV (`ensemble`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnsembleCsvRow {
+    /// Frequency ratio.
+    pub ratio: f64,
+    /// Gap in mm.
+    pub gap_mm: f64,
+    /// Members run.
+    pub members: u64,
+    /// Mean, standard deviation, smallest and largest damped RMS over the members, m.
+    pub rms_m: [f64; 4],
+    /// `regime:count` joined by `;` ([`regime_counts`]).
+    pub regimes: String,
+}
+
+/// Columns of an ensemble CSV.
+pub fn ensemble_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("ratio", Format::Coord),
+            col("gap_mm", Format::Coord),
+            col("members", Format::Count),
+            col("mean_rms_m", Format::Sci),
+            col("std_rms_m", Format::Sci),
+            col("min_rms_m", Format::Sci),
+            col("max_rms_m", Format::Sci),
+            col("regimes", Format::Text),
+        ],
+    }
+}
+
+impl EnsembleCsvRow {
+    /// The fields in column order.
+    pub fn values(&self) -> Vec<Value> {
+        let mut v = vec![
+            Value::F(self.ratio),
+            Value::F(self.gap_mm),
+            Value::U(self.members),
+        ];
+        v.extend(self.rms_m.iter().map(|x| Value::F(*x)));
+        v.push(Value::S(self.regimes.clone()));
+        v
+    }
+
+    /// A row read back by [`ensemble_schema`].
+    pub fn from_values(v: &[Value]) -> Self {
+        EnsembleCsvRow {
+            ratio: v[0].f(),
+            gap_mm: v[1].f(),
+            members: v[2].f() as u64,
+            rms_m: [v[3].f(), v[4].f(), v[5].f(), v[6].f()],
+            regimes: v[7].s().to_string(),
+        }
+    }
+}
+
+/// One row of the paper's initial-condition ensemble (`ic_ensemble.csv`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct IcEnsembleCsvRow {
+    /// Parameter set (variant key).
+    pub set: String,
+    /// Friction model name (empty when the set is unknown).
+    pub friction: String,
+    /// Friction force override in N (`None`: the stated η/r·m_d·g).
+    pub friction_force_n: Option<f64>,
+    /// Gap in mm.
+    pub gap_mm: f64,
+    /// Frequency ratio.
+    pub ratio: f64,
+    /// Solver name.
+    pub solver: String,
+    /// Seed.
+    pub seed: u64,
+    /// Members.
+    pub members: u64,
+    /// RMS of the run from the paper's start, m.
+    pub rms_rest_m: f64,
+    /// Impacts per cycle of that run.
+    pub impacts_per_cycle_rest: f64,
+    /// Mean and standard deviation of the members' RMS, m.
+    pub mean_rms_m: f64,
+    /// Standard deviation.
+    pub std_rms_m: f64,
+    /// `std/mean`.
+    pub rel_spread: f64,
+    /// `mean/rest − 1`.
+    pub mean_vs_rest: f64,
+    /// Smallest member RMS, m.
+    pub min_rms_m: f64,
+    /// Largest member RMS, m.
+    pub max_rms_m: f64,
+    /// Members with at least one impact in the RMS window.
+    pub impacting_members: u64,
+    /// Their fraction.
+    pub impacting_fraction: f64,
+    /// `regime:count` joined by `;` ([`regime_counts`]).
+    pub regimes: String,
+}
+
+/// Columns of `ic_ensemble.csv`.
+pub fn ic_ensemble_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("set", Format::Text),
+            opt("friction", Format::Text),
+            opt("friction_force_n", Format::Plain),
+            col("gap_mm", Format::Grid),
+            col("ratio", Format::Grid),
+            col("solver", Format::Text),
+            col("seed", Format::Count),
+            col("members", Format::Count),
+            col("rms_rest_m", Format::Sci),
+            col("impacts_per_cycle_rest", Format::Sci),
+            col("mean_rms_m", Format::Sci),
+            col("std_rms_m", Format::Sci),
+            col("rel_spread", Format::Sci),
+            col("mean_vs_rest", Format::Sci),
+            col("min_rms_m", Format::Sci),
+            col("max_rms_m", Format::Sci),
+            col("impacting_members", Format::Count),
+            col("impacting_fraction", Format::Plain),
+            col("regimes", Format::Text),
+        ],
+    }
+}
+
+impl IcEnsembleCsvRow {
+    /// The fields in column order.
+    pub fn values(&self) -> Vec<Value> {
+        vec![
+            Value::S(self.set.clone()),
+            if self.friction.is_empty() {
+                Value::Empty
+            } else {
+                Value::S(self.friction.clone())
+            },
+            self.friction_force_n.map_or(Value::Empty, Value::F),
+            Value::F(self.gap_mm),
+            Value::F(self.ratio),
+            Value::S(self.solver.clone()),
+            Value::U(self.seed),
+            Value::U(self.members),
+            Value::F(self.rms_rest_m),
+            Value::F(self.impacts_per_cycle_rest),
+            Value::F(self.mean_rms_m),
+            Value::F(self.std_rms_m),
+            Value::F(self.rel_spread),
+            Value::F(self.mean_vs_rest),
+            Value::F(self.min_rms_m),
+            Value::F(self.max_rms_m),
+            Value::U(self.impacting_members),
+            Value::F(self.impacting_fraction),
+            Value::S(self.regimes.clone()),
+        ]
+    }
+
+    /// A row read back by [`ic_ensemble_schema`].
+    pub fn from_values(v: &[Value]) -> Self {
+        let opt_f = |x: &Value| match x {
+            Value::Empty => None,
+            x => Some(x.f()),
+        };
+        IcEnsembleCsvRow {
+            set: v[0].s().into(),
+            friction: v[1].s().into(),
+            friction_force_n: opt_f(&v[2]),
+            gap_mm: v[3].f(),
+            ratio: v[4].f(),
+            solver: v[5].s().into(),
+            seed: v[6].f() as u64,
+            members: v[7].f() as u64,
+            rms_rest_m: v[8].f(),
+            impacts_per_cycle_rest: v[9].f(),
+            mean_rms_m: v[10].f(),
+            std_rms_m: v[11].f(),
+            rel_spread: v[12].f(),
+            mean_vs_rest: v[13].f(),
+            min_rms_m: v[14].f(),
+            max_rms_m: v[15].f(),
+            impacting_members: v[16].f() as u64,
+            impacting_fraction: v[17].f(),
+            regimes: v[18].s().into(),
+        }
+    }
+}
+
+/// Write a CSV of `schema` from its rows' fields, atomically. Every row is checked as it will
+/// be read back ([`Schema::check`]): a NaN or inf stops the write and nothing is left.
+pub fn write_csv<I>(path: &Path, schema: &Schema, rows: I) -> Result<()>
+where
+    I: IntoIterator,
+    I::Item: AsRef<[Value]>,
+{
+    let mut bad: Option<(usize, String)> = None;
+    let res = write_with(path, |w| {
+        writeln!(w, "{}", schema.header())?;
+        let mut line = String::with_capacity(128);
+        for (i, r) in rows.into_iter().enumerate() {
+            if let Err(why) = schema.check(r.as_ref()) {
+                bad = Some((i + 2, why));
+                return Err(std::io::Error::other("row refused"));
+            }
+            line.clear();
+            schema.format_into(r.as_ref(), &mut line);
+            line.push('\n');
+            w.write_all(line.as_bytes())?;
+        }
+        Ok(())
+    });
+    match bad {
+        Some((line, why)) => Err(IoError::BadFileRow {
+            path: path.to_path_buf(),
+            line,
+            why,
+        }),
+        None => res,
+    }
+}
+
+/// Read a whole CSV of `schema`: the header must be the schema's, and every row is parsed by
+/// it (field count, numbers, finiteness), errors naming the file and line.
+pub fn read_csv(path: &Path, schema: &Schema) -> Result<Vec<Vec<Value>>> {
+    let text = std::fs::read_to_string(path).map_err(IoError::os(path))?;
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or("");
+    if header != schema.header() {
+        return Err(IoError::Corrupt {
+            path: path.to_path_buf(),
+            line: 1,
+            why: format!("header {header:?}, expected {:?}", schema.header()),
+        });
+    }
+    lines
+        .enumerate()
+        .map(|(i, l)| schema.parse_at(l, path, i + 2))
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------------
 // whole files
 
 /// Write any serializable value as pretty JSON.
@@ -675,5 +993,129 @@ mod tests {
             let e = s.parse(line).unwrap_err();
             assert!(e.contains(want), "{line}: {e}");
         }
+    }
+
+    /// B3: the CSVs of poincare, bifurcation, ensemble and the paper's ic_ensemble.csv were
+    /// formatted by hand beside their readers. Each is now a schema: the text is the one the
+    /// hand-written `format!` gave (pinned here), and it reads back through the same schema.
+    #[test]
+    fn regression_explore_and_ic_ensemble_csvs_are_schemas_with_the_old_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let st = State {
+            t_s: 0.041_514_264_706_963_74,
+            u_m: -1.646_769_290_061_605e-5,
+            du_m_s: -8.774_971_969_108_059e-2,
+            v_m: -1.2e-6,
+            dv_m_s: -0.165,
+        };
+        let p = poincare_values(&st);
+        assert_eq!(
+            poincare_schema().format(&p.map(Value::F)),
+            format!("{},{:e},{:e},{:e},{:e}", p[0], p[1], p[2], p[3], p[4])
+        );
+        assert_eq!(poincare_schema().header(), "t_s,u_m,du_m_s,w_m,dw_m_s");
+        let b = [
+            Value::F(0.95 + 0.01),
+            Value::F(0.25),
+            Value::F(-4.5e-5),
+            Value::F(2.7e-3),
+        ];
+        assert_eq!(
+            bifurcation_schema("ratio").format(&b),
+            format!(
+                "{},{},{:e},{:e}",
+                fmt_coord(0.95 + 0.01),
+                0.25,
+                -4.5e-5,
+                2.7e-3
+            )
+        );
+        assert_eq!(
+            bifurcation_schema("gap_mm").header(),
+            "gap_mm,t_s,u_m,du_m_s"
+        );
+        assert_eq!(
+            bifurcation_impacts_schema("gap_mm").header(),
+            "gap_mm,t_s,wall,dw_m_s"
+        );
+        let e = EnsembleCsvRow {
+            ratio: 0.98,
+            gap_mm: 0.1,
+            members: 3,
+            rms_m: [1.3e-5, 3.2e-6, 1.06e-5, 1.7e-5],
+            regimes: regime_counts(&[(Regime::Chaotic, 2), (Regime::None, 1)]),
+        };
+        assert_eq!(
+            ensemble_schema().format(&e.values()),
+            "0.98,0.1,3,1.3e-5,3.2e-6,1.06e-5,1.7e-5,chaotic:2;none:1"
+        );
+        let path = dir.path().join("e.csv");
+        write_csv(&path, &ensemble_schema(), [e.values()]).unwrap();
+        let back = read_csv(&path, &ensemble_schema()).unwrap();
+        assert_eq!(EnsembleCsvRow::from_values(&back[0]), e);
+        let ic = IcEnsembleCsvRow {
+            set: "frictionless".into(),
+            friction: "none".into(),
+            friction_force_n: None,
+            gap_mm: 0.1,
+            ratio: 0.95,
+            solver: "exact".into(),
+            seed: 1,
+            members: 4,
+            rms_rest_m: 1.16e-5,
+            impacts_per_cycle_rest: 0.0,
+            mean_rms_m: 1.04e-5,
+            std_rms_m: 3.6e-7,
+            rel_spread: 3.5e-2,
+            mean_vs_rest: -0.1,
+            min_rms_m: 9.9e-6,
+            max_rms_m: 1.07e-5,
+            impacting_members: 4,
+            impacting_fraction: 1.0,
+            regimes: "chaotic:4".into(),
+        };
+        assert_eq!(
+            ic_ensemble_schema().format(&ic.values()),
+            "frictionless,none,,0.1,0.95,exact,1,4,1.16e-5,0e0,1.04e-5,3.6e-7,3.5e-2,-1e-1,\
+             9.9e-6,1.07e-5,4,1,chaotic:4"
+        );
+        let path = dir.path().join("ic.csv");
+        let with_force = IcEnsembleCsvRow {
+            friction_force_n: Some(20.0),
+            ..ic.clone()
+        };
+        write_csv(
+            &path,
+            &ic_ensemble_schema(),
+            [ic.values(), with_force.values()],
+        )
+        .unwrap();
+        let back = read_csv(&path, &ic_ensemble_schema()).unwrap();
+        assert_eq!(IcEnsembleCsvRow::from_values(&back[0]), ic);
+        assert_eq!(IcEnsembleCsvRow::from_values(&back[1]), with_force);
+    }
+
+    #[test]
+    fn regression_schema_writer_refuses_nan_and_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.csv");
+        let row = |x: f64| {
+            vec![
+                Value::F(0.1),
+                Value::F(x),
+                Value::F(0.0),
+                Value::F(0.0),
+                Value::F(0.0),
+            ]
+        };
+        let e = write_csv(&path, &poincare_schema(), [row(1.0), row(f64::NAN)])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 3") && e.contains("u_m = NaN"), "{e}");
+        assert!(!path.exists() && !partial_path(&path).exists());
+        // A damaged file is refused by the same schema, with its line.
+        std::fs::write(&path, "t_s,u_m,du_m_s,w_m,dw_m_s\n0.1,1e-5,0,0\n").unwrap();
+        let e = read_csv(&path, &poincare_schema()).unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("4 fields"), "{e}");
     }
 }

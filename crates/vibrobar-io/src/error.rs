@@ -23,7 +23,7 @@ pub enum IoError {
         why: String,
     },
     /// An output is also one of the command's inputs.
-    #[error("--out {} is also an input ({}); writing it would destroy the input: choose another output", out.display(), input.display())]
+    #[error("output {} is also an input ({}); writing it would destroy the input: choose another --out", out.display(), input.display())]
     OutputIsInput {
         /// Output as given.
         out: PathBuf,
@@ -60,6 +60,16 @@ pub enum IoError {
         /// File.
         path: PathBuf,
         /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        why: String,
+    },
+    /// A row of a whole file does not fit its schema (e.g. a NaN): the file is not written.
+    #[error("{}: line {line} would not read back ({why}); the file was not written", path.display())]
+    BadFileRow {
+        /// Output file.
+        path: PathBuf,
+        /// 1-based line number the row would have had.
         line: usize,
         /// What is wrong.
         why: String,

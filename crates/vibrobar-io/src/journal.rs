@@ -3,7 +3,8 @@
 //! Rows are appended to `FILE.journal` as they finish (any order, one `write` call per row, so
 //! a kill leaves at most one torn last line). The journal starts with a fingerprint of the job;
 //! `--resume` accepts only a journal of the same job, drops a torn last line, and runs only the
-//! missing grid indices. When every row is in, the rows are written sorted by grid index to
+//! missing grid indices. A new journal is created with its first row, so a job refused or
+//! stopped before any row is done leaves no journal behind. When every row is in, the rows are written sorted by grid index to
 //! `FILE` (atomically, via `FILE.partial`) and the journal is removed. So the final file is
 //! byte-identical whether or not the run was interrupted, and no file that looks complete is
 //! ever half written.
@@ -41,20 +42,66 @@ pub struct Journal {
     journal: PathBuf,
     schema: Schema,
     expected: Vec<usize>,
-    rows: Mutex<(File, BTreeMap<usize, String>)>,
+    /// The journal file (`None` until the first row of a new journal) and the rows done.
+    rows: Mutex<(Option<File>, BTreeMap<usize, String>)>,
+    /// Preamble of a journal not yet created.
+    preamble: String,
+    _open: Registered,
     _lock: LockFile,
+}
+
+/// Journals open in this process, for an interrupt handler to name ([`open_journals`]).
+static OPEN: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Membership of [`OPEN`] for as long as a [`Journal`] lives.
+struct Registered(PathBuf);
+
+impl Registered {
+    fn new(journal: &Path) -> Self {
+        OPEN.lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push(journal.to_path_buf());
+        Registered(journal.to_path_buf())
+    }
+}
+
+impl Drop for Registered {
+    fn drop(&mut self) {
+        OPEN.lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .retain(|p| p != &self.0);
+    }
+}
+
+/// Journals this process has open that exist on disk (an interrupted job keeps them for
+/// `--resume`).
+pub fn open_journals() -> Vec<PathBuf> {
+    let g = OPEN.lock().unwrap_or_else(|p| p.into_inner());
+    g.iter().filter(|p| p.exists()).cloned().collect()
+}
+
+/// For a SIGINT/SIGTERM handler about to exit: remove the lock files of the open journals (this
+/// process holds their locks; the kernel releases them with it, and a later holder would only
+/// overwrite them) and return the journals kept for `--resume`.
+pub fn close_for_exit() -> Vec<PathBuf> {
+    let g = OPEN.lock().unwrap_or_else(|p| p.into_inner());
+    for j in g.iter() {
+        let _ = fs::remove_file(crate::lock::lock_path(j));
+    }
+    g.iter().filter(|p| p.exists()).cloned().collect()
 }
 
 /// Write the preamble to `journal.partial` and rename it into place, so that a journal exists
 /// only with a whole preamble (a full disk leaves no empty journal that looks like progress).
 fn create_journal(journal: &Path, preamble: &str) -> Result<File> {
     let partial = partial_path(journal);
+    let mut f = crate::atomic::create_tracked(&partial)?;
     let res = (|| -> std::io::Result<()> {
-        let mut f = File::create(&partial)?;
         f.write_all(preamble.as_bytes())?;
         f.sync_all()?;
         fs::rename(&partial, journal)
     })();
+    crate::atomic::forget(&partial);
     if let Err(e) = res {
         let _ = fs::remove_file(&partial);
         return Err(IoError::os(journal)(e));
@@ -88,6 +135,7 @@ impl Journal {
         let first = format!("{MAGIC} fingerprint={fingerprint}\n");
         let second = format!("index,{header}\n");
         let mut done = BTreeMap::new();
+        let preamble = format!("{first}{second}");
         let file = if journal.exists() {
             if !resume {
                 return Err(IoError::JournalExists { journal });
@@ -97,7 +145,7 @@ impl Journal {
                 &text, &journal, &first, &second, schema, expected, key, &mut done,
             )?;
             if good == 0 {
-                create_journal(&journal, &format!("{first}{second}"))?
+                Some(create_journal(&journal, &preamble)?)
             } else {
                 let f = OpenOptions::new()
                     .write(true)
@@ -105,23 +153,28 @@ impl Journal {
                     .map_err(IoError::os(&journal))?;
                 // Drop a torn last line so appends start on a clean line.
                 f.set_len(good as u64).map_err(IoError::os(&journal))?;
-                OpenOptions::new()
-                    .append(true)
-                    .open(&journal)
-                    .map_err(IoError::os(&journal))?
+                Some(
+                    OpenOptions::new()
+                        .append(true)
+                        .open(&journal)
+                        .map_err(IoError::os(&journal))?,
+                )
             }
         } else {
-            create_journal(&journal, &format!("{first}{second}"))?
+            // Created with the first row ([`Journal::append`]).
+            None
         };
         let mut expected = expected.to_vec();
         expected.sort_unstable();
         expected.dedup();
         Ok(Journal {
             out: out.to_path_buf(),
+            _open: Registered::new(&journal),
             journal,
             schema: schema.clone(),
             expected,
             rows: Mutex::new((file, done)),
+            preamble,
             _lock: lock,
         })
     }
@@ -154,7 +207,12 @@ impl Journal {
         }
         let line = format!("{index},{row}\n");
         let mut g = self.rows.lock().expect("journal lock");
-        g.0.write_all(line.as_bytes())
+        if g.0.is_none() {
+            g.0 = Some(create_journal(&self.journal, &self.preamble)?);
+        }
+        g.0.as_mut()
+            .expect("journal created")
+            .write_all(line.as_bytes())
             .map_err(IoError::os(&self.journal))?;
         g.1.insert(index, row.to_string());
         Ok(())
@@ -176,9 +234,13 @@ impl Journal {
             expected,
             rows,
             _lock,
+            _open,
+            ..
         } = self;
         let (file, rows) = rows.into_inner().expect("journal lock");
-        file.sync_all().map_err(IoError::os(&journal))?;
+        if let Some(file) = &file {
+            file.sync_all().map_err(IoError::os(&journal))?;
+        }
         let missing = expected.iter().filter(|i| !rows.contains_key(i)).count();
         if missing > 0 {
             return Err(IoError::Incomplete {
@@ -195,7 +257,9 @@ impl Journal {
             text.push('\n');
         }
         write_atomic(&out, text.as_bytes())?;
-        fs::remove_file(&journal).map_err(IoError::os(&journal))?;
+        if file.is_some() {
+            fs::remove_file(&journal).map_err(IoError::os(&journal))?;
+        }
         drop(_lock);
         Ok(out)
     }

@@ -22,10 +22,12 @@ pub mod shard;
 pub mod target;
 
 pub use atomic::{
-    ensure_parent, partial_path, publish, remove_live_partials, write_atomic, write_with,
-    AtomicFile,
+    close_for_exit, ensure_parent, partial_path, publish, remove_live_partials, track_partial,
+    write_atomic, write_with, AtomicFile,
 };
 pub use error::IoError;
 pub use journal::Journal;
 pub use meta::{GridInfo, Metadata, ShardInfo};
-pub use target::{check_not_input, resolve_output, Output, OutputKind};
+pub use target::{
+    check_not_input, refuse_input, register_input, resolve_output, Output, OutputKind,
+};

@@ -129,3 +129,78 @@ impl<S> SweepParams<S> {
         Some(crate::csv::sweep_key(ratio, gap_m * 1e3))
     }
 }
+
+/// Parameters of one design point (`lyapunov`, and the base of [`PoincareParams`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PointParams {
+    /// The system.
+    #[serde(flatten)]
+    pub system: SystemParams,
+    /// Frequency ratio of the point.
+    pub ratio: f64,
+    /// Gap of the point in m.
+    pub gap_m: f64,
+}
+
+/// Parameters of a Poincaré section (`kind = "poincare"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PoincareParams {
+    /// The point.
+    #[serde(flatten)]
+    pub point: PointParams,
+    /// Forcing phase Ωt of the section, rad.
+    pub phase_rad: f64,
+    /// Discarded time at the start, s.
+    pub transient_s: f64,
+}
+
+/// Parameters of a bifurcation diagram (`kind = "bifurcation"` and `"bifurcation-impacts"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BifurcationParams {
+    /// The system.
+    #[serde(flatten)]
+    pub system: SystemParams,
+    /// Swept parameter's column (`ratio` or `gap_mm`).
+    pub param: String,
+    /// Its values as given (mm for gaps).
+    pub values: Vec<f64>,
+    /// Fixed ratio (when sweeping the gap).
+    pub fixed_ratio: Option<f64>,
+    /// Fixed gap in m (when sweeping the ratio).
+    pub fixed_gap_m: Option<f64>,
+    /// Forcing phase of the section, rad.
+    pub phase_rad: f64,
+    /// Discarded time at the start of each run, s.
+    pub transient_s: f64,
+}
+
+/// Half ranges of an ensemble's initial conditions (uniform in ±).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct IcHalfRanges {
+    /// Bar displacement, m.
+    pub u_m: f64,
+    /// Bar velocity, m/s.
+    pub du_m_s: f64,
+    /// Relative velocity ẇ, m/s.
+    pub dw_m_s: f64,
+    /// Ball position over half the gap (1: the whole cavity).
+    pub w_over_half_gap: f64,
+}
+
+/// Parameters of an initial-condition ensemble (`kind = "ensemble"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EnsembleFileParams {
+    /// The system.
+    #[serde(flatten)]
+    pub system: SystemParams,
+    /// Ratios of the grid.
+    pub ratios: Vec<f64>,
+    /// Gaps of the grid in m.
+    pub gaps_m: Vec<f64>,
+    /// Members per point.
+    pub members: usize,
+    /// Seed.
+    pub seed: u64,
+    /// Ranges of the initial conditions.
+    pub ic_half_ranges: IcHalfRanges,
+}

@@ -83,6 +83,9 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize> {
     }
     let metas: Vec<PathBuf> = inputs.iter().map(|p| meta_path(p)).collect();
     let all: Vec<&Path> = inputs.iter().chain(&metas).map(|p| p.as_path()).collect();
+    for p in &all {
+        crate::target::register_input(p);
+    }
     check_not_input(out, &all)?;
     resolve_output(out)?.require_regular("merge")?;
     check_not_input(&meta_path(out), &all)?;

@@ -9,11 +9,62 @@
 //!   sidecars (the journaled `map` and `sweep`) refuse such a path ([`Output::require_regular`]).
 //! * A directory is refused.
 //!
-//! [`check_not_input`] refuses an output that is the same file as one of the command's inputs.
+//! * A path that is the same file as an input of this process (registered with
+//!   [`register_input`] where it is read: scenario files, merge shards) is refused, whatever file
+//!   of the command it is (the data, its `.npy`, sidecars, figures): one check for every command.
+//!
+//! [`check_not_input`] refuses an output that is the same file as one of a given list of inputs.
 
 use crate::error::{IoError, Result};
 use std::fs;
+use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Inputs of this process: (device, inode, path as given).
+static INPUTS: Mutex<Vec<(u64, u64, PathBuf)>> = Mutex::new(Vec::new());
+
+/// Record `path` as an input of this process: from now on [`resolve_output`] (and so every
+/// writer of this crate) refuses to write it, under any name or link. Only regular files are
+/// inputs that an output could destroy: an absent path, a terminal or a pipe (`--scenario
+/// /dev/stdin` with `--out /dev/stdout` on one terminal) is ignored.
+pub fn register_input(path: &Path) {
+    if let Some(md) = fs::metadata(path).ok().filter(fs::Metadata::is_file) {
+        let mut g = INPUTS.lock().unwrap_or_else(|p| p.into_inner());
+        // Forget inputs deleted since (their inode may be this file's now).
+        g.retain(|(d, i, p)| fs::metadata(p).is_ok_and(|m| m.dev() == *d && m.ino() == *i));
+        if !g.iter().any(|(d, i, _)| *d == md.dev() && *i == md.ino()) {
+            g.push((md.dev(), md.ino(), path.to_path_buf()));
+        }
+    }
+}
+
+/// Refuse `out` if it is a registered input ([`register_input`]); for a command to fail before
+/// it computes anything (every writer checks again when it writes).
+pub fn refuse_input(out: &Path) -> Result<()> {
+    match fs::metadata(out) {
+        Ok(md) => refuse_registered_input(out, &md),
+        Err(_) => Ok(()),
+    }
+}
+
+/// Refuse `out` (whose metadata, links followed, is `md`) if it is a registered input.
+fn refuse_registered_input(out: &Path, md: &fs::Metadata) -> Result<()> {
+    let g = INPUTS.lock().unwrap_or_else(|p| p.into_inner());
+    // The input must still be that file: a deleted input's inode may be reused by a new file.
+    let same = |d: u64, i: u64, p: &Path| {
+        d == md.dev()
+            && i == md.ino()
+            && fs::metadata(p).is_ok_and(|m| m.dev() == d && m.ino() == i)
+    };
+    match g.iter().find(|(d, i, p)| same(*d, *i, p)) {
+        Some((_, _, input)) => Err(IoError::OutputIsInput {
+            out: out.to_path_buf(),
+            input: input.clone(),
+        }),
+        None => Ok(()),
+    }
+}
 
 /// Most symbolic links followed for one path (as Linux's `MAXSYMLINKS`).
 const MAX_LINKS: usize = 40;
@@ -78,6 +129,7 @@ pub fn resolve_output(path: &Path) -> Result<Output> {
     // The kernel follows the links (also the magic ones of /proc, as /dev/stdout's).
     match fs::metadata(path) {
         Ok(md) => {
+            refuse_registered_input(path, &md)?;
             let ft = md.file_type();
             if ft.is_dir() {
                 return Err(IoError::NotRegular {
@@ -163,7 +215,6 @@ pub fn resolve_output(path: &Path) -> Result<Output> {
 /// Refuse an output that is the same file (same device and inode, links followed) as one of
 /// `inputs`. Absent files clash with nothing.
 pub fn check_not_input(out: &Path, inputs: &[&Path]) -> Result<()> {
-    use std::os::unix::fs::MetadataExt;
     let Ok(o) = fs::metadata(out) else {
         return Ok(());
     };
@@ -272,5 +323,27 @@ mod tests {
         let rel = dir.path().join("sub/../s.toml");
         fs::create_dir(dir.path().join("sub")).unwrap();
         assert!(check_not_input(&rel, &[&s]).is_err(), "another spelling");
+    }
+
+    #[test]
+    fn regression_registered_input_is_refused_as_any_output() {
+        let dir = tempfile::tempdir().unwrap();
+        let s = dir.path().join("in.toml");
+        fs::write(&s, "[bar]\n").unwrap();
+        let link = dir.path().join("in.npy");
+        std::os::unix::fs::symlink(&s, &link).unwrap();
+        assert!(resolve_output(&s).is_ok(), "not an input yet");
+        register_input(&s);
+        for out in [&s, &link] {
+            let e = resolve_output(out).unwrap_err().to_string();
+            assert!(
+                e.contains("is also an input") && e.contains("in.toml"),
+                "{e}"
+            );
+        }
+        // Every writer asks the policy: nothing is written.
+        assert!(crate::write_atomic(&link, b"x").is_err());
+        assert_eq!(fs::read_to_string(&s).unwrap(), "[bar]\n");
+        assert!(resolve_output(&dir.path().join("other.csv")).is_ok());
     }
 }

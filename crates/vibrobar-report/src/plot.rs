@@ -55,6 +55,8 @@ fn render_both(
     ensure_parent(stem)?;
     let png = with_suffix(stem, ".png");
     let tmp = with_suffix(stem, ".partial.png");
+    // plotters writes the bitmap itself: an interrupt must still remove it.
+    vibrobar_io::track_partial(&tmp);
     {
         let root = BitMapBackend::new(&tmp, size).into_drawing_area();
         root.fill(&WHITE).map_err(pe)?;

@@ -14,7 +14,14 @@ use vibrobar_core::analysis::map::{Axis, Grid, GridAxis, GridPoint, MapSpec};
 use vibrobar_core::analysis::poincare::{bifurcation, BifurcationSpec, Stroboscope};
 use vibrobar_core::analysis::regime::Tolerances;
 use vibrobar_core::params::System;
-use vibrobar_io::{npy, write_atomic, Metadata};
+use vibrobar_io::csv::{
+    bifurcation_impacts_schema, bifurcation_schema, ensemble_schema, poincare_schema,
+    poincare_values, regime_counts, write_csv, EnsembleCsvRow, Schema, Value,
+};
+use vibrobar_io::params::{
+    BifurcationParams, EnsembleFileParams, IcHalfRanges, PoincareParams, PointParams,
+};
+use vibrobar_io::{npy, Metadata};
 
 /// One design point: system flags plus ratio and gap.
 #[derive(Debug, Clone, clap::Args)]
@@ -60,11 +67,12 @@ impl PointArgs {
     }
 
     /// Parameters for metadata.
-    pub fn to_json(&self) -> anyhow::Result<serde_json::Value> {
-        let mut j = self.system.to_json()?;
-        j["ratio"] = self.ratio.into();
-        j["gap_m"] = (self.gap_mm * 1e-3).into();
-        Ok(j)
+    pub fn to_params(&self) -> anyhow::Result<PointParams> {
+        Ok(PointParams {
+            system: self.system.to_params()?,
+            ratio: self.ratio,
+            gap_m: self.gap_mm * 1e-3,
+        })
     }
 }
 
@@ -79,16 +87,16 @@ fn transient_or_default(flag: Option<f64>, s: &SystemArgs) -> anyhow::Result<f64
     )
 }
 
-fn write_csv_with_meta(
+/// Write the rows of `schema` to `path` and the typed `params` beside it.
+fn write_csv_with_meta<P: serde::Serialize>(
     path: &Path,
     kind: &str,
-    header: &str,
-    body: &str,
-    params: serde_json::Value,
+    schema: &Schema,
+    rows: impl IntoIterator<Item = Vec<Value>>,
+    params: P,
 ) -> anyhow::Result<()> {
-    write_atomic(path, format!("{header}\n{body}").as_bytes())
-        .with_context(|| format!("writing {}", path.display()))?;
-    Metadata::new(kind, header, params, None)
+    write_csv(path, schema, rows).with_context(|| format!("writing {}", path.display()))?;
+    Metadata::new(kind, &schema.header(), params, None)
         .write_beside(path)
         .with_context(|| format!("metadata beside {}", path.display()))?;
     Ok(())
@@ -132,24 +140,23 @@ pub fn run_poincare(a: &PoincareArgs) -> anyhow::Result<()> {
         &mut strobe,
     )?;
     let pts = &strobe.points;
-    let header = "t_s,u_m,du_m_s,w_m,dw_m_s";
-    let mut body = String::new();
-    let mut data = Vec::with_capacity(pts.len() * 5);
-    for s in pts {
-        let row = [s.t_s, s.u_m, s.du_m_s, s.w_m(), s.dw_m_s()];
-        body.push_str(&format!(
-            "{},{:e},{:e},{:e},{:e}\n",
-            row[0], row[1], row[2], row[3], row[4]
-        ));
-        data.extend_from_slice(&row);
-    }
-    let mut params = a.point.to_json()?;
-    params["phase_rad"] = phase.into();
-    params["transient_s"] = transient.into();
-    write_csv_with_meta(&a.out, "poincare", header, &body, params.clone())?;
+    let data: Vec<f64> = pts.iter().flat_map(poincare_values).collect();
+    let params = PoincareParams {
+        point: a.point.to_params()?,
+        phase_rad: phase,
+        transient_s: transient,
+    };
+    write_csv_with_meta(
+        &a.out,
+        "poincare",
+        &poincare_schema(),
+        pts.iter()
+            .map(|s| poincare_values(s).map(Value::F).to_vec()),
+        &params,
+    )?;
     let npy_path = a.out.with_extension("npy");
     npy::write_f64(&npy_path, &[pts.len(), 5], &data)?;
-    Metadata::new("poincare", "", params, None).write_beside(&npy_path)?;
+    Metadata::new("poincare", "", &params, None).write_beside(&npy_path)?;
     let xy: Vec<(f64, f64)> = pts.iter().map(|s| (s.u_m * 1e6, s.du_m_s * 1e3)).collect();
     let title = format!(
         "Poincaré section at Ωt = {}°, r = {}, gap = {} mm",
@@ -274,44 +281,48 @@ pub fn run_bifurcation(a: &BifurcationArgs) -> anyhow::Result<()> {
         bifurcation(&bs, &si, solver.as_ref(), &bar.callback())
     })??;
     bar.finish();
-    let header = format!("{col},t_s,u_m,du_m_s");
-    let mut body = String::new();
-    let mut data = Vec::new();
-    for p in &b.points {
-        // The value as the user wrote it (mm for gaps), identical in the CSV and the NPY.
-        let text = fmt_coord(p.param / scale);
-        let v: f64 = text.parse().expect("formatted float");
-        body.push_str(&format!("{},{},{:e},{:e}\n", text, p.t_s, p.u_m, p.du_m_s));
-        data.extend_from_slice(&[v, p.t_s, p.u_m, p.du_m_s]);
-    }
-    let mut params = a.system.to_json()?;
-    params["param"] = col.into();
-    params["values"] = serde_json::json!(values);
-    params["fixed_ratio"] = serde_json::json!(a.ratio);
-    params["fixed_gap_m"] = serde_json::json!(a.gap_mm.map(|g| g * 1e-3));
-    params["phase_rad"] = phase.into();
-    params["transient_s"] = transient.into();
-    write_csv_with_meta(&a.out, "bifurcation", &header, &body, params.clone())?;
+    // The value as the user wrote it (mm for gaps), identical in the CSV and the NPY.
+    let user_value =
+        |param: f64| -> f64 { fmt_coord(param / scale).parse().expect("formatted float") };
+    let data: Vec<f64> = b
+        .points
+        .iter()
+        .flat_map(|p| [user_value(p.param), p.t_s, p.u_m, p.du_m_s])
+        .collect();
+    let params = BifurcationParams {
+        system: a.system.to_params()?,
+        param: col.into(),
+        values: values.clone(),
+        fixed_ratio: a.ratio,
+        fixed_gap_m: a.gap_mm.map(|g| g * 1e-3),
+        phase_rad: phase,
+        transient_s: transient,
+    };
+    write_csv_with_meta(
+        &a.out,
+        "bifurcation",
+        &bifurcation_schema(col),
+        data.chunks_exact(4)
+            .map(|r| r.iter().map(|x| Value::F(*x)).collect()),
+        &params,
+    )?;
     let npy_path = a.out.with_extension("npy");
     npy::write_f64(&npy_path, &[b.points.len(), 4], &data)?;
-    Metadata::new("bifurcation", "", params.clone(), None).write_beside(&npy_path)?;
+    Metadata::new("bifurcation", "", &params, None).write_beside(&npy_path)?;
     let imp_path = vibrobar_report::figures::with_ext(&a.out.with_extension(""), "impacts.csv");
-    let mut ib = String::new();
-    for i in &b.impacts {
-        ib.push_str(&format!(
-            "{},{},{},{:e}\n",
-            fmt_coord(i.param / scale),
-            i.t_s,
-            if i.wall.sign() > 0.0 { "plus" } else { "minus" },
-            i.dw_m_s
-        ));
-    }
     write_csv_with_meta(
         &imp_path,
         "bifurcation-impacts",
-        &format!("{col},t_s,wall,dw_m_s"),
-        &ib,
-        params,
+        &bifurcation_impacts_schema(col),
+        b.impacts.iter().map(|i| {
+            vec![
+                Value::F(i.param / scale),
+                Value::F(i.t_s),
+                Value::S(if i.wall.sign() > 0.0 { "plus" } else { "minus" }.into()),
+                Value::F(i.dw_m_s),
+            ]
+        }),
+        &params,
     )?;
     let xy: Vec<(f64, f64)> = b
         .points
@@ -410,7 +421,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
             "blocks": r.block_means_per_s.len(),
             "clamped": r.clamped,
             "d0": d0,
-            "parameters": a.point.to_json()?,
+            "parameters": a.point.to_params()?,
         });
         // A closed pipe (`| head`) is not an error worth a panic.
         let _ = writeln!(std::io::stdout(), "{}", serde_json::to_string_pretty(&j)?);
@@ -519,32 +530,37 @@ pub fn run_ensemble_cmd(a: &EnsembleArgs) -> anyhow::Result<()> {
         run_ensemble(&spec, solver.as_ref(), &points, &params, &bar.callback())
     })??;
     bar.finish();
-    let header = "ratio,gap_mm,members,mean_rms_m,std_rms_m,min_rms_m,max_rms_m,regimes";
-    let mut body = String::new();
-    for s in &stats {
-        let regimes: Vec<String> = s.regimes.iter().map(|(r, n)| format!("{r}:{n}")).collect();
-        let line = format!(
-            "{},{},{},{:e},{:e},{:e},{:e},{}",
-            fmt_coord(s.point.get(Axis::FreqRatio).unwrap_or(f64::NAN)),
-            fmt_coord(s.point.get(Axis::GapM).unwrap_or(f64::NAN) * 1e3),
-            s.members,
-            s.mean_rms_m,
-            s.std_rms_m,
-            s.min_rms_m,
-            s.max_rms_m,
-            regimes.join(";")
-        );
-        println!("{line}");
-        body.push_str(&line);
-        body.push('\n');
+    let schema = ensemble_schema();
+    let rows: Vec<Vec<Value>> = stats
+        .iter()
+        .map(|s| {
+            EnsembleCsvRow {
+                ratio: s.point.get(Axis::FreqRatio).unwrap_or(f64::NAN),
+                gap_mm: s.point.get(Axis::GapM).unwrap_or(f64::NAN) * 1e3,
+                members: s.members as u64,
+                rms_m: [s.mean_rms_m, s.std_rms_m, s.min_rms_m, s.max_rms_m],
+                regimes: regime_counts(&s.regimes),
+            }
+            .values()
+        })
+        .collect();
+    for r in &rows {
+        println!("{}", schema.format(r));
     }
-    let mut pj = a.system.to_json()?;
-    pj["ratios"] = serde_json::json!(grid.axes()[0].values);
-    pj["gaps_m"] = serde_json::json!(grid.axes()[1].values);
-    pj["members"] = a.members.into();
-    pj["seed"] = a.seed.into();
-    pj["ic_half_ranges"] = serde_json::json!({"u_m": a.u_m, "du_m_s": a.du_m_s, "dw_m_s": a.dw_m_s, "w_over_half_gap": 1.0});
-    write_csv_with_meta(&a.out, "ensemble", header, &body, pj)?;
+    let params = EnsembleFileParams {
+        system: a.system.to_params()?,
+        ratios: grid.axes()[0].values.clone(),
+        gaps_m: grid.axes()[1].values.clone(),
+        members: a.members,
+        seed: a.seed,
+        ic_half_ranges: IcHalfRanges {
+            u_m: a.u_m,
+            du_m_s: a.du_m_s,
+            dw_m_s: a.dw_m_s,
+            w_over_half_gap: 1.0,
+        },
+    };
+    write_csv_with_meta(&a.out, "ensemble", &schema, rows, &params)?;
     eprintln!("wrote {}", a.out.display());
     Ok(())
 }

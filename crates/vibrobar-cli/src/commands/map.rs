@@ -277,8 +277,12 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
     };
     let journal = super::open_journal(&args.out, &meta, &schema, &indices, &key, args.resume)?;
     let t0 = Instant::now();
-    compute(&job, solver.as_ref(), &journal, indices.len(), args.threads)?;
+    let watch = super::PenetrationWatch::new(solver.as_ref());
+    compute(&job, &watch, &journal, indices.len(), args.threads)?;
     journal.finish()?;
+    if let Some(w) = watch.warning() {
+        eprintln!("{w}");
+    }
     meta.write_beside(&args.out)
         .with_context(|| format!("writing metadata beside {}", args.out.display()))?;
     eprintln!(

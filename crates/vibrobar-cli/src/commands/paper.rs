@@ -15,9 +15,9 @@ use crate::cli::PaperArgs;
 use crate::progress::Progress;
 use crate::scenario::{check_positive, sweep_ratios};
 use vibrobar_io::csv::{
-    grid_num, write_history_csv, write_json, write_sweep_csv, write_text, SweepCsvRow,
+    grid_num, ic_ensemble_schema, regime_counts, write_csv, write_history_csv, write_json,
+    write_sweep_csv, write_text, IcEnsembleCsvRow, SweepCsvRow,
 };
-use vibrobar_io::write_with;
 use vibrobar_report::plot::{rms_vs_ratio, time_history, Curve};
 use vibrobar_report::report::{
     claims, render, variants, IcEnsemble, IcPoint, ReportInput, SolverData, Variant,
@@ -124,51 +124,36 @@ pub fn run_ic_ensemble(
     })
 }
 
-/// Header of `ic_ensemble.csv`.
-pub const IC_ENSEMBLE_HEADER: &str = "set,friction,friction_force_n,gap_mm,ratio,solver,seed,\
-members,rms_rest_m,impacts_per_cycle_rest,mean_rms_m,std_rms_m,rel_spread,mean_vs_rest,\
-min_rms_m,max_rms_m,impacting_members,impacting_fraction,regimes";
-
-/// Write `ic_ensemble.csv`: one row per point (`regimes` = `regime:count` joined by `;`;
-/// `friction_force_n` empty when the level is the stated η/r·m_d·g).
+/// Write `ic_ensemble.csv` (columns: [`vibrobar_io::csv::ic_ensemble_schema`]): one row per
+/// point (`regimes` = `regime:count` joined by `;`; `friction_force_n` empty when the level is
+/// the stated η/r·m_d·g).
 fn write_ic_csv(path: &Path, e: &IcEnsemble, variants: &[Variant]) -> Result<()> {
-    Ok(write_with(path, |w| {
-        writeln!(w, "{IC_ENSEMBLE_HEADER}")?;
-        for p in &e.points {
-            let v = variants.iter().find(|v| v.key == p.variant_key);
-            let regimes: Vec<String> = p
-                .stats
-                .regimes
-                .iter()
-                .map(|(r, n)| format!("{r}:{n}"))
-                .collect();
-            writeln!(
-                w,
-                "{},{},{},{},{},{},{},{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{},{},{}",
-                p.variant_key,
-                v.map_or(String::new(), |v| v.friction.to_string()),
-                v.and_then(|v| v.force_n)
-                    .map_or(String::new(), |f| f.to_string()),
-                grid_num(p.gap_m * 1e3),
-                grid_num(p.ratio),
-                e.solver,
-                e.seed,
-                p.stats.members,
-                p.rest_rms_m,
-                p.rest_impacts_per_cycle,
-                p.stats.mean_rms_m,
-                p.stats.std_rms_m,
-                p.rel_spread(),
-                p.mean_vs_rest(),
-                p.stats.min_rms_m,
-                p.stats.max_rms_m,
-                p.stats.impacting_members,
-                p.impacting_fraction(),
-                regimes.join(";")
-            )?;
+    let rows = e.points.iter().map(|p| {
+        let v = variants.iter().find(|v| v.key == p.variant_key);
+        IcEnsembleCsvRow {
+            set: p.variant_key.clone(),
+            friction: v.map_or(String::new(), |v| v.friction.to_string()),
+            friction_force_n: v.and_then(|v| v.force_n),
+            gap_mm: p.gap_m * 1e3,
+            ratio: p.ratio,
+            solver: e.solver.clone(),
+            seed: e.seed,
+            members: p.stats.members as u64,
+            rms_rest_m: p.rest_rms_m,
+            impacts_per_cycle_rest: p.rest_impacts_per_cycle,
+            mean_rms_m: p.stats.mean_rms_m,
+            std_rms_m: p.stats.std_rms_m,
+            rel_spread: p.rel_spread(),
+            mean_vs_rest: p.mean_vs_rest(),
+            min_rms_m: p.stats.min_rms_m,
+            max_rms_m: p.stats.max_rms_m,
+            impacting_members: p.stats.impacting_members as u64,
+            impacting_fraction: p.impacting_fraction(),
+            regimes: regime_counts(&p.stats.regimes),
         }
-        Ok(())
-    })?)
+        .values()
+    });
+    Ok(write_csv(path, &ic_ensemble_schema(), rows)?)
 }
 
 /// Run settings of the paper command.

@@ -2,10 +2,10 @@
 //!
 //! The history is streamed to disk as the solver produces it (constant memory, whatever the
 //! duration), through the atomic writer: `FILE.partial` until the run is complete. SIGINT and
-//! SIGTERM remove the partial file and say what was interrupted.
+//! SIGTERM remove the partial file and say what was interrupted ([`crate::app::install_interrupt_cleanup`]).
 
 use anyhow::{Context, Result};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use vibrobar_core::analysis::energy::EnergyAudit;
 use vibrobar_core::analysis::{run_case, RunResult, Sampler};
 use vibrobar_core::limits;
@@ -16,25 +16,6 @@ use vibrobar_io::history::{is_npy, sample_count, HistoryWriter};
 use super::{fmt_secs, solver, Case};
 use crate::cli::RunArgs;
 use crate::scenario::{check_positive, Scenario};
-
-/// On SIGINT/SIGTERM: remove the partial files being written, say so, exit 130. Journals are no
-/// partial files: an interrupted map or sweep keeps its journal for `--resume`.
-pub fn install_interrupt_cleanup(what: String) {
-    // A second call in one process (tests) keeps the first handler.
-    let _ = ctrlc::set_handler(move || {
-        let removed = vibrobar_io::remove_live_partials();
-        let names: Vec<String> = removed.iter().map(|p| p.display().to_string()).collect();
-        eprintln!(
-            "interrupted: {what} was not completed{}",
-            if names.is_empty() {
-                String::new()
-            } else {
-                format!("; removed {}", names.join(", "))
-            }
-        );
-        std::process::exit(130);
-    });
-}
 
 /// Feeds the core's [`Sampler`] and hands each sample to the writer as soon as it exists.
 struct Stream<'a> {
@@ -105,8 +86,6 @@ fn run_streamed(
 /// Run the command.
 pub fn run(args: &RunArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
-    let inputs: Vec<&Path> = args.model.scenario.iter().map(PathBuf::as_path).collect();
-    vibrobar_io::check_not_input(&args.out, &inputs)?;
     let mut sc = Scenario::from_args(&args.model)?;
     if let Some(g) = args.gap_mm {
         check_positive("--gap-mm", g, "mm")?;
@@ -135,17 +114,14 @@ pub fn run(args: &RunArgs) -> Result<()> {
         sample_interval_s: Some(args.sample_every as f64 * settings.dt_s),
         energy_audit: true,
     };
-    install_interrupt_cleanup(format!("the run to {}", args.out.display()));
     let interval_s = args.sample_every as f64 * settings.dt_s;
     let out = run_streamed(&case, &settings, solver.as_ref(), &args.out, interval_s)?;
     let gap_m = sys.damper.map_or(f64::INFINITY, |d| d.gap_m);
     let pen_m = out.result.summary.max_penetration_m;
     if let Some(f) = limits::excessive_penetration(pen_m, gap_m) {
         eprintln!(
-            "warning: the ball went {pen_m:.2e} m beyond the wall, {:.1} % of the gap (warning above {} %): {} detects impacts only after a step; lower --dt or use --solver exact",
-            100.0 * f,
-            100.0 * limits::RK4_PENETRATION_WARN_FRACTION,
-            solver.name()
+            "{}",
+            super::penetration_warning(pen_m, f, solver.name(), None)
         );
     }
     let is_npy = is_npy(&args.out);

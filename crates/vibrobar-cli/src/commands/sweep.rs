@@ -20,9 +20,6 @@ use vibrobar_io::{GridInfo, Metadata};
 /// Run the command.
 pub fn sweep(args: &SweepArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
-    if let Some(s) = &args.model.scenario {
-        vibrobar_io::check_not_input(&args.out, &[s.as_path()])?;
-    }
     let sc = Scenario::from_args(&args.model)?;
     let gaps_m: Vec<f64> = if args.gap_mm.is_empty() {
         sc.sweep.gaps_m.clone()
@@ -52,7 +49,9 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
         s.validate()?;
     }
     let settings = sc.settings();
-    let solver = solver(&sc.run.solver, &settings)?;
+    let boxed = solver(&sc.run.solver, &settings)?;
+    let watch = super::PenetrationWatch::new(boxed.as_ref());
+    let solver: &dyn vibrobar_core::Solver = &watch;
     let params = vibrobar_io::params::SweepParams {
         scenario: &sc,
         solver: solver.name().to_string(),
@@ -79,8 +78,7 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     let base = sc.base();
     let bar = Progress::new("sweep", points.len(), journal.done_count());
     let progress = bar.callback();
-    let batch = Batch::new(&base, &settings, solver.as_ref())
-        .on(Runner::default().with_progress(&progress));
+    let batch = Batch::new(&base, &settings, solver).on(Runner::default().with_progress(&progress));
     let n_solid = batch.distinct_ratios(&pending, |&i| points[i].ratio).len();
     let res = batch.run(
         &pending,
@@ -93,7 +91,7 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
                 sample_interval_s: None,
                 energy_audit: false,
             };
-            let d = run_one(&case, &settings, solver.as_ref()).map_err(|e| {
+            let d = run_one(&case, &settings, solver).map_err(|e| {
                 anyhow::anyhow!(
                     "sweep: run at ratio {:.4}, gap {} mm failed: {e}",
                     p.ratio,
@@ -114,6 +112,9 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     bar.finish();
     res.map_err(batch_error)?;
     journal.finish()?;
+    if let Some(w) = watch.warning() {
+        eprintln!("{w}");
+    }
     meta.write_beside(&args.out)
         .with_context(|| format!("writing metadata beside {}", args.out.display()))?;
     eprintln!(

@@ -13,6 +13,7 @@ use crate::error::{ParamError, SimError};
 use crate::params::{State, System};
 use crate::solver::{Event, EventKind, Fanout, Observer, Segment, Solver, Wall};
 use std::f64::consts::TAU;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Stroboscopic (period-`T`) Poincaré section at a fixed forcing phase.
 #[derive(Debug, Clone, PartialEq)]
@@ -190,14 +191,66 @@ pub struct Bifurcation {
     pub impacts: Vec<BifurcationImpact>,
 }
 
+/// Impacts of one bifurcation run after the transient, counted against a budget shared by all
+/// runs: past it nothing more is stored and the batch is cancelled (runs not yet started are
+/// skipped), so memory stays bounded whatever the impact rate (rk4 in wall contact counts one
+/// impact per step).
+struct BudgetedImpacts<'a> {
+    param: f64,
+    wall: Option<Wall>,
+    after_s: f64,
+    used: &'a AtomicUsize,
+    budget: usize,
+    over: &'a AtomicBool,
+    kept: Vec<BifurcationImpact>,
+}
+
+impl Observer for BudgetedImpacts<'_> {
+    fn event(&mut self, ev: &Event) {
+        if let EventKind::Impact { wall, dw_m_s, .. } = ev.kind {
+            if ev.t_s < self.after_s || self.wall.is_some_and(|w| w != wall) {
+                return;
+            }
+            if self.used.fetch_add(1, Ordering::Relaxed) >= self.budget {
+                self.over.store(true, Ordering::Relaxed);
+                return;
+            }
+            self.kept.push(BifurcationImpact {
+                param: self.param,
+                t_s: ev.t_s,
+                wall,
+                dw_m_s,
+            });
+        }
+    }
+}
+
 /// For each value of `spec.axis`, run `spec.system` and collect the stroboscopic points and
 /// impacts after the transient. Runs are independent and in parallel through the batch runner
-/// ([`Runner::each`]); the result does not depend on the thread count.
+/// ([`Runner::each`]); the result does not depend on the thread count. At most
+/// [`crate::limits::MAX_SAMPLES`] stroboscopic points (checked before any run) and as many
+/// impacts (over all values; more is an error) are kept.
 pub fn bifurcation(
     spec: &BifurcationSpec,
     values: &[f64],
     solver: &dyn Solver,
     progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<Bifurcation, BatchError<SimError>> {
+    bifurcation_with_budget(
+        spec,
+        values,
+        solver,
+        progress,
+        crate::limits::MAX_SAMPLES as usize,
+    )
+}
+
+fn bifurcation_with_budget(
+    spec: &BifurcationSpec,
+    values: &[f64],
+    solver: &dyn Solver,
+    progress: &(dyn Fn(usize, usize) + Sync),
+    impact_budget: usize,
 ) -> Result<Bifurcation, BatchError<SimError>> {
     crate::params::positive("duration_s", spec.duration_s)?;
     crate::params::non_negative("transient_s", spec.transient_s)?;
@@ -224,27 +277,53 @@ pub fn bifurcation(
         crate::limits::MAX_SAMPLES,
         "fewer values or a shorter run",
     )?;
-    let per_value = Runner::default().with_progress(progress).each(
-        values,
-        |&p| -> Result<(Vec<State>, Vec<ImpactPoint>), SimError> {
-            let mut sys = spec.system;
-            spec.axis.apply(&mut sys, p)?;
-            let t0 = spec.init.t_s;
-            let after = t0 + spec.transient_s;
-            let mut strobe = Stroboscope::for_system(&sys, spec.phase_rad, after);
-            let mut imp = ImpactSection::new(&sys, spec.impact_wall, after);
-            {
-                let mut obs: [&mut dyn Observer; 2] = [&mut strobe, &mut imp];
-                solver.run(
-                    &sys,
-                    &spec.init,
-                    t0 + spec.duration_s,
-                    &mut Fanout(&mut obs),
-                )?;
-            }
-            Ok((strobe.points, imp.points))
-        },
-    )?;
+    let used = AtomicUsize::new(0);
+    let over = AtomicBool::new(false);
+    let per_value = Runner::default()
+        .with_progress(progress)
+        .with_cancel(&over)
+        .each(
+            values,
+            |&p| -> Result<(Vec<State>, Vec<BifurcationImpact>), SimError> {
+                let mut sys = spec.system;
+                spec.axis.apply(&mut sys, p)?;
+                let t0 = spec.init.t_s;
+                let after = t0 + spec.transient_s;
+                let mut strobe = Stroboscope::for_system(&sys, spec.phase_rad, after);
+                let mut imp = BudgetedImpacts {
+                    param: p,
+                    wall: spec.impact_wall,
+                    after_s: after,
+                    used: &used,
+                    budget: impact_budget,
+                    over: &over,
+                    kept: Vec::new(),
+                };
+                {
+                    let mut obs: [&mut dyn Observer; 2] = [&mut strobe, &mut imp];
+                    solver.run(
+                        &sys,
+                        &spec.init,
+                        t0 + spec.duration_s,
+                        &mut Fanout(&mut obs),
+                    )?;
+                }
+                Ok((strobe.points, imp.kept))
+            },
+        );
+    // The budget is a total over every run, so whether it is exceeded does not depend on the
+    // thread count.
+    if over.load(Ordering::Relaxed) {
+        return Err(ParamError::Limit {
+            field: "impacts after the transient, over all values (bifurcation)",
+            value: used.load(Ordering::Relaxed) as f64,
+            min: 0.0,
+            max: impact_budget as f64,
+            why: "counted until the runs were stopped; use fewer values, a longer transient or a shorter run (rk4 in wall contact counts an impact per step: --solver exact)",
+        }
+        .into());
+    }
+    let per_value = per_value?;
     let mut out = Bifurcation::default();
     for (&p, (pts, imps)) in values.iter().zip(per_value) {
         out.points.extend(pts.iter().map(|s| BifurcationPoint {
@@ -253,12 +332,66 @@ pub fn bifurcation(
             u_m: s.u_m,
             du_m_s: s.du_m_s,
         }));
-        out.impacts.extend(imps.iter().map(|i| BifurcationImpact {
-            param: p,
-            t_s: i.t_s,
-            wall: i.wall,
-            dw_m_s: i.dw_m_s,
-        }));
+        out.impacts.extend(imps);
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analysis::{SweepBase, SweepPoint};
+    use crate::params::FrictionModel;
+    use crate::solver::Exact;
+
+    fn spec() -> BifurcationSpec {
+        BifurcationSpec {
+            system: SweepBase::paper().damped_system(&SweepPoint {
+                ratio: 1.0,
+                gap_m: 1e-4,
+                friction: FrictionModel::None,
+                friction_force_n: None,
+            }),
+            axis: Axis::FreqRatio,
+            init: State::REST,
+            duration_s: 0.1,
+            transient_s: 0.02,
+            phase_rad: 0.0,
+            impact_wall: None,
+        }
+    }
+
+    /// The impacts of a bifurcation diagram were collected without any bound (rk4 in wall
+    /// contact counts one per step): they are now counted against a total budget.
+    #[test]
+    fn regression_bifurcation_impacts_are_bounded_with_a_clear_error() {
+        let values = [0.99, 1.0, 1.01];
+        let s = spec();
+        let all = bifurcation(&s, &values, &Exact::default(), &|_, _| {}).unwrap();
+        let n = all.impacts.len();
+        assert!(n > 20, "{n} impacts");
+        // The budget changes nothing below it: same impacts as an unbounded section.
+        let mut sys = s.system;
+        sys.forcing.frequency = crate::params::Frequency::Ratio(0.99);
+        let mut sec = ImpactSection::new(&sys, None, s.transient_s);
+        Exact::default()
+            .run(&sys, &s.init, s.duration_s, &mut sec)
+            .unwrap();
+        let first: Vec<f64> = all
+            .impacts
+            .iter()
+            .filter(|i| i.param < 0.995)
+            .map(|i| i.t_s)
+            .collect();
+        assert_eq!(first, sec.points.iter().map(|p| p.t_s).collect::<Vec<_>>());
+        let exact = bifurcation_with_budget(&s, &values, &Exact::default(), &|_, _| {}, n);
+        assert_eq!(exact.unwrap().impacts.len(), n);
+        let e = bifurcation_with_budget(&s, &values, &Exact::default(), &|_, _| {}, n - 1)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("impacts after the transient") && e.contains(&format!(", {}]", n - 1)),
+            "{e}"
+        );
+    }
 }

@@ -305,6 +305,9 @@ pub fn heat_files(stem: &Path, h: &Heat) -> anyhow::Result<Vec<PathBuf>> {
     let svg = with_ext(stem, "svg");
     // Drawn to temporaries and published under the output-path policy (atomic, links followed).
     let (png_tmp, svg_tmp) = (with_ext(stem, "partial.png"), with_ext(stem, "partial.svg"));
+    // plotters writes them itself: an interrupt must still remove them.
+    vibrobar_io::track_partial(&png_tmp);
+    vibrobar_io::track_partial(&svg_tmp);
     {
         let root = BitMapBackend::new(&png_tmp, (1000, 700)).into_drawing_area();
         draw_heat(&root, h)?;
@@ -408,6 +411,9 @@ pub fn scatter_files(stem: &Path, s: &Scatter) -> anyhow::Result<Vec<PathBuf>> {
     let svg = with_ext(stem, "svg");
     // Drawn to temporaries and published under the output-path policy (atomic, links followed).
     let (png_tmp, svg_tmp) = (with_ext(stem, "partial.png"), with_ext(stem, "partial.svg"));
+    // plotters writes them itself: an interrupt must still remove them.
+    vibrobar_io::track_partial(&png_tmp);
+    vibrobar_io::track_partial(&svg_tmp);
     {
         let root = BitMapBackend::new(&png_tmp, (900, 650)).into_drawing_area();
         draw_scatter(&root, s)?;
