@@ -540,6 +540,69 @@ pub fn optimum_csv(extra: &[Axis], o: &Optimum, energy: &[Option<(f64, f64)>]) -
 }
 
 // ---------------------------------------------------------------------------------------------
+// modes of a structure (`vibrobar modes`)
+
+/// Columns of a modes CSV: one row per mode, shapes normalised to 1 at the tip and
+/// `modal_mass_kg` in that normalisation (`ρAL/4` for a uniform bar; see core `structure`).
+pub fn modes_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("mode", Format::Count),
+            col("frequency_hz", Format::Plain),
+            col("modal_mass_kg", Format::Plain),
+            col("shape_cavity", Format::Plain),
+            col("shape_force", Format::Plain),
+            col("shape_response", Format::Plain),
+        ],
+    }
+}
+
+/// The fields of mode `n` (1-based), in column order.
+pub fn modes_values(n: usize, m: &vibrobar_core::structure::Mode) -> Vec<Value> {
+    vec![
+        Value::U(n as u64),
+        Value::F(m.omega_rad_s / (2.0 * std::f64::consts::PI)),
+        Value::F(m.modal_mass_kg),
+        Value::F(m.shape_cavity),
+        Value::F(m.shape_force),
+        Value::F(m.shape_response),
+    ]
+}
+
+/// Write a modes CSV (atomic, under the output-path policy). Refuses a non-finite value before
+/// anything is written.
+pub fn write_modes_csv(path: &Path, model: &vibrobar_core::structure::ModalModel) -> Result<()> {
+    let schema = modes_schema();
+    let rows: Vec<Vec<Value>> = model
+        .modes
+        .iter()
+        .enumerate()
+        .map(|(k, m)| modes_values(k + 1, m))
+        .collect();
+    for (k, r) in rows.iter().enumerate() {
+        if let Some((c, _)) = schema
+            .columns
+            .iter()
+            .zip(r)
+            .find(|(_, v)| matches!(v, Value::F(x) if !x.is_finite()))
+        {
+            return Err(IoError::BadRow {
+                path: path.to_path_buf(),
+                index: k,
+                why: format!("mode {}: {} is not finite; nothing written", k + 1, c.name),
+            });
+        }
+    }
+    write_with(path, |w| {
+        writeln!(w, "{}", schema.header())?;
+        for r in &rows {
+            writeln!(w, "{}", schema.format(r))?;
+        }
+        Ok(())
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
 // whole files
 
 /// Write any serializable value as pretty JSON.
@@ -594,6 +657,10 @@ mod tests {
             Some(vec![Axis::FrictionForceN, Axis::MassRatio])
         );
         assert_eq!(map_extra_axes("ratio,gap_mm,x"), None);
+        assert_eq!(
+            modes_schema().header(),
+            "mode,frequency_hz,modal_mass_kg,shape_cavity,shape_force,shape_response"
+        );
     }
 
     #[test]
