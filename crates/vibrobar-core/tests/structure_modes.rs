@@ -5,7 +5,7 @@ use num_complex::Complex64;
 use std::f64::consts::PI;
 use vibrobar_core::limits;
 use vibrobar_core::structure::analytic::{beta_l, UniformMode};
-use vibrobar_core::structure::beam::{default_mode_count, FE_FREQ_TOLERANCE};
+use vibrobar_core::structure::beam::{default_mode_count, FE_CAVITY_ELEMENTS, FE_FREQ_TOLERANCE};
 use vibrobar_core::structure::fe::Mesh;
 use vibrobar_core::structure::{
     Beam, CavitySection, DampingRatio, ModalModel, Mode, Point, Structure, TipMass,
@@ -44,6 +44,7 @@ fn uniform_mesh(b: &Beam, ne: usize, tip: Option<TipMass>) -> Mesh {
         rho_a_kg_m: vec![b.density_kg_m3 * b.area_m2(); ne],
         tip_mass_kg: t.mass_kg,
         tip_inertia_kg_m2: t.rotary_inertia_kg_m2,
+        hole: None,
     }
 }
 
@@ -525,13 +526,7 @@ fn paper_geometry_cavity_38_mm_from_the_free_end() {
         "stiffness ratio FE {got} vs unit load {ratio}"
     );
     // Mass: the elements inside the hole lose exactly ρ·π d_h²/4·ℓ.
-    let mesh = sec.mesh(3).unwrap();
-    let mass: f64 = mesh
-        .nodes_m
-        .windows(2)
-        .zip(&mesh.rho_a_kg_m)
-        .map(|(w, ra)| ra * (w[1] - w[0]))
-        .sum();
+    let mass = sec.mesh(3).unwrap().mass_kg();
     let hole = b.density_kg_m3 * PI * 0.0151f64.powi(2) / 4.0 * 0.017;
     assert!(
         rel(b.mass_kg() - mass, hole) < 1e-9,
@@ -771,6 +766,37 @@ fn every_corner_of_the_allowed_box_gives_finite_modes() {
                     }
                 }
             }
+        }
+    }
+}
+
+/// The mesh rule also converges the non-uniform bar (cavity section and tip mass): against a
+/// reference mesh with twice the base elements and twice the elements across the hole.
+#[test]
+fn mesh_rule_converges_the_cavity_section_and_tip_mass() {
+    for n in [3usize, 8] {
+        let b = Beam {
+            modes: Some(n),
+            cavity_section: Some(CavitySection {
+                hole_diameter_m: 0.0151,
+                length_m: 0.017,
+            }),
+            tip_mass: Some(TipMass {
+                mass_kg: 0.05,
+                rotary_inertia_kg_m2: 1e-6,
+            }),
+            ..paper_beam()
+        };
+        let rule = b.modal_model().unwrap();
+        let reference = b
+            .mesh_with(2 * b.fe_element_target(n), 2 * FE_CAVITY_ELEMENTS)
+            .unwrap()
+            .modes(n)
+            .unwrap();
+        for k in 0..n {
+            let e = rel(rule.modes[k].omega_rad_s, reference.omega_rad_s[k]);
+            println!("N = {n}, mode {}: rule vs reference {e:.2e}", k + 1);
+            assert!(e < FE_FREQ_TOLERANCE, "N = {n}, mode {}: {e:e}", k + 1);
         }
     }
 }

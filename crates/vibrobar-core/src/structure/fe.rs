@@ -26,6 +26,73 @@
 use crate::error::ParamError;
 use nalgebra::{DMatrix, DVector};
 
+/// A local loss of section, `EI(x) = EI_e − ei_per_c·c(x)` and `ρA(x) = ρA_e − rho_a_per_c·c(x)`
+/// with `c(x) = √(r² − (x − x₀)²)` for `|x − x₀| ≤ r` (the transverse hole of
+/// [`super::beam`]). Integrated exactly into the matrices of the elements inside it (the mesh puts
+/// nodes at `x₀ ± r`): in `x = x₀ + r sin θ` the integrands `r² cos²θ · polynomial` are smooth,
+/// and composite Simpson with [`HOLE_QUADRATURE_INTERVALS`] intervals is exact to ~1e-12.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HoleLoss {
+    /// Centre `x₀`, from the clamp.
+    pub centre_m: f64,
+    /// Half-width `r` along the bar.
+    pub radius_m: f64,
+    /// Bending stiffness lost per unit `c`, N·m (`E·4/3·(ℓ/2)³` for the hole).
+    pub ei_per_c: f64,
+    /// Mass per length lost per unit `c`, kg/m² (`ρ·2ℓ` for the hole).
+    pub rho_a_per_c: f64,
+}
+
+/// Simpson intervals of the hole integrals (per element).
+pub const HOLE_QUADRATURE_INTERVALS: usize = 128;
+
+impl HoleLoss {
+    /// `∫_a^b c(x) g(x) dx` over an element inside the hole.
+    fn integrate(&self, a: f64, b: f64, g: impl Fn(f64) -> f64) -> f64 {
+        let r = self.radius_m;
+        let th = |x: f64| ((x - self.centre_m) / r).clamp(-1.0, 1.0).asin();
+        let (t0, t1) = (th(a), th(b));
+        let f = |t: f64| {
+            let c = r * t.cos();
+            c * c * g(self.centre_m + r * t.sin())
+        };
+        let n = HOLE_QUADRATURE_INTERVALS;
+        let dt = (t1 - t0) / n as f64;
+        let mut acc = f(t0) + f(t1);
+        for k in 1..n {
+            acc += if k % 2 == 1 { 4.0 } else { 2.0 } * f(t0 + k as f64 * dt);
+        }
+        acc * dt / 3.0
+    }
+
+    /// True for an element `[a, b]` inside the hole (to rounding of the node positions).
+    fn covers(&self, a: f64, b: f64) -> bool {
+        let tol = 1e-9 * self.radius_m;
+        a >= self.centre_m - self.radius_m - tol && b <= self.centre_m + self.radius_m + tol
+    }
+}
+
+/// Hermite cubics on `[a, a + h]` at `x`: values `N` and second derivatives `N''` (dofs
+/// `w₁, θ₁, w₂, θ₂`).
+fn hermite(a: f64, h: f64, x: f64) -> ([f64; 4], [f64; 4]) {
+    let s = (x - a) / h;
+    let (s2, s3) = (s * s, s * s * s);
+    (
+        [
+            1.0 - 3.0 * s2 + 2.0 * s3,
+            h * (s - 2.0 * s2 + s3),
+            3.0 * s2 - 2.0 * s3,
+            h * (s3 - s2),
+        ],
+        [
+            (-6.0 + 12.0 * s) / (h * h),
+            (-4.0 + 6.0 * s) / h,
+            (6.0 - 12.0 * s) / (h * h),
+            (6.0 * s - 2.0) / h,
+        ],
+    )
+}
+
 /// A clamped (at `nodes[0] = 0`) – free (at the last node) bar cut into elements.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mesh {
@@ -39,6 +106,8 @@ pub struct Mesh {
     pub tip_mass_kg: f64,
     /// Rotary inertia at the tip, kg·m².
     pub tip_inertia_kg_m2: f64,
+    /// Optional local loss of section, on top of the elements' `EI`, `ρA`.
+    pub hole: Option<HoleLoss>,
 }
 
 /// Modes of a [`Mesh`], shapes normalised to 1 at the tip.
@@ -84,14 +153,32 @@ impl Mesh {
                 [-13.0 * h, -3.0 * h * h, -22.0 * h, 4.0 * h * h],
             ];
             let (kc, mc) = (ei / (h * h * h), ra * h / 420.0);
+            let (mut ke, mut me) = (ke.map(|r| r.map(|v| kc * v)), me.map(|r| r.map(|v| mc * v)));
+            let a0 = self.nodes_m[e];
+            if let Some(hole) = self.hole.filter(|o| o.covers(a0, a0 + h)) {
+                for a in 0..4 {
+                    for b in 0..4 {
+                        ke[a][b] -= hole.ei_per_c
+                            * hole.integrate(a0, a0 + h, |x| {
+                                let d2 = hermite(a0, h, x).1;
+                                d2[a] * d2[b]
+                            });
+                        me[a][b] -= hole.rho_a_per_c
+                            * hole.integrate(a0, a0 + h, |x| {
+                                let n = hermite(a0, h, x).0;
+                                n[a] * n[b]
+                            });
+                    }
+                }
+            }
             // Global dof of local dof a: node e's dofs are 2(e−1), 2(e−1)+1; node 0 is clamped.
             let dof = |a: usize| (2 * e + a).checked_sub(2);
             for a in 0..4 {
                 let Some(i) = dof(a) else { continue };
                 for b in 0..4 {
                     let Some(j) = dof(b) else { continue };
-                    k[(i, j)] += kc * ke[a][b];
-                    m[(i, j)] += mc * me[a][b];
+                    k[(i, j)] += ke[a][b];
+                    m[(i, j)] += me[a][b];
                 }
             }
         }
@@ -167,6 +254,20 @@ impl Mesh {
         Ok(out)
     }
 
+    /// Mass of the bar, `∫ρA dx` (tip mass excluded), as the matrices integrate it.
+    pub fn mass_kg(&self) -> f64 {
+        (0..self.elements())
+            .map(|e| {
+                let (a, b) = (self.nodes_m[e], self.nodes_m[e + 1]);
+                let lost = self
+                    .hole
+                    .filter(|o| o.covers(a, b))
+                    .map_or(0.0, |o| o.rho_a_per_c * o.integrate(a, b, |_| 1.0));
+                self.rho_a_kg_m[e] * (b - a) - lost
+            })
+            .sum()
+    }
+
     /// Value at `x` of a field given by nodal deflections and slopes (Hermite interpolation;
     /// exact at nodes).
     pub fn interpolate(&self, w: &[f64], th: &[f64], x: f64) -> f64 {
@@ -176,13 +277,7 @@ impl Mesh {
             k => (k - 1).min(ne - 1),
         };
         let (a, b) = (self.nodes_m[e], self.nodes_m[e + 1]);
-        let h = b - a;
-        let s = ((x - a) / h).clamp(0.0, 1.0);
-        let (s2, s3) = (s * s, s * s * s);
-        let n1 = 1.0 - 3.0 * s2 + 2.0 * s3;
-        let n2 = h * (s - 2.0 * s2 + s3);
-        let n3 = 3.0 * s2 - 2.0 * s3;
-        let n4 = h * (s3 - s2);
-        n1 * w[e] + n2 * th[e] + n3 * w[e + 1] + n4 * th[e + 1]
+        let n = hermite(a, b - a, x.clamp(a, b)).0;
+        n[0] * w[e] + n[1] * th[e] + n[2] * w[e + 1] + n[3] * th[e + 1]
     }
 }
