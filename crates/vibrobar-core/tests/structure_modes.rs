@@ -800,3 +800,23 @@ fn mesh_rule_converges_the_cavity_section_and_tip_mass() {
         }
     }
 }
+
+/// `fe_elements = MAX_FE_ELEMENTS` passed validation, then the mesh, grown by the splits at the
+/// cavity ends and the points, was refused at 601 elements.
+#[test]
+fn regression_fe_elements_at_its_limit_is_not_refused_by_the_mesh() {
+    let b = Beam {
+        modes: Some(3),
+        fe_elements: Some(limits::MAX_FE_ELEMENTS),
+        force_position_m: Some(0.17),
+        response_position_m: Some(0.1),
+        cavity_section: Some(CavitySection {
+            hole_diameter_m: 0.0151,
+            length_m: 0.017,
+        }),
+        ..paper_beam()
+    };
+    let m = b.modal_model().unwrap();
+    assert!(b.mesh(3).unwrap().elements() > limits::MAX_FE_ELEMENTS);
+    assert_eq!(m.len(), 3);
+}
