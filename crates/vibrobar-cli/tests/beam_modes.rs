@@ -83,6 +83,29 @@ fn modes_of_the_paper_geometry() {
     assert!(rows.iter().all(|r| (r[3] - 1.0).abs() < 1e-12));
 }
 
+/// The example scenario shipped in `scenarios/` gives the same modes as the inline one.
+#[test]
+fn shipped_beam_scenario_gives_the_paper_geometry_modes() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("b.toml"), PAPER_BEAM).unwrap();
+    let shipped = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenarios/paper_beam.toml"
+    );
+    let a = vibrobar(
+        dir.path(),
+        &["modes", "--scenario", shipped, "--out", "a.csv"],
+    );
+    let b = vibrobar(
+        dir.path(),
+        &["modes", "--scenario", "b.toml", "--out", "b.csv"],
+    );
+    assert!(a.status.success(), "{}", String::from_utf8_lossy(&a.stderr));
+    assert!(b.status.success());
+    let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).unwrap();
+    assert_eq!(read("a.csv"), read("b.csv"));
+}
+
 #[test]
 fn modes_of_the_lumped_bar_is_its_one_mode() {
     let dir = tempfile::tempdir().unwrap();

@@ -202,6 +202,7 @@ fn fe_frequencies_converge_to_the_closed_form_at_order_four() {
                 "FE frequencies are upper bounds"
             );
             let order = (w[0][k] / w[1][k]).log2();
+            println!("mode {}: observed order {order:.3}", k + 1);
             assert!(
                 (3.85..4.15).contains(&order),
                 "mode {}: order {order}",
