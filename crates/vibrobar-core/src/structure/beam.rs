@@ -17,9 +17,9 @@
 //! At axial offset `s` from the centre the section loses the rectangle `|y| ≤ ℓ/2`,
 //! `|z| ≤ c(s) = √(d_h²/4 − s²)`: area `2ℓc(s)`, second moment `4/3·c(s)·(ℓ/2)³`. An element
 //! inside the hole integrates the varying `EI(s)` and `ρA(s)` exactly into its Hermite matrices
-//! ([`super::fe::HoleLoss`]): first attempt, piecewise-constant sections per element, converged
-//! only as `h²` (32 elements across the hole still left 2e-6 on mode 8) while small elements
-//! cost `ω₁` its digits.
+//! ([`super::fe::HoleLoss`]). (A section constant per element converged only as `h²`: 32
+//! elements across the hole still left 2e-6 on mode 8, while such small elements cost `ω₁` its
+//! digits.)
 //!
 //! **Default number of modes:** the smallest `N ≥ MIN_DEFAULT_MODES` whose modal sum captures
 //! [`DEFAULT_CAPTURED_STATIC_FRACTION`] of the static tip compliance (uniform bar: 97.07, 99.54,

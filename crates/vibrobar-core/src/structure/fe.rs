@@ -1,6 +1,6 @@
 //! Finite elements of a clamped–free Euler–Bernoulli bar: Hermite cubic elements (deflection and
-//! slope at each node), consistent mass, piecewise-constant section, a tip mass with rotary
-//! inertia; reduced to its first modes by a dense symmetric eigensolver.
+//! slope at each node), consistent mass, a section constant per element plus an optional local
+//! loss integrated exactly ([`HoleLoss`]), a tip mass with rotary inertia; reduced to its first modes by a dense symmetric eigensolver.
 //!
 //! **Why nalgebra, and why the inverted form.** The models here have at most
 //! `2·MAX_FE_ELEMENTS` degrees of freedom and we need all of the lowest modes once per run:
