@@ -6,7 +6,7 @@ use anyhow::Result;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
-use crate::commands::{beam, bench, explore, map, merge, paper, run, sweep};
+use crate::commands::{beam, bench, explore, map, merge, modes, paper, run, sweep};
 
 /// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
 /// "The effect of rolling friction on vibro-impact damped boring bars".
@@ -130,6 +130,9 @@ pub enum Command {
     Ensemble(crate::commands::explore::EnsembleArgs),
     /// Time a 200 × 100 ratio × gap map (from a subsample) for each solver.
     BenchMap(crate::commands::map::BenchMapArgs),
+    /// Modes of the bar at the cavity, force and response points (a [beam] scenario: the
+    /// Euler–Bernoulli beam; otherwise the lumped bar's one mode), as CSV.
+    Modes(crate::commands::modes::ModesArgs),
 }
 
 impl Command {
@@ -148,6 +151,7 @@ impl Command {
             Command::Lyapunov(_) => "lyapunov",
             Command::Ensemble(_) => "ensemble",
             Command::BenchMap(_) => "bench-map",
+            Command::Modes(_) => "modes",
         }
     }
 
@@ -172,6 +176,7 @@ impl Command {
             Command::Lyapunov(a) => (one(&a.point.system.scenario), None),
             Command::Ensemble(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::BenchMap(a) => (one(&a.scenario), None),
+            Command::Modes(a) => (one(&a.scenario), Some(a.out.as_path())),
         }
     }
 
@@ -245,5 +250,6 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Ensemble(a) => explore::run_ensemble_cmd(&a),
         Command::BenchMap(a) => map::run_bench(&a),
         Command::Bench(a) => bench::bench(&a),
+        Command::Modes(a) => modes::modes(&a),
     }
 }

@@ -16,6 +16,7 @@ use vibrobar_core::analysis::sweep::SweepRange;
 use vibrobar_core::analysis::{SweepBase, SweepPoint};
 use vibrobar_core::error::Compact;
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
+use vibrobar_core::structure::{Beam, Structure};
 use vibrobar_core::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};
 
 /// A whole scenario. Missing fields keep the paper's values.
@@ -41,6 +42,10 @@ pub struct Scenario {
     pub initial: State,
     /// Sweep range of `vibrobar sweep`.
     pub sweep: SweepRange,
+    /// `[beam]`: the bar as a clamped–free Euler–Bernoulli beam (issue #8); absent: the lumped
+    /// `[bar]`. See the `[beam]` section of this module.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beam: Option<Beam>,
 }
 
 impl Default for Scenario {
@@ -54,6 +59,7 @@ impl Default for Scenario {
             run: RunSection::default(),
             initial: State::default(),
             sweep: SweepRange::default(),
+            beam: None,
         }
     }
 }
@@ -268,6 +274,7 @@ impl Scenario {
         let raw: toml::Table = toml::from_str(text)?;
         let gap_given = raw.get("damper").and_then(|d| d.get("gap_m")).is_some();
         let gaps_given = raw.get("sweep").and_then(|s| s.get("gaps_m")).is_some();
+        check_beam_against_bar(&raw)?;
         let mut s: Scenario = toml::from_str(text)?;
         if gap_given && !gaps_given {
             s.sweep.gaps_m = vec![s.damper.gap_m];
@@ -275,9 +282,18 @@ impl Scenario {
         Ok(s)
     }
 
-    /// Read a scenario file. It becomes an input of this process: no output may replace it
-    /// ([`vibrobar_io::register_input`]).
+    /// Read a scenario file for a command that simulates: a `[beam]` scenario is refused until
+    /// the N-mode solver exists ([`Scenario::refuse_beam`]).
     pub fn load(path: &Path) -> Result<Self> {
+        let s = Self::load_any(path)?;
+        s.refuse_beam()
+            .with_context(|| format!("scenario file {}", path.display()))?;
+        Ok(s)
+    }
+
+    /// Read a scenario file, `[beam]` or not. It becomes an input of this process: no output
+    /// may replace it ([`vibrobar_io::register_input`]).
+    pub fn load_any(path: &Path) -> Result<Self> {
         vibrobar_io::register_input(path);
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read scenario file {}", path.display()))?;
@@ -430,6 +446,7 @@ impl Scenario {
 
     /// Validate everything a run needs; errors name the scenario field and its allowed range.
     pub fn validate(&self) -> Result<()> {
+        self.refuse_beam()?;
         positive("gravity_m_s2", self.gravity_m_s2)?;
         self.damped_system().validate()?;
         let solid = System {
@@ -543,6 +560,75 @@ pub fn ratio_range(start: f64, stop: f64, step: f64) -> Result<Vec<f64>> {
     Ok(vibrobar_core::analysis::linspace_inclusive(
         start, stop, step,
     ))
+}
+
+// ---------------------------------------------------------------------------------------------
+// [beam] (issue #8): the bar as an Euler–Bernoulli beam. The section deserialises straight into
+// core `structure::Beam` (paper geometry for missing fields). With `[beam]` present, `[bar]` and
+// `[solid_bar]` do not apply, so a file that sets both is refused rather than one silently
+// ignored. Until the N-mode solver exists, only `vibrobar modes` accepts a `[beam]` scenario.
+
+/// Why a command that simulates refuses a `[beam]` scenario.
+pub const BEAM_NOT_SIMULATED: &str = "this scenario has a [beam] section, but the N-mode solver is not built yet; `vibrobar modes` works (it writes the beam's modes); to simulate the paper's lumped bar, remove [beam]";
+
+/// Refuse `[beam]` together with `[bar]` or `[solid_bar]`: both would describe the bar.
+fn check_beam_against_bar(raw: &toml::Table) -> Result<()> {
+    if raw.contains_key("beam") {
+        for other in ["bar", "solid_bar"] {
+            if raw.contains_key(other) {
+                bail!(
+                    "[beam] and [{other}] both describe the bar: with [beam], its modes come from \
+                     the beam's geometry and material and [{other}] does not apply; remove one of them"
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+impl Scenario {
+    /// Error for a `[beam]` scenario in a command that simulates ([`BEAM_NOT_SIMULATED`]).
+    pub fn refuse_beam(&self) -> Result<()> {
+        if self.beam.is_some() {
+            bail!("{BEAM_NOT_SIMULATED}");
+        }
+        Ok(())
+    }
+
+    /// The structure this scenario describes: its `[beam]`, else the lumped `[bar]`.
+    pub fn structure(&self) -> Structure {
+        match &self.beam {
+            Some(b) => Structure::Beam(b.clone()),
+            None => Structure::Lumped(self.bar),
+        }
+    }
+
+    /// Apply `--beam-modes` and `--cavity-position-mm` (a `[beam]` scenario only).
+    pub fn apply_beam_flags(
+        &mut self,
+        beam_modes: Option<usize>,
+        cavity_position_mm: Option<f64>,
+    ) -> Result<()> {
+        if beam_modes.is_none() && cavity_position_mm.is_none() {
+            return Ok(());
+        }
+        let Some(b) = self.beam.as_mut() else {
+            bail!(
+                "--beam-modes and --cavity-position-mm need a scenario with a [beam] section \
+                 (this one is the lumped bar, one mode)"
+            );
+        };
+        if let Some(n) = beam_modes {
+            b.modes = Some(n);
+        }
+        if let Some(x) = cavity_position_mm {
+            check_finite("--cavity-position-mm", x)?;
+            // x / 1000, not x · 1e-3: a division is correctly rounded, so 175 mm is the same
+            // double as 0.175 m and the tip stays inside [0, L] (x · 1e-3 gave 0.17500000000000002).
+            b.cavity_position_m = x / 1e3;
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -667,5 +753,77 @@ mod tests {
         // And it reads back as the same scenario.
         let toml_text = toml::to_string(&Scenario::paper()).unwrap();
         assert_eq!(Scenario::from_toml(&toml_text).unwrap(), Scenario::paper());
+    }
+
+    #[test]
+    fn beam_section_takes_paper_defaults_and_refuses_unknown_fields() {
+        let s = Scenario::from_toml("[beam]\nmodes = 4\n").unwrap();
+        let b = s.beam.clone().unwrap();
+        assert_eq!(
+            b,
+            Beam {
+                modes: Some(4),
+                ..Beam::default()
+            }
+        );
+        assert!(matches!(s.structure(), Structure::Beam(_)));
+        let s = Scenario::from_toml(
+            "[beam]\nlength_m = 0.2\ndamping_ratio = [0.01, 0.02]\n\
+             [beam.tip_mass]\nmass_kg = 0.05\n[beam.cavity_section]\nhole_diameter_m = 0.015\nlength_m = 0.017\n",
+        )
+        .unwrap();
+        let b = s.beam.unwrap();
+        assert_eq!(b.length_m, 0.2);
+        assert_eq!(b.tip_mass.unwrap().rotary_inertia_kg_m2, 0.0);
+        for (text, want) in [
+            ("[beam]\nlenght_m = 0.2\n", "lenght_m"),
+            ("[beam.tip_mass]\nmass = 0.2\n", "mass"),
+            (
+                "[beam.cavity_section]\nhole_diameter_m = 0.01\n",
+                "length_m",
+            ),
+            ("[beam]\nmodes = -1\n", "modes"),
+        ] {
+            let e = format!("{:#}", Scenario::from_toml(text).unwrap_err());
+            assert!(e.contains(want), "{text:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn beam_with_bar_or_solid_bar_is_refused() {
+        for other in ["bar", "solid_bar"] {
+            let e = Scenario::from_toml(&format!("[beam]\n[{other}]\nmass_kg = 1\n"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(&format!("[beam] and [{other}]")), "{e}");
+        }
+    }
+
+    #[test]
+    fn beam_scenario_is_refused_by_every_simulating_path() {
+        let s = Scenario::from_toml("[beam]\n").unwrap();
+        let e = s.validate().unwrap_err().to_string();
+        assert!(e.contains("N-mode solver is not built yet"), "{e}");
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("b.toml");
+        std::fs::write(&p, "[beam]\n").unwrap();
+        let e = format!("{:#}", Scenario::load(&p).unwrap_err());
+        assert!(e.contains("`vibrobar modes` works"), "{e}");
+        assert!(Scenario::load_any(&p).unwrap().beam.is_some());
+        // Without [beam], nothing changes: same scenario, same JSON (no `beam` key).
+        let j = serde_json::to_value(Scenario::paper()).unwrap();
+        assert!(j.get("beam").is_none());
+        assert!(
+            matches!(Scenario::paper().structure(), Structure::Lumped(b) if b == Bar::PAPER_CAVITY)
+        );
+    }
+
+    #[test]
+    fn regression_cavity_position_mm_at_the_tip_is_inside_the_bar() {
+        let mut s = Scenario::from_toml("[beam]\n").unwrap();
+        s.apply_beam_flags(None, Some(175.0)).unwrap();
+        let b = s.beam.clone().unwrap();
+        assert_eq!(b.cavity_position_m, b.length_m);
+        s.structure().modal_model().unwrap();
     }
 }

@@ -141,12 +141,10 @@ impl Lumped {
     }
 }
 
-/// First cantilever mode shape at `ξ = x/L` from the clamp, normalised to 1 at the free end.
+/// First cantilever mode shape at `ξ = x/L` from the clamp, normalised to 1 at the free end:
+/// the closed-form mode of [`crate::structure::analytic`] (one definition of the shapes).
 pub fn cantilever_mode1(xi: f64) -> f64 {
-    let b = CANTILEVER_BETA1_L;
-    let sigma = (b.cosh() + b.cos()) / (b.sinh() + b.sin());
-    let raw = |x: f64| (b * x).cosh() - (b * x).cos() - sigma * ((b * x).sinh() - (b * x).sin());
-    raw(xi) / raw(1.0)
+    crate::structure::analytic::UniformMode::new(1).shape(xi)
 }
 
 /// Static deflection shape of a tip-loaded cantilever, `ξ²(3 − ξ)/2`, 1 at the free end.

@@ -10,6 +10,8 @@
 //! * [`model`]: the equations of motion and the mechanical energy.
 //! * [`solver`]: the [`solver::Solver`] trait and its implementations.
 //! * [`analysis`]: RMS, impact statistics, time histories, sweeps, energy audit.
+//! * [`structure`]: the bar as modes (lumped, Euler–Bernoulli beam, measured), computed once
+//!   per run.
 //! * [`euler_bernoulli`]: lumped `M`, `K` of a cantilever bar from its geometry.
 //! * [`limits`]: every size limit and input range, with the one checking helper.
 //!
@@ -26,6 +28,7 @@ pub mod limits;
 pub mod model;
 pub mod params;
 pub mod solver;
+pub mod structure;
 
 pub use error::{EventLimitCause, ParamError, SimError};
 pub use params::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};

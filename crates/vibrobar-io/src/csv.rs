@@ -873,6 +873,47 @@ pub fn read_csv(path: &Path, schema: &Schema) -> Result<Vec<Vec<Value>>> {
 }
 
 // ---------------------------------------------------------------------------------------------
+// modes of a structure (`vibrobar modes`)
+
+/// Columns of a modes CSV: one row per mode, shapes normalised to 1 at the tip and
+/// `modal_mass_kg` in that normalisation (`ρAL/4` for a uniform bar; see core `structure`).
+pub fn modes_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("mode", Format::Count),
+            col("frequency_hz", Format::Plain),
+            col("modal_mass_kg", Format::Plain),
+            col("shape_cavity", Format::Plain),
+            col("shape_force", Format::Plain),
+            col("shape_response", Format::Plain),
+        ],
+    }
+}
+
+/// The fields of mode `n` (1-based), in column order.
+pub fn modes_values(n: usize, m: &vibrobar_core::structure::Mode) -> Vec<Value> {
+    vec![
+        Value::U(n as u64),
+        Value::F(m.omega_rad_s / (2.0 * std::f64::consts::PI)),
+        Value::F(m.modal_mass_kg),
+        Value::F(m.shape_cavity),
+        Value::F(m.shape_force),
+        Value::F(m.shape_response),
+    ]
+}
+
+/// Write a modes CSV (atomic, under the output-path policy, through [`write_csv`]: a
+/// non-finite value stops the write and nothing is left).
+pub fn write_modes_csv(path: &Path, model: &vibrobar_core::structure::ModalModel) -> Result<()> {
+    let rows = model
+        .modes
+        .iter()
+        .enumerate()
+        .map(|(k, m)| modes_values(k + 1, m));
+    write_csv(path, &modes_schema(), rows)
+}
+
+// ---------------------------------------------------------------------------------------------
 // whole files
 
 /// Write any serializable value as pretty JSON.

@@ -7,6 +7,7 @@ pub mod design;
 pub mod explore;
 pub mod map;
 pub mod merge;
+pub mod modes;
 pub mod paper;
 pub mod run;
 pub mod sweep;

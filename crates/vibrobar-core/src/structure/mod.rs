@@ -1,0 +1,206 @@
+//! The structure: what the bar is, reduced once per run to the modes a solver needs.
+//!
+//! A [`Structure`] is the paper's lumped bar ([`Structure::Lumped`], one mode with `φ = 1`), a
+//! clamped–free Euler–Bernoulli [`Beam`] (closed-form modes when uniform, finite elements with a
+//! cavity section or a tip mass), or modes given directly ([`Structure::Measured`]). Each gives a
+//! [`ModalModel`] through [`Structure::modal_model`], so nothing downstream asks which one it has.
+//!
+//! **Normalisation (one, everywhere):** every mode shape is 1 at the tip (`x = L`, the free
+//! end), and `modal_mass_kg` is `∫ρA φ² dx` (plus the tip mass terms) in that normalisation: a
+//! uniform bar has `ρAL/4` in every mode. A physical displacement is `u(x, t) = Σ φₙ(x) qₙ(t)`
+//! with `mₙ(q̈ₙ + 2ζₙωₙ q̇ₙ + ωₙ² qₙ) = Σ_points φₙ(x_p) F_p(t)`.
+
+pub mod analytic;
+pub mod beam;
+pub mod fe;
+
+pub use beam::{Beam, CavitySection, DampingRatio, TipMass};
+
+use crate::error::ParamError;
+use crate::params::{finite, positive, Bar};
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+
+/// One mode at the points that matter, in the tip normalisation (module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Mode {
+    /// Undamped natural frequency `ωₙ`.
+    pub omega_rad_s: f64,
+    /// Modal damping ratio `ζₙ`.
+    pub damping_ratio: f64,
+    /// Modal mass `mₙ` (shapes 1 at the tip).
+    pub modal_mass_kg: f64,
+    /// `φₙ(x_cavity)`: where the ball acts.
+    pub shape_cavity: f64,
+    /// `φₙ(x_force)`: where the cutting force acts.
+    pub shape_force: f64,
+    /// `φₙ(x_response)`: where the response is measured.
+    pub shape_response: f64,
+}
+
+impl Mode {
+    /// Modal stiffness `mₙωₙ²`.
+    pub fn modal_stiffness_n_per_m(&self) -> f64 {
+        self.modal_mass_kg * self.omega_rad_s * self.omega_rad_s
+    }
+
+    /// The shape at a point.
+    pub fn shape(&self, p: Point) -> f64 {
+        match p {
+            Point::Cavity => self.shape_cavity,
+            Point::Force => self.shape_force,
+            Point::Response => self.shape_response,
+        }
+    }
+
+    fn validate(&self) -> Result<(), ParamError> {
+        positive("modes.omega_rad_s", self.omega_rad_s)?;
+        crate::params::non_negative("modes.damping_ratio", self.damping_ratio)?;
+        positive("modes.modal_mass_kg", self.modal_mass_kg)?;
+        finite("modes.shape_cavity", self.shape_cavity)?;
+        finite("modes.shape_force", self.shape_force)?;
+        finite("modes.shape_response", self.shape_response)
+    }
+}
+
+/// A point of the bar that a solver or an analysis looks at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Point {
+    /// The cavity centre (the ball).
+    Cavity,
+    /// The force point.
+    Force,
+    /// The response point.
+    Response,
+}
+
+/// The structure reduced to its modes, computed once per run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModalModel {
+    /// Modes by increasing frequency.
+    pub modes: Vec<Mode>,
+    /// The exact static tip compliance (all modes: closed form or the full FE model), m/N;
+    /// the reference of [`ModalModel::captured_static_fraction`].
+    pub static_tip_compliance_m_per_n: f64,
+}
+
+impl ModalModel {
+    /// Number of modes.
+    pub fn len(&self) -> usize {
+        self.modes.len()
+    }
+
+    /// True without modes (never for a model from [`Structure::modal_model`]).
+    pub fn is_empty(&self) -> bool {
+        self.modes.is_empty()
+    }
+
+    /// Receptance `G(iω) = Σ φₙ(to) φₙ(from) / (mₙ(ωₙ² − ω² + 2iζₙωₙω))`: the displacement at
+    /// `to` per unit harmonic force at `from`, m/N.
+    pub fn receptance(&self, from: Point, to: Point, omega_rad_s: f64) -> Complex64 {
+        self.modes
+            .iter()
+            .map(|m| {
+                let wn = m.omega_rad_s;
+                let den = Complex64::new(
+                    wn * wn - omega_rad_s * omega_rad_s,
+                    2.0 * m.damping_ratio * wn * omega_rad_s,
+                ) * m.modal_mass_kg;
+                m.shape(from) * m.shape(to) / den
+            })
+            .sum()
+    }
+
+    /// Static compliance of the retained modes between two points, `Σ φₙ(from)φₙ(to)/(mₙωₙ²)`.
+    pub fn static_compliance_m_per_n(&self, from: Point, to: Point) -> f64 {
+        self.modes
+            .iter()
+            .map(|m| m.shape(from) * m.shape(to) / m.modal_stiffness_n_per_m())
+            .sum()
+    }
+
+    /// Static tip compliance of the first `n` modes, `Σ 1/(mₖωₖ²)` (tip shapes are 1).
+    pub fn tip_compliance_of_first(&self, n: usize) -> f64 {
+        self.modes
+            .iter()
+            .take(n)
+            .map(|m| 1.0 / m.modal_stiffness_n_per_m())
+            .sum()
+    }
+
+    /// Fraction of the exact static tip compliance the retained modes capture.
+    pub fn captured_static_fraction(&self) -> f64 {
+        self.tip_compliance_of_first(self.len()) / self.static_tip_compliance_m_per_n
+    }
+
+    /// Keep the first `n` modes.
+    pub fn truncate(&mut self, n: usize) {
+        self.modes.truncate(n);
+    }
+}
+
+/// What the bar is (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Structure {
+    /// The paper's lumped bar: one mode, `ω = √(K/M)`, `m = M`, every shape 1.
+    Lumped(Bar),
+    /// A clamped–free Euler–Bernoulli bar.
+    Beam(Beam),
+    /// Modes given directly (e.g. measured by a tap test), in the tip normalisation; the static
+    /// tip compliance is that of the modes given.
+    Measured(Vec<Mode>),
+}
+
+impl Structure {
+    /// The modal model of this structure, validated; errors name the field and its range.
+    pub fn modal_model(&self) -> Result<ModalModel, ParamError> {
+        match self {
+            Structure::Lumped(bar) => {
+                positive("bar.mass_kg", bar.mass_kg)?;
+                positive("bar.stiffness_n_per_m", bar.stiffness_n_per_m)?;
+                crate::params::non_negative("bar.damping_ratio", bar.damping_ratio)?;
+                let mode = Mode {
+                    omega_rad_s: bar.natural_freq_rad_s(),
+                    damping_ratio: bar.damping_ratio,
+                    modal_mass_kg: bar.mass_kg,
+                    shape_cavity: 1.0,
+                    shape_force: 1.0,
+                    shape_response: 1.0,
+                };
+                Ok(ModalModel {
+                    modes: vec![mode],
+                    static_tip_compliance_m_per_n: 1.0 / bar.stiffness_n_per_m,
+                })
+            }
+            Structure::Beam(b) => b.modal_model(),
+            Structure::Measured(modes) => {
+                crate::limits::check_count(
+                    "modes (number of [[modes]])",
+                    modes.len(),
+                    1,
+                    crate::limits::MAX_BEAM_MODES,
+                    "",
+                )?;
+                for m in modes {
+                    m.validate()?;
+                }
+                let mut modes = modes.clone();
+                modes.sort_by(|a, b| a.omega_rad_s.total_cmp(&b.omega_rad_s));
+                let c = modes
+                    .iter()
+                    .map(|m| 1.0 / m.modal_stiffness_n_per_m())
+                    .sum();
+                crate::limits::finite_result(
+                    "static tip compliance of the modes",
+                    c,
+                    "modal masses or frequencies outside floating-point range",
+                )?;
+                Ok(ModalModel {
+                    modes,
+                    static_tip_compliance_m_per_n: c,
+                })
+            }
+        }
+    }
+}
