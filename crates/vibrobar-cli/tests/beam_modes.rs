@@ -2,16 +2,10 @@
 //! bad input (every error names the field and its range, nothing written), and every simulating
 //! command refusing a `[beam]` scenario instead of silently running the lumped bar.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
-fn vibrobar(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vibrobar"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("binary runs")
-}
+use common::{assert_fails_with, vibrobar_in};
+use std::path::Path;
 
 const PAPER_BEAM: &str = "[beam]\nlength_m = 0.175\ndiameter_m = 0.025\n\
     youngs_modulus_pa = 200e9\ndensity_kg_m3 = 7850.0\ncavity_position_m = 0.137\n";
@@ -30,7 +24,7 @@ fn read_rows(p: &Path) -> (String, Vec<Vec<f64>>) {
 fn modes_of_the_paper_geometry() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("b.toml"), PAPER_BEAM).unwrap();
-    let o = vibrobar(
+    let o = vibrobar_in(
         dir.path(),
         &["modes", "--scenario", "b.toml", "--out", "m.csv"],
     );
@@ -63,7 +57,7 @@ fn modes_of_the_paper_geometry() {
     );
     assert!(dir.path().join("m.csv.meta.json").exists());
     // Flags: N and the cavity position.
-    let o = vibrobar(
+    let o = vibrobar_in(
         dir.path(),
         &[
             "modes",
@@ -92,11 +86,11 @@ fn shipped_beam_scenario_gives_the_paper_geometry_modes() {
         env!("CARGO_MANIFEST_DIR"),
         "/../../scenarios/paper_beam.toml"
     );
-    let a = vibrobar(
+    let a = vibrobar_in(
         dir.path(),
         &["modes", "--scenario", shipped, "--out", "a.csv"],
     );
-    let b = vibrobar(
+    let b = vibrobar_in(
         dir.path(),
         &["modes", "--scenario", "b.toml", "--out", "b.csv"],
     );
@@ -109,7 +103,7 @@ fn shipped_beam_scenario_gives_the_paper_geometry_modes() {
 #[test]
 fn modes_of_the_lumped_bar_is_its_one_mode() {
     let dir = tempfile::tempdir().unwrap();
-    let o = vibrobar(dir.path(), &["modes", "--out", "m.csv"]);
+    let o = vibrobar_in(dir.path(), &["modes", "--out", "m.csv"]);
     assert!(o.status.success());
     let text = std::fs::read_to_string(dir.path().join("m.csv")).unwrap();
     let want = format!(
@@ -118,12 +112,11 @@ fn modes_of_the_lumped_bar_is_its_one_mode() {
     );
     assert_eq!(text, want);
     // The beam flags need a [beam].
-    let o = vibrobar(
+    let o = vibrobar_in(
         dir.path(),
         &["modes", "--out", "n.csv", "--beam-modes", "4"],
     );
-    assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("need a scenario with a [beam] section"));
+    assert_fails_with(&o, &["need a scenario with a [beam] section"]);
     assert!(!dir.path().join("n.csv").exists());
 }
 
@@ -135,7 +128,7 @@ fn modes_with_cavity_section_and_tip_mass_uses_finite_elements() {
          [beam.tip_mass]\nmass_kg = 0.05\nrotary_inertia_kg_m2 = 1e-6\n"
     );
     std::fs::write(dir.path().join("b.toml"), text).unwrap();
-    let o = vibrobar(
+    let o = vibrobar_in(
         dir.path(),
         &["modes", "--scenario", "b.toml", "--out", "m.csv"],
     );
@@ -202,7 +195,7 @@ fn bad_beam_input_names_the_field_and_writes_nothing() {
         std::fs::write(dir.path().join("b.toml"), text).unwrap();
         let mut args = vec!["modes", "--scenario", "b.toml", "--out", "m.csv"];
         args.extend_from_slice(flags);
-        let o = vibrobar(dir.path(), &args);
+        let o = vibrobar_in(dir.path(), &args);
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success(), "{extra:?} {flags:?} succeeded");
         assert!(err.contains(want), "{extra:?} {flags:?}: {err}");
@@ -219,7 +212,7 @@ fn bad_beam_input_names_the_field_and_writes_nothing() {
          [beam.cavity_section]\nhole_diameter_m = 0.015\nlength_m = 0.01\n",
     )
     .unwrap();
-    let o = vibrobar(
+    let o = vibrobar_in(
         dir.path(),
         &["modes", "--scenario", "b.toml", "--out", "m.csv"],
     );
@@ -236,7 +229,7 @@ fn beam_and_bar_together_are_refused() {
         format!("{PAPER_BEAM}[bar]\ndamping_ratio = 0.02\n"),
     )
     .unwrap();
-    let o = vibrobar(
+    let o = vibrobar_in(
         dir.path(),
         &["modes", "--scenario", "b.toml", "--out", "m.csv"],
     );
@@ -298,7 +291,7 @@ fn regression_beam_scenario_never_runs_the_lumped_bar_silently() {
     ];
     for mut args in cases {
         args.extend_from_slice(&s);
-        let o = vibrobar(dir.path(), &args);
+        let o = vibrobar_in(dir.path(), &args);
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success(), "{args:?} succeeded");
         assert!(

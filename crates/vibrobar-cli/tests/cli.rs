@@ -1,25 +1,10 @@
 //! End-to-end tests of the `vibrobar` binary: headers, ranges, validation, atomic writes,
 //! a snapshot of a small sweep, closed-form plausibility and `paper --quick`.
 
+mod common;
+
+use common::{vibrobar, vibrobar_ok};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn vibrobar(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vibrobar"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
-
-fn ok(args: &[&str]) -> Output {
-    let o = vibrobar(args);
-    assert!(
-        o.status.success(),
-        "vibrobar {args:?} failed:\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    o
-}
 
 fn csv(path: &Path) -> (String, Vec<Vec<String>>) {
     let text = std::fs::read_to_string(path).expect("csv written");
@@ -54,7 +39,7 @@ fn sweep_header_and_inclusive_range() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("nested/dir/sweep.csv");
     let o = out.to_str().unwrap();
-    ok(&[
+    vibrobar_ok(&[
         "sweep",
         "--preset",
         "paper",
@@ -94,7 +79,7 @@ fn sweep_header_and_inclusive_range() {
 fn sweep_two_gaps_and_friction_options() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("s.csv");
-    ok(&[
+    vibrobar_ok(&[
         "sweep",
         "--preset",
         "paper",
@@ -125,7 +110,7 @@ fn sweep_two_gaps_and_friction_options() {
 fn run_header_rows_and_summary() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run.csv");
-    let o = ok(&[
+    let o = vibrobar_ok(&[
         "run",
         "--preset",
         "paper",
@@ -276,7 +261,7 @@ fn invalid_input_names_the_field_and_fails_cleanly() {
 fn small_sweep_snapshot() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("snap.csv");
-    ok(&[
+    vibrobar_ok(&[
         "sweep",
         "--preset",
         "paper",
@@ -327,7 +312,7 @@ fn small_sweep_snapshot() {
 fn solid_bar_rms_matches_closed_form() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("solid.csv");
-    ok(&[
+    vibrobar_ok(&[
         "sweep",
         "--preset",
         "paper",
@@ -363,7 +348,7 @@ fn solid_bar_rms_matches_closed_form() {
 fn paper_quick_writes_everything() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("paper-out");
-    let o = ok(&[
+    let o = vibrobar_ok(&[
         "paper",
         "--quick",
         "--duration",
@@ -464,7 +449,7 @@ fn paper_quick_writes_everything() {
 
     // --ensemble-members 0 skips the ensemble: no CSV, no claims from it.
     let out0 = dir.path().join("paper-no-ensemble");
-    ok(&[
+    vibrobar_ok(&[
         "paper",
         "--quick",
         "--duration",
@@ -487,7 +472,7 @@ fn shipped_scenario_parses_and_runs() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run.csv");
     let scenario = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/paper.toml");
-    ok(&[
+    vibrobar_ok(&[
         "run",
         "--scenario",
         scenario,
@@ -504,11 +489,11 @@ fn shipped_scenario_parses_and_runs() {
 #[test]
 fn help_is_complete() {
     for cmd in ["sweep", "run", "paper", "bench"] {
-        let o = ok(&[cmd, "--help"]);
+        let o = vibrobar_ok(&[cmd, "--help"]);
         let h = String::from_utf8_lossy(&o.stdout);
         assert!(h.contains("--"), "{cmd} help empty");
     }
-    let h = String::from_utf8_lossy(&ok(&["sweep", "--help"]).stdout).to_string();
+    let h = String::from_utf8_lossy(&vibrobar_ok(&["sweep", "--help"]).stdout).to_string();
     for flag in [
         "--gap-mm",
         "--ratios",
@@ -542,7 +527,7 @@ fn run_energy_json_closes_and_has_the_friction_sign() {
         ("none", "0", 0.0),
     ] {
         let out = dir.path().join(format!("{friction}.csv"));
-        let o = ok(&[
+        let o = vibrobar_ok(&[
             "run",
             "--preset",
             "paper",
@@ -609,7 +594,7 @@ fn run_writes_npy_matching_the_csv() {
     let dir = tempfile::tempdir().unwrap();
     let (c, n) = (dir.path().join("h.csv"), dir.path().join("h.npy"));
     for out in [&c, &n] {
-        ok(&[
+        vibrobar_ok(&[
             "run",
             "--preset",
             "paper",
@@ -644,7 +629,7 @@ fn run_writes_npy_matching_the_csv() {
 /// (total mass ρAL, K = Mω₁²) and a clean error for a bad length.
 #[test]
 fn beam_prints_every_reduction_and_rejects_bad_geometry() {
-    let o = ok(&["beam"]);
+    let o = vibrobar_ok(&["beam"]);
     let text = String::from_utf8_lossy(&o.stdout);
     for r in [
         "static-rayleigh",

@@ -1,23 +1,12 @@
 //! End-to-end tests of `poincare`, `bifurcation`, `lyapunov` and `ensemble` through the
 //! `vibrobar` binary (short rk4 runs).
+
+mod common;
+
+use common::{assert_fails_with, assert_ok, bin, vibrobar};
 use std::fs;
-use std::process::{Command, Output};
+
 use vibrobar_io::npy::decode_f64;
-
-const BIN: &str = env!("CARGO_BIN_EXE_vibrobar");
-
-fn run(args: &[&str]) -> Output {
-    Command::new(BIN).args(args).output().expect("binary runs")
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "failed: {}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
 
 /// CSV body as numbers.
 fn numbers(path: &std::path::Path) -> (String, Vec<Vec<f64>>) {
@@ -34,7 +23,7 @@ fn numbers(path: &std::path::Path) -> (String, Vec<Vec<f64>>) {
 fn poincare_writes_csv_npy_and_figure_that_agree() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("p.csv");
-    ok(&run(&[
+    assert_ok(&vibrobar(&[
         "poincare",
         "--friction",
         "none",
@@ -86,7 +75,7 @@ fn poincare_writes_csv_npy_and_figure_that_agree() {
 fn bifurcation_over_the_gap_writes_consistent_files() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("b.csv");
-    ok(&run(&[
+    assert_ok(&vibrobar(&[
         "bifurcation",
         "--friction",
         "none",
@@ -115,7 +104,7 @@ fn bifurcation_over_the_gap_writes_consistent_files() {
     assert!(imp.starts_with("gap_mm,t_s,wall,dw_m_s\n"));
     assert!(d.path().join("b.png").exists());
     // The fixed parameter is required.
-    let o = run(&[
+    let o = vibrobar(&[
         "bifurcation",
         "--friction",
         "none",
@@ -128,8 +117,7 @@ fn bifurcation_over_the_gap_writes_consistent_files() {
         "--out",
         out.to_str().unwrap(),
     ]);
-    assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--gap-mm is required"));
+    assert_fails_with(&o, &["--gap-mm is required"]);
 }
 
 #[test]
@@ -147,21 +135,20 @@ fn lyapunov_json_and_text() {
         "--duration",
         "0.3",
     ];
-    let o = run(&[&args[..], &["--json"]].concat());
-    ok(&o);
+    let o = vibrobar(&[&args[..], &["--json"]].concat());
+    assert_ok(&o);
     let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let l = j["exponent_per_s"].as_f64().unwrap();
     assert!(l.is_finite());
     assert!(j["std_error_per_s"].as_f64().unwrap() >= 0.0);
     assert!(j["intervals"].as_u64().unwrap() >= 2);
-    let o = run(&args);
-    ok(&o);
+    let o = vibrobar(&args);
+    assert_ok(&o);
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.starts_with("λ = ") && text.contains(" ± "), "{text}");
     // Too short for two intervals: a clear error.
-    let o = run(&[&args[..9], &["--duration", "0.01", "--periods", "100"]].concat());
-    assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--duration"));
+    let o = vibrobar(&[&args[..9], &["--duration", "0.01", "--periods", "100"]].concat());
+    assert_fails_with(&o, &["--duration"]);
 }
 
 #[test]
@@ -194,16 +181,20 @@ fn ensemble_counts_members_and_is_reproducible() {
     };
     let a = out("a.csv");
     let b = out("b.csv");
-    ok(&Command::new(BIN)
-        .args(args(a.to_str().unwrap(), "7"))
-        .env("RAYON_NUM_THREADS", "1")
-        .output()
-        .unwrap());
-    ok(&Command::new(BIN)
-        .args(args(b.to_str().unwrap(), "7"))
-        .env("RAYON_NUM_THREADS", "2")
-        .output()
-        .unwrap());
+    assert_ok(
+        &bin()
+            .args(args(a.to_str().unwrap(), "7"))
+            .env("RAYON_NUM_THREADS", "1")
+            .output()
+            .unwrap(),
+    );
+    assert_ok(
+        &bin()
+            .args(args(b.to_str().unwrap(), "7"))
+            .env("RAYON_NUM_THREADS", "2")
+            .output()
+            .unwrap(),
+    );
     assert_eq!(fs::read(&a).unwrap(), fs::read(&b).unwrap());
     let text = fs::read_to_string(&a).unwrap();
     let mut lines = text.lines();
@@ -229,9 +220,6 @@ fn ensemble_counts_members_and_is_reproducible() {
     }
     // Another seed, other initial conditions.
     let c = out("c.csv");
-    ok(&Command::new(BIN)
-        .args(args(c.to_str().unwrap(), "8"))
-        .output()
-        .unwrap());
+    assert_ok(&bin().args(args(c.to_str().unwrap(), "8")).output().unwrap());
     assert_ne!(fs::read(&a).unwrap(), fs::read(&c).unwrap());
 }

@@ -1,29 +1,13 @@
 //! End-to-end tests of `map` and `merge` through the `vibrobar` binary, on tiny grids
 //! with short runs.
+
+mod common;
+
+use common::{assert_fails_with, assert_ok, bin, s, vibrobar_env};
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-const BIN: &str = env!("CARGO_BIN_EXE_vibrobar");
 const HEADER: &str = "ratio,gap_mm,rms_solid_m,rms_damped_m,reduction_pct,impacts_per_cycle,regime";
-
-fn run(args: &[&str], envs: &[(&str, &str)]) -> Output {
-    let mut c = Command::new(BIN);
-    c.args(args);
-    for (k, v) in envs {
-        c.env(k, v);
-    }
-    c.output().expect("binary runs")
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "failed: {}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
 
 /// A tiny map around resonance: 5 ratios × 3 gaps, 0.05 s runs with rk4.
 fn map_args<'a>(out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
@@ -52,10 +36,6 @@ fn p(dir: &Path, name: &str) -> PathBuf {
     dir.join(name)
 }
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 fn read_rows(path: &Path) -> Vec<Vec<String>> {
     fs::read_to_string(path)
         .unwrap()
@@ -69,7 +49,7 @@ fn read_rows(path: &Path) -> Vec<Vec<String>> {
 fn map_writes_the_contract_header_metadata_optimum_and_figures() {
     let d = tempfile::tempdir().unwrap();
     let out = p(d.path(), "m.csv");
-    ok(&run(&map_args(s(&out), &[]), &[]));
+    assert_ok(&vibrobar_env(&map_args(s(&out), &[]), &[]));
     let text = fs::read_to_string(&out).unwrap();
     let mut lines = text.lines();
     assert_eq!(lines.next(), Some(HEADER));
@@ -106,7 +86,7 @@ fn map_writes_the_contract_header_metadata_optimum_and_figures() {
 fn optimum_csv_agrees_with_the_map() {
     let d = tempfile::tempdir().unwrap();
     let out = p(d.path(), "m.csv");
-    ok(&run(&map_args(s(&out), &[]), &[]));
+    assert_ok(&vibrobar_env(&map_args(s(&out), &[]), &[]));
     let rows = read_rows(&out);
     let opt = fs::read_to_string(p(d.path(), "m.optimum.csv")).unwrap();
     let mut lines = opt.lines();
@@ -185,15 +165,21 @@ fn results_do_not_depend_on_the_thread_count() {
     let d = tempfile::tempdir().unwrap();
     let a = p(d.path(), "a/m.csv");
     let b = p(d.path(), "b/m.csv");
-    ok(&run(&map_args(s(&a), &[]), &[("RAYON_NUM_THREADS", "1")]));
-    ok(&run(&map_args(s(&b), &[]), &[("RAYON_NUM_THREADS", "2")]));
+    assert_ok(&vibrobar_env(
+        &map_args(s(&a), &[]),
+        &[("RAYON_NUM_THREADS", "1")],
+    ));
+    assert_ok(&vibrobar_env(
+        &map_args(s(&b), &[]),
+        &[("RAYON_NUM_THREADS", "2")],
+    ));
     assert_eq!(fs::read(&a).unwrap(), fs::read(&b).unwrap());
     assert_eq!(
         fs::read(p(d.path(), "a/m.optimum.csv")).unwrap(),
         fs::read(p(d.path(), "b/m.optimum.csv")).unwrap()
     );
     let c = p(d.path(), "c/m.csv");
-    ok(&run(&map_args(s(&c), &["--threads", "2"]), &[]));
+    assert_ok(&vibrobar_env(&map_args(s(&c), &["--threads", "2"]), &[]));
     assert_eq!(fs::read(&a).unwrap(), fs::read(&c).unwrap());
 }
 
@@ -201,12 +187,12 @@ fn results_do_not_depend_on_the_thread_count() {
 fn shards_merged_equal_the_unsharded_map_byte_for_byte() {
     let d = tempfile::tempdir().unwrap();
     let full = p(d.path(), "full/m.csv");
-    ok(&run(&map_args(s(&full), &[]), &[]));
+    assert_ok(&vibrobar_env(&map_args(s(&full), &[]), &[]));
     let mut shards = Vec::new();
     for k in 1..=3 {
         let f = p(d.path(), &format!("shards/m.{k}.csv"));
         let spec = format!("{k}/3");
-        ok(&run(&map_args(s(&f), &["--shard", &spec]), &[]));
+        assert_ok(&vibrobar_env(&map_args(s(&f), &["--shard", &spec]), &[]));
         let meta: serde_json::Value =
             serde_json::from_str(&fs::read_to_string(format!("{}.meta.json", s(&f))).unwrap())
                 .unwrap();
@@ -229,7 +215,7 @@ fn shards_merged_equal_the_unsharded_map_byte_for_byte() {
     let mut args = vec!["merge", "--out", s(&merged)];
     // Any order.
     args.extend([s(&shards[2]), s(&shards[0]), s(&shards[1])]);
-    ok(&run(&args, &[]));
+    assert_ok(&vibrobar_env(&args, &[]));
     assert_eq!(fs::read(&merged).unwrap(), fs::read(&full).unwrap());
     assert_eq!(
         fs::read(p(d.path(), "merged/m.optimum.csv")).unwrap(),
@@ -237,7 +223,7 @@ fn shards_merged_equal_the_unsharded_map_byte_for_byte() {
     );
     assert!(p(d.path(), "merged/m.reduction.png").exists());
     // A missing shard is refused.
-    let o = run(
+    let o = vibrobar_env(
         &[
             "merge",
             "--out",
@@ -247,8 +233,7 @@ fn shards_merged_equal_the_unsharded_map_byte_for_byte() {
         ],
         &[],
     );
-    assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("missing shards [3]"));
+    assert_fails_with(&o, &["missing shards [3]"]);
 }
 
 fn journal_of(out: &Path) -> PathBuf {
@@ -259,7 +244,7 @@ fn journal_of(out: &Path) -> PathBuf {
 fn resume_from_a_torn_journal_is_byte_identical() {
     let d = tempfile::tempdir().unwrap();
     let full = p(d.path(), "full/m.csv");
-    ok(&run(&map_args(s(&full), &[]), &[]));
+    assert_ok(&vibrobar_env(&map_args(s(&full), &[]), &[]));
     let fingerprint = {
         let m: serde_json::Value =
             serde_json::from_str(&fs::read_to_string(p(d.path(), "full/m.csv.meta.json")).unwrap())
@@ -282,12 +267,12 @@ fn resume_from_a_torn_journal_is_byte_identical() {
     j.push_str(&format!("9,{}", &rows[9][..rows[9].len() / 2]));
     fs::write(journal_of(&out), j).unwrap();
     // Without --resume: refused, nothing overwritten.
-    let o = run(&map_args(s(&out), &[]), &[]);
+    let o = vibrobar_env(&map_args(s(&out), &[]), &[]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("--resume"), "{err}");
     assert!(!out.exists());
-    ok(&run(&map_args(s(&out), &["--resume"]), &[]));
+    assert_ok(&vibrobar_env(&map_args(s(&out), &["--resume"]), &[]));
     assert_eq!(fs::read(&out).unwrap(), fs::read(&full).unwrap());
     assert!(!journal_of(&out).exists());
     // A journal of other parameters is refused.
@@ -298,9 +283,8 @@ fn resume_from_a_torn_journal_is_byte_identical() {
         format!("# vibrobar journal v1 fingerprint=0123456789abcdef\nindex,{HEADER}\n"),
     )
     .unwrap();
-    let o = run(&map_args(s(&other), &["--resume"]), &[]);
-    assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("different parameters"));
+    let o = vibrobar_env(&map_args(s(&other), &["--resume"]), &[]);
+    assert_fails_with(&o, &["different parameters"]);
 }
 
 #[test]
@@ -333,13 +317,10 @@ fn resume_after_sigkill_is_byte_identical() {
         v
     };
     let full = p(d.path(), "full/m.csv");
-    let o = Command::new(BIN)
-        .args(args(s(&full), None))
-        .output()
-        .unwrap();
-    ok(&o);
+    let o = bin().args(args(s(&full), None)).output().unwrap();
+    assert_ok(&o);
     let out = p(d.path(), "killed/m.csv");
-    let mut child = Command::new(BIN)
+    let mut child = bin()
         .args(args(s(&out), Some("1")))
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
@@ -365,7 +346,7 @@ fn resume_after_sigkill_is_byte_identical() {
         assert!((3..40).contains(&rows), "{rows} rows in the journal");
         let mut a = args(s(&out), None);
         a.push("--resume".into());
-        ok(&Command::new(BIN).args(a).output().unwrap());
+        assert_ok(&bin().args(a).output().unwrap());
     }
     assert_eq!(fs::read(&out).unwrap(), fs::read(&full).unwrap());
     assert!(!jp.exists());
@@ -493,7 +474,7 @@ fn bad_input_is_a_clear_error_not_a_panic() {
         vec!["--friction-force-n", "[0, ∞) N"],
     ));
     for (args, want) in cases {
-        let r = Command::new(BIN).args(&args).output().unwrap();
+        let r = bin().args(&args).output().unwrap();
         let err = String::from_utf8_lossy(&r.stderr);
         assert!(!r.status.success(), "{args:?} accepted");
         assert_ne!(r.status.code(), Some(101), "{args:?} panicked: {err}");
@@ -509,7 +490,7 @@ fn bad_input_is_a_clear_error_not_a_panic() {
 fn optional_axes_add_columns_after_gap() {
     let d = tempfile::tempdir().unwrap();
     let out = p(d.path(), "m.csv");
-    ok(&run(
+    assert_ok(&vibrobar_env(
         &[
             "map",
             "--friction",
@@ -558,7 +539,7 @@ fn optimum_friction_work_sign_follows_the_friction_law() {
         ("none", "(none)"),
     ] {
         let out = p(d.path(), &format!("{friction}/m.csv"));
-        let o = run(
+        let o = vibrobar_env(
             &[
                 "map",
                 "--friction",
@@ -574,7 +555,7 @@ fn optimum_friction_work_sign_follows_the_friction_law() {
             ],
             &[],
         );
-        ok(&o);
+        assert_ok(&o);
         let stdout = String::from_utf8_lossy(&o.stdout);
         let line = stdout
             .lines()

@@ -2,34 +2,12 @@
 //! that is an input is refused (A1), Ctrl-C leaves no partial file and keeps journals resumable
 //! (A9), and refusals come before any journal exists.
 
+mod common;
+
+use common::{assert_fails_with, bin, names, stderr, vibrobar_in};
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vibrobar"))
-}
-
-fn vibrobar_in(dir: &Path, args: &[&str]) -> Output {
-    bin()
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
-
-fn err(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
+use std::process::{Output, Stdio};
 
 const SCENARIO: &str = "[run]\nduration_s = 0.02\n[damper]\ngap_m = 1e-4\n";
 
@@ -82,9 +60,9 @@ fn regression_every_command_refuses_an_output_that_is_its_scenario() {
             let o = vibrobar_in(d, &args);
             assert!(!o.status.success(), "{args:?} succeeded");
             assert!(
-                err(&o).contains("is also an input"),
+                stderr(&o).contains("is also an input"),
                 "{args:?}: {}",
-                err(&o)
+                stderr(&o)
             );
             assert!(t.elapsed().as_secs_f64() < 5.0, "{args:?} refused late");
             assert_eq!(fs::read_to_string(d.join("s.toml")).unwrap(), SCENARIO);
@@ -113,8 +91,7 @@ fn regression_derived_output_that_is_the_scenario_is_refused() {
             "x.csv",
         ],
     );
-    assert!(!o.status.success());
-    assert!(err(&o).contains("is also an input"), "{}", err(&o));
+    assert_fails_with(&o, &["is also an input"]);
     assert_eq!(fs::read_to_string(d.join("x.npy")).unwrap(), SCENARIO);
 }
 
@@ -162,7 +139,7 @@ fn regression_sweep_and_map_without_forcing_refuse_before_any_journal() {
     ] {
         let o = vibrobar_in(d, args);
         assert!(!o.status.success(), "{args:?}");
-        let e = err(&o);
+        let e = stderr(&o);
         assert!(
             e.contains("forcing.amplitude_n") || e.contains("--threads"),
             "{args:?}: {e}"
@@ -229,7 +206,7 @@ fn regression_sigint_during_map_keeps_a_resumable_journal_and_no_partial() {
     args.push("m.csv");
     let journal: PathBuf = d.join("m.csv.journal");
     let o = interrupt(d, &args, |_| journal_rows(&journal) >= 3);
-    let e = err(&o);
+    let e = stderr(&o);
     assert_eq!(o.status.code(), Some(130), "{e}");
     assert!(
         e.contains("interrupted: the map to m.csv") && e.contains("kept m.csv.journal"),
@@ -243,13 +220,13 @@ fn regression_sigint_during_map_keeps_a_resumable_journal_and_no_partial() {
     // Resume completes it, byte-identical to an uninterrupted map.
     args.push("--resume");
     let o = vibrobar_in(d, &args);
-    assert!(o.status.success(), "{}", err(&o));
-    assert!(err(&o).contains("resuming"), "{}", err(&o));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("resuming"), "{}", stderr(&o));
     args.pop();
     args.pop();
     args.push("whole.csv");
     let o = vibrobar_in(d, &args);
-    assert!(o.status.success(), "{}", err(&o));
+    assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(
         fs::read(d.join("m.csv")).unwrap(),
         fs::read(d.join("whole.csv")).unwrap()
@@ -283,11 +260,11 @@ fn regression_sigint_during_poincare_and_paper_leaves_no_partial() {
             true
         },
     );
-    assert_eq!(o.status.code(), Some(130), "{}", err(&o));
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
     assert!(
-        err(&o).contains("interrupted: the poincare to p.csv"),
+        stderr(&o).contains("interrupted: the poincare to p.csv"),
         "{}",
-        err(&o)
+        stderr(&o)
     );
     assert_eq!(names(d), Vec::<String>::new());
     // `paper --quick`: interrupted while it computes. (Its figures are drawn by the plotting
@@ -298,18 +275,18 @@ fn regression_sigint_during_poincare_and_paper_leaves_no_partial() {
         std::thread::sleep(std::time::Duration::from_millis(100));
         true
     });
-    assert_eq!(o.status.code(), Some(130), "{}", err(&o));
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
     assert!(
-        err(&o).contains("interrupted: the paper to paper"),
+        stderr(&o).contains("interrupted: the paper to paper"),
         "{}",
-        err(&o)
+        stderr(&o)
     );
     let left: Vec<String> = if out.exists() { names(&out) } else { vec![] };
     assert!(
         o.status.code() == Some(130) || o.status.success(),
         "{:?}: {}",
         o.status,
-        err(&o)
+        stderr(&o)
     );
     assert!(!left.iter().any(|n| n.contains("partial")), "{left:?}");
 }
@@ -335,7 +312,7 @@ fn regression_duration_1e308_error_shows_the_value_given_not_inf() {
         ][..],
     ] {
         let o = vibrobar_in(d, args);
-        let e = err(&o);
+        let e = stderr(&o);
         assert!(!o.status.success(), "{args:?}");
         assert!(e.contains("1e308 s") && !e.contains("inf"), "{args:?}: {e}");
         assert_eq!(names(d), Vec::<String>::new());
@@ -371,7 +348,7 @@ fn regression_rk4_penetration_in_sweep_and_map_warns_once_with_the_worst_point()
         args.extend(extra);
         args.extend(["--out", "o.csv"]);
         let o = vibrobar_in(d, &args);
-        let e = err(&o);
+        let e = stderr(&o);
         assert!(o.status.success(), "{cmd}: {e}");
         assert_eq!(e.matches("warning: the ball went").count(), 1, "{cmd}: {e}");
         assert!(
@@ -399,8 +376,8 @@ fn regression_rk4_penetration_in_sweep_and_map_warns_once_with_the_worst_point()
         ],
     );
     assert!(
-        o.status.success() && !err(&o).contains("warning"),
+        o.status.success() && !stderr(&o).contains("warning"),
         "{}",
-        err(&o)
+        stderr(&o)
     );
 }

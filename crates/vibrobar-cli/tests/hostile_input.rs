@@ -3,77 +3,17 @@
 //! closed pipe. Every child runs with a wall-clock timeout and (on Unix) a 4 GiB address-space
 //! limit, so a regression fails the test instead of eating the machine.
 
-use std::io::Read;
-use std::process::{Command, ExitStatus, Stdio};
+mod common;
+
+use common::{bin, limit_memory, run_limited, wait_or_kill, Run};
+use std::process::{ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
 const TIMEOUT: Duration = Duration::from_secs(20);
 
-struct Run {
-    status: ExitStatus,
-    stdout: String,
-    stderr: String,
-    wall: Duration,
-}
-
-fn limited(mut cmd: Command) -> Command {
-    #[cfg(unix)]
-    {
-        use std::os::unix::process::CommandExt;
-        // SAFETY: only async-signal-safe setrlimit between fork and exec.
-        unsafe {
-            cmd.pre_exec(|| {
-                let lim = libc::rlimit {
-                    rlim_cur: 4 << 30,
-                    rlim_max: 4 << 30,
-                };
-                libc::setrlimit(libc::RLIMIT_AS, &lim);
-                Ok(())
-            });
-        }
-    }
-    cmd
-}
-
 /// Run the binary in `dir` with a timeout; panics (after killing it) if it does not end.
 fn run_in(dir: &std::path::Path, args: &[&str]) -> Run {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vibrobar"));
-    cmd.args(args)
-        .current_dir(dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    let t0 = Instant::now();
-    let mut child = limited(cmd).spawn().expect("binary starts");
-    let mut out = child.stdout.take().unwrap();
-    let mut err = child.stderr.take().unwrap();
-    let t_out = std::thread::spawn(move || {
-        let mut s = String::new();
-        out.read_to_string(&mut s).ok();
-        s
-    });
-    let t_err = std::thread::spawn(move || {
-        let mut s = String::new();
-        err.read_to_string(&mut s).ok();
-        s
-    });
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if t0.elapsed() > TIMEOUT {
-            child.kill().ok();
-            child.wait().ok();
-            panic!("vibrobar {args:?} did not end within {TIMEOUT:?}");
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    };
-    Run {
-        status,
-        stdout: t_out.join().unwrap(),
-        stderr: t_err.join().unwrap(),
-        wall: t0.elapsed(),
-    }
+    run_limited(dir, args, TIMEOUT)
 }
 
 /// The probe must fail cleanly (status 1 or clap's 2), quickly, with every `want` in its stderr.
@@ -501,25 +441,16 @@ fn run_into_closed_pipes(dir: &std::path::Path, args: &[&str]) -> ExitStatus {
             Stdio::from(OwnedFd::from_raw_fd(fds[1]))
         }
     };
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vibrobar"));
+    let mut cmd = bin();
     cmd.args(args)
         .current_dir(dir)
         .stdin(Stdio::null())
         .stdout(closed_pipe())
         .stderr(closed_pipe());
+    limit_memory(&mut cmd);
     let t0 = Instant::now();
-    let mut child = limited(cmd).spawn().expect("binary starts");
-    loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            return s;
-        }
-        if t0.elapsed() > TIMEOUT {
-            child.kill().ok();
-            child.wait().ok();
-            panic!("vibrobar {args:?} did not end within {TIMEOUT:?}");
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    let mut child = cmd.spawn().expect("binary starts");
+    wait_or_kill(&mut child, args, t0, TIMEOUT)
 }
 
 #[cfg(unix)]

@@ -5,40 +5,18 @@
 //! Device nodes are never written here (CI runs as root): FIFOs and symlinks made in a temp dir
 //! stand in for them; `/dev/null` is only checked through the policy's decision (io crate tests).
 
+mod common;
+
+use common::{assert_fails_with, bin, names, s, stderr, vibrobar};
 use std::fs;
 use std::os::unix::fs::FileTypeExt;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vibrobar"))
-}
-
-fn vibrobar(args: &[&str]) -> Output {
-    bin().args(args).output().expect("binary runs")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn err(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
 fn mkfifo(p: &Path) {
     let st = Command::new("mkfifo").arg(p).status().expect("mkfifo runs");
     assert!(st.success());
-}
-
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
 }
 
 const SHORT_RUN: [&str; 5] = ["run", "--preset", "paper", "--duration", "0.01"];
@@ -58,7 +36,7 @@ fn regression_run_out_fifo_is_written_through_not_replaced() {
     if !o.status.success() {
         // Release the reader (blocked in open) before failing, so the test cannot hang.
         let _ = fs::OpenOptions::new().write(true).open(&fifo);
-        panic!("{}", err(&o));
+        panic!("{}", stderr(&o));
     }
     let summary = String::from_utf8_lossy(&o.stdout);
     assert!(
@@ -91,7 +69,7 @@ fn regression_run_out_symlink_writes_its_target_and_stays_a_link() {
     let mut args = SHORT_RUN.to_vec();
     args.extend(["--out", s(&link)]);
     let o = vibrobar(&args);
-    assert!(o.status.success(), "{}", err(&o));
+    assert!(o.status.success(), "{}", stderr(&o));
     assert!(fs::symlink_metadata(&link)
         .unwrap()
         .file_type()
@@ -120,8 +98,7 @@ fn regression_map_out_fifo_is_refused_clearly() {
         "--out",
         s(&fifo),
     ]);
-    assert!(!o.status.success());
-    assert!(err(&o).contains("is a FIFO"), "{}", err(&o));
+    assert_fails_with(&o, &["is a FIFO"]);
     assert!(fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
     assert_eq!(names(dir.path()), vec!["pipe"]);
 }
@@ -133,8 +110,7 @@ fn regression_run_out_equal_to_its_scenario_is_refused() {
     let text = "[run]\nduration_s = 0.01\n";
     fs::write(&sc, text).unwrap();
     let o = vibrobar(&["run", "--scenario", s(&sc), "--out", s(&sc)]);
-    assert!(!o.status.success());
-    assert!(err(&o).contains("is also an input"), "{}", err(&o));
+    assert_fails_with(&o, &["is also an input"]);
     assert_eq!(fs::read_to_string(&sc).unwrap(), text);
 }
 
@@ -160,7 +136,7 @@ fn regression_two_maps_in_one_folder_keep_their_own_optimum() {
     let (a, b) = (dir.path().join("a.csv"), dir.path().join("b.csv"));
     for (out, friction) in [(&a, "none"), (&b, "as-published")] {
         let o = small_map(out, friction);
-        assert!(o.status.success(), "{}", err(&o));
+        assert!(o.status.success(), "{}", stderr(&o));
     }
     let oa = fs::read_to_string(dir.path().join("a.optimum.csv")).unwrap();
     let ob = fs::read_to_string(dir.path().join("b.optimum.csv")).unwrap();
@@ -175,7 +151,7 @@ fn regression_map_metadata_reloads_the_regime_tolerances() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m.csv");
     let o = small_map(&out, "none");
-    assert!(o.status.success(), "{}", err(&o));
+    assert!(o.status.success(), "{}", stderr(&o));
     let mut meta = vibrobar_io::Metadata::read_beside(&out).unwrap();
     let p: MapParams = meta.parameters_as(&out).unwrap();
     let (spec, solver) = spec_from_params(&p).unwrap();
@@ -220,8 +196,7 @@ fn regression_npy_to_a_full_disk_names_the_file_and_leaves_no_partial() {
     let mut args = SHORT_RUN.to_vec();
     args.extend(["--out", s(&out)]);
     let o = full_disk(&args);
-    assert!(!o.status.success());
-    assert!(err(&o).contains("x.npy"), "{}", err(&o));
+    assert_fails_with(&o, &["x.npy"]);
     assert_eq!(names(dir.path()), Vec::<String>::new(), "nothing left");
 }
 
@@ -242,8 +217,7 @@ fn regression_full_disk_leaves_no_journal_that_looks_like_progress() {
         "--out",
         s(&out),
     ]);
-    assert!(!o.status.success());
-    assert!(err(&o).contains("m.csv.journal"), "{}", err(&o));
+    assert_fails_with(&o, &["m.csv.journal"]);
     assert_eq!(names(dir.path()), Vec::<String>::new(), "no 0-byte journal");
 }
 
@@ -338,7 +312,7 @@ fn regression_sigint_during_run_removes_the_partial_and_says_so() {
     unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) };
     let o = child.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(130));
-    let e = err(&o);
+    let e = stderr(&o);
     assert!(
         e.contains("interrupted: the run to") && e.contains("long.csv.partial"),
         "{e}"
@@ -374,7 +348,7 @@ fn regression_second_resume_on_a_held_journal_names_the_holder() {
     let held = vibrobar_io::lock::LockFile::acquire(&journal).unwrap();
     let o = map_to(&out, &["--resume"]);
     assert!(!o.status.success());
-    let e = err(&o);
+    let e = stderr(&o);
     assert!(
         e.contains("in use by another vibrobar process")
             && e.contains(&format!("pid {}", std::process::id())),
@@ -383,14 +357,14 @@ fn regression_second_resume_on_a_held_journal_names_the_holder() {
     assert!(!out.exists() && !journal.exists());
     drop(held);
     let o = map_to(&out, &["--resume"]);
-    assert!(o.status.success(), "{}", err(&o));
+    assert!(o.status.success(), "{}", stderr(&o));
 }
 
 /// A journal of the whole small map, made from a finished run's rows, with `edit` applied.
 fn journal_from_finished_map(dir: &Path, edit: impl Fn(Vec<String>) -> Vec<String>) -> PathBuf {
     let full = dir.join("full/m.csv");
     let o = map_to(&full, &[]);
-    assert!(o.status.success(), "{}", err(&o));
+    assert!(o.status.success(), "{}", stderr(&o));
     let meta = vibrobar_io::Metadata::read_beside(&full).unwrap();
     let text = fs::read_to_string(&full).unwrap();
     let rows: Vec<String> = text
@@ -420,7 +394,7 @@ fn regression_map_journal_row_with_swapped_index_is_refused_with_its_line() {
     // Untouched, the hand-made journal resumes to the same map (the check accepts real rows).
     let out = journal_from_finished_map(dir.path(), |r| r);
     let o = map_to(&out, &["--resume"]);
-    assert!(o.status.success(), "{}", err(&o));
+    assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(
         fs::read(&out).unwrap(),
         fs::read(dir.path().join("full/m.csv")).unwrap()
@@ -434,7 +408,7 @@ fn regression_map_journal_row_with_swapped_index_is_refused_with_its_line() {
     });
     let o = map_to(&out, &["--resume"]);
     assert!(!o.status.success());
-    let e = err(&o);
+    let e = stderr(&o);
     assert!(
         e.contains("m.csv.journal: line 4") && e.contains("index 1 is the grid point 0.99,0.2"),
         "{e}"
@@ -454,7 +428,7 @@ fn regression_map_journal_row_with_nan_is_refused_with_its_line() {
     });
     let o = map_to(&out, &["--resume"]);
     assert!(!o.status.success());
-    let e = err(&o);
+    let e = stderr(&o);
     assert!(
         e.contains("m.csv.journal: line 6")
             && e.contains("rms_damped_m = NaN is not a finite number"),
@@ -488,7 +462,7 @@ fn run_and_sweep_metadata_reload_as_their_typed_parameters() {
         "--out",
         s(&sweep),
     ]);
-    assert!(o.status.success(), "{}", err(&o));
+    assert!(o.status.success(), "{}", stderr(&o));
     let meta = vibrobar_io::Metadata::read_beside(&sweep).unwrap();
     let p: SweepParams<serde_json::Value> = meta.parameters_as(&sweep).unwrap();
     assert_eq!(p.gaps_m, vec![1e-4]);
@@ -525,7 +499,7 @@ fn regression_out_link_to_stdout_writes_through_the_pipe() {
     let mut args = SHORT_RUN.to_vec();
     args.extend(["--out", s(&link)]);
     let o = vibrobar(&args);
-    assert!(o.status.success(), "{}", err(&o));
+    assert!(o.status.success(), "{}", stderr(&o));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(
         stdout.starts_with("t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s\n"),
@@ -570,7 +544,7 @@ fn streamed_npy_announces_exactly_the_rows_the_run_gives() {
             assert!(
                 o.status.success(),
                 "{solver} {dt} {duration} {every}: {}",
-                err(&o)
+                stderr(&o)
             );
         }
         let (shape, data) =

@@ -1,15 +1,17 @@
 //! One input path: every command that takes a system accepts `--scenario FILE`, and the file's
 //! values reach the runs (checked against the core directly, not only in the metadata).
+
+mod common;
+
+use common::{assert_fails_with, s, vibrobar, vibrobar_ok};
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
 use vibrobar_core::analysis::map::{compute_point, Axis, GridPoint, MapSpec};
 use vibrobar_core::analysis::regime::Tolerances;
 use vibrobar_core::analysis::run_case;
 use vibrobar_core::solver::Rk4;
 use vibrobar_core::{Bar, Damper, FrictionModel, RunSettings, State, System};
-
-const BIN: &str = env!("CARGO_BIN_EXE_vibrobar");
 
 /// A user's own bar: lighter-than-paper stiffness, heavier ball, coulomb friction, rk4.
 const OWN: &str = r#"
@@ -28,29 +30,10 @@ dt_s = 2.0e-6
 solver = "rk4"
 "#;
 
-fn run(args: &[&str]) -> Output {
-    Command::new(BIN).args(args).output().expect("binary runs")
-}
-
-fn ok(args: &[&str]) -> Output {
-    let o = run(args);
-    assert!(
-        o.status.success(),
-        "{args:?} failed: {}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    o
-}
-
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     fs::write(&p, text).unwrap();
     p
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 fn meta(data: &Path) -> serde_json::Value {
@@ -109,7 +92,7 @@ fn a_user_can_map_their_own_bar() {
     let sc = write(d.path(), "own.toml", OWN);
     let out = d.path().join("m.csv");
     // No --friction: the file's coulomb law is used.
-    ok(&[
+    vibrobar_ok(&[
         "map",
         "--scenario",
         s(&sc),
@@ -168,7 +151,7 @@ fn a_user_can_map_their_own_bar() {
     assert_ne!(rows[0][2].parse::<f64>().unwrap(), paper_solid);
     // Flags override the file.
     let out2 = d.path().join("m2.csv");
-    ok(&[
+    vibrobar_ok(&[
         "map",
         "--scenario",
         s(&sc),
@@ -188,7 +171,7 @@ fn a_user_can_map_their_own_bar() {
     assert_eq!(p["settings"]["duration_s"], 0.02);
     assert_eq!(p["damped_bar"]["mass_kg"], 1.0);
     // --scenario and --preset exclude each other.
-    let o = run(&[
+    let o = vibrobar(&[
         "map",
         "--scenario",
         s(&sc),
@@ -201,8 +184,7 @@ fn a_user_can_map_their_own_bar() {
         "--out",
         s(&out2),
     ]);
-    assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--preset"));
+    assert_fails_with(&o, &["--preset"]);
 }
 
 #[test]
@@ -210,7 +192,7 @@ fn poincare_bifurcation_lyapunov_ensemble_take_a_scenario() {
     let d = tempfile::tempdir().unwrap();
     let sc = write(d.path(), "own.toml", OWN);
     let p = d.path().join("p.csv");
-    ok(&[
+    vibrobar_ok(&[
         "poincare",
         "--scenario",
         s(&sc),
@@ -224,7 +206,7 @@ fn poincare_bifurcation_lyapunov_ensemble_take_a_scenario() {
     assert_own_params(&meta(&p)["parameters"]);
     // The same point of the paper's bar gives another section: the file reached the run.
     let pp = d.path().join("pp.csv");
-    ok(&[
+    vibrobar_ok(&[
         "poincare",
         "--friction",
         "coulomb",
@@ -244,7 +226,7 @@ fn poincare_bifurcation_lyapunov_ensemble_take_a_scenario() {
     assert_ne!(fs::read(&p).unwrap(), fs::read(&pp).unwrap());
 
     let b = d.path().join("b.csv");
-    ok(&[
+    vibrobar_ok(&[
         "bifurcation",
         "--scenario",
         s(&sc),
@@ -259,7 +241,7 @@ fn poincare_bifurcation_lyapunov_ensemble_take_a_scenario() {
     ]);
     assert_own_params(&meta(&b)["parameters"]);
 
-    let o = ok(&[
+    let o = vibrobar_ok(&[
         "lyapunov",
         "--scenario",
         s(&sc),
@@ -276,7 +258,7 @@ fn poincare_bifurcation_lyapunov_ensemble_take_a_scenario() {
     assert!(j["exponent_per_s"].as_f64().unwrap().is_finite());
 
     let e = d.path().join("e.csv");
-    ok(&[
+    vibrobar_ok(&[
         "ensemble",
         "--scenario",
         s(&sc),
@@ -296,7 +278,7 @@ fn poincare_bifurcation_lyapunov_ensemble_take_a_scenario() {
 fn bench_and_bench_map_take_a_scenario() {
     let d = tempfile::tempdir().unwrap();
     let sc = write(d.path(), "own.toml", OWN);
-    let o = ok(&[
+    let o = vibrobar_ok(&[
         "bench",
         "--scenario",
         s(&sc),
@@ -310,7 +292,7 @@ fn bench_and_bench_map_take_a_scenario() {
         "{text}"
     );
     // Its RMS is the one `run` gives for the same file.
-    let r = ok(&[
+    let r = vibrobar_ok(&[
         "run",
         "--scenario",
         s(&sc),
@@ -334,7 +316,7 @@ fn bench_and_bench_map_take_a_scenario() {
         "{text} vs {rms_line}"
     );
     // The scenario's sweep: one gap (the file's) × 11 ratios.
-    let o = ok(&[
+    let o = vibrobar_ok(&[
         "bench",
         "--scenario",
         s(&sc),
@@ -345,7 +327,7 @@ fn bench_and_bench_map_take_a_scenario() {
     ]);
     let text = String::from_utf8_lossy(&o.stdout).to_string();
     assert!(text.contains("scenario sweep (11 damped points"), "{text}");
-    let o = ok(&[
+    let o = vibrobar_ok(&[
         "bench-map",
         "--scenario",
         s(&sc),
@@ -366,7 +348,7 @@ fn regression_sweep_uses_the_files_gap_when_it_has_no_sweep_section() {
     let d = tempfile::tempdir().unwrap();
     let sc = write(d.path(), "gap.toml", "[damper]\ngap_m = 5.0e-4\n");
     let out = d.path().join("s.csv");
-    ok(&[
+    vibrobar_ok(&[
         "sweep",
         "--scenario",
         s(&sc),
@@ -394,7 +376,7 @@ fn regression_bar_or_solid_bar_with_one_field_runs() {
         ("solid.toml", "[solid_bar]\ndamping_ratio = 0.02\n"),
     ] {
         let sc = write(d.path(), name, text);
-        ok(&[
+        vibrobar_ok(&[
             "sweep",
             "--scenario",
             s(&sc),
@@ -491,7 +473,7 @@ fn a_bad_scenario_fails_every_command_before_any_run_naming_the_field() {
         ),
     ];
     for (args, want) in cases {
-        let r = run(&args);
+        let r = vibrobar(&args);
         let err = String::from_utf8_lossy(&r.stderr);
         assert!(!r.status.success(), "{args:?} accepted");
         assert!(err.contains(want), "{args:?}: {err}");

@@ -1,10 +1,13 @@
 //! `vibrobar sweep` through the row journal: interrupted and resumed sweeps give the same bytes,
 //! torn journal lines are dropped, metadata is written, the thread count does not matter.
+
+mod common;
+
+use common::{assert_fails_with, assert_ok, bin, vibrobar_env};
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::Stdio;
 
-const BIN: &str = env!("CARGO_BIN_EXE_vibrobar");
 const HEADER: &str = "ratio,gap_mm,friction,solver,rms_solid_m,rms_damped_m,reduction_pct,impacts";
 
 /// 2 gaps × 21 ratios of 0.2 s rk4 runs (rk4: slow enough to be killed part-way).
@@ -33,24 +36,6 @@ fn args(out: &Path, extra: &[&str]) -> Vec<String> {
     v
 }
 
-fn run(args: &[String], envs: &[(&str, &str)]) -> Output {
-    let mut c = Command::new(BIN);
-    c.args(args);
-    for (k, v) in envs {
-        c.env(k, v);
-    }
-    c.output().expect("binary runs")
-}
-
-fn ok(o: &Output) {
-    assert!(
-        o.status.success(),
-        "failed: {}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
 fn journal_of(out: &Path) -> PathBuf {
     PathBuf::from(format!("{}.journal", out.display()))
 }
@@ -65,8 +50,14 @@ fn sweep_rows_are_gap_major_with_metadata_and_independent_of_threads() {
     let d = tempfile::tempdir().unwrap();
     let one = d.path().join("one/s.csv");
     let two = d.path().join("two/s.csv");
-    ok(&run(&args(&one, &[]), &[("RAYON_NUM_THREADS", "1")]));
-    ok(&run(&args(&two, &[]), &[("RAYON_NUM_THREADS", "2")]));
+    assert_ok(&vibrobar_env(
+        &args(&one, &[]),
+        &[("RAYON_NUM_THREADS", "1")],
+    ));
+    assert_ok(&vibrobar_env(
+        &args(&two, &[]),
+        &[("RAYON_NUM_THREADS", "2")],
+    ));
     assert_eq!(fs::read(&one).unwrap(), fs::read(&two).unwrap());
     let text = fs::read_to_string(&one).unwrap();
     let mut lines = text.lines();
@@ -106,9 +97,9 @@ fn sweep_rows_are_gap_major_with_metadata_and_independent_of_threads() {
 fn sweep_killed_then_resumed_is_byte_identical() {
     let d = tempfile::tempdir().unwrap();
     let full = d.path().join("full/s.csv");
-    ok(&run(&args(&full, &[]), &[]));
+    assert_ok(&vibrobar_env(&args(&full, &[]), &[]));
     let out = d.path().join("killed/s.csv");
-    let mut child = Command::new(BIN)
+    let mut child = bin()
         .args(args(&out, &[]))
         .env("RAYON_NUM_THREADS", "1")
         .stdout(Stdio::null())
@@ -134,12 +125,12 @@ fn sweep_killed_then_resumed_is_byte_identical() {
         let rows = fs::read_to_string(&jp).unwrap().lines().count() - 2;
         assert!((3..42).contains(&rows), "{rows} rows in the journal");
         // Without --resume an existing journal is a clear error, and nothing is overwritten.
-        let o = run(&args(&out, &[]), &[]);
+        let o = vibrobar_env(&args(&out, &[]), &[]);
         assert!(!o.status.success());
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(err.contains("--resume"), "{err}");
         assert!(!out.exists());
-        ok(&run(&args(&out, &["--resume"]), &[]));
+        assert_ok(&vibrobar_env(&args(&out, &["--resume"]), &[]));
     }
     assert_eq!(fs::read(&out).unwrap(), fs::read(&full).unwrap());
     assert!(!jp.exists());
@@ -150,7 +141,7 @@ fn sweep_killed_then_resumed_is_byte_identical() {
 fn sweep_resume_drops_a_torn_journal_line_and_refuses_other_parameters() {
     let d = tempfile::tempdir().unwrap();
     let full = d.path().join("full/s.csv");
-    ok(&run(&args(&full, &[]), &[]));
+    assert_ok(&vibrobar_env(&args(&full, &[]), &[]));
     let fp = meta_of(&full)["fingerprint"].as_str().unwrap().to_string();
     let rows: Vec<String> = fs::read_to_string(&full)
         .unwrap()
@@ -168,7 +159,7 @@ fn sweep_resume_drops_a_torn_journal_line_and_refuses_other_parameters() {
     // if it were kept, the result would differ).
     j.push_str("9,0.99,0.1,none,rk4,9.9e-9");
     fs::write(journal_of(&out), j).unwrap();
-    ok(&run(&args(&out, &["--resume"]), &[]));
+    assert_ok(&vibrobar_env(&args(&out, &["--resume"]), &[]));
     assert_eq!(fs::read(&out).unwrap(), fs::read(&full).unwrap());
     // A journal of other parameters (another duration) is refused.
     let other = d.path().join("other/s.csv");
@@ -181,8 +172,7 @@ fn sweep_resume_drops_a_torn_journal_line_and_refuses_other_parameters() {
     let mut a = args(&other, &["--resume"]);
     let k = a.iter().position(|x| x == "0.2").unwrap();
     a[k] = "0.1".into();
-    let o = run(&a, &[]);
-    assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("different parameters"));
+    let o = vibrobar_env(&a, &[]);
+    assert_fails_with(&o, &["different parameters"]);
     assert!(!other.exists());
 }
