@@ -62,6 +62,7 @@
 use crate::error::ParamError;
 use crate::limits;
 use crate::params::{finite, positive, Bar};
+use crate::structure::{check_cavity_in_section, CavityFields};
 use std::f64::consts::PI;
 
 /// `β₁L`, first root of `cos βL cosh βL = −1` (cantilever, first bending mode).
@@ -279,23 +280,18 @@ impl BeamGeometry {
                 "beam.cavity.distance_from_free_end_m",
                 c.distance_from_free_end_m,
             )?;
-            let r_out = 0.5 * self.outer_diameter_m;
+            check_cavity_in_section(
+                self.outer_diameter_m,
+                c.hole_diameter_m,
+                c.length_m,
+                &CavityFields {
+                    hole: "beam.cavity.hole_diameter_m",
+                    hole_allowed: "(0, outer_diameter_m)",
+                    length: "beam.cavity.length_m",
+                    length_allowed: "(0, √(D² − d_h²)) (cavity inside the bar)",
+                },
+            )?;
             let rh = 0.5 * c.hole_diameter_m;
-            if rh >= r_out {
-                return Err(ParamError::OutOfRange {
-                    field: "beam.cavity.hole_diameter_m",
-                    value: c.hole_diameter_m,
-                    allowed: "(0, outer_diameter_m)",
-                });
-            }
-            // The cavity's corners (z = d_h/2, y = ℓ/2) must lie inside the round bar.
-            if rh * rh + (0.5 * c.length_m).powi(2) >= r_out * r_out {
-                return Err(ParamError::OutOfRange {
-                    field: "beam.cavity.length_m",
-                    value: c.length_m,
-                    allowed: "(0, √(D² − d_h²)) (cavity inside the bar)",
-                });
-            }
             let a = c.distance_from_free_end_m;
             if a < rh || a > self.length_m - rh {
                 return Err(ParamError::OutOfRange {

@@ -27,7 +27,7 @@
 
 use super::analytic::{beta_l, UniformMode};
 use super::fe::{HoleLoss, Mesh};
-use super::{ModalModel, Mode};
+use super::{check_cavity_in_section, CavityFields, ModalModel, Mode};
 use crate::error::ParamError;
 use crate::limits;
 use crate::params::{non_negative, positive};
@@ -284,7 +284,7 @@ impl Beam {
         if let Some(c) = self.cavity_section {
             positive("beam.cavity_section.hole_diameter_m", c.hole_diameter_m)?;
             positive("beam.cavity_section.length_m", c.length_m)?;
-            let (r_out, rh) = (0.5 * self.diameter_m, 0.5 * c.hole_diameter_m);
+            let rh = 0.5 * c.hole_diameter_m;
             limits::check(
                 "beam.cavity_section.hole_diameter_m",
                 c.hole_diameter_m,
@@ -292,21 +292,17 @@ impl Beam {
                 self.diameter_m.min(l),
                 "smaller than the bar's diameter_m and its length_m",
             )?;
-            if rh >= r_out {
-                return Err(ParamError::OutOfRange {
-                    field: "beam.cavity_section.hole_diameter_m",
-                    value: c.hole_diameter_m,
-                    allowed: "(0, diameter_m) (a hole smaller than the bar's section)",
-                });
-            }
-            // The cavity's corners (z = d_h/2, y = ℓ/2) must lie inside the round bar.
-            if rh * rh + (0.5 * c.length_m).powi(2) >= r_out * r_out {
-                return Err(ParamError::OutOfRange {
-                    field: "beam.cavity_section.length_m",
-                    value: c.length_m,
-                    allowed: "(0, √(D² − d_h²)) (cavity inside the bar's section)",
-                });
-            }
+            check_cavity_in_section(
+                self.diameter_m,
+                c.hole_diameter_m,
+                c.length_m,
+                &CavityFields {
+                    hole: "beam.cavity_section.hole_diameter_m",
+                    hole_allowed: "(0, diameter_m) (a hole smaller than the bar's section)",
+                    length: "beam.cavity_section.length_m",
+                    length_allowed: "(0, √(D² − d_h²)) (cavity inside the bar's section)",
+                },
+            )?;
             limits::check(
                 "beam.cavity_position_m (--cavity-position-mm)",
                 self.cavity_position_m,

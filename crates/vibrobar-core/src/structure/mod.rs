@@ -21,6 +21,42 @@ use crate::params::{finite, positive, Bar};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
+/// The field names and allowed ranges a caller's errors give for [`check_cavity_in_section`].
+pub(crate) struct CavityFields {
+    pub hole: &'static str,
+    pub hole_allowed: &'static str,
+    pub length: &'static str,
+    pub length_allowed: &'static str,
+}
+
+/// The geometric rule for a transverse cavity (hole diameter `d_h`, length `ℓ` along the hole,
+/// centred on the axis) in a round bar of diameter `D`: the hole is smaller than the section, and
+/// the cavity's corners (z = d_h/2, y = ℓ/2) lie inside the round bar. One rule for the lumped
+/// estimator ([`crate::euler_bernoulli`]) and the [`Beam`]; each names its own fields.
+pub(crate) fn check_cavity_in_section(
+    bar_diameter_m: f64,
+    hole_diameter_m: f64,
+    length_m: f64,
+    fields: &CavityFields,
+) -> Result<(), ParamError> {
+    let (r_out, rh) = (0.5 * bar_diameter_m, 0.5 * hole_diameter_m);
+    if rh >= r_out {
+        return Err(ParamError::OutOfRange {
+            field: fields.hole,
+            value: hole_diameter_m,
+            allowed: fields.hole_allowed,
+        });
+    }
+    if rh * rh + (0.5 * length_m).powi(2) >= r_out * r_out {
+        return Err(ParamError::OutOfRange {
+            field: fields.length,
+            value: length_m,
+            allowed: fields.length_allowed,
+        });
+    }
+    Ok(())
+}
+
 /// One mode at the points that matter, in the tip normalisation (module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
