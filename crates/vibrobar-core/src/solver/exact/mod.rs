@@ -111,6 +111,13 @@ struct Consts {
 }
 
 impl Consts {
+    /// The time tolerance of an event search starting at `t`: the run's own plus the rounding
+    /// of `t` itself.
+    #[inline]
+    fn tol_t_at(&self, t: f64) -> f64 {
+        self.tol_t + 4.0 * f64::EPSILON * t.abs()
+    }
+
     fn kappa(&self) -> f64 {
         1.0 / self.md + 1.0 / self.m
     }
@@ -728,7 +735,7 @@ fn free_flight(
     search: &mut Search,
 ) -> Result<Option<Md>, SimError> {
     let span = t_end_s - s.t;
-    let tol_t = cs.tol_t + 4.0 * f64::EPSILON * s.t.abs();
+    let tol_t = cs.tol_t_at(s.t);
     let fb = cs.fb(sigma);
     let (u, force) = cs.bar_sum(cs.m, -fb, s.t, s.u, s.du)?;
     let w = ExpSum {
@@ -811,7 +818,7 @@ fn pair_motion(
     search: &mut Search,
 ) -> Result<Option<Md>, SimError> {
     let span = t_end_s - s.t;
-    let tol_t = cs.tol_t + 4.0 * f64::EPSILON * s.t.abs();
+    let tol_t = cs.tol_t_at(s.t);
     let (u, force) = cs.bar_sum(cs.m + cs.md, 0.0, s.t, s.u, s.du)?;
     let ddu = u.deriv().deriv();
     let w = ExpSum::constant(s.w, &u);
