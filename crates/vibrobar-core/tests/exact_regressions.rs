@@ -8,6 +8,8 @@
 //! on `|g''|` used for the proven steps was the sum of their amplitudes, ~1e5 too loose.
 mod common;
 
+use common::linear_bar_from_rest;
+
 use vibrobar_core::solver::{Event, Exact, Observer, Rk4, Segment, Solver};
 use vibrobar_core::EventLimitCause;
 use vibrobar_core::*;
@@ -50,28 +52,6 @@ fn checked() -> Exact {
         check_invariants: true,
         ..Default::default()
     }
-}
-
-/// The bar alone (the ball never moves: frictionless, from rest, centred, no impact) from rest,
-/// in closed form: `u(t)`, `u̇(t)`.
-fn linear_bar_from_rest(sys: &System, t: f64) -> (f64, f64) {
-    let (m, c, k) = (
-        sys.bar.mass_kg,
-        sys.bar.damping_n_s_per_m(),
-        sys.bar.stiffness_n_per_m,
-    );
-    let (f0, w) = (sys.forcing.amplitude_n, sys.omega_rad_s());
-    let (re, im) = (k - m * w * w, c * w);
-    let (x, phi) = (f0 / re.hypot(im), im.atan2(re));
-    let sigma = c / (2.0 * m);
-    let wd = (k / m - sigma * sigma).sqrt();
-    let a = x * phi.sin();
-    let b = (-x * w * phi.cos() + sigma * a) / wd;
-    let e = (-sigma * t).exp();
-    let (s, co) = (wd * t).sin_cos();
-    let u = x * (w * t - phi).sin() + e * (a * co + b * s);
-    let du = x * w * (w * t - phi).cos() + e * (-sigma * (a * co + b * s) + wd * (-a * s + b * co));
-    (u, du)
 }
 
 /// Bug A3 (a): frictionless runs whose ball never meets a wall are one segment without events;

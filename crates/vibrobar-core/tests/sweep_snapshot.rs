@@ -1,5 +1,8 @@
 //! A small deterministic sweep pinned to stored numbers, plus physics and determinism checks.
 
+mod common;
+
+use common::linear_bar_from_rest;
 use vibrobar_core::analysis::{linspace_inclusive, sweep, SweepBase, SweepPoint, SweepRow};
 use vibrobar_core::solver::Rk4;
 use vibrobar_core::{FrictionModel, RunSettings};
@@ -73,22 +76,7 @@ fn solid_rms_matches_closed_form() {
     let base = SweepBase::paper();
     for r in &rows {
         let sys = base.solid_system(r.point.ratio);
-        let (m, c, k) = (
-            sys.bar.mass_kg,
-            sys.bar.damping_n_s_per_m(),
-            sys.bar.stiffness_n_per_m,
-        );
-        let (f0, w) = (sys.forcing.amplitude_n, sys.omega_rad_s());
-        let (re, im) = (k - m * w * w, c * w);
-        let (x, phi) = (f0 / re.hypot(im), im.atan2(re));
-        let sigma = c / (2.0 * m);
-        let wd = (k / m - sigma * sigma).sqrt();
-        // From rest: A = X sin φ, B = (−XΩ cos φ + σA)/ω_d.
-        let a = x * phi.sin();
-        let b = (-x * w * phi.cos() + sigma * a) / wd;
-        let u = |t: f64| {
-            x * (w * t - phi).sin() + (-sigma * t).exp() * (a * (wd * t).cos() + b * (wd * t).sin())
-        };
+        let u = |t: f64| linear_bar_from_rest(&sys, t).0;
         let (t0, t1) = (st.window_start_s(), st.duration_s);
         let n = 200_000;
         let h = (t1 - t0) / n as f64;

@@ -79,3 +79,26 @@ pub fn constant_push(static_force_n: f64, gap_m: f64, restitution: f64) -> Syste
 }
 
 pub use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
+
+/// The bar alone (the ball never moves: frictionless, from rest, centred, no impact) from rest,
+/// in closed form: `u(t)`, `u̇(t)`.
+pub fn linear_bar_from_rest(sys: &System, t: f64) -> (f64, f64) {
+    let (m, c, k) = (
+        sys.bar.mass_kg,
+        sys.bar.damping_n_s_per_m(),
+        sys.bar.stiffness_n_per_m,
+    );
+    let (f0, w) = (sys.forcing.amplitude_n, sys.omega_rad_s());
+    let (re, im) = (k - m * w * w, c * w);
+    let (x, phi) = (f0 / re.hypot(im), im.atan2(re));
+    let sigma = c / (2.0 * m);
+    let wd = (k / m - sigma * sigma).sqrt();
+    // From rest: A = X sin φ, B = (−XΩ cos φ + σA)/ω_d.
+    let a = x * phi.sin();
+    let b = (-x * w * phi.cos() + sigma * a) / wd;
+    let e = (-sigma * t).exp();
+    let (s, co) = (wd * t).sin_cos();
+    let u = x * (w * t - phi).sin() + e * (a * co + b * s);
+    let du = x * w * (w * t - phi).cos() + e * (-sigma * (a * co + b * s) + wd * (-a * s + b * co));
+    (u, du)
+}
