@@ -19,6 +19,23 @@ fn mkfifo(p: &Path) {
     assert!(st.success());
 }
 
+/// A 3 × 2 map: `vibrobar` arguments with the friction law, duration and output given.
+fn tiny_map<'a>(friction: &'a str, duration_s: &'a str, out: &'a str) -> [&'a str; 11] {
+    [
+        "map",
+        "--friction",
+        friction,
+        "--ratios",
+        "0.99:1.01:0.01",
+        "--gaps-mm",
+        "0.1:0.2:0.1",
+        "--duration",
+        duration_s,
+        "--out",
+        out,
+    ]
+}
+
 const SHORT_RUN: [&str; 5] = ["run", "--preset", "paper", "--duration", "0.01"];
 
 #[test]
@@ -85,19 +102,7 @@ fn regression_map_out_fifo_is_refused_clearly() {
     let dir = tempfile::tempdir().unwrap();
     let fifo = dir.path().join("pipe");
     mkfifo(&fifo);
-    let o = vibrobar(&[
-        "map",
-        "--friction",
-        "none",
-        "--ratios",
-        "0.99:1.01:0.01",
-        "--gaps-mm",
-        "0.1:0.2:0.1",
-        "--duration",
-        "0.01",
-        "--out",
-        s(&fifo),
-    ]);
+    let o = vibrobar(&tiny_map("none", "0.01", s(&fifo)));
     assert_fails_with(&o, &["is a FIFO"]);
     assert!(fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
     assert_eq!(names(dir.path()), vec!["pipe"]);
@@ -115,19 +120,7 @@ fn regression_run_out_equal_to_its_scenario_is_refused() {
 }
 
 fn small_map(out: &Path, friction: &str) -> Output {
-    vibrobar(&[
-        "map",
-        "--friction",
-        friction,
-        "--ratios",
-        "0.99:1.01:0.01",
-        "--gaps-mm",
-        "0.1:0.2:0.1",
-        "--duration",
-        "0.02",
-        "--out",
-        s(out),
-    ])
+    vibrobar(&tiny_map(friction, "0.02", s(out)))
 }
 
 #[test]
@@ -204,19 +197,7 @@ fn regression_npy_to_a_full_disk_names_the_file_and_leaves_no_partial() {
 fn regression_full_disk_leaves_no_journal_that_looks_like_progress() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("m.csv");
-    let o = full_disk(&[
-        "map",
-        "--friction",
-        "none",
-        "--ratios",
-        "0.99:1.01:0.01",
-        "--gaps-mm",
-        "0.1:0.2:0.1",
-        "--duration",
-        "0.01",
-        "--out",
-        s(&out),
-    ]);
+    let o = full_disk(&tiny_map("none", "0.01", s(&out)));
     assert_fails_with(&o, &["m.csv.journal"]);
     assert_eq!(names(dir.path()), Vec::<String>::new(), "no 0-byte journal");
 }
