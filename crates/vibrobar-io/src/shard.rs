@@ -266,6 +266,11 @@ mod tests {
         )
     }
 
+    /// Shards 1/2 and 2/2 of a 6-point sweep, as `merge` takes them.
+    fn two_shards_of_six(dir: &Path) -> Vec<PathBuf> {
+        (1..=2).map(|k| write_shard(dir, k, 2, 6, 1.0)).collect()
+    }
+
     fn write_shard(dir: &Path, k: usize, n: usize, total: usize, fp_param: f64) -> PathBuf {
         let idx = shard_indices(total, Some(ShardInfo { k, n }));
         let p = dir.join(format!("s{k}.csv"));
@@ -339,9 +344,7 @@ mod tests {
     #[test]
     fn regression_nan_edited_into_a_shard_row_is_refused_with_its_line() {
         let dir = tempfile::tempdir().unwrap();
-        let files: Vec<PathBuf> = (1..=2)
-            .map(|k| write_shard(dir.path(), k, 2, 6, 1.0))
-            .collect();
+        let files = two_shards_of_six(dir.path());
         // Shard 2 holds indices 1, 3, 5: line 3 is index 3.
         let text = std::fs::read_to_string(&files[1]).unwrap();
         let lines: Vec<&str> = text.lines().collect();
@@ -359,9 +362,7 @@ mod tests {
     #[test]
     fn merge_into_a_special_file_is_refused() {
         let dir = tempfile::tempdir().unwrap();
-        let files: Vec<PathBuf> = (1..=2)
-            .map(|k| write_shard(dir.path(), k, 2, 6, 1.0))
-            .collect();
+        let files = two_shards_of_six(dir.path());
         let fifo = dir.path().join("pipe");
         crate::target::test_fifo(&fifo);
         let e = merge(&files, &fifo).unwrap_err().to_string();
@@ -371,9 +372,7 @@ mod tests {
     #[test]
     fn shard_row_not_matching_its_listed_index_is_refused_with_its_line() {
         let dir = tempfile::tempdir().unwrap();
-        let files: Vec<PathBuf> = (1..=2)
-            .map(|k| write_shard(dir.path(), k, 2, 6, 1.0))
-            .collect();
+        let files = two_shards_of_six(dir.path());
         // Shard 1 holds indices 0, 2, 4: swap the rows of 2 and 4 (lines 3 and 4).
         let text = std::fs::read_to_string(&files[0]).unwrap();
         let mut lines: Vec<&str> = text.lines().collect();
@@ -391,9 +390,7 @@ mod tests {
     #[test]
     fn regression_merge_into_one_of_its_inputs_is_refused() {
         let dir = tempfile::tempdir().unwrap();
-        let files: Vec<PathBuf> = (1..=2)
-            .map(|k| write_shard(dir.path(), k, 2, 6, 1.0))
-            .collect();
+        let files = two_shards_of_six(dir.path());
         let before = std::fs::read(&files[0]).unwrap();
         let e = merge(&files, &files[0]).unwrap_err().to_string();
         assert!(e.contains("is also an input"), "{e}");
