@@ -74,6 +74,8 @@ fn order(points: &[(f64, f64)]) -> f64 {
 
 /// N = 1 from `from_lumped` is the lumped `Rk4`: same steps, same impacts, states within 1e-12
 /// of their scale over 0.05 s of the paper's cases (impacts, every friction law, the solid bar).
+/// Not bit for bit after the first impact: the modal impulse `P = (1+e)ẇ m_eff`, `Δq̇ = P/m`
+/// rounds differently from the lumped `μ(1+e)/(1+μ) ẇ` (measured: at most 2.0e-14 of the scale).
 #[test]
 fn one_unit_mode_reproduces_the_lumped_rk4() {
     let dt = 1e-6;
@@ -86,6 +88,7 @@ fn one_unit_mode_reproduces_the_lumped_rk4() {
     }
     cases.push(System::paper_solid(1.0));
     let mut worst = 0.0f64;
+    let mut bit_identical_checked = 0;
     for sys in &cases {
         let mut lumped = Rec::default();
         let rl = Rk4 { dt_s: dt }
@@ -112,6 +115,25 @@ fn one_unit_mode_reproduces_the_lumped_rk4() {
         };
         let fields: [&dyn Fn(&State) -> f64; 4] =
             [&|s| s.u_m, &|s| s.du_m_s, &|s| s.v_m, &|s| s.dv_m_s];
+        // Before the first impact the arithmetic is the lumped one, operation for operation:
+        // bit-identical where `M·(√(K/M))² = K` holds in floating point (the paper's cavity bar;
+        // not its solid bar, 0.668 kg and 9.26 MN/m, where they differ by 2e-16 relative).
+        let msys1 = &msys.model.modes[0];
+        if msys1.modal_stiffness_n_per_m().to_bits() == sys.bar.stiffness_n_per_m.to_bits() {
+            bit_identical_checked += 1;
+            let t_first = lumped.events.first().map_or(f64::INFINITY, |e| e.t_s);
+            for (a, b) in lumped.ends.iter().zip(&modal.ends) {
+                if a.t_s >= t_first {
+                    break;
+                }
+                assert_eq!(
+                    [a.u_m, a.du_m_s, a.v_m, a.dv_m_s].map(f64::to_bits),
+                    [b.u_m, b.du_m_s, b.v_m, b.dv_m_s].map(f64::to_bits),
+                    "{sys:?} at {}",
+                    a.t_s
+                );
+            }
+        }
         let mut case_worst = 0.0f64;
         for f in fields {
             let sc = scale(f);
@@ -158,6 +180,7 @@ fn one_unit_mode_reproduces_the_lumped_rk4() {
             assert!((x - y).abs() <= 1e-12 * x.abs().max(1e-300), "{x} {y}");
         }
     }
+    assert_eq!(bit_identical_checked, 6, "every cavity-bar case");
     eprintln!("N = 1 vs lumped rk4: largest difference {worst:e} of the scale");
 }
 
