@@ -284,7 +284,7 @@ fn kinetic_j(sys: &ModalSystem, s: &ModalState) -> f64 {
 
 /// A point impulse changes each mode's generalised momentum by `φₙ(x_d) P` and the ball's by
 /// `−P`: `mₙ q̇ₙ + φₙ(x_d) m_d v̇` is conserved for every mode; the kinetic energy lost is
-/// `½ m_eff (1 − e²) ẇ−²` and `ẇ+ = −e ẇ−`. Checked to 1e-13 over every impact of 0.05 s.
+/// `½ m_eff (1 − e²) ẇ−²` and `ẇ+ = −e ẇ−`. Checked to 1e-13 over every impact of 0.2 s.
 #[test]
 fn modal_impacts_conserve_momentum_per_mode_and_lose_the_law_s_energy() {
     for friction in [FrictionModel::None, FrictionModel::AsPublished] {
@@ -292,9 +292,9 @@ fn modal_impacts_conserve_momentum_per_mode_and_lose_the_law_s_energy() {
         let d = sys.damper.unwrap();
         let mut rec = Rec::default();
         ModalRk4 { dt_s: 1e-6 }
-            .run_modal(&sys, &ModalState::REST, 0.05, &mut rec)
+            .run_modal(&sys, &ModalState::REST, 0.2, &mut rec)
             .unwrap();
-        assert!(rec.impacts.len() >= 50, "{} impacts", rec.impacts.len());
+        assert!(rec.impacts.len() >= 200, "{} impacts", rec.impacts.len());
         let (mut worst_p, mut worst_e, mut worst_w) = (0.0f64, 0.0f64, 0.0f64);
         for (b, a, loss) in &rec.impacts {
             for (i, m) in sys.model.modes.iter().enumerate() {
@@ -305,8 +305,9 @@ fn modal_impacts_conserve_momentum_per_mode_and_lose_the_law_s_energy() {
                             + (m.shape_cavity * d.ball_mass_kg * s.dv_m_s).abs(),
                     )
                 };
-                let ((pb, sb), (pa, _)) = (p(b), p(a));
-                worst_p = worst_p.max((pa - pb).abs() / sb);
+                // Rounding is relative to the larger side: an impact can start a quiet mode.
+                let ((pb, sb), (pa, sa)) = (p(b), p(a));
+                worst_p = worst_p.max((pa - pb).abs() / sb.max(sa));
             }
             let (kb, ka) = (kinetic_j(&sys, b), kinetic_j(&sys, a));
             worst_e = worst_e.max(((kb - ka) - loss).abs() / kb);
