@@ -147,46 +147,42 @@ impl Rhs {
     }
 
     /// One classical RK4 step of size `h` from `s` (the lumped step's arithmetic, per mode).
-    fn step(&self, s: &ModalState, h: f64) -> ModalState {
+    /// Only the first `n` entries of the scratch are used (and the state's beyond `n` stay 0).
+    fn step(&self, s: &ModalState, h: f64, k: &mut Stages) -> ModalState {
         let n = self.n;
         let t = s.t_s;
         let f_a = self.force(t);
         let f_m = self.force(t + 0.5 * h);
         let f_b = self.force(t + h);
         let (q, dq, dv) = (&s.q_m, &s.dq_m_s, s.dv_m_s);
-        let (mut a1, mut a2, mut a3, mut a4) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
-        let (mut q2, mut dq2, mut q3, mut dq3, mut q4, mut dq4) =
-            ([0.0; N], [0.0; N], [0.0; N], [0.0; N], [0.0; N], [0.0; N]);
 
-        let b1 = self.acc(f_a, q, dq, dv, &mut a1);
+        let b1 = self.acc(f_a, q, dq, dv, &mut k.a1);
         for i in 0..n {
-            q2[i] = q[i] + 0.5 * h * dq[i];
-            dq2[i] = dq[i] + 0.5 * h * a1[i];
+            k.q2[i] = q[i] + 0.5 * h * dq[i];
+            k.dq2[i] = dq[i] + 0.5 * h * k.a1[i];
         }
         let dv2 = dv + 0.5 * h * b1;
-        let b2 = self.acc(f_m, &q2, &dq2, dv2, &mut a2);
+        let b2 = self.acc(f_m, &k.q2, &k.dq2, dv2, &mut k.a2);
         for i in 0..n {
-            q3[i] = q[i] + 0.5 * h * dq2[i];
-            dq3[i] = dq[i] + 0.5 * h * a2[i];
+            k.q3[i] = q[i] + 0.5 * h * k.dq2[i];
+            k.dq3[i] = dq[i] + 0.5 * h * k.a2[i];
         }
         let dv3 = dv + 0.5 * h * b2;
-        let b3 = self.acc(f_m, &q3, &dq3, dv3, &mut a3);
+        let b3 = self.acc(f_m, &k.q3, &k.dq3, dv3, &mut k.a3);
         for i in 0..n {
-            q4[i] = q[i] + h * dq3[i];
-            dq4[i] = dq[i] + h * a3[i];
+            k.q4[i] = q[i] + h * k.dq3[i];
+            k.dq4[i] = dq[i] + h * k.a3[i];
         }
         let dv4 = dv + h * b3;
-        let b4 = self.acc(f_b, &q4, &dq4, dv4, &mut a4);
+        let b4 = self.acc(f_b, &k.q4, &k.dq4, dv4, &mut k.a4);
 
-        let mut out = ModalState {
-            t_s: t + h,
-            v_m: s.v_m + h / 6.0 * (dv + 2.0 * dv2 + 2.0 * dv3 + dv4),
-            dv_m_s: dv + h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4),
-            ..ModalState::REST
-        };
+        let mut out = *s;
+        out.t_s = t + h;
+        out.v_m = s.v_m + h / 6.0 * (dv + 2.0 * dv2 + 2.0 * dv3 + dv4);
+        out.dv_m_s = dv + h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4);
         for i in 0..n {
-            out.q_m[i] = q[i] + h / 6.0 * (dq[i] + 2.0 * dq2[i] + 2.0 * dq3[i] + dq4[i]);
-            out.dq_m_s[i] = dq[i] + h / 6.0 * (a1[i] + 2.0 * a2[i] + 2.0 * a3[i] + a4[i]);
+            out.q_m[i] = q[i] + h / 6.0 * (dq[i] + 2.0 * k.dq2[i] + 2.0 * k.dq3[i] + k.dq4[i]);
+            out.dq_m_s[i] = dq[i] + h / 6.0 * (k.a1[i] + 2.0 * k.a2[i] + 2.0 * k.a3[i] + k.a4[i]);
         }
         out
     }
@@ -210,11 +206,43 @@ impl Rhs {
     }
 }
 
+/// The stages of one RK4 step: scratch kept for the whole run (nothing zeroed or allocated per
+/// step).
+struct Stages {
+    a1: [f64; N],
+    a2: [f64; N],
+    a3: [f64; N],
+    a4: [f64; N],
+    q2: [f64; N],
+    dq2: [f64; N],
+    q3: [f64; N],
+    dq3: [f64; N],
+    q4: [f64; N],
+    dq4: [f64; N],
+}
+
+impl Stages {
+    fn new() -> Stages {
+        Stages {
+            a1: [0.0; N],
+            a2: [0.0; N],
+            a3: [0.0; N],
+            a4: [0.0; N],
+            q2: [0.0; N],
+            dq2: [0.0; N],
+            q3: [0.0; N],
+            dq3: [0.0; N],
+            q4: [0.0; N],
+            dq4: [0.0; N],
+        }
+    }
+}
+
 /// One step seen as a segment: cubic Hermite interpolation of every coordinate between the ends.
 struct StepSegment<'a> {
     rhs: &'a Rhs,
-    a: ModalState,
-    b: ModalState,
+    a: &'a ModalState,
+    b: &'a ModalState,
     has_ball: bool,
 }
 
@@ -222,10 +250,10 @@ impl StepSegment<'_> {
     fn hermite(&self, t: f64) -> ModalState {
         let h = self.b.t_s - self.a.t_s;
         if t <= self.a.t_s || h <= 0.0 {
-            return ModalState { t_s: t, ..self.a };
+            return ModalState { t_s: t, ..*self.a };
         }
         if t >= self.b.t_s {
-            return ModalState { t_s: t, ..self.b };
+            return ModalState { t_s: t, ..*self.b };
         }
         let r = self.rhs;
         let (mut aa, mut ba) = ([0.0; N], [0.0; N]);
@@ -291,7 +319,7 @@ impl Segment for StepSegment<'_> {
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
         // Trapezoid over one step, as the lumped rk4.
         let (sa, sb) = if a_s <= self.a.t_s && b_s >= self.b.t_s {
-            (self.a, self.b)
+            (*self.a, *self.b)
         } else {
             (self.hermite(a_s), self.hermite(b_s))
         };
@@ -326,8 +354,8 @@ impl Segment for StepSegment<'_> {
                     * hermite_total_variation(
                         self.a.t_s,
                         self.b.t_s - self.a.t_s,
-                        r.relative(&self.a),
-                        r.relative(&self.b),
+                        r.relative(self.a),
+                        r.relative(self.b),
                         a_s,
                         b_s,
                     )
@@ -413,6 +441,7 @@ impl ModalRk4 {
             max_penetration_m: f64::NEG_INFINITY,
             ..Default::default()
         };
+        let mut stages = Stages::new();
         let mut s = *init;
         if !has_ball {
             s.v_m = 0.0;
@@ -424,7 +453,7 @@ impl ModalRk4 {
             } else {
                 t0 + i as f64 * self.dt_s
             };
-            let mut next = rhs.step(&s, t_next - s.t_s);
+            let mut next = rhs.step(&s, t_next - s.t_s, &mut stages);
             next.t_s = t_next;
             let finite = next.v_m.is_finite()
                 && next.dv_m_s.is_finite()
@@ -446,8 +475,8 @@ impl ModalRk4 {
             }
             obs.segment(&StepSegment {
                 rhs: &rhs,
-                a: s,
-                b: next,
+                a: &s,
+                b: &next,
                 has_ball,
             });
             obs.modal_step(&s, &next);
