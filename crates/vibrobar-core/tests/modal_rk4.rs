@@ -17,6 +17,8 @@ struct Rec {
     impacts: Vec<(ModalState, ModalState, f64)>,
     first: Option<ModalState>,
     last: Option<ModalState>,
+    /// Public state at every step end and the modal state there (before any impact).
+    pairs: Vec<(State, ModalState)>,
 }
 
 impl Observer for Rec {
@@ -33,6 +35,7 @@ impl ModalObserver for Rec {
     fn modal_step(&mut self, a: &ModalState, b: &ModalState) {
         self.first.get_or_insert(*a);
         self.last = Some(*b);
+        self.pairs.push((*self.ends.last().unwrap(), *b));
     }
     fn modal_impact(&mut self, before: &ModalState, after: &ModalState, loss: f64) {
         self.impacts.push((*before, *after, loss));
@@ -440,4 +443,49 @@ fn modal_inputs_are_checked_with_the_field_named() {
     bad.damper.as_mut().unwrap().restitution = 2.0;
     let err = bad.validate().unwrap_err().to_string();
     assert!(err.contains("damper.restitution"), "{err}");
+}
+
+/// Force, cavity and response at three different points: the public stream reads `u` at the
+/// response point (`state_at` = `Σφₙ(x_r)qₙ` of the modal state), the forcing work is taken at
+/// the force point, and the books still close.
+#[test]
+fn force_cavity_and_response_at_different_points_keep_the_protocol_and_the_books() {
+    let model = Structure::Beam(Beam {
+        modes: Some(4),
+        force_position_m: Some(0.15),
+        response_position_m: Some(0.1),
+        ..Beam::default()
+    })
+    .modal_model()
+    .unwrap();
+    let m1 = &model.modes[0];
+    assert!(m1.shape_force != m1.shape_response && m1.shape_force != m1.shape_cavity);
+    let sys = ModalSystem {
+        model,
+        ..impacting_beam(FrictionModel::AsPublished)
+    };
+    let mut rec = Rec::default();
+    ModalRk4 { dt_s: 5e-7 }
+        .run_modal(&sys, &ModalState::REST, 0.02, &mut rec)
+        .unwrap();
+    assert!(rec.impacts.len() >= 5, "{} impacts", rec.impacts.len());
+    for (public, modal) in &rec.pairs {
+        let want = modal.public(&sys.model);
+        assert_eq!(public.t_s.to_bits(), want.t_s.to_bits());
+        assert!((public.u_m - want.u_m).abs() <= 1e-15 * want.u_m.abs().max(1e-9));
+        assert!((public.du_m_s - want.du_m_s).abs() <= 1e-15 * want.du_m_s.abs().max(1e-6));
+        assert_eq!(public.v_m.to_bits(), want.v_m.to_bits());
+    }
+    let losses: f64 = rec.impacts.iter().map(|x| x.2).sum();
+    let t = rec.totals;
+    let books = t.forcing_work_j - t.viscous_loss_j - losses + t.friction_work_j;
+    let delta = sys.mechanical_energy_j(rec.last.as_ref().unwrap())
+        - sys.mechanical_energy_j(rec.first.as_ref().unwrap());
+    eprintln!(
+        "three points: input {:e} J, residual {:e} J, {} impacts",
+        t.forcing_work_j,
+        delta - books,
+        rec.impacts.len()
+    );
+    assert!((delta - books).abs() < 1e-6 * t.forcing_work_j);
 }
