@@ -6,6 +6,7 @@
 //! segments, so every analysis works with every solver.
 
 pub mod exact;
+pub mod modal_rk4;
 pub mod rk4;
 
 pub use exact::Exact;

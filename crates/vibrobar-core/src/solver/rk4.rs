@@ -163,54 +163,84 @@ impl StepSegment<'_> {
 }
 
 impl StepSegment<'_> {
-    /// `∫|ẇ| dt` over `[a, b]` of the Hermite cubic of `w = v − u` (slopes `ẇ` at the step ends):
-    /// split at the roots of its quadratic derivative and sum `|Δw|` over the pieces.
+    /// `∫|ẇ| dt` over `[a, b]` of the Hermite cubic of `w = v − u` (slopes `ẇ` at the step ends).
     fn w_total_variation(&self, a_s: f64, b_s: f64) -> f64 {
-        let h = self.b.t_s - self.a.t_s;
-        if h <= 0.0 || b_s <= a_s {
-            return 0.0;
+        hermite_total_variation(
+            self.a.t_s,
+            self.b.t_s - self.a.t_s,
+            (self.a.w_m(), self.a.dw_m_s()),
+            (self.b.w_m(), self.b.dw_m_s()),
+            a_s,
+            b_s,
+        )
+    }
+}
+
+/// `∫|ẇ| dt` over `[a, b]` of the cubic Hermite `w` of one step from `t_a` of length `h` with
+/// end values and slopes `(w, ẇ)`: split at the roots of its quadratic derivative and sum `|Δw|`
+/// over the pieces. Shared by [`Rk4`] and [`super::modal_rk4::ModalRk4`].
+pub(crate) fn hermite_total_variation(
+    t_a: f64,
+    h: f64,
+    (p0, d0): (f64, f64),
+    (p1, d1): (f64, f64),
+    a_s: f64,
+    b_s: f64,
+) -> f64 {
+    if h <= 0.0 || b_s <= a_s {
+        return 0.0;
+    }
+    let (m0, m1) = (h * d0, h * d1);
+    // w(s) = c0 + c1 s + c2 s² + c3 s³, s = (t − t_a)/h.
+    let (c0, c1) = (p0, m0);
+    let c2 = 3.0 * (p1 - p0) - 2.0 * m0 - m1;
+    let c3 = 2.0 * (p0 - p1) + m0 + m1;
+    let w = |s: f64| c0 + s * (c1 + s * (c2 + s * c3));
+    let (sa, sb) = (
+        ((a_s - t_a) / h).clamp(0.0, 1.0),
+        ((b_s - t_a) / h).clamp(0.0, 1.0),
+    );
+    // Roots of w'(s) = c1 + 2c2 s + 3c3 s² inside (sa, sb).
+    let (qa, qb, qc) = (3.0 * c3, 2.0 * c2, c1);
+    let mut cuts = [sa, sb, sb, sb];
+    let mut n = 1;
+    let mut push = |s: f64| {
+        if s > sa && s < sb {
+            cuts[n] = s;
+            n += 1;
         }
-        let (p0, p1) = (self.a.w_m(), self.b.w_m());
-        let (m0, m1) = (h * self.a.dw_m_s(), h * self.b.dw_m_s());
-        // w(s) = c0 + c1 s + c2 s² + c3 s³, s = (t − t_a)/h.
-        let (c0, c1) = (p0, m0);
-        let c2 = 3.0 * (p1 - p0) - 2.0 * m0 - m1;
-        let c3 = 2.0 * (p0 - p1) + m0 + m1;
-        let w = |s: f64| c0 + s * (c1 + s * (c2 + s * c3));
-        let (sa, sb) = (
-            ((a_s - self.a.t_s) / h).clamp(0.0, 1.0),
-            ((b_s - self.a.t_s) / h).clamp(0.0, 1.0),
-        );
-        // Roots of w'(s) = c1 + 2c2 s + 3c3 s² inside (sa, sb).
-        let (qa, qb, qc) = (3.0 * c3, 2.0 * c2, c1);
-        let mut cuts = [sa, sb, sb, sb];
-        let mut n = 1;
-        let mut push = |s: f64| {
-            if s > sa && s < sb {
-                cuts[n] = s;
-                n += 1;
-            }
-        };
-        if qa.abs() <= 1e-300 {
-            if qb.abs() > 1e-300 {
-                push(-qc / qb);
-            }
-        } else {
-            let disc = qb * qb - 4.0 * qa * qc;
-            if disc > 0.0 {
-                // Stable quadratic roots.
-                let q = -0.5 * (qb + qb.signum() * disc.sqrt());
-                let (r1, r2) = (q / qa, if q != 0.0 { qc / q } else { 0.0 });
-                let (lo, hi) = if r1 <= r2 { (r1, r2) } else { (r2, r1) };
-                push(lo);
-                push(hi);
-            }
+    };
+    if qa.abs() <= 1e-300 {
+        if qb.abs() > 1e-300 {
+            push(-qc / qb);
         }
-        cuts[n] = sb;
-        cuts[..=n]
-            .windows(2)
-            .map(|p| (w(p[1]) - w(p[0])).abs())
-            .sum()
+    } else {
+        let disc = qb * qb - 4.0 * qa * qc;
+        if disc > 0.0 {
+            // Stable quadratic roots.
+            let q = -0.5 * (qb + qb.signum() * disc.sqrt());
+            let (r1, r2) = (q / qa, if q != 0.0 { qc / q } else { 0.0 });
+            let (lo, hi) = if r1 <= r2 { (r1, r2) } else { (r2, r1) };
+            push(lo);
+            push(hi);
+        }
+    }
+    cuts[n] = sb;
+    cuts[..=n]
+        .windows(2)
+        .map(|p| (w(p[1]) - w(p[0])).abs())
+        .sum()
+}
+
+/// The paper's after-step impact check: the wall the ball is at or beyond while still moving
+/// into it (`w ≥ l_g` with `ẇ > 0`, or `w ≤ −l_g` with `ẇ < 0`).
+pub(crate) fn wall_hit(w_m: f64, dw_m_s: f64, half_gap_m: f64) -> Option<Wall> {
+    if w_m >= half_gap_m && dw_m_s > 0.0 {
+        Some(Wall::Plus)
+    } else if w_m <= -half_gap_m && dw_m_s < 0.0 {
+        Some(Wall::Minus)
+    } else {
+        None
     }
 }
 
@@ -340,14 +370,7 @@ impl Solver for Rk4 {
                 let w = next.w_m();
                 let dw = next.dw_m_s();
                 summary.max_penetration_m = summary.max_penetration_m.max(w.abs() - lg);
-                let wall = if w >= lg && dw > 0.0 {
-                    Some(Wall::Plus)
-                } else if w <= -lg && dw < 0.0 {
-                    Some(Wall::Minus)
-                } else {
-                    None
-                };
-                if let Some(wall) = wall {
+                if let Some(wall) = wall_hit(w, dw, lg) {
                     let (du, dv) = impact_map(mu, e, next.du_m_s, next.dv_m_s);
                     let after = State {
                         du_m_s: du,

@@ -13,8 +13,10 @@
 pub mod analytic;
 pub mod beam;
 pub mod fe;
+pub mod system;
 
 pub use beam::{Beam, CavitySection, DampingRatio, TipMass};
+pub use system::{ModalState, ModalSystem};
 
 use crate::error::ParamError;
 use crate::params::{finite, positive, Bar};

@@ -1,0 +1,548 @@
+//! The paper's scheme on a modal bar: classical RK4 with a fixed step on
+//! `mₙ q̈ₙ + 2ζₙωₙmₙ q̇ₙ + mₙωₙ² qₙ = φₙ(x_f) F(t) − φₙ(x_d) F_ball`, `m_d v̈ = F_ball`, and after
+//! each step the same impact check as [`super::rk4`] on `w = v − Σ φₙ(x_d) qₙ`, then the modal
+//! impact law ([`crate::damper::impact::modal_impact`]). The friction force on the ball is the
+//! law of [`crate::damper::friction`] at `ẇ`; the modes get `−φₙ(x_d) F_ball`.
+//!
+//! With one unit mode ([`ModalSystem::from_lumped`]) every operation is the lumped [`Rk4`]'s in
+//! the same order; only the impulse formula rounds differently (tests/modal_rk4.rs).
+//!
+//! It reports through the ordinary [`Observer`] protocol: a segment's [`Segment::state_at`] is the
+//! public [`State`] with `u` at the response point; its integrals are the forcing work at the force
+//! point, the modal viscous loss `Σ cₙ q̇ₙ²` and the friction work at the cavity. The modal state
+//! itself goes to a [`ModalObserver`] (the public `State` cannot carry it: docs/n-mode-design.md).
+//!
+//! Not in [`super::SOLVER_NAMES`] yet: part 2 of issue #8 makes `System` modal and this the `rk4`.
+//!
+//! [`Rk4`]: super::Rk4
+
+use super::rk4::{hermite_total_variation, wall_hit};
+use super::{Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals};
+use crate::damper::friction::{sign_factor, sliding_friction_on_ball_n};
+use crate::damper::impact::modal_impact;
+use crate::error::{ParamError, SimError};
+use crate::limits::{self, MAX_BEAM_MODES};
+use crate::params::{FrictionModel, State};
+use crate::structure::{ModalState, ModalSystem, Point};
+
+const N: usize = MAX_BEAM_MODES;
+
+/// Fixed-step classical RK4 on a [`ModalSystem`] with the paper's after-step impact check.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModalRk4 {
+    /// Time step.
+    pub dt_s: f64,
+}
+
+impl Default for ModalRk4 {
+    fn default() -> Self {
+        ModalRk4 { dt_s: 1e-6 }
+    }
+}
+
+/// Sees the modal state of a run besides the ordinary protocol. Methods default to no-ops.
+pub trait ModalObserver: Observer {
+    /// A step from `a` to `b` (called right after [`Observer::segment`] of that step).
+    fn modal_step(&mut self, _a: &ModalState, _b: &ModalState) {}
+    /// An impact (called right after [`Observer::event`] of it).
+    fn modal_impact(&mut self, _before: &ModalState, _after: &ModalState, _energy_loss_j: f64) {}
+}
+
+impl ModalObserver for () {}
+
+/// A plain [`Observer`] seen as a [`ModalObserver`] that ignores the modal state.
+struct Plain<'a>(&'a mut dyn Observer);
+
+impl Observer for Plain<'_> {
+    fn segment(&mut self, seg: &dyn Segment) {
+        self.0.segment(seg)
+    }
+    fn event(&mut self, ev: &Event) {
+        self.0.event(ev)
+    }
+}
+
+impl ModalObserver for Plain<'_> {}
+
+/// What a modal run ends with.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ModalRunSummary {
+    /// The ordinary summary (its `final_state` is the public state at the response point).
+    pub summary: RunSummary,
+    /// The modal state at the end.
+    pub final_state: ModalState,
+}
+
+/// Constants of the right-hand side, computed once per run (fixed capacity).
+struct Rhs {
+    n: usize,
+    m: [f64; N],
+    c: [f64; N],
+    k: [f64; N],
+    phi_f: [f64; N],
+    phi_d: [f64; N],
+    phi_r: [f64; N],
+    f0: f64,
+    fs: f64,
+    omega: f64,
+    md: f64,
+    friction: FrictionModel,
+    level: f64,
+}
+
+impl Rhs {
+    fn new(sys: &ModalSystem) -> Rhs {
+        let (md, friction) = match &sys.damper {
+            Some(d) => (d.ball_mass_kg, d.friction),
+            None => (1.0, FrictionModel::None),
+        };
+        let mut r = Rhs {
+            n: sys.n_modes(),
+            m: [0.0; N],
+            c: [0.0; N],
+            k: [0.0; N],
+            phi_f: sys.row(Point::Force),
+            phi_d: sys.row(Point::Cavity),
+            phi_r: sys.row(Point::Response),
+            f0: sys.forcing.amplitude_n,
+            fs: sys.forcing.static_force_n,
+            omega: sys.omega_rad_s(),
+            md,
+            friction,
+            level: sys.friction_level_n(),
+        };
+        for (i, mode) in sys.model.modes.iter().enumerate() {
+            let (m, k) = (mode.modal_mass_kg, mode.modal_stiffness_n_per_m());
+            r.m[i] = m;
+            r.k[i] = k;
+            // 2ζ√(km), the lumped bar's `C` formula (bit for bit its `C` when `k` is its `K`).
+            r.c[i] = 2.0 * mode.damping_ratio * (k * m).sqrt();
+        }
+        r
+    }
+
+    fn force(&self, t: f64) -> f64 {
+        self.fs + self.f0 * (self.omega * t).sin()
+    }
+
+    /// `Σ φₙ xₙ` over the modes (from mode 1: one unit mode gives `x₁` exactly).
+    fn dot(&self, phi: &[f64; N], x: &[f64; N]) -> f64 {
+        let mut s = 0.0;
+        for i in 0..self.n {
+            s += phi[i] * x[i];
+        }
+        s
+    }
+
+    /// Modal accelerations into `acc` and the ball's, given the external force at this stage.
+    fn acc(&self, f_ext: f64, q: &[f64; N], dq: &[f64; N], dv: f64, acc: &mut [f64; N]) -> f64 {
+        let fb =
+            sliding_friction_on_ball_n(self.friction, self.level, dv - self.dot(&self.phi_d, dq));
+        for i in 0..self.n {
+            acc[i] =
+                (self.phi_f[i] * f_ext - self.c[i] * dq[i] - self.k[i] * q[i] - self.phi_d[i] * fb)
+                    / self.m[i];
+        }
+        fb / self.md
+    }
+
+    /// One classical RK4 step of size `h` from `s` (the lumped step's arithmetic, per mode).
+    /// Only the first `n` entries of the scratch are used (and the state's beyond `n` stay 0).
+    fn step(&self, s: &ModalState, h: f64, k: &mut Stages) -> ModalState {
+        let n = self.n;
+        let t = s.t_s;
+        let f_a = self.force(t);
+        let f_m = self.force(t + 0.5 * h);
+        let f_b = self.force(t + h);
+        let (q, dq, dv) = (&s.q_m, &s.dq_m_s, s.dv_m_s);
+
+        let b1 = self.acc(f_a, q, dq, dv, &mut k.a1);
+        for i in 0..n {
+            k.q2[i] = q[i] + 0.5 * h * dq[i];
+            k.dq2[i] = dq[i] + 0.5 * h * k.a1[i];
+        }
+        let dv2 = dv + 0.5 * h * b1;
+        let b2 = self.acc(f_m, &k.q2, &k.dq2, dv2, &mut k.a2);
+        for i in 0..n {
+            k.q3[i] = q[i] + 0.5 * h * k.dq2[i];
+            k.dq3[i] = dq[i] + 0.5 * h * k.a2[i];
+        }
+        let dv3 = dv + 0.5 * h * b2;
+        let b3 = self.acc(f_m, &k.q3, &k.dq3, dv3, &mut k.a3);
+        for i in 0..n {
+            k.q4[i] = q[i] + h * k.dq3[i];
+            k.dq4[i] = dq[i] + h * k.a3[i];
+        }
+        let dv4 = dv + h * b3;
+        let b4 = self.acc(f_b, &k.q4, &k.dq4, dv4, &mut k.a4);
+
+        let mut out = *s;
+        out.t_s = t + h;
+        out.v_m = s.v_m + h / 6.0 * (dv + 2.0 * dv2 + 2.0 * dv3 + dv4);
+        out.dv_m_s = dv + h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4);
+        for i in 0..n {
+            out.q_m[i] = q[i] + h / 6.0 * (dq[i] + 2.0 * k.dq2[i] + 2.0 * k.dq3[i] + k.dq4[i]);
+            out.dq_m_s[i] = dq[i] + h / 6.0 * (k.a1[i] + 2.0 * k.a2[i] + 2.0 * k.a3[i] + k.a4[i]);
+        }
+        out
+    }
+
+    fn public(&self, s: &ModalState) -> State {
+        State {
+            t_s: s.t_s,
+            u_m: self.dot(&self.phi_r, &s.q_m),
+            du_m_s: self.dot(&self.phi_r, &s.dq_m_s),
+            v_m: s.v_m,
+            dv_m_s: s.dv_m_s,
+        }
+    }
+
+    /// `(w, ẇ)` at the cavity.
+    fn relative(&self, s: &ModalState) -> (f64, f64) {
+        (
+            s.v_m - self.dot(&self.phi_d, &s.q_m),
+            s.dv_m_s - self.dot(&self.phi_d, &s.dq_m_s),
+        )
+    }
+}
+
+/// The stages of one RK4 step: scratch kept for the whole run (nothing zeroed or allocated per
+/// step).
+struct Stages {
+    a1: [f64; N],
+    a2: [f64; N],
+    a3: [f64; N],
+    a4: [f64; N],
+    q2: [f64; N],
+    dq2: [f64; N],
+    q3: [f64; N],
+    dq3: [f64; N],
+    q4: [f64; N],
+    dq4: [f64; N],
+}
+
+impl Stages {
+    fn new() -> Stages {
+        Stages {
+            a1: [0.0; N],
+            a2: [0.0; N],
+            a3: [0.0; N],
+            a4: [0.0; N],
+            q2: [0.0; N],
+            dq2: [0.0; N],
+            q3: [0.0; N],
+            dq3: [0.0; N],
+            q4: [0.0; N],
+            dq4: [0.0; N],
+        }
+    }
+}
+
+/// One step seen as a segment: cubic Hermite interpolation of every coordinate between the ends.
+struct StepSegment<'a> {
+    rhs: &'a Rhs,
+    a: &'a ModalState,
+    b: &'a ModalState,
+    has_ball: bool,
+}
+
+impl StepSegment<'_> {
+    fn hermite(&self, t: f64) -> ModalState {
+        let h = self.b.t_s - self.a.t_s;
+        if t <= self.a.t_s || h <= 0.0 {
+            return ModalState { t_s: t, ..*self.a };
+        }
+        if t >= self.b.t_s {
+            return ModalState { t_s: t, ..*self.b };
+        }
+        let r = self.rhs;
+        let (mut aa, mut ba) = ([0.0; N], [0.0; N]);
+        let ab = r.acc(
+            r.force(self.a.t_s),
+            &self.a.q_m,
+            &self.a.dq_m_s,
+            self.a.dv_m_s,
+            &mut aa,
+        );
+        let bb = r.acc(
+            r.force(self.b.t_s),
+            &self.b.q_m,
+            &self.b.dq_m_s,
+            self.b.dv_m_s,
+            &mut ba,
+        );
+        let s = (t - self.a.t_s) / h;
+        let (h00, h10, h01, h11) = (
+            (1.0 + 2.0 * s) * (1.0 - s) * (1.0 - s),
+            s * (1.0 - s) * (1.0 - s),
+            s * s * (3.0 - 2.0 * s),
+            s * s * (s - 1.0),
+        );
+        let pos =
+            |p0: f64, v0: f64, p1: f64, v1: f64| h00 * p0 + h10 * h * v0 + h01 * p1 + h11 * h * v1;
+        let mut out = ModalState {
+            t_s: t,
+            v_m: pos(self.a.v_m, self.a.dv_m_s, self.b.v_m, self.b.dv_m_s),
+            dv_m_s: pos(self.a.dv_m_s, ab, self.b.dv_m_s, bb),
+            ..ModalState::REST
+        };
+        for i in 0..r.n {
+            out.q_m[i] = pos(
+                self.a.q_m[i],
+                self.a.dq_m_s[i],
+                self.b.q_m[i],
+                self.b.dq_m_s[i],
+            );
+            out.dq_m_s[i] = pos(self.a.dq_m_s[i], aa[i], self.b.dq_m_s[i], ba[i]);
+        }
+        out
+    }
+}
+
+impl Segment for StepSegment<'_> {
+    fn t_start_s(&self) -> f64 {
+        self.a.t_s
+    }
+    fn t_end_s(&self) -> f64 {
+        self.b.t_s
+    }
+    fn mode(&self) -> Mode {
+        if self.has_ball {
+            Mode::Free
+        } else {
+            Mode::NoBall
+        }
+    }
+    fn state_at(&self, t_s: f64) -> State {
+        self.rhs.public(&self.hermite(t_s))
+    }
+    fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
+        // Trapezoid over one step, as the lumped rk4.
+        let (sa, sb) = if a_s <= self.a.t_s && b_s >= self.b.t_s {
+            (*self.a, *self.b)
+        } else {
+            (self.hermite(a_s), self.hermite(b_s))
+        };
+        let r = self.rhs;
+        let (ua, ub) = (r.dot(&r.phi_r, &sa.q_m), r.dot(&r.phi_r, &sb.q_m));
+        0.5 * (b_s - a_s) * (ua * ua + ub * ub)
+    }
+    fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals {
+        let (sa, sb) = (self.hermite(a_s), self.hermite(b_s));
+        let h = b_s - a_s;
+        let r = self.rhs;
+        let trap = |f: &dyn Fn(&ModalState) -> f64| 0.5 * h * (f(&sa) + f(&sb));
+        let viscous = |s: &ModalState| {
+            let mut p = 0.0;
+            for i in 0..r.n {
+                p += r.c[i] * s.dq_m_s[i] * s.dq_m_s[i];
+            }
+            p
+        };
+        let sign = sign_factor(r.friction);
+        SegmentIntegrals {
+            u2_m2_s: trap(&|s| {
+                let u = r.dot(&r.phi_r, &s.q_m);
+                u * u
+            }),
+            forcing_work_j: trap(&|s| r.force(s.t_s) * r.dot(&r.phi_f, &s.dq_m_s)),
+            viscous_loss_j: trap(&viscous),
+            friction_work_j: if sign == 0.0 || r.level == 0.0 {
+                0.0
+            } else {
+                sign * r.level
+                    * hermite_total_variation(
+                        self.a.t_s,
+                        self.b.t_s - self.a.t_s,
+                        r.relative(self.a),
+                        r.relative(self.b),
+                        a_s,
+                        b_s,
+                    )
+            },
+        }
+    }
+}
+
+impl ModalRk4 {
+    /// Check the step for a run over `span_s`: positive, at most [`limits::MAX_STEPS`] steps, and
+    /// `ω_N·dt` of the highest mode within RK4's stability limit [`limits::RK4_MAX_OMEGA_DT`].
+    pub fn validate_step(&self, sys: &ModalSystem, span_s: f64) -> Result<(), ParamError> {
+        crate::params::positive("dt_s", self.dt_s)?;
+        limits::check(
+            "dt_s (--dt)",
+            self.dt_s,
+            0.0,
+            limits::RK4_MAX_OMEGA_DT / sys.omega_max_rad_s(),
+            "rk4's stability limit ω_N·dt ≤ 2.5 for the highest mode kept; a larger step diverges",
+        )?;
+        limits::check(
+            "steps duration/dt (--duration, --dt)",
+            (span_s / self.dt_s).ceil(),
+            0.0,
+            limits::MAX_STEPS,
+            "bounded work: raise --dt or shorten the run",
+        )?;
+        Ok(())
+    }
+
+    /// Integrate `sys` from `init` until `t_end_s`, reporting to an ordinary [`Observer`].
+    pub fn run(
+        &self,
+        sys: &ModalSystem,
+        init: &ModalState,
+        t_end_s: f64,
+        obs: &mut dyn Observer,
+    ) -> Result<ModalRunSummary, SimError> {
+        self.run_modal(sys, init, t_end_s, &mut Plain(obs))
+    }
+
+    /// [`ModalRk4::run`], also reporting the modal states to `obs`.
+    pub fn run_modal(
+        &self,
+        sys: &ModalSystem,
+        init: &ModalState,
+        t_end_s: f64,
+        obs: &mut dyn ModalObserver,
+    ) -> Result<ModalRunSummary, SimError> {
+        sys.validate()?;
+        init.validate(sys)?;
+        crate::params::finite("t_end_s", t_end_s)?;
+        if t_end_s < init.t_s {
+            return Err(ParamError::OutOfRange {
+                field: "t_end_s",
+                value: t_end_s,
+                allowed: "[initial.t_s, ∞)",
+            }
+            .into());
+        }
+        let rate = sys.omega_rad_s().max(sys.omega_max_rad_s());
+        limits::check_phase(rate, init.t_s.abs().max(t_end_s.abs()))?;
+        self.validate_step(sys, t_end_s - init.t_s)?;
+
+        let rhs = Rhs::new(sys);
+        let q_bound = divergence_bound_m(sys, init);
+        let has_ball = sys.damper.is_some();
+        let (lg, md, e) = match &sys.damper {
+            Some(d) => (d.half_gap_m(), d.ball_mass_kg, d.restitution),
+            None => (f64::INFINITY, 1.0, 0.0),
+        };
+        let n = rhs.n;
+        let t0 = init.t_s;
+        let span = t_end_s - t0;
+        // The lumped rk4's grid: t0 + i·dt, a last partial step closes the run.
+        let n_steps = if span > 0.0 {
+            (span / self.dt_s - 1e-9).ceil().max(1.0) as u64
+        } else {
+            0
+        };
+        let mut summary = RunSummary {
+            final_state: rhs.public(init),
+            max_penetration_m: f64::NEG_INFINITY,
+            ..Default::default()
+        };
+        let mut stages = Stages::new();
+        let mut s = *init;
+        if !has_ball {
+            s.v_m = 0.0;
+            s.dv_m_s = 0.0;
+        }
+        for i in 1..=n_steps {
+            let t_next = if i == n_steps {
+                t_end_s
+            } else {
+                t0 + i as f64 * self.dt_s
+            };
+            let mut next = rhs.step(&s, t_next - s.t_s, &mut stages);
+            next.t_s = t_next;
+            let finite = next.v_m.is_finite()
+                && next.dv_m_s.is_finite()
+                && next.q_m[..n].iter().all(|x| x.is_finite())
+                && next.dq_m_s[..n].iter().all(|x| x.is_finite());
+            if !finite {
+                return Err(SimError::NonFinite { t_s: t_next });
+            }
+            if let Some(q) = next.q_m[..n].iter().find(|q| q.abs() > q_bound) {
+                return Err(ParamError::Diverged {
+                    solver: "modal rk4",
+                    field: "dt_s (--dt)",
+                    value: self.dt_s,
+                    t_s: t_next,
+                    u_m: *q,
+                    bound_m: q_bound,
+                }
+                .into());
+            }
+            obs.segment(&StepSegment {
+                rhs: &rhs,
+                a: &s,
+                b: &next,
+                has_ball,
+            });
+            obs.modal_step(&s, &next);
+            if has_ball {
+                let (w, dw) = rhs.relative(&next);
+                summary.max_penetration_m = summary.max_penetration_m.max(w.abs() - lg);
+                if let Some(wall) = wall_hit(w, dw, lg) {
+                    let mut after = next;
+                    let law = modal_impact(
+                        md,
+                        e,
+                        &rhs.phi_d[..n],
+                        &rhs.m[..n],
+                        dw,
+                        &mut after.dq_m_s[..n],
+                        &mut after.dv_m_s,
+                    );
+                    obs.event(&Event {
+                        t_s: t_next,
+                        kind: EventKind::Impact {
+                            wall,
+                            dw_m_s: dw,
+                            energy_loss_j: law.energy_loss_j,
+                        },
+                        before: rhs.public(&next),
+                        after: rhs.public(&after),
+                    });
+                    obs.modal_impact(&next, &after, law.energy_loss_j);
+                    summary.impacts += 1;
+                    summary.events += 1;
+                    next = after;
+                }
+            }
+            s = next;
+        }
+        summary.final_state = rhs.public(&s);
+        if !has_ball {
+            summary.max_penetration_m = f64::NEG_INFINITY;
+        }
+        Ok(ModalRunSummary {
+            summary,
+            final_state: s,
+        })
+    }
+}
+
+/// `|qₙ|` beyond which a run has diverged: [`limits::RK4_DIVERGENCE_FACTOR`] times the largest
+/// modal displacement scale (static deflection of a mode under every force, initial state over
+/// the mode's frequency, half gap).
+pub fn divergence_bound_m(sys: &ModalSystem, init: &ModalState) -> f64 {
+    let forces = sys.forcing.static_force_n.abs() + sys.forcing.amplitude_n.abs();
+    let level = sys.friction_level_n();
+    let dw0 = init.dw_m_s(&sys.model).abs();
+    let gap = sys.damper.map_or(0.0, |d| d.half_gap_m());
+    let scale = sys
+        .model
+        .modes
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            (forces * m.shape_force.abs() + level * m.shape_cavity.abs())
+                / m.modal_stiffness_n_per_m()
+                + init.q_m[i].abs()
+                + (init.dq_m_s[i].abs() + dw0) / m.omega_rad_s
+        })
+        .fold(0.0, f64::max)
+        + gap;
+    limits::RK4_DIVERGENCE_FACTOR * scale
+}
