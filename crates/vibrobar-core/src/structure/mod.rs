@@ -124,6 +124,12 @@ pub struct ModalModel {
 }
 
 impl ModalModel {
+    /// The modes, by increasing frequency. New code reads them through this accessor (the
+    /// storage may become fixed-capacity so that a `System` stays `Copy`).
+    pub fn modes(&self) -> &[Mode] {
+        &self.modes
+    }
+
     /// Number of modes.
     pub fn len(&self) -> usize {
         self.modes.len()
