@@ -43,7 +43,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         rayon::current_num_threads()
     );
     let single = Case {
-        system: run_sc.damped_system(),
+        system: run_sc.damped_system()?,
         init: run_sc.initial_state(),
         sample_interval_s: None,
         energy_audit: false,
@@ -56,7 +56,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         Some(s) => (
             format!(
                 "scenario: r = {}, gap {} mm, friction {}",
-                s.frequency_ratio(),
+                s.frequency_ratio()?,
                 s.damper.gap_m * 1e3,
                 s.damper.friction
             ),
@@ -87,7 +87,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
                     let points = s.sweep_points(&s.sweep.gaps_m, &ratios);
                     sweep_rows(
                         &points,
-                        &s.base(),
+                        &s.base()?,
                         &st,
                         solver(n, &st)?.as_ref(),
                         &format!("bench [{n}]"),
