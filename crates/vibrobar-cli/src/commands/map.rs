@@ -41,7 +41,7 @@ pub struct MapArgs {
     #[command(flatten)]
     /// System and solver.
     pub system: SystemArgs,
-    /// Frequency ratios Ω/ω_n, START:STOP:STEP (inclusive), each > 0.
+    /// Frequency ratios Ω/ω₁ (each bar's own first frequency), START:STOP:STEP (inclusive), each > 0.
     #[arg(long, allow_hyphen_values = true)]
     pub ratios: String,
     /// Total gaps (clearance) in mm, START:STOP:STEP (inclusive), each > 0.
@@ -54,7 +54,8 @@ pub struct MapArgs {
     /// Optional axis: coefficients of restitution (START:STOP:STEP, in [0, 1]); adds `restitution`.
     #[arg(long, allow_hyphen_values = true)]
     pub restitutions: Option<String>,
-    /// Optional axis: mass ratios m_d/M (START:STOP:STEP, > 0); adds `mass_ratio`.
+    /// Optional axis: mass ratios m_d/M (START:STOP:STEP, > 0); adds `mass_ratio`. On a beam, M is
+    /// mode 1's effective mass at the cavity, m₁/φ₁(x_d)².
     #[arg(long, allow_hyphen_values = true)]
     pub mass_ratios: Option<String>,
     /// Compute only slice K of N of the grid (round-robin); merge the slices with `merge`.
