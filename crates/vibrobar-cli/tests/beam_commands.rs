@@ -401,6 +401,34 @@ fn beam_flags_and_bad_input() {
             let _ = fs::remove_file(d.path().join("o.csv.meta.json"));
         }
     }
+    // The benches take the flags too.
+    let o = with(
+        &[
+            "bench",
+            "--scenario",
+            "b.toml",
+            "--single-only",
+            "--solvers",
+            "rk4",
+        ],
+        &["--beam-modes", "1", "--cavity-position-mm", "175"],
+    );
+    assert_ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("rk4    single run"));
+    for cmd in [
+        &["bench", "--single-only"][..],
+        &["bench-map", "--solver", "rk4"][..],
+    ] {
+        let mut c = cmd.to_vec();
+        c.extend(["--scenario", "b.toml"]);
+        assert_fails_with(
+            &with(&c, &["--cavity-position-mm", "176"]),
+            &[
+                "beam.cavity_position_m (--cavity-position-mm)",
+                "[0, 0.175]",
+            ],
+        );
+    }
     // The file's own errors: a cavity section larger than the bar, [beam] with [bar].
     for (text, want) in [
         (

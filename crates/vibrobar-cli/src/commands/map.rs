@@ -513,6 +513,12 @@ pub struct BenchMapArgs {
     /// map [default: the paper's, frictionless].
     #[arg(long, value_name = "FILE.toml")]
     pub scenario: Option<PathBuf>,
+    /// Number of modes N of a `[beam]` scenario, overriding `[beam] modes`, in [1, 32].
+    #[arg(long, value_name = "N")]
+    pub beam_modes: Option<usize>,
+    /// Cavity centre (the ball) of a `[beam]` scenario in mm from the clamp, in [0, L].
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    pub cavity_position_mm: Option<f64>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -539,10 +545,11 @@ pub struct BenchMapResult {
 
 /// The bench's scenario (the file's, or the paper's) and run settings with `--duration` applied.
 fn bench_settings(args: &BenchMapArgs) -> anyhow::Result<(Scenario, vibrobar_core::RunSettings)> {
-    let sc = match &args.scenario {
+    let mut sc = match &args.scenario {
         Some(p) => Scenario::from_source(Source::File(p))?,
         None => Scenario::paper(),
     };
+    sc.apply_beam_flags(args.beam_modes, args.cavity_position_mm)?;
     let mut settings = sc.settings();
     if let Some(d) = args.duration {
         settings.duration_s = check_value("--duration", d, |x| x > 0.0, "(0, ∞) s")?;
