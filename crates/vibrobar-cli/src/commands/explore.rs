@@ -470,10 +470,11 @@ pub struct EnsembleArgs {
     /// Seed of the ensemble.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Half range of the initial bar displacement u, m (uniform in ±).
+    /// Half range of the initial bar displacement u, m (uniform in ±; a beam: at the response
+    /// point, put into mode 1).
     #[arg(long, allow_negative_numbers = true, default_value_t = 5e-5)]
     pub u_m: f64,
-    /// Half range of the initial bar velocity, m/s.
+    /// Half range of the initial bar velocity, m/s (a beam: at the response point, into mode 1).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.2)]
     pub du_m_s: f64,
     /// Half range of the initial relative velocity ẇ, m/s (the ball position is uniform over
