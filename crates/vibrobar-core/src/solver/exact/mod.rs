@@ -48,6 +48,7 @@
 //! is only defined statistically: rounding-level changes of an event time change it by a few %.
 
 pub mod expsum;
+pub mod expsum_n;
 pub mod roots;
 
 use super::{
