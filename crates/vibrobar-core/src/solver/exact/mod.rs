@@ -49,7 +49,9 @@
 
 pub mod expsum;
 pub mod expsum_n;
+pub mod modal;
 pub mod roots;
+pub mod roots_n;
 
 use super::{
     Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Solver, Wall,

@@ -1,0 +1,461 @@
+//! Root isolation that cannot miss a root, for N-term sums ([`ExpSumN`]): the argument of
+//! [`super::roots`] extended term by term.
+//!
+//! **The proof.** As in the lumped search, every event function `g` is positive while nothing
+//! happens, and we step from `τ` to `τ + h` only where a lower bound of `g` is proven positive.
+//! Write `g = S + F`, `S` the polynomial, the harmonic and the *slow* terms, `F` the *fast*
+//! decaying terms (a set chosen at each step). Each term is bounded by its own amplitude and
+//! decay: on `[τ, τ + h]`,
+//!
+//! * `|F(τ+s)| ≤ R_F := Σ_{k∈fast} |D̂ₖ| e^{−αₖτ}` (a decaying term never exceeds its envelope);
+//! * `|S''(τ+s)| ≤ B_S := 2|c2| + Ω²|Ĥ| + Σ_{k∈slow} |λₖ|² |D̂ₖ| e^{−αₖτ}` (`|λₖ|² = αₖ² + ω_k²`,
+//!   each derivative of a term multiplies its phasor by `λₖ`; `e^{−αₖ(τ+s)} ≤ e^{−αₖτ}`).
+//!
+//! Taylor with remainder on `S` and the bound on `F` give, for `0 ≤ h`,
+//!
+//! `g(τ+h) ≥ (S(τ) − R_F) + S'(τ) h − B_S h²/2 =: L(h)`,
+//!
+//! with `S(τ) = g(τ) − F(τ)`, `S'(τ) = g'(τ) − F'(τ)` known from the values of the terms at `τ`.
+//! If `S(τ) − R_F > 0`, `L > 0` on `[0, h*)` with `h* = ` the positive zero of `L`, so `g` has no
+//! zero there. With the empty fast set this is the lumped search's amplitude bound
+//! (`B = Σ` over every term); moving the fastest terms to `F` trades their share of `B` (which
+//! grows like `ωₖ²`) for a constant offset `R_F` (their size). Far from a root (`g` of the order of
+//! the gap) a high mode ringing with an amplitude far below the gap costs nothing, and the step is
+//! set by the slow motion, as on the lumped bar; near a root (`g < R_F`) the fast terms cannot be
+//! set aside and the full bound takes over (the steps then resolve the fast wiggle, as they must:
+//! it could produce the crossing). Every split is a proof; the longest proven step is taken. The
+//! splits move terms by decreasing `|λₖ|` one at a time; `S(τ) − R_F` is non-increasing along
+//! that sequence (`−Fₖ(τ) − Rₖ ≤ 0`), so the scan stops at the first split without margin.
+//! This is the cheap step first: the split costs O(N) per evaluation from values already
+//! computed for `g` and `g'`.
+//!
+//! Rounding: `S(τ)` and `B_S` are formed by subtraction from the totals, so each carries an
+//! absolute rounding of a few `ε_mach` times `|g| + Σ Rₖ` (resp. `B`); margins of `8ε_mach·N`
+//! times those scales are subtracted from `S − R_F` and added to `B_S`, and every amplitude has
+//! the relative margin `1e-12` of the lumped search.
+//!
+//! **Kept from the lumped search, unchanged** (see [`super::roots`] for the arguments): the stop
+//! rules (`g ≤ tol` with `g' ≤ 0`; a proven-free step below the time resolution while
+//! approaching; a bracket `[τ + h*, τ + h_up]` below the time resolution with
+//! `h_up` the zero of the upper bound `g + g'h + B h²/2`, the full `B`), so a reported event is
+//! never past its zero; the joint search of several functions (the step is the shortest proven
+//! one; a function proven beyond it is not evaluated again); the horizon
+//! ([`SEARCH_HORIZON_ITER`] steps, then [`Root::Horizon`] at the last proven point, bounded work
+//! per search); and the departure rule at a segment start, with the derivative bound of order
+//! `k + 2` taken term by term, `Ω^{k+2}|Ĥ| + Σ |λₖ|^{k+2} |D̂ₖ|`. Grazing is the lumped case: at a
+//! tangency the proven steps shrink geometrically and the touch is found in a few dozen steps.
+//!
+//! Not carried over: the lumped search's envelope bound for a slow beat of the steady and
+//! transient parts near an undamped resonance (`BEAT_RATE`) and its cubic (Newton-like) proof.
+//! Both are speed devices, not part of the no-miss argument; the quadratic bound alone converges
+//! quadratically near a transversal root (the error of `L` is `O(h²)`).
+
+use super::expsum_n::{ExpSumN, Term, TrigN, MAX_TERMS};
+pub use super::roots::{Root, SEARCH_HORIZON_ITER};
+
+/// Most event functions of one search (free flight has three, the pair modes one or two).
+pub const MAX_CANDS: usize = 4;
+
+/// One event function of a joint search.
+#[derive(Debug, Clone, Copy)]
+pub struct CandN {
+    /// The function, positive while nothing happens.
+    pub g: ExpSumN,
+    /// Order of its known zero at the start (0: none).
+    pub order: usize,
+    /// Absolute tolerance on `g`.
+    pub tol: f64,
+}
+
+/// Precomputed bounds of one function.
+#[derive(Debug, Clone, Copy)]
+struct Pre {
+    /// `2|c2| + Ω²|Ĥ|` with margin.
+    bconst: f64,
+    /// `|Ĥ|` with margin.
+    rh: f64,
+    /// `|D̂ₖ|` with margin.
+    rd: [f64; MAX_TERMS],
+    /// Coefficients of the derivative of each term.
+    d1: [Term; MAX_TERMS],
+}
+
+#[derive(Debug, Clone, Copy, Default)]
+struct FnProof {
+    free_until: f64,
+    proven: f64,
+}
+
+/// Per-run scratch of the searches (fixed capacity, written only where used).
+#[derive(Debug, Clone)]
+pub struct ScratchN {
+    /// The transcendentals at the last point evaluated (the root, when one was found there).
+    pub trig: TrigN,
+    order: [usize; MAX_TERMS],
+    wn2: [f64; MAX_TERMS],
+    pre: [Pre; MAX_CANDS],
+    proof: [FnProof; MAX_CANDS],
+    v: [f64; MAX_TERMS],
+    v1: [f64; MAX_TERMS],
+    r: [f64; MAX_TERMS],
+    /// Proven steps taken by all searches (for the cost measurement).
+    pub steps: u64,
+}
+
+impl Default for ScratchN {
+    fn default() -> Self {
+        ScratchN {
+            trig: TrigN::empty(),
+            order: [0; MAX_TERMS],
+            wn2: [0.0; MAX_TERMS],
+            pre: [Pre {
+                bconst: 0.0,
+                rh: 0.0,
+                rd: [0.0; MAX_TERMS],
+                d1: [Term::default(); MAX_TERMS],
+            }; MAX_CANDS],
+            proof: [FnProof::default(); MAX_CANDS],
+            v: [0.0; MAX_TERMS],
+            v1: [0.0; MAX_TERMS],
+            r: [0.0; MAX_TERMS],
+            steps: 0,
+        }
+    }
+}
+
+/// Smallest positive root of `f + f1 h − b h²/2` (`f ≥ 0`, `b ≥ 0`), infinite if none.
+#[inline]
+fn quad_step(f: f64, f1: f64, b: f64) -> f64 {
+    if b > 0.0 {
+        let disc = (f1 * f1 + 2.0 * b * f).sqrt();
+        if f1 < 0.0 {
+            2.0 * f / (disc - f1)
+        } else {
+            (f1 + disc) / b
+        }
+    } else if f1 < 0.0 {
+        f / -f1
+    } else {
+        f64::INFINITY
+    }
+}
+
+const MARGIN: f64 = 1.0 + 1e-12;
+
+/// Departure step of `g` with a zero of order `order` at `t0` (the rule of [`super::roots`]):
+/// `g > 0` is proven on `(t0, t0 + h₁)`; returns `h₁/2`, or `None` if not confirmed.
+fn departure_step(g: &ExpSumN, order: usize, pre: &Pre, tr: &TrigN) -> Option<f64> {
+    const FACT: [f64; 6] = [1.0, 1.0, 2.0, 6.0, 24.0, 120.0];
+    let d: [f64; 5] = g.derivs_t(tr);
+    let k = order.min(3);
+    let a = d[k].max(0.0) / FACT[k];
+    let b = d[k + 1] / FACT[k + 1];
+    let n = (k + 2) as i32;
+    let mut bound = g.om.powi(n) * pre.rh;
+    for (t, (r, kk)) in g.t[..g.n].iter().zip(pre.rd.iter().zip(&tr.k[..g.n])) {
+        bound += t.wn2().sqrt().powi(n) * r * (1.0 + kk.em1);
+    }
+    let c = bound * MARGIN / FACT[k + 2];
+    let h1 = if c > 0.0 {
+        (b + (b * b + 4.0 * a * c).sqrt()) / (2.0 * c)
+    } else if b < 0.0 {
+        a / -b
+    } else if a > 0.0 || b > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    };
+    if h1.is_nan() || h1 <= 0.0 {
+        None
+    } else {
+        Some(0.5 * h1)
+    }
+}
+
+/// First zero among `cands` (all on the basis of the first) in `[t0, t_max]`: the root and the
+/// index of its function. When the root was found at an evaluated point, `scratch.trig` holds
+/// the transcendentals there (`scratch.trig.tau` equals the root).
+pub fn first_root_n(
+    cands: &[CandN],
+    t0: f64,
+    t_max: f64,
+    tol_t: f64,
+    s: &mut ScratchN,
+) -> (Root, usize) {
+    let n_c = cands.len();
+    assert!(n_c <= MAX_CANDS, "more event functions than MAX_CANDS");
+    let Some(first) = cands.first() else {
+        return (Root::None, 0);
+    };
+    let nt = first.g.n;
+    // Terms by decreasing |λ|: the order in which they are moved to the fast set.
+    for k in 0..nt {
+        s.wn2[k] = first.g.t[k].wn2();
+        s.order[k] = k;
+    }
+    for i in 1..nt {
+        let mut j = i;
+        while j > 0 && s.wn2[s.order[j - 1]] < s.wn2[s.order[j]] {
+            s.order.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+    s.trig.fill(t0, &first.g);
+    for (i, c) in cands.iter().enumerate() {
+        debug_assert!(c.g.same_basis(&first.g));
+        let g = &c.g;
+        let pre = &mut s.pre[i];
+        pre.rh = g.a.hypot(g.b) * MARGIN;
+        pre.bconst = 2.0 * g.c2.abs() * MARGIN + g.om * g.om * pre.rh;
+        for k in 0..nt {
+            pre.rd[k] = g.t[k].amp() * MARGIN;
+            pre.d1[k] = Term {
+                p: -g.t[k].al * g.t[k].p + g.t[k].wd * g.t[k].q,
+                q: -g.t[k].al * g.t[k].q - g.t[k].wd * g.t[k].p,
+                ..g.t[k]
+            };
+        }
+        let mut free_until = t0;
+        if c.order > 0 {
+            match departure_step(g, c.order, pre, &s.trig) {
+                Some(h) => free_until = t0 + h,
+                None => return (Root::At(t0), i),
+            }
+        }
+        s.proof[i] = FnProof {
+            free_until,
+            proven: t0,
+        };
+    }
+    let mut tau = t0;
+    for _ in 0..SEARCH_HORIZON_ITER {
+        s.steps += 1;
+        if tau != t0 {
+            s.trig.fill(tau, &first.g);
+        }
+        let mut st_h = f64::INFINITY;
+        let mut st_imin = 0;
+        let mut bracket: Option<(usize, f64)> = None;
+        let mut take = |i: usize, hi: f64, br: bool, st_h: &mut f64, st_imin: &mut usize| {
+            if br && bracket.is_none_or(|(_, b)| hi < b) {
+                bracket = Some((i, hi));
+            }
+            if hi < *st_h {
+                *st_h = hi;
+                *st_imin = i;
+            }
+        };
+        // Functions whose earlier proof may still hold, compared with the others' step.
+        let mut pending = [false; MAX_CANDS];
+        for i in 0..n_c {
+            let pf = s.proof[i];
+            if pf.free_until > tau {
+                take(i, pf.free_until - tau, false, &mut st_h, &mut st_imin);
+            } else if pf.proven > tau {
+                pending[i] = true;
+            } else {
+                match eval(&cands[i], i, s, tau, 0.0, t_max, tol_t) {
+                    Ok((hi, br)) => {
+                        s.proof[i].proven = tau + hi;
+                        take(i, hi, br, &mut st_h, &mut st_imin);
+                    }
+                    Err(r) => return (r, i),
+                }
+            }
+        }
+        for i in 0..n_c {
+            if !pending[i] {
+                continue;
+            }
+            let hl = s.proof[i].proven - tau;
+            if hl >= st_h {
+                take(i, hl, false, &mut st_h, &mut st_imin);
+                continue;
+            }
+            match eval(&cands[i], i, s, tau, hl, t_max, tol_t) {
+                Ok((hi, br)) => {
+                    s.proof[i].proven = tau + hi;
+                    take(i, hi, br, &mut st_h, &mut st_imin);
+                }
+                Err(r) => return (r, i),
+            }
+        }
+        if let Some((i, hb)) = bracket {
+            if hb <= st_h {
+                return (Root::At(tau + hb), i);
+            }
+        }
+        let next = tau + st_h;
+        if next >= t_max {
+            return (Root::None, 0);
+        }
+        if next <= tau {
+            return (Root::At(tau), st_imin);
+        }
+        tau = next;
+    }
+    (Root::Horizon(tau), 0)
+}
+
+/// One evaluation of function `i` at `τ` (transcendentals in `s.trig`): `Err(root)`, or its
+/// proven step (at least `prev`, an earlier proof) and whether its zero is bracketed to the
+/// time resolution just after it.
+#[inline]
+fn eval(
+    c: &CandN,
+    i: usize,
+    s: &mut ScratchN,
+    tau: f64,
+    prev: f64,
+    t_max: f64,
+    tol_t: f64,
+) -> Result<(f64, bool), Root> {
+    let g = &c.g;
+    let tr = &s.trig;
+    let pre = &s.pre[i];
+    let n = g.n;
+    let mut f = g.f0 + tau * (g.c1 + tau * g.c2) + g.a * tr.chm1 + g.b * tr.sh;
+    let mut f1 = g.c1 + 2.0 * g.c2 * tau + g.om * (g.b * tr.ch - g.a * tr.sh);
+    let mut bdec = 0.0;
+    let mut rsum = 0.0;
+    for k in 0..n {
+        let kk = &tr.k[k];
+        let t = &g.t[k];
+        let e = 1.0 + kk.em1;
+        f += t.p * (kk.em1 * kk.cd + kk.cdm1) + t.q * e * kk.sd;
+        let d = &pre.d1[k];
+        let v1 = e * (d.p * kk.cd + d.q * kk.sd);
+        f1 += v1;
+        let r = pre.rd[k] * e;
+        s.v[k] = e * (t.p * kk.cd + t.q * kk.sd);
+        s.v1[k] = v1;
+        s.r[k] = r;
+        bdec += s.wn2[k] * r;
+        rsum += r;
+    }
+    if f <= c.tol && f1 <= 0.0 {
+        return Err(Root::At(tau));
+    }
+    let f = f.max(0.0);
+    let b_full = (pre.bconst + bdec) * MARGIN;
+    let mut hi = quad_step(f, f1, b_full);
+    // Fast terms set aside, fastest first (module docs).
+    let eps_n = 8.0 * f64::EPSILON * (n as f64 + 1.0);
+    let (mut fs, mut f1s, mut bs, mut rf) = (f, f1, b_full, 0.0);
+    let mag = f + rsum;
+    for &k in &s.order[..n] {
+        fs -= s.v[k];
+        f1s -= s.v1[k];
+        bs -= s.wn2[k] * s.r[k];
+        rf += s.r[k];
+        let lo = fs - rf - eps_n * mag;
+        if lo <= 0.0 {
+            break;
+        }
+        let bb = bs.max(0.0) + eps_n * b_full;
+        hi = hi.max(quad_step(lo, f1s, bb));
+    }
+    let hi = hi.max(prev);
+    let mut bracketed = false;
+    if f1 < 0.0 {
+        if hi <= tol_t {
+            return Err(Root::At(tau));
+        }
+        let disc = f1 * f1 - 2.0 * b_full * f;
+        if disc >= 0.0 {
+            let h_up = 2.0 * f / (-f1 + disc.sqrt());
+            bracketed = h_up - hi <= tol_t && tau + hi < t_max;
+        }
+    }
+    Ok((hi, bracketed))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn poly(f0: f64, c1: f64, c2: f64) -> ExpSumN {
+        let mut g = ExpSumN::zero(1.0);
+        g.f0 = f0;
+        g.k0 = f0;
+        g.c1 = c1;
+        g.c2 = c2;
+        g
+    }
+
+    fn root(g: &ExpSumN, order: usize) -> Root {
+        let c = [CandN {
+            g: *g,
+            order,
+            tol: 1e-15,
+        }];
+        first_root_n(&c, 0.0, 10.0, 0.0, &mut ScratchN::default()).0
+    }
+
+    #[test]
+    fn parabola_roots_touches_and_near_misses() {
+        match root(&poly(1.0, 0.0, -1.0), 0) {
+            Root::At(t) => assert!((t - 1.0).abs() < 1e-14, "{t}"),
+            r => panic!("{r:?}"),
+        }
+        match root(&poly(1.0, -2.0, 1.0), 0) {
+            Root::At(t) => assert!((t - 1.0).abs() < 1e-7, "{t}"),
+            r => panic!("{r:?}"),
+        }
+        assert_eq!(root(&poly(1.0 + 1e-12, -2.0, 1.0), 0), Root::None);
+        // Departure from a zero with round-off in g'(0) < 0: clamped, returns at τ = 2.
+        match root(&poly(1e-18, 1.0, -0.5), 1) {
+            Root::At(t) => assert!((t - 2.0).abs() < 1e-12, "{t}"),
+            r => panic!("{r:?}"),
+        }
+    }
+
+    /// A fast small wiggle far from the root does not slow the search, and a fast wiggle that
+    /// makes the crossing is not missed.
+    #[test]
+    fn fast_terms_are_set_aside_only_where_they_cannot_cross() {
+        // 1 − τ²/4 + 1e-6 sin(1e4 τ): root near 2.
+        let mut g = poly(1.0, 0.0, -0.25);
+        g.n = 1;
+        g.t[0] = Term {
+            al: 0.0,
+            wd: 1e4,
+            p: 0.0,
+            q: 1e-6,
+        };
+        let c = [CandN {
+            g,
+            order: 0,
+            tol: 1e-15,
+        }];
+        let mut s = ScratchN::default();
+        let (r, _) = first_root_n(&c, 0.0, 10.0, 0.0, &mut s);
+        let Root::At(t) = r else { panic!("{r:?}") };
+        assert!(g.value(t).abs() < 1e-12, "{t}");
+        // Dense check that no earlier zero exists.
+        for i in 0..200_000 {
+            let x = t * i as f64 / 200_000.0;
+            assert!(g.value(x) > 0.0, "{x}");
+        }
+        eprintln!("steps with a 1e4 rad/s wiggle: {}", s.steps);
+        assert!(s.steps < 200, "{} steps", s.steps);
+        // 0.5e-6 + 1e-6 sin(1e4 τ) − small drift: the wiggle itself crosses early (τ ≈ 3.7e-4).
+        let mut h = poly(0.5e-6, -1e-9, 0.0);
+        h.n = 1;
+        h.t[0] = Term {
+            al: 0.0,
+            wd: 1e4,
+            p: 0.0,
+            q: -1e-6,
+        };
+        let c = [CandN {
+            g: h,
+            order: 0,
+            tol: 1e-21,
+        }];
+        let (r, _) = first_root_n(&c, 0.0, 10.0, 0.0, &mut ScratchN::default());
+        let Root::At(t) = r else { panic!("{r:?}") };
+        let want = (0.5f64).asin() / 1e4;
+        assert!((t - want).abs() < 1e-9, "{t} {want}");
+    }
+}
