@@ -181,6 +181,39 @@ impl TrigN {
         }
     }
 
+    /// Fill the harmonic at `τ` and the terms `idx` of `g` (the others are left as they are).
+    #[inline]
+    pub fn fill_some(&mut self, tau: f64, g: &ExpSumN, idx: &[usize], harmonic: bool) {
+        self.tau = tau;
+        self.n = g.n;
+        if harmonic {
+            let (sh, chm1) = half_angle((0.5 * g.om) * tau);
+            self.sh = sh;
+            self.chm1 = chm1;
+            self.ch = 1.0 + chm1;
+        }
+        for &i in idx {
+            let t = &g.t[i];
+            let em1 = (-t.al * tau).exp_m1();
+            self.k[i] = if t.wd == 0.0 {
+                TermTrig {
+                    em1,
+                    cd: 1.0,
+                    sd: 0.0,
+                    cdm1: 0.0,
+                }
+            } else {
+                let (sd, cdm1) = half_angle((0.5 * t.wd) * tau);
+                TermTrig {
+                    em1,
+                    cd: 1.0 + cdm1,
+                    sd,
+                    cdm1,
+                }
+            };
+        }
+    }
+
     /// Copy the filled part of `o` (for `o.n` terms).
     #[inline]
     pub fn copy_from(&mut self, o: &TrigN) {
@@ -534,7 +567,8 @@ mod tests {
     }
 
     fn naive(f: &ExpSumN, t: f64) -> f64 {
-        let mut s = f.k0 + f.c1 * t + f.c2 * t * t + f.a * (f.om * t).cos() + f.b * (f.om * t).sin();
+        let mut s =
+            f.k0 + f.c1 * t + f.c2 * t * t + f.a * (f.om * t).cos() + f.b * (f.om * t).sin();
         for d in &f.t[..f.n] {
             s += (-d.al * t).exp() * (d.p * (d.wd * t).cos() + d.q * (d.wd * t).sin());
         }
@@ -550,14 +584,27 @@ mod tests {
             assert!((f.value(t) - naive(&f, t)).abs() < 1e-14, "{t}");
             let d: [f64; 4] = f.derivs(t);
             let df = f.deriv();
-            assert!((d[1] - df.value(t)).abs() < 1e-12, "{} {}", d[1], df.value(t));
+            assert!(
+                (d[1] - df.value(t)).abs() < 1e-12,
+                "{} {}",
+                d[1],
+                df.value(t)
+            );
             assert!((d[2] - df.deriv().value(t)).abs() < 1e-10);
             let h = 1e-6;
             let fd = (f.value(t + h) - f.value((t - h).max(0.0))) / (t + h - (t - h).max(0.0));
-            assert!((fd - d[1]).abs() < 1e-4 * (1.0 + d[2].abs()), "{fd} {}", d[1]);
+            assert!(
+                (fd - d[1]).abs() < 1e-4 * (1.0 + d[2].abs()),
+                "{fd} {}",
+                d[1]
+            );
             let fd3 = (f.derivs::<3>(t + h)[2] - f.derivs::<3>((t - h).max(0.0))[2])
                 / (t + h - (t - h).max(0.0));
-            assert!((fd3 - d[3]).abs() < 1e-3 * (1.0 + d[3].abs()), "{fd3} {}", d[3]);
+            assert!(
+                (fd3 - d[3]).abs() < 1e-3 * (1.0 + d[3].abs()),
+                "{fd3} {}",
+                d[3]
+            );
             // The increment is the difference of values.
             assert!((f.increment(0.3, t) - (naive(&f, t) - naive(&f, 0.3))).abs() < 1e-14);
         }
@@ -625,7 +672,10 @@ mod tests {
             assert!((c - s).abs() < 1e-10 * (1.0 + s.abs()), "{a} {b}: {c} {s}");
             let s2 = simpson(&|t| naive(&x, t).powi(2), a, b, n);
             let c2 = integral_square_n(&x, a, b);
-            assert!((c2 - s2).abs() < 1e-10 * (1.0 + s2.abs()), "{a} {b}: {c2} {s2}");
+            assert!(
+                (c2 - s2).abs() < 1e-10 * (1.0 + s2.abs()),
+                "{a} {b}: {c2} {s2}"
+            );
             let p = integral_product_n(&x, &x, a, b);
             assert!((p - c2).abs() <= 1e-13 * c2.abs(), "{p} {c2}");
         }
@@ -666,7 +716,10 @@ mod tests {
                 assert!((a[i] - b[i]).abs() < 1e-13, "{t} {i}");
             }
         }
-        let (x, y) = (integral_square(&l, 0.2, 5.0), integral_square_n(&g, 0.2, 5.0));
+        let (x, y) = (
+            integral_square(&l, 0.2, 5.0),
+            integral_square_n(&g, 0.2, 5.0),
+        );
         assert!((x - y).abs() < 1e-13 * x.abs(), "{x} {y}");
     }
 }

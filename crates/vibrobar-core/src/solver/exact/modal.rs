@@ -31,7 +31,9 @@ use crate::error::{EventLimitCause, ParamError, SimError};
 use crate::limits::{self, MAX_BEAM_MODES};
 use crate::params::{FrictionModel, State};
 use crate::solver::modal_rk4::{ModalObserver, ModalRunSummary};
-use crate::solver::{Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Wall};
+use crate::solver::{
+    Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Wall,
+};
 use crate::structure::{ModalState, ModalSystem, Point};
 
 const NM: usize = MAX_BEAM_MODES;
@@ -723,7 +725,10 @@ fn build_free(cs: &Consts, s: &St, fb: f64, no_ball: bool, mo: &mut FreeMotion) 
         let (a, b) = if o.f0_d == 0.0 {
             (0.0, 0.0)
         } else {
-            (o.f0_d * (o.kk * s0 - o.cw * c0), o.f0_d * (o.kk * c0 + o.cw * s0))
+            (
+                o.f0_d * (o.kk * s0 - o.cw * c0),
+                o.f0_d * (o.kk * c0 + o.cw * s0),
+            )
         };
         let p = s.q[i] - qc - a;
         let q = (s.dq[i] - om * b + o.al * p) / o.wd;
@@ -874,7 +879,7 @@ fn free_flight(
             Root::Horizon(t) => (t, HORIZON),
         }
     };
-    if which != 0 && work.search.trig.tau.to_bits() == best.to_bits() {
+    if which != 0 && work.search.trig_full && work.search.trig.tau.to_bits() == best.to_bits() {
         work.end.copy_from(&work.search.trig);
     } else {
         work.end.fill(best, &work.mo.w);
@@ -893,7 +898,9 @@ fn free_flight(
     };
     let mut next = book.close(&seg);
     if flight.is_none() {
-        if book.check && !(next.q.iter().all(|x| x.is_finite()) && next.dq.iter().all(|x| x.is_finite())) {
+        if book.check
+            && !(next.q.iter().all(|x| x.is_finite()) && next.dq.iter().all(|x| x.is_finite()))
+        {
             return Err(SimError::NonFinite { t_s: next.t });
         }
         *s = next;

@@ -78,6 +78,9 @@ struct Pre {
     rd: [f64; MAX_TERMS],
     /// Coefficients of the derivative of each term.
     d1: [Term; MAX_TERMS],
+    /// `Σ_{fast} pₖ` and `Σ_{fast} |D̂ₖ|` of the cheap step's fixed fast set.
+    shift: f64,
+    rf0: f64,
 }
 
 #[derive(Debug, Clone, Copy, Default)]
@@ -100,6 +103,14 @@ pub struct ScratchN {
     r: [f64; MAX_TERMS],
     /// Proven steps taken by all searches (for the cost measurement).
     pub steps: u64,
+    /// Whether `trig` holds every term (not only the cheap step's slow ones).
+    pub trig_full: bool,
+    /// Size of the cheap step's fast set (`order[..n_fast]`).
+    n_fast: usize,
+    /// Cheap steps that proved enough (for the cost measurement).
+    pub cheap_ok: u64,
+    /// Cheap steps that did not (the search then evaluated every term).
+    pub cheap_fail: u64,
 }
 
 impl Default for ScratchN {
@@ -113,12 +124,18 @@ impl Default for ScratchN {
                 rh: 0.0,
                 rd: [0.0; MAX_TERMS],
                 d1: [Term::default(); MAX_TERMS],
+                shift: 0.0,
+                rf0: 0.0,
             }; MAX_CANDS],
             proof: [FnProof::default(); MAX_CANDS],
             v: [0.0; MAX_TERMS],
             v1: [0.0; MAX_TERMS],
             r: [0.0; MAX_TERMS],
             steps: 0,
+            trig_full: false,
+            n_fast: 0,
+            cheap_ok: 0,
+            cheap_fail: 0,
         }
     }
 }
@@ -200,7 +217,11 @@ pub fn first_root_n(
             j -= 1;
         }
     }
+    // The cheap step's fast set: every term but the slowest (see the module docs).
+    let n_fast = nt.saturating_sub(1);
+    s.n_fast = n_fast;
     s.trig.fill(t0, &first.g);
+    s.trig_full = true;
     for (i, c) in cands.iter().enumerate() {
         debug_assert!(c.g.same_basis(&first.g));
         let g = &c.g;
@@ -215,6 +236,13 @@ pub fn first_root_n(
                 ..g.t[k]
             };
         }
+        let (mut shift, mut rf0) = (0.0, 0.0);
+        for &k in &s.order[..n_fast] {
+            shift += g.t[k].p;
+            rf0 += pre.rd[k];
+        }
+        pre.shift = shift;
+        pre.rf0 = rf0 * MARGIN;
         let mut free_until = t0;
         if c.order > 0 {
             match departure_step(g, c.order, pre, &s.trig) {
@@ -228,10 +256,20 @@ pub fn first_root_n(
         };
     }
     let mut tau = t0;
+    // Cheap steps while they prove enough (module docs); after the first one that does not,
+    // the search evaluates every term.
+    let mut cheap = n_fast > 0;
     for _ in 0..SEARCH_HORIZON_ITER {
         s.steps += 1;
         if tau != t0 {
-            s.trig.fill(tau, &first.g);
+            if cheap {
+                s.trig
+                    .fill_some(tau, &first.g, &s.order[s.n_fast..nt], true);
+                s.trig_full = false;
+            } else {
+                s.trig.fill(tau, &first.g);
+                s.trig_full = true;
+            }
         }
         let mut st_h = f64::INFINITY;
         let mut st_imin = 0;
@@ -254,6 +292,17 @@ pub fn first_root_n(
             } else if pf.proven > tau {
                 pending[i] = true;
             } else {
+                if cheap {
+                    if let Some(hi) = cheap_eval(&cands[i], i, s, tau, 0.0) {
+                        s.cheap_ok += 1;
+                        s.proof[i].proven = tau + hi;
+                        take(i, hi, false, &mut st_h, &mut st_imin);
+                        continue;
+                    }
+                    cheap = false;
+                    s.cheap_fail += 1;
+                }
+                complete(s, tau, &first.g);
                 match eval(&cands[i], i, s, tau, 0.0, t_max, tol_t) {
                     Ok((hi, br)) => {
                         s.proof[i].proven = tau + hi;
@@ -272,6 +321,15 @@ pub fn first_root_n(
                 take(i, hl, false, &mut st_h, &mut st_imin);
                 continue;
             }
+            if cheap {
+                if let Some(hi) = cheap_eval(&cands[i], i, s, tau, hl) {
+                    s.proof[i].proven = tau + hi;
+                    take(i, hi, false, &mut st_h, &mut st_imin);
+                    continue;
+                }
+                cheap = false;
+            }
+            complete(s, tau, &first.g);
             match eval(&cands[i], i, s, tau, hl, t_max, tol_t) {
                 Ok((hi, br)) => {
                     s.proof[i].proven = tau + hi;
@@ -295,6 +353,50 @@ pub fn first_root_n(
         tau = next;
     }
     (Root::Horizon(tau), 0)
+}
+
+/// Fill the fast terms of `s.trig` if only the slow ones are there.
+#[inline]
+fn complete(s: &mut ScratchN, tau: f64, g: &ExpSumN) {
+    if !s.trig_full {
+        s.trig.fill_some(tau, g, &s.order[..s.n_fast], false);
+        s.trig_full = true;
+    }
+}
+
+/// The cheap step of function `i` at `τ` from the slow terms only (module docs): the fast set
+/// is bounded by its amplitudes at the search start, `R_F ≤ Σ_{fast}|D̂ₖ|` (they only decay),
+/// so `g(τ+h) ≥ S(τ) − R_F + S'(τ)h − B_S h²/2` with `S` from the slow terms
+/// (`S(τ) = f(0) − Σ_{fast} pₖ + …` in the cancellation-free form). Taken only where the fast
+/// set is small against the distance (`R_F ≤ S/4`), else `None` (the full evaluation decides).
+#[inline]
+fn cheap_eval(c: &CandN, i: usize, s: &ScratchN, tau: f64, prev: f64) -> Option<f64> {
+    let g = &c.g;
+    let tr = &s.trig;
+    let pre = &s.pre[i];
+    let base = g.f0 - pre.shift;
+    let mut f = base + tau * (g.c1 + tau * g.c2) + g.a * tr.chm1 + g.b * tr.sh;
+    let mut f1 = g.c1 + 2.0 * g.c2 * tau + g.om * (g.b * tr.ch - g.a * tr.sh);
+    let mut bdec = 0.0;
+    let mut rsum = 0.0;
+    for &k in &s.order[s.n_fast..g.n] {
+        let kk = &tr.k[k];
+        let t = &g.t[k];
+        let e = 1.0 + kk.em1;
+        f += t.p * (kk.em1 * kk.cd + kk.cdm1) + t.q * e * kk.sd;
+        let d = &pre.d1[k];
+        f1 += e * (d.p * kk.cd + d.q * kk.sd);
+        let r = pre.rd[k] * e;
+        bdec += s.wn2[k] * r;
+        rsum += r;
+    }
+    let eps_n = 8.0 * f64::EPSILON * (g.n as f64 + 1.0);
+    let lo = f - pre.rf0 - eps_n * (g.f0.abs() + pre.shift.abs() + rsum + pre.rf0 + f.abs());
+    if !(lo > 3.0 * pre.rf0) {
+        return None;
+    }
+    let b = (pre.bconst + bdec) * MARGIN;
+    Some(quad_step(lo, f1, b).max(prev))
 }
 
 /// One evaluation of function `i` at `τ` (transcendentals in `s.trig`): `Err(root)`, or its
