@@ -20,6 +20,8 @@ struct Rec {
     /// `∫u²` from `u2_from` on (RMS).
     u2_from: f64,
     u2: f64,
+    /// Energy removed by impacts and chatter limits (from the events).
+    losses: f64,
 }
 
 impl Rec {
@@ -58,6 +60,11 @@ impl Observer for Rec {
     }
     fn event(&mut self, ev: &Event) {
         self.events.push(*ev);
+        if let EventKind::Impact { energy_loss_j, .. }
+        | EventKind::ChatterLimit { energy_loss_j, .. } = ev.kind
+        {
+            self.losses += energy_loss_j;
+        }
     }
 }
 
@@ -83,21 +90,22 @@ fn kind_id(k: &EventKind) -> u8 {
     }
 }
 
-/// N = 1 from `from_lumped` is the lumped `Exact` over 0.05 s.
+/// N = 1 from `from_lumped` is the lumped `Exact` over 0.05 s: the same events (kinds and
+/// count), event times within 1e-9/Ω and states on a 10 µs grid within 1e-9 of their scale
+/// (the gaps 0.05 and 0.1 mm × none / as-published / coulomb, and the solid bar). The two
+/// differ by rounding only: `k = mω²` with `ω = √(K/M)`, the modal impulse formula, the search
+/// stopping within its tolerance (measured: at most 1.7e-11 of the scale, 1.7e-11/Ω).
 #[test]
 fn one_unit_mode_reproduces_the_lumped_exact() {
     let t_end = 0.05;
     let mut cases: Vec<System> = Vec::new();
     for gap in [0.05e-3, 0.1e-3] {
-        for f in [
-            FrictionModel::None,
-            FrictionModel::AsPublished,
-            FrictionModel::Coulomb,
-        ] {
+        for f in FrictionModel::ALL {
             cases.push(System::paper_damped(gap, f, 1.0));
         }
     }
     cases.push(System::paper_solid(1.0));
+    let mut kinds_seen = [0usize; 6];
     for sys in &cases {
         let mut lumped = Rec::with_grid(1e-5);
         let rl = Exact::default()
@@ -109,14 +117,14 @@ fn one_unit_mode_reproduces_the_lumped_exact() {
             check_invariants: true,
             ..Default::default()
         }
-        .run_modal(&msys, &ModalState::REST, t_end, &mut modal);
-        let rm = match rm {
-            Ok(r) => r,
-            Err(e) => {
-                eprintln!("{sys:?}: {e}");
-                continue;
-            }
-        };
+        .run_modal(&msys, &ModalState::REST, t_end, &mut modal)
+        .unwrap();
+        assert_eq!(rl.impacts, rm.summary.impacts, "{sys:?}");
+        assert_eq!(lumped.events.len(), modal.events.len(), "{sys:?}");
+        assert_eq!(lumped.grid.len(), modal.grid.len());
+        if sys.damper.is_some() {
+            assert!(rl.impacts >= 30, "{} impacts", rl.impacts);
+        }
         let scale = |f: &dyn Fn(&State) -> f64| {
             lumped
                 .grid
@@ -131,26 +139,106 @@ fn one_unit_mode_reproduces_the_lumped_exact() {
         for f in fields {
             let sc = scale(f);
             for (a, b) in lumped.grid.iter().zip(&modal.grid) {
+                assert_eq!(a.t_s.to_bits(), b.t_s.to_bits());
                 worst = worst.max((f(a) - f(b)).abs() / sc);
             }
         }
         let om = sys.omega_rad_s();
         let mut worst_t = 0.0f64;
         for (a, b) in lumped.events.iter().zip(&modal.events) {
+            assert_eq!(kind_id(&a.kind), kind_id(&b.kind), "{sys:?} at {}", a.t_s);
+            kinds_seen[kind_id(&a.kind) as usize] += 1;
             worst_t = worst_t.max((a.t_s - b.t_s).abs() * om);
         }
         eprintln!(
-            "{:?} {:?}: impacts {} / {}, events {} / {}, grid {} / {}, states {worst:e}, times·Ω {worst_t:e}",
+            "N = 1 vs lumped {:?} {:?}: {} impacts, {} events; states {worst:e} of the scale, times·Ω {worst_t:e}",
             sys.damper.map(|d| d.gap_m),
             sys.damper.map(|d| d.friction),
             rl.impacts,
-            rm.summary.impacts,
             lumped.events.len(),
-            modal.events.len(),
-            lumped.grid.len(),
-            modal.grid.len()
         );
+        assert!(worst < 1e-9 && worst_t < 1e-9, "{worst:e} {worst_t:e}");
     }
+    eprintln!(
+        "event kinds compared (impact, switch, stick, unstick, chatter, release): {kinds_seen:?}"
+    );
+    assert!(kinds_seen[0] > 0 && kinds_seen[1] > 0 && kinds_seen[3] > 0);
+}
+
+/// N = 1 against the lumped `Exact` where the ball is held: chatter limits (the plastic limit,
+/// the ball riding the wall, the release) and coulomb stick. The paper runs are chaotic
+/// (differences grow ~×3 per impact), so each comparison restarts both solvers from the
+/// lumped state three events before a chatter limit of the lumped 2 s run (0.1 mm gap, every
+/// friction law) and compares the next 10 ms event by event: same kinds, times within
+/// 1e-9/Ω, states after each event within 1e-9 of the scale.
+#[test]
+fn one_unit_mode_holds_the_ball_as_the_lumped_exact() {
+    let mut kinds = [0usize; 6];
+    for f in FrictionModel::ALL {
+        let sys = System::paper_damped(0.1e-3, f, 1.0);
+        let msys = ModalSystem::from_lumped(&sys).unwrap();
+        let mut whole = Rec::default();
+        Exact::default()
+            .run(&sys, &State::REST, 2.0, &mut whole)
+            .unwrap();
+        let starts: Vec<State> = whole
+            .events
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| matches!(e.kind, EventKind::ChatterLimit { .. }))
+            .take(3)
+            .map(|(i, _)| whole.events[i - 3].after)
+            .collect();
+        assert!(!starts.is_empty(), "{f}: no chatter limit in 2 s");
+        for mut init in starts {
+            // On the wall after an impact: `v − u` may exceed `l_g` by the rounding of `v`.
+            let lg = 0.5 * 0.1e-3;
+            let w = init.v_m - init.u_m;
+            while (init.v_m - init.u_m).abs() > lg {
+                init.v_m -= w.signum() * f64::EPSILON * init.v_m.abs().max(lg);
+            }
+            let t_end = init.t_s + 0.01;
+            let mut lumped = Rec::default();
+            Exact::default()
+                .run(&sys, &init, t_end, &mut lumped)
+                .unwrap();
+            let mut modal = Rec::default();
+            ModalExact {
+                check_invariants: true,
+                ..Default::default()
+            }
+            .run_modal(&msys, &ModalState::from_lumped(&init), t_end, &mut modal)
+            .unwrap();
+            assert_eq!(
+                lumped.events.len(),
+                modal.events.len(),
+                "{f} from {}",
+                init.t_s
+            );
+            let scale = lumped
+                .events
+                .iter()
+                .map(|e| e.after.du_m_s.abs().max(e.after.dv_m_s.abs()))
+                .fold(0.0, f64::max);
+            let (mut worst_t, mut worst_v) = (0.0f64, 0.0f64);
+            for (a, b) in lumped.events.iter().zip(&modal.events) {
+                assert_eq!(kind_id(&a.kind), kind_id(&b.kind), "{f} at {}", a.t_s);
+                kinds[kind_id(&a.kind) as usize] += 1;
+                worst_t = worst_t.max((a.t_s - b.t_s).abs() * sys.omega_rad_s());
+                worst_v = worst_v
+                    .max((a.after.du_m_s - b.after.du_m_s).abs() / scale)
+                    .max((a.after.dv_m_s - b.after.dv_m_s).abs() / scale);
+            }
+            eprintln!(
+                "{f} from t = {:.6}: {} events, times·Ω {worst_t:e}, velocities {worst_v:e} of the scale",
+                init.t_s,
+                lumped.events.len()
+            );
+            assert!(worst_t < 1e-9 && worst_v < 1e-9, "{worst_t:e} {worst_v:e}");
+        }
+    }
+    eprintln!("event kinds compared (impact, switch, stick, unstick, chatter, release): {kinds:?}");
+    assert!(kinds[4] >= 6 && kinds[5] >= 6, "{kinds:?}");
 }
 
 /// The paper's bar (L = 175 mm, D = 25 mm, steel, ζ = 0.01) with `n` modes, cavity 38 mm from
@@ -394,10 +482,11 @@ fn modal_impacts_conserve_momentum_per_mode_and_lose_the_law_s_energy() {
     }
 }
 
-/// Energy books on the 4-mode beam: forcing work − viscous loss + friction work − impact
-/// losses = Δ(mechanical energy), to 1e-9 of the forcing work (closed-form integrals: what is
-/// left is rounding, summed over ~1000 segments). Coulomb starts sliding (a ball at rest would
-/// stick).
+/// Energy books on the 4-mode beam: forcing work − viscous loss + friction work − impact and
+/// chatter losses = Δ(mechanical energy), to 1e-9 of the forcing work (closed-form integrals:
+/// what is left is rounding summed over the segments; measured ≤ 1e-14). Coulomb from rest
+/// starts stuck (constrained closed form); the 8-mode 0.05 mm case has chatter limits and wall
+/// contact.
 #[test]
 fn energy_books_close_on_the_four_mode_beam() {
     for (friction, sys) in [
@@ -421,11 +510,13 @@ fn energy_books_close_on_the_four_mode_beam() {
             FrictionModel::Coulomb,
             beam_system(4, Some(Damper::paper(0.1e-3, FrictionModel::Coulomb)), 1.0),
         ),
+        // Chatter limits and wall contact (8 modes, 0.05 mm: the first limit at 18 ms).
+        (
+            FrictionModel::None,
+            beam_system(8, Some(Damper::paper(0.05e-3, FrictionModel::None)), 1.0),
+        ),
     ] {
-        let mut init = ModalState::REST;
-        if friction == FrictionModel::Coulomb {
-            init.dv_m_s = 0.05;
-        }
+        let init = ModalState::REST;
         let mut rec = Rec::default();
         let r = ModalExact {
             check_invariants: true,
@@ -433,14 +524,25 @@ fn energy_books_close_on_the_four_mode_beam() {
         }
         .run_modal(&sys, &init, 0.2, &mut rec)
         .unwrap();
-        let losses: f64 = rec.impacts.iter().map(|x| x.2).sum();
+        let losses = rec.losses;
         let t = rec.totals;
         let books = t.forcing_work_j - t.viscous_loss_j - losses + t.friction_work_j;
         let delta =
             sys.mechanical_energy_j(rec.last.as_ref().unwrap()) - sys.mechanical_energy_j(&init);
         let res = (delta - books).abs() / t.forcing_work_j.abs();
+        let held = rec
+            .events
+            .iter()
+            .filter(|e| {
+                matches!(
+                    e.kind,
+                    EventKind::ChatterLimit { .. } | EventKind::Unstick | EventKind::Stick
+                )
+            })
+            .count();
         eprintln!(
-            "{friction}: input {:e} J, viscous {:e}, impacts {losses:e} ({}), friction {:e}, Δ {delta:e}, residual {res:e}, {} events",
+            "{friction} (N = {}): {held} chatter limits / stick events; input {:e} J, viscous {:e}, impacts {losses:e} ({}), friction {:e}, Δ {delta:e}, residual {res:e}, {} events",
+            sys.n_modes(),
             t.forcing_work_j,
             t.viscous_loss_j,
             rec.impacts.len(),
@@ -450,7 +552,7 @@ fn energy_books_close_on_the_four_mode_beam() {
         if friction != FrictionModel::None {
             assert!(t.friction_work_j != 0.0);
         }
-        assert!(r.summary.impacts >= 10 || friction == FrictionModel::Coulomb);
+        assert!(r.summary.impacts >= 10);
         assert!(res < 1e-9, "{res:e}");
     }
 }

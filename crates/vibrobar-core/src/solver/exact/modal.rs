@@ -14,13 +14,20 @@
 //! ([`crate::damper::impact::modal_impact`]; `w` is set to exactly `±l_g`, the ball coordinate
 //! follows), `ẇ = 0` (as-published: the sign reverses; coulomb: stick if `|a_b| ≤ F κ` with
 //! `κ = 1/m_d + Σφₙ(x_d)²/mₙ`, `a_b = Σφₙ(x_d)q̈ₙ` without the ball's force), the chatter test
-//! with `ẅ` at the impact. Stick, wall contact and the chatter limit need the motion with the
-//! ball held at the cavity (the constrained modes): until that module is merged they end the run
-//! with an error naming what is missing (never a silently wrong motion).
+//! with `ẅ` at the impact.
+//!
+//! Stick, wall contact and the chatter limit hold the ball at the cavity: the bar then moves in
+//! its constrained modes ([`super::constrained`], computed when a run first holds the ball), the
+//! holding force `f_c = m_d φ_dᵀq̈` is again an exponential sum, and unstick (`|f_c|` reaches
+//! `F`) and release (`s·f_c` reaches the holding capacity) are its zeros, searched as above. The
+//! chatter limit is the modal impact law at `e = 0` (only the contact row is equalised, the
+//! other modal velocities keep their components), the ball held on the wall for the summed
+//! sequence's duration, then the [`EventKind::ChatterLimit`] with the energy it removed.
 //!
 //! The internal state keeps `w`, `ẇ` (relative coordinates, free of cancellation) beside the
 //! modal coordinates; the public state has `v = w + Σφₙ(x_d)qₙ`.
 
+use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
 use super::expsum::{integral_square, ExpSum, Trig};
 use super::expsum_n::{integral_product_n, integral_square_n, ExpSumN, Term, TrigN};
 use super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
@@ -90,6 +97,7 @@ struct Consts {
     kappa: f64,
     tol_x: f64,
     tol_v: f64,
+    tol_f: f64,
     tol_t: f64,
     chatter_h: f64,
     chatter_t: f64,
@@ -124,6 +132,14 @@ impl Consts {
             kappa: 0.0,
             tol_x: 1e-15 * lg,
             tol_v: 1e-15 * lg * om.max(omax),
+            tol_f: 1e-15
+                * sys
+                    .forcing
+                    .amplitude_n
+                    .abs()
+                    .max(sys.forcing.static_force_n.abs())
+                    .max(sys.friction_level_n())
+                    .max(f64::MIN_POSITIVE),
             tol_t: 1e-15 / om.max(omax),
             chatter_h: 1e-10 * lg,
             chatter_t: 1e-9 * 2.0 * std::f64::consts::PI / om,
@@ -309,18 +325,60 @@ impl Work {
     }
 }
 
+/// The closed-form motion of one segment with the ball held at the cavity (stick, wall
+/// contact): the constrained modes' closed form, and the sums the observers need on its basis.
+struct PairMotion<'a> {
+    motion: ConstrainedMotion<'a>,
+    ur: ExpSumN,
+    duf: ExpSumN,
+    force: ExpSumN,
+    /// `w`, constant while held.
+    w: f64,
+}
+
+/// What moves during a segment.
+enum SegMotion<'a> {
+    Free(&'a FreeMotion),
+    Pair(&'a PairMotion<'a>),
+}
+
 /// One closed-form piece of the motion, as the observers see it.
 pub struct ModalExactSegment<'a> {
     t0: f64,
     t1: f64,
     mode: Mode,
     cs: &'a Consts,
-    mo: &'a FreeMotion,
+    m: SegMotion<'a>,
     end: &'a TrigN,
 }
 
 impl ModalExactSegment<'_> {
     fn at_t(&self, tr: &TrigN) -> St {
+        match self.m {
+            SegMotion::Free(mo) => self.at_t_free(mo, tr),
+            SegMotion::Pair(pm) => {
+                let (q, dq) = pm.motion.state_at(tr.tau);
+                St {
+                    t: self.t0 + tr.tau,
+                    q,
+                    dq,
+                    w: pm.w,
+                    dw: 0.0,
+                    force: pm.force.value_t(tr),
+                }
+            }
+        }
+    }
+
+    /// The basis of the segment's sums (for its transcendentals).
+    fn basis(&self) -> &ExpSumN {
+        match self.m {
+            SegMotion::Free(mo) => &mo.w,
+            SegMotion::Pair(pm) => &pm.ur,
+        }
+    }
+
+    fn at_t_free(&self, mo: &FreeMotion, tr: &TrigN) -> St {
         let cs = self.cs;
         let mut s = St {
             t: self.t0 + tr.tau,
@@ -328,7 +386,7 @@ impl ModalExactSegment<'_> {
             dq: [0.0; NM],
             w: 0.0,
             dw: 0.0,
-            force: self.mo.force.value_t(tr),
+            force: mo.force.value_t(tr),
         };
         for i in 0..cs.n {
             let k = &tr.k[i];
@@ -342,12 +400,12 @@ impl ModalExactSegment<'_> {
                 cdm1: k.cdm1,
                 tau: tr.tau,
             };
-            let [q, dq]: [f64; 2] = self.mo.modes[i].derivs_t(&t1);
+            let [q, dq]: [f64; 2] = mo.modes[i].derivs_t(&t1);
             s.q[i] = q;
             s.dq[i] = dq;
         }
-        if !self.mo.no_ball {
-            let [w, dw]: [f64; 2] = self.mo.w.derivs_t(tr);
+        if !mo.no_ball {
+            let [w, dw]: [f64; 2] = mo.w.derivs_t(tr);
             s.w = w;
             s.dw = dw;
         }
@@ -359,7 +417,7 @@ impl ModalExactSegment<'_> {
         let mut s = if tau.to_bits() == self.end.tau.to_bits() {
             self.at_t(self.end)
         } else {
-            self.at_t(&TrigN::new(tau, &self.mo.w))
+            self.at_t(&TrigN::new(tau, self.basis()))
         };
         s.t = t_s;
         s
@@ -372,7 +430,8 @@ impl ModalExactSegment<'_> {
 
     /// Mechanical energy `Σ(½mₙq̇ₙ² + ½kₙqₙ²) + ½m_d v̇²` at `t_s`.
     pub fn mechanical_energy_j(&self, t_s: f64) -> f64 {
-        energy_j(self.cs, &self.modal_state_at(t_s), !self.mo.no_ball)
+        let ball = !matches!(self.m, SegMotion::Free(mo) if mo.no_ball);
+        energy_j(self.cs, &self.modal_state_at(t_s), ball)
     }
 }
 
@@ -401,11 +460,18 @@ impl Segment for ModalExactSegment<'_> {
         self.at(t_s).public(self.cs)
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
-        integral_square_n(&self.mo.ur, a_s - self.t0, b_s - self.t0)
+        let ur = match self.m {
+            SegMotion::Free(mo) => &mo.ur,
+            SegMotion::Pair(pm) => &pm.ur,
+        };
+        integral_square_n(ur, a_s - self.t0, b_s - self.t0)
     }
     fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals {
         let (a, b) = (a_s - self.t0, b_s - self.t0);
-        let mo = self.mo;
+        let mo = match self.m {
+            SegMotion::Free(mo) => mo,
+            SegMotion::Pair(pm) => return pair_integrals(self.cs, pm, a, b),
+        };
         let mut viscous = 0.0;
         for i in 0..self.cs.n {
             if self.cs.c[i] != 0.0 {
@@ -423,6 +489,52 @@ impl Segment for ModalExactSegment<'_> {
             },
         }
     }
+}
+
+/// The integrals of a held segment: `∫u²` at the response point, the forcing work at the
+/// force point, the viscous loss `Σcₙ∫q̇ₙ²` (each `q̇ₙ` from the constrained closed form:
+/// O(N) sums of 2N terms); no friction work (`ẇ = 0`).
+fn pair_integrals(cs: &Consts, pm: &PairMotion, a: f64, b: f64) -> SegmentIntegrals {
+    let mut viscous = 0.0;
+    let mut unit = [0.0; NM];
+    let mut dq = pm.ur;
+    for i in 0..cs.n {
+        if cs.c[i] == 0.0 {
+            continue;
+        }
+        unit[i] = 1.0;
+        to_expsum(&pm.motion.sum(&unit).deriv(), &mut dq);
+        unit[i] = 0.0;
+        viscous += cs.c[i] * integral_square_n(&dq, a, b);
+    }
+    SegmentIntegrals {
+        u2_m2_s: integral_square_n(&pm.ur, a, b),
+        forcing_work_j: integral_product_n(&pm.force, &pm.duf, a, b),
+        viscous_loss_j: viscous,
+        friction_work_j: 0.0,
+    }
+}
+
+/// The constrained module's closed form as an [`ExpSumN`] (same terms; `f(0)` from them).
+fn to_expsum(t: &TermSum, out: &mut ExpSumN) {
+    out.om = t.omega_rad_s;
+    out.k0 = t.constant;
+    out.c1 = 0.0;
+    out.c2 = 0.0;
+    out.a = t.cos_omega;
+    out.b = t.sin_omega;
+    out.n = t.n_decays;
+    let mut f0 = t.constant + t.cos_omega;
+    for (o, d) in out.t.iter_mut().zip(t.decays()) {
+        *o = Term {
+            al: d[0],
+            wd: d[1],
+            p: d[2],
+            q: d[3],
+        };
+        f0 += d[2];
+    }
+    out.f0 = f0;
 }
 
 /// A plain [`Observer`] seen as a [`ModalObserver`].
@@ -548,13 +660,9 @@ impl Book<'_> {
             before: before.public(cs),
             after: after.public(cs),
         });
-        match kind {
-            EventKind::Impact { energy_loss_j, .. }
-            | EventKind::ChatterLimit { energy_loss_j, .. } => {
-                self.obs
-                    .modal_impact(&before.modal(cs), &after.modal(cs), energy_loss_j)
-            }
-            _ => {}
+        if let EventKind::Impact { energy_loss_j, .. } = kind {
+            self.obs
+                .modal_impact(&before.modal(cs), &after.modal(cs), energy_loss_j)
         }
         Ok(())
     }
@@ -572,16 +680,20 @@ impl Book<'_> {
     }
 }
 
-/// The error of a run that needs the constrained motion (stick, wall contact, the chatter
-/// limit) before that module is merged.
-fn unsupported(what: &'static str, t: f64) -> SimError {
-    ParamError::OutOfRange {
-        field: what,
-        value: t,
-        allowed: "runs whose ball never sticks, rests on a wall or chatters to a limit \
-                  (ModalExact: the constrained motion is not implemented yet; value = t in s)",
+/// The constrained modes, computed when a run first holds the ball (a run that never does
+/// neither pays for them nor can fail on them).
+struct Held<'s> {
+    sys: &'s ModalSystem,
+    cm: Option<Box<ConstrainedModes>>,
+}
+
+impl Held<'_> {
+    fn get(&mut self) -> Result<&ConstrainedModes, SimError> {
+        if self.cm.is_none() {
+            self.cm = Some(Box::new(ConstrainedModes::new(self.sys)?));
+        }
+        Ok(self.cm.as_deref().expect("set above"))
     }
-    .into()
 }
 
 impl ModalExact {
@@ -597,7 +709,7 @@ impl ModalExact {
     }
 
     /// [`ModalExact::run`], also reporting the modal states to `obs` (`modal_step` per segment,
-    /// `modal_impact` per impact and chatter limit).
+    /// `modal_impact` per impact; a chatter limit's loss is in its event).
     pub fn run_modal(
         &self,
         sys: &ModalSystem,
@@ -658,7 +770,8 @@ impl ModalExact {
         };
         let mut work = Work::new();
         if sys.damper.is_none() {
-            free_flight(&cs, None, &mut s, t_end_s, &mut book, &mut work)?;
+            let mut held = Held { sys, cm: None };
+            free_flight(&cs, None, &mut s, t_end_s, &mut book, &mut work, &mut held)?;
             book.summary.max_penetration_m = f64::NEG_INFINITY;
             book.summary.final_state = s.public(&cs);
             let fin = s.modal(&cs);
@@ -676,7 +789,8 @@ impl ModalExact {
         }
         s.w = init.w_m(&sys.model);
         s.dw = init.dw_m_s(&sys.model);
-        let mut mode = initial_mode(&cs, &mut s, &mut book)?;
+        let mut held = Held { sys, cm: None };
+        let mut mode = initial_mode(&cs, &mut s, &mut book, &mut held)?;
         while s.t < t_end_s {
             let next = match mode {
                 Md::Free {
@@ -691,9 +805,11 @@ impl ModalExact {
                     t_end_s,
                     &mut book,
                     &mut work,
+                    &mut held,
                 )?,
-                Md::Stick => return Err(unsupported("damper.friction (coulomb stick)", s.t)),
-                Md::Contact(_) => return Err(unsupported("damper (ball resting on a wall)", s.t)),
+                Md::Stick | Md::Contact(_) => {
+                    pair_motion(&cs, &mut held, mode, &mut s, t_end_s, &mut book, &mut work)?
+                }
             };
             match next {
                 Some(m) => mode = m,
@@ -835,6 +951,7 @@ fn free_flight(
     t_end_s: f64,
     book: &mut Book,
     work: &mut Work,
+    held: &mut Held,
 ) -> Result<Option<Md>, SimError> {
     let span = t_end_s - s.t;
     let tol_t = cs.tol_t_at(s.t);
@@ -893,7 +1010,7 @@ fn free_flight(
             Mode::NoBall
         },
         cs,
-        mo: &work.mo,
+        m: SegMotion::Free(&work.mo),
         end: &work.end,
     };
     let mut next = book.close(&seg);
@@ -923,7 +1040,7 @@ fn free_flight(
     let mode = match which {
         1 | 2 => {
             let sw = if which == 1 { 1.0 } else { -1.0 };
-            impact(cs, sw, &mut next, book)?
+            impact(cs, sw, &mut next, book, work, held)?
         }
         _ => {
             next.dw = 0.0;
@@ -966,12 +1083,13 @@ fn after_wall_free(sw: f64, dw: f64) -> Md {
 }
 
 /// Mode at the start of a run.
-fn initial_mode(cs: &Consts, s: &mut St, book: &mut Book) -> Result<Md, SimError> {
+fn initial_mode(cs: &Consts, s: &mut St, book: &mut Book, held: &mut Held) -> Result<Md, SimError> {
     for sw in [1.0, -1.0] {
         if sw * s.w >= cs.lg {
             s.w = sw * cs.lg;
             if sw * s.dw > 0.0 {
-                return impact(cs, sw, s, book);
+                let mut work = Work::new();
+                return impact(cs, sw, s, book, &mut work, held);
             }
             if s.dw == 0.0 {
                 return contact_test(cs, sw, s);
@@ -1047,7 +1165,14 @@ fn friction_zero(cs: &Consts, sigma: f64, s: &St, book: &mut Book) -> Result<Md,
 }
 
 /// Ball at wall `sw` with `ẇ` pointing into it: the modal impact, then chatter / contact logic.
-fn impact(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<Md, SimError> {
+fn impact(
+    cs: &Consts,
+    sw: f64,
+    s: &mut St,
+    book: &mut Book,
+    work: &mut Work,
+    held: &mut Held,
+) -> Result<Md, SimError> {
     s.w = sw * cs.lg;
     let dw = if sw * s.dw > 0.0 { s.dw } else { 0.0 };
     let before = St { dw, ..*s };
@@ -1092,7 +1217,7 @@ fn impact(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<Md, SimEr
         if q < 1.0 {
             let dt = s.dw.abs() / a1 * (1.0 + (a1 / a2).sqrt()) / (1.0 - q);
             if apex < cs.chatter_h || dt < cs.chatter_t {
-                return Err(unsupported("damper (chatter limit at a wall)", s.t));
+                return chatter_limit(cs, sw, dt, s, book, work, held);
             }
         }
     }
@@ -1110,4 +1235,178 @@ fn contact_test(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
     } else {
         Ok(free_departing(-sw, Some(wall_of(sw))))
     }
+}
+
+/// The sums of a held segment from its constrained closed form.
+fn build_pair<'a>(cs: &Consts, motion: ConstrainedMotion<'a>, t0: f64, w: f64) -> PairMotion<'a> {
+    let z = ExpSumN::zero(cs.om);
+    let mut pm = PairMotion {
+        motion,
+        ur: z,
+        duf: z,
+        force: z,
+        w,
+    };
+    to_expsum(&motion.sum_at(Point::Response), &mut pm.ur);
+    to_expsum(&motion.sum_at(Point::Force).deriv(), &mut pm.duf);
+    let (s0, c0) = (cs.om * t0).sin_cos();
+    let f = &mut pm.force;
+    f.om = cs.om;
+    f.n = pm.ur.n;
+    for (d, t) in f.t[..pm.ur.n].iter_mut().zip(&pm.ur.t[..pm.ur.n]) {
+        *d = Term {
+            p: 0.0,
+            q: 0.0,
+            ..*t
+        };
+    }
+    f.k0 = cs.fs;
+    f.f0 = cs.fs + cs.f0 * s0;
+    f.a = cs.f0 * s0;
+    f.b = cs.f0 * c0;
+    pm
+}
+
+/// One segment of the ball held at the cavity: stuck (coulomb) away from the walls, or pressed
+/// on a wall. Events: unstick when the holding force `f_c = m_d φ_dᵀq̈` reaches `±F`, release
+/// when `s·f_c` reaches the holding capacity (0 without friction).
+fn pair_motion(
+    cs: &Consts,
+    held: &mut Held,
+    mode: Md,
+    s: &mut St,
+    t_end_s: f64,
+    book: &mut Book,
+    work: &mut Work,
+) -> Result<Option<Md>, SimError> {
+    let span = t_end_s - s.t;
+    let tol_t = cs.tol_t_at(s.t);
+    let cm = held.get()?;
+    let motion = cm.segment(s.t, &s.q, &s.dq);
+    let pm = build_pair(cs, motion, s.t, s.w);
+    to_expsum(&motion.holding_force(), &mut work.tmp);
+    let fc = &work.tmp;
+    let f_hold = crate::damper::friction::holding_capacity_n(cs.model, cs.fl);
+    let mut nc = 0;
+    let mut push = |id: u8, sc: f64, k: f64| {
+        let c = &mut work.cands[nc];
+        c.g.set_affine(fc, sc, k);
+        c.order = 0;
+        c.tol = cs.tol_f;
+        if c.g.is_constant() && c.g.f0 >= -cs.tol_f {
+            return;
+        }
+        work.ids[nc] = id;
+        nc += 1;
+    };
+    let seg_mode = match mode {
+        Md::Stick => {
+            push(1, -1.0, cs.fl); // the bar pulls the ball ahead: it lags
+            push(2, 1.0, cs.fl); // … or back: it leads
+            Mode::Stick
+        }
+        Md::Contact(wall) => {
+            push(3, -wall.sign(), f_hold);
+            Mode::Contact(wall)
+        }
+        Md::Free { .. } => unreachable!("pair_motion is called for stick and contact"),
+    };
+    let (best, which) = if nc == 0 {
+        (span, 0)
+    } else {
+        let (root, i) = first_root_n(&work.cands[..nc], 0.0, span, tol_t, &mut work.search);
+        match root {
+            Root::At(t) => (t, work.ids[i]),
+            Root::None => (span, 0),
+            Root::Horizon(t) => (t, HORIZON),
+        }
+    };
+    if which != 0 && work.search.trig_full && work.search.trig.tau.to_bits() == best.to_bits() {
+        work.end.copy_from(&work.search.trig);
+    } else {
+        work.end.fill(best, &pm.ur);
+    }
+    let seg = ModalExactSegment {
+        t0: s.t,
+        t1: if which == 0 { t_end_s } else { s.t + best },
+        mode: seg_mode,
+        cs,
+        m: SegMotion::Pair(&pm),
+        end: &work.end,
+    };
+    let mut next = book.close(&seg);
+    next.dw = 0.0;
+    book.check_state(&next)?;
+    *s = next;
+    match which {
+        0 => return Ok(None),
+        HORIZON => return Ok(Some(mode)),
+        _ => {}
+    }
+    let (kind, new_mode) = match (which, mode) {
+        (1, _) => (EventKind::Unstick, free_departing(-1.0, None)),
+        (2, _) => (EventKind::Unstick, free_departing(1.0, None)),
+        (_, Md::Contact(wl)) => (
+            EventKind::ContactRelease { wall: wl },
+            free_departing(-wl.sign(), Some(wl)),
+        ),
+        _ => unreachable!("only contact has a release margin"),
+    };
+    book.event(cs, kind, &next, &next)?;
+    Ok(Some(new_mode))
+}
+
+/// Sum a chatter sequence at wall `sw`: the plastic limit now (the modal impact law at `e = 0`:
+/// only the contact row is equalised), the ball held on the wall for the sequence's duration
+/// `dt`, then the [`EventKind::ChatterLimit`] with the energy the infinitely many impacts
+/// removed, and the contact test.
+fn chatter_limit(
+    cs: &Consts,
+    sw: f64,
+    dt: f64,
+    s: &mut St,
+    book: &mut Book,
+    work: &mut Work,
+    held: &mut Held,
+) -> Result<Md, SimError> {
+    let n = cs.n;
+    let mut after = *s;
+    let mut dv = s.dw + cs.dot(&cs.phi_d, &s.dq);
+    let law = modal_impact(
+        cs.md,
+        0.0,
+        &cs.phi_d[..n],
+        &cs.m[..n],
+        s.dw,
+        &mut after.dq[..n],
+        &mut dv,
+    );
+    after.dw = 0.0;
+    after.w = sw * cs.lg;
+    let cm = held.get()?;
+    let motion = cm.segment(after.t, &after.q, &after.dq);
+    let pm = build_pair(cs, motion, after.t, after.w);
+    work.end.fill(dt, &pm.ur);
+    let seg = ModalExactSegment {
+        t0: after.t,
+        t1: after.t + dt,
+        mode: Mode::Contact(wall_of(sw)),
+        cs,
+        m: SegMotion::Pair(&pm),
+        end: &work.end,
+    };
+    let mut next = book.close(&seg);
+    next.dw = 0.0;
+    next.w = sw * cs.lg;
+    book.event(
+        cs,
+        EventKind::ChatterLimit {
+            wall: wall_of(sw),
+            energy_loss_j: law.energy_loss_j,
+        },
+        &next,
+        &next,
+    )?;
+    *s = next;
+    contact_test(cs, sw, s)
 }

@@ -261,7 +261,7 @@ pub fn first_root_n(
     let mut cheap = n_fast > 0;
     for _ in 0..SEARCH_HORIZON_ITER {
         s.steps += 1;
-        if tau != t0 {
+        if tau.to_bits() != t0.to_bits() {
             if cheap {
                 s.trig
                     .fill_some(tau, &first.g, &s.order[s.n_fast..nt], true);
@@ -392,7 +392,8 @@ fn cheap_eval(c: &CandN, i: usize, s: &ScratchN, tau: f64, prev: f64) -> Option<
     }
     let eps_n = 8.0 * f64::EPSILON * (g.n as f64 + 1.0);
     let lo = f - pre.rf0 - eps_n * (g.f0.abs() + pre.shift.abs() + rsum + pre.rf0 + f.abs());
-    if !(lo > 3.0 * pre.rf0) {
+    // (A NaN fails the test as well.)
+    if lo.is_nan() || lo <= 3.0 * pre.rf0 {
         return None;
     }
     let b = (pre.bconst + bdec) * MARGIN;
