@@ -48,7 +48,7 @@ impl Term {
 
     /// The derivative's coefficients.
     #[inline]
-    fn deriv(&self) -> Term {
+    pub fn deriv(&self) -> Term {
         Term {
             p: -self.al * self.p + self.wd * self.q,
             q: -self.al * self.q - self.wd * self.p,
@@ -306,6 +306,24 @@ impl ExpSumN {
         self.a = a;
         self.b = b;
         self.om = src.om;
+    }
+
+    /// `self ← self'` in place.
+    #[inline]
+    pub fn deriv_in_place(&mut self) {
+        let a = self.om * self.b;
+        let b = -self.om * self.a;
+        let mut f0 = self.c1 + a;
+        for t in &mut self.t[..self.n] {
+            *t = t.deriv();
+            f0 += t.p;
+        }
+        self.f0 = f0;
+        self.k0 = self.c1;
+        self.c1 = 2.0 * self.c2;
+        self.c2 = 0.0;
+        self.a = a;
+        self.b = b;
     }
 
     /// The derivative as a new sum.

@@ -668,13 +668,14 @@ impl Book<'_> {
     }
 
     /// Hand a finished segment to the observers (if not empty) and return the state at its end.
-    fn close(&mut self, seg: &ModalExactSegment) -> St {
+    /// `start` is the state the segment starts from.
+    fn close(&mut self, seg: &ModalExactSegment, start: &St) -> St {
         let mut next = seg.at_t(seg.end);
         next.t = seg.t1;
         if seg.t1 > seg.t0 {
             self.obs.segment(seg);
-            let a = seg.modal_state_at(seg.t0);
-            self.obs.modal_step(&a, &next.modal(seg.cs));
+            self.obs
+                .modal_step(&start.modal(seg.cs), &next.modal(seg.cs));
         }
         next
     }
@@ -919,8 +920,7 @@ fn build_free(cs: &Consts, s: &St, fb: f64, no_ball: bool, mo: &mut FreeMotion) 
     mo.duf.c2 = 0.0;
     mo.duf.a = fa;
     mo.duf.b = fb_;
-    let uf = mo.duf;
-    mo.duf.set_deriv(&uf);
+    mo.duf.deriv_in_place();
     mo.force.n = n;
     mo.force.om = om;
     mo.force.f0 = cs.fs + cs.f0 * s0;
@@ -982,8 +982,7 @@ fn free_flight(
         }
         if cs.frictional() && sigma != 0.0 {
             work.tmp.set_deriv(w);
-            let dw = work.tmp;
-            push(3, k_sw, cs.tol_v, &dw, sigma, 0.0);
+            push(3, k_sw, cs.tol_v, &work.tmp, sigma, 0.0);
         }
     }
     let (best, which) = if nc == 0 {
@@ -1013,7 +1012,7 @@ fn free_flight(
         m: SegMotion::Free(&work.mo),
         end: &work.end,
     };
-    let mut next = book.close(&seg);
+    let mut next = book.close(&seg, s);
     if flight.is_none() {
         if book.check
             && !(next.q.iter().all(|x| x.is_finite()) && next.dq.iter().all(|x| x.is_finite()))
@@ -1334,7 +1333,7 @@ fn pair_motion(
         m: SegMotion::Pair(&pm),
         end: &work.end,
     };
-    let mut next = book.close(&seg);
+    let mut next = book.close(&seg, s);
     next.dw = 0.0;
     book.check_state(&next)?;
     *s = next;
@@ -1395,7 +1394,7 @@ fn chatter_limit(
         m: SegMotion::Pair(&pm),
         end: &work.end,
     };
-    let mut next = book.close(&seg);
+    let mut next = book.close(&seg, &after);
     next.dw = 0.0;
     next.w = sw * cs.lg;
     book.event(
@@ -1409,4 +1408,109 @@ fn chatter_limit(
     )?;
     *s = next;
     contact_test(cs, sw, s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::{Damper, Forcing, STANDARD_GRAVITY_M_S2};
+    use crate::structure::{Beam, Structure};
+
+    fn beam4(friction: FrictionModel) -> ModalSystem {
+        ModalSystem {
+            model: Structure::Beam(Beam {
+                modes: Some(4),
+                ..Beam::default()
+            })
+            .modal_model()
+            .unwrap(),
+            damper: Some(Damper::paper(0.1e-3, friction)),
+            forcing: Forcing::paper(1.0),
+            gravity_m_s2: STANDARD_GRAVITY_M_S2,
+        }
+    }
+
+    fn start(cs: &Consts) -> St {
+        let mut s = St {
+            t: 0.013,
+            q: [0.0; NM],
+            dq: [0.0; NM],
+            w: 1e-5,
+            dw: 0.02,
+            force: cs.force_at(0.013),
+        };
+        for i in 0..4 {
+            s.q[i] = 3e-5 / (1.0 + i as f64).powi(3);
+            s.dq[i] = -0.1 / (1.0 + i as f64);
+        }
+        s
+    }
+
+    /// The segment's inherent `modal_state_at` starts at the state it was built from, agrees
+    /// with the public `state_at`, and its `mechanical_energy_j` changes over the segment by
+    /// exactly the segment's books (forcing − viscous + friction work): free flight (sliding
+    /// as published) and a held segment (coulomb stick, constrained modes).
+    #[test]
+    fn segment_modal_state_and_energy_follow_the_books() {
+        for friction in [FrictionModel::AsPublished, FrictionModel::Coulomb] {
+            let sys = beam4(friction);
+            let cs = Consts::new(&sys).unwrap();
+            let s = start(&cs);
+            let mut work = Work::new();
+            let held_modes = ConstrainedModes::new(&sys).unwrap();
+            let t1 = s.t + 3e-4;
+            let pm;
+            let seg = if friction == FrictionModel::AsPublished {
+                build_free(&cs, &s, cs.fb(1.0), false, &mut work.mo);
+                work.end.fill(t1 - s.t, &work.mo.w);
+                ModalExactSegment {
+                    t0: s.t,
+                    t1,
+                    mode: Mode::Free,
+                    cs: &cs,
+                    m: SegMotion::Free(&work.mo),
+                    end: &work.end,
+                }
+            } else {
+                let held = St { dw: 0.0, ..s };
+                pm = build_pair(&cs, held_modes.segment(s.t, &s.q, &s.dq), s.t, s.w);
+                work.end.fill(t1 - s.t, &pm.ur);
+                ModalExactSegment {
+                    t0: s.t,
+                    t1,
+                    mode: Mode::Stick,
+                    cs: &cs,
+                    m: SegMotion::Pair(&pm),
+                    end: &work.end,
+                }
+            };
+            let want = if friction == FrictionModel::Coulomb {
+                St { dw: 0.0, ..s }
+            } else {
+                s
+            }
+            .modal(&cs);
+            let m0 = seg.modal_state_at(s.t);
+            for i in 0..4 {
+                assert!((m0.q_m[i] - want.q_m[i]).abs() <= 1e-14 * want.q_m[i].abs());
+                assert!((m0.dq_m_s[i] - want.dq_m_s[i]).abs() <= 1e-13 * want.dq_m_s[i].abs());
+            }
+            assert!((m0.v_m - want.v_m).abs() <= 1e-15 * want.v_m.abs());
+            let tm = s.t + 1.7e-4;
+            let (pub_m, mod_m) = (seg.state_at(tm), seg.modal_state_at(tm).public(&sys.model));
+            assert!((pub_m.u_m - mod_m.u_m).abs() <= 1e-15 * mod_m.u_m.abs().max(1e-9));
+            let e0 = seg.mechanical_energy_j(s.t);
+            assert!((e0 - sys.mechanical_energy_j(&m0)).abs() <= 1e-15 * e0);
+            let books = seg.integrals(s.t, t1);
+            let de = seg.mechanical_energy_j(t1) - e0;
+            let flow = books.forcing_work_j - books.viscous_loss_j + books.friction_work_j;
+            assert!(
+                (de - flow).abs() <= 1e-11 * books.forcing_work_j.abs().max(de.abs()),
+                "{friction}: ΔE {de:e}, books {flow:e}"
+            );
+            if friction == FrictionModel::AsPublished {
+                assert!(books.friction_work_j > 0.0);
+            }
+        }
+    }
 }

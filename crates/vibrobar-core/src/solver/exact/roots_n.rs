@@ -76,8 +76,11 @@ struct Pre {
     rh: f64,
     /// `|D̂ₖ|` with margin.
     rd: [f64; MAX_TERMS],
-    /// Coefficients of the derivative of each term.
+    /// Coefficients of the first and second derivatives of each term.
     d1: [Term; MAX_TERMS],
+    d2: [Term; MAX_TERMS],
+    /// `Ω³|Ĥ|` with margin (the harmonic's share of the `|g'''|` bound).
+    b3const: f64,
     /// `Σ_{fast} pₖ` and `Σ_{fast} |D̂ₖ|` of the cheap step's fixed fast set.
     shift: f64,
     rf0: f64,
@@ -96,6 +99,7 @@ pub struct ScratchN {
     pub trig: TrigN,
     order: [usize; MAX_TERMS],
     wn2: [f64; MAX_TERMS],
+    wn3: [f64; MAX_TERMS],
     pre: [Pre; MAX_CANDS],
     proof: [FnProof; MAX_CANDS],
     v: [f64; MAX_TERMS],
@@ -119,11 +123,14 @@ impl Default for ScratchN {
             trig: TrigN::empty(),
             order: [0; MAX_TERMS],
             wn2: [0.0; MAX_TERMS],
+            wn3: [0.0; MAX_TERMS],
             pre: [Pre {
                 bconst: 0.0,
                 rh: 0.0,
                 rd: [0.0; MAX_TERMS],
                 d1: [Term::default(); MAX_TERMS],
+                d2: [Term::default(); MAX_TERMS],
+                b3const: 0.0,
                 shift: 0.0,
                 rf0: 0.0,
             }; MAX_CANDS],
@@ -208,6 +215,7 @@ pub fn first_root_n(
     // Terms by decreasing |λ|: the order in which they are moved to the fast set.
     for k in 0..nt {
         s.wn2[k] = first.g.t[k].wn2();
+        s.wn3[k] = s.wn2[k] * s.wn2[k].sqrt();
         s.order[k] = k;
     }
     for i in 1..nt {
@@ -226,15 +234,13 @@ pub fn first_root_n(
         debug_assert!(c.g.same_basis(&first.g));
         let g = &c.g;
         let pre = &mut s.pre[i];
-        pre.rh = g.a.hypot(g.b) * MARGIN;
+        pre.rh = (g.a * g.a + g.b * g.b).sqrt() * MARGIN;
         pre.bconst = 2.0 * g.c2.abs() * MARGIN + g.om * g.om * pre.rh;
+        pre.b3const = g.om * g.om * g.om * pre.rh;
         for k in 0..nt {
             pre.rd[k] = g.t[k].amp() * MARGIN;
-            pre.d1[k] = Term {
-                p: -g.t[k].al * g.t[k].p + g.t[k].wd * g.t[k].q,
-                q: -g.t[k].al * g.t[k].q - g.t[k].wd * g.t[k].p,
-                ..g.t[k]
-            };
+            pre.d1[k] = g.t[k].deriv();
+            pre.d2[k] = pre.d1[k].deriv();
         }
         let (mut shift, mut rf0) = (0.0, 0.0);
         for &k in &s.order[..n_fast] {
@@ -419,7 +425,10 @@ fn eval(
     let n = g.n;
     let mut f = g.f0 + tau * (g.c1 + tau * g.c2) + g.a * tr.chm1 + g.b * tr.sh;
     let mut f1 = g.c1 + 2.0 * g.c2 * tau + g.om * (g.b * tr.ch - g.a * tr.sh);
+    let om2 = g.om * g.om;
+    let mut f2 = 2.0 * g.c2 - om2 * (g.a * tr.ch + g.b * tr.sh);
     let mut bdec = 0.0;
+    let mut b3dec = 0.0;
     let mut rsum = 0.0;
     for k in 0..n {
         let kk = &tr.k[k];
@@ -429,11 +438,14 @@ fn eval(
         let d = &pre.d1[k];
         let v1 = e * (d.p * kk.cd + d.q * kk.sd);
         f1 += v1;
+        let d2 = &pre.d2[k];
+        f2 += e * (d2.p * kk.cd + d2.q * kk.sd);
         let r = pre.rd[k] * e;
         s.v[k] = e * (t.p * kk.cd + t.q * kk.sd);
         s.v1[k] = v1;
         s.r[k] = r;
         bdec += s.wn2[k] * r;
+        b3dec += s.wn3[k] * r;
         rsum += r;
     }
     if f <= c.tol && f1 <= 0.0 {
@@ -458,6 +470,26 @@ fn eval(
         let bb = bs.max(0.0) + eps_n * b_full;
         hi = hi.max(quad_step(lo, f1s, bb));
     }
+    // The cubic proof within a horizon H (the lumped search's): with B₃ ≥ |g'''|,
+    // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6)h² for h ≤ H; H a little beyond the zero of the local
+    // quadratic model, so that near a root the steps are Newton-like. `f2` carries a rounding
+    // of a few ε times the `g''` bound: that margin is taken off.
+    let f2_lo = f2 - eps_n * b_full;
+    let h_model = if f2_lo < 0.0 {
+        quad_step(f, f1, -f2_lo)
+    } else if f1 < 0.0 && f1 * f1 >= 2.0 * f2_lo * f {
+        2.0 * f / (-f1 + (f1 * f1 - 2.0 * f2_lo * f).sqrt())
+    } else {
+        f64::INFINITY
+    };
+    let big_h = (1.1 * h_model).min(8.0 * hi);
+    let mut c_up = f64::INFINITY;
+    if big_h.is_finite() && big_h > hi {
+        let b3 = (pre.b3const + b3dec) * MARGIN;
+        c_up = 0.5 * (f2 + eps_n * b_full) + b3 * big_h / 6.0;
+        let b_eff = b3 * big_h / 3.0 - f2_lo;
+        hi = hi.max(quad_step(f, f1, b_eff.max(0.0)).min(big_h));
+    }
     let hi = hi.max(prev);
     let mut bracketed = false;
     if f1 < 0.0 {
@@ -468,6 +500,14 @@ fn eval(
         if disc >= 0.0 {
             let h_up = 2.0 * f / (-f1 + disc.sqrt());
             bracketed = h_up - hi <= tol_t && tau + hi < t_max;
+        }
+        // The same with the cubic upper bound g ≤ f + f1 h + c_up h² (valid up to H).
+        if !bracketed && c_up.is_finite() {
+            let d3 = f1 * f1 - 4.0 * c_up * f;
+            if d3 >= 0.0 {
+                let h_up3 = 2.0 * f / (-f1 + d3.sqrt());
+                bracketed = h_up3 <= big_h && h_up3 - hi <= tol_t && tau + hi < t_max;
+            }
         }
     }
     Ok((hi, bracketed))
