@@ -1472,7 +1472,6 @@ mod tests {
                     end: &work.end,
                 }
             } else {
-                let held = St { dw: 0.0, ..s };
                 pm = build_pair(&cs, held_modes.segment(s.t, &s.q, &s.dq), s.t, s.w);
                 work.end.fill(t1 - s.t, &pm.ur);
                 ModalExactSegment {
