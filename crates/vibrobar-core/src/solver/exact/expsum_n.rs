@@ -517,7 +517,7 @@ fn int_exp(nu: C, ea: C, eb: C, h: f64) -> C {
 
 /// `∫_a^b x(τ) y(τ) dτ` in closed form for two sums on the same basis without polynomial part:
 /// with `Re z Re y = (Re(zy) + Re(z ȳ))/2`, each pair of terms `(j, k)` is two exponentials
-/// `e^{(λⱼ+λₖ)τ}`, `e^{(λⱼ+λ̄ₖ)τ}` integrated as [`int_exp`] does (O(N²) pairs); the constants
+/// `e^{(λⱼ+λₖ)τ}`, `e^{(λⱼ+λ̄ₖ)τ}` integrated as `int_exp` does (O(N²) pairs); the constants
 /// pair with each term once.
 pub fn integral_product_n(x: &ExpSumN, y: &ExpSumN, a: f64, b: f64) -> f64 {
     let h = b - a;
