@@ -43,8 +43,9 @@
 //! function's largest amplitude (at least one term stays slow), fixed for the search. The cheap
 //! step is taken where `S − R_F > R_F/2`; where it falls short the full evaluation above decides
 //! that step, and if the function is approaching its zero (`S' ≤ 0`) the search evaluates every
-//! term from then on (near the event every term is needed). On the paper's 4-mode beam 85% of
-//! the steps are cheap without friction, about 40% with the as-published law.
+//! term from then on (near the event every term is needed). Measured on the paper's 4-mode
+//! beam over 2 s: 46 500 cheap evaluations and 2 300 failed cheap tests in 36 900 steps without
+//! friction; 31 900 and 6 200 in 50 300 steps with the as-published law.
 //!
 //! **The cubic proof** of the lumped search is kept in the full evaluation: within a horizon
 //! `H`, `g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6)h²` with `B₃ = Ω³|Ĥ| + Σ|λₖ|³|D̂ₖ|e^{−αₖτ}`, `H` just
@@ -71,7 +72,7 @@
 //! described there.
 //!
 //! **Cost** (measured, `examples/modal_exact_speed.rs`, 2 s paper-like runs): about 8 proven
-//! steps per event on one mode, 15 on the 4-mode beam (9 cheap), 18 on 8 modes. With the
+//! steps per event on one mode, 16 on the 4-mode beam, 18 on 8 modes. With the
 //! as-published law the relative velocity `ẇ` itself rings with every mode an impact excites
 //! (each mode's share of `ẇ` is about equal at the cavity: `Σφₙ²/mₙ` grows like `N`), so the
 //! `ẇ = 0` search cannot set the fast terms aside and its steps resolve `ω_N`.
