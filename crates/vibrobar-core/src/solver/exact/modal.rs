@@ -26,6 +26,26 @@
 //!
 //! The internal state keeps `w`, `ẇ` (relative coordinates, free of cancellation) beside the
 //! modal coordinates; the public state has `v = w + Σφₙ(x_d)qₙ`.
+//!
+//! The observer protocol: a segment's `state_at` is [`ModalState::public`] (`u` at the response
+//! point), `integral_u2` is `∫u(x_r)²`, `integrals` the forcing work `∫F u̇(x_f)`, the viscous
+//! loss `Σcₙ∫q̇ₙ²` and the friction work `∫F_ball ẇ`, all in closed form; the segment also gives
+//! its modal state and mechanical energy at any time ([`ModalExactSegment::modal_state_at`],
+//! [`ModalExactSegment::mechanical_energy_j`]). A [`ModalObserver`] also sees the modal states
+//! at the ends of every segment and around every impact.
+//!
+//! Accuracy (tests/modal_exact.rs, measured): one unit mode reproduces the lumped `Exact` to
+//! 1.7e-11 of the scale and event times to 1.7e-11/Ω over 0.05 s of the paper's cases, and
+//! through chatter limits and wall releases to 2.5e-10; without a ball the 4-mode beam is the
+//! modal closed form to 9e-16 of the scale; the energy books close to 1.2e-14 of the forcing
+//! work; the largest penetration over 2 s runs is 7e-19 m. Event times are resolved to
+//! `1e-15/max(Ω, ω_N)` plus the rounding of `t`.
+//!
+//! Cost (`examples/modal_exact_speed.rs`, 2 s at ratio 1, 0.1 mm gap, fastest of 15 against the
+//! lumped `Exact` run back to back): one unit mode 2.0×; the 4-mode beam 3.1× without friction,
+//! 5.0× (as published) and 4.8× (coulomb); 8 modes 4.4×, 24×, 25×. With friction the `ẇ = 0`
+//! search resolves every mode an impact excites, and there are more friction switches (3 500
+//! events against 2 700 on the lumped bar, 11 700 on 8 modes): see [`super::roots_n`].
 
 use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
 use super::expsum::{integral_square, ExpSum, Trig};
