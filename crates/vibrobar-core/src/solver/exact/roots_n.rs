@@ -39,7 +39,7 @@
 //! bounded by its amplitudes at the search start, `R_F ≤ Σ_{fast}|D̂ₖ|` (a term only decays),
 //! with `S` formed from the slow terms alone (`S(τ) = f(0) − Σ_{fast} pₖ + …` in the
 //! cancellation-free form): the same proof, at the cost of the slow terms' transcendentals only.
-//! The fast set is the fastest terms whose amplitudes sum to at most [`FAST_FRACTION`] of every
+//! The fast set is the fastest terms whose amplitudes sum to at most `FAST_FRACTION` (0.1) of every
 //! function's largest amplitude (at least one term stays slow), fixed for the search. The cheap
 //! step is taken where `S − R_F > R_F/2`; where it falls short the full evaluation above decides
 //! that step, and if the function is approaching its zero (`S' ≤ 0`) the search evaluates every
