@@ -676,7 +676,8 @@ fn no_root_is_missed_on_random_multi_mode_flights() {
     assert!(found > 50 && none > 20, "{found} {none}");
 }
 
-/// The event limit stops a run with `TooManyEvents`; bad input names its field.
+/// The event limit stops a run with `TooManyEvents`; bad input names its field; a run of zero
+/// length does nothing; a start on a wall moving into it is an impact at the start.
 #[test]
 fn event_limit_and_input_errors() {
     let sys = beam_system(4, Some(Damper::paper(0.1e-3, FrictionModel::None)), 1.0);
@@ -715,6 +716,23 @@ fn event_limit_and_input_errors() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("t_end_s"), "{err}");
+    let r = ModalExact::default()
+        .run(&sys, &ModalState::REST, 0.0, &mut ())
+        .unwrap();
+    assert_eq!(r.summary.events, 0);
+    assert_eq!(r.final_state, ModalState::REST);
+    let mut on_wall = ModalState::REST;
+    on_wall.v_m = 0.05e-3;
+    on_wall.dv_m_s = 0.01;
+    let mut rec = Rec::default();
+    ModalExact::default()
+        .run_modal(&sys, &on_wall, 1e-4, &mut rec)
+        .unwrap();
+    assert!(
+        matches!(rec.events[0].kind, EventKind::Impact { .. }) && rec.events[0].t_s == 0.0,
+        "{:?}",
+        rec.events.first()
+    );
 }
 
 /// Checks `|w| ≤ l_g` densely inside every segment (the response point is the cavity, so the
