@@ -314,8 +314,8 @@ pub fn first_root_n(
         };
     }
     let mut tau = t0;
-    // Cheap steps while they prove enough (module docs); after the first one that does not,
-    // the search evaluates every term.
+    // Cheap steps while they prove enough or the function departs (module docs); once a
+    // function approaching its zero fails the cheap test, the search evaluates every term.
     let mut cheap = n_fast > 0;
     for _ in 0..SEARCH_HORIZON_ITER {
         s.steps += 1;
