@@ -44,10 +44,11 @@
 //! `1e-15/max(Ω, ω_N)` plus the rounding of `t`.
 //!
 //! Cost (`examples/modal_exact_speed.rs`, 2 s at ratio 1, 0.1 mm gap, fastest of 15 against the
-//! lumped `Exact` run back to back): one unit mode 2.0×; the 4-mode beam 3.1× without friction,
-//! 5.0× (as published) and 4.8× (coulomb); 8 modes 4.4×, 24×, 25×. With friction the `ẇ = 0`
-//! search resolves every mode an impact excites, and there are more friction switches (3 500
-//! events against 2 700 on the lumped bar, 11 700 on 8 modes): see [`super::roots_n`].
+//! lumped `Exact` run back to back; the machine is shared, ±10%): one unit mode 2.0×; the
+//! 4-mode beam 3.1–3.3× without friction, 4.9× (as published) and 4.8–5.2× (coulomb); 8 modes
+//! 4.5×, 25×, 24×. With friction the `ẇ = 0` search resolves every mode an impact excites, and
+//! there are more friction switches (3 300–3 700 events against 2 700 on the lumped bar, 12 300
+//! on 8 modes): see [`super::roots_n`].
 
 use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
 use super::expsum::{integral_square, ExpSum, Trig};

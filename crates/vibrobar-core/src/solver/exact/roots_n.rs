@@ -38,7 +38,8 @@
 //! `exp` and one `sin_cos` per term and step. A search therefore tries first a fixed fast set,
 //! bounded by its amplitudes at the search start, `R_F ≤ Σ_{fast}|D̂ₖ|` (a term only decays),
 //! with `S` formed from the slow terms alone (`S(τ) = f(0) − Σ_{fast} pₖ + …` in the
-//! cancellation-free form): the same proof, at the cost of the slow terms' transcendentals only.
+//! cancellation-free form): the same proofs (the quadratic one and the cubic one below, on `S`
+//! with `S − R_F` for its value), at the cost of the slow terms' transcendentals only.
 //! The fast set is the fastest terms whose amplitudes sum to at most `FAST_FRACTION` (0.1) of every
 //! function's largest amplitude (at least one term stays slow), fixed for the search. The cheap
 //! step is taken where `S − R_F > R_F/2`; where it falls short the full evaluation above decides
@@ -72,7 +73,7 @@
 //! described there.
 //!
 //! **Cost** (measured, `examples/modal_exact_speed.rs`, 2 s paper-like runs): about 8 proven
-//! steps per event on one mode, 16 on the 4-mode beam, 18 on 8 modes. With the
+//! steps per event on one mode, 13 on the 4-mode beam, 14 on 8 modes. With the
 //! as-published law the relative velocity `ẇ` itself rings with every mode an impact excites
 //! (each mode's share of `ẇ` is about equal at the cavity: `Σφₙ²/mₙ` grows like `N`), so the
 //! `ẇ = 0` search cannot set the fast terms aside and its steps resolve `ω_N`.
@@ -446,7 +447,9 @@ fn cheap_eval(c: &CandN, i: usize, s: &ScratchN, tau: f64, prev: f64) -> Result<
     let base = g.f0 - pre.shift;
     let mut f = base + tau * (g.c1 + tau * g.c2) + g.a * tr.chm1 + g.b * tr.sh;
     let mut f1 = g.c1 + 2.0 * g.c2 * tau + g.om * (g.b * tr.ch - g.a * tr.sh);
+    let mut f2 = 2.0 * g.c2 - g.om * g.om * (g.a * tr.ch + g.b * tr.sh);
     let mut bdec = 0.0;
+    let mut b3dec = 0.0;
     let mut rsum = 0.0;
     for &k in &s.order[s.n_fast..g.n] {
         let kk = &tr.k[k];
@@ -455,8 +458,11 @@ fn cheap_eval(c: &CandN, i: usize, s: &ScratchN, tau: f64, prev: f64) -> Result<
         f += t.p * (kk.em1 * kk.cd + kk.cdm1) + t.q * e * kk.sd;
         let d = &pre.d1[k];
         f1 += e * (d.p * kk.cd + d.q * kk.sd);
+        let d2 = &pre.d2[k];
+        f2 += e * (d2.p * kk.cd + d2.q * kk.sd);
         let r = pre.rd[k] * e;
         bdec += s.wn2[k] * r;
+        b3dec += s.wn3[k] * r;
         rsum += r;
     }
     let eps_n = 8.0 * f64::EPSILON * (g.n as f64 + 1.0);
@@ -467,7 +473,24 @@ fn cheap_eval(c: &CandN, i: usize, s: &ScratchN, tau: f64, prev: f64) -> Result<
         return Err(f1.is_nan() || f1 <= 0.0);
     }
     let b = (pre.bconst + bdec) * MARGIN;
-    Ok(quad_step(lo, f1, b).max(prev))
+    let h2 = quad_step(lo, f1, b);
+    // The cubic proof on the slow part (as in `eval`), with `lo` for its value.
+    let f2_lo = f2 - eps_n * b;
+    let h_model = if f2_lo < 0.0 {
+        quad_step(lo, f1, -f2_lo)
+    } else if f1 < 0.0 && f1 * f1 >= 2.0 * f2_lo * lo {
+        2.0 * lo / (-f1 + (f1 * f1 - 2.0 * f2_lo * lo).sqrt())
+    } else {
+        f64::INFINITY
+    };
+    let big_h = (1.1 * h_model).min(8.0 * h2);
+    let mut hi = h2;
+    if big_h.is_finite() && big_h > h2 {
+        let b3 = (pre.b3const + b3dec) * MARGIN;
+        let b_eff = b3 * big_h / 3.0 - f2_lo;
+        hi = hi.max(quad_step(lo, f1, b_eff.max(0.0)).min(big_h));
+    }
+    Ok(hi.max(prev))
 }
 
 /// One evaluation of function `i` at `τ` (transcendentals in `s.trig`): `Err(root)`, or its
