@@ -94,7 +94,7 @@ fn kind_id(k: &EventKind) -> u8 {
 /// count), event times within 1e-9/Ω and states on a 10 µs grid within 1e-9 of their scale
 /// (the gaps 0.05 and 0.1 mm × none / as-published / coulomb, and the solid bar). The two
 /// differ by rounding only: `k = mω²` with `ω = √(K/M)`, the modal impulse formula, the search
-/// stopping within its tolerance (measured: at most 1.7e-11 of the scale, 1.7e-11/Ω).
+/// stopping within its tolerance (measured: at most 2.5e-12 of the scale, 4e-12/Ω).
 #[test]
 fn one_unit_mode_reproduces_the_lumped_exact() {
     let t_end = 0.05;

@@ -35,8 +35,8 @@
 //! at the ends of every segment and around every impact.
 //!
 //! Accuracy (tests/modal_exact.rs, measured): one unit mode reproduces the lumped `Exact` to
-//! 1.7e-11 of the scale and event times to 1.7e-11/Ω over 0.05 s of the paper's cases, and
-//! through chatter limits and wall releases to 2.5e-10; a one-mode beam with the ball at the tip
+//! 2.5e-12 of the scale and event times to 4e-12/Ω over 0.05 s of the paper's cases, and
+//! through chatter limits and wall releases to 5.4e-11/Ω; a one-mode beam with the ball at the tip
 //! is the lumped bar of its modal mass and stiffness to 1.5e-12 (0.1 mm gap; at 0.05 mm that
 //! lighter bar amplifies rounding as the lumped solver does); without a ball the 4-mode beam is the
 //! modal closed form to 9e-16 of the scale; the energy books close to 1.2e-14 of the forcing
