@@ -425,7 +425,7 @@ pub fn integral_square_to(x: &ExpSum, a: f64, b: f64, end: Option<&Trig>) -> f64
 /// `(e^z − 1)/z` for `|z| < 1/2` by its series `Σ z^k/(k+1)!`, truncated where the next term
 /// is below `2e-18` (degree 5, 10 or 15 by `|z|`), evaluated as even and odd parts in `z²`
 /// (two independent Horner chains of half the length).
-fn phi1(z: C) -> C {
+pub(super) fn phi1(z: C) -> C {
     // 1/(k+1)!, k = 0..15.
     const INV_FACT: [f64; 16] = [
         1.0,
@@ -472,22 +472,22 @@ fn phi1(z: C) -> C {
 
 /// Minimal complex number (no dependency needed for five terms).
 #[derive(Debug, Clone, Copy)]
-struct C(f64, f64);
+pub(super) struct C(pub(super) f64, pub(super) f64);
 
 impl C {
-    fn add(self, o: C) -> C {
+    pub(super) fn add(self, o: C) -> C {
         C(self.0 + o.0, self.1 + o.1)
     }
-    fn mul(self, o: C) -> C {
+    pub(super) fn mul(self, o: C) -> C {
         C(self.0 * o.0 - self.1 * o.1, self.0 * o.1 + self.1 * o.0)
     }
-    fn scale(self, s: f64) -> C {
+    pub(super) fn scale(self, s: f64) -> C {
         C(self.0 * s, self.1 * s)
     }
-    fn conj(self) -> C {
+    pub(super) fn conj(self) -> C {
         C(self.0, -self.1)
     }
-    fn div(self, o: C) -> C {
+    pub(super) fn div(self, o: C) -> C {
         let d = o.0 * o.0 + o.1 * o.1;
         C(
             (self.0 * o.0 + self.1 * o.1) / d,

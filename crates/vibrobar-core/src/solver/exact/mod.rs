@@ -47,8 +47,12 @@
 //! ΔE) closes to ~1e-12 relative on the paper cases. In chaotic runs the RMS over the window
 //! is only defined statistically: rounding-level changes of an event time change it by a few %.
 
+pub mod constrained;
 pub mod expsum;
+pub mod expsum_n;
+pub mod modal;
 pub mod roots;
+pub mod roots_n;
 
 use super::{
     Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Solver, Wall,
