@@ -62,7 +62,7 @@
 //! `sum_at`/`holding_force`: `O(N)`; `sum` for an arbitrary row: `O(N²)`. Nothing allocates
 //! after `new`. Measured (release, shared 2-core machine, medians; the ignored test
 //! `timing_of_new_and_segment`): `new` 12 µs (N = 4), 68 µs (N = 12); `segment` +
-//! `holding_force` 0.2 µs (N = 4).
+//! `holding_force` 0.11 µs (N = 4).
 //!
 //! **Accuracy** (tests `tests/constrained_motion.rs`, measured): N = 1 equals the one-body
 //! closed form of mass `M + m_d` to 2.4e-14 of the scale; the paper beam (N = 4, three cavity
@@ -775,13 +775,25 @@ impl ConstrainedMotion<'_> {
         })
     }
 
+    /// The closed form of one modal coordinate `q_j(τ)`: `O(N)`.
+    pub fn sum_coordinate(&self, j: usize) -> TermSum {
+        let cm = self.modes;
+        if j >= cm.n {
+            return TermSum::zero(cm.omega_rad_s);
+        }
+        self.build(cm.q_static[j], cm.q_harm[j], |t| cm.vecs[t][j])
+    }
+
     /// The holding (contact) force `f_c(τ) = m_d φ_dᵀq̈(τ)`: the force the bar exerts ON the ball,
-    /// positive in the `+u` direction. `O(N)`.
+    /// positive in the `+u` direction. `O(N)`: the second derivative of [`Self::sum_at`] at the
+    /// cavity, scaled by `m_d`, built in one pass (no constant part).
     pub fn holding_force(&self) -> TermSum {
-        self.sum_at(Point::Cavity)
-            .deriv()
-            .deriv()
-            .scaled(self.modes.ball_mass_kg)
+        let cm = self.modes;
+        let (md, om) = (cm.ball_mass_kg, cm.omega_rad_s);
+        self.build(0.0, cm.harm_at_point[0] * (-om * om * md), |t| {
+            let s = cm.eig[t];
+            cm.at_point[0][t] * (s * s * md)
+        })
     }
 
     /// Modal coordinates and velocities at local time `τ`: `O(N²)`.
