@@ -472,6 +472,15 @@ fn holding_force_is_ball_mass_times_cavity_acceleration() {
         eprintln!("cavity {cav} m: |f_c| ≤ {scale:.3} N; vs equation of motion {e_eq:.2e}, vs finite differences {e_fd:.2e}");
         assert!(e_eq <= 1e-11, "{e_eq:e}");
         assert!(e_fd <= 1e-8, "{e_fd:e}");
+        // Every sum of a segment has the same terms in the same order (a shared basis).
+        let tip = seg.sum_at(Point::Response);
+        assert_eq!(tip.n_decays, 4);
+        for (a, b) in fc.decays().iter().zip(tip.decays()) {
+            assert_eq!(
+                (a[0].to_bits(), a[1].to_bits()),
+                (b[0].to_bits(), b[1].to_bits())
+            );
+        }
         // The holding force has no constant part: the bar's static load is carried by K alone.
         assert_eq!(fc.constant, 0.0);
     }

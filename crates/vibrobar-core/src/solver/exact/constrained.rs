@@ -61,6 +61,8 @@
 //! **Harmonic phase convention.** Every [`TermSum`] is in the local time `τ = t − t0` of its
 //! segment; the harmonic coefficients are already rotated by the segment's start phase `Ωt0`:
 //! `value(τ) = constant + cos_omega·cos Ωτ + sin_omega·sin Ωτ + Σ e^{−ατ}(p cos ω_dτ + q sin ω_dτ)`.
+//! Every sum of one [`ConstrainedModes`] has the same `N` decaying terms (same `α`, `ω_d`, same
+//! order, zero coefficients kept), so a solver can share the transcendental values across them.
 //!
 //! **Cost.** `new`: one `2N×2N` real Schur form plus `O(N²)` per Newton step per eigenvalue and
 //! an `N×N` complex LU (tens of µs, once per run); `segment`: `O(N²)`;
