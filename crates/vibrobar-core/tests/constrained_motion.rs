@@ -310,6 +310,9 @@ fn four_mode_beam_matches_an_independent_rk4() {
                 .max((tip.value(tau) - u_tip).abs() / scale)
                 .max((cav.value(tau) - u_cav).abs() / scale)
                 .max((q2.value(tau) - qr[1]).abs() / scale);
+            for (j, qj) in qr.iter().enumerate() {
+                err = err.max((seg.sum_coordinate(j).value(tau) - qj).abs() / scale);
+            }
         }
         eprintln!(
             "{name}: closed form vs rk4 {err:.2e}, rk4 dt vs 2dt {err_coarse:.2e} of the scale"
@@ -469,6 +472,15 @@ fn holding_force_is_ball_mass_times_cavity_acceleration() {
         eprintln!("cavity {cav} m: |f_c| ≤ {scale:.3} N; vs equation of motion {e_eq:.2e}, vs finite differences {e_fd:.2e}");
         assert!(e_eq <= 1e-11, "{e_eq:e}");
         assert!(e_fd <= 1e-8, "{e_fd:e}");
+        // Every sum of a segment has the same terms in the same order (a shared basis).
+        let tip = seg.sum_at(Point::Response);
+        assert_eq!(tip.n_decays, 4);
+        for (a, b) in fc.decays().iter().zip(tip.decays()) {
+            assert_eq!(
+                (a[0].to_bits(), a[1].to_bits()),
+                (b[0].to_bits(), b[1].to_bits())
+            );
+        }
         // The holding force has no constant part: the bar's static load is carried by K alone.
         assert_eq!(fc.constant, 0.0);
     }
@@ -607,4 +619,144 @@ fn timing_of_new_and_segment() {
         median(times) * 1e9
     );
     assert!(acc.is_finite());
+}
+
+/// Every cavity position along the bar, N = 4, 12 and the full capacity 32, light and heavy
+/// damping: `new` succeeds, the segment starts at the given state (1e-12 of the scale), and the
+/// holding force satisfies the equation of motion (1e-12 of the force scale; observed 1.6e-15
+/// even with N = 32, whose stiffnesses span 7 decades).
+#[test]
+fn every_cavity_position_gives_well_conditioned_modes() {
+    let mut worst = (0.0f64, 0.0f64, f64::INFINITY);
+    for (n, zeta) in [(4, 0.01), (12, 0.01), (12, 0.9), (32, 0.02)] {
+        for i in 1..=35 {
+            let x = 0.175 * i as f64 / 35.0;
+            let sys = system(beam_model(n, x, zeta), 1.0, 1.0);
+            let cm = ConstrainedModes::new(&sys)
+                .unwrap_or_else(|e| panic!("N = {n}, ζ = {zeta}, cavity {x} m: {e}"));
+            assert_eq!(cm.eigenvalues().len(), n);
+            assert!(cm.eigenvalues().iter().all(|s| s.im > 0.0 && s.re <= 0.0));
+            let p = Plain::of(&sys);
+            let (mut q0, mut dq0) = (vec![0.0; n], vec![0.0; n]);
+            let (a, b) = start(8);
+            q0[..8.min(n)].copy_from_slice(&a[..8.min(n)]);
+            dq0[..8.min(n)].copy_from_slice(&b[..8.min(n)]);
+            let seg = cm.segment(0.01, &fixed(&q0), &fixed(&dq0));
+            let (q, dq) = seg.state_at(0.0);
+            let e0 = (0..n)
+                .map(|j| (q[j] - q0[j]).abs() / 2e-5 + (dq[j] - dq0[j]).abs() / 0.05)
+                .fold(0.0, f64::max);
+            let fc = seg.holding_force();
+            let scale = max_abs((0..200).map(|k| fc.value(k as f64 * 1e-5)));
+            let mut e_eq: f64 = 0.0;
+            for k in 0..20 {
+                let tau = k as f64 * 7e-5;
+                let (q, dq) = seg.state_at(tau);
+                let acc = p.accel(0.01 + tau, &q[..n], &dq[..n]);
+                let f = p.md * (0..n).map(|j| p.pd[j] * acc[j]).sum::<f64>();
+                e_eq = e_eq.max((fc.value(tau) - f).abs() / scale);
+            }
+            assert!(e0 <= 1e-12, "N = {n}, cavity {x} m: start {e0:e}");
+            assert!(e_eq <= 1e-12, "N = {n}, ζ = {zeta}, cavity {x} m: {e_eq:e}");
+            worst = (
+                worst.0.max(e0),
+                worst.1.max(e_eq),
+                worst.2.min(cm.min_conditioning()),
+            );
+        }
+    }
+    eprintln!(
+        "35 positions × 4 cases: start {:.1e}, equation of motion {:.1e}, min conditioning {:.2}",
+        worst.0, worst.1, worst.2
+    );
+}
+
+/// Modes of equal (or nearly equal) frequency and damping that both move the cavity (e.g.
+/// measured modes): the shared pole keeps one combination that leaves the cavity still, the
+/// other couples. Against the RK4 of the constrained equations (tolerance 1e-10 of the scale as
+/// above), for a relative frequency split ε from 0 (bitwise equal) to 1e-4.
+#[test]
+fn equal_and_nearly_equal_poles_match_the_rk4() {
+    let base = beam_model(3, CAVITY_PAPER_M, 0.02);
+    for eps in [0.0, 1e-14, 1e-12, 1e-10, 1e-8, 1e-6, 1e-4] {
+        let mut modes = base.modes().to_vec();
+        let twin = Mode {
+            omega_rad_s: modes[0].omega_rad_s * (1.0 + eps),
+            modal_mass_kg: modes[0].modal_mass_kg * 1.7,
+            shape_cavity: 0.4,
+            shape_force: 0.8,
+            shape_response: -0.3,
+            ..modes[0]
+        };
+        modes.insert(1, twin);
+        let sys = system(Structure::Measured(modes).modal_model().unwrap(), 0.8, 1.0);
+        let cm = match ConstrainedModes::new(&sys) {
+            Ok(cm) => cm,
+            Err(e) => panic!("ε = {eps}: {e}"),
+        };
+        let p = Plain::of(&sys);
+        let (q0, dq0) = start(4);
+        let t0 = 0.003;
+        let seg = cm.segment(t0, &fixed(&q0), &fixed(&dq0));
+        let dt = 2e-8;
+        let records: Vec<usize> = (1..=4).map(|i| i * 50_000).collect();
+        let reference = rk4(&p, t0, &q0, &dq0, dt, &records);
+        let (mut err, mut scale) = (0.0f64, 0.0f64);
+        for (r, (qr, _)) in records.iter().zip(&reference) {
+            scale = scale.max(max_abs(qr.iter().copied()));
+            let (q, _) = seg.state_at(*r as f64 * dt);
+            for j in 0..4 {
+                err = err.max((q[j] - qr[j]).abs() / scale);
+            }
+        }
+        eprintln!(
+            "ε = {eps:e}: closed form vs rk4 {err:.2e}, min conditioning {:.3}",
+            cm.min_conditioning()
+        );
+        assert!(err <= 1e-10, "ε = {eps}: {err:e}");
+    }
+}
+
+/// Extreme but valid inputs: damping ratio 0.999 in every mode (constrained modes near critical
+/// damping), a ball 100× and 1e-4× the paper's, no oscillating force, a forcing far above and
+/// below the modes. Against the RK4 of the constrained equations (1e-10 of the scale).
+#[test]
+fn extreme_valid_inputs_match_the_rk4() {
+    let cases: [(&str, f64, f64, f64, f64); 6] = [
+        ("ζ = 0.999", 0.999, 0.026, 15.0, 1.0),
+        ("ball 2.6 kg", 0.01, 2.6, 15.0, 1.0),
+        ("ball 2.6 mg", 0.01, 2.6e-6, 15.0, 1.0),
+        ("static force only", 0.01, 0.026, 0.0, 1.0),
+        ("Ω = 50 ω₁", 0.01, 0.026, 15.0, 50.0),
+        ("Ω = 0.05 ω₁", 0.01, 0.026, 15.0, 0.05),
+    ];
+    for (name, zeta, md, f0, ratio) in cases {
+        let mut sys = system(beam_model(4, CAVITY_OFF_M, zeta), ratio, 2.0);
+        sys.damper.as_mut().unwrap().ball_mass_kg = md;
+        sys.forcing.amplitude_n = f0;
+        let cm = match ConstrainedModes::new(&sys) {
+            Ok(cm) => cm,
+            Err(e) => panic!("{name}: {e}"),
+        };
+        let p = Plain::of(&sys);
+        let (q0, dq0) = start(4);
+        let t0 = 0.0021;
+        let seg = cm.segment(t0, &fixed(&q0), &fixed(&dq0));
+        let dt = 2e-8;
+        let records: Vec<usize> = (1..=4).map(|i| i * 25_000).collect();
+        let reference = rk4(&p, t0, &q0, &dq0, dt, &records);
+        let (mut err, mut scale) = (0.0f64, 0.0f64);
+        for (r, (qr, _)) in records.iter().zip(&reference) {
+            scale = scale.max(max_abs(qr.iter().copied()));
+            let (q, _) = seg.state_at(*r as f64 * dt);
+            for j in 0..4 {
+                err = err.max((q[j] - qr[j]).abs() / scale);
+            }
+        }
+        eprintln!(
+            "{name}: closed form vs rk4 {err:.2e}, min conditioning {:.3}",
+            cm.min_conditioning()
+        );
+        assert!(err <= 1e-10, "{name}: {err:e}");
+    }
 }

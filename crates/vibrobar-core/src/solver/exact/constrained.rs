@@ -34,35 +34,43 @@
 //! balanced `2N×2N` first-order matrix in the coordinates `η = diag(√mₙ)q`
 //! (`[[0, W],[−PW, −PZ]]`, `W = diag ωₙ`, `Z = diag cₙ/mₙ`, `P = (I + ggᵀ)⁻¹`, `gₙ = √(m_d/mₙ)φ_dn`),
 //! then each is polished by Newton's method on the secular function written around its nearest
-//! pole `p` (`s = p + δ`, `h(δ) = φ_dn² + dₙ(s)G(s)`, `dₙ = mₙδ(s − p̄)` factored exactly): a mode
-//! whose cavity shape is tiny (the ball near one of its nodes) has an eigenvalue within
-//! `O(φ_dn²)` of its own pole, and only this form keeps `δ`, hence `xₖ`, to full precision.
-//! A mode with `φ_dn = 0` exactly is decoupled: its own eigenpair (`pₙ`, unit vector) is taken as
-//! is, so a ball at a node leaves that mode unconstrained, to the bit.
+//! pole `u` (`s = u + δ`, `h(δ) = w_n + p_n(s)G(s)`, monic `p_e(s) = (s − p_e)(s − p̄_e)`, weights
+//! `w_e = Σφ_dn²/mₙ`), every factor `s − p_e` evaluated as `δ + (u − p_e)`: the difference of two
+//! poles is exact to one rounding, so a mode whose cavity shape is tiny (the ball near one of its
+//! nodes: an eigenvalue within `O(φ_dn²)` of its pole) or two nearly equal poles keep `δ`, hence
+//! `xₖ`, to full precision. A mode with `φ_dn = 0` exactly is decoupled: its own eigenpair (`pₙ`,
+//! unit vector) is taken as is, so a ball at a node leaves that mode unconstrained, to the bit.
+//! Modes whose poles are equal bit for bit (equal `ωₙ`, `ζₙ`, e.g. measured modes) are one entry
+//! of the secular function; the `r − 1` combinations that leave the cavity still keep that pole
+//! (semisimple, not defective) and are added as `diag(m)`-orthogonal vectors with `φ_dᵀv = 0`.
 //!
 //! With every `ζₙ < 1` (what [`ModalSystem::validate`] allows) every `dₙ(s) > 0` on the real
 //! axis, so the secular function has no real root: all constrained modes are underdamped, every
 //! term has `ω_d > 0`. A real guess from the Schur form (a nearly critically damped constrained
 //! mode) is polished from just above the axis; [`TermSum`] still allows `ω_d = 0` terms.
 //!
-//! **Repeated eigenvalues.** Distinct eigenvalues that lie close together make the expansion
-//! ill-conditioned (the two terms cancel): the relative precision lost is about `ε/ρ`, with
-//! `ρₖ = |ψₖᵀAψₖ| / Σ|xₖⱼ|²(2|sₖ|mⱼ + cⱼ) + 2|sₖ|m_d|φ_dᵀxₖ|²` (1 for a lone mode, 0 when
-//! defective). [`ConstrainedModes::new`] fails with an error naming this quantity if
-//! `min ρ < 1e-6` (more than 6 digits lost) or if two polished roots coincide. Two unconstrained
-//! modes with equal frequency and damping (both coupled to the ball) fall there too: a beam's
-//! modes are distinct, so that semisimple case is reported, not handled.
+//! **Repeated eigenvalues.** Equal and nearly equal poles are handled as above (tested with
+//! relative splits from 0 to 1e-4 against an RK4). Distinct constrained eigenvalues that lie
+//! close together would make the expansion ill-conditioned (the two terms cancel): the relative
+//! precision lost is about `ε/ρ`, with `ρₖ = |ψₖᵀAψₖ| / (Σ|xₖⱼ|²(2|sₖ|mⱼ + cⱼ) + 2|sₖ|m_d|φ_dᵀxₖ|²)`
+//! (1 for a lone mode, 0 when defective: a double root of the secular function, which needs a
+//! constrained mode at critical damping). [`ConstrainedModes::new`] fails with an error naming
+//! this quantity if `min ρ < 1e-6` (more than 6 digits lost) or if two polished roots coincide.
+//! On the paper beam `min ρ` is 0.20 over every cavity position for N ≤ 32 and ζ ≤ 0.9, and
+//! 0.066 with ζ = 0.999 in every mode.
 //!
 //! **Harmonic phase convention.** Every [`TermSum`] is in the local time `τ = t − t0` of its
 //! segment; the harmonic coefficients are already rotated by the segment's start phase `Ωt0`:
 //! `value(τ) = constant + cos_omega·cos Ωτ + sin_omega·sin Ωτ + Σ e^{−ατ}(p cos ω_dτ + q sin ω_dτ)`.
+//! Every sum of one [`ConstrainedModes`] has the same `N` decaying terms (same `α`, `ω_d`, same
+//! order, zero coefficients kept), so a solver can share the transcendental values across them.
 //!
 //! **Cost.** `new`: one `2N×2N` real Schur form plus `O(N²)` per Newton step per eigenvalue and
 //! an `N×N` complex LU (tens of µs, once per run); `segment`: `O(N²)`;
 //! `sum_at`/`holding_force`: `O(N)`; `sum` for an arbitrary row: `O(N²)`. Nothing allocates
 //! after `new`. Measured (release, shared 2-core machine, medians; the ignored test
 //! `timing_of_new_and_segment`): `new` 12 µs (N = 4), 68 µs (N = 12); `segment` +
-//! `holding_force` 0.2 µs (N = 4).
+//! `holding_force` 0.11 µs (N = 4).
 //!
 //! **Accuracy** (tests `tests/constrained_motion.rs`, measured): N = 1 equals the one-body
 //! closed form of mass `M + m_d` to 2.4e-14 of the scale; the paper beam (N = 4, three cavity
@@ -211,46 +219,51 @@ fn point_index(p: Point) -> usize {
     }
 }
 
-/// The coupled modes (`φ_dn ≠ 0`) in compact arrays, with their poles `−aⱼ + i bⱼ`.
+/// The coupled modes (`φ_dn ≠ 0`) grouped by pole: modes whose poles are equal (bit for bit)
+/// enter the secular function as one entry `e` with weight `w_e = Σ φ_dn²/mₙ` over its modes and
+/// the monic `p_e(s) = (s − p_e)(s − p̄_e)`, so that `1/(s²m_d) + Σ_e w_e/p_e(s) = 0`.
 struct Coupled {
-    nc: usize,
-    idx: [usize; MAX_BEAM_MODES],
-    m: [f64; MAX_BEAM_MODES],
-    c: [f64; MAX_BEAM_MODES],
-    phi: [f64; MAX_BEAM_MODES],
+    ne: usize,
+    /// Entry of each mode (`usize::MAX`: decoupled, `φ_dn = 0`).
+    entry_of: [usize; MAX_BEAM_MODES],
+    /// Number of modes in each entry.
+    count: [usize; MAX_BEAM_MODES],
+    w: [f64; MAX_BEAM_MODES],
     pole: [Complex64; MAX_BEAM_MODES],
+    /// `ωₙ` and `cₙ/mₙ` of the entry (for the balanced Schur matrix).
+    om: [f64; MAX_BEAM_MODES],
+    z: [f64; MAX_BEAM_MODES],
     md: f64,
 }
 
 impl Coupled {
-    /// `dⱼ(s) = mⱼ(s − pⱼ)(s − p̄ⱼ)` (factored: accurate unless `s` is at the pole itself).
-    fn d(&self, j: usize, s: Complex64) -> Complex64 {
-        self.m[j] * (s - self.pole[j]) * (s - self.pole[j].conj())
+    /// `p_j(s)` and `p_j'(s)` at `s = u + δ`, each factor as `δ + (u − pole)`: the difference of
+    /// two poles is exact to one rounding, so `s − p_j` keeps full relative precision even when
+    /// `s` lies very near `p_j` (a mode barely coupled, or two nearly equal poles).
+    fn monic(&self, j: usize, u: Complex64, delta: Complex64) -> (Complex64, Complex64) {
+        let f1 = delta + (u - self.pole[j]);
+        let f2 = delta + (u - self.pole[j].conj());
+        (f1 * f2, f1 + f2)
     }
 
-    /// `d'ⱼ(s)`.
-    fn dd(&self, j: usize, s: Complex64) -> Complex64 {
-        self.m[j] * ((s - self.pole[j]) + (s - self.pole[j].conj()))
-    }
-
-    /// `G(s) = 1/(s²m_d) + Σ_{j≠skip} φⱼ²/dⱼ(s)` and `G'(s)`.
-    fn g_excluding(&self, s: Complex64, skip: usize) -> (Complex64, Complex64) {
+    /// `G(s) = 1/(s²m_d) + Σ_{e≠skip} w_e/p_e(s)` and `G'(s)`, `s = u + δ`.
+    fn g_excluding(&self, u: Complex64, delta: Complex64, skip: usize) -> (Complex64, Complex64) {
+        let s = u + delta;
         let s2 = s * s;
         let mut g = 1.0 / (s2 * self.md);
         let mut dg = -2.0 / (s2 * s * self.md);
-        for j in (0..self.nc).filter(|&j| j != skip) {
-            let d = self.d(j, s);
-            let p2 = self.phi[j] * self.phi[j];
-            g += p2 / d;
-            dg -= p2 * self.dd(j, s) / (d * d);
+        for j in (0..self.ne).filter(|&j| j != skip) {
+            let (d, dd) = self.monic(j, u, delta);
+            g += self.w[j] / d;
+            dg -= self.w[j] * dd / (d * d);
         }
         (g, dg)
     }
 
-    /// The pole nearest to `s`: (mode, pole `u` with `Im u` of the same sign as `Im s`).
+    /// The pole nearest to `s`: (entry, pole `u`, either `p_e` or `p̄_e`).
     fn nearest(&self, s: Complex64) -> (usize, Complex64) {
         let mut best = (0, self.pole[0], f64::INFINITY);
-        for j in 0..self.nc {
+        for j in 0..self.ne {
             for u in [self.pole[j], self.pole[j].conj()] {
                 let dist = (s - u).norm();
                 if dist < best.2 {
@@ -261,28 +274,24 @@ impl Coupled {
         (best.0, best.1)
     }
 
-    /// Newton on `h(δ) = φₙ² + dₙ(u + δ)G(u + δ)` around the pole `u` of mode `n`:
-    /// returns the polished root `s = u + δ` and `δ`.
-    fn polish_near(&self, n: usize, u: Complex64, s0: Complex64) -> Option<(Complex64, Complex64)> {
-        let two_ib = u - u.conj();
+    /// Newton on `h(δ) = w_n + p_n(u + δ)G(u + δ)` around the pole `u` of entry `n`: returns
+    /// `δ` of the polished root `s = u + δ`.
+    fn polish_near(&self, n: usize, u: Complex64, s0: Complex64) -> Option<Complex64> {
         let mut delta = s0 - u;
-        let p2 = self.phi[n] * self.phi[n];
+        let wn = self.w[n];
         let mut converged = false;
         let mut last_h = f64::INFINITY;
         for _ in 0..MAX_NEWTON {
-            let s = u + delta;
-            let (g, dg) = self.g_excluding(s, n);
-            let so = delta + two_ib; // s − ū
-            let dn = self.m[n] * delta * so;
-            let ddn = self.m[n] * (delta + so);
-            let h = p2 + dn * g;
+            let (g, dg) = self.g_excluding(u, delta, n);
+            let (dn, ddn) = self.monic(n, u, delta);
+            let h = wn + dn * g;
             let dh = ddn * g + dn * dg;
             let step = h / dh;
             if !(step.re.is_finite() && step.im.is_finite()) {
                 return None;
             }
             delta -= step;
-            last_h = h.norm() / (p2 + (dn * g).norm());
+            last_h = h.norm() / (wn + (dn * g).norm());
             if step.norm() <= 1e-15 * delta.norm() {
                 converged = true;
                 break;
@@ -290,15 +299,15 @@ impl Coupled {
         }
         // Rounding can make Newton cycle in the last bit: accept a tiny residual.
         if converged || last_h <= 1e-12 {
-            Some((u + delta, delta))
+            Some(delta)
         } else {
             None
         }
     }
 
     /// Polish a Schur guess (mapped to `Im ≥ 0`): Newton around its nearest pole, repeated if the
-    /// root turns out nearer another pole. Returns `(s, n, δ = s − pole)`.
-    fn polish(&self, guess: Complex64) -> Option<(Complex64, usize, Complex64)> {
+    /// root turns out nearer another pole. Returns `(u, δ)`, the root being `s = u + δ`.
+    fn polish(&self, guess: Complex64) -> Option<(Complex64, Complex64)> {
         let mut s = if guess.im < 0.0 { guess.conj() } else { guess };
         if s.im == 0.0 {
             // No real root exists (module docs): start just above the axis.
@@ -306,36 +315,25 @@ impl Coupled {
         }
         let (mut n, mut u) = self.nearest(s);
         for _ in 0..4 {
-            let (root, delta) = self.polish_near(n, u, s)?;
+            let delta = self.polish_near(n, u, s)?;
+            let root = u + delta;
             let (n2, u2) = self.nearest(root);
             if n2 == n && u2 == u {
-                return Some((root, n, delta));
+                return Some((u, delta));
             }
             (n, u, s) = (n2, u2, root);
         }
         None
     }
 
-    /// The eigenvector `x = D(s)⁻¹φ` (compact coordinates), with mode `n`'s entry from the exact
-    /// `δ`, scaled to `max |xⱼ| = 1`.
-    fn vector(&self, s: Complex64, n: usize, delta: Complex64) -> [Complex64; MAX_BEAM_MODES] {
-        let mut x = [Complex64::new(0.0, 0.0); MAX_BEAM_MODES];
-        let mut big: f64 = 0.0;
-        for (j, xj) in x.iter_mut().enumerate().take(self.nc) {
-            let d = if j == n {
-                // s − ū computed as δ + (u − ū): the nearest pole's factor is δ itself.
-                let u = s - delta;
-                self.m[n] * delta * (delta + (u - u.conj()))
-            } else {
-                self.d(j, s)
-            };
-            *xj = self.phi[j] / d;
-            big = big.max(xj.norm());
+    /// `1/p_e(s)` of every entry at the root `s = u + δ`: the eigenvector is
+    /// `xₙ = φ_dn/(mₙ p_e(n)(s))`.
+    fn entry_values(&self, u: Complex64, delta: Complex64) -> [Complex64; MAX_BEAM_MODES] {
+        let mut y = [Complex64::new(0.0, 0.0); MAX_BEAM_MODES];
+        for (j, yj) in y.iter_mut().enumerate().take(self.ne) {
+            *yj = 1.0 / self.monic(j, u, delta).0;
         }
-        for xj in x.iter_mut().take(self.nc) {
-            *xj /= big;
-        }
-        x
+        y
     }
 }
 
@@ -409,49 +407,54 @@ impl ConstrainedModes {
             cm.stiffness[j] = m.modal_stiffness_n_per_m();
             cm.damping[j] = 2.0 * m.damping_ratio * (cm.stiffness[j] * cm.mass[j]).sqrt();
         }
+        let (mass, damping, stiffness) = (cm.mass, cm.damping, cm.stiffness);
         let pole = |j: usize| {
-            let a = cm.damping[j] / (2.0 * cm.mass[j]);
-            let w = (cm.stiffness[j] / cm.mass[j]).sqrt();
+            let a = damping[j] / (2.0 * mass[j]);
+            let w = (stiffness[j] / mass[j]).sqrt();
             let z = modes[j].damping_ratio;
             Complex64::new(-a, w * ((1.0 - z) * (1.0 + z)).sqrt())
         };
         let mut cp = Coupled {
-            nc: 0,
-            idx: [0; MAX_BEAM_MODES],
-            m: [0.0; MAX_BEAM_MODES],
-            c: [0.0; MAX_BEAM_MODES],
-            phi: [0.0; MAX_BEAM_MODES],
+            ne: 0,
+            entry_of: [usize::MAX; MAX_BEAM_MODES],
+            count: [0; MAX_BEAM_MODES],
+            w: [0.0; MAX_BEAM_MODES],
             pole: [Complex64::new(0.0, 0.0); MAX_BEAM_MODES],
+            om: [0.0; MAX_BEAM_MODES],
+            z: [0.0; MAX_BEAM_MODES],
             md,
         };
         let phi_d = cm.rows[0];
         for (j, &pd) in phi_d.iter().enumerate().take(n) {
+            let p = pole(j);
             if pd == 0.0 {
                 // Decoupled: the ball at a node of this mode leaves it as it is.
-                let s = pole(j);
-                let a = 2.0 * s * cm.mass[j] + cm.damping[j];
-                let t = cm.n_terms;
-                cm.eig[t] = s;
-                cm.paired[t] = true;
-                cm.vecs[t][j] = Complex64::new(1.0, 0.0);
-                cm.w_q[t][j] = (cm.damping[j] + s * cm.mass[j]) / a;
-                cm.w_dq[t][j] = cm.mass[j] / a;
-                cm.min_conditioning = cm
-                    .min_conditioning
-                    .min(a.norm() / (2.0 * s.norm() * cm.mass[j] + cm.damping[j]));
-                cm.n_terms += 1;
-            } else {
-                let k = cp.nc;
-                cp.idx[k] = j;
-                cp.m[k] = cm.mass[j];
-                cp.c[k] = cm.damping[j];
-                cp.phi[k] = pd;
-                cp.pole[k] = pole(j);
-                cp.nc += 1;
+                let mut v = [0.0; MAX_BEAM_MODES];
+                v[j] = 1.0;
+                cm.push_pole_vector(p, &v);
+                continue;
             }
+            let e = match cp.pole[..cp.ne].iter().position(|&q| q == p) {
+                Some(e) => e,
+                None => {
+                    let e = cp.ne;
+                    cp.pole[e] = p;
+                    cp.om[e] = (cm.stiffness[j] / cm.mass[j]).sqrt();
+                    cp.z[e] = cm.damping[j] / cm.mass[j];
+                    cp.ne += 1;
+                    e
+                }
+            };
+            cp.entry_of[j] = e;
+            cp.count[e] += 1;
+            cp.w[e] += pd * pd / cm.mass[j];
         }
-        if cp.nc > 0 {
+        if cp.ne > 0 {
             cm.coupled_modes(&cp)?;
+            cm.shared_pole_modes(&cp);
+        }
+        if cm.min_conditioning < MIN_MODE_CONDITIONING {
+            return Err(repeated(cm.min_conditioning));
         }
         if cm.damping[..n].iter().all(|&c| c == 0.0) {
             // Undamped: the roots are on the imaginary axis; Newton leaves rounding-level α.
@@ -472,45 +475,108 @@ impl ConstrainedModes {
         Ok(cm)
     }
 
-    /// The eigenpairs of the coupled modes (module docs: Schur guesses, Newton polish, closed-form
-    /// vectors, orthogonality weights).
+    /// Add the eigenpair `(s, x)` (and its conjugate) with its orthogonality weights
+    /// `w_q = (C + sM_c)x/a`, `w_dq = M_c x/a`, `a = xᵀ(2sM_c + C)x`, and its conditioning `ρ`.
+    fn push_pair(&mut self, s: Complex64, x: &[Complex64; MAX_BEAM_MODES]) {
+        let n = self.n;
+        let md = self.ball_mass_kg;
+        let phi = self.rows[0];
+        let px = cdot(&x[..n], &phi[..n]);
+        let mut a = 2.0 * s * md * px * px;
+        let mut scale = 2.0 * s.norm() * md * px.norm_sqr();
+        for ((xj, m), c) in x.iter().zip(&self.mass).zip(&self.damping).take(n) {
+            a += xj * xj * (2.0 * s * m + c);
+            scale += xj.norm_sqr() * (2.0 * s.norm() * m + c);
+        }
+        self.min_conditioning = self.min_conditioning.min(a.norm() / scale);
+        let t = self.n_terms;
+        for j in 0..n {
+            let mx = self.mass[j] * x[j] + md * phi[j] * px;
+            self.w_q[t][j] = (self.damping[j] * x[j] + s * mx) / a;
+            self.w_dq[t][j] = mx / a;
+        }
+        self.eig[t] = s;
+        self.paired[t] = true;
+        self.vecs[t] = *x;
+        self.n_terms += 1;
+    }
+
+    /// A pair at an unconstrained pole whose (real) vector does not move the cavity (`φ_dᵀv = 0`).
+    fn push_pole_vector(&mut self, s: Complex64, v: &[f64; MAX_BEAM_MODES]) {
+        let mut x = [Complex64::new(0.0, 0.0); MAX_BEAM_MODES];
+        for (xj, vj) in x.iter_mut().zip(v) {
+            *xj = Complex64::new(*vj, 0.0);
+        }
+        self.push_pair(s, &x);
+    }
+
+    /// Modes sharing one pole (`r` of them): `r − 1` combinations leave the cavity still and keep
+    /// that pole. In `uⱼ = √mⱼ vⱼ` they are an orthonormal basis of the complement of
+    /// `aⱼ = φ_dj/√mⱼ` (Householder columns): `φ_dᵀv = 0` and `vᵀ diag(m) v' = 0`, which makes
+    /// them orthogonal to each other in the linearisation (same eigenvalue) as well.
+    fn shared_pole_modes(&mut self, cp: &Coupled) {
+        for e in (0..cp.ne).filter(|&e| cp.count[e] > 1) {
+            let mut js = [0usize; MAX_BEAM_MODES];
+            let mut r = 0;
+            for j in (0..self.n).filter(|&j| cp.entry_of[j] == e) {
+                js[r] = j;
+                r += 1;
+            }
+            let mut hv = [0.0; MAX_BEAM_MODES];
+            for i in 0..r {
+                hv[i] = self.rows[0][js[i]] / self.mass[js[i]].sqrt();
+            }
+            let norm = hv[..r].iter().map(|a| a * a).sum::<f64>().sqrt();
+            hv[0] += hv[0].signum() * norm;
+            let vv: f64 = hv[..r].iter().map(|a| a * a).sum();
+            for k in 1..r {
+                let mut v = [0.0; MAX_BEAM_MODES];
+                for i in 0..r {
+                    let h = if i == k { 1.0 } else { 0.0 } - 2.0 * hv[i] * hv[k] / vv;
+                    v[js[i]] = h / self.mass[js[i]].sqrt();
+                }
+                self.push_pole_vector(cp.pole[e], &v);
+            }
+        }
+    }
+
+    /// The eigenpairs of the coupled entries (module docs: Schur guesses, Newton polish,
+    /// closed-form vectors).
     fn coupled_modes(&mut self, cp: &Coupled) -> Result<(), SimError> {
-        let nc = cp.nc;
+        let ne = cp.ne;
         let md = cp.md;
-        // Balanced first-order matrix in η = √m q: [[0, W], [−P W, −P Z]], P = I − ĝĝᵀ.
+        // Balanced first-order matrix (one coordinate per entry, mass 1, weight w_e):
+        // [[0, W], [−P W, −P Z]], P = I − ĝĝᵀ, gₑ = √(m_d wₑ).
         let mut g = [0.0; MAX_BEAM_MODES];
         let mut gg = 0.0;
-        for (gj, (m, phi)) in g.iter_mut().zip(cp.m.iter().zip(&cp.phi)).take(nc) {
-            *gj = (md / m).sqrt() * phi;
+        for (gj, w) in g.iter_mut().zip(&cp.w).take(ne) {
+            *gj = (md * w).sqrt();
             gg += *gj * *gj;
         }
-        let scale = 1.0 / (1.0 + gg).sqrt();
-        let w: Vec<f64> = (0..nc)
-            .map(|j| (self.stiffness[cp.idx[j]] / cp.m[j]).sqrt())
-            .collect();
-        let a = DMatrix::<f64>::from_fn(2 * nc, 2 * nc, |r, c| match (r < nc, c < nc) {
+        let scale2 = 1.0 / (1.0 + gg);
+        let a = DMatrix::<f64>::from_fn(2 * ne, 2 * ne, |r, c| match (r < ne, c < ne) {
             (true, true) => 0.0,
             (true, false) => {
-                if c - nc == r {
-                    w[r]
+                if c - ne == r {
+                    cp.om[r]
                 } else {
                     0.0
                 }
             }
             (false, col_pos) => {
-                let (i, j) = (r - nc, if col_pos { c } else { c - nc });
-                let pij = if i == j { 1.0 } else { 0.0 } - g[i] * g[j] * scale * scale;
+                let (i, j) = (r - ne, if col_pos { c } else { c - ne });
+                let pij = if i == j { 1.0 } else { 0.0 } - g[i] * g[j] * scale2;
                 if col_pos {
-                    -pij * w[j]
+                    -pij * cp.om[j]
                 } else {
-                    -pij * cp.c[j] / cp.m[j]
+                    -pij * cp.z[j]
                 }
             }
         });
         if !a.iter().all(|v| v.is_finite()) {
             return Err(not_finite(f64::NAN));
         }
-        let schur = nalgebra::Schur::try_new(a, f64::EPSILON, 100_000 * nc).ok_or(
+        let schur = nalgebra::Schur::try_new(a, f64::EPSILON, 100_000 * ne).ok_or(
             SimError::Param(ParamError::NonFiniteResult {
                 quantity: "constrained modes (Schur iteration of the 2N×2N stick/contact matrix)",
                 value: f64::NAN,
@@ -518,57 +584,43 @@ impl ConstrainedModes {
             }),
         )?;
         let guesses = schur.complex_eigenvalues();
-        let mut roots: [(Complex64, usize, Complex64); MAX_TERMS] =
-            [(Complex64::new(0.0, 0.0), 0, Complex64::new(0.0, 0.0)); MAX_TERMS];
+        let mut roots = [(Complex64::new(0.0, 0.0), Complex64::new(0.0, 0.0)); MAX_TERMS];
         let mut nr = 0;
         for gs in guesses.iter() {
-            let Some(r) = cp.polish(*gs) else {
+            let Some((u, delta)) = cp.polish(*gs) else {
                 return Err(not_finite(gs.norm()));
             };
-            if !roots[..nr]
+            let s = u + delta;
+            let known = roots[..nr]
                 .iter()
-                .any(|q| (q.0 - r.0).norm() <= SAME_ROOT_REL * r.0.norm())
-            {
-                if nr == nc {
+                .any(|&(u2, d2)| ((u2 - u) + (d2 - delta)).norm() <= SAME_ROOT_REL * s.norm());
+            if !known {
+                if nr == ne {
                     return Err(repeated(f64::NAN));
                 }
-                roots[nr] = r;
+                roots[nr] = (u, delta);
                 nr += 1;
             }
         }
-        if nr != nc {
+        if nr != ne {
             // Two guesses polished to one root: two roots closer than rounding can separate.
             return Err(repeated(0.0));
         }
-        for &(s, nn, delta) in &roots[..nr] {
-            let xc = cp.vector(s, nn, delta);
-            let t = self.n_terms;
+        for &(u, delta) in &roots[..nr] {
+            let y = cp.entry_values(u, delta);
             let mut x = [Complex64::new(0.0, 0.0); MAX_BEAM_MODES];
-            for k in 0..nc {
-                x[cp.idx[k]] = xc[k];
+            let mut big: f64 = 0.0;
+            for (j, xj) in x.iter_mut().enumerate().take(self.n) {
+                let e = cp.entry_of[j];
+                if e != usize::MAX {
+                    *xj = y[e] * (self.rows[0][j] / self.mass[j]);
+                    big = big.max(xj.norm());
+                }
             }
-            let n = self.n;
-            let phi = &self.rows[0];
-            let px = cdot(&x[..n], &phi[..n]);
-            let mut a = 2.0 * s * md * px * px;
-            let mut scale = 2.0 * s.norm() * md * px.norm_sqr();
-            for ((xj, m), c) in x.iter().zip(&self.mass).zip(&self.damping).take(n) {
-                a += xj * xj * (2.0 * s * m + c);
-                scale += xj.norm_sqr() * (2.0 * s.norm() * m + c);
+            for xj in x.iter_mut() {
+                *xj /= big;
             }
-            self.min_conditioning = self.min_conditioning.min(a.norm() / scale);
-            for j in 0..n {
-                let mx = self.mass[j] * x[j] + md * phi[j] * px;
-                self.w_q[t][j] = (self.damping[j] * x[j] + s * mx) / a;
-                self.w_dq[t][j] = mx / a;
-            }
-            self.eig[t] = s;
-            self.paired[t] = true;
-            self.vecs[t] = x;
-            self.n_terms += 1;
-        }
-        if self.min_conditioning < MIN_MODE_CONDITIONING {
-            return Err(repeated(self.min_conditioning));
+            self.push_pair(u + delta, &x);
         }
         Ok(())
     }
@@ -679,7 +731,8 @@ impl ConstrainedModes {
     }
 
     /// Closed-form coefficients of the segment starting at `t0` from `(q0, q̇0)`: `O(N²)`, no
-    /// allocation.
+    /// allocation. Entries beyond `N` are ignored; the state is the solver's own (finite, not
+    /// re-checked on this hot path).
     pub fn segment(
         &self,
         t0_s: f64,
@@ -775,13 +828,25 @@ impl ConstrainedMotion<'_> {
         })
     }
 
+    /// The closed form of one modal coordinate `q_j(τ)`: `O(N)`.
+    pub fn sum_coordinate(&self, j: usize) -> TermSum {
+        let cm = self.modes;
+        if j >= cm.n {
+            return TermSum::zero(cm.omega_rad_s);
+        }
+        self.build(cm.q_static[j], cm.q_harm[j], |t| cm.vecs[t][j])
+    }
+
     /// The holding (contact) force `f_c(τ) = m_d φ_dᵀq̈(τ)`: the force the bar exerts ON the ball,
-    /// positive in the `+u` direction. `O(N)`.
+    /// positive in the `+u` direction. `O(N)`: the second derivative of [`Self::sum_at`] at the
+    /// cavity, scaled by `m_d`, built in one pass (no constant part).
     pub fn holding_force(&self) -> TermSum {
-        self.sum_at(Point::Cavity)
-            .deriv()
-            .deriv()
-            .scaled(self.modes.ball_mass_kg)
+        let cm = self.modes;
+        let (md, om) = (cm.ball_mass_kg, cm.omega_rad_s);
+        self.build(0.0, cm.harm_at_point[0] * (-om * om * md), |t| {
+            let s = cm.eig[t];
+            cm.at_point[0][t] * (s * s * md)
+        })
     }
 
     /// Modal coordinates and velocities at local time `τ`: `O(N²)`.
@@ -815,7 +880,7 @@ impl ConstrainedMotion<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::{Damper, Forcing, FrictionModel, System};
+    use crate::params::{FrictionModel, System};
     use crate::structure::{ModalModel, Mode};
 
     fn one_mode() -> ModalSystem {
@@ -866,32 +931,6 @@ mod tests {
         assert!(e.to_string().contains("modes"), "{e}");
         assert!(
             matches!(e, SimError::Param(ParamError::Limit { .. })),
-            "{e}"
-        );
-    }
-
-    /// Two modes of equal frequency and damping both moving the cavity (a semisimple double
-    /// pole): reported as a repeated-eigenvalue error, not a silently wrong closed form.
-    #[test]
-    fn equal_coupled_modes_are_reported() {
-        let mut sys = one_mode();
-        let m: Mode = sys.model.modes()[0];
-        sys.model = ModalModel {
-            modes: vec![
-                m,
-                Mode {
-                    shape_cavity: 0.5,
-                    ..m
-                },
-            ],
-            static_tip_compliance_m_per_n: 1.0,
-        };
-        sys.damper = Some(Damper::paper(1e-4, FrictionModel::Coulomb));
-        sys.forcing = Forcing::paper(0.5);
-        let e = ConstrainedModes::new(&sys).unwrap_err();
-        assert!(
-            e.to_string()
-                .contains("conditioning of the constrained modes"),
             "{e}"
         );
     }
