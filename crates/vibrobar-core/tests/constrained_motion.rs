@@ -185,10 +185,11 @@ fn one_mode_is_the_pair_as_one_body() {
         lumped.forcing.static_force_n = fs;
         let sys = ModalSystem::from_lumped(&lumped).unwrap();
         let cm = ConstrainedModes::new(&sys).unwrap();
-        let (mb, k) = (lumped.bar.mass_kg, lumped.bar.stiffness_n_per_m);
+        let bar = *lumped.lumped_bar().unwrap();
+        let (mb, k) = (bar.mass_kg, bar.stiffness_n_per_m);
         let md = lumped.damper.unwrap().ball_mass_kg;
         let m = mb + md;
-        let c = 2.0 * lumped.bar.damping_ratio * (k * mb).sqrt();
+        let c = 2.0 * bar.damping_ratio * (k * mb).sqrt();
         let om = lumped.omega_rad_s();
         let al = c / (2.0 * m);
         let wd = (k / m - al * al).sqrt();
@@ -256,7 +257,7 @@ fn start(n: usize) -> (Vec<f64>, Vec<f64>) {
 fn four_mode_beam_matches_an_independent_rk4() {
     let base = beam_model(4, CAVITY_PAPER_M, 0.01);
     let cases = [
-        ("cavity 38 mm from the free end", base.clone()),
+        ("cavity 38 mm from the free end", base),
         (
             "cavity 100 mm from the clamp",
             beam_model(4, CAVITY_OFF_M, 0.01),

@@ -866,13 +866,14 @@ fn one_mode_beam_with_the_ball_at_the_tip_is_the_lumped_bar() {
                 mass_kg: m1.modal_mass_kg,
                 stiffness_n_per_m: m1.modal_stiffness_n_per_m(),
                 damping_ratio: m1.damping_ratio,
-            },
+            }
+            .into(),
             damper: Some(Damper::paper(gap, friction)),
             forcing: Forcing::paper(1.0),
             gravity_m_s2: params::STANDARD_GRAVITY_M_S2,
         };
         let msys = ModalSystem {
-            model: model.clone(),
+            model,
             damper: lumped_sys.damper,
             forcing: lumped_sys.forcing,
             gravity_m_s2: lumped_sys.gravity_m_s2,

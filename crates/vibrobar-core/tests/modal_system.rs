@@ -350,20 +350,22 @@ fn modal_inputs_are_refused_with_the_field_named() {
     );
 }
 
-/// `exact` refuses a modal bar with a message that says why and what to use, until the N-mode
-/// exact solver is wired in; `max_lyapunov` refuses it (its tangent space is 2N + 2: that is
+/// `exact` runs a modal bar as the N-mode exact solver itself (`ModalExact`, the same summary
+/// to the bit); `max_lyapunov` refuses it (its tangent space is 2N + 2: that is
 /// `max_lyapunov_modal`'s).
 #[test]
-fn exact_and_lyapunov_refuse_a_modal_bar_clearly() {
-    let sys = beam_system(paper_beam(3, None), Some(FrictionModel::None), 1.0);
-    let e = Exact::default()
-        .run(&sys, &State::REST, 0.01, &mut ())
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.contains("--solver rk4") && e.contains("N-mode exact"),
-        "{e}"
-    );
+fn exact_runs_a_modal_bar_as_modal_exact_and_lyapunov_refuses_it_clearly() {
+    let sys = beam_system(paper_beam(3, None), Some(FrictionModel::AsPublished), 1.0);
+    let via_trait = Exact::default()
+        .run(&sys, &State::REST, 0.02, &mut ())
+        .unwrap();
+    let msys = ModalSystem::from_system(&sys).unwrap();
+    let direct = vibrobar_core::solver::exact::modal::ModalExact::default()
+        .run(&msys, &ModalState::REST, 0.02, &mut ())
+        .unwrap()
+        .summary;
+    assert!(via_trait.impacts > 0, "{via_trait:?}");
+    assert_eq!(via_trait, direct);
     let p = LyapunovParams::periods(&sys, 0.0, 2.0, 4);
     let e = max_lyapunov(&sys, &State::REST, &Rk4::default(), &p)
         .unwrap_err()
@@ -509,9 +511,14 @@ fn modal_lyapunov_exponent_against_closed_forms() {
     let mut bad = p;
     bad.d0 = 0.0;
     assert!(max_lyapunov_modal(&msys, &ModalState::REST, &*run, &bad).is_err());
-    // exact's modal run refuses until the N-mode exact solver is wired in.
+    // exact's modal run (ModalExact) on the unit mode gives the lumped exact estimate.
     let exact = vibrobar_core::solver::modal_run_by_name("exact", &RunSettings::default()).unwrap();
-    let e = max_lyapunov_modal(&msys, &ModalState::REST, &*exact, &p).unwrap_err();
-    assert!(e.to_string().contains("N-mode exact"), "{e}");
+    let re = max_lyapunov_modal(&msys, &ModalState::REST, &*exact, &p).unwrap();
+    let rle = max_lyapunov(&lumped, &State::REST, &Exact::default(), &p).unwrap();
+    eprintln!(
+        "exact: unit mode {} vs lumped {}",
+        re.exponent_per_s, rle.exponent_per_s
+    );
+    assert!((re.exponent_per_s / rle.exponent_per_s - 1.0).abs() < 1e-6);
     assert!(vibrobar_core::solver::modal_run_by_name("euler", &RunSettings::default()).is_none());
 }

@@ -235,8 +235,8 @@ pub type ModalRun<'a> = dyn Fn(
     + 'a;
 
 /// The modal run of the solver `name` with the run settings: `rk4` is
-/// [`modal_rk4::ModalRk4`] at `dt`; `exact` refuses ([`exact::MODAL_EXACT_NOT_WIRED`]) until the
-/// N-mode exact solver is wired in; `None` for an unknown name.
+/// [`modal_rk4::ModalRk4`] at `dt`, `exact` is [`exact::modal::ModalExact`]; `None` for an
+/// unknown name.
 pub fn modal_run_by_name(name: &str, settings: &RunSettings) -> Option<Box<ModalRun<'static>>> {
     match name {
         "rk4" => {
@@ -247,8 +247,10 @@ pub fn modal_run_by_name(name: &str, settings: &RunSettings) -> Option<Box<Modal
                     .final_state)
             }))
         }
-        "exact" => Some(Box::new(|_, _, _| {
-            Err(SimError::Unsupported(exact::MODAL_EXACT_NOT_WIRED))
+        "exact" => Some(Box::new(|sys, init, t_end_s| {
+            Ok(exact::modal::ModalExact::default()
+                .run(sys, init, t_end_s, &mut ())?
+                .final_state)
         })),
         _ => None,
     }

@@ -881,7 +881,6 @@ impl ConstrainedMotion<'_> {
 mod tests {
     use super::*;
     use crate::params::{FrictionModel, System};
-    use crate::structure::{ModalModel, Mode};
 
     fn one_mode() -> ModalSystem {
         ModalSystem::from_lumped(&System::paper_damped(1e-4, FrictionModel::Coulomb, 1.0)).unwrap()
@@ -911,28 +910,6 @@ mod tests {
         assert_eq!(d.constant.to_bits(), 0.0f64.to_bits());
         let (a, b) = (t.scaled(2.0).value(1e-3), 2.0 * t.value(1e-3));
         assert!((a - b).abs() <= 1e-15 * b.abs(), "{a} vs {b}");
-    }
-
-    /// More modes than the fixed capacity: a limit error naming the count, before any indexing.
-    #[test]
-    fn too_many_modes_is_a_limit_error() {
-        let mut sys = one_mode();
-        let m: Mode = sys.model.modes()[0];
-        sys.model = ModalModel {
-            modes: (0..MAX_BEAM_MODES + 1)
-                .map(|i| Mode {
-                    omega_rad_s: m.omega_rad_s * (i + 1) as f64,
-                    ..m
-                })
-                .collect(),
-            static_tip_compliance_m_per_n: 1.0,
-        };
-        let e = ConstrainedModes::new(&sys).unwrap_err();
-        assert!(e.to_string().contains("modes"), "{e}");
-        assert!(
-            matches!(e, SimError::Param(ParamError::Limit { .. })),
-            "{e}"
-        );
     }
 
     /// The representatives are N pairs with `Im > 0`; the lone mode is well conditioned.

@@ -595,9 +595,6 @@ impl Consts {
     }
 }
 
-/// Why `exact` refuses a modal bar for now (the N-mode exact solver is being wired in).
-pub const MODAL_EXACT_NOT_WIRED: &str = "the exact solver does not run a modal bar (a [beam] scenario) yet: the N-mode exact solver is being wired in; use --solver rk4 (its step must satisfy ω_N·dt ≤ 2.5 for the highest mode kept)";
-
 impl Solver for Exact {
     fn name(&self) -> &'static str {
         "exact"
@@ -612,7 +609,17 @@ impl Solver for Exact {
     ) -> Result<RunSummary, SimError> {
         let bar = match &sys.bar {
             BarModel::Lumped(bar) => bar,
-            BarModel::Modal(_) => return Err(SimError::Unsupported(MODAL_EXACT_NOT_WIRED)),
+            // The same solver mode by mode: closed-form modes, the N-term root search.
+            BarModel::Modal(model) => {
+                let msys = crate::structure::ModalSystem::from_system(sys)?;
+                let minit = crate::structure::ModalState::from_public(model, init)?;
+                return Ok(modal::ModalExact {
+                    max_events: self.max_events,
+                    check_invariants: self.check_invariants,
+                }
+                .run(&msys, &minit, t_end_s, obs)?
+                .summary);
+            }
         };
         super::validate_run(sys, init, t_end_s)?;
         let cs = Consts::new(sys, bar);

@@ -59,7 +59,7 @@ use crate::damper::friction::{can_stick, sgn0, sliding_friction_on_ball_n};
 use crate::damper::impact::{modal_impact, modal_inverse_effective_mass_per_kg};
 use crate::error::{EventLimitCause, ParamError, SimError};
 use crate::limits::{self, MAX_BEAM_MODES};
-use crate::params::{FrictionModel, State};
+use crate::params::{CavityMotion, FrictionModel, State};
 use crate::solver::modal_rk4::{ModalObserver, ModalRunSummary};
 use crate::solver::{
     Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Wall,
@@ -269,12 +269,17 @@ impl St {
     }
 
     fn public(&self, cs: &Consts) -> State {
+        let (ud, dud) = (cs.dot(&cs.phi_d, &self.q), cs.dot(&cs.phi_d, &self.dq));
         State {
             t_s: self.t,
             u_m: cs.dot(&cs.phi_r, &self.q),
             du_m_s: cs.dot(&cs.phi_r, &self.dq),
-            v_m: self.w + cs.dot(&cs.phi_d, &self.q),
-            dv_m_s: self.dw + cs.dot(&cs.phi_d, &self.dq),
+            v_m: self.w + ud,
+            dv_m_s: self.dw + dud,
+            cavity: Some(CavityMotion {
+                u_cavity_m: ud,
+                du_cavity_m_s: dud,
+            }),
         }
     }
 }
@@ -481,6 +486,9 @@ impl Segment for ModalExactSegment<'_> {
     }
     fn state_at(&self, t_s: f64) -> State {
         self.at(t_s).public(self.cs)
+    }
+    fn mechanical_energy_j(&self, t_s: f64) -> f64 {
+        ModalExactSegment::mechanical_energy_j(self, t_s)
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
         let ur = match self.m {
