@@ -121,7 +121,7 @@ fn one_unit_mode_reproduces_the_lumped_rk4() {
         // Before the first impact the arithmetic is the lumped one, operation for operation:
         // bit-identical where `M·(√(K/M))² = K` holds in floating point (the paper's cavity bar;
         // not its solid bar, 0.668 kg and 9.26 MN/m, where they differ by 2e-16 relative).
-        let msys1 = &msys.model.modes[0];
+        let msys1 = &msys.model.modes()[0];
         if msys1.modal_stiffness_n_per_m().to_bits() == sys.bar.stiffness_n_per_m.to_bits() {
             bit_identical_checked += 1;
             let t_first = lumped.events.first().map_or(f64::INFINITY, |e| e.t_s);
@@ -216,7 +216,7 @@ fn four_modes_without_ball_converge_with_order_four_to_the_modal_closed_form() {
     let omega = sys.omega_rad_s();
     let t_end = 0.01;
     let (mut u, mut du) = (0.0, 0.0);
-    for m in &sys.model.modes {
+    for m in sys.model.modes() {
         let (q, dq) = mode_closed_form(m, sys.forcing.amplitude_n, omega, t_end);
         u += m.shape_response * q;
         du += m.shape_response * dq;
@@ -241,7 +241,7 @@ fn four_modes_without_ball_converge_with_order_four_to_the_modal_closed_form() {
 #[test]
 fn steady_tip_response_is_the_receptance_times_the_force() {
     let mut sys = beam_system(4, None, 1.0);
-    for m in &mut sys.model.modes {
+    for m in sys.model.modes_mut() {
         m.damping_ratio = 0.05;
     }
     let t_end = 0.15;
@@ -277,7 +277,7 @@ fn impacting_beam(friction: FrictionModel) -> ModalSystem {
 fn kinetic_j(sys: &ModalSystem, s: &ModalState) -> f64 {
     let md = sys.damper.unwrap().ball_mass_kg;
     sys.model
-        .modes
+        .modes()
         .iter()
         .enumerate()
         .map(|(i, m)| 0.5 * m.modal_mass_kg * s.dq_m_s[i] * s.dq_m_s[i])
@@ -300,7 +300,7 @@ fn modal_impacts_conserve_momentum_per_mode_and_lose_the_law_s_energy() {
         assert!(rec.impacts.len() >= 200, "{} impacts", rec.impacts.len());
         let (mut worst_p, mut worst_e, mut worst_w) = (0.0f64, 0.0f64, 0.0f64);
         for (b, a, loss) in &rec.impacts {
-            for (i, m) in sys.model.modes.iter().enumerate() {
+            for (i, m) in sys.model.modes().iter().enumerate() {
                 let p = |s: &ModalState| {
                     (
                         m.modal_mass_kg * s.dq_m_s[i] + m.shape_cavity * d.ball_mass_kg * s.dv_m_s,
@@ -318,7 +318,7 @@ fn modal_impacts_conserve_momentum_per_mode_and_lose_the_law_s_energy() {
             let scale = b.dv_m_s.abs()
                 + sys
                     .model
-                    .modes
+                    .modes()
                     .iter()
                     .enumerate()
                     .map(|(i, m)| (m.shape_cavity * b.dq_m_s[i]).abs())
@@ -385,8 +385,8 @@ fn effective_mass_at_the_tip_of_a_uniform_bar_is_rho_a_l_over_4n() {
         })
         .modal_model()
         .unwrap();
-        let phi: Vec<f64> = model.modes.iter().map(|m| m.shape_cavity).collect();
-        let mass: Vec<f64> = model.modes.iter().map(|m| m.modal_mass_kg).collect();
+        let phi: Vec<f64> = model.modes().iter().map(|m| m.shape_cavity).collect();
+        let mass: Vec<f64> = model.modes().iter().map(|m| m.modal_mass_kg).collect();
         let inv = modal_inverse_effective_mass_per_kg(md, &phi, &mass);
         let want = 4.0 * n as f64 / rho_a_l;
         assert!(
@@ -458,7 +458,7 @@ fn force_cavity_and_response_at_different_points_keep_the_protocol_and_the_books
     })
     .modal_model()
     .unwrap();
-    let m1 = &model.modes[0];
+    let m1 = &model.modes()[0];
     assert!(m1.shape_force != m1.shape_response && m1.shape_force != m1.shape_cavity);
     let sys = ModalSystem {
         model,

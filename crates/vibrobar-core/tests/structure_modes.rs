@@ -68,15 +68,15 @@ fn analytic_frequencies_are_beta_l_squared_times_the_bar_constant() {
     .enumerate()
     {
         assert!((beta_l(k + 1) - want).abs() < 1e-9);
-        let bl = (m.modes[k].omega_rad_s / c).sqrt();
+        let bl = (m.modes()[k].omega_rad_s / c).sqrt();
         assert!((bl - want).abs() < 1e-9, "mode {}: βL = {bl}", k + 1);
     }
     // Paper bar: f₁ = 576.5 Hz (ω₁ = 3622 rad/s, as `vibrobar beam` says).
-    let f1 = m.modes[0].omega_rad_s / (2.0 * PI);
+    let f1 = m.modes()[0].omega_rad_s / (2.0 * PI);
     assert!((f1 - 576.5).abs() < 0.1, "f₁ = {f1}");
     assert!(
         rel(
-            m.modes[0].omega_rad_s,
+            m.modes()[0].omega_rad_s,
             vibrobar_core::euler_bernoulli::BeamGeometry::PAPER_SOLID.omega1_uniform_rad_s()
         ) < 1e-14
     );
@@ -113,7 +113,7 @@ fn modal_mass_is_a_quarter_of_the_bar_mass_in_tip_normalisation() {
         let u = UniformMode::new(n);
         let q = simpson(|x| u.shape(x).powi(2), 0.0, 1.0, 40_000) * ra * b.length_m;
         assert!(rel(q, 0.25 * b.mass_kg()) < 1e-9, "mode {n}: ∫ρAφ² = {q}");
-        assert!(rel(m.modes[n - 1].modal_mass_kg, q) < 1e-9);
+        assert!(rel(m.modes()[n - 1].modal_mass_kg, q) < 1e-9);
     }
 }
 
@@ -191,7 +191,7 @@ fn fe_frequencies_converge_to_the_closed_form_at_order_four() {
         .map(|&ne| {
             let fe = uniform_mesh(&b, ne, None).modes(4).unwrap();
             (0..4)
-                .map(|k| fe.omega_rad_s[k] / exact.modes[k].omega_rad_s - 1.0)
+                .map(|k| fe.omega_rad_s[k] / exact.modes()[k].omega_rad_s - 1.0)
                 .collect()
         })
         .collect();
@@ -237,17 +237,17 @@ fn mesh_rule_meets_its_tolerance() {
         let fe = b.modal_model().unwrap();
         let an = paper_beam().with_modes(n).modal_model().unwrap();
         for k in 0..n {
-            let e = rel(fe.modes[k].omega_rad_s, an.modes[k].omega_rad_s);
+            let e = rel(fe.modes()[k].omega_rad_s, an.modes()[k].omega_rad_s);
             assert!(e < FE_FREQ_TOLERANCE, "N = {n}, mode {}: {e:e}", k + 1);
             for p in [Point::Cavity, Point::Force, Point::Response] {
-                let (a, f) = (an.modes[k].shape(p), fe.modes[k].shape(p));
+                let (a, f) = (an.modes()[k].shape(p), fe.modes()[k].shape(p));
                 assert!(
                     (a - f).abs() < 1e-5,
                     "N = {n}, mode {}: {p:?} {a} vs {f}",
                     k + 1
                 );
             }
-            assert!(rel(fe.modes[k].modal_mass_kg, an.modes[k].modal_mass_kg) < 1e-5);
+            assert!(rel(fe.modes()[k].modal_mass_kg, an.modes()[k].modal_mass_kg) < 1e-5);
         }
     }
 }
@@ -296,7 +296,7 @@ fn tip_frf_against_the_closed_form_and_fe() {
         ..paper_beam()
     };
     let m = b.clone().with_modes(32).modal_model().unwrap();
-    let w1 = m.modes[0].omega_rad_s;
+    let w1 = m.modes()[0].omega_rad_s;
     // The truncated modes respond quasi-statically: their static share (residual flexibility)
     // is what the 32-mode sum misses, 6e-13 m/N.
     let residual = m.static_tip_compliance_m_per_n
@@ -336,7 +336,7 @@ fn tip_frf_against_the_closed_form_and_fe() {
     .modal_model()
     .unwrap();
     for r in [0.5, 0.99, 1.0, 2.0, 6.27] {
-        let w = r * an.modes[0].omega_rad_s;
+        let w = r * an.modes()[0].omega_rad_s;
         let (ga, gf) = (
             an.receptance(Point::Force, Point::Response, w),
             fe.receptance(Point::Force, Point::Response, w),
@@ -350,8 +350,8 @@ fn tip_frf_against_the_closed_form_and_fe() {
         assert!((back - ga).norm() <= 1e-15 * ga.norm());
     }
     // At resonance the first mode's term is −i/(2ζ k₁).
-    let g = an.receptance(Point::Response, Point::Response, an.modes[0].omega_rad_s);
-    let m1 = an.modes[0];
+    let g = an.receptance(Point::Response, Point::Response, an.modes()[0].omega_rad_s);
+    let m1 = an.modes()[0];
     let peak = Complex64::new(0.0, -1.0) * m1.shape_response.powi(2)
         / (2.0 * m1.damping_ratio * m1.modal_stiffness_n_per_m());
     assert!((g - peak).norm() < 0.02 * peak.norm());
@@ -409,12 +409,12 @@ fn tip_mass_against_the_closed_form_frequency_equation() {
         let m = beam.modal_model().unwrap();
         for (k, x) in tip_mass_roots(mu, 5).iter().enumerate() {
             let want = x * x * c;
-            let e = rel(m.modes[k].omega_rad_s, want);
+            let e = rel(m.modes()[k].omega_rad_s, want);
             assert!(e < FE_FREQ_TOLERANCE, "μ = {mu}, mode {}: {e:e}", k + 1);
         }
         // Tip-normalised, the tip mass adds itself to the modal mass; the bar's share moves from
         // ρAL/4 (free mode shape) towards 33/140 ρAL (static shape) as the tip mass grows.
-        let bar_share = (m.modes[0].modal_mass_kg - mu * b.mass_kg()) / b.mass_kg();
+        let bar_share = (m.modes()[0].modal_mass_kg - mu * b.mass_kg()) / b.mass_kg();
         assert!(
             (33.0 / 140.0..0.25).contains(&bar_share),
             "μ = {mu}: bar share {bar_share}"
@@ -435,7 +435,7 @@ fn tip_mass_against_the_closed_form_frequency_equation() {
     };
     let (a, bj) = (with(0.0), with(1e-4));
     for k in 0..3 {
-        assert!(bj.modes[k].omega_rad_s < a.modes[k].omega_rad_s);
+        assert!(bj.modes()[k].omega_rad_s < a.modes()[k].omega_rad_s);
     }
 }
 
@@ -444,7 +444,7 @@ fn lumped_structure_reproduces_the_bar_exactly() {
     for bar in [Bar::PAPER_CAVITY, Bar::PAPER_SOLID] {
         let m = Structure::Lumped(bar).modal_model().unwrap();
         assert_eq!(m.len(), 1);
-        let mode = m.modes[0];
+        let mode = m.modes()[0];
         assert_eq!(
             mode.omega_rad_s.to_bits(),
             bar.natural_freq_rad_s().to_bits()
@@ -493,7 +493,7 @@ fn measured_modes_are_taken_as_given() {
         },
     ];
     let m = Structure::Measured(modes.clone()).modal_model().unwrap();
-    assert_eq!(m.modes, vec![modes[1], modes[0]], "sorted by frequency");
+    assert_eq!(m.modes(), &[modes[1], modes[0]], "sorted by frequency");
     assert!((m.captured_static_fraction() - 1.0).abs() < 1e-15);
     let mut bad = modes.clone();
     bad[0].modal_mass_kg = 0.0;
@@ -508,7 +508,7 @@ fn paper_geometry_cavity_38_mm_from_the_free_end() {
     let b = paper_beam();
     assert!((b.length_m - b.cavity_position_m - 0.038).abs() < 1e-15);
     let m = b.modal_model().unwrap();
-    let phi = m.modes[0].shape_cavity;
+    let phi = m.modes()[0].shape_cavity;
     assert!((0.69..0.71).contains(&phi), "φ₁(cavity) = {phi}");
     // The cavity section: FE tip compliance against the unit-load integral of euler_bernoulli.
     let sec = Beam {
@@ -535,12 +535,12 @@ fn paper_geometry_cavity_38_mm_from_the_free_end() {
         b.mass_kg() - mass
     );
     // The lost mass near the tip outweighs the lost stiffness: f₁ goes up, as in the paper.
-    assert!(ms.modes[0].omega_rad_s > m.modes[0].omega_rad_s);
-    let shift = ms.modes[0].omega_rad_s / m.modes[0].omega_rad_s - 1.0;
+    assert!(ms.modes()[0].omega_rad_s > m.modes()[0].omega_rad_s);
+    let shift = ms.modes()[0].omega_rad_s / m.modes()[0].omega_rad_s - 1.0;
     println!(
         "paper bar: f₁ {:.2} Hz solid, {:.2} Hz with cavity section ({:+.3} %)",
-        m.modes[0].omega_rad_s / (2.0 * PI),
-        ms.modes[0].omega_rad_s / (2.0 * PI),
+        m.modes()[0].omega_rad_s / (2.0 * PI),
+        ms.modes()[0].omega_rad_s / (2.0 * PI),
         100.0 * shift
     );
     assert!(shift < 0.05, "shift {shift}");
@@ -726,7 +726,7 @@ fn per_mode_damping_and_its_last_value_beyond_the_list() {
     let z: Vec<f64> = b
         .modal_model()
         .unwrap()
-        .modes
+        .modes()
         .iter()
         .map(|m| m.damping_ratio)
         .collect();
@@ -760,7 +760,7 @@ fn every_corner_of_the_allowed_box_gives_finite_modes() {
                             rotary_inertia_kg_m2: 0.0,
                         });
                         let m: ModalModel = b.modal_model().unwrap();
-                        assert!(m.modes.iter().all(|m| m.omega_rad_s.is_finite()
+                        assert!(m.modes().iter().all(|m| m.omega_rad_s.is_finite()
                             && m.modal_mass_kg.is_finite()
                             && m.modal_mass_kg > 0.0));
                         assert!(m.static_tip_compliance_m_per_n.is_finite());
@@ -795,7 +795,7 @@ fn mesh_rule_converges_the_cavity_section_and_tip_mass() {
             .modes(n)
             .unwrap();
         for k in 0..n {
-            let e = rel(rule.modes[k].omega_rad_s, reference.omega_rad_s[k]);
+            let e = rel(rule.modes()[k].omega_rad_s, reference.omega_rad_s[k]);
             println!("N = {n}, mode {}: rule vs reference {e:.2e}", k + 1);
             assert!(e < FE_FREQ_TOLERANCE, "N = {n}, mode {}: {e:e}", k + 1);
         }

@@ -906,7 +906,7 @@ pub fn modes_values(n: usize, m: &vibrobar_core::structure::Mode) -> Vec<Value> 
 /// non-finite value stops the write and nothing is left).
 pub fn write_modes_csv(path: &Path, model: &vibrobar_core::structure::ModalModel) -> Result<()> {
     let rows = model
-        .modes
+        .modes()
         .iter()
         .enumerate()
         .map(|(k, m)| modes_values(k + 1, m));

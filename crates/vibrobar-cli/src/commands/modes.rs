@@ -94,7 +94,7 @@ pub fn modes(args: &ModesArgs) -> Result<()> {
         "  {:>4} {:>12} {:>14} {:>12} {:>12} {:>12}",
         "mode", "f (Hz)", "m_n (kg)", "φ(cavity)", "φ(force)", "φ(response)"
     );
-    for (k, m) in model.modes.iter().enumerate() {
+    for (k, m) in model.modes().iter().enumerate() {
         println!(
             "  {:>4} {:>12.3} {:>14.6} {:>12.6} {:>12.6} {:>12.6}",
             k + 1,

@@ -111,7 +111,7 @@ impl Rhs {
             friction,
             level: sys.friction_level_n(),
         };
-        for (i, mode) in sys.model.modes.iter().enumerate() {
+        for (i, mode) in sys.model.modes().iter().enumerate() {
             let (m, k) = (mode.modal_mass_kg, mode.modal_stiffness_n_per_m());
             r.m[i] = m;
             r.k[i] = k;
@@ -533,7 +533,7 @@ pub fn divergence_bound_m(sys: &ModalSystem, init: &ModalState) -> f64 {
     let gap = sys.damper.map_or(0.0, |d| d.half_gap_m());
     let scale = sys
         .model
-        .modes
+        .modes()
         .iter()
         .enumerate()
         .map(|(i, m)| {

@@ -317,7 +317,7 @@ impl Beam {
     /// The modal model: validated, `N` modes (given or by the default rule), tip-normalised.
     pub fn modal_model(&self) -> Result<ModalModel, ParamError> {
         self.validate()?;
-        let mut model = match self.modes {
+        let model = match self.modes {
             Some(n) => self.compute(n)?,
             None => {
                 let mut m = self.compute(DEFAULT_RULE_PROBE_MODES)?;
@@ -329,7 +329,7 @@ impl Beam {
                 m
             }
         };
-        for m in &mut model.modes {
+        for m in model.modes() {
             for v in [
                 m.omega_rad_s,
                 m.modal_mass_kg,
@@ -355,14 +355,14 @@ impl Beam {
     /// The first `n` modes, closed form or FE.
     fn compute(&self, n: usize) -> Result<ModalModel, ParamError> {
         if self.is_uniform() {
-            Ok(self.analytic(n))
+            self.analytic(n)
         } else {
             self.finite_elements(n)
         }
     }
 
     /// Closed-form modes of the uniform bar.
-    fn analytic(&self, n: usize) -> ModalModel {
+    fn analytic(&self, n: usize) -> Result<ModalModel, ParamError> {
         let (l, ei, ra) = (
             self.length_m,
             self.youngs_modulus_pa * self.second_moment_m4(),
@@ -381,11 +381,8 @@ impl Beam {
                     shape_response: m.shape(self.response_x_m() / l),
                 }
             })
-            .collect();
-        ModalModel {
-            modes,
-            static_tip_compliance_m_per_n: l.powi(3) / (3.0 * ei),
-        }
+            .collect::<Vec<_>>();
+        ModalModel::new(&modes, l.powi(3) / (3.0 * ei))
     }
 
     /// Elements of the mesh rule for `n` modes (module docs), or the override.
@@ -495,11 +492,8 @@ impl Beam {
                 shape_force: at(k, self.force_x_m()),
                 shape_response: at(k, self.response_x_m()),
             })
-            .collect();
-        Ok(ModalModel {
-            modes,
-            static_tip_compliance_m_per_n: fe.static_tip_compliance_m_per_n,
-        })
+            .collect::<Vec<_>>();
+        ModalModel::new(&modes, fe.static_tip_compliance_m_per_n)
     }
 }
 

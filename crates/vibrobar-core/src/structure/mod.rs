@@ -20,6 +20,7 @@ pub use beam::{Beam, CavitySection, DampingRatio, TipMass};
 pub use system::{ModalState, ModalSystem};
 
 use crate::error::ParamError;
+use crate::limits::MAX_BEAM_MODES;
 use crate::params::{finite, positive, Bar};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
@@ -79,6 +80,16 @@ pub struct Mode {
 }
 
 impl Mode {
+    /// The filler of a [`ModalModel`]'s unused entries (all zero; never read as a mode).
+    pub const UNUSED: Mode = Mode {
+        omega_rad_s: 0.0,
+        damping_ratio: 0.0,
+        modal_mass_kg: 0.0,
+        shape_cavity: 0.0,
+        shape_force: 0.0,
+        shape_response: 0.0,
+    };
+
     /// Modal stiffness `mₙωₙ²`.
     pub fn modal_stiffness_n_per_m(&self) -> f64 {
         self.modal_mass_kg * self.omega_rad_s * self.omega_rad_s
@@ -115,36 +126,92 @@ pub enum Point {
 }
 
 /// The structure reduced to its modes, computed once per run.
-#[derive(Debug, Clone, PartialEq)]
+///
+/// Fixed capacity ([`MAX_BEAM_MODES`] modes, `len` used; the unused entries are
+/// [`Mode::UNUSED`]), so that it is `Copy` and a [`crate::params::System`] holding it stays plain
+/// data. Read the modes through [`ModalModel::modes`]; build one with [`ModalModel::new`], which
+/// checks the count.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "ModalModelRepr", into = "ModalModelRepr")]
 pub struct ModalModel {
-    /// Modes by increasing frequency.
-    pub modes: Vec<Mode>,
+    /// Modes by increasing frequency in `[..len]`, [`Mode::UNUSED`] beyond.
+    modes: [Mode; MAX_BEAM_MODES],
+    /// Number of modes used.
+    len: usize,
     /// The exact static tip compliance (all modes: closed form or the full FE model), m/N;
     /// the reference of [`ModalModel::captured_static_fraction`].
     pub static_tip_compliance_m_per_n: f64,
 }
 
+/// How a [`ModalModel`] is written (metadata): the used modes only.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModalModelRepr {
+    modes: Vec<Mode>,
+    static_tip_compliance_m_per_n: f64,
+}
+
+impl TryFrom<ModalModelRepr> for ModalModel {
+    type Error = ParamError;
+    fn try_from(r: ModalModelRepr) -> Result<Self, ParamError> {
+        ModalModel::new(&r.modes, r.static_tip_compliance_m_per_n)
+    }
+}
+
+impl From<ModalModel> for ModalModelRepr {
+    fn from(m: ModalModel) -> Self {
+        ModalModelRepr {
+            modes: m.modes().to_vec(),
+            static_tip_compliance_m_per_n: m.static_tip_compliance_m_per_n,
+        }
+    }
+}
+
 impl ModalModel {
-    /// The modes, by increasing frequency. New code reads them through this accessor (the
-    /// storage may become fixed-capacity so that a `System` stays `Copy`).
+    /// A model of the given modes (in the order given), `1 ≤ len ≤` [`MAX_BEAM_MODES`]; the
+    /// error names the count and its range. The modes themselves are checked by the users'
+    /// `validate` (e.g. [`ModalSystem::validate`]).
+    pub fn new(modes: &[Mode], static_tip_compliance_m_per_n: f64) -> Result<Self, ParamError> {
+        crate::limits::check_count(
+            "modes (number of modes of a modal model)",
+            modes.len(),
+            1,
+            MAX_BEAM_MODES,
+            "",
+        )?;
+        let mut m = ModalModel {
+            modes: [Mode::UNUSED; MAX_BEAM_MODES],
+            len: modes.len(),
+            static_tip_compliance_m_per_n,
+        };
+        m.modes[..modes.len()].copy_from_slice(modes);
+        Ok(m)
+    }
+
+    /// The modes, by increasing frequency.
     pub fn modes(&self) -> &[Mode] {
-        &self.modes
+        &self.modes[..self.len]
+    }
+
+    /// The modes, mutable (to change a damping ratio or a shape in a study; the count is fixed).
+    pub fn modes_mut(&mut self) -> &mut [Mode] {
+        &mut self.modes[..self.len]
     }
 
     /// Number of modes.
     pub fn len(&self) -> usize {
-        self.modes.len()
+        self.len
     }
 
-    /// True without modes (never for a model from [`Structure::modal_model`]).
+    /// True without modes (never for a model from [`ModalModel::new`]).
     pub fn is_empty(&self) -> bool {
-        self.modes.is_empty()
+        self.len == 0
     }
 
     /// Receptance `G(iω) = Σ φₙ(to) φₙ(from) / (mₙ(ωₙ² − ω² + 2iζₙωₙω))`: the displacement at
     /// `to` per unit harmonic force at `from`, m/N.
     pub fn receptance(&self, from: Point, to: Point, omega_rad_s: f64) -> Complex64 {
-        self.modes
+        self.modes()
             .iter()
             .map(|m| {
                 let wn = m.omega_rad_s;
@@ -159,7 +226,7 @@ impl ModalModel {
 
     /// Static compliance of the retained modes between two points, `Σ φₙ(from)φₙ(to)/(mₙωₙ²)`.
     pub fn static_compliance_m_per_n(&self, from: Point, to: Point) -> f64 {
-        self.modes
+        self.modes()
             .iter()
             .map(|m| m.shape(from) * m.shape(to) / m.modal_stiffness_n_per_m())
             .sum()
@@ -167,7 +234,7 @@ impl ModalModel {
 
     /// Static tip compliance of the first `n` modes, `Σ 1/(mₖωₖ²)` (tip shapes are 1).
     pub fn tip_compliance_of_first(&self, n: usize) -> f64 {
-        self.modes
+        self.modes()
             .iter()
             .take(n)
             .map(|m| 1.0 / m.modal_stiffness_n_per_m())
@@ -181,7 +248,10 @@ impl ModalModel {
 
     /// Keep the first `n` modes.
     pub fn truncate(&mut self, n: usize) {
-        self.modes.truncate(n);
+        if n < self.len {
+            self.modes[n..self.len].fill(Mode::UNUSED);
+            self.len = n;
+        }
     }
 }
 
@@ -213,10 +283,7 @@ impl Structure {
                     shape_force: 1.0,
                     shape_response: 1.0,
                 };
-                Ok(ModalModel {
-                    modes: vec![mode],
-                    static_tip_compliance_m_per_n: 1.0 / bar.stiffness_n_per_m,
-                })
+                ModalModel::new(&[mode], 1.0 / bar.stiffness_n_per_m)
             }
             Structure::Beam(b) => b.modal_model(),
             Structure::Measured(modes) => {
@@ -241,10 +308,7 @@ impl Structure {
                     c,
                     "modal masses or frequencies outside floating-point range",
                 )?;
-                Ok(ModalModel {
-                    modes,
-                    static_tip_compliance_m_per_n: c,
-                })
+                ModalModel::new(&modes, c)
             }
         }
     }

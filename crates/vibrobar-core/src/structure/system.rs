@@ -43,13 +43,13 @@ impl ModalSystem {
 
     /// First natural frequency `ω₁`.
     pub fn omega1_rad_s(&self) -> f64 {
-        self.model.modes[0].omega_rad_s
+        self.model.modes()[0].omega_rad_s
     }
 
     /// Highest retained natural frequency (the one RK4's stability sees).
     pub fn omega_max_rad_s(&self) -> f64 {
         self.model
-            .modes
+            .modes()
             .iter()
             .map(|m| m.omega_rad_s)
             .fold(0.0, f64::max)
@@ -78,7 +78,7 @@ impl ModalSystem {
     /// `φₙ` at a point, mode by mode, in a fixed-capacity row (unused entries 0).
     pub fn row(&self, p: Point) -> [f64; MAX_BEAM_MODES] {
         let mut r = [0.0; MAX_BEAM_MODES];
-        for (x, m) in r.iter_mut().zip(&self.model.modes) {
+        for (x, m) in r.iter_mut().zip(self.model.modes()) {
             *x = m.shape(p);
         }
         r
@@ -87,7 +87,7 @@ impl ModalSystem {
     /// Modal masses in a fixed-capacity row (unused entries 0).
     pub fn modal_masses_kg(&self) -> [f64; MAX_BEAM_MODES] {
         let mut r = [0.0; MAX_BEAM_MODES];
-        for (x, m) in r.iter_mut().zip(&self.model.modes) {
+        for (x, m) in r.iter_mut().zip(self.model.modes()) {
             *x = m.modal_mass_kg;
         }
         r
@@ -97,7 +97,7 @@ impl ModalSystem {
     pub fn bar_effective_mass_at_cavity_kg(&self) -> f64 {
         1.0 / self
             .model
-            .modes
+            .modes()
             .iter()
             .map(|m| m.shape_cavity * m.shape_cavity / m.modal_mass_kg)
             .sum::<f64>()
@@ -107,7 +107,7 @@ impl ModalSystem {
     pub fn mechanical_energy_j(&self, s: &ModalState) -> f64 {
         let bar: f64 = self
             .model
-            .modes
+            .modes()
             .iter()
             .enumerate()
             .map(|(i, m)| {
@@ -135,7 +135,7 @@ impl ModalSystem {
             MAX_BEAM_MODES,
             "",
         )?;
-        for m in &self.model.modes {
+        for m in self.model.modes() {
             m.validate()?;
             crate::params::in_range("modes.damping_ratio", m.damping_ratio, 0.0, 1.0, "[0, 1)")?;
             if m.damping_ratio >= 1.0 {
@@ -284,7 +284,7 @@ impl ModalState {
 /// `Σ φₙ(p) xₙ` over the model's modes (summed from mode 1, so one unit mode gives `x₁` exactly).
 fn dot(model: &ModalModel, p: Point, x: &[f64; MAX_BEAM_MODES]) -> f64 {
     let mut s = 0.0;
-    for (m, xi) in model.modes.iter().zip(x) {
+    for (m, xi) in model.modes().iter().zip(x) {
         s += m.shape(p) * xi;
     }
     s
