@@ -9,6 +9,7 @@ pub mod map;
 pub mod merge;
 pub mod modes;
 pub mod paper;
+pub mod placement;
 pub mod run;
 pub mod sweep;
 
