@@ -21,7 +21,7 @@
 //! (mean reduction, the nodes of modes 2 and 3 of the damped bar, the optimum) and prints the
 //! optimum (largest mean reduction; ties: smaller worst RMS, then the position nearer the clamp
 //! and the smaller gap).
-use super::{batch_error, make_solver, parse_range, SystemArgs};
+use super::{batch_error, fmt_coord, make_solver, parse_range, SystemArgs};
 use crate::progress::Progress;
 use crate::scenario::{Overrides, Scenario};
 use anyhow::{bail, Context};
@@ -163,11 +163,11 @@ pub fn job(args: &PlacementArgs) -> anyhow::Result<PlacementJob> {
     let allowed = if spec.beam.cavity_section.is_some() {
         format!(
             "[{}, {}] mm (the cavity centre from the clamp, its hole inside the bar)",
-            Compact(lo * 1e3),
-            Compact(hi * 1e3)
+            fmt_coord(lo * 1e3),
+            fmt_coord(hi * 1e3)
         )
     } else {
-        format!("[0, {}] mm (from the clamp)", Compact(hi * 1e3))
+        format!("[0, {}] mm (from the clamp)", fmt_coord(hi * 1e3))
     };
     // mm → m by a division (correctly rounded: 175 mm is the same double as L = 0.175 m).
     let positions_m: Vec<f64> = parse_range(
