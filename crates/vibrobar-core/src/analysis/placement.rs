@@ -225,7 +225,7 @@ impl PlacementSpec {
     /// A system of this study: `model`, optional ball, forced at `ratio` of its own `ω₁`.
     pub fn system(&self, model: &ModalModel, damper: Option<Damper>, ratio: f64) -> ModalSystem {
         ModalSystem {
-            model: model.clone(),
+            model: *model,
             damper,
             forcing: Forcing {
                 frequency: Frequency::Ratio(ratio),
