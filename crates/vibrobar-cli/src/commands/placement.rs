@@ -131,12 +131,15 @@ pub fn beam_scenario(a: &SystemArgs) -> anyhow::Result<(Scenario, Beam)> {
     Ok((sc, beam))
 }
 
+/// A [`placement::CaseFn`] owned.
+pub type OwnedCase = Box<dyn Fn(&ModalSystem) -> Result<CaseStats, SimError> + Sync>;
+
 /// How one case runs for `solver` (by name): the modal RK4 today; `exact` is refused until the
 /// N-mode exact solver is wired.
 pub fn case_for(
     solver: &str,
     spec: &PlacementSpec,
-) -> anyhow::Result<Box<dyn Fn(&ModalSystem) -> Result<CaseStats, SimError> + Sync>> {
+) -> anyhow::Result<OwnedCase> {
     make_solver(solver, &spec.settings)?;
     match solver {
         "rk4" => Ok(Box::new(rk4_case(spec.settings, spec.tolerances))),
