@@ -6,7 +6,9 @@ use anyhow::Result;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
-use crate::commands::{beam, bench, explore, map, merge, modes, paper, placement, run, sweep};
+use crate::commands::{
+    beam, bench, explore, lumped_vs_beam, map, merge, modes, paper, placement, run, sweep,
+};
 
 /// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
 /// "The effect of rolling friction on vibro-impact damped boring bars".
@@ -137,6 +139,9 @@ pub enum Command {
     /// RMS, regime), the optimum and a heat map with the nodes of modes 2 and 3; resumable
     /// (--resume) and shardable (--shard K/N).
     Placement(crate::commands::placement::PlacementArgs),
+    /// Write the generated Markdown document comparing the paper's lumped bar with the N-mode
+    /// beam at the paper's geometry, with the convergence study in the number of modes.
+    LumpedVsBeam(crate::commands::lumped_vs_beam::LumpedVsBeamArgs),
 }
 
 impl Command {
@@ -157,6 +162,7 @@ impl Command {
             Command::BenchMap(_) => "bench-map",
             Command::Modes(_) => "modes",
             Command::Placement(_) => "placement",
+            Command::LumpedVsBeam(_) => "lumped-vs-beam",
         }
     }
 
@@ -183,6 +189,7 @@ impl Command {
             Command::BenchMap(a) => (one(&a.scenario), None),
             Command::Modes(a) => (one(&a.scenario), Some(a.out.as_path())),
             Command::Placement(a) => (one(&a.system.scenario), Some(a.out.as_path())),
+            Command::LumpedVsBeam(a) => (vec![], Some(a.out.as_path())),
         }
     }
 
@@ -258,5 +265,6 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Bench(a) => bench::bench(&a),
         Command::Modes(a) => modes::modes(&a),
         Command::Placement(a) => placement::run(&a),
+        Command::LumpedVsBeam(a) => lumped_vs_beam::run(&a),
     }
 }

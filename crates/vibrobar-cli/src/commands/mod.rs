@@ -5,6 +5,7 @@ pub mod beam;
 pub mod bench;
 pub mod design;
 pub mod explore;
+pub mod lumped_vs_beam;
 pub mod map;
 pub mod merge;
 pub mod modes;

@@ -136,10 +136,7 @@ pub type OwnedCase = Box<dyn Fn(&ModalSystem) -> Result<CaseStats, SimError> + S
 
 /// How one case runs for `solver` (by name): the modal RK4 today; `exact` is refused until the
 /// N-mode exact solver is wired.
-pub fn case_for(
-    solver: &str,
-    spec: &PlacementSpec,
-) -> anyhow::Result<OwnedCase> {
+pub fn case_for(solver: &str, spec: &PlacementSpec) -> anyhow::Result<OwnedCase> {
     make_solver(solver, &spec.settings)?;
     match solver {
         "rk4" => Ok(Box::new(rk4_case(spec.settings, spec.tolerances))),
