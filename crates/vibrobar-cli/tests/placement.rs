@@ -181,3 +181,23 @@ fn bad_input_names_the_flag_and_its_range() {
     let o = vibrobar_env(&v, &[]);
     assert_fails_with(&o, &["--positions-mm", "[9, 166] mm"]);
 }
+
+#[test]
+fn bench_prints_the_beam_rows_and_the_placement_projection() {
+    let o = vibrobar_env(
+        &["bench", "--solvers", "rk4,exact", "--duration", "0.01"],
+        &[],
+    );
+    assert_ok(&o);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("4-mode beam"), "{out}");
+    assert!(
+        out.contains("rk4    beam run:") && out.contains("× the lumped rk4 run"),
+        "{out}"
+    );
+    assert!(out.contains("exact  beam run: not wired"), "{out}");
+    assert!(
+        out.contains("projected 50×50 positions × gaps over 11 ratios (27511 runs)"),
+        "{out}"
+    );
+}
