@@ -216,7 +216,7 @@ fn beam_rows(
             &points,
             Runner::default().with_threads(Some(PLACEMENT_THREADS)),
             case.as_ref(),
-            |r| Ok::<_, PointFailed>(r),
+            Ok::<_, PointFailed>,
         )
         .map_err(|e| anyhow::anyhow!("bench placement: {e}"))?;
         let w = t.elapsed().as_secs_f64();
