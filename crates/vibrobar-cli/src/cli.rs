@@ -62,6 +62,14 @@ pub struct ModelArgs {
     /// Simulated time per run in s; RMS is taken over the last 80 % [default: 2].
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub duration: Option<f64>,
+    /// Number of modes N of a `[beam]` scenario, overriding `[beam] modes`, in [1, 32]
+    /// [default: the fewest (at least 3) capturing 99.5 % of the static tip compliance].
+    #[arg(long, value_name = "N")]
+    pub beam_modes: Option<usize>,
+    /// Cavity centre (the ball) of a `[beam]` scenario in mm from the clamp, in [0, L],
+    /// overriding `[beam] cavity_position_m`.
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    pub cavity_position_mm: Option<f64>,
 }
 
 /// `vibrobar sweep`.
@@ -79,7 +87,8 @@ pub struct SweepArgs {
         value_delimiter = ','
     )]
     pub gap_mm: Vec<f64>,
-    /// Frequency ratios Ω/√(K/M) as START:STOP:STEP, STOP included (0.95:1.05:0.01 is 11 points) [default: from the scenario].
+    /// Frequency ratios Ω/ω₁ (ω₁ = √(K/M) of a lumped bar, the first mode's of a beam; the
+    /// solid reference at Ω/ω₁ of its own) as START:STOP:STEP, STOP included (0.95:1.05:0.01 is 11 points) [default: from the scenario].
     #[arg(long, value_name = "START:STOP:STEP", allow_hyphen_values = true)]
     pub ratios: Option<String>,
     /// Continue an interrupted sweep from FILE.csv.journal (same parameters only).
@@ -100,13 +109,15 @@ pub struct RunArgs {
     /// Total clearance in mm (the ball moves ±gap/2) [default: from the scenario].
     #[arg(long, value_name = "G", allow_negative_numbers = true)]
     pub gap_mm: Option<f64>,
-    /// Frequency ratio Ω/√(K/M) [default: from the scenario].
+    /// Frequency ratio Ω/ω₁ (ω₁ = √(K/M) of a lumped bar, the first mode's of a beam)
+    /// [default: from the scenario].
     #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub ratio: Option<f64>,
     /// Write one row every N time steps (every N·dt s).
     #[arg(long, value_name = "N", default_value_t = 10)]
     pub sample_every: u64,
-    /// Initial bar displacement u(0) in m [default: 0].
+    /// Initial bar displacement u(0) in m, at the response point (a beam: put into mode 1)
+    /// [default: 0].
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
     pub u0_m: Option<f64>,
     /// Initial ball position relative to the cavity centre w(0) = v − u in m, within ±gap/2 [default: 0].

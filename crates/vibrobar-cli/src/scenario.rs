@@ -15,6 +15,7 @@ use std::path::Path;
 use vibrobar_core::analysis::sweep::SweepRange;
 use vibrobar_core::analysis::{SweepBase, SweepPoint};
 use vibrobar_core::error::Compact;
+use vibrobar_core::params::BarModel;
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
 use vibrobar_core::structure::{Beam, Structure};
 use vibrobar_core::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};
@@ -46,6 +47,27 @@ pub struct Scenario {
     /// `[bar]`. See the `[beam]` section of this module.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub beam: Option<Beam>,
+    /// The bars' models, computed once ([`Scenario::bars`]; a beam's modes cost up to seconds).
+    #[serde(skip)]
+    bars_cache: BarsCache,
+}
+
+/// The damped and solid bars of a scenario, computed once. Not part of the scenario's value: it
+/// compares equal, prints nothing, and is emptied whenever the bar changes through a method
+/// ([`Scenario::apply_beam_flags`]).
+#[derive(Clone, Default)]
+struct BarsCache(std::sync::OnceLock<(Option<Beam>, Bar, Bar, BarModel, BarModel)>);
+
+impl PartialEq for BarsCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for BarsCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("BarsCache")
+    }
 }
 
 impl Default for Scenario {
@@ -60,6 +82,7 @@ impl Default for Scenario {
             initial: State::default(),
             sweep: SweepRange::default(),
             beam: None,
+            bars_cache: BarsCache::default(),
         }
     }
 }
@@ -282,13 +305,9 @@ impl Scenario {
         Ok(s)
     }
 
-    /// Read a scenario file for a command that simulates: a `[beam]` scenario is refused until
-    /// the N-mode solver exists ([`Scenario::refuse_beam`]).
+    /// Read a scenario file ([`Scenario::load_any`]).
     pub fn load(path: &Path) -> Result<Self> {
-        let s = Self::load_any(path)?;
-        s.refuse_beam()
-            .with_context(|| format!("scenario file {}", path.display()))?;
-        Ok(s)
+        Self::load_any(path)
     }
 
     /// Read a scenario file, `[beam]` or not. It becomes an input of this process: no output
@@ -352,6 +371,7 @@ impl Scenario {
             duration: args.duration,
             rms_fraction: None,
         })?;
+        s.apply_beam_flags(args.beam_modes, args.cavity_position_mm)?;
         Ok(s)
     }
 
@@ -393,24 +413,58 @@ impl Scenario {
         self.run.settings
     }
 
-    /// The forcing's frequency ratio against the bar with the cavity.
-    pub fn frequency_ratio(&self) -> f64 {
-        match self.forcing.frequency {
+    /// The forcing's frequency ratio against the bar with the cavity (`Ω/ω₁` of that bar).
+    pub fn frequency_ratio(&self) -> Result<f64> {
+        Ok(match self.forcing.frequency {
             Frequency::Ratio(r) => r,
-            Frequency::RadPerS(w) => w / self.bar.natural_freq_rad_s(),
+            Frequency::RadPerS(w) => w / self.bars()?.0.omega1_rad_s(),
+        })
+    }
+
+    /// The solid reference of a `[beam]`: the same bar without the cavity's section loss (the
+    /// ball is absent from every solid run), with as many modes as the bar with the cavity.
+    pub fn solid_beam(beam: &Beam, modes: usize) -> Beam {
+        Beam {
+            cavity_section: None,
+            modes: Some(modes),
+            ..beam.clone()
         }
     }
 
+    /// The bar with the cavity and the solid reference bar, as the solvers see them: `[bar]`
+    /// and `[solid_bar]` for the lumped scenario; for a `[beam]`, its modes
+    /// ([`BarModel::Modal`]) and those of [`Scenario::solid_beam`] (its own first frequency, so
+    /// a ratio is `Ω/ω₁` of each bar). Computed once per scenario value; errors name the field.
+    pub fn bars(&self) -> Result<(BarModel, BarModel)> {
+        let key = (self.beam.clone(), self.bar, self.solid_bar);
+        if let Some(c) = self.bars_cache.0.get() {
+            if (&c.0, c.1, c.2) == (&key.0, key.1, key.2) {
+                return Ok((c.3, c.4));
+            }
+        }
+        let (damped, solid) = match &self.beam {
+            None => (BarModel::Lumped(self.bar), BarModel::Lumped(self.solid_bar)),
+            Some(b) => {
+                let damped = b.modal_model()?;
+                let solid = Self::solid_beam(b, damped.len()).modal_model()?;
+                (BarModel::Modal(damped), BarModel::Modal(solid))
+            }
+        };
+        let _ = self.bars_cache.0.set((key.0, key.1, key.2, damped, solid));
+        Ok((damped, solid))
+    }
+
     /// Bars, ball, forcing, gravity and initial state of a batch.
-    pub fn base(&self) -> SweepBase {
-        SweepBase {
-            damped_bar: self.bar,
-            solid_bar: self.solid_bar,
+    pub fn base(&self) -> Result<SweepBase> {
+        let (damped_bar, solid_bar) = self.bars()?;
+        Ok(SweepBase {
+            damped_bar,
+            solid_bar,
             ball: self.damper,
             forcing: self.forcing,
             gravity_m_s2: self.gravity_m_s2,
             init: self.initial,
-        }
+        })
     }
 
     /// Sweep points in grid order, gap-major (every ratio of the first gap, then the next gap),
@@ -430,13 +484,13 @@ impl Scenario {
     }
 
     /// The damped system as given (gap, friction, ratio from the scenario).
-    pub fn damped_system(&self) -> System {
-        System {
-            bar: self.bar,
+    pub fn damped_system(&self) -> Result<System> {
+        Ok(System {
+            bar: self.bars()?.0,
             damper: Some(self.damper),
             forcing: self.forcing,
             gravity_m_s2: self.gravity_m_s2,
-        }
+        })
     }
 
     /// Initial state from `[initial]`.
@@ -446,17 +500,22 @@ impl Scenario {
 
     /// Validate everything a run needs; errors name the scenario field and its allowed range.
     pub fn validate(&self) -> Result<()> {
-        self.refuse_beam()?;
         positive("gravity_m_s2", self.gravity_m_s2)?;
-        self.damped_system().validate()?;
+        let damped = self.damped_system()?;
+        damped.validate()?;
         let solid = System {
-            bar: self.solid_bar,
+            bar: self.bars()?.1,
             damper: None,
-            ..self.damped_system()
+            ..damped
         };
-        solid.validate().map_err(|e| anyhow::anyhow!("solid_{e}"))?;
+        // The lumped solid bar's fields are `solid_bar.*`; a beam's solid reference is the
+        // same [beam], already checked.
+        solid.validate().map_err(|e| match self.beam {
+            None => anyhow::anyhow!("solid_{e}"),
+            Some(_) => anyhow::anyhow!("solid reference bar: {e}"),
+        })?;
         self.settings().validate()?;
-        self.initial_state().validate(&self.damped_system())?;
+        self.initial_state().validate(&damped)?;
         Ok(())
     }
 }
@@ -566,10 +625,7 @@ pub fn ratio_range(start: f64, stop: f64, step: f64) -> Result<Vec<f64>> {
 // [beam] (issue #8): the bar as an Euler–Bernoulli beam. The section deserialises straight into
 // core `structure::Beam` (paper geometry for missing fields). With `[beam]` present, `[bar]` and
 // `[solid_bar]` do not apply, so a file that sets both is refused rather than one silently
-// ignored. Until the N-mode solver exists, only `vibrobar modes` accepts a `[beam]` scenario.
-
-/// Why a command that simulates refuses a `[beam]` scenario.
-pub const BEAM_NOT_SIMULATED: &str = "this scenario has a [beam] section, but the N-mode solver is not built yet; `vibrobar modes` works (it writes the beam's modes); to simulate the paper's lumped bar, remove [beam]";
+// ignored. Every command runs a `[beam]` scenario on its modes ([`Scenario::bars`]).
 
 /// Refuse `[beam]` together with `[bar]` or `[solid_bar]`: both would describe the bar.
 fn check_beam_against_bar(raw: &toml::Table) -> Result<()> {
@@ -587,14 +643,6 @@ fn check_beam_against_bar(raw: &toml::Table) -> Result<()> {
 }
 
 impl Scenario {
-    /// Error for a `[beam]` scenario in a command that simulates ([`BEAM_NOT_SIMULATED`]).
-    pub fn refuse_beam(&self) -> Result<()> {
-        if self.beam.is_some() {
-            bail!("{BEAM_NOT_SIMULATED}");
-        }
-        Ok(())
-    }
-
     /// The structure this scenario describes: its `[beam]`, else the lumped `[bar]`.
     pub fn structure(&self) -> Structure {
         match &self.beam {
@@ -612,6 +660,7 @@ impl Scenario {
         if beam_modes.is_none() && cavity_position_mm.is_none() {
             return Ok(());
         }
+        self.bars_cache = BarsCache::default();
         let Some(b) = self.beam.as_mut() else {
             bail!(
                 "--beam-modes and --cavity-position-mm need a scenario with a [beam] section \
@@ -799,22 +848,47 @@ mod tests {
         }
     }
 
+    /// A `[beam]` scenario runs on its modes (it used to be refused by every simulating path):
+    /// the bar with the cavity is the beam's modal model, the solid reference the same bar
+    /// without the cavity section, with its own first frequency (the uniform bar's closed form).
     #[test]
-    fn beam_scenario_is_refused_by_every_simulating_path() {
-        let s = Scenario::from_toml("[beam]\n").unwrap();
-        let e = s.validate().unwrap_err().to_string();
-        assert!(e.contains("N-mode solver is not built yet"), "{e}");
+    fn beam_scenario_runs_on_its_modes_and_the_solid_reference_drops_the_cavity_section() {
+        let text =
+            "[beam]\nmodes = 2\n[beam.cavity_section]\nhole_diameter_m = 0.015\nlength_m = 0.016\n";
+        let s = Scenario::from_toml(text).unwrap();
+        s.validate().unwrap();
+        let (damped, solid) = s.bars().unwrap();
+        let (BarModel::Modal(d), BarModel::Modal(so)) = (damped, solid) else {
+            panic!("a beam's bars are modal: {damped:?}, {solid:?}");
+        };
+        assert_eq!((d.len(), so.len()), (2, 2));
+        let b = s.beam.clone().unwrap();
+        let c =
+            (b.youngs_modulus_pa * b.second_moment_m4() / (b.density_kg_m3 * b.area_m2())).sqrt();
+        let w1 = (1.875_104_069 / b.length_m).powi(2) * c;
+        assert!((so.modes()[0].omega_rad_s / w1 - 1.0).abs() < 1e-9);
+        // The hole changes the bar with the cavity: its ω₁ is not the solid bar's.
+        let shift = d.modes()[0].omega_rad_s / w1 - 1.0;
+        assert!(shift.abs() > 1e-4, "{shift}");
+        assert_eq!(s.damped_system().unwrap().bar, damped);
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("b.toml");
         std::fs::write(&p, "[beam]\n").unwrap();
-        let e = format!("{:#}", Scenario::load(&p).unwrap_err());
-        assert!(e.contains("`vibrobar modes` works"), "{e}");
-        assert!(Scenario::load_any(&p).unwrap().beam.is_some());
+        assert!(Scenario::load(&p).unwrap().beam.is_some());
+        // The flags change the bars (the cache is emptied): 3 modes → 1.
+        let mut s = Scenario::from_toml("[beam]\nmodes = 3\n").unwrap();
+        assert_eq!(s.bars().unwrap().0.as_modal().unwrap().len(), 3);
+        s.apply_beam_flags(Some(1), None).unwrap();
+        assert_eq!(s.bars().unwrap().0.as_modal().unwrap().len(), 1);
         // Without [beam], nothing changes: same scenario, same JSON (no `beam` key).
         let j = serde_json::to_value(Scenario::paper()).unwrap();
         assert!(j.get("beam").is_none());
         assert!(
             matches!(Scenario::paper().structure(), Structure::Lumped(b) if b == Bar::PAPER_CAVITY)
+        );
+        assert_eq!(
+            Scenario::paper().bars().unwrap(),
+            (Bar::PAPER_CAVITY.into(), Bar::PAPER_SOLID.into())
         );
     }
 

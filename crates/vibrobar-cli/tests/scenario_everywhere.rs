@@ -114,8 +114,8 @@ fn a_user_can_map_their_own_bar() {
     // The rows are the core's runs of the user's bar, bit for bit.
     let spec = MapSpec {
         base: vibrobar_core::analysis::SweepBase {
-            damped_bar: own_bar(),
-            solid_bar: own_solid(),
+            damped_bar: own_bar().into(),
+            solid_bar: own_solid().into(),
             ball: own_ball(),
             ..vibrobar_core::analysis::SweepBase::paper()
         },

@@ -147,6 +147,9 @@ pub enum SimError {
         /// Half gap.
         half_gap_m: f64,
     },
+    /// The solver does not handle this system (the message says what and what to use instead).
+    #[error("{0}")]
+    Unsupported(&'static str),
     /// The state became NaN or infinite.
     #[error("state is not finite at t = {t_s} s")]
     NonFinite {

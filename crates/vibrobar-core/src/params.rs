@@ -5,6 +5,7 @@
 
 use crate::error::ParamError;
 use crate::limits;
+use crate::structure::ModalModel;
 use serde::{Deserialize, Serialize};
 
 /// Standard gravity used for the derived rolling-friction force.
@@ -171,7 +172,8 @@ impl Default for Damper {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Frequency {
-    /// `Ω / √(K/M)` of the bar being simulated.
+    /// `Ω / ω₁` of the bar being simulated ([`System::omega1_rad_s`]: `√(K/M)` for the lumped
+    /// bar, the first mode's frequency for a modal one).
     Ratio(f64),
     /// `Ω` directly.
     RadPerS(f64),
@@ -209,14 +211,90 @@ impl Default for Forcing {
     }
 }
 
+/// What the bar is to a solver: the paper's lumped bar, or a modal model (a beam's modes).
+///
+/// The lumped [`Bar`] is kept as given (not as its one-mode model): the paper's goldens are
+/// pinned on `K` and `C = 2ζ√(KM)`, and `M(√(K/M))² ≠ K` by an ulp for the paper's solid bar, so
+/// the lumped solvers read `M`, `K`, `C` from the `Bar` itself.
+///
+/// Serialised untagged: a lumped bar is written as the [`Bar`] it is (so the metadata of every
+/// lumped run is unchanged), a modal one as its modes.
+// Not boxed: a `System` stays `Copy` plain data (no allocation per run); the modal variant's
+// 1.5 kB are copied once per run, not per step.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum BarModel {
+    /// The paper's lumped SDOF bar.
+    Lumped(Bar),
+    /// A bar reduced to its modes (tip-normalised; see [`crate::structure`]).
+    Modal(ModalModel),
+}
+
+impl From<Bar> for BarModel {
+    fn from(b: Bar) -> Self {
+        BarModel::Lumped(b)
+    }
+}
+
+impl From<ModalModel> for BarModel {
+    fn from(m: ModalModel) -> Self {
+        BarModel::Modal(m)
+    }
+}
+
+impl BarModel {
+    /// The lumped bar, if this is one.
+    pub fn as_lumped(&self) -> Option<&Bar> {
+        match self {
+            BarModel::Lumped(b) => Some(b),
+            BarModel::Modal(_) => None,
+        }
+    }
+
+    /// The lumped bar, mutable, if this is one.
+    pub fn as_lumped_mut(&mut self) -> Option<&mut Bar> {
+        match self {
+            BarModel::Lumped(b) => Some(b),
+            BarModel::Modal(_) => None,
+        }
+    }
+
+    /// First natural frequency `ω₁`: `√(K/M)` of a lumped bar, the first mode's of a modal one.
+    pub fn omega1_rad_s(&self) -> f64 {
+        match self {
+            BarModel::Lumped(b) => b.natural_freq_rad_s(),
+            BarModel::Modal(m) => m.modes().first().map_or(f64::NAN, |m| m.omega_rad_s),
+        }
+    }
+
+    /// Highest natural frequency kept (what RK4's stability and the phase limit see): `ω₁` of
+    /// a lumped bar, `ω_N` of a modal one.
+    pub fn omega_max_rad_s(&self) -> f64 {
+        match self {
+            BarModel::Lumped(b) => b.natural_freq_rad_s(),
+            BarModel::Modal(m) => m.modes().iter().map(|m| m.omega_rad_s).fold(0.0, f64::max),
+        }
+    }
+
+    /// The modal model, if this is one (a lumped bar's one-mode model is
+    /// [`System::modal_model`]).
+    pub fn as_modal(&self) -> Option<&ModalModel> {
+        match self {
+            BarModel::Lumped(_) => None,
+            BarModel::Modal(m) => Some(m),
+        }
+    }
+}
+
 /// A complete model: bar, optional ball, forcing.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct System {
-    /// The bar.
-    pub bar: Bar,
+    /// The bar: lumped or modal.
+    pub bar: BarModel,
     /// The ball; `None` is a bar without damper (the solid reference bar).
     pub damper: Option<Damper>,
-    /// External force on the bar.
+    /// External force on the bar (at the force point of a modal bar).
     pub forcing: Forcing,
     /// Gravity for the derived friction force.
     pub gravity_m_s2: f64,
@@ -226,7 +304,7 @@ impl System {
     /// Paper's impact-damped bar at a gap, friction model and frequency ratio.
     pub fn paper_damped(gap_m: f64, friction: FrictionModel, ratio: f64) -> System {
         System {
-            bar: Bar::PAPER_CAVITY,
+            bar: BarModel::Lumped(Bar::PAPER_CAVITY),
             damper: Some(Damper::paper(gap_m, friction)),
             forcing: Forcing::paper(ratio),
             gravity_m_s2: STANDARD_GRAVITY_M_S2,
@@ -236,17 +314,43 @@ impl System {
     /// Paper's solid bar (no ball) at a frequency ratio of its own natural frequency.
     pub fn paper_solid(ratio: f64) -> System {
         System {
-            bar: Bar::PAPER_SOLID,
+            bar: BarModel::Lumped(Bar::PAPER_SOLID),
             damper: None,
             forcing: Forcing::paper(ratio),
             gravity_m_s2: STANDARD_GRAVITY_M_S2,
         }
     }
 
+    /// The lumped bar, if the bar is one (shorthand of [`BarModel::as_lumped`]).
+    pub fn lumped_bar(&self) -> Option<&Bar> {
+        self.bar.as_lumped()
+    }
+
+    /// First natural frequency `ω₁` of the bar simulated ([`BarModel::omega1_rad_s`]).
+    /// [`Frequency::Ratio`] is `Ω/ω₁` of this.
+    pub fn omega1_rad_s(&self) -> f64 {
+        self.bar.omega1_rad_s()
+    }
+
+    /// Highest natural frequency kept ([`BarModel::omega_max_rad_s`]).
+    pub fn omega_max_rad_s(&self) -> f64 {
+        self.bar.omega_max_rad_s()
+    }
+
+    /// The bar's modal model: a modal bar's own, or the lumped bar's one unit mode
+    /// (`ω = √(K/M)`, `m = M`, `ζ`, every shape 1; see [`BarModel`] for why the lumped solvers
+    /// do not run on it).
+    pub fn modal_model(&self) -> ModalModel {
+        match &self.bar {
+            BarModel::Lumped(b) => ModalModel::lumped(b),
+            BarModel::Modal(m) => *m,
+        }
+    }
+
     /// Forcing frequency `Ω` in rad/s.
     pub fn omega_rad_s(&self) -> f64 {
         match self.forcing.frequency {
-            Frequency::Ratio(r) => r * self.bar.natural_freq_rad_s(),
+            Frequency::Ratio(r) => r * self.omega1_rad_s(),
             Frequency::RadPerS(w) => w,
         }
     }
@@ -270,22 +374,42 @@ impl System {
 
     /// Check every field; the error names the field and the allowed range.
     pub fn validate(&self) -> Result<(), ParamError> {
-        positive("bar.mass_kg", self.bar.mass_kg)?;
-        positive("bar.stiffness_n_per_m", self.bar.stiffness_n_per_m)?;
-        in_range(
-            "bar.damping_ratio",
-            self.bar.damping_ratio,
-            0.0,
-            1.0,
-            "[0, 1)",
-        )?;
-        if self.bar.damping_ratio >= 1.0 {
-            return Err(ParamError::OutOfRange {
-                field: "bar.damping_ratio",
-                value: self.bar.damping_ratio,
-                allowed: "[0, 1)",
-            });
-        }
+        let ratio_meaning = match &self.bar {
+            BarModel::Lumped(bar) => {
+                positive("bar.mass_kg", bar.mass_kg)?;
+                positive("bar.stiffness_n_per_m", bar.stiffness_n_per_m)?;
+                in_range("bar.damping_ratio", bar.damping_ratio, 0.0, 1.0, "[0, 1)")?;
+                if bar.damping_ratio >= 1.0 {
+                    return Err(ParamError::OutOfRange {
+                        field: "bar.damping_ratio",
+                        value: bar.damping_ratio,
+                        allowed: "[0, 1)",
+                    });
+                }
+                "Ω/√(K/M) of a one-mode bar"
+            }
+            BarModel::Modal(model) => {
+                limits::check_count(
+                    "modes (number of modes of the modal system)",
+                    model.len(),
+                    1,
+                    limits::MAX_BEAM_MODES,
+                    "",
+                )?;
+                for m in model.modes() {
+                    m.validate()?;
+                    in_range("modes.damping_ratio", m.damping_ratio, 0.0, 1.0, "[0, 1)")?;
+                    if m.damping_ratio >= 1.0 {
+                        return Err(ParamError::OutOfRange {
+                            field: "modes.damping_ratio",
+                            value: m.damping_ratio,
+                            allowed: "[0, 1)",
+                        });
+                    }
+                }
+                "Ω/ω₁ of the modal bar"
+            }
+        };
         finite("forcing.amplitude_n", self.forcing.amplitude_n)?;
         finite("forcing.static_force_n", self.forcing.static_force_n)?;
         match self.forcing.frequency {
@@ -296,7 +420,7 @@ impl System {
                     r,
                     limits::FREQ_RATIO_MIN,
                     limits::FREQ_RATIO_MAX,
-                    "Ω/√(K/M) of a one-mode bar",
+                    ratio_meaning,
                 )?;
             }
             Frequency::RadPerS(w) => positive("forcing.omega_rad_s", w)?,
@@ -316,25 +440,33 @@ impl System {
     }
 
     /// Check that a run to `t_end_s` keeps the phase of `sin(Ωt)` and of the bar's own
-    /// oscillation accurate: `max(Ω, ω_n)·max(|t0|, |t_end|) ≤` [`limits::MAX_PHASE_RAD`].
+    /// oscillation accurate: `max(Ω, ω_max)·max(|t0|, |t_end|) ≤` [`limits::MAX_PHASE_RAD`]
+    /// (`ω_max` the highest mode kept, [`System::omega_max_rad_s`]).
     pub fn validate_horizon(&self, t0_s: f64, t_end_s: f64) -> Result<(), ParamError> {
-        let rate = self.omega_rad_s().max(self.bar.natural_freq_rad_s());
+        let rate = self.omega_rad_s().max(self.omega_max_rad_s());
         limits::check_phase(rate, t0_s.abs().max(t_end_s.abs()))?;
         Ok(())
     }
 
     /// Check a fixed step `dt_s` for a run over `span_s`: positive, at most
-    /// [`limits::MAX_STEPS`] steps, and `ω_n·dt` within RK4's stability limit
-    /// [`limits::RK4_MAX_OMEGA_DT`] (a larger step diverges).
+    /// [`limits::MAX_STEPS`] steps, and `ω_max·dt` of the highest mode kept within RK4's
+    /// stability limit [`limits::RK4_MAX_OMEGA_DT`] (a larger step diverges).
     pub fn validate_fixed_step(&self, dt_s: f64, span_s: f64) -> Result<(), ParamError> {
         positive("dt_s", dt_s)?;
-        let wn = self.bar.natural_freq_rad_s();
+        let wn = self.omega_max_rad_s();
         limits::check(
             "dt_s (--dt)",
             dt_s,
             0.0,
             limits::RK4_MAX_OMEGA_DT / wn,
-            "rk4's stability limit ω_n·dt ≤ 2.5 for this bar; a larger step diverges",
+            match self.bar {
+                BarModel::Lumped(_) => {
+                    "rk4's stability limit ω_n·dt ≤ 2.5 for this bar; a larger step diverges"
+                }
+                BarModel::Modal(_) => {
+                    "rk4's stability limit ω_N·dt ≤ 2.5 for the highest mode kept; a larger step diverges (or keep fewer modes, --beam-modes)"
+                }
+            },
         )?;
         limits::check(
             "steps duration/dt (--duration, --dt)",
@@ -349,20 +481,39 @@ impl System {
 
 /// Full state of bar and ball. Without a damper the ball fields are ignored.
 ///
+/// `u`, `u̇` are the bar's motion at the response point (where RMS and histories look); the
+/// ball's relative motion is taken at the cavity, whose motion is [`State::cavity`]: `None` when
+/// the cavity is where `u` is measured (the lumped bar, and every state built from
+/// [`State::REST`]), so a lumped state reads exactly as before.
+///
 /// The default is [`State::REST`]; missing fields deserialise to it, unknown fields are errors.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct State {
     /// Time.
     pub t_s: f64,
-    /// Bar displacement `u`.
+    /// Bar displacement `u` (at the response point).
     pub u_m: f64,
-    /// Bar velocity `u̇`.
+    /// Bar velocity `u̇` (at the response point).
     pub du_m_s: f64,
-    /// Ball displacement `v` (absolute; the cavity centre is at `u`).
+    /// Ball displacement `v` (absolute; the cavity centre is at [`State::u_cavity_m`]).
     pub v_m: f64,
     /// Ball velocity `v̇`.
     pub dv_m_s: f64,
+    /// The cavity's motion when it differs from the response point's (a modal bar);
+    /// `None`: the cavity moves with `u`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cavity: Option<CavityMotion>,
+}
+
+/// The bar's motion at the cavity (the ball's reference), when it is not the response point's.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CavityMotion {
+    /// Bar displacement at the cavity, `u(x_d)`.
+    pub u_cavity_m: f64,
+    /// Bar velocity at the cavity, `u̇(x_d)`.
+    pub du_cavity_m_s: f64,
 }
 
 impl State {
@@ -373,25 +524,46 @@ impl State {
         du_m_s: 0.0,
         v_m: 0.0,
         dv_m_s: 0.0,
+        cavity: None,
     };
 
-    /// Relative displacement `w = v − u`.
-    pub fn w_m(&self) -> f64 {
-        self.v_m - self.u_m
+    /// Bar displacement at the cavity, `u(x_d)` (`u` when [`State::cavity`] is `None`).
+    pub fn u_cavity_m(&self) -> f64 {
+        self.cavity.map_or(self.u_m, |c| c.u_cavity_m)
     }
 
-    /// Relative velocity `ẇ = v̇ − u̇`.
+    /// Bar velocity at the cavity, `u̇(x_d)` (`u̇` when [`State::cavity`] is `None`).
+    pub fn du_cavity_m_s(&self) -> f64 {
+        self.cavity.map_or(self.du_m_s, |c| c.du_cavity_m_s)
+    }
+
+    /// Relative displacement `w = v − u(x_d)`.
+    pub fn w_m(&self) -> f64 {
+        self.v_m - self.u_cavity_m()
+    }
+
+    /// Relative velocity `ẇ = v̇ − u̇(x_d)`.
     pub fn dw_m_s(&self) -> f64 {
-        self.dv_m_s - self.du_m_s
+        self.dv_m_s - self.du_cavity_m_s()
     }
 
     /// Check the initial condition against the system.
+    ///
+    /// On a modal bar the state must map onto the modes
+    /// ([`crate::structure::ModalState::from_public`]: `u`, `u̇` into mode 1).
     pub fn validate(&self, sys: &System) -> Result<(), ParamError> {
         finite("initial.t_s", self.t_s)?;
         finite("initial.u_m", self.u_m)?;
         finite("initial.du_m_s", self.du_m_s)?;
         finite("initial.v_m", self.v_m)?;
         finite("initial.dv_m_s", self.dv_m_s)?;
+        if let Some(c) = &self.cavity {
+            finite("initial.u_cavity_m", c.u_cavity_m)?;
+            finite("initial.du_cavity_m_s", c.du_cavity_m_s)?;
+        }
+        if let BarModel::Modal(model) = &sys.bar {
+            crate::structure::ModalState::from_public(model, self)?;
+        }
         if let Some(d) = &sys.damper {
             let lg = d.half_gap_m();
             if self.w_m().abs() > lg {

@@ -8,7 +8,8 @@ use vibrobar_core::{FrictionModel, State, System};
 #[test]
 fn linear_bar_gives_minus_zeta_omega_n() {
     let sys = System::paper_solid(0.9);
-    let zw = sys.bar.damping_ratio * sys.bar.natural_freq_rad_s(); // ≈ 37.2 1/s
+    let zw =
+        sys.lumped_bar().unwrap().damping_ratio * sys.lumped_bar().unwrap().natural_freq_rad_s(); // ≈ 37.2 1/s
     let p = LyapunovParams::periods(&sys, 0.01, 3.0, 60);
     let r = max_lyapunov(&sys, &State::REST, &Rk4 { dt_s: 2e-6 }, &p).unwrap();
     assert!(
@@ -31,7 +32,8 @@ fn linear_bar_gives_minus_zeta_omega_n() {
 #[test]
 fn no_impact_damped_bar_is_neutral() {
     let sys = System::paper_damped(1e-3, FrictionModel::None, 0.9);
-    let zw = sys.bar.damping_ratio * sys.bar.natural_freq_rad_s();
+    let zw =
+        sys.lumped_bar().unwrap().damping_ratio * sys.lumped_bar().unwrap().natural_freq_rad_s();
     let p = LyapunovParams::periods(&sys, 0.0, 3.0, 200);
     let tau = p.interval_s;
     let r = max_lyapunov(&sys, &State::REST, &Rk4 { dt_s: 2e-6 }, &p).unwrap();

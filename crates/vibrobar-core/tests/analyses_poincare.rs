@@ -10,9 +10,9 @@ use vibrobar_core::{FrictionModel, State, System};
 /// Steady state of `M ü + C u̇ + K u = F_s + F0 sin(Ωt)` at forcing phase `φ` (`Ωt ≡ φ`):
 /// `u = F_s/K + X sin(φ − θ)`, `u̇ = XΩ cos(φ − θ)`.
 fn closed_form(sys: &System, phase: f64) -> (f64, f64) {
-    let k = sys.bar.stiffness_n_per_m;
-    let r = sys.omega_rad_s() / sys.bar.natural_freq_rad_s();
-    let z = sys.bar.damping_ratio;
+    let k = sys.lumped_bar().unwrap().stiffness_n_per_m;
+    let r = sys.omega_rad_s() / sys.lumped_bar().unwrap().natural_freq_rad_s();
+    let z = sys.lumped_bar().unwrap().damping_ratio;
     let x = sys.forcing.amplitude_n / k / ((1.0 - r * r).powi(2) + (2.0 * z * r).powi(2)).sqrt();
     let theta = (2.0 * z * r).atan2(1.0 - r * r);
     (
@@ -27,7 +27,8 @@ fn stroboscopic_points_converge_to_the_linear_steady_state() {
     sys.forcing.static_force_n = 3.0;
     let phase = 1.0;
     let (u_ss, du_ss) = closed_form(&sys, phase);
-    let x = (u_ss - 3.0 / sys.bar.stiffness_n_per_m).hypot(du_ss / sys.omega_rad_s());
+    let x =
+        (u_ss - 3.0 / sys.lumped_bar().unwrap().stiffness_n_per_m).hypot(du_ss / sys.omega_rad_s());
     let mut strobe = Stroboscope::for_system(&sys, phase, 0.05);
     Rk4 { dt_s: 1e-6 }
         .run(&sys, &State::REST, 0.4, &mut strobe)

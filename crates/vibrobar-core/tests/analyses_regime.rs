@@ -270,6 +270,9 @@ impl vibrobar_core::solver::Segment for ModeSegment {
     fn integrals(&self, _a: f64, _b: f64) -> vibrobar_core::solver::SegmentIntegrals {
         Default::default()
     }
+    fn mechanical_energy_j(&self, _t_s: f64) -> f64 {
+        0.0
+    }
 }
 
 #[test]

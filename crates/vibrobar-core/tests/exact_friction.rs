@@ -55,7 +55,8 @@ fn friction_to_ground(r: f64, f: f64) -> (System, f64) {
             mass_kg: 1.0,
             stiffness_n_per_m: k,
             damping_ratio: 0.0,
-        },
+        }
+        .into(),
         damper: Some(Damper {
             ball_mass_kg: 1e9,
             friction_force_n: Some(f),
@@ -104,9 +105,9 @@ fn paper(fr: FrictionModel, gap: f64, f: Option<f64>, r: f64) -> System {
 fn md_acc_pair(sys: &System, s: &State) -> f64 {
     let d = sys.damper.unwrap();
     let f = sys.force_n(s.t_s)
-        - sys.bar.damping_n_s_per_m() * s.du_m_s
-        - sys.bar.stiffness_n_per_m * s.u_m;
-    d.ball_mass_kg * f / (sys.bar.mass_kg + d.ball_mass_kg)
+        - sys.lumped_bar().unwrap().damping_n_s_per_m() * s.du_m_s
+        - sys.lumped_bar().unwrap().stiffness_n_per_m * s.u_m;
+    d.ball_mass_kg * f / (sys.lumped_bar().unwrap().mass_kg + d.ball_mass_kg)
 }
 
 fn run(sys: &System, t_end: f64) -> (Recorder, State) {
@@ -118,7 +119,8 @@ fn run(sys: &System, t_end: f64) -> (Recorder, State) {
 /// `ΔE = W_forcing − W_viscous + W_friction − impact/chatter losses` to `rel` of the input work.
 fn audit(sys: &System, rec: &Recorder, end: &State, rel: f64) {
     let t = rec.totals;
-    let de = model::mechanical_energy_j(sys, end) - model::mechanical_energy_j(sys, &State::REST);
+    let de = model::mechanical_energy_j(sys, end).unwrap()
+        - model::mechanical_energy_j(sys, &State::REST).unwrap();
     let gap = t.forcing_work_j - t.viscous_loss_j + t.friction_work_j - rec.losses_j() - de;
     assert!(
         gap.abs() < rel * t.forcing_work_j.abs(),
@@ -161,7 +163,7 @@ fn stick_and_unstick_follow_the_force_condition() {
     let sys = paper(FrictionModel::Coulomb, 1e-3, Some(5.0), 1.05);
     let f = 5.0;
     let d = sys.damper.unwrap();
-    let kappa = 1.0 / d.ball_mass_kg + 1.0 / sys.bar.mass_kg;
+    let kappa = 1.0 / d.ball_mass_kg + 1.0 / sys.lumped_bar().unwrap().mass_kg;
     let (rec, end) = run(&sys, 0.2);
     let (mut sticks, mut unsticks) = (0, 0);
     for ev in &rec.events {
@@ -171,8 +173,9 @@ fn stick_and_unstick_follow_the_force_condition() {
                 sticks += 1;
                 assert!(s.dw_m_s().abs() < 1e-15);
                 // Needed force |a_b|/κ within the limit.
-                let a_b = md_acc_pair(&sys, &s) * (sys.bar.mass_kg + d.ball_mass_kg)
-                    / (d.ball_mass_kg * sys.bar.mass_kg);
+                let a_b = md_acc_pair(&sys, &s)
+                    * (sys.lumped_bar().unwrap().mass_kg + d.ball_mass_kg)
+                    / (d.ball_mass_kg * sys.lumped_bar().unwrap().mass_kg);
                 assert!(
                     a_b.abs() <= f * kappa * (1.0 + 1e-12),
                     "{a_b} {}",
@@ -214,7 +217,7 @@ fn contact_releases_when_the_contact_force_vanishes() {
         (FrictionModel::Coulomb, 0.005),
     ] {
         let mut sys = common::constant_push(0.0, 2e-4, 0.3);
-        sys.bar.stiffness_n_per_m = 1e-12;
+        sys.bar.as_lumped_mut().unwrap().stiffness_n_per_m = 1e-12;
         sys.forcing.amplitude_n = -2.0;
         sys.forcing.frequency = Frequency::RadPerS(10.0);
         let d = sys.damper.as_mut().unwrap();

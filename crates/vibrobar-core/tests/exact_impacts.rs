@@ -21,7 +21,8 @@ fn fixed_bar(restitution: f64) -> System {
             mass_kg: 1e12,
             stiffness_n_per_m: 1e18,
             damping_ratio: 0.01,
-        },
+        }
+        .into(),
         damper: Some(Damper {
             restitution,
             ..Damper::paper(2e-3, FrictionModel::None)
@@ -144,7 +145,7 @@ fn chatter_case(e: f64) {
     }
     // Energy audit: forcing work = ΔE + losses (frictionless, undamped).
     let e0 = 0.0;
-    let e1 = model::mechanical_energy_j(&sys, &sum.final_state);
+    let e1 = model::mechanical_energy_j(&sys, &sum.final_state).unwrap();
     let audit = rec.totals.forcing_work_j - rec.totals.viscous_loss_j - rec.losses_j() - (e1 - e0);
     assert!(
         audit.abs() < 1e-9 * rec.totals.forcing_work_j.abs(),
@@ -323,7 +324,7 @@ fn chatter_with_coulomb_friction_sums_to_its_accumulation_point() {
 /// swings `u = U cos ωt`, so `w = v0 − U cos ωt` peaks tangentially at `v0 + U` at `ωt = π`.
 fn oscillating_graze(delta: f64) -> (Recorder, Sampler, f64) {
     let mut sys = System::paper_damped(0.1e-3, FrictionModel::None, 1.0);
-    sys.bar.damping_ratio = 0.0;
+    sys.bar.as_lumped_mut().unwrap().damping_ratio = 0.0;
     sys.forcing.amplitude_n = 0.0;
     let (lg, big_u) = (0.05e-3, 3e-5);
     let init = State {
@@ -331,7 +332,7 @@ fn oscillating_graze(delta: f64) -> (Recorder, Sampler, f64) {
         v_m: lg - big_u + delta,
         ..State::REST
     };
-    let period = 2.0 * std::f64::consts::PI / sys.bar.natural_freq_rad_s();
+    let period = 2.0 * std::f64::consts::PI / sys.lumped_bar().unwrap().natural_freq_rad_s();
     let mut rec = Recorder::default();
     let mut sampler = Sampler::new(0.0, period / 997.0);
     {

@@ -11,9 +11,9 @@ use vibrobar_core::*;
 /// written with the amplitude/phase of the steady state and absolute time.
 fn closed_form(sys: &System, t0: f64, u0: f64, du0: f64, t: f64) -> f64 {
     let (m, k, c) = (
-        sys.bar.mass_kg,
-        sys.bar.stiffness_n_per_m,
-        sys.bar.damping_n_s_per_m(),
+        sys.lumped_bar().unwrap().mass_kg,
+        sys.lumped_bar().unwrap().stiffness_n_per_m,
+        sys.lumped_bar().unwrap().damping_n_s_per_m(),
     );
     let om = sys.omega_rad_s();
     let f0 = sys.forcing.amplitude_n;
@@ -23,7 +23,7 @@ fn closed_form(sys: &System, t0: f64, u0: f64, du0: f64, t: f64) -> f64 {
     let phi = (c * om).atan2(k - m * om * om);
     let up = |t: f64| us + x * (om * t - phi).sin();
     let dup = |t: f64| x * om * (om * t - phi).cos();
-    let zeta = sys.bar.damping_ratio;
+    let zeta = sys.lumped_bar().unwrap().damping_ratio;
     let wn = (k / m).sqrt();
     let wd = wn * (1.0 - zeta * zeta).sqrt();
     let (a0, b0) = (u0 - up(t0), du0 - dup(t0));
@@ -50,6 +50,7 @@ fn check_against_closed_form(sys: &System, solver: &dyn Solver, rel_tol: f64) {
         du_m_s: -0.01,
         v_m: 2e-5,
         dv_m_s: -0.01,
+        cavity: None,
     };
     let t_end = 0.35;
     let mut sampler = Sampler::new(init.t_s, 1.37e-5);
@@ -129,8 +130,8 @@ fn rms_integral_matches_independent_quadrature() {
 #[test]
 fn undamped_exact_resonance_is_an_error_not_a_panic() {
     let mut sys = System::paper_solid(1.0);
-    sys.bar.damping_ratio = 0.0;
-    sys.forcing.frequency = Frequency::RadPerS(sys.bar.natural_freq_rad_s());
+    sys.bar.as_lumped_mut().unwrap().damping_ratio = 0.0;
+    sys.forcing.frequency = Frequency::RadPerS(sys.lumped_bar().unwrap().natural_freq_rad_s());
     let r = Exact::default().run(&sys, &State::REST, 0.01, &mut ());
     assert!(
         matches!(r, Err(SimError::UndampedResonance { .. })),

@@ -24,6 +24,7 @@ fn start(sys: &System, o: &common::orbit::Orbit, eps: f64) -> State {
         du_m_s: o.du_plus,
         v_m: o.u0 + lg,
         dv_m_s: -o.v_ball * (1.0 + eps),
+        cavity: None,
     };
     // Keep w = v − u within [−l_g, l_g] despite rounding.
     while s.w_m() > lg {

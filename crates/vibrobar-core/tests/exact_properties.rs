@@ -131,7 +131,8 @@ fn sample_case(rng: &mut SplitMix64, index: usize) -> Case {
             mass_kg: mass,
             stiffness_n_per_m: k,
             damping_ratio: zeta,
-        },
+        }
+        .into(),
         damper: Some(Damper {
             ball_mass_kg: mu * mass,
             ball_radius_m: 0.0075,
@@ -179,6 +180,7 @@ fn sample_case(rng: &mut SplitMix64, index: usize) -> Case {
         du_m_s: du0,
         v_m: v0,
         dv_m_s: du0 + dw0,
+        cavity: None,
     };
     let periods = rng.log_uniform(20.0, 200.0);
     let t_end_s = periods * sys.forcing_period_s();
@@ -258,7 +260,7 @@ fn check_exact(c: &Case, max_events: u64) -> Result<&'static str, String> {
                 .samples
                 .iter()
                 .chain([&c.init])
-                .map(|s| mechanical_energy_j(&c.sys, s))
+                .map(|s| mechanical_energy_j(&c.sys, s).unwrap())
                 .fold(0.0, f64::max);
             let scale = b
                 .work_input_j
@@ -290,12 +292,14 @@ fn long_and_near_resonant_cases() -> Vec<Case> {
     for i in 0..LONG_CASES {
         let mut c = sample_case(&mut rng, i);
         let wn = rng.log_uniform(300.0, 5000.0);
-        c.sys.bar.stiffness_n_per_m = c.sys.bar.mass_kg * wn * wn;
+        c.sys.bar.as_lumped_mut().unwrap().stiffness_n_per_m =
+            c.sys.lumped_bar().unwrap().mass_kg * wn * wn;
         if i % 2 == 0 {
+            let bar = *c.sys.lumped_bar().unwrap();
             let d = c.sys.damper.as_mut().unwrap();
             let x = (c.sys.forcing.amplitude_n.abs() + c.sys.forcing.static_force_n.abs()).max(1.0)
-                / c.sys.bar.stiffness_n_per_m
-                / c.sys.bar.damping_ratio.max(1e-3);
+                / bar.stiffness_n_per_m
+                / bar.damping_ratio.max(1e-3);
             d.gap_m = d.gap_m.max(6.0 * x);
             c.init = State::REST;
         }
@@ -304,7 +308,7 @@ fn long_and_near_resonant_cases() -> Vec<Case> {
     }
     for i in 0..NEAR_RESONANT_CASES {
         let mut c = sample_case(&mut rng, LONG_CASES + i);
-        c.sys.bar.damping_ratio = if rng.pick(2) == 0 {
+        c.sys.bar.as_lumped_mut().unwrap().damping_ratio = if rng.pick(2) == 0 {
             0.0
         } else {
             rng.log_uniform(1e-9, 1e-5)
@@ -371,7 +375,7 @@ fn run_cases(cases: &[Case], min_ok: usize, max_events: u64) {
 fn rk4_never_panics_on_random_systems() {
     let mut panics = Vec::new();
     for c in cases().into_iter().step_by(4) {
-        let wn = c.sys.bar.natural_freq_rad_s();
+        let wn = c.sys.lumped_bar().unwrap().natural_freq_rad_s();
         let t_short = 2.0 * c.sys.forcing_period_s();
         let dt = (2.0 * std::f64::consts::PI / wn.max(c.sys.omega_rad_s()) / 50.0).min(t_short);
         let r = catch_unwind(AssertUnwindSafe(|| {

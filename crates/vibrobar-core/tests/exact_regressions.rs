@@ -100,7 +100,7 @@ fn regression_paper_preset_at_1_mm_stopped_near_83_s() {
 
 fn undamped(gap_m: f64, ratio: f64) -> System {
     let mut sys = System::paper_damped(gap_m, FrictionModel::None, ratio);
-    sys.bar.damping_ratio = 0.0;
+    sys.bar.as_lumped_mut().unwrap().damping_ratio = 0.0;
     sys
 }
 

@@ -67,7 +67,7 @@ fn regression_ratio_1e151_is_refused_instead_of_nan_rows() {
 fn regression_rk4_dt_beyond_its_stability_limit_is_refused() {
     // `run --solver rk4 --dt 0.1` gave an RMS of 5.8e79 m with exit 0.
     let sys = paper();
-    let wn = sys.bar.natural_freq_rad_s();
+    let wn = sys.lumped_bar().unwrap().natural_freq_rad_s();
     for dt in [0.1, 1e-3, 2.6 / wn] {
         let e = param_err(Rk4 { dt_s: dt }.run(&sys, &State::REST, 0.2, &mut ()));
         assert_eq!(e.field(), "dt_s (--dt)");

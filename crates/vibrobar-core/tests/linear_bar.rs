@@ -8,7 +8,7 @@ use vibrobar_core::{Bar, Forcing, Frequency, Solver, State, System};
 
 fn bar_system(ratio: f64, static_force_n: f64) -> System {
     System {
-        bar: Bar::PAPER_SOLID,
+        bar: Bar::PAPER_SOLID.into(),
         damper: None,
         forcing: Forcing {
             amplitude_n: 15.0,
@@ -34,9 +34,9 @@ struct Exact {
 impl Exact {
     fn new(sys: &System, init: &State) -> Exact {
         let (m, c, k) = (
-            sys.bar.mass_kg,
-            sys.bar.damping_n_s_per_m(),
-            sys.bar.stiffness_n_per_m,
+            sys.lumped_bar().unwrap().mass_kg,
+            sys.lumped_bar().unwrap().damping_n_s_per_m(),
+            sys.lumped_bar().unwrap().stiffness_n_per_m,
         );
         let (fs, f0, omega) = (
             sys.forcing.static_force_n,
@@ -98,9 +98,9 @@ fn closed_form_satisfies_the_ode_and_initial_conditions() {
     let ex = exact_for(&sys, &init);
     assert!((ex.u(0.0) - 2e-6).abs() < 1e-18 && (ex.du(0.0) + 1e-3).abs() < 1e-15);
     let (m, c, k) = (
-        sys.bar.mass_kg,
-        sys.bar.damping_n_s_per_m(),
-        sys.bar.stiffness_n_per_m,
+        sys.lumped_bar().unwrap().mass_kg,
+        sys.lumped_bar().unwrap().damping_n_s_per_m(),
+        sys.lumped_bar().unwrap().stiffness_n_per_m,
     );
     let h = 1e-7;
     for t in [1e-3, 0.01, 0.037] {

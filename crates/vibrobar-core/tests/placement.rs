@@ -3,13 +3,14 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use vibrobar_core::analysis::placement::{
-    mode_convergence, optimum, rk4_case, run, summarise, CaseStats, PlacementGrid, PlacementPoint,
-    PlacementRow, PlacementSpec, PointFailed,
+    mode_convergence, optimum, run, solver_case, summarise, CaseStats, PlacementGrid,
+    PlacementPoint, PlacementRow, PlacementSpec, PointFailed,
 };
 use vibrobar_core::analysis::regime::{Regime, Tolerances};
 use vibrobar_core::analysis::Runner;
+use vibrobar_core::solver::Rk4;
 use vibrobar_core::structure::{Beam, CavitySection};
-use vibrobar_core::{Damper, Forcing, FrictionModel, RunSettings};
+use vibrobar_core::{Damper, Forcing, FrictionModel, RunSettings, System};
 
 fn spec(beam: Beam, duration_s: f64) -> PlacementSpec {
     PlacementSpec {
@@ -27,7 +28,10 @@ fn spec(beam: Beam, duration_s: f64) -> PlacementSpec {
 }
 
 fn rows(s: &PlacementSpec, grid: &PlacementGrid) -> Vec<PlacementRow> {
-    let case = rk4_case(s.settings, s.tolerances);
+    let rk4 = Rk4 {
+        dt_s: s.settings.dt_s,
+    };
+    let case = solver_case(&rk4, s.settings, s.tolerances, false);
     let points: Vec<PlacementPoint> = (0..grid.len()).filter_map(|i| grid.point(i)).collect();
     run(
         s,
@@ -85,7 +89,7 @@ fn rows_summarise_the_band_and_the_optimum_breaks_ties_as_documented() {
         rms_m,
         impacts_per_cycle: 2.0,
         regime,
-        impact_loss_j: 0.0,
+        impact_loss_j: None,
         window_s: 1.0,
     };
     let p = PlacementPoint {
@@ -141,13 +145,13 @@ fn positions_outside_the_bar_are_refused_before_any_run() {
     let s = spec(holed, 0.01);
     assert_eq!(s.position_range_m(), (0.009, 0.175 - 0.009));
     let calls = AtomicUsize::new(0);
-    let case = |_: &vibrobar_core::structure::ModalSystem| {
+    let case = |_: &System| {
         calls.fetch_add(1, Ordering::Relaxed);
         Ok(CaseStats {
             rms_m: 1.0,
             impacts_per_cycle: 0.0,
             regime: Regime::None,
-            impact_loss_j: 0.0,
+            impact_loss_j: None,
             window_s: 1.0,
         })
     };
@@ -173,7 +177,10 @@ fn positions_outside_the_bar_are_refused_before_any_run() {
 #[test]
 fn convergence_rows_carry_the_growing_inverse_effective_mass() {
     let s = spec(Beam::default(), 0.02);
-    let case = rk4_case(s.settings, s.tolerances);
+    let rk4 = Rk4 {
+        dt_s: s.settings.dt_s,
+    };
+    let case = solver_case(&rk4, s.settings, s.tolerances, true);
     let rows =
         mode_convergence(&s, 0.175, 0.1e-3, 1.0, &[1, 2, 4], Runner::default(), &case).unwrap();
     let m = Beam::default().mass_kg();

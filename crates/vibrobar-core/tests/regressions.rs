@@ -133,7 +133,8 @@ fn regression_friction_work_of_a_slide_shorter_than_the_rounding_of_w() {
             mass_kg: 0.104,
             stiffness_n_per_m: 1.7e5,
             damping_ratio: 0.28,
-        },
+        }
+        .into(),
         damper: Some(Damper {
             ball_mass_kg: 7.26e-5,
             ball_radius_m: 0.0075,
@@ -208,7 +209,8 @@ fn regression_elastic_chatter_under_coulomb_friction_was_not_summed() {
             mass_kg: 1.0,
             stiffness_n_per_m: 1e4,
             damping_ratio: 0.5,
-        },
+        }
+        .into(),
         damper: Some(Damper {
             ball_mass_kg: 0.1,
             ball_radius_m: 0.0075,
@@ -264,7 +266,7 @@ fn regression_unforced_ball_at_rest_on_a_wall_looped_at_one_instant() {
         (FrictionModel::Coulomb, Some(0.0), 0.5e-3),
     ] {
         let sys = System {
-            bar: Bar::PAPER_CAVITY,
+            bar: Bar::PAPER_CAVITY.into(),
             damper: Some(Damper {
                 friction,
                 friction_force_n: level,

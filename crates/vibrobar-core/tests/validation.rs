@@ -52,10 +52,10 @@ fn damped() -> System {
 fn non_positive_masses_stiffness_gap_and_ranges() {
     for bad in [0.0, -1.0] {
         let mut s = damped();
-        s.bar.mass_kg = bad;
+        s.bar.as_lumped_mut().unwrap().mass_kg = bad;
         rejects(&s, "bar.mass_kg", Some("(0, ∞)"));
         let mut s = damped();
-        s.bar.stiffness_n_per_m = bad;
+        s.bar.as_lumped_mut().unwrap().stiffness_n_per_m = bad;
         rejects(&s, "bar.stiffness_n_per_m", Some("(0, ∞)"));
         let mut s = damped();
         s.damper.as_mut().unwrap().ball_mass_kg = bad;
@@ -74,7 +74,7 @@ fn non_positive_masses_stiffness_gap_and_ranges() {
     }
     for z in [1.0, 1.5, -0.01] {
         let mut s = damped();
-        s.bar.damping_ratio = z;
+        s.bar.as_lumped_mut().unwrap().damping_ratio = z;
         rejects(&s, "bar.damping_ratio", Some("[0, 1)"));
     }
     let mut s = damped();
@@ -87,7 +87,7 @@ fn non_positive_masses_stiffness_gap_and_ranges() {
         assert!(s.validate().is_ok(), "e = {e} must be allowed");
     }
     let mut s = damped();
-    s.bar.damping_ratio = 0.0;
+    s.bar.as_lumped_mut().unwrap().damping_ratio = 0.0;
     assert!(s.validate().is_ok(), "ζ = 0 must be allowed");
 }
 
@@ -95,9 +95,15 @@ fn non_positive_masses_stiffness_gap_and_ranges() {
 fn nan_and_inf_in_every_field() {
     type Set = fn(&mut System, f64);
     let fields: [(&str, Set); 12] = [
-        ("bar.mass_kg", |s, x| s.bar.mass_kg = x),
-        ("bar.stiffness_n_per_m", |s, x| s.bar.stiffness_n_per_m = x),
-        ("bar.damping_ratio", |s, x| s.bar.damping_ratio = x),
+        ("bar.mass_kg", |s, x| {
+            s.bar.as_lumped_mut().unwrap().mass_kg = x
+        }),
+        ("bar.stiffness_n_per_m", |s, x| {
+            s.bar.as_lumped_mut().unwrap().stiffness_n_per_m = x
+        }),
+        ("bar.damping_ratio", |s, x| {
+            s.bar.as_lumped_mut().unwrap().damping_ratio = x
+        }),
         ("forcing.amplitude_n", |s, x| s.forcing.amplitude_n = x),
         ("forcing.static_force_n", |s, x| {
             s.forcing.static_force_n = x

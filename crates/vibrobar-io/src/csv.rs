@@ -1129,6 +1129,7 @@ mod tests {
             du_m_s: -8.774_971_969_108_059e-2,
             v_m: -1.2e-6,
             dv_m_s: -0.165,
+            cavity: None,
         };
         let p = poincare_values(&st);
         assert_eq!(

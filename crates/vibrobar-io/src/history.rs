@@ -145,6 +145,7 @@ mod tests {
                 du_m_s: 0.1 / (i as f64 + 1.0),
                 v_m: -3e-6,
                 dv_m_s: 0.0,
+                cavity: None,
             })
             .collect()
     }

@@ -9,7 +9,9 @@ use std::collections::BTreeMap;
 use vibrobar_core::analysis::map::{Axis, Grid, GridAxis};
 use vibrobar_core::analysis::placement::{PlacementGrid, PlacementSpec};
 use vibrobar_core::analysis::regime::Tolerances;
-use vibrobar_core::{Bar, Damper, Forcing, RunSettings, State, System};
+use vibrobar_core::params::BarModel;
+use vibrobar_core::structure::Beam;
+use vibrobar_core::{Damper, Forcing, RunSettings, State, System};
 
 /// The system a command runs, as resolved from its flags: bars, ball, forcing, solver, settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -27,10 +29,11 @@ pub struct SystemParams {
     pub friction: String,
     /// Friction force override in N.
     pub friction_force_n: Option<f64>,
-    /// Bar with the cavity.
-    pub damped_bar: Bar,
-    /// Reference bar without ball.
-    pub solid_bar: Bar,
+    /// Bar with the cavity: a lumped bar is written as the `Bar` it is (as older versions did),
+    /// a beam as the modes the runs used, so a job resumed on other modes is refused.
+    pub damped_bar: BarModel,
+    /// Reference bar without ball (lumped, or the beam's modes without the cavity section).
+    pub solid_bar: BarModel,
     /// Ball template.
     pub ball: Damper,
     /// Forcing template.
@@ -45,6 +48,10 @@ pub struct SystemParams {
     pub solver: String,
     /// Run settings.
     pub settings: RunSettings,
+    /// The `[beam]` the modes come from (geometry, material, modes, positions); absent for the
+    /// lumped bar, so the metadata and fingerprints of lumped jobs are unchanged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beam: Option<Beam>,
 }
 
 fn standard_gravity() -> f64 {

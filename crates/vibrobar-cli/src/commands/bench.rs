@@ -43,7 +43,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         rayon::current_num_threads()
     );
     let single = Case {
-        system: run_sc.damped_system(),
+        system: run_sc.damped_system()?,
         init: run_sc.initial_state(),
         sample_interval_s: None,
         energy_audit: false,
@@ -56,7 +56,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         Some(s) => (
             format!(
                 "scenario: r = {}, gap {} mm, friction {}",
-                s.frequency_ratio(),
+                s.frequency_ratio()?,
                 s.damper.gap_m * 1e3,
                 s.damper.friction
             ),
@@ -87,7 +87,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
                     let points = s.sweep_points(&s.sweep.gaps_m, &ratios);
                     sweep_rows(
                         &points,
-                        &s.base(),
+                        &s.base()?,
                         &st,
                         solver(n, &st)?.as_ref(),
                         &format!("bench [{n}]"),
@@ -168,7 +168,7 @@ fn beam_rows(
     );
     let mut wired = Vec::new();
     for n in names {
-        let case = match crate::commands::placement::case_for(n, &spec) {
+        let case = match crate::commands::placement::case_for(n, &spec, *st, false) {
             Ok(c) => c,
             Err(e) => {
                 println!("    {n:<6} beam run: not wired: {e}");
@@ -176,9 +176,9 @@ fn beam_rows(
             }
         };
         let sys = spec.system(&model, Some(spec.damper(0.1e-3)), 1.0);
-        let _ = case(&sys);
+        let _ = case.run(&sys);
         let t = Instant::now();
-        let r = case(&sys)?;
+        let r = case.run(&sys)?;
         let tb = t.elapsed().as_secs_f64();
         let ratio = lumped
             .iter()
@@ -215,7 +215,7 @@ fn beam_rows(
             &grid,
             &points,
             Runner::default().with_threads(Some(PLACEMENT_THREADS)),
-            case.as_ref(),
+            &|s: &vibrobar_core::System| case.run(s),
             Ok::<_, PointFailed>,
         )
         .map_err(|e| anyhow::anyhow!("bench placement: {e}"))?;

@@ -53,6 +53,14 @@ pub struct SystemArgs {
     /// [default: the scenario's, else 0.8].
     #[arg(long, allow_negative_numbers = true)]
     pub rms_fraction: Option<f64>,
+    /// Number of modes N of a `[beam]` scenario, overriding `[beam] modes`, in [1, 32]
+    /// [default: the fewest (at least 3) capturing 99.5 % of the static tip compliance].
+    #[arg(long, value_name = "N")]
+    pub beam_modes: Option<usize>,
+    /// Cavity centre (the ball) of a `[beam]` scenario in mm from the clamp, in [0, L],
+    /// overriding `[beam] cavity_position_m`.
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    pub cavity_position_mm: Option<f64>,
     /// The scenario, read once: every later use (runs, metadata) sees the same values even if
     /// the file changes meanwhile.
     #[arg(skip)]
@@ -83,6 +91,7 @@ impl SystemArgs {
             duration: self.duration,
             rms_fraction: self.rms_fraction,
         })?;
+        sc.apply_beam_flags(self.beam_modes, self.cavity_position_mm)?;
         let st = sc.settings();
         if self.dt.is_some() && st.dt_s > st.duration_s {
             bail!(
@@ -104,7 +113,7 @@ impl SystemArgs {
 
     /// Bars, ball, forcing, gravity and initial state, with the friction flags applied.
     pub fn base(&self) -> anyhow::Result<SweepBase> {
-        Ok(self.scenario()?.base())
+        self.scenario()?.base()
     }
 
     /// The friction law the runs use.
@@ -126,7 +135,7 @@ impl SystemArgs {
     /// Parameters for metadata (SI units).
     pub fn to_params(&self) -> anyhow::Result<vibrobar_io::params::SystemParams> {
         let sc = self.scenario()?;
-        let base = sc.base();
+        let base = sc.base()?;
         Ok(vibrobar_io::params::SystemParams {
             note:
                 "ball.gap_m is a template value: each run's gap is its grid coordinate or --gap-mm"
@@ -146,6 +155,7 @@ impl SystemArgs {
             initial: base.init,
             solver: sc.run.solver.clone(),
             settings: sc.settings(),
+            beam: sc.beam.clone(),
         })
     }
 

@@ -40,7 +40,7 @@ pub struct PointArgs {
 fn spec(s: &SystemArgs) -> anyhow::Result<MapSpec> {
     let sc = s.scenario()?;
     Ok(MapSpec {
-        base: sc.base(),
+        base: sc.base()?,
         friction: sc.damper.friction,
         settings: sc.settings(),
         tolerances: Tolerances::default(),

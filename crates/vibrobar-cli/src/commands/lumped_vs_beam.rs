@@ -6,12 +6,13 @@
 //! runs by `analysis::run_case` on the paper's systems, the beam's by `analysis::placement` (the
 //! functions `vibrobar placement` runs), the N study by `placement::mode_convergence`. The file is
 //! written atomically. `--quick` (short runs, N ≤ 3, two gaps) is for the tests.
+use super::placement::case_for;
 use super::{check_value, make_solver, with_threads};
-use anyhow::{bail, Context};
+use anyhow::Context;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use vibrobar_core::analysis::placement::{
-    self, mode_convergence, rk4_case, ConvergenceRow, PlacementGrid, PlacementPoint, PlacementRow,
+    self, mode_convergence, ConvergenceRow, PlacementGrid, PlacementPoint, PlacementRow,
     PlacementSpec, PointFailed,
 };
 use vibrobar_core::analysis::regime::Tolerances;
@@ -130,13 +131,6 @@ pub fn run(args: &LumpedVsBeamArgs) -> anyhow::Result<()> {
     };
     settings.validate()?;
     let solver = make_solver(&args.solver, &settings)?;
-    if args.solver != "rk4" {
-        bail!(
-            "--solver {} does not run a beam yet (the N-mode exact solver is not wired into the \
-             commands); use --solver rk4",
-            args.solver
-        );
-    }
     let spec = PlacementSpec {
         beam: Beam::default(),
         ball: Damper::paper(1e-3, FrictionModel::None),
@@ -147,7 +141,8 @@ pub fn run(args: &LumpedVsBeamArgs) -> anyhow::Result<()> {
     };
     let x_d = spec.beam.cavity_position_m;
     let runner = Runner::default().with_threads(args.threads);
-    let case = rk4_case(settings, spec.tolerances);
+    let owned = case_for(&args.solver, &spec, settings, false)?;
+    let case = |s: &System| owned.run(s);
 
     // Lumped: the paper's solid bar and its damped bar at each gap, at resonance.
     let mut lumped_systems = vec![System::paper_solid(1.0)];
@@ -206,7 +201,8 @@ pub fn run(args: &LumpedVsBeamArgs) -> anyhow::Result<()> {
                 dt_s: settings.dt_s.min(CONVERGENCE_OMEGA_DT / omega_n),
                 ..settings
             };
-            let case_n = rk4_case(st, s.tolerances);
+            let owned_n = case_for(&args.solver, &s, st, true)?;
+            let case_n = |s: &System| owned_n.run(s);
             let r = with_threads(args.threads, || {
                 mode_convergence(
                     &s,

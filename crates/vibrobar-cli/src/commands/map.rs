@@ -91,7 +91,7 @@ pub struct MapJob {
 pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
     let sc = args.system.scenario()?;
     let settings = sc.settings();
-    let base = sc.base();
+    let base = sc.base()?;
     make_solver(&sc.run.solver, &settings)?;
     let ratios = parse_range("--ratios", &args.ratios, |x| x > 0.0, "(0, ∞)")?;
     let gaps_mm = parse_range("--gaps-mm", &args.gaps_mm, |x| x > 0.0, "(0, ∞) mm")?;
@@ -595,7 +595,7 @@ pub fn bench_map(args: &BenchMapArgs) -> anyhow::Result<Vec<BenchMapResult>> {
     let points: Vec<GridPoint> = idx.iter().filter_map(|&i| grid.point(i)).collect();
     // The preset bench keeps its historical template (the paper's ball at 1 mm, frictionless).
     let (base, friction) = match &args.scenario {
-        Some(_) => (sc.base(), sc.damper.friction),
+        Some(_) => (sc.base()?, sc.damper.friction),
         None => (SweepBase::paper(), FrictionModel::None),
     };
     let names: Vec<String> = if args.solver.is_empty() {

@@ -175,7 +175,7 @@ impl Solver for PenetrationWatch<'_> {
         if let Some(d) = sys.damper {
             let pen = r.max_penetration_m;
             if let Some(f) = vibrobar_core::limits::excessive_penetration(pen, d.gap_m) {
-                let ratio = sys.omega_rad_s() / sys.bar.natural_freq_rad_s();
+                let ratio = sys.omega_rad_s() / sys.omega1_rad_s();
                 let mut g = self.worst.lock().unwrap_or_else(|p| p.into_inner());
                 g.1 += 1;
                 if g.0.is_none_or(|w| f > w.0) {

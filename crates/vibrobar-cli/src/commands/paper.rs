@@ -8,6 +8,8 @@ use vibrobar_core::analysis::ensemble::{run_ensemble, EnsembleParams, IcRanges};
 use vibrobar_core::analysis::map::{run_map, Axis, Grid, GridAxis, MapSpec};
 use vibrobar_core::analysis::regime::Tolerances;
 use vibrobar_core::analysis::{SweepBase, SweepPoint};
+use vibrobar_core::params::BarModel;
+use vibrobar_core::structure::Point;
 use vibrobar_core::{FrictionModel, RunSettings, State, System};
 
 use super::{fmt_secs, run_cases, solver, sweep_rows, Case};
@@ -43,7 +45,14 @@ pub const ENSEMBLE_SOLVER: &str = "exact";
 /// displacement and relative velocity": u0 within ±F0/K (the static deflection under the forcing
 /// amplitude), ball anywhere in the cavity, |ẇ0| ≤ 1 mm/s, u̇0 = 0.
 pub fn ensemble_ranges(base: &SweepBase) -> IcRanges {
-    let u = base.forcing.amplitude_n / base.damped_bar.stiffness_n_per_m;
+    // A modal bar: the static deflection at the response point under the force at the force
+    // point, from the modes kept.
+    let u = match &base.damped_bar {
+        BarModel::Lumped(b) => base.forcing.amplitude_n / b.stiffness_n_per_m,
+        BarModel::Modal(m) => {
+            base.forcing.amplitude_n * m.static_compliance_m_per_n(Point::Force, Point::Response)
+        }
+    };
     IcRanges {
         u_m: (-u, u),
         du_m_s: (0.0, 0.0),

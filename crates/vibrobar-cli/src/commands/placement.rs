@@ -29,14 +29,15 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vibrobar_core::analysis::placement::{
-    self, optimum, rk4_case, CaseStats, PlacementGrid, PlacementPoint, PlacementRow, PlacementSpec,
+    self, optimum, solver_case, CaseStats, PlacementGrid, PlacementPoint, PlacementRow,
+    PlacementSpec,
 };
 use vibrobar_core::analysis::regime::Tolerances;
 use vibrobar_core::analysis::Runner;
 use vibrobar_core::error::Compact;
 use vibrobar_core::structure::nodes::mode_nodes_m;
-use vibrobar_core::structure::{Beam, ModalSystem};
-use vibrobar_core::{SimError, State};
+use vibrobar_core::structure::Beam;
+use vibrobar_core::{RunSettings, SimError, Solver, State, System};
 use vibrobar_io::csv::{placement_key, placement_schema, placement_values, read_placement_csv};
 use vibrobar_io::params::PlacementParams;
 use vibrobar_io::{shard, GridInfo, Journal, Metadata};
@@ -83,11 +84,19 @@ pub struct PlacementJob {
 }
 
 /// The scenario of a beam study: the file's (it must have `[beam]`), or the paper's bar as a
-/// beam; the flags applied on top.
+/// beam; the flags applied on top, checked. The beam's number of modes is resolved once (the
+/// scenario's, `--beam-modes`, or the default rule on the bar with its cavity as given), so that
+/// every position and the solid reference keep the same N.
 pub fn beam_scenario(a: &SystemArgs) -> anyhow::Result<(Scenario, Beam)> {
-    let mut sc = match &a.scenario {
+    if a.cavity_position_mm.is_some() {
+        bail!(
+            "--cavity-position-mm does not apply here: the cavity positions are the grid's \
+             (--positions-mm)"
+        );
+    }
+    let sc = match &a.scenario {
         Some(p) => {
-            let sc = Scenario::load_any(p)?;
+            let sc = a.scenario()?;
             if sc.beam.is_none() {
                 bail!(
                     "--scenario {}: no [beam] section; this command needs a beam (the lumped \
@@ -98,53 +107,88 @@ pub fn beam_scenario(a: &SystemArgs) -> anyhow::Result<(Scenario, Beam)> {
             }
             sc
         }
-        None => Scenario {
-            beam: Some(Beam::default()),
-            ..Scenario::paper()
-        },
+        None => {
+            let mut sc = Scenario::paper();
+            sc.beam = Some(Beam::default());
+            sc.apply(&Overrides {
+                friction: a.friction.map(Into::into),
+                friction_force_n: a.friction_force_n,
+                solver: a.solver.clone(),
+                dt: a.dt,
+                duration: a.duration,
+                rms_fraction: a.rms_fraction,
+            })?;
+            sc.apply_beam_flags(a.beam_modes, None)?;
+            let st = sc.settings();
+            if a.dt.is_some() && st.dt_s > st.duration_s {
+                bail!(
+                    "--dt must be in (0, --duration = {}] s, got {}",
+                    Compact(st.duration_s),
+                    Compact(st.dt_s)
+                );
+            }
+            sc.validate()?;
+            sc
+        }
     };
-    sc.apply(&Overrides {
-        friction: a.friction.map(Into::into),
-        friction_force_n: a.friction_force_n,
-        solver: a.solver.clone(),
-        dt: a.dt,
-        duration: a.duration,
-        rms_fraction: a.rms_fraction,
-    })?;
-    let st = sc.settings();
-    if a.dt.is_some() && st.dt_s > st.duration_s {
-        bail!(
-            "--dt must be in (0, --duration = {}] s, got {}",
-            Compact(st.duration_s),
-            Compact(st.dt_s)
-        );
-    }
-    st.validate()?;
     if sc.initial != State::REST {
         bail!(
             "[initial] does not apply to a beam study: every run starts at rest with the ball \
              centred; remove [initial]"
         );
     }
-    let beam = sc.beam.clone().expect("checked above");
-    beam.validate()?;
+    let n = sc.bars()?.0.as_modal().map_or(1, |m| m.len());
+    let beam = sc.beam.clone().expect("checked above").with_modes(n);
     Ok((sc, beam))
 }
 
-/// A [`placement::CaseFn`] owned.
-pub type OwnedCase = Box<dyn Fn(&ModalSystem) -> Result<CaseStats, SimError> + Sync>;
+/// A solver with the settings of a study: runs one case of it ([`solver_case`]).
+pub struct OwnedCase {
+    solver: Box<dyn Solver>,
+    settings: RunSettings,
+    tolerances: Tolerances,
+    audit: bool,
+}
 
-/// How one case runs for `solver` (by name): the modal RK4 today; `exact` is refused until the
-/// N-mode exact solver is wired.
-pub fn case_for(solver: &str, spec: &PlacementSpec) -> anyhow::Result<OwnedCase> {
-    make_solver(solver, &spec.settings)?;
-    match solver {
-        "rk4" => Ok(Box::new(rk4_case(spec.settings, spec.tolerances))),
-        other => bail!(
-            "--solver {other} does not run a beam yet (the N-mode exact solver is not wired into \
-             the commands); use --solver rk4 with a --dt small enough for the highest mode"
-        ),
+impl OwnedCase {
+    /// One case (see [`solver_case`]).
+    pub fn run(&self, sys: &System) -> Result<CaseStats, SimError> {
+        solver_case(
+            self.solver.as_ref(),
+            self.settings,
+            self.tolerances,
+            self.audit,
+        )(sys)
     }
+}
+
+/// How one case runs for `solver` (by name) with `settings`; `audit` adds the energy audit
+/// (impact loss). A solver that does not run a modal bar yet is refused here, before any
+/// journal, with its own reason (probed on a short run of the solid beam).
+pub fn case_for(
+    solver: &str,
+    spec: &PlacementSpec,
+    settings: RunSettings,
+    audit: bool,
+) -> anyhow::Result<OwnedCase> {
+    let s = make_solver(solver, &settings)?;
+    let probe = RunSettings {
+        duration_s: 10.0 * settings.dt_s,
+        rms_fraction: 1.0,
+        ..settings
+    };
+    let sys = spec.system(&spec.solid_model()?, None, 1.0);
+    if let Err(SimError::Unsupported(why)) =
+        vibrobar_core::analysis::run_case(&sys, &State::REST, &probe, s.as_ref(), &mut ())
+    {
+        bail!("--solver {solver}: {why}");
+    }
+    Ok(OwnedCase {
+        solver: s,
+        settings,
+        tolerances: spec.tolerances,
+        audit,
+    })
 }
 
 /// Build and check the job from the flags (no shard, no output).
@@ -158,7 +202,7 @@ pub fn job(args: &PlacementArgs) -> anyhow::Result<PlacementJob> {
         settings: sc.settings(),
         tolerances: Tolerances::default(),
     };
-    let _ = case_for(&sc.run.solver, &spec)?;
+    let _ = case_for(&sc.run.solver, &spec, spec.settings, false)?;
     let (lo, hi) = spec.position_range_m();
     let allowed = if spec.beam.cavity_section.is_some() {
         format!(
@@ -185,9 +229,16 @@ pub fn job(args: &PlacementArgs) -> anyhow::Result<PlacementJob> {
         .collect();
     let ratios = parse_range("--ratios", &args.ratios, |x| x > 0.0, "(0, ∞)")?;
     let grid = PlacementGrid::new(positions_m.clone(), gaps_m.clone(), ratios.clone())?;
-    // Every position's model, every gap and ratio must make a valid system before any run.
-    let rk4 = vibrobar_core::solver::modal_rk4::ModalRk4 {
-        dt_s: spec.settings.dt_s,
+    // Every position's model, every gap and ratio must make a valid system before any run
+    // (and rk4's step must be stable for the highest mode kept).
+    let st = spec.settings;
+    let check = |sys: &System| -> Result<(), vibrobar_core::ParamError> {
+        sys.validate()?;
+        sys.validate_horizon(0.0, st.duration_s)?;
+        if sc.run.solver == "rk4" {
+            sys.validate_fixed_step(st.dt_s, st.duration_s)?;
+        }
+        Ok(())
     };
     let solid = spec.solid_model()?;
     for &x in &positions_m {
@@ -199,15 +250,12 @@ pub fn job(args: &PlacementArgs) -> anyhow::Result<PlacementJob> {
             .chain(ratios.iter().map(|&r| (gaps_m[0], r)))
         {
             let sys = spec.system(&model, Some(spec.damper(g)), r);
-            sys.validate()
-                .and_then(|_| rk4.validate_step(&sys, spec.settings.duration_s))
+            check(&sys)
                 .with_context(|| format!("{}, gap {} mm, ratio {r}", at(), Compact(g * 1e3)))?;
         }
     }
     for &r in &ratios {
-        spec.system(&solid, None, r)
-            .validate()
-            .with_context(|| format!("solid bar at ratio {r}"))?;
+        check(&spec.system(&solid, None, r)).with_context(|| format!("solid bar at ratio {r}"))?;
     }
     let mut flags = BTreeMap::new();
     flags.insert("positions_mm".to_string(), args.positions_mm.clone());
@@ -252,7 +300,8 @@ fn compute(
     if pending.is_empty() {
         return Ok(());
     }
-    let case = case_for(&job.params.solver, &job.spec)?;
+    let owned = case_for(&job.params.solver, &job.spec, job.spec.settings, false)?;
+    let case = |s: &System| owned.run(s);
     let bar = Progress::new("placement", total_in_job, journal.done_count());
     let progress = bar.callback();
     let res = placement::run(
@@ -262,7 +311,7 @@ fn compute(
         Runner::default()
             .with_threads(threads)
             .with_progress(&progress),
-        case.as_ref(),
+        &case,
         |row| -> anyhow::Result<()> {
             journal.append(row.point.index, &format_row(&row))?;
             Ok(())

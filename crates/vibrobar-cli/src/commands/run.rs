@@ -107,7 +107,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
         args.sample_every as f64 * settings.dt_s,
     )?;
     let solver = solver(&sc.run.solver, &settings)?;
-    let sys = sc.damped_system();
+    let sys = sc.damped_system()?;
     let case = Case {
         system: sys,
         init: sc.initial_state(),
@@ -180,7 +180,7 @@ fn print_summary(
     say(format!(
         "  model      : gap {} mm, ratio {}, friction {} ({:.4} N), e = {}, F0 = {} N",
         d.gap_m * 1e3,
-        sc.frequency_ratio(),
+        sc.frequency_ratio()?,
         d.friction,
         sys.friction_level_n(),
         d.restitution,

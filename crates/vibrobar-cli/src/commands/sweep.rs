@@ -75,7 +75,7 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     let key = |i: usize| sweep_key(points[i].ratio, points[i].gap_m * 1e3);
     let journal = super::open_journal(&args.out, &meta, &schema, &indices, &key, args.resume)?;
     let pending = journal.pending();
-    let base = sc.base();
+    let base = sc.base()?;
     let bar = Progress::new("sweep", points.len(), journal.done_count());
     let progress = bar.callback();
     let batch = Batch::new(&base, &settings, solver).on(Runner::default().with_progress(&progress));

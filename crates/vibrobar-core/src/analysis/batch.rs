@@ -10,7 +10,7 @@
 use super::case::{run_case, RunResult};
 use crate::error::{ParamError, SimError};
 use crate::params::{
-    Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System,
+    Bar, BarModel, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System,
     STANDARD_GRAVITY_M_S2,
 };
 use crate::solver::Solver;
@@ -61,10 +61,11 @@ pub struct SweepPoint {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SweepBase {
-    /// Bar with the cavity.
-    pub damped_bar: Bar,
-    /// Reference bar without ball.
-    pub solid_bar: Bar,
+    /// Bar with the cavity (lumped, or a beam's modes with the ball at the cavity).
+    pub damped_bar: BarModel,
+    /// Reference bar without ball (a beam: the same bar without the cavity section; its own
+    /// `ω₁`, so a ratio is `Ω/ω₁` of each bar).
+    pub solid_bar: BarModel,
     /// Ball template; each point sets gap, friction model and friction override.
     pub ball: Damper,
     /// Forcing template; each point sets the frequency ratio.
@@ -85,8 +86,8 @@ impl SweepBase {
     /// The paper's bars, ball and 15 N forcing, from rest.
     pub fn paper() -> Self {
         SweepBase {
-            damped_bar: Bar::PAPER_CAVITY,
-            solid_bar: Bar::PAPER_SOLID,
+            damped_bar: Bar::PAPER_CAVITY.into(),
+            solid_bar: Bar::PAPER_SOLID.into(),
             ball: Damper::paper(1e-3, FrictionModel::None),
             forcing: Forcing::paper(1.0),
             gravity_m_s2: STANDARD_GRAVITY_M_S2,

@@ -132,6 +132,7 @@ impl EnsembleParams {
             du_m_s: du,
             v_m: u + w,
             dv_m_s: du + dw,
+            cavity: None,
         }
     }
 }

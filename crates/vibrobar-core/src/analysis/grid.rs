@@ -10,7 +10,7 @@
 //! (round-robin, so expensive regions such as the resonance band spread over all shards).
 
 use crate::error::ParamError;
-use crate::params::{Frequency, System};
+use crate::params::{BarModel, Frequency, System};
 
 /// `start + i·step` for `i = 0..=n`, where `n` is the number of whole steps to `stop` (inclusive,
 /// with a tolerance of 1e-9 steps for the rounding of decimal input). Computed from `i`, so no
@@ -102,7 +102,11 @@ impl Axis {
             sys.forcing.frequency = Frequency::Ratio(value);
             return Ok(());
         }
-        let bar_mass = sys.bar.mass_kg;
+        let bar_mass = if *self == Axis::MassRatio {
+            mass_ratio_reference_kg(sys, value)?
+        } else {
+            0.0
+        };
         let d = sys.damper.as_mut().ok_or(ParamError::OutOfRange {
             field: self.as_str(),
             value,
@@ -116,6 +120,29 @@ impl Axis {
             Axis::MassRatio => d.ball_mass_kg = value * bar_mass,
         }
         Ok(())
+    }
+}
+
+/// The bar mass `M` of the mass ratio `μ = m_d/M`: the lumped bar's `M`; for a modal bar the
+/// first mode's effective mass at the cavity, `m₁/φ₁(x_d)²` (the mass the ball sees in the mode
+/// it damps; `M` itself for the lumped bar's unit mode, and independent of how many modes are
+/// kept, unlike `1/Σφₙ²/mₙ`, which goes to 0 as N grows). A cavity at a node of mode 1 has no
+/// such mass: refused with the axis named.
+fn mass_ratio_reference_kg(sys: &System, value: f64) -> Result<f64, ParamError> {
+    match &sys.bar {
+        BarModel::Lumped(b) => Ok(b.mass_kg),
+        BarModel::Modal(m) => {
+            let m1 = m.modes()[0];
+            let phi = m1.shape_cavity;
+            if phi == 0.0 || !(m1.modal_mass_kg / (phi * phi)).is_finite() {
+                return Err(ParamError::OutOfRange {
+                    field: "mass_ratio (m_d / (m₁/φ₁(x_d)²) on a modal bar)",
+                    value,
+                    allowed: "only with the cavity off mode 1's node (φ₁(x_d) ≠ 0)",
+                });
+            }
+            Ok(m1.modal_mass_kg / (phi * phi))
+        }
     }
 }
 

@@ -31,6 +31,9 @@ use crate::limits;
 use crate::params::{State, System};
 use crate::solver::Solver;
 
+/// Why [`max_lyapunov`] refuses a modal bar.
+pub const LYAPUNOV_LUMPED_ONLY: &str = "the Lyapunov exponent is estimated for the lumped bar only: a modal bar's state space has 2N + 2 dimensions (every mode's q, q̇, the ball's v, v̇), and the two-trajectory method restarts the solver from perturbed public states (u, u̇ at the response point, w, ẇ), which neither span that space nor give a norm on it; remove [beam] for the lumped bar";
+
 /// Characteristic sizes that make the state dimensionless.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StateScales {
@@ -47,11 +50,17 @@ pub struct StateScales {
 impl StateScales {
     /// Defaults: `s_u = F0/K` (static deflection under the force amplitude), `s_u̇ = ω_n s_u`,
     /// `s_w = l_g` (or `s_u` without a ball), `s_ẇ = ω_n s_w`.
+    ///
+    /// For a modal bar (which [`max_lyapunov`] refuses) `ω₁` and the static tip compliance of
+    /// the kept modes stand in for `ω_n` and `1/K`.
     pub fn for_system(sys: &System) -> StateScales {
-        let wn = sys.bar.natural_freq_rad_s();
+        let wn = sys.omega1_rad_s();
         let f = sys.forcing.amplitude_n.abs() + sys.forcing.static_force_n.abs();
         let su = if f > 0.0 {
-            f / sys.bar.stiffness_n_per_m
+            match &sys.bar {
+                crate::params::BarModel::Lumped(b) => f / b.stiffness_n_per_m,
+                crate::params::BarModel::Modal(m) => f * m.tip_compliance_of_first(m.len()),
+            }
         } else {
             1e-6
         };
@@ -82,6 +91,7 @@ impl StateScales {
             du_m_s: du,
             v_m: u + x[2] * self.w_m,
             dv_m_s: du + x[3] * self.dw_m_s,
+            cavity: None,
         }
     }
 }
@@ -140,6 +150,9 @@ pub fn max_lyapunov(
     solver: &dyn Solver,
     p: &LyapunovParams,
 ) -> Result<LyapunovResult, SimError> {
+    if sys.lumped_bar().is_none() {
+        return Err(SimError::Unsupported(LYAPUNOV_LUMPED_ONLY));
+    }
     crate::params::non_negative("transient_s", p.transient_s)?;
     crate::params::positive("interval_s", p.interval_s)?;
     crate::params::positive("d0", p.d0)?;

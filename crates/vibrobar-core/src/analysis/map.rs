@@ -32,7 +32,7 @@ impl MapSpec {
         p.get(Axis::FreqRatio)
             .unwrap_or(match self.base.forcing.frequency {
                 Frequency::Ratio(r) => r,
-                Frequency::RadPerS(w) => w / self.base.damped_bar.natural_freq_rad_s(),
+                Frequency::RadPerS(w) => w / self.base.damped_bar.omega1_rad_s(),
             })
     }
 

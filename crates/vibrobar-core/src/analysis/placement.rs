@@ -23,17 +23,17 @@
 //! to the smaller grid index (the position nearer the clamp, then the smaller gap).
 //!
 //! The runs go through the core's [`Runner`] (pool, cancellation, progress). How one case is
-//! run is the caller's [`CaseFn`] (a solver and its observers); [`rk4_case`] is the modal RK4.
+//! run is the caller's [`CaseFn`]; [`solver_case`] runs it with a [`Solver`].
 
 use super::batch::{BatchError, Runner};
+use super::case::run_case;
+use super::energy::EnergyAudit;
 use super::regime::{classify, Regime, RegimeObserver, Tolerances};
-use super::RmsObserver;
 use crate::error::{ParamError, SimError};
 use crate::limits;
-use crate::params::{Bar, Damper, Forcing, Frequency, RunSettings, System};
-use crate::solver::modal_rk4::ModalRk4;
-use crate::solver::{Event, EventKind, Fanout, Observer};
-use crate::structure::{Beam, ModalModel, ModalState, ModalSystem};
+use crate::params::{BarModel, Damper, Forcing, Frequency, RunSettings, State, System};
+use crate::solver::{Fanout, Observer, Solver};
+use crate::structure::{Beam, ModalModel};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -65,14 +65,15 @@ pub struct CaseStats {
     pub impacts_per_cycle: f64,
     /// Steady-state regime over the window.
     pub regime: Regime,
-    /// Kinetic energy lost in impacts in the window, J.
-    pub impact_loss_j: f64,
+    /// Kinetic energy lost in impacts in the window, J (from the energy audit; `None` when the
+    /// case did not audit).
+    pub impact_loss_j: Option<f64>,
     /// Length of the window, s.
     pub window_s: f64,
 }
 
-/// How one case is run: the modal system from rest over the spec's settings.
-pub type CaseFn<'a> = &'a (dyn Fn(&ModalSystem) -> Result<CaseStats, SimError> + Sync);
+/// How one case is run: the system from rest over the spec's settings.
+pub type CaseFn<'a> = &'a (dyn Fn(&System) -> Result<CaseStats, SimError> + Sync);
 
 /// A point of the grid.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -223,9 +224,9 @@ impl PlacementSpec {
     }
 
     /// A system of this study: `model`, optional ball, forced at `ratio` of its own `ω₁`.
-    pub fn system(&self, model: &ModalModel, damper: Option<Damper>, ratio: f64) -> ModalSystem {
-        ModalSystem {
-            model: *model,
+    pub fn system(&self, model: &ModalModel, damper: Option<Damper>, ratio: f64) -> System {
+        System {
+            bar: BarModel::Modal(*model),
             damper,
             forcing: Forcing {
                 frequency: Frequency::Ratio(ratio),
@@ -409,75 +410,43 @@ pub fn optimum(rows: &[PlacementRow]) -> Option<PlacementRow> {
         })
 }
 
-/// Sums the kinetic energy lost in impacts (and summed chatter sequences) from `window_start_s`
-/// on, as the energy audit books them.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct ImpactLoss {
-    window_start_s: f64,
-    loss_j: f64,
-}
-
-impl Observer for ImpactLoss {
-    fn event(&mut self, ev: &Event) {
-        if ev.t_s >= self.window_start_s {
-            if let EventKind::Impact { energy_loss_j, .. }
-            | EventKind::ChatterLimit { energy_loss_j, .. } = ev.kind
-            {
-                self.loss_j += energy_loss_j;
-            }
-        }
-    }
-}
-
-/// The modal RK4 as a [`CaseFn`]: from rest, RMS at the response point, impacts, regime and
-/// impact loss over the settings' window.
-pub fn rk4_case(
+/// One case with `solver`: from rest (ball centred), RMS at the response point, impacts and
+/// regime over the settings' window; with `audit`, also the impact loss in the window from the
+/// energy audit (which costs the full segment integrals of every step).
+pub fn solver_case<'a>(
+    solver: &'a dyn Solver,
     settings: RunSettings,
     tolerances: Tolerances,
-) -> impl Fn(&ModalSystem) -> Result<CaseStats, SimError> + Sync {
-    move |sys: &ModalSystem| {
-        settings.validate()?;
-        let solver = ModalRk4 {
-            dt_s: settings.dt_s,
-        };
-        solver.validate_step(sys, settings.duration_s)?;
-        let t_end = settings.duration_s;
+    audit: bool,
+) -> impl Fn(&System) -> Result<CaseStats, SimError> + Sync + 'a {
+    move |sys: &System| {
         let w0 = settings.window_start_s();
-        let mut rms = RmsObserver::new(w0, t_end);
-        let mut imp = super::ImpactCounter {
-            window_start_s: w0,
-            ..Default::default()
+        let t_end = settings.duration_s;
+        let mut reg = RegimeObserver::new(sys, w0, t_end);
+        let mut energy = audit.then(|| EnergyAudit::with_window(sys, w0));
+        let r = {
+            let mut nothing = ();
+            let books: &mut dyn Observer = match energy.as_mut() {
+                Some(e) => e,
+                None => &mut nothing,
+            };
+            let mut obs: [&mut dyn Observer; 2] = [&mut reg, books];
+            run_case(sys, &State::REST, &settings, solver, &mut Fanout(&mut obs))?
         };
-        let mut loss = ImpactLoss {
-            window_start_s: w0,
-            loss_j: 0.0,
+        let impact_loss_j = match energy.map(|e| e.balance()) {
+            Some(Some(b)) => Some(limits::finite_result(
+                "impact loss",
+                b.impact_loss_j,
+                "parameters far outside the model's range (forces, masses or stiffness)",
+            )?),
+            Some(None) => Some(0.0),
+            None => None,
         };
-        // The regime observer reads only the forcing period from its system.
-        let period_stand_in = System {
-            bar: Bar::PAPER_CAVITY,
-            damper: sys.damper,
-            forcing: Forcing {
-                frequency: Frequency::RadPerS(sys.omega_rad_s()),
-                ..sys.forcing
-            },
-            gravity_m_s2: sys.gravity_m_s2,
-        };
-        let mut reg = RegimeObserver::new(&period_stand_in, w0, t_end);
-        {
-            let mut obs: [&mut dyn Observer; 4] = [&mut rms, &mut imp, &mut loss, &mut reg];
-            solver.run(sys, &ModalState::REST, t_end, &mut Fanout(&mut obs))?;
-        }
-        let cycles = (t_end - w0) * sys.omega_rad_s() / (2.0 * std::f64::consts::PI);
-        let cause = "parameters far outside the model's range (forces, masses or stiffness)";
         Ok(CaseStats {
-            rms_m: limits::finite_result("RMS of u", rms.rms_m(), cause)?,
-            impacts_per_cycle: limits::finite_result(
-                "impacts per cycle",
-                imp.in_window as f64 / cycles,
-                "an RMS window shorter than a forcing period's rounding",
-            )?,
+            rms_m: r.rms_m,
+            impacts_per_cycle: r.impacts_per_cycle,
             regime: classify(&reg.finish(), &tolerances),
-            impact_loss_j: limits::finite_result("impact loss", loss.loss_j, cause)?,
+            impact_loss_j,
             window_s: t_end - w0,
         })
     }
@@ -506,7 +475,8 @@ pub struct ConvergenceRow {
 }
 
 /// The design point `(x_m, gap_m, ratio)` with N = each of `modes` (the spec's beam with its mode
-/// count replaced): solid and damped runs, all in parallel on `runner`.
+/// count replaced): solid and damped runs, all in parallel on `runner`. `case` must audit the
+/// energy ([`solver_case`] with `audit`): the rows carry the impact loss.
 pub fn mode_convergence(
     spec: &PlacementSpec,
     x_m: f64,
@@ -527,13 +497,21 @@ pub fn mode_convergence(
         jobs.push(s.system(&solid, None, ratio));
         jobs.push(s.system(&damped, Some(s.damper(gap_m)), ratio));
     }
-    let stats = runner.each(&jobs, |sys| case(sys))?;
+    let stats = runner.each(&jobs, |sys| {
+        let st = case(sys)?;
+        match st.impact_loss_j {
+            Some(_) => Ok(st),
+            None => Err(SimError::Unsupported(
+                "mode_convergence needs a case that audits the energy (solver_case with audit)",
+            )),
+        }
+    })?;
     Ok(modes
         .iter()
         .enumerate()
         .map(|(k, &n)| {
             let (s, d) = (stats[2 * k], stats[2 * k + 1]);
-            let model = &jobs[2 * k + 1].model;
+            let model = jobs[2 * k + 1].modal_model();
             ConvergenceRow {
                 modes: n,
                 inverse_effective_mass_per_kg: model
@@ -544,7 +522,7 @@ pub fn mode_convergence(
                 rms_solid_m: s.rms_m,
                 rms_damped_m: d.rms_m,
                 reduction_pct: 100.0 * (1.0 - d.rms_m / s.rms_m),
-                impact_loss_w: d.impact_loss_j / d.window_s,
+                impact_loss_w: d.impact_loss_j.unwrap_or(0.0) / d.window_s,
                 impacts_per_cycle: d.impacts_per_cycle,
                 regime: d.regime,
             }

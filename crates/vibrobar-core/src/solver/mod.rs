@@ -130,6 +130,10 @@ pub trait Segment {
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64;
     /// All integrals over `[a, b] ⊆ [t_start, t_end]`.
     fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals;
+    /// Mechanical energy at `t` in `[t_start, t_end]`: the bar's (every mode's kinetic and
+    /// strain energy; `½Mu̇² + ½Ku²` for the lumped bar) plus the ball's `½m_d v̇²`. The public
+    /// [`State`] cannot give it for a modal bar, so the energy audit asks the segment.
+    fn mechanical_energy_j(&self, t_s: f64) -> f64;
 }
 
 /// Sees a run as it is computed. Every method defaults to a no-op.

@@ -12,7 +12,8 @@
 //! point, the modal viscous loss `Σ cₙ q̇ₙ²` and the friction work at the cavity. The modal state
 //! itself goes to a [`ModalObserver`] (the public `State` cannot carry it: docs/n-mode-design.md).
 //!
-//! Not in [`super::SOLVER_NAMES`] yet: part 2 of issue #8 makes `System` modal and this the `rk4`.
+//! [`super::Rk4`] runs this on a [`crate::params::BarModel::Modal`] system (its step, through
+//! [`ModalSystem::from_system`] and [`ModalState::from_public`]).
 //!
 //! [`Rk4`]: super::Rk4
 
@@ -22,7 +23,7 @@ use crate::damper::friction::{sign_factor, sliding_friction_on_ball_n};
 use crate::damper::impact::modal_impact;
 use crate::error::{ParamError, SimError};
 use crate::limits::{self, MAX_BEAM_MODES};
-use crate::params::{FrictionModel, State};
+use crate::params::{CavityMotion, FrictionModel, State};
 use crate::structure::{ModalState, ModalSystem, Point};
 
 const N: usize = MAX_BEAM_MODES;
@@ -194,7 +195,27 @@ impl Rhs {
             du_m_s: self.dot(&self.phi_r, &s.dq_m_s),
             v_m: s.v_m,
             dv_m_s: s.dv_m_s,
+            cavity: Some(CavityMotion {
+                u_cavity_m: self.dot(&self.phi_d, &s.q_m),
+                du_cavity_m_s: self.dot(&self.phi_d, &s.dq_m_s),
+            }),
         }
+    }
+
+    /// `Σ (½ mₙ q̇ₙ² + ½ kₙ qₙ²) + ½ m_d v̇²` (the ball's term only with a ball), with the run's
+    /// `kₙ` ([`ModalSystem::mechanical_energy_j`]'s formula).
+    fn energy(&self, s: &ModalState, has_ball: bool) -> f64 {
+        let mut bar = 0.0;
+        for i in 0..self.n {
+            bar +=
+                0.5 * self.m[i] * s.dq_m_s[i] * s.dq_m_s[i] + 0.5 * self.k[i] * s.q_m[i] * s.q_m[i];
+        }
+        let ball = if has_ball {
+            0.5 * self.md * s.dv_m_s * s.dv_m_s
+        } else {
+            0.0
+        };
+        bar + ball
     }
 
     /// `(w, ẇ)` at the cavity.
@@ -315,6 +336,9 @@ impl Segment for StepSegment<'_> {
     }
     fn state_at(&self, t_s: f64) -> State {
         self.rhs.public(&self.hermite(t_s))
+    }
+    fn mechanical_energy_j(&self, t_s: f64) -> f64 {
+        self.rhs.energy(&self.hermite(t_s), self.has_ball)
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
         // Trapezoid over one step, as the lumped rk4.

@@ -12,7 +12,8 @@ use super::{
 use crate::damper::friction::{sign_factor, sliding_friction_on_ball_n};
 use crate::damper::impact::{impact_energy_loss_j, impact_map};
 use crate::error::SimError;
-use crate::params::{FrictionModel, State, System};
+use crate::params::{Bar, BarModel, FrictionModel, State, System};
+use crate::structure::{ModalState, ModalSystem};
 
 /// Fixed-step classical Runge–Kutta 4 with the paper's after-step impact check.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,15 +43,15 @@ struct Rhs {
 }
 
 impl Rhs {
-    fn new(sys: &System) -> Rhs {
+    fn new(sys: &System, bar: &Bar) -> Rhs {
         let (md, friction) = match &sys.damper {
             Some(d) => (d.ball_mass_kg, d.friction),
             None => (1.0, FrictionModel::None),
         };
         Rhs {
-            m: sys.bar.mass_kg,
-            c: sys.bar.damping_n_s_per_m(),
-            k: sys.bar.stiffness_n_per_m,
+            m: bar.mass_kg,
+            c: bar.damping_n_s_per_m(),
+            k: bar.stiffness_n_per_m,
             f0: sys.forcing.amplitude_n,
             fs: sys.forcing.static_force_n,
             omega: sys.omega_rad_s(),
@@ -109,6 +110,7 @@ impl Rhs {
             du_m_s: du + h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4),
             v_m: v + h / 6.0 * (dv + 2.0 * dv2 + 2.0 * dv3 + dv4),
             dv_m_s: dv + h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4),
+            cavity: None,
         }
     }
 }
@@ -158,6 +160,7 @@ impl StepSegment<'_> {
             du_m_s: pos(self.a.du_m_s, aa, self.b.du_m_s, ba),
             v_m: pos(self.a.v_m, self.a.dv_m_s, self.b.v_m, self.b.dv_m_s),
             dv_m_s: pos(self.a.dv_m_s, ab, self.b.dv_m_s, bb),
+            cavity: None,
         }
     }
 }
@@ -261,6 +264,11 @@ impl Segment for StepSegment<'_> {
     fn state_at(&self, t_s: f64) -> State {
         self.hermite(t_s)
     }
+    fn mechanical_energy_j(&self, t_s: f64) -> f64 {
+        let r = self.rhs;
+        let ball = if self.has_ball { Some(r.md) } else { None };
+        crate::model::lumped_mechanical_energy_j(r.m, r.k, ball, &self.hermite(t_s))
+    }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
         // Trapezoid over one step: matches the paper's RMS of the sampled history to O(dt²).
         let (sa, sb) = if a_s <= self.a.t_s && b_s >= self.b.t_s {
@@ -305,15 +313,22 @@ impl Solver for Rk4 {
     ) -> Result<RunSummary, SimError> {
         super::validate_run(sys, init, t_end_s)?;
         sys.validate_fixed_step(self.dt_s, t_end_s - init.t_s)?;
-        let u_bound = divergence_bound_m(sys, init);
-        let rhs = Rhs::new(sys);
+        let bar = match &sys.bar {
+            BarModel::Lumped(bar) => bar,
+            // The same scheme mode by mode: the modal RK4 (its own step check: ω_N·dt).
+            BarModel::Modal(model) => {
+                let msys = ModalSystem::from_system(sys)?;
+                let minit = ModalState::from_public(model, init)?;
+                return Ok(super::modal_rk4::ModalRk4 { dt_s: self.dt_s }
+                    .run(&msys, &minit, t_end_s, obs)?
+                    .summary);
+            }
+        };
+        let u_bound = divergence_bound_m(sys, bar, init);
+        let rhs = Rhs::new(sys, bar);
         let has_ball = sys.damper.is_some();
         let (lg, mu, e) = match &sys.damper {
-            Some(d) => (
-                d.half_gap_m(),
-                d.ball_mass_kg / sys.bar.mass_kg,
-                d.restitution,
-            ),
+            Some(d) => (d.half_gap_m(), d.ball_mass_kg / bar.mass_kg, d.restitution),
             None => (f64::INFINITY, 0.0, 0.0),
         };
         let t0 = init.t_s;
@@ -383,12 +398,7 @@ impl Solver for Rk4 {
                         kind: EventKind::Impact {
                             wall,
                             dw_m_s: dw,
-                            energy_loss_j: impact_energy_loss_j(
-                                sys.bar.mass_kg,
-                                d.ball_mass_kg,
-                                e,
-                                dw,
-                            ),
+                            energy_loss_j: impact_energy_loss_j(bar.mass_kg, d.ball_mass_kg, e, dw),
                         },
                         before: next,
                         after,
@@ -410,13 +420,14 @@ impl Solver for Rk4 {
 
 /// `|u|` beyond which an `rk4` run has diverged: [`crate::limits::RK4_DIVERGENCE_FACTOR`] times the system's
 /// own displacement scale (static deflection under every force, initial displacement and
-/// velocities over `ω_n`, half gap).
-pub fn divergence_bound_m(sys: &System, init: &State) -> f64 {
+/// velocities over `ω_n`, half gap) with the lumped `bar` (a modal bar's bound is
+/// [`super::modal_rk4::divergence_bound_m`]).
+pub fn divergence_bound_m(sys: &System, bar: &Bar, init: &State) -> f64 {
     let forces =
         sys.forcing.static_force_n.abs() + sys.forcing.amplitude_n.abs() + sys.friction_level_n();
-    let scale = forces / sys.bar.stiffness_n_per_m
+    let scale = forces / bar.stiffness_n_per_m
         + init.u_m.abs()
-        + (init.du_m_s.abs() + init.dw_m_s().abs()) / sys.bar.natural_freq_rad_s()
+        + (init.du_m_s.abs() + init.dw_m_s().abs()) / bar.natural_freq_rad_s()
         + sys.damper.map_or(0.0, |d| d.half_gap_m());
     crate::limits::RK4_DIVERGENCE_FACTOR * scale
 }
@@ -431,10 +442,12 @@ mod divergence_tests {
     #[test]
     fn rk4_divergence_bound_is_far_above_resonant_growth() {
         let mut sys = System::paper_solid(1.0);
-        sys.bar.damping_ratio = 0.0;
-        let growth = sys.forcing.amplitude_n / (2.0 * sys.bar.stiffness_n_per_m)
-            * crate::limits::MAX_PHASE_RAD;
-        let bound = divergence_bound_m(&sys, &State::REST);
+        let mut bar = *sys.lumped_bar().unwrap();
+        bar.damping_ratio = 0.0;
+        sys.bar = bar.into();
+        let growth =
+            sys.forcing.amplitude_n / (2.0 * bar.stiffness_n_per_m) * crate::limits::MAX_PHASE_RAD;
+        let bound = divergence_bound_m(&sys, &bar, &State::REST);
         assert!(bound > 100.0 * growth, "bound {bound} vs growth {growth}");
         // Every term counts: a free bar launched at 1 m/s has a bound of 1e12 · 1/ω_n.
         let mut sys = System::paper_solid(1.0);
@@ -444,8 +457,9 @@ mod divergence_tests {
             dv_m_s: 1.0,
             ..State::REST
         };
-        let wn = sys.bar.natural_freq_rad_s();
-        let b = divergence_bound_m(&sys, &init);
+        let bar = *sys.lumped_bar().unwrap();
+        let wn = bar.natural_freq_rad_s();
+        let b = divergence_bound_m(&sys, &bar, &init);
         assert!(
             (b / (crate::limits::RK4_DIVERGENCE_FACTOR / wn) - 1.0).abs() < 1e-12,
             "{b}"

@@ -104,7 +104,7 @@ impl Mode {
         }
     }
 
-    fn validate(&self) -> Result<(), ParamError> {
+    pub(crate) fn validate(&self) -> Result<(), ParamError> {
         positive("modes.omega_rad_s", self.omega_rad_s)?;
         crate::params::non_negative("modes.damping_ratio", self.damping_ratio)?;
         positive("modes.modal_mass_kg", self.modal_mass_kg)?;
@@ -186,6 +186,26 @@ impl ModalModel {
         };
         m.modes[..modes.len()].copy_from_slice(modes);
         Ok(m)
+    }
+
+    /// The one-mode model of the paper's lumped bar: `ω = √(K/M)`, `m = M`, `ζ`, every shape 1,
+    /// static compliance `1/K` (not validated: [`Structure::modal_model`] and
+    /// `System::validate` check the bar).
+    pub fn lumped(bar: &Bar) -> ModalModel {
+        let mut m = ModalModel {
+            modes: [Mode::UNUSED; MAX_BEAM_MODES],
+            len: 1,
+            static_tip_compliance_m_per_n: 1.0 / bar.stiffness_n_per_m,
+        };
+        m.modes[0] = Mode {
+            omega_rad_s: bar.natural_freq_rad_s(),
+            damping_ratio: bar.damping_ratio,
+            modal_mass_kg: bar.mass_kg,
+            shape_cavity: 1.0,
+            shape_force: 1.0,
+            shape_response: 1.0,
+        };
+        m
     }
 
     /// The modes, by increasing frequency.
@@ -275,15 +295,7 @@ impl Structure {
                 positive("bar.mass_kg", bar.mass_kg)?;
                 positive("bar.stiffness_n_per_m", bar.stiffness_n_per_m)?;
                 crate::params::non_negative("bar.damping_ratio", bar.damping_ratio)?;
-                let mode = Mode {
-                    omega_rad_s: bar.natural_freq_rad_s(),
-                    damping_ratio: bar.damping_ratio,
-                    modal_mass_kg: bar.mass_kg,
-                    shape_cavity: 1.0,
-                    shape_force: 1.0,
-                    shape_response: 1.0,
-                };
-                ModalModel::new(&[mode], 1.0 / bar.stiffness_n_per_m)
+                Ok(ModalModel::lumped(bar))
             }
             Structure::Beam(b) => b.modal_model(),
             Structure::Measured(modes) => {

@@ -9,8 +9,8 @@
 
 use super::{ModalModel, Point, Structure};
 use crate::error::ParamError;
-use crate::limits::{self, MAX_BEAM_MODES};
-use crate::params::{finite, Bar, Damper, Forcing, Frequency, State, System};
+use crate::limits::MAX_BEAM_MODES;
+use crate::params::{finite, BarModel, CavityMotion, Damper, Forcing, Frequency, State, System};
 
 /// Modes of the bar, an optional ball at the cavity, the forcing at the force point.
 #[derive(Debug, Clone, PartialEq)]
@@ -26,14 +26,34 @@ pub struct ModalSystem {
 }
 
 impl ModalSystem {
-    /// The one-mode model of a lumped system: `ω = √(K/M)`, `m = M`, `ζ`, every shape 1.
-    pub fn from_lumped(sys: &System) -> Result<ModalSystem, ParamError> {
+    /// The modal system of any [`System`]: a modal bar's modes, or the lumped bar's one unit
+    /// mode (`ω = √(K/M)`, `m = M`, `ζ`, every shape 1; the bar checked, errors name the field).
+    pub fn from_system(sys: &System) -> Result<ModalSystem, ParamError> {
+        let model = match &sys.bar {
+            BarModel::Lumped(bar) => Structure::Lumped(*bar).modal_model()?,
+            BarModel::Modal(m) => *m,
+        };
         Ok(ModalSystem {
-            model: Structure::Lumped(sys.bar).modal_model()?,
+            model,
             damper: sys.damper,
             forcing: sys.forcing,
             gravity_m_s2: sys.gravity_m_s2,
         })
+    }
+
+    /// The one-mode model of a lumped system ([`ModalSystem::from_system`], kept by name).
+    pub fn from_lumped(sys: &System) -> Result<ModalSystem, ParamError> {
+        Self::from_system(sys)
+    }
+
+    /// This modal system as a [`System`] (its bar [`BarModel::Modal`]).
+    pub fn to_system(&self) -> System {
+        System {
+            bar: BarModel::Modal(self.model),
+            damper: self.damper,
+            forcing: self.forcing,
+            gravity_m_s2: self.gravity_m_s2,
+        }
     }
 
     /// Number of modes `N`.
@@ -122,54 +142,10 @@ impl ModalSystem {
         bar + ball
     }
 
-    /// Check every field; the error names the field and the allowed range.
-    ///
-    /// The ball, forcing and gravity are checked by [`System::validate`] itself (one definition
-    /// of those ranges), on a lumped stand-in that carries them with `Ω` in rad/s; the ratio is
-    /// checked here against `ω₁`.
+    /// Check every field; the error names the field and the allowed range: the checks of
+    /// [`System::validate`] on [`ModalSystem::to_system`] (one definition of every range).
     pub fn validate(&self) -> Result<(), ParamError> {
-        limits::check_count(
-            "modes (number of modes of the modal system)",
-            self.model.len(),
-            1,
-            MAX_BEAM_MODES,
-            "",
-        )?;
-        for m in self.model.modes() {
-            m.validate()?;
-            crate::params::in_range("modes.damping_ratio", m.damping_ratio, 0.0, 1.0, "[0, 1)")?;
-            if m.damping_ratio >= 1.0 {
-                return Err(ParamError::OutOfRange {
-                    field: "modes.damping_ratio",
-                    value: m.damping_ratio,
-                    allowed: "[0, 1)",
-                });
-            }
-        }
-        let omega = match self.forcing.frequency {
-            Frequency::Ratio(r) => {
-                crate::params::positive("forcing.frequency_ratio", r)?;
-                limits::check(
-                    "forcing.frequency_ratio",
-                    r,
-                    limits::FREQ_RATIO_MIN,
-                    limits::FREQ_RATIO_MAX,
-                    "Ω/ω₁ of the modal bar",
-                )?;
-                r * self.omega1_rad_s()
-            }
-            Frequency::RadPerS(w) => w,
-        };
-        System {
-            bar: Bar::PAPER_CAVITY,
-            damper: self.damper,
-            forcing: Forcing {
-                frequency: Frequency::RadPerS(omega),
-                ..self.forcing
-            },
-            gravity_m_s2: self.gravity_m_s2,
-        }
-        .validate()
+        self.to_system().validate()
     }
 }
 
@@ -239,8 +215,8 @@ impl ModalState {
     }
 
     /// The public [`State`] of the observer protocol: `u` and `u̇` at the response point, the
-    /// ball's `v`, `v̇`. (Its `w_m()` is `v − u(x_r)`, the relative motion only when the
-    /// response point is the cavity: see `docs/n-mode-design.md`.)
+    /// cavity's motion ([`State::cavity`], always filled), the ball's `v`, `v̇`; its `w_m()` is
+    /// the relative motion at the cavity.
     pub fn public(&self, model: &ModalModel) -> State {
         State {
             t_s: self.t_s,
@@ -248,7 +224,70 @@ impl ModalState {
             du_m_s: self.du_at(model, Point::Response),
             v_m: self.v_m,
             dv_m_s: self.dv_m_s,
+            cavity: Some(CavityMotion {
+                u_cavity_m: self.u_at(model, Point::Cavity),
+                du_cavity_m_s: self.du_at(model, Point::Cavity),
+            }),
         }
+    }
+
+    /// The modal state a public initial state stands for (the mapping of `docs/n-mode-design.md`,
+    /// "initial state"): the response point's `u`, `u̇` put into mode 1
+    /// (`q₁ = u/φ₁(x_r)`, `q̇₁ = u̇/φ₁(x_r)`, every other mode at rest) and the ball where the
+    /// state puts it relative to the cavity (`v = φ₁(x_d)q₁ + w`, `v̇ = φ₁(x_d)q̇₁ + ẇ`). For the
+    /// lumped bar's unit mode this is the state itself.
+    ///
+    /// Refused, with the field named: a state that carries the cavity's own motion
+    /// ([`State::cavity`], e.g. a modal run's final state) unless the bar is at rest (the modes
+    /// it came from cannot be recovered from it), and a bar not at rest when the response point
+    /// is a node of mode 1.
+    pub fn from_public(model: &ModalModel, s: &State) -> Result<ModalState, ParamError> {
+        for (field, x) in [
+            ("initial.u_m", s.u_m),
+            ("initial.du_m_s", s.du_m_s),
+            ("initial.u_cavity_m", s.u_cavity_m()),
+            ("initial.du_cavity_m_s", s.du_cavity_m_s()),
+            ("initial.w_m", s.w_m()),
+            ("initial.dw_m_s", s.dw_m_s()),
+        ] {
+            finite(field, x)?;
+        }
+        let moving = s.u_m != 0.0 || s.du_m_s != 0.0;
+        if let Some(c) = &s.cavity {
+            if moving || c.u_cavity_m != 0.0 || c.du_cavity_m_s != 0.0 {
+                return Err(ParamError::OutOfRange {
+                    field: "initial.cavity (the cavity's motion of a modal state)",
+                    value: c.u_cavity_m.abs().max(c.du_cavity_m_s.abs()),
+                    allowed: "0: a modal bar starts from u, u̇ at the response point (put into mode 1) or at rest, not from another run's public state",
+                });
+            }
+        }
+        let mode1 = model
+            .modes()
+            .first()
+            .copied()
+            .unwrap_or(super::Mode::UNUSED);
+        let phi_r = mode1.shape_response;
+        let mut m = ModalState {
+            t_s: s.t_s,
+            v_m: s.w_m(),
+            dv_m_s: s.dw_m_s(),
+            ..ModalState::REST
+        };
+        if moving {
+            if phi_r == 0.0 || !(1.0 / phi_r).is_finite() {
+                return Err(ParamError::OutOfRange {
+                    field: "initial.u_m (put into mode 1 through its shape at the response point)",
+                    value: s.u_m.abs().max(s.du_m_s.abs()),
+                    allowed: "0 when the response point is a node of mode 1",
+                });
+            }
+            m.q_m[0] = s.u_m / phi_r;
+            m.dq_m_s[0] = s.du_m_s / phi_r;
+            m.v_m = mode1.shape_cavity * m.q_m[0] + s.w_m();
+            m.dv_m_s = mode1.shape_cavity * m.dq_m_s[0] + s.dw_m_s();
+        }
+        Ok(m)
     }
 
     /// Check the initial condition: finite, modes beyond `N` at rest, the ball inside the gap.

@@ -247,7 +247,8 @@ pub fn run(p: &Point) -> Outcome {
 /// The `k`-th member of a perturbed ensemble of a point: the bar displaced by `k·1e-12` of the
 /// static deflection `F0/K` (the ball moves along, so `w` is unchanged).
 pub fn perturbed(p: &Point, k: u32) -> Outcome {
-    let du = k as f64 * 1e-12 * p.sys.forcing.amplitude_n / p.sys.bar.stiffness_n_per_m;
+    let du = k as f64 * 1e-12 * p.sys.forcing.amplitude_n
+        / p.sys.lumped_bar().unwrap().stiffness_n_per_m;
     let init = State {
         u_m: p.init.u_m + du,
         v_m: p.init.v_m + du,

@@ -59,7 +59,8 @@ pub fn constant_push(static_force_n: f64, gap_m: f64, restitution: f64) -> Syste
             mass_kg: 1.0,
             stiffness_n_per_m: 1e-9,
             damping_ratio: 0.0,
-        },
+        }
+        .into(),
         damper: Some(Damper {
             ball_mass_kg: 0.05,
             ball_radius_m: 0.0075,
@@ -84,9 +85,9 @@ pub use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
 /// in closed form: `u(t)`, `u̇(t)`.
 pub fn linear_bar_from_rest(sys: &System, t: f64) -> (f64, f64) {
     let (m, c, k) = (
-        sys.bar.mass_kg,
-        sys.bar.damping_n_s_per_m(),
-        sys.bar.stiffness_n_per_m,
+        sys.lumped_bar().unwrap().mass_kg,
+        sys.lumped_bar().unwrap().damping_n_s_per_m(),
+        sys.lumped_bar().unwrap().stiffness_n_per_m,
     );
     let (f0, w) = (sys.forcing.amplitude_n, sys.omega_rad_s());
     let (re, im) = (k - m * w * w, c * w);

@@ -43,9 +43,9 @@ fn solve4(mut a: [[f64; 5]; 4]) -> [f64; 4] {
 pub fn orbits(sys: &System) -> Vec<Orbit> {
     let d = sys.damper.unwrap();
     let (m, k, c) = (
-        sys.bar.mass_kg,
-        sys.bar.stiffness_n_per_m,
-        sys.bar.damping_n_s_per_m(),
+        sys.lumped_bar().unwrap().mass_kg,
+        sys.lumped_bar().unwrap().stiffness_n_per_m,
+        sys.lumped_bar().unwrap().damping_n_s_per_m(),
     );
     let (mu, e, lg) = (d.ball_mass_kg / m, d.restitution, d.half_gap_m());
     let om = sys.omega_rad_s();
@@ -123,9 +123,9 @@ fn admissible(sys: &System, o: &Orbit, x: f64, psi: f64) -> bool {
         return false;
     }
     let (m, k, c) = (
-        sys.bar.mass_kg,
-        sys.bar.stiffness_n_per_m,
-        sys.bar.damping_n_s_per_m(),
+        sys.lumped_bar().unwrap().mass_kg,
+        sys.lumped_bar().unwrap().stiffness_n_per_m,
+        sys.lumped_bar().unwrap().damping_n_s_per_m(),
     );
     let al = c / (2.0 * m);
     let wd = (k / m - al * al).sqrt();

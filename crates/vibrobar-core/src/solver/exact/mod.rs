@@ -56,7 +56,7 @@ use super::{
 use crate::damper::friction::{can_stick, holding_capacity_n, sgn0, sliding_friction_on_ball_n};
 use crate::damper::impact::{impact_energy_loss_j, impact_relative, plastic_limit};
 use crate::error::{EventLimitCause, SimError};
-use crate::params::{FrictionModel, State, System};
+use crate::params::{Bar, BarModel, FrictionModel, State, System};
 use expsum::{integral_product, integral_square, integral_square_to, ExpSum, Trig};
 use roots::{first_root_multi_trig, Cand, Root, Scratch};
 
@@ -263,6 +263,7 @@ impl St {
             du_m_s: self.du,
             v_m: self.u + self.w,
             dv_m_s: self.du + self.dw,
+            cavity: None,
         }
     }
 }
@@ -292,6 +293,8 @@ pub struct ExactSegment {
     force: ExpSum,
     c: f64,
     fb: f64,
+    /// `M`, `K` and the ball's mass (`None` without a ball): the mechanical energy's constants.
+    energy: (f64, f64, Option<f64>),
     /// Transcendentals at the local end time `end.tau` (where the next state is taken), shared
     /// by that state and `∫u²` up to `t1`.
     end: Trig,
@@ -336,6 +339,10 @@ impl Segment for ExactSegment {
         let mut s = self.at(t_s - self.t0).public();
         s.t_s = t_s;
         s
+    }
+    fn mechanical_energy_j(&self, t_s: f64) -> f64 {
+        let (m, k, md) = self.energy;
+        crate::model::lumped_mechanical_energy_j(m, k, md, &self.state_at(t_s))
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
         if b_s.to_bits() == self.t1.to_bits() {
@@ -530,14 +537,19 @@ impl Book<'_> {
 }
 
 impl Consts {
-    /// The constants of a run of `sys` (validated).
-    fn new(sys: &System) -> Consts {
+    /// `M`, `K`, `m_d` of [`ExactSegment::mechanical_energy_j`].
+    fn energy_consts(&self) -> (f64, f64, Option<f64>) {
+        (self.m, self.k, self.lg.is_finite().then_some(self.md))
+    }
+
+    /// The constants of a run of `sys` (validated) with its lumped `bar`.
+    fn new(sys: &System, bar: &Bar) -> Consts {
         let om = sys.omega_rad_s();
         let (md, lg, e, model) = match &sys.damper {
             Some(d) => (d.ball_mass_kg, d.half_gap_m(), d.restitution, d.friction),
             None => (1.0, f64::INFINITY, 0.0, FrictionModel::None),
         };
-        let wn = sys.bar.natural_freq_rad_s();
+        let wn = bar.natural_freq_rad_s();
         let f_scale = sys
             .forcing
             .amplitude_n
@@ -545,16 +557,16 @@ impl Consts {
             .max(sys.forcing.static_force_n.abs())
             .max(sys.friction_level_n());
         let mut cs = Consts {
-            m: sys.bar.mass_kg,
+            m: bar.mass_kg,
             md,
-            k: sys.bar.stiffness_n_per_m,
-            c: sys.bar.damping_n_s_per_m(),
+            k: bar.stiffness_n_per_m,
+            c: bar.damping_n_s_per_m(),
             fs: sys.forcing.static_force_n,
             f0: sys.forcing.amplitude_n,
             om,
             lg,
             e,
-            mu: md / sys.bar.mass_kg,
+            mu: md / bar.mass_kg,
             fl: sys.friction_level_n(),
             model,
             tol_x: 1e-15 * lg,
@@ -579,6 +591,9 @@ impl Consts {
     }
 }
 
+/// Why `exact` refuses a modal bar for now (the N-mode exact solver is being wired in).
+pub const MODAL_EXACT_NOT_WIRED: &str = "the exact solver does not run a modal bar (a [beam] scenario) yet: the N-mode exact solver is being wired in; use --solver rk4 (its step must satisfy ω_N·dt ≤ 2.5 for the highest mode kept)";
+
 impl Solver for Exact {
     fn name(&self) -> &'static str {
         "exact"
@@ -591,8 +606,12 @@ impl Solver for Exact {
         t_end_s: f64,
         obs: &mut dyn Observer,
     ) -> Result<RunSummary, SimError> {
+        let bar = match &sys.bar {
+            BarModel::Lumped(bar) => bar,
+            BarModel::Modal(_) => return Err(SimError::Unsupported(MODAL_EXACT_NOT_WIRED)),
+        };
         super::validate_run(sys, init, t_end_s)?;
-        let cs = Consts::new(sys);
+        let cs = Consts::new(sys, bar);
         let mut book = Book {
             obs,
             summary: RunSummary {
@@ -666,6 +685,7 @@ fn solid_bar(
         w: u.zero_like(),
         force,
         c: cs.c,
+        energy: cs.energy_consts(),
         fb: 0.0,
         end: Trig::new(t_end_s - s.t, u.om, u.al, u.wd),
     };
@@ -773,6 +793,7 @@ fn free_flight(
         w,
         force,
         c: cs.c,
+        energy: cs.energy_consts(),
         fb,
         end,
     };
@@ -846,6 +867,7 @@ fn pair_motion(
         w,
         force,
         c: cs.c,
+        energy: cs.energy_consts(),
         fb: 0.0,
         end,
     };
@@ -1040,6 +1062,7 @@ fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Re
         w: ExpSum::constant(j.sw * cs.lg, &u),
         force,
         c: cs.c,
+        energy: cs.energy_consts(),
         fb: 0.0,
         end: Trig::new(j.dt, u.om, u.al, u.wd),
     };
@@ -1166,7 +1189,7 @@ mod tests {
     #[test]
     fn regression_event_limit_names_a_ball_resting_on_a_wall_and_stick_slip() {
         let sys = System::paper_damped(1e-3, FrictionModel::Coulomb, 1.0);
-        let cs = Consts::new(&sys);
+        let cs = Consts::new(&sys, sys.lumped_bar().unwrap());
         let wall = Wall::Plus;
         let graze = EventKind::Impact {
             wall,
@@ -1206,8 +1229,10 @@ mod tests {
     #[test]
     fn regression_tiny_stiffness_with_damping_was_called_an_undamped_bar() {
         let mut sys = System::paper_damped(1e-3, FrictionModel::None, 1.0);
-        sys.bar.stiffness_n_per_m = 1e-300;
-        let cs = Consts::new(&sys);
+        let bar = sys.bar.as_lumped_mut().unwrap();
+        bar.stiffness_n_per_m = 1e-300;
+        let bar = *bar;
+        let cs = Consts::new(&sys, &bar);
         match cs.bar_sum(cs.m, 0.0, 0.0, 0.0, 0.0) {
             Err(e @ SimError::ResponseOutOfRange { .. }) => {
                 assert!(!e.to_string().contains("undamped"), "{e}")
@@ -1216,14 +1241,17 @@ mod tests {
         }
         // The genuine case keeps its name.
         let mut und = System::paper_damped(1e-3, FrictionModel::None, 1.0);
-        und.bar.damping_ratio = 0.0;
-        let cs = Consts::new(&und);
+        let bar = und.bar.as_lumped_mut().unwrap();
+        bar.damping_ratio = 0.0;
+        let bar = *bar;
+        let cs = Consts::new(&und, &bar);
         assert!(matches!(
             cs.bar_sum(cs.m, 0.0, 0.0, 0.0, 0.0),
             Err(SimError::UndampedResonance { .. })
         ));
         // And a damped bar at resonance is fine.
-        let cs = Consts::new(&System::paper_damped(1e-3, FrictionModel::None, 1.0));
+        let sys = System::paper_damped(1e-3, FrictionModel::None, 1.0);
+        let cs = Consts::new(&sys, sys.lumped_bar().unwrap());
         assert!(cs.bar_sum(cs.m, 0.0, 0.0, 0.0, 0.0).is_ok());
     }
 
