@@ -229,15 +229,15 @@ pub fn run(args: &LumpedVsBeamArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Where a sequence of reductions settles: the smallest N from which all later values lie within
-/// a band of `tol` percentage points (max − min), if any before the last.
+/// Where a sequence of reductions settles: the smallest N from which all later values (at least
+/// three) lie within a band of `tol` percentage points (max − min).
 fn settles_from(rows: &[(f64, f64, ConvergenceRow)], tol: f64) -> Option<usize> {
     let red: Vec<f64> = rows.iter().map(|r| r.2.reduction_pct).collect();
     let band = |v: &[f64]| {
         v.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
             - v.iter().fold(f64::INFINITY, |a, &b| a.min(b))
     };
-    (0..red.len().saturating_sub(1))
+    (0..red.len().saturating_sub(2))
         .find(|&k| band(&red[k..]) < tol)
         .map(|k| rows[k].2.modes)
 }
@@ -254,8 +254,8 @@ fn convergence_sentence(rows: &[(f64, f64, ConvergenceRow)], n_default: usize) -
             last.modes
         ),
         None => format!(
-            "The reduction does not stay within a band of 1 percentage point over any range of N \
-             up to {}.",
+            "The reduction does not stay within a band of 1 percentage point over any three or \
+             more successive N up to {}.",
             last.modes
         ),
     };
