@@ -212,4 +212,10 @@ pub struct BenchArgs {
     /// set. --duration and --dt override the file.
     #[arg(long, value_name = "FILE.toml")]
     pub scenario: Option<PathBuf>,
+    /// Number of modes N of a `[beam]` scenario, overriding `[beam] modes`, in [1, 32].
+    #[arg(long, value_name = "N")]
+    pub beam_modes: Option<usize>,
+    /// Cavity centre (the ball) of a `[beam]` scenario in mm from the clamp, in [0, L].
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    pub cavity_position_mm: Option<f64>,
 }

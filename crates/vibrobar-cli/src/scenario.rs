@@ -178,7 +178,7 @@ impl<'de> Deserialize<'de> for RunSection {
 }
 
 /// `[forcing]` as in the file: `amplitude_n`, `static_force_n` and `frequency_ratio`
-/// (`Ω / √(K/M)` of the bar simulated) or `omega_rad_s`.
+/// (`Ω/ω₁` of the bar simulated: `√(K/M)` of a lumped bar, a beam's first mode) or `omega_rad_s`.
 mod forcing_section {
     use super::*;
 
@@ -875,9 +875,12 @@ mod tests {
         let p = dir.path().join("b.toml");
         std::fs::write(&p, "[beam]\n").unwrap();
         assert!(Scenario::load(&p).unwrap().beam.is_some());
-        // The flags change the bars (the cache is emptied): 3 modes → 1.
+        // Computed once: a clone (a sweep's point, a design command's scenario) shares them.
         let mut s = Scenario::from_toml("[beam]\nmodes = 3\n").unwrap();
+        assert!(s.bars_cache.0.get().is_none());
         assert_eq!(s.bars().unwrap().0.as_modal().unwrap().len(), 3);
+        assert!(s.clone().bars_cache.0.get().is_some());
+        // The flags change the bars (the cache is emptied): 3 modes → 1.
         s.apply_beam_flags(Some(1), None).unwrap();
         assert_eq!(s.bars().unwrap().0.as_modal().unwrap().len(), 1);
         // Without [beam], nothing changes: same scenario, same JSON (no `beam` key).

@@ -7,7 +7,7 @@
 //! | what | limit | why |
 //! |---|---|---|
 //! | fixed-step (`rk4`) steps per run, `duration/dt` | ≤ [`MAX_STEPS`] = 1e9 | bounded work: about 90 s of `rk4` |
-//! | `rk4` step, `ω_n·dt` | ≤ [`RK4_MAX_OMEGA_DT`] = 2.5 | RK4's stability region (radius ≥ 2.61 for every damping) |
+//! | `rk4` step, `ω_n·dt` (`ω_N` of a modal bar's highest mode) | ≤ [`RK4_MAX_OMEGA_DT`] = 2.5 | RK4's stability region (radius ≥ 2.61 for every damping) |
 //! | samples of a history, Poincaré points, bifurcation points | ≤ [`MAX_SAMPLES`] = 1e7 | about 1.5 GB in memory |
 //! | grid points of a sweep, map, ensemble or bifurcation | ≤ [`MAX_GRID_POINTS`] = 1e7 | memory of the row tables |
 //! | ratios of a `sweep` | ≤ [`MAX_SWEEP_RATIOS`] = 1e5 | |
@@ -16,8 +16,8 @@
 //! | shards `N` of `--shard K/N` | ≤ [`MAX_SHARDS`] = 1e6 | `merge` checks every shard 1..N |
 //! | worker threads `--threads` | ≤ [`MAX_THREADS`] = 1024 | OS threads |
 //! | Lyapunov renormalisation intervals | ≤ [`MAX_LYAPUNOV_INTERVALS`] = 1e6 | |
-//! | forcing phase `max(Ω, ω_n)·t` | ≤ [`MAX_PHASE_RAD`] = 1e10 rad | `sin(Ωt)` keeps 1e-6 rad of phase |
-//! | frequency ratio `Ω/√(K/M)` | [[`FREQ_RATIO_MIN`], [`FREQ_RATIO_MAX`]] = [1e-3, 1e3] | a one-mode model; outside, the response underflows or the period overflows |
+//! | forcing phase `max(Ω, ω_max)·t` | ≤ [`MAX_PHASE_RAD`] = 1e10 rad | `sin(Ωt)` keeps 1e-6 rad of phase |
+//! | frequency ratio `Ω/ω₁` (`√(K/M)` of a lumped bar) | [[`FREQ_RATIO_MIN`], [`FREQ_RATIO_MAX`]] = [1e-3, 1e3] | a one-mode model; outside, the response underflows or the period overflows |
 //! | RMS window `rms_fraction·duration` | ≥ `dt` | an empty window has no RMS |
 //! | Lyapunov `d0` | [[`LYAPUNOV_D0_MIN`], [`LYAPUNOV_D0_MAX`]] = [1e-12, 1e-2] | representable and still linear |
 //! | beam geometry and material | [`BEAM_LENGTH_M`], [`BEAM_DIAMETER_M`], [`BEAM_YOUNGS_MODULUS_PA`], [`BEAM_DENSITY_KG_M3`] | real bars; keeps `M`, `K` finite |
@@ -60,11 +60,11 @@ pub const MAX_SHARDS: usize = 1_000_000;
 pub const MAX_THREADS: usize = 1024;
 /// Most renormalisation intervals of a Lyapunov estimate.
 pub const MAX_LYAPUNOV_INTERVALS: usize = 1_000_000;
-/// Largest phase `max(Ω, ω_n)·t` of a run: beyond it `sin(Ωt)` has lost more than 1e-6 rad.
+/// Largest phase `max(Ω, ω_max)·t` of a run (`ω_max` the highest mode kept): beyond it `sin(Ωt)` has lost more than 1e-6 rad.
 pub const MAX_PHASE_RAD: f64 = 1e10;
-/// Smallest frequency ratio `Ω/√(K/M)`.
+/// Smallest frequency ratio `Ω/ω₁` (`√(K/M)` of a lumped bar).
 pub const FREQ_RATIO_MIN: f64 = 1e-3;
-/// Largest frequency ratio `Ω/√(K/M)`.
+/// Largest frequency ratio `Ω/ω₁`.
 pub const FREQ_RATIO_MAX: f64 = 1e3;
 /// Smallest Lyapunov separation `d0` (scaled units, state components are O(1)–O(100)): below
 /// it the perturbation is lost to rounding and the estimate measures round-off.

@@ -24,6 +24,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         dt: args.dt,
         ..Overrides::default()
     })?;
+    run_sc.apply_beam_flags(args.beam_modes, args.cavity_position_mm)?;
     run_sc.validate()?;
     let st = run_sc.settings();
     let sc = args.scenario.is_some().then_some(&run_sc);

@@ -392,6 +392,13 @@ pub struct LyapunovArgs {
 /// `vibrobar lyapunov`.
 pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
     let sys = a.point.system()?;
+    // Before the settings' checks: a beam is refused whatever the flags.
+    if sys.lumped_bar().is_none() {
+        bail!(
+            "{}",
+            vibrobar_core::analysis::lyapunov::LYAPUNOV_LUMPED_ONLY
+        );
+    }
     let solver = a.point.system.solver()?;
     let transient = transient_or_default(a.transient, &a.point.system)?;
     let periods = check_value("--periods", a.periods, |x| x > 0.0, "(0, ∞)")?;

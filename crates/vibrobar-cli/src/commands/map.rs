@@ -41,7 +41,7 @@ pub struct MapArgs {
     #[command(flatten)]
     /// System and solver.
     pub system: SystemArgs,
-    /// Frequency ratios Ω/ω_n, START:STOP:STEP (inclusive), each > 0.
+    /// Frequency ratios Ω/ω₁ (each bar's own first frequency), START:STOP:STEP (inclusive), each > 0.
     #[arg(long, allow_hyphen_values = true)]
     pub ratios: String,
     /// Total gaps (clearance) in mm, START:STOP:STEP (inclusive), each > 0.
@@ -54,7 +54,8 @@ pub struct MapArgs {
     /// Optional axis: coefficients of restitution (START:STOP:STEP, in [0, 1]); adds `restitution`.
     #[arg(long, allow_hyphen_values = true)]
     pub restitutions: Option<String>,
-    /// Optional axis: mass ratios m_d/M (START:STOP:STEP, > 0); adds `mass_ratio`.
+    /// Optional axis: mass ratios m_d/M (START:STOP:STEP, > 0); adds `mass_ratio`. On a beam, M is
+    /// mode 1's effective mass at the cavity, m₁/φ₁(x_d)².
     #[arg(long, allow_hyphen_values = true)]
     pub mass_ratios: Option<String>,
     /// Compute only slice K of N of the grid (round-robin); merge the slices with `merge`.
@@ -512,6 +513,12 @@ pub struct BenchMapArgs {
     /// map [default: the paper's, frictionless].
     #[arg(long, value_name = "FILE.toml")]
     pub scenario: Option<PathBuf>,
+    /// Number of modes N of a `[beam]` scenario, overriding `[beam] modes`, in [1, 32].
+    #[arg(long, value_name = "N")]
+    pub beam_modes: Option<usize>,
+    /// Cavity centre (the ball) of a `[beam]` scenario in mm from the clamp, in [0, L].
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    pub cavity_position_mm: Option<f64>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -538,10 +545,11 @@ pub struct BenchMapResult {
 
 /// The bench's scenario (the file's, or the paper's) and run settings with `--duration` applied.
 fn bench_settings(args: &BenchMapArgs) -> anyhow::Result<(Scenario, vibrobar_core::RunSettings)> {
-    let sc = match &args.scenario {
+    let mut sc = match &args.scenario {
         Some(p) => Scenario::from_source(Source::File(p))?,
         None => Scenario::paper(),
     };
+    sc.apply_beam_flags(args.beam_modes, args.cavity_position_mm)?;
     let mut settings = sc.settings();
     if let Some(d) = args.duration {
         settings.duration_s = check_value("--duration", d, |x| x > 0.0, "(0, ∞) s")?;

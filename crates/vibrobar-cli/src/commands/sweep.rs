@@ -42,6 +42,8 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     // Grid order (= row order and journal index): gap-major.
     let points = sc.sweep_points(&gaps_m, &ratios);
     // Validate every point before starting, so bad input fails fast with the field's name.
+    // The bars (a beam's modes) are computed here, once: every clone below shares them.
+    sc.bars()?;
     for p in &points {
         let mut s = sc.clone();
         s.damper.gap_m = p.gap_m;

@@ -45,7 +45,7 @@ where
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SweepPoint {
-    /// Frequency ratio (against each bar's own `√(K/M)`).
+    /// Frequency ratio (against each bar's own `ω₁`: `√(K/M)` of a lumped bar).
     pub ratio: f64,
     /// Total clearance.
     pub gap_m: f64,
