@@ -199,12 +199,19 @@ impl PlacementSpec {
         }
     }
 
-    /// The solid reference: the same bar without cavity section (and, in its runs, without ball).
-    pub fn solid_beam(&self) -> Beam {
-        Beam {
+    /// The solid reference: the same bar without cavity section (and, in its runs, without
+    /// ball), with as many modes as the bar with the cavity (the beam's `modes`, or the default
+    /// rule applied to the bar with its cavity as given), as the commands' scenarios build it.
+    pub fn solid_beam(&self) -> Result<Beam, ParamError> {
+        let modes = match self.beam.modes {
+            Some(n) => n,
+            None => self.beam.modal_model()?.len(),
+        };
+        Ok(Beam {
             cavity_section: None,
+            modes: Some(modes),
             ..self.beam.clone()
-        }
+        })
     }
 
     /// The damped bar's modes with the cavity at `x_m` (checked first).
@@ -215,7 +222,7 @@ impl PlacementSpec {
 
     /// The solid bar's modes.
     pub fn solid_model(&self) -> Result<ModalModel, ParamError> {
-        self.solid_beam().modal_model()
+        self.solid_beam()?.modal_model()
     }
 
     /// The ball with gap `gap_m`.
