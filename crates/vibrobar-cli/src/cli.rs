@@ -120,13 +120,14 @@ pub struct RunArgs {
     /// [default: 0].
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
     pub u0_m: Option<f64>,
-    /// Initial ball position relative to the cavity centre w(0) = v − u in m, within ±gap/2 [default: 0].
+    /// Initial ball position relative to the cavity centre w(0) = v − u(x_d) in m, within ±gap/2 [default: 0].
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
     pub w0_m: Option<f64>,
     /// Initial relative velocity ẇ(0) in m/s [default: 0].
     #[arg(long, value_name = "M_S", allow_negative_numbers = true)]
     pub dw0_m_s: Option<f64>,
-    /// Initial bar velocity u̇(0) in m/s [default: 0].
+    /// Initial bar velocity u̇(0) in m/s, at the response point (a beam: put into mode 1)
+    /// [default: 0].
     #[arg(long, value_name = "M_S", allow_negative_numbers = true)]
     pub du0_m_s: Option<f64>,
     /// Output time history: columns t_s,u_m,du_m_s,v_m,dv_m_s,w_m,dw_m_s; a name ending in `.npy`

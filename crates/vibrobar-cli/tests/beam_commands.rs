@@ -39,7 +39,7 @@ fn meta(p: &Path) -> serde_json::Value {
 }
 
 /// Each simulating command runs the beam and writes its documented columns (the lumped ones);
-/// `lyapunov` refuses a beam and says why.
+/// `lyapunov` estimates it on the modal states.
 #[test]
 fn every_command_runs_a_beam_scenario() {
     let d = tempfile::tempdir().unwrap();
@@ -147,9 +147,21 @@ fn every_command_runs_a_beam_scenario() {
     assert_eq!(header(&d.path().join("en.csv")), ensemble_schema().header());
     assert_eq!(rows(&d.path().join("en.csv"))[0][2], "3");
 
-    let mut a = vec!["lyapunov", "--ratio", "1", "--gap-mm", "0.1"];
-    a.extend_from_slice(&sc);
-    assert_fails_with(&vibrobar_in(d.path(), &a), &["lumped bar only", "2N + 2"]);
+    let o = run(&[
+        "lyapunov",
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "0.1",
+        "--duration",
+        "0.05",
+        "--periods",
+        "2",
+        "--json",
+    ]);
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(j["exponent_per_s"].as_f64().unwrap().is_finite(), "{j}");
+    assert!(j["intervals"].as_u64().unwrap() >= 2, "{j}");
 }
 
 /// The steady RMS over `[a, b]` of `|G| F0 sin(Ωt + arg G)`, in closed form.
@@ -330,6 +342,10 @@ fn beam_flags_and_bad_input() {
             "1",
             "--gap-mm",
             "0.1",
+            "--duration",
+            "0.05",
+            "--periods",
+            "2",
         ],
         &[
             "ensemble",
@@ -377,9 +393,6 @@ fn beam_flags_and_bad_input() {
     ];
     for cmd in commands {
         for (flags, want) in bad {
-            if cmd[0] == "lyapunov" && !want[0].starts_with("beam.") {
-                continue; // lyapunov refuses any beam first
-            }
             let o = with(cmd, flags);
             assert_fails_with(&o, want);
             assert!(!d.path().join("o.csv").exists(), "{cmd:?} {flags:?} wrote");
@@ -393,13 +406,12 @@ fn beam_flags_and_bad_input() {
             &with(&lumped, &["--beam-modes", "2"]),
             &["--beam-modes and --cavity-position-mm need a scenario with a [beam] section"],
         );
-        if cmd[0] != "lyapunov" {
-            // Good flags run: the cavity at the tip, 1 mode.
-            let o = with(cmd, &["--cavity-position-mm", "175", "--beam-modes", "1"]);
-            assert_ok(&o);
-            fs::remove_file(d.path().join("o.csv")).unwrap();
-            let _ = fs::remove_file(d.path().join("o.csv.meta.json"));
-        }
+        // Good flags run: the cavity at the tip, 1 mode.
+        let o = with(cmd, &["--cavity-position-mm", "175", "--beam-modes", "1"]);
+        assert_ok(&o);
+        assert_eq!(d.path().join("o.csv").exists(), cmd[0] != "lyapunov");
+        let _ = fs::remove_file(d.path().join("o.csv"));
+        let _ = fs::remove_file(d.path().join("o.csv.meta.json"));
     }
     // The benches take the flags too.
     let o = with(

@@ -242,8 +242,7 @@ fn beam_and_bar_together_are_refused() {
 
 /// A `[beam]` scenario never runs the lumped bar silently. Every simulating command runs it on
 /// its modes (tests/beam_commands.rs); with the default solver, `exact`, whose N-mode form is
-/// being wired in, each fails with that message and writes nothing; `lyapunov` refuses a beam
-/// whatever the solver.
+/// being wired in, each fails with that message and writes nothing.
 #[test]
 fn regression_beam_scenario_never_runs_the_lumped_bar_silently() {
     let dir = tempfile::tempdir().unwrap();
@@ -297,12 +296,10 @@ fn regression_beam_scenario_never_runs_the_lumped_bar_silently() {
         let o = vibrobar_in(dir.path(), &args);
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success(), "{args:?} succeeded");
-        let want = if args[0] == "lyapunov" {
-            "the Lyapunov exponent is estimated for the lumped bar only"
-        } else {
-            "the exact solver does not run a modal bar (a [beam] scenario) yet"
-        };
-        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(
+            err.contains("the exact solver does not run a modal bar (a [beam] scenario) yet"),
+            "{args:?}: {err}"
+        );
         assert!(!dir.path().join("o.csv").exists(), "{args:?} wrote a file");
     }
 }

@@ -3,7 +3,7 @@
 //! energies, a lumped-style initial state maps onto mode 1, and every modal input error names
 //! its field. The lumped path is pinned by `golden_exact.rs` and `sweep_snapshot.rs`.
 use vibrobar_core::analysis::energy::EnergyAudit;
-use vibrobar_core::analysis::lyapunov::{max_lyapunov, LyapunovParams};
+use vibrobar_core::analysis::lyapunov::{max_lyapunov, max_lyapunov_modal, LyapunovParams};
 use vibrobar_core::analysis::map::Axis;
 use vibrobar_core::params::{BarModel, CavityMotion};
 use vibrobar_core::solver::modal_rk4::{ModalObserver, ModalRk4};
@@ -351,7 +351,8 @@ fn modal_inputs_are_refused_with_the_field_named() {
 }
 
 /// `exact` refuses a modal bar with a message that says why and what to use, until the N-mode
-/// exact solver is wired in; `max_lyapunov` refuses it (its tangent space is 2N + 2).
+/// exact solver is wired in; `max_lyapunov` refuses it (its tangent space is 2N + 2: that is
+/// `max_lyapunov_modal`'s).
 #[test]
 fn exact_and_lyapunov_refuse_a_modal_bar_clearly() {
     let sys = beam_system(paper_beam(3, None), Some(FrictionModel::None), 1.0);
@@ -438,4 +439,79 @@ fn bar_model_serialises_lumped_as_the_bar_and_modal_as_its_modes() {
             shape_response: 1.0,
         }]
     );
+}
+
+fn modal_rk4_run(dt: f64) -> Box<vibrobar_core::solver::ModalRun<'static>> {
+    let settings = RunSettings {
+        dt_s: dt,
+        ..RunSettings::default()
+    };
+    vibrobar_core::solver::modal_run_by_name("rk4", &settings).unwrap()
+}
+
+/// The modal estimate against closed forms: a beam without ball decays like its slowest mode,
+/// `λ = −ζ₁ω₁`; with a ball that never hits, the free ball is neutral (`λ → 0⁺` like
+/// `ln(n)/(nτ)`, as for the lumped bar); with one unit mode it is `max_lyapunov`'s estimate.
+#[test]
+fn modal_lyapunov_exponent_against_closed_forms() {
+    let run = modal_rk4_run(2e-6);
+    // No ball, 3 modes: the slowest decay.
+    let model = paper_beam(3, None);
+    let zw = model.modes()[0].damping_ratio * model.modes()[0].omega_rad_s;
+    let sys = ModalSystem::from_system(&beam_system(model, None, 0.9)).unwrap();
+    let p = LyapunovParams::periods(&sys.to_system(), 0.01, 3.0, 60);
+    let r = max_lyapunov_modal(&sys, &ModalState::REST, &*run, &p).unwrap();
+    // The first interval also loses the faster modes' share of the initial direction
+    // (ln √3 over 60 intervals ≈ 1.8/s); after it, the direction is mode 1's.
+    let late = &r.interval_exponents_per_s[1..];
+    let late_mean = late.iter().sum::<f64>() / late.len() as f64;
+    eprintln!(
+        "no ball: λ = {}, after the first interval {late_mean}, vs −ζ₁ω₁ = {}",
+        r.exponent_per_s, -zw
+    );
+    assert!((late_mean + zw).abs() < 0.01 * zw, "{late_mean}");
+    assert!(
+        (r.exponent_per_s + zw).abs() < 0.06 * zw,
+        "{}",
+        r.exponent_per_s
+    );
+    assert_eq!(r.clamped, 0);
+    // A ball that never hits (ratio 0.9, 1 mm gap): neutral.
+    let mut sys_b = beam_system(model, Some(FrictionModel::None), 0.9);
+    sys_b.damper.as_mut().unwrap().gap_m = 1e-3;
+    let msys = ModalSystem::from_system(&sys_b).unwrap();
+    let p = LyapunovParams::periods(&sys_b, 0.0, 3.0, 200);
+    let r = max_lyapunov_modal(&msys, &ModalState::REST, &*run, &p).unwrap();
+    let bound = (200f64).ln() / (200.0 * p.interval_s);
+    eprintln!(
+        "ball, no impact: λ = {}, ln(n)/(nτ) = {bound}",
+        r.exponent_per_s
+    );
+    assert!(r.exponent_per_s > 0.0 && r.exponent_per_s < 1.5 * bound);
+    // One unit mode is the lumped estimate (same scaled coordinates; the static deflection
+    // 1/(mω²) vs 1/K differs by an ulp).
+    let lumped = System::paper_damped(1e-3, FrictionModel::None, 0.9);
+    let p = LyapunovParams::periods(&lumped, 0.0, 3.0, 50);
+    let rl = max_lyapunov(&lumped, &State::REST, &Rk4 { dt_s: 2e-6 }, &p).unwrap();
+    let msys = ModalSystem::from_system(&lumped).unwrap();
+    let rm = max_lyapunov_modal(&msys, &ModalState::REST, &*run, &p).unwrap();
+    eprintln!(
+        "unit mode {} vs lumped {}",
+        rm.exponent_per_s, rl.exponent_per_s
+    );
+    assert!((rm.exponent_per_s / rl.exponent_per_s - 1.0).abs() < 1e-6);
+    // Its checks: a start outside the gap, bad settings.
+    let out = ModalState {
+        v_m: 2e-3,
+        ..ModalState::REST
+    };
+    assert!(max_lyapunov_modal(&msys, &out, &*run, &p).is_err());
+    let mut bad = p;
+    bad.d0 = 0.0;
+    assert!(max_lyapunov_modal(&msys, &ModalState::REST, &*run, &bad).is_err());
+    // exact's modal run refuses until the N-mode exact solver is wired in.
+    let exact = vibrobar_core::solver::modal_run_by_name("exact", &RunSettings::default()).unwrap();
+    let e = max_lyapunov_modal(&msys, &ModalState::REST, &*exact, &p).unwrap_err();
+    assert!(e.to_string().contains("N-mode exact"), "{e}");
+    assert!(vibrobar_core::solver::modal_run_by_name("euler", &RunSettings::default()).is_none());
 }

@@ -9,11 +9,14 @@ use anyhow::{bail, Context};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use vibrobar_core::analysis::ensemble::{run_ensemble, EnsembleParams, IcRanges};
-use vibrobar_core::analysis::lyapunov::{max_lyapunov, LyapunovParams};
+use vibrobar_core::analysis::lyapunov::{max_lyapunov, max_lyapunov_modal, LyapunovParams};
 use vibrobar_core::analysis::map::{Axis, Grid, GridAxis, GridPoint, MapSpec};
 use vibrobar_core::analysis::poincare::{bifurcation, BifurcationSpec, Stroboscope};
 use vibrobar_core::analysis::regime::Tolerances;
+use vibrobar_core::params::BarModel;
 use vibrobar_core::params::System;
+use vibrobar_core::solver::modal_run_by_name;
+use vibrobar_core::structure::{ModalState, ModalSystem};
 use vibrobar_io::csv::{
     bifurcation_impacts_schema, bifurcation_schema, ensemble_schema, poincare_schema,
     poincare_values, regime_counts, write_csv, EnsembleCsvRow, Schema, Value,
@@ -392,13 +395,6 @@ pub struct LyapunovArgs {
 /// `vibrobar lyapunov`.
 pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
     let sys = a.point.system()?;
-    // Before the settings' checks: a beam is refused whatever the flags.
-    if sys.lumped_bar().is_none() {
-        bail!(
-            "{}",
-            vibrobar_core::analysis::lyapunov::LYAPUNOV_LUMPED_ONLY
-        );
-    }
     let solver = a.point.system.solver()?;
     let transient = transient_or_default(a.transient, &a.point.system)?;
     let periods = check_value("--periods", a.periods, |x| x > 0.0, "(0, ∞)")?;
@@ -418,7 +414,16 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
     let mut p = LyapunovParams::periods(&sys, transient, periods, intervals);
     p.d0 = d0;
     p.blocks = p.blocks.min(intervals);
-    let r = max_lyapunov(&sys, &spec.base.init, solver.as_ref(), &p)?;
+    let r = match &sys.bar {
+        BarModel::Lumped(_) => max_lyapunov(&sys, &spec.base.init, solver.as_ref(), &p)?,
+        // A beam: on its modal states (the whole 2N + 2-dimensional state).
+        BarModel::Modal(model) => {
+            let run = modal_run_by_name(solver.name(), &spec.settings)
+                .with_context(|| format!("no modal run for solver {}", solver.name()))?;
+            let init = ModalState::from_public(model, &spec.base.init)?;
+            max_lyapunov_modal(&ModalSystem::from_system(&sys)?, &init, &*run, &p)?
+        }
+    };
     if a.json {
         let j = serde_json::json!({
             "exponent_per_s": r.exponent_per_s,
@@ -465,10 +470,11 @@ pub struct EnsembleArgs {
     /// Seed of the ensemble.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Half range of the initial bar displacement u, m (uniform in ±).
+    /// Half range of the initial bar displacement u, m (uniform in ±; a beam: at the response
+    /// point, put into mode 1).
     #[arg(long, allow_negative_numbers = true, default_value_t = 5e-5)]
     pub u_m: f64,
-    /// Half range of the initial bar velocity, m/s.
+    /// Half range of the initial bar velocity, m/s (a beam: at the response point, into mode 1).
     #[arg(long, allow_negative_numbers = true, default_value_t = 0.2)]
     pub du_m_s: f64,
     /// Half range of the initial relative velocity ẇ, m/s (the ball position is uniform over

@@ -23,16 +23,24 @@
 //!   so it is neutral, whereas in the flow it shifts the impact times. With `rk4`, choose `d0`
 //!   so that `d0·s_w` is at least `|ẇ|·dt`, compare several `d0` and `dt` (a finite-size
 //!   exponent), or use an event-driven solver.
+//! * **Modal bar** ([`max_lyapunov_modal`]): the state is `2N + 2`-dimensional (every mode's
+//!   `qₙ`, `q̇ₙ` and the ball's `w`, `ẇ`), so the two trajectories are modal states run by a
+//!   [`ModalRun`] and the distance is taken over all of them (scaled `qₙ/s_u`,
+//!   `q̇ₙ/(ωₙ s_u)`: the energy norm up to the modal masses). A distance on the public state
+//!   (`u`, `u̇` at one point) would not be a norm on that space, so [`max_lyapunov`] refuses a
+//!   modal bar. Every norm gives the same exponent in the limit; the first interval also loses
+//!   the faster modes' share of the initial direction (`tests/modal_system.rs`).
 //! * Without a ball (or with a ball that never hits) the ball is neutral: its velocity
 //!   perturbation persists and `w` drifts linearly, so the largest exponent is 0, not `−ζω_n`.
 
 use crate::error::{ParamError, SimError};
-use crate::limits;
+use crate::limits::{self, MAX_BEAM_MODES};
 use crate::params::{State, System};
-use crate::solver::Solver;
+use crate::solver::{ModalRun, Solver};
+use crate::structure::{ModalState, ModalSystem, Point};
 
-/// Why [`max_lyapunov`] refuses a modal bar.
-pub const LYAPUNOV_LUMPED_ONLY: &str = "the Lyapunov exponent is estimated for the lumped bar only: a modal bar's state space has 2N + 2 dimensions (every mode's q, q̇, the ball's v, v̇), and the two-trajectory method restarts the solver from perturbed public states (u, u̇ at the response point, w, ẇ), which neither span that space nor give a norm on it; remove [beam] for the lumped bar";
+/// Why [`max_lyapunov`] refuses a modal bar (use [`max_lyapunov_modal`]).
+pub const LYAPUNOV_LUMPED_ONLY: &str = "max_lyapunov estimates the lumped bar only: a modal bar's state space has 2N + 2 dimensions (every mode's q, q̇, the ball's v, v̇), and restarting a solver from perturbed public states (u, u̇ at the response point, w, ẇ) neither spans that space nor gives a norm on it; a modal bar is estimated on its modal states (max_lyapunov_modal)";
 
 /// Characteristic sizes that make the state dimensionless.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -51,8 +59,8 @@ impl StateScales {
     /// Defaults: `s_u = F0/K` (static deflection under the force amplitude), `s_u̇ = ω_n s_u`,
     /// `s_w = l_g` (or `s_u` without a ball), `s_ẇ = ω_n s_w`.
     ///
-    /// For a modal bar (which [`max_lyapunov`] refuses) `ω₁` and the static tip compliance of
-    /// the kept modes stand in for `ω_n` and `1/K`.
+    /// For a modal bar ([`max_lyapunov_modal`]) `ω₁` and the static tip compliance of the kept
+    /// modes stand in for `ω_n` and `1/K`.
     pub fn for_system(sys: &System) -> StateScales {
         let wn = sys.omega1_rad_s();
         let f = sys.forcing.amplitude_n.abs() + sys.forcing.static_force_n.abs();
@@ -153,40 +161,7 @@ pub fn max_lyapunov(
     if sys.lumped_bar().is_none() {
         return Err(SimError::Unsupported(LYAPUNOV_LUMPED_ONLY));
     }
-    crate::params::non_negative("transient_s", p.transient_s)?;
-    crate::params::positive("interval_s", p.interval_s)?;
-    crate::params::positive("d0", p.d0)?;
-    // Below the minimum `x + d0·e` rounds back to `x` and the estimate measures round-off.
-    limits::check(
-        "d0 (--d0)",
-        p.d0,
-        limits::LYAPUNOV_D0_MIN,
-        limits::LYAPUNOV_D0_MAX,
-        "the separation must survive rounding and stay in the linear range",
-    )?;
-    if p.intervals == 0 {
-        return Err(ParamError::OutOfRange {
-            field: "intervals",
-            value: 0.0,
-            allowed: "[1, ∞)",
-        }
-        .into());
-    }
-    limits::check_count(
-        "intervals (--duration / (--periods · T))",
-        p.intervals,
-        1,
-        limits::MAX_LYAPUNOV_INTERVALS,
-        "raise --periods or shorten --duration",
-    )?;
-    if p.blocks < 2 || p.blocks > p.intervals {
-        return Err(ParamError::OutOfRange {
-            field: "blocks",
-            value: p.blocks as f64,
-            allowed: "[2, intervals]",
-        }
-        .into());
-    }
+    check_params(p)?;
     let sc = p.scales.unwrap_or_else(|| StateScales::for_system(sys));
     for (field, v) in [
         ("scales.u_m", sc.u_m),
@@ -266,9 +241,53 @@ pub fn max_lyapunov(
         clamped += usize::from(clamp(&mut y));
         x = xn;
     }
+    summarise(rates, p.blocks, clamped)
+}
+
+/// The checks of the settings every estimate makes.
+fn check_params(p: &LyapunovParams) -> Result<(), SimError> {
+    crate::params::non_negative("transient_s", p.transient_s)?;
+    crate::params::positive("interval_s", p.interval_s)?;
+    crate::params::positive("d0", p.d0)?;
+    // Below the minimum `x + d0·e` rounds back to `x` and the estimate measures round-off.
+    limits::check(
+        "d0 (--d0)",
+        p.d0,
+        limits::LYAPUNOV_D0_MIN,
+        limits::LYAPUNOV_D0_MAX,
+        "the separation must survive rounding and stay in the linear range",
+    )?;
+    if p.intervals == 0 {
+        return Err(ParamError::OutOfRange {
+            field: "intervals",
+            value: 0.0,
+            allowed: "[1, ∞)",
+        }
+        .into());
+    }
+    limits::check_count(
+        "intervals (--duration / (--periods · T))",
+        p.intervals,
+        1,
+        limits::MAX_LYAPUNOV_INTERVALS,
+        "raise --periods or shorten --duration",
+    )?;
+    if p.blocks < 2 || p.blocks > p.intervals {
+        return Err(ParamError::OutOfRange {
+            field: "blocks",
+            value: p.blocks as f64,
+            allowed: "[2, intervals]",
+        }
+        .into());
+    }
+    Ok(())
+}
+
+/// The estimate and its spread from the interval rates.
+fn summarise(rates: Vec<f64>, blocks: usize, clamped: usize) -> Result<LyapunovResult, SimError> {
     let n = rates.len();
     let exponent = rates.iter().sum::<f64>() / n as f64;
-    let b = p.blocks;
+    let b = blocks;
     let block_means: Vec<f64> = (0..b)
         .map(|j| {
             let (lo, hi) = (j * n / b, (j + 1) * n / b);
@@ -289,4 +308,162 @@ pub fn max_lyapunov(
         block_means_per_s: block_means,
         clamped,
     })
+}
+
+/// Scaled coordinates of a modal state: `qₙ/s_u`, `q̇ₙ/(ωₙ s_u)` for every mode (the energy norm
+/// up to the modal masses), `w/s_w`, `ẇ/(ω₁ s_w)` for the ball; `2N + 2` of them.
+const MODAL_DIMS: usize = 2 * MAX_BEAM_MODES + 2;
+
+struct ModalScales {
+    n: usize,
+    /// Per coordinate: q₁…q_N, q̇₁…q̇_N, w, ẇ.
+    s: [f64; MODAL_DIMS],
+    phi_d: [f64; MAX_BEAM_MODES],
+}
+
+impl ModalScales {
+    fn new(sys: &ModalSystem, sc: &StateScales) -> ModalScales {
+        let n = sys.n_modes();
+        let w1 = sys.omega1_rad_s();
+        let mut s = [1.0; MODAL_DIMS];
+        for (i, m) in sys.model.modes().iter().enumerate() {
+            s[i] = sc.u_m;
+            s[n + i] = sc.du_m_s * m.omega_rad_s / w1;
+        }
+        s[2 * n] = sc.w_m;
+        s[2 * n + 1] = sc.dw_m_s;
+        ModalScales {
+            n,
+            s,
+            phi_d: sys.row(Point::Cavity),
+        }
+    }
+
+    fn to_scaled(&self, x: &ModalState) -> [f64; MODAL_DIMS] {
+        let n = self.n;
+        let mut out = [0.0; MODAL_DIMS];
+        let (mut ud, mut dud) = (0.0, 0.0);
+        for i in 0..n {
+            out[i] = x.q_m[i] / self.s[i];
+            out[n + i] = x.dq_m_s[i] / self.s[n + i];
+            ud += self.phi_d[i] * x.q_m[i];
+            dud += self.phi_d[i] * x.dq_m_s[i];
+        }
+        out[2 * n] = (x.v_m - ud) / self.s[2 * n];
+        out[2 * n + 1] = (x.dv_m_s - dud) / self.s[2 * n + 1];
+        out
+    }
+
+    fn unscaled(&self, t_s: f64, y: &[f64; MODAL_DIMS]) -> ModalState {
+        let n = self.n;
+        let mut x = ModalState {
+            t_s,
+            ..ModalState::REST
+        };
+        let (mut ud, mut dud) = (0.0, 0.0);
+        for i in 0..n {
+            x.q_m[i] = y[i] * self.s[i];
+            x.dq_m_s[i] = y[n + i] * self.s[n + i];
+            ud += self.phi_d[i] * x.q_m[i];
+            dud += self.phi_d[i] * x.dq_m_s[i];
+        }
+        x.v_m = ud + y[2 * n] * self.s[2 * n];
+        x.dv_m_s = dud + y[2 * n + 1] * self.s[2 * n + 1];
+        x
+    }
+}
+
+/// The largest Lyapunov exponent of a modal bar, by the same two-trajectory method as
+/// [`max_lyapunov`], on the modal states themselves: the distance is a norm on the whole
+/// `2N + 2`-dimensional state (module docs; scales [`StateScales::for_system`] of
+/// `sys.to_system()`, the velocities of mode `n` over `ωₙ` instead of `ω₁`), so every direction
+/// the flow can stretch is seen. The cavity projection and the caveats of `rk4` are those of
+/// [`max_lyapunov`]. With one unit mode it is `max_lyapunov`'s estimate (the same scaled
+/// coordinates).
+pub fn max_lyapunov_modal(
+    sys: &ModalSystem,
+    init: &ModalState,
+    run: &ModalRun<'_>,
+    p: &LyapunovParams,
+) -> Result<LyapunovResult, SimError> {
+    sys.validate()?;
+    init.validate(sys)?;
+    check_params(p)?;
+    let st = p
+        .scales
+        .unwrap_or_else(|| StateScales::for_system(&sys.to_system()));
+    for (field, v) in [
+        ("scales.u_m", st.u_m),
+        ("scales.du_m_s", st.du_m_s),
+        ("scales.w_m", st.w_m),
+        ("scales.dw_m_s", st.dw_m_s),
+    ] {
+        crate::params::positive(field, v)?;
+    }
+    let sc = ModalScales::new(sys, &st);
+    let n = sc.n;
+    let has_ball = sys.damper.is_some();
+    let lg = sys.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
+    // Without a ball: the modes only.
+    let dims = if has_ball { 2 * n + 2 } else { 2 * n };
+    let clamp = |s: &mut ModalState| -> bool {
+        let w = s.w_m(&sys.model);
+        if w.abs() > lg {
+            s.v_m = s.u_at(&sys.model, Point::Cavity) + lg.copysign(w);
+            true
+        } else {
+            false
+        }
+    };
+    let mut x = run(sys, init, init.t_s + p.transient_s)?;
+    if !has_ball {
+        x.v_m = 0.0;
+        x.dv_m_s = 0.0;
+    }
+    clamp(&mut x);
+    // Fixed initial direction with every component present.
+    let mut e = [0.0; MODAL_DIMS];
+    for v in e.iter_mut().take(dims) {
+        *v = 1.0 / (dims as f64).sqrt();
+    }
+    let perturb = |x: &ModalState, dir: &[f64; MODAL_DIMS]| -> ModalState {
+        let mut ys = sc.to_scaled(x);
+        for k in 0..dims {
+            ys[k] += p.d0 * dir[k];
+        }
+        let mut y = sc.unscaled(x.t_s, &ys);
+        if !has_ball {
+            y.v_m = 0.0;
+            y.dv_m_s = 0.0;
+        }
+        y
+    };
+    let mut y = perturb(&x, &e);
+    let mut clamped = usize::from(clamp(&mut y));
+    let mut rates = Vec::with_capacity(p.intervals);
+    for i in 1..=p.intervals {
+        let t_end = init.t_s + p.transient_s + i as f64 * p.interval_s;
+        let mut xn = run(sys, &x, t_end)?;
+        let yn = run(sys, &y, t_end)?;
+        let (xs, ys) = (sc.to_scaled(&xn), sc.to_scaled(&yn));
+        let mut diff = [0.0; MODAL_DIMS];
+        for k in 0..dims {
+            diff[k] = ys[k] - xs[k];
+        }
+        let d = diff.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if !d.is_finite() {
+            return Err(SimError::NonFinite { t_s: t_end });
+        }
+        let (d, dir) = if d > 0.0 {
+            (d, diff.map(|v| v / d))
+        } else {
+            (f64::MIN_POSITIVE, e)
+        };
+        rates.push((d / p.d0).ln() / p.interval_s);
+        clamp(&mut xn);
+        y = perturb(&xn, &dir);
+        clamped += usize::from(clamp(&mut y));
+        x = xn;
+    }
+    summarise(rates, p.blocks, clamped)
 }

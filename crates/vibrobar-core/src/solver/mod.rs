@@ -223,6 +223,37 @@ pub fn validate_run(sys: &System, init: &State, t_end_s: f64) -> Result<(), SimE
     Ok(())
 }
 
+/// A modal run: the modal state at `t_end_s` of `sys` started from `init` (what an analysis that
+/// needs the whole modal state, e.g. `analysis::lyapunov::max_lyapunov_modal`, restarts from).
+pub type ModalRun<'a> = dyn Fn(
+        &crate::structure::ModalSystem,
+        &crate::structure::ModalState,
+        f64,
+    ) -> Result<crate::structure::ModalState, SimError>
+    + Send
+    + Sync
+    + 'a;
+
+/// The modal run of the solver `name` with the run settings: `rk4` is
+/// [`modal_rk4::ModalRk4`] at `dt`; `exact` refuses ([`exact::MODAL_EXACT_NOT_WIRED`]) until the
+/// N-mode exact solver is wired in; `None` for an unknown name.
+pub fn modal_run_by_name(name: &str, settings: &RunSettings) -> Option<Box<ModalRun<'static>>> {
+    match name {
+        "rk4" => {
+            let dt_s = settings.dt_s;
+            Some(Box::new(move |sys, init, t_end_s| {
+                Ok(modal_rk4::ModalRk4 { dt_s }
+                    .run(sys, init, t_end_s, &mut ())?
+                    .final_state)
+            }))
+        }
+        "exact" => Some(Box::new(|_, _, _| {
+            Err(SimError::Unsupported(exact::MODAL_EXACT_NOT_WIRED))
+        })),
+        _ => None,
+    }
+}
+
 /// Names of the solvers the library provides.
 pub const SOLVER_NAMES: [&str; 2] = ["rk4", "exact"];
 
