@@ -6,7 +6,9 @@ use anyhow::Result;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
-use crate::commands::{beam, bench, explore, map, merge, modes, paper, run, sweep};
+use crate::commands::{
+    beam, bench, explore, lumped_vs_beam, map, merge, modes, paper, placement, run, sweep,
+};
 
 /// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
 /// "The effect of rolling friction on vibro-impact damped boring bars".
@@ -133,6 +135,13 @@ pub enum Command {
     /// Modes of the bar at the cavity, force and response points (a [beam] scenario: the
     /// Euler–Bernoulli beam; otherwise the lumped bar's one mode), as CSV.
     Modes(crate::commands::modes::ModesArgs),
+    /// Cavity placement on a beam: position × gap over a band of ratios (mean reduction, worst
+    /// RMS, regime), the optimum and a heat map with the nodes of modes 2 and 3; resumable
+    /// (--resume) and shardable (--shard K/N).
+    Placement(crate::commands::placement::PlacementArgs),
+    /// Write the generated Markdown document comparing the paper's lumped bar with the N-mode
+    /// beam at the paper's geometry, with the convergence study in the number of modes.
+    LumpedVsBeam(crate::commands::lumped_vs_beam::LumpedVsBeamArgs),
 }
 
 impl Command {
@@ -152,6 +161,8 @@ impl Command {
             Command::Ensemble(_) => "ensemble",
             Command::BenchMap(_) => "bench-map",
             Command::Modes(_) => "modes",
+            Command::Placement(_) => "placement",
+            Command::LumpedVsBeam(_) => "lumped-vs-beam",
         }
     }
 
@@ -177,6 +188,8 @@ impl Command {
             Command::Ensemble(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::BenchMap(a) => (one(&a.scenario), None),
             Command::Modes(a) => (one(&a.scenario), Some(a.out.as_path())),
+            Command::Placement(a) => (one(&a.system.scenario), Some(a.out.as_path())),
+            Command::LumpedVsBeam(a) => (vec![], Some(a.out.as_path())),
         }
     }
 
@@ -251,5 +264,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::BenchMap(a) => map::run_bench(&a),
         Command::Bench(a) => bench::bench(&a),
         Command::Modes(a) => modes::modes(&a),
+        Command::Placement(a) => placement::run(&a),
+        Command::LumpedVsBeam(a) => lumped_vs_beam::run(&a),
     }
 }

@@ -44,6 +44,15 @@ fn commands_writing(out: &str) -> Vec<Vec<String>> {
             "--members",
             "2",
         ]),
+        v(&[
+            "placement",
+            "--positions-mm",
+            "100:100:1",
+            "--gaps-mm",
+            "0.1:0.1:0.1",
+            "--ratios",
+            "1:1:1",
+        ]),
     ]
 }
 

@@ -9,6 +9,7 @@ use std::borrow::Cow;
 use std::fmt::Write as _;
 use std::path::Path;
 use vibrobar_core::analysis::map::{Axis, GridPoint, MapRow, Optimum};
+use vibrobar_core::analysis::placement::{PlacementPoint, PlacementRow};
 use vibrobar_core::analysis::regime::Regime;
 use vibrobar_core::State;
 
@@ -233,6 +234,7 @@ impl Schema {
         let s = match kind {
             "sweep" => sweep_schema(),
             "map" => map_schema(&map_extra_axes(header)?),
+            "placement" => placement_schema(),
             _ => return None,
         };
         (s.header() == header).then_some(s)
@@ -570,6 +572,80 @@ pub fn optimum_csv(extra: &[Axis], o: &Optimum, energy: &[Option<(f64, f64)>]) -
         s.push('\n');
     }
     s
+}
+
+// ---------------------------------------------------------------------------------------------
+// cavity placement (`placement`)
+
+/// Columns of a placement CSV (`vibrobar placement`), one row per cavity position × gap, in grid
+/// order (position outer, gap inner): `position_mm` (cavity centre from the clamp) and `gap_mm`
+/// identify the point; over the band of ratios `Ω/ω₁` given, `mean_reduction_pct` (mean of
+/// `100(1 − rms_damped/rms_solid)`, RMS at the response point, the solid bar being the same beam
+/// without cavity section and ball), `worst_rms_m` (largest damped RMS) at `worst_ratio`,
+/// `min_reduction_pct` (smallest reduction), `mean_impacts_per_cycle`, and the `regime` of the
+/// run at `worst_ratio` (core `analysis::placement`).
+pub fn placement_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("position_mm", Format::Coord),
+            col("gap_mm", Format::Coord),
+            col("mean_reduction_pct", Format::Plain),
+            col("worst_rms_m", Format::Sci),
+            col("worst_ratio", Format::Coord),
+            col("min_reduction_pct", Format::Plain),
+            col("mean_impacts_per_cycle", Format::Plain),
+            col("regime", Format::Text),
+        ],
+    }
+}
+
+/// The key columns (position, gap) of a placement point, as its row writes them.
+pub fn placement_key(position_m: f64, gap_m: f64) -> Vec<Value> {
+    vec![Value::F(position_m * 1e3), Value::F(gap_m * 1e3)]
+}
+
+/// The fields of one placement row, in column order.
+pub fn placement_values(r: &PlacementRow) -> Vec<Value> {
+    let mut v = placement_key(r.point.position_m, r.point.gap_m);
+    v.extend([
+        Value::F(r.mean_reduction_pct),
+        Value::F(r.worst_rms_m),
+        Value::F(r.worst_ratio),
+        Value::F(r.min_reduction_pct),
+        Value::F(r.mean_impacts_per_cycle),
+        Value::S(r.regime.to_string()),
+    ]);
+    v
+}
+
+/// Read a placement CSV written by `placement` or `merge` (grid index = row number), refusing
+/// any damaged row with its line.
+pub fn read_placement_csv(path: &Path) -> Result<Vec<PlacementRow>> {
+    let schema = placement_schema();
+    read_csv(path, &schema)?
+        .into_iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let regime = Regime::parse(v[7].s()).ok_or_else(|| IoError::Corrupt {
+                path: path.to_path_buf(),
+                line: i + 2,
+                why: format!("unknown regime {:?}", v[7].s()),
+            })?;
+            Ok(PlacementRow {
+                point: PlacementPoint {
+                    index: i,
+                    position_m: v[0].f() / 1e3,
+                    gap_m: v[1].f() / 1e3,
+                },
+                mean_reduction_pct: v[2].f(),
+                worst_rms_m: v[3].f(),
+                worst_ratio: v[4].f(),
+                min_reduction_pct: v[5].f(),
+                mean_impacts_per_cycle: v[6].f(),
+                regime,
+            })
+        })
+        .collect()
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -968,6 +1044,11 @@ mod tests {
             Some(vec![Axis::FrictionForceN, Axis::MassRatio])
         );
         assert_eq!(map_extra_axes("ratio,gap_mm,x"), None);
+        assert_eq!(
+            placement_schema().header(),
+            "position_mm,gap_mm,mean_reduction_pct,worst_rms_m,worst_ratio,min_reduction_pct,\
+             mean_impacts_per_cycle,regime"
+        );
     }
 
     #[test]

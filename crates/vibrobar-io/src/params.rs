@@ -7,6 +7,7 @@
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use vibrobar_core::analysis::map::{Axis, Grid, GridAxis};
+use vibrobar_core::analysis::placement::{PlacementGrid, PlacementSpec};
 use vibrobar_core::analysis::regime::Tolerances;
 use vibrobar_core::params::BarModel;
 use vibrobar_core::structure::Beam;
@@ -74,6 +75,50 @@ pub struct MapParams {
     /// were classified with the defaults).
     #[serde(default)]
     pub regime_tolerances: Tolerances,
+}
+
+/// Parameters of a placement file (`kind = "placement"`): the study's spec (beam, ball,
+/// forcing, gravity, run settings, regime tolerances: the core type itself), where it came from,
+/// the solver, and the grid (the flags as given and the values in SI units, in grid order).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlacementParams {
+    /// Preset name (`None` when the study comes from a scenario file).
+    pub preset: Option<String>,
+    /// Scenario file the study was read from.
+    pub scenario_file: Option<String>,
+    /// Solver name.
+    pub solver: String,
+    /// Everything fixed across the study.
+    pub spec: PlacementSpec,
+    /// The grid flags as given (`positions_mm`, `gaps_mm`, `ratios`).
+    pub grid: BTreeMap<String, String>,
+    /// Cavity positions from the clamp, m.
+    pub positions_m: Vec<f64>,
+    /// Gaps, m.
+    pub gaps_m: Vec<f64>,
+    /// Ratios `Ω/ω₁` of the band.
+    pub ratios: Vec<f64>,
+}
+
+impl PlacementParams {
+    /// The study's grid; `None` if the stored values do not make one.
+    pub fn grid(&self) -> Option<PlacementGrid> {
+        PlacementGrid::new(
+            self.positions_m.clone(),
+            self.gaps_m.clone(),
+            self.ratios.clone(),
+        )
+        .ok()
+    }
+
+    /// The key columns (position, gap) of grid index `i`, as the row writes them.
+    pub fn key(&self, i: usize) -> Option<String> {
+        let p = self.grid()?.point(i)?;
+        Some(
+            crate::csv::placement_schema()
+                .format(&crate::csv::placement_key(p.position_m, p.gap_m)),
+        )
+    }
 }
 
 /// Parameters of a `run` history file (`kind = "run"`); `S` is the scenario type of the caller.

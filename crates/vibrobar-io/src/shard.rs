@@ -10,7 +10,7 @@ use crate::atomic::write_atomic;
 use crate::csv::{map_extra_axes, map_key, Schema};
 use crate::error::{IoError, Result};
 use crate::meta::{meta_path, GridInfo, Metadata, ShardInfo};
-use crate::params::{MapParams, SweepParams};
+use crate::params::{MapParams, PlacementParams, SweepParams};
 use crate::target::{check_not_input, resolve_output};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -70,6 +70,10 @@ fn grid_key(
             let p: SweepParams<serde_json::Value> = meta.parameters_as(path).ok()?;
             Some(Box::new(move |i| p.key(i)))
         }
+        "placement" => {
+            let p: PlacementParams = meta.parameters_as(path).ok()?;
+            Some(Box::new(move |i| p.key(i)))
+        }
         _ => None,
     }
 }
@@ -99,7 +103,10 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize> {
     for path in inputs {
         let meta = Metadata::read_beside(path)?;
         let grid = meta.grid.clone().ok_or_else(|| {
-            read_err(path, "metadata has no grid: not a sweep or map file".into())
+            read_err(
+                path,
+                "metadata has no grid: not a sweep, map or placement file".into(),
+            )
         })?;
         if let Some(f) = &first {
             if f.fingerprint != meta.fingerprint || f.kind != meta.kind || f.header != meta.header {

@@ -126,6 +126,117 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         }
     }
     print_rms_side_by_side(&sweeps);
+    // The single run above is the lumped reference only when the bench's scenario is lumped.
+    let lumped: Vec<(String, f64)> = match run_sc.beam {
+        None => rows.iter().map(|r| (r.0.clone(), r.1)).collect(),
+        Some(_) => Vec::new(),
+    };
+    beam_rows(&names, &st, &lumped, !args.single_only)
+}
+
+/// Points of the placement map the bench projects (issue #8 §8): positions × gaps × ratios.
+const PLACEMENT_MAP: (usize, usize, usize) = (50, 50, 11);
+/// Threads of the projected placement map.
+const PLACEMENT_THREADS: usize = 2;
+
+/// The beam rows (issue #8 §8): the paper's bar as a 4-mode beam (cavity 38 mm from the free
+/// end, r = 1, gap 0.1 mm, frictionless) against the lumped run of the same solver, and the
+/// projected wall time of a 50 × 50 placement map over 11 ratios on 2 threads, from a timed
+/// 2 × 2 × 11 placement. A solver that does not run beams yet says so instead of a number.
+fn beam_rows(
+    names: &[String],
+    st: &vibrobar_core::RunSettings,
+    lumped: &[(String, f64)],
+    placement: bool,
+) -> Result<()> {
+    use vibrobar_core::analysis::placement::{self, PlacementGrid, PlacementSpec, PointFailed};
+    use vibrobar_core::analysis::regime::Tolerances;
+    use vibrobar_core::analysis::Runner;
+    use vibrobar_core::structure::Beam;
+    use vibrobar_core::{Damper, Forcing, FrictionModel};
+    let spec = PlacementSpec {
+        beam: Beam::default().with_modes(4),
+        ball: Damper::paper(0.1e-3, FrictionModel::None),
+        forcing: Forcing::paper(1.0),
+        gravity_m_s2: vibrobar_core::params::STANDARD_GRAVITY_M_S2,
+        settings: *st,
+        tolerances: Tolerances::default(),
+    };
+    let x_d = spec.beam.cavity_position_m;
+    let model = spec.damped_model(x_d)?;
+    println!(
+        "  beam rows (the paper's bar whatever --scenario): a {}-mode beam (cavity {} mm from the \
+         free end), r = 1, gap 0.1 mm, frictionless, {} s",
+        model.len(),
+        vibrobar_io::csv::fmt_coord((spec.beam.length_m - x_d) * 1e3),
+        st.duration_s
+    );
+    let mut wired = Vec::new();
+    for n in names {
+        let case = match crate::commands::placement::case_for(n, &spec, *st, false) {
+            Ok(c) => c,
+            Err(e) => {
+                println!("    {n:<6} beam run: not wired: {e}");
+                continue;
+            }
+        };
+        let sys = spec.system(&model, Some(spec.damper(0.1e-3)), 1.0);
+        let _ = case.run(&sys);
+        let t = Instant::now();
+        let r = case.run(&sys)?;
+        let tb = t.elapsed().as_secs_f64();
+        let ratio = lumped
+            .iter()
+            .find(|l| &l.0 == n)
+            .map_or(String::new(), |l| {
+                format!(
+                    ", {:.1}× the lumped {n} run (issue #8 target with exact: ≤ 3×)",
+                    tb / l.1
+                )
+            });
+        println!(
+            "    {n:<6} beam run: {} (tip RMS {:.4e} m, {:.2} impacts per cycle){ratio}",
+            fmt_secs(tb),
+            r.rms_m,
+            r.impacts_per_cycle
+        );
+        wired.push((n.clone(), case));
+    }
+    if !placement {
+        return Ok(());
+    }
+    let (np, ng, nr) = PLACEMENT_MAP;
+    let ratios: Vec<f64> = (0..nr)
+        .map(|k| 0.95 + 0.1 * k as f64 / (nr - 1) as f64)
+        .collect();
+    let grid = PlacementGrid::new(vec![x_d, spec.beam.length_m], vec![0.1e-3, 0.3e-3], ratios)?;
+    let points: Vec<_> = (0..grid.len()).filter_map(|i| grid.point(i)).collect();
+    let timed_runs = nr + points.len() * nr;
+    let map_runs = nr + np * ng * nr;
+    for (n, case) in &wired {
+        let t = Instant::now();
+        placement::run(
+            &spec,
+            &grid,
+            &points,
+            Runner::default().with_threads(Some(PLACEMENT_THREADS)),
+            &|s: &vibrobar_core::System| case.run(s),
+            Ok::<_, PointFailed>,
+        )
+        .map_err(|e| anyhow::anyhow!("bench placement: {e}"))?;
+        let w = t.elapsed().as_secs_f64();
+        let projected = w * map_runs as f64 / timed_runs as f64;
+        println!(
+            "    {n:<6} placement {}×{}×{} ({timed_runs} runs) on {PLACEMENT_THREADS} threads: {}; \
+             projected {np}×{ng} positions × gaps over {nr} ratios ({map_runs} runs): {:.1} min \
+             (issue #8 target: < 10 min)",
+            2,
+            2,
+            nr,
+            fmt_secs(w),
+            projected / 60.0
+        );
+    }
     Ok(())
 }
 

@@ -1,5 +1,5 @@
-//! `merge`: join the shard files of a map (`map --shard K/N`) into the whole map, then write
-//! `FILE.optimum.csv` and the figures as an unsharded `map` would. The merged file is byte-identical
+//! `merge`: join the shard files of a map (`map --shard K/N`) or a placement study into the whole
+//! file, then write `FILE.optimum.csv` and the figures as an unsharded `map` (or `placement`) would. The merged file is byte-identical
 //! to the file an unsharded run writes.
 use anyhow::Context;
 use std::path::PathBuf;
@@ -29,8 +29,12 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<()> {
     );
     let meta = vibrobar_io::Metadata::read_beside(&args.out)
         .with_context(|| format!("metadata beside {}", args.out.display()))?;
-    if meta.kind == "map" && !args.no_figures {
-        super::map::postprocess(&args.out)?;
+    if !args.no_figures {
+        match meta.kind.as_str() {
+            "map" => super::map::postprocess(&args.out)?,
+            "placement" => super::placement::postprocess(&args.out)?,
+            _ => {}
+        }
     }
     Ok(())
 }

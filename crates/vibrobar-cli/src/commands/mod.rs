@@ -5,10 +5,12 @@ pub mod beam;
 pub mod bench;
 pub mod design;
 pub mod explore;
+pub mod lumped_vs_beam;
 pub mod map;
 pub mod merge;
 pub mod modes;
 pub mod paper;
+pub mod placement;
 pub mod run;
 pub mod sweep;
 

@@ -4,7 +4,7 @@
 //! it): `case` (one run and its observers) and `grid` (ranges, axes, grids) are leaves; `batch`
 //! (the batch runner: pool, cancellation, progress, solid runs shared per ratio) uses `case`;
 //! `sweep` and `poincare` use `batch`; `regime` uses `poincare`; `map` uses `regime` and
-//! `batch`; `ensemble` uses `map`. `scripts/module_deps.py` lists the edges.
+//! `batch`; `placement` uses `regime`, `batch` and `case`; `ensemble` uses `map`. `scripts/module_deps.py` lists the edges.
 
 pub mod batch;
 pub mod case;
@@ -13,6 +13,7 @@ pub mod ensemble;
 pub mod grid;
 pub mod lyapunov;
 pub mod map;
+pub mod placement;
 pub mod poincare;
 pub mod regime;
 pub mod sweep;

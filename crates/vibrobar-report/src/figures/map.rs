@@ -124,6 +124,7 @@ pub fn draw_map_figures(map_csv: &Path, t: &MapTable, o: &Optimum) -> anyhow::Re
                     .collect(),
             )),
             hlines,
+            vlines: Vec::new(),
         },
     )?;
     let (lo, hi) = finite(&ipc);
@@ -149,6 +150,7 @@ pub fn draw_map_figures(map_csv: &Path, t: &MapTable, o: &Optimum) -> anyhow::Re
             strong_level: None,
             markers: None,
             hlines: Vec::new(),
+            vlines: Vec::new(),
         },
     )?);
     Ok(files)

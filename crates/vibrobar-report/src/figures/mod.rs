@@ -1,6 +1,7 @@
 //! Figures of the design analyses (PNG for viewing, SVG for papers), drawn with plotters and the
 //! embedded DejaVu Sans font (no system fonts needed).
 pub mod map;
+pub mod placement;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -157,6 +158,8 @@ pub struct Heat<'a> {
     pub markers: Option<(&'a str, Vec<(f64, f64)>)>,
     /// Horizontal lines (y, label, colour).
     pub hlines: Vec<(f64, String, RGBColor)>,
+    /// Vertical lines (x, label, colour), e.g. the nodes of a mode.
+    pub vlines: Vec<(f64, String, RGBColor)>,
 }
 
 fn draw_heat<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, h: &Heat) -> anyhow::Result<()> {
@@ -238,6 +241,17 @@ fn draw_heat<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, h: &Heat) -> any
             .label(label.as_str())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
     }
+    for (x, label, col) in &h.vlines {
+        let col = *col;
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(*x, ye[0]), (*x, ye[ye.len() - 1])],
+                col.stroke_width(2),
+            )))
+            .map_err(err)?
+            .label(label.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+    }
     if let Some((label, pts)) = &h.markers {
         chart
             .draw_series(pts.iter().map(|&p| {
@@ -253,7 +267,7 @@ fn draw_heat<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, h: &Heat) -> any
                     + Circle::new((0, 0), 5, BLACK.stroke_width(1))
             });
     }
-    if h.markers.is_some() || !h.hlines.is_empty() {
+    if h.markers.is_some() || !h.hlines.is_empty() || !h.vlines.is_empty() {
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperRight)
