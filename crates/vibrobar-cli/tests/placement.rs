@@ -155,7 +155,7 @@ fn bad_input_names_the_flag_and_its_range() {
         ("--positions-mm", "150:100:25", "below START"),
         ("--gaps-mm", "0:0.1:0.1", "--gaps-mm: value 0 is outside"),
         ("--ratios", "1:0.9:0.1", "--ratios: STOP"),
-        ("--solver", "exact", "use --solver rk4"),
+        ("--solver", "euler", "--solver"),
     ] {
         let o = vibrobar_env(&with(flag, value), &[]);
         let err = assert_fails_with(&o, &[]);
@@ -195,7 +195,10 @@ fn bench_prints_the_beam_rows_and_the_placement_projection() {
         out.contains("rk4    beam run:") && out.contains("× the lumped rk4 run"),
         "{out}"
     );
-    assert!(out.contains("exact  beam run: not wired"), "{out}");
+    assert!(
+        out.contains("exact  beam run:") && out.contains("× the lumped exact run"),
+        "{out}"
+    );
     assert!(
         out.contains("projected 50×50 positions × gaps over 11 ratios (27511 runs)"),
         "{out}"
