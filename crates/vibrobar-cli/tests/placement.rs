@@ -192,11 +192,11 @@ fn bench_prints_the_beam_rows_and_the_placement_projection() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("4-mode beam"), "{out}");
     assert!(
-        out.contains("rk4    beam run:") && out.contains("× the lumped rk4 run"),
+        out.contains("rk4    beam run, none:") && out.contains("alternating pairs"),
         "{out}"
     );
     assert!(
-        out.contains("exact  beam run:") && out.contains("× the lumped exact run"),
+        out.contains("exact  beam run, as-published:") && out.contains("median ratio"),
         "{out}"
     );
     assert!(

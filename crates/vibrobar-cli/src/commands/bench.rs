@@ -127,11 +127,13 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     }
     print_rms_side_by_side(&sweeps);
     // The single run above is the lumped reference only when the bench's scenario is lumped.
-    let lumped: Vec<(String, f64)> = match run_sc.beam {
-        None => rows.iter().map(|r| (r.0.clone(), r.1)).collect(),
-        Some(_) => Vec::new(),
-    };
-    beam_rows(&names, &st, &lumped, !args.single_only)
+    beam_rows(&names, &st, !args.single_only)
+}
+
+/// Median of a non-empty sample.
+fn median(x: &mut [f64]) -> f64 {
+    x.sort_by(f64::total_cmp);
+    x[x.len() / 2]
 }
 
 /// Points of the placement map the bench projects (issue #8 §8): positions × gaps × ratios.
@@ -139,16 +141,16 @@ const PLACEMENT_MAP: (usize, usize, usize) = (50, 50, 11);
 /// Threads of the projected placement map.
 const PLACEMENT_THREADS: usize = 2;
 
+/// Pairs (lumped run, beam run) timed alternately for the beam rows; the median of the pairs'
+/// ratios holds on a shared machine where single timings drift.
+const BEAM_PAIRS: usize = 7;
+
 /// The beam rows (issue #8 §8): the paper's bar as a 4-mode beam (cavity 38 mm from the free
-/// end, r = 1, gap 0.1 mm, frictionless) against the lumped run of the same solver, and the
-/// projected wall time of a 50 × 50 placement map over 11 ratios on 2 threads, from a timed
-/// 2 × 2 × 11 placement. A solver that does not run beams yet says so instead of a number.
-fn beam_rows(
-    names: &[String],
-    st: &vibrobar_core::RunSettings,
-    lumped: &[(String, f64)],
-    placement: bool,
-) -> Result<()> {
+/// end, r = 1, gap 0.1 mm, frictionless and as-published friction) against the paper's lumped
+/// run with the same solver, timed in alternating pairs, and the projected wall time of a
+/// 50 × 50 placement map over 11 ratios on 2 threads, from a timed 2 × 2 × 11 placement. A
+/// solver that does not run beams says so instead of a number.
+fn beam_rows(names: &[String], st: &vibrobar_core::RunSettings, placement: bool) -> Result<()> {
     use vibrobar_core::analysis::placement::{self, PlacementGrid, PlacementSpec, PointFailed};
     use vibrobar_core::analysis::regime::Tolerances;
     use vibrobar_core::analysis::Runner;
@@ -166,7 +168,7 @@ fn beam_rows(
     let model = spec.damped_model(x_d)?;
     println!(
         "  beam rows (the paper's bar whatever --scenario): a {}-mode beam (cavity {} mm from the \
-         free end), r = 1, gap 0.1 mm, frictionless, {} s",
+         free end), r = 1, gap 0.1 mm, frictionless and as-published, {} s",
         model.len(),
         vibrobar_io::csv::fmt_coord((spec.beam.length_m - x_d) * 1e3),
         st.duration_s
@@ -180,26 +182,36 @@ fn beam_rows(
                 continue;
             }
         };
-        let sys = spec.system(&model, Some(spec.damper(0.1e-3)), 1.0);
-        let _ = case.run(&sys);
-        let t = Instant::now();
-        let r = case.run(&sys)?;
-        let tb = t.elapsed().as_secs_f64();
-        let ratio = lumped
-            .iter()
-            .find(|l| &l.0 == n)
-            .map_or(String::new(), |l| {
-                format!(
-                    ", {:.1}× the lumped {n} run (issue #8 target with exact: ≤ 3×)",
-                    tb / l.1
-                )
-            });
-        println!(
-            "    {n:<6} beam run: {} (tip RMS {:.4e} m, {:.2} impacts per cycle){ratio}",
-            fmt_secs(tb),
-            r.rms_m,
-            r.impacts_per_cycle
-        );
+        for friction in [FrictionModel::None, FrictionModel::AsPublished] {
+            let ball = Damper::paper(0.1e-3, friction);
+            let beam = spec.system(&model, Some(ball), 1.0);
+            let lumped = vibrobar_core::System::paper_damped(0.1e-3, friction, 1.0);
+            let time = |sys: &vibrobar_core::System| -> Result<(f64, f64)> {
+                let t = Instant::now();
+                let r = case.run(sys)?;
+                Ok((t.elapsed().as_secs_f64(), r.rms_m))
+            };
+            time(&lumped)?;
+            time(&beam)?;
+            let (mut tl, mut tb, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
+            let mut rms = 0.0;
+            for _ in 0..BEAM_PAIRS {
+                let (l, _) = time(&lumped)?;
+                let (b, r) = time(&beam)?;
+                rms = r;
+                tl.push(l);
+                tb.push(b);
+                ratio.push(b / l);
+            }
+            println!(
+                "    {n:<6} beam run, {}: median {} (tip RMS {rms:.4e} m) vs lumped {}; median \
+                 ratio {:.1}× over {BEAM_PAIRS} alternating pairs (issue #8 target with exact: ≤ 3×)",
+                friction.as_str(),
+                fmt_secs(median(&mut tb)),
+                fmt_secs(median(&mut tl)),
+                median(&mut ratio)
+            );
+        }
         wired.push((n.clone(), case));
     }
     if !placement {
