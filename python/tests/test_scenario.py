@@ -116,3 +116,10 @@ def test_the_beam_is_reachable_the_same_way():
         b.replace(bar=dict(mass_kg=0.7))
     with pytest.raises(ValueError, match="modes"):
         Scenario.paper_beam(modes=-1)
+
+
+def test_a_field_of_a_section_the_scenario_lacks_says_how_to_give_it():
+    with pytest.raises(TypeError, match=r"`modes` is a field of \[beam\], which this scenario does not have \(the lumped bar\): give it as beam=dict\(modes=...\), or start from Scenario.paper_beam\(\)"):
+        Scenario.paper(modes=3)
+    with pytest.raises(TypeError, match=r"`stiffness_n_per_m` is a field of \[bar\], \[solid_bar\], which this scenario does not have \(a \[beam\]\)"):
+        Scenario.paper_beam(stiffness_n_per_m=1e7)

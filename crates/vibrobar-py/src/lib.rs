@@ -224,11 +224,18 @@ fn known_keys(t: &toml::Table) -> Vec<(Option<&'static str>, String)> {
         SECTIONS.iter().map(|s| (None, s.to_string())).collect();
     v.push((None, "gravity_m_s2".into()));
     let beam_default = toml::Value::try_from(Beam::default()).ok();
+    let bar_default = toml::Value::try_from(vibrobar_core::Bar::PAPER_CAVITY).ok();
     for sec in SECTIONS {
         let keys: Vec<String> = match (t.get(sec), sec) {
             (Some(toml::Value::Table(st)), _) => st.keys().cloned().collect(),
             // A lumped scenario still takes `[beam]` keys through `beam=dict(...)`.
             (None, "beam") => beam_default
+                .as_ref()
+                .and_then(|b| b.as_table())
+                .map(|b| b.keys().cloned().collect())
+                .unwrap_or_default(),
+            // And a beam scenario knows the lumped bar's keys, to say where they belong.
+            (None, "bar" | "solid_bar") => bar_default
                 .as_ref()
                 .and_then(|b| b.as_table())
                 .map(|b| b.keys().cloned().collect())
@@ -442,15 +449,32 @@ fn with_overrides(s: &Scenario, kw: Option<&Bound<'_, PyDict>>) -> PyResult<Scen
             merge(&mut t, &key, val);
             continue;
         }
-        let owners: Vec<&'static str> = known
+        let all_owners: Vec<&'static str> = known
             .iter()
             .filter(|(sec, k)| sec.is_some() && *k == key)
             .filter_map(|(sec, _)| *sec)
-            // Flat names reach the sections this scenario has (a beam's or a lumped bar's).
+            .collect();
+        // Flat names reach the sections this scenario has (a beam's or a lumped bar's).
+        let owners: Vec<&'static str> = all_owners
+            .iter()
+            .copied()
             .filter(|sec| t.contains_key(*sec) || *sec == "damper" || *sec == "forcing")
             .collect();
         let sec = match owners.as_slice() {
             [one] => *one,
+            [] if !all_owners.is_empty() => {
+                return Err(PyTypeError::new_err(format!(
+                    "`{key}` is a field of {}, which this scenario does not have ({}): give it as {}=dict({key}=...){}",
+                    all_owners
+                        .iter()
+                        .map(|s| format!("[{s}]"))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    if t.contains_key("beam") { "a [beam]" } else { "the lumped bar" },
+                    all_owners[0],
+                    if all_owners[0] == "beam" { ", or start from Scenario.paper_beam()" } else { "" }
+                )))
+            }
             [] => {
                 let hint = nearest(&key, known.iter().map(|(_, k)| k.as_str()))
                     .map(|n| format!("; did you mean `{n}`?"))
