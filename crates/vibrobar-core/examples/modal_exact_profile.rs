@@ -33,7 +33,9 @@ fn main() {
     };
     for _ in 0..reps {
         if n == 0 {
-            let r = Exact::default().run(&sys, &State::REST, 2.0, &mut ()).unwrap();
+            let r = Exact::default()
+                .run(&sys, &State::REST, 2.0, &mut ())
+                .unwrap();
             std::hint::black_box(r);
         } else {
             let r = ModalExact::default()

@@ -580,7 +580,11 @@ impl Observer for Plain<'_> {
     }
 }
 
-impl ModalObserver for Plain<'_> {}
+impl ModalObserver for Plain<'_> {
+    fn wants_modal(&self) -> bool {
+        false
+    }
+}
 
 /// How many events before the limit the tail looks at.
 const TAIL_EVENTS: u64 = 1024;
@@ -701,7 +705,7 @@ impl Book<'_> {
             before: before.public(cs),
             after: after.public(cs),
         });
-        if let EventKind::Impact { energy_loss_j, .. } = kind {
+        if let (EventKind::Impact { energy_loss_j, .. }, true) = (kind, self.obs.wants_modal()) {
             self.obs
                 .modal_impact(&before.modal(cs), &after.modal(cs), energy_loss_j)
         }
@@ -715,8 +719,10 @@ impl Book<'_> {
         next.t = seg.t1;
         if seg.t1 > seg.t0 {
             self.obs.segment(seg);
-            self.obs
-                .modal_step(&start.modal(seg.cs), &next.modal(seg.cs));
+            if self.obs.wants_modal() {
+                self.obs
+                    .modal_step(&start.modal(seg.cs), &next.modal(seg.cs));
+            }
         }
         next
     }
