@@ -165,12 +165,19 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     let hz = 0.5 * z;
     let w = 1.0 - hz;
     let cs = w + (((1.0 - w) - hz) + z * cr);
-    match quadrant {
-        0 => (sn, cs),
-        1 => (cs, -sn),
-        2 => (-sn, -cs),
-        _ => (-cs, sn),
-    }
+    // The quadrant by swap and sign flips, without branches: it is as good as random from one
+    // step to the next, so a `match` mispredicts about every other call (same bits: a sign flip
+    // is exact). Quadrant q: sin = ±(q odd ? cos : sin) negated for q ∈ {2, 3}, cos = ±(q odd ?
+    // sin : cos) negated for q ∈ {1, 2}.
+    let q = quadrant as u64;
+    let odd = q & 1 == 1;
+    let (s0, c0) = (if odd { cs } else { sn }, if odd { sn } else { cs });
+    let s_sign = (q & 2) << 62;
+    let c_sign = ((q + 1) & 2) << 62;
+    (
+        f64::from_bits(s0.to_bits() ^ s_sign),
+        f64::from_bits(c0.to_bits() ^ c_sign),
+    )
 }
 
 impl TrigN {
@@ -223,8 +230,9 @@ impl TrigN {
 
     /// One term's transcendentals at `τ`, from the half angle. (The lumped `Trig`'s series for
     /// a term near the harmonic's frequency saves a libm `sin_cos`; against the inlined
-    /// [`sin_cos`] it costs more than it saves, measured.)
-    #[inline]
+    /// [`sin_cos`] it costs more than it saves, measured.) Always inlined: left to itself the
+    /// compiler kept it a call returning its 32 bytes through memory, ~15 % of its cost.
+    #[inline(always)]
     fn term(&self, tau: f64, t: &Term) -> TermTrig {
         let em1 = (-t.al * tau).exp_m1();
         if t.wd == 0.0 {

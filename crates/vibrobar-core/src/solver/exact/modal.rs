@@ -580,7 +580,11 @@ impl Observer for Plain<'_> {
     }
 }
 
-impl ModalObserver for Plain<'_> {}
+impl ModalObserver for Plain<'_> {
+    fn wants_modal(&self) -> bool {
+        false
+    }
+}
 
 /// How many events before the limit the tail looks at.
 const TAIL_EVENTS: u64 = 1024;
@@ -701,7 +705,7 @@ impl Book<'_> {
             before: before.public(cs),
             after: after.public(cs),
         });
-        if let EventKind::Impact { energy_loss_j, .. } = kind {
+        if let (EventKind::Impact { energy_loss_j, .. }, true) = (kind, self.obs.wants_modal()) {
             self.obs
                 .modal_impact(&before.modal(cs), &after.modal(cs), energy_loss_j)
         }
@@ -715,8 +719,10 @@ impl Book<'_> {
         next.t = seg.t1;
         if seg.t1 > seg.t0 {
             self.obs.segment(seg);
-            self.obs
-                .modal_step(&start.modal(seg.cs), &next.modal(seg.cs));
+            if self.obs.wants_modal() {
+                self.obs
+                    .modal_step(&start.modal(seg.cs), &next.modal(seg.cs));
+            }
         }
         next
     }
@@ -1054,18 +1060,16 @@ fn free_flight(
         m: SegMotion::Free(&work.mo),
         end: &work.end,
     };
-    let mut next = book.close(&seg, s);
+    // (`s` is the end state from here on: the event maps work on it in place.)
+    *s = book.close(&seg, s);
     if flight.is_none() {
-        if book.check
-            && !(next.q.iter().all(|x| x.is_finite()) && next.dq.iter().all(|x| x.is_finite()))
+        if book.check && !(s.q.iter().all(|x| x.is_finite()) && s.dq.iter().all(|x| x.is_finite()))
         {
-            return Err(SimError::NonFinite { t_s: next.t });
+            return Err(SimError::NonFinite { t_s: s.t });
         }
-        *s = next;
         return Ok(None);
     }
-    book.check_state(&next)?;
-    *s = next;
+    book.check_state(s)?;
     match which {
         0 => return Ok(None),
         HORIZON => {
@@ -1081,14 +1085,13 @@ fn free_flight(
     let mode = match which {
         1 | 2 => {
             let sw = if which == 1 { 1.0 } else { -1.0 };
-            impact(cs, sw, &mut next, book, work, held)?
+            impact(cs, sw, s, book, work, held)?
         }
         _ => {
-            next.dw = 0.0;
-            friction_zero(cs, sigma, &next, book)?
+            s.dw = 0.0;
+            friction_zero(cs, sigma, s, book)?
         }
     };
-    *s = next;
     Ok(Some(mode))
 }
 
@@ -1216,8 +1219,9 @@ fn impact(
 ) -> Result<Md, SimError> {
     s.w = sw * cs.lg;
     let dw = if sw * s.dw > 0.0 { s.dw } else { 0.0 };
-    let before = St { dw, ..*s };
-    let mut after = before;
+    s.dw = dw;
+    // `s` becomes the state after the impact in place (one 0.5 KB copy per impact, not three).
+    let before = *s;
     let mut dv = dw + cs.dot(&cs.phi_d, &s.dq);
     let n = cs.n;
     let law = modal_impact(
@@ -1226,11 +1230,11 @@ fn impact(
         &cs.phi_d[..n],
         &cs.m[..n],
         dw,
-        &mut after.dq[..n],
+        &mut s.dq[..n],
         &mut dv,
     );
     // The law's ẇ+ = −e ẇ− exactly (the ball velocity follows from it).
-    after.dw = -cs.e * dw;
+    s.dw = -cs.e * dw;
     book.event(
         cs,
         EventKind::Impact {
@@ -1239,9 +1243,8 @@ fn impact(
             energy_loss_j: law.energy_loss_j,
         },
         &before,
-        &after,
+        s,
     )?;
-    *s = after;
     if s.dw == 0.0 {
         return contact_test(cs, sw, s);
     }
