@@ -88,6 +88,27 @@
 //! observer's modal states) has been taken out without changing a bit (tests/
 //! modal_exact_golden.rs); what remains would only shrink with fewer steps, i.e. a different
 //! step sequence (and so different event times within the tolerances).
+//!
+//! **Where the steps go, and the levers tried** (callgrind and counts per function on the same
+//! runs; none of the variants below was kept). Without friction the two wall searches take
+//! 14.5 k evaluations each over 2 300 searches (12 k cheap, 2.5 k full), 16 % more per function
+//! than one unit mode (12.5 k, all full); the steps (29 k) are almost one per evaluation, as the
+//! approaching wall's short proofs and the receding wall's long ones interleave (on one mode
+//! 25 k evaluations fall on 19 k steps). As published, per search the wall takes 5 evaluations
+//! (3.5 full, the search being full once `ẇ` approaches) and the `ẇ = 0` function 10 (6 full):
+//! 3 within its fast terms' reach (`|ẇ| < Σ_{fast} Rₖ`, about 5 % of `|ẇ|`'s amplitude, where
+//! the crossing must be resolved at the top mode's rate), 3 just outside it (proved by the
+//! split), 4 cheap. Tried and measured (instructions, 4-mode none / as published, against
+//! 40.0 M / 70.2 M): a fast set and a cheap flag per function, filling only the terms each
+//! evaluation needs (40.5 M / 70.2 M: every step with `ẇ` already needs every term); the fast
+//! fraction 0.05–0.3 and the cheap test's margin 0–2 `R_F` (no better than 0.1 and 0.5, up to
+//! +26 %); re-evaluating a function whose proof is still valid on every step, or when its
+//! proof ends within 1.5–4 steps (+1 % to +19 %: an evaluation costs about as much as the step
+//! it saves); the cubic proof on each split in the full evaluation (17 % fewer full `ẇ`
+//! evaluations per search, but about 3 % fewer instructions per search and +1 % without
+//! friction). The budget of issue #8 (3× the lumped run's wall time, about 2.7× its
+//! instructions on this machine) would need about 42 M instructions as published, i.e. the
+//! searches at half their cost: more than any single proven-step refinement above gives.
 
 use super::expsum_n::{ExpSumN, Term, TrigN, MAX_TERMS};
 pub use super::roots::{Root, SEARCH_HORIZON_ITER};
