@@ -5,6 +5,7 @@
 //! friction switches, …). Analyses are [`Observer`]s: they never know which solver produced the
 //! segments, so every analysis works with every solver.
 
+pub mod dopri5;
 pub mod exact;
 pub mod modal_rk4;
 pub mod rk4;

@@ -50,6 +50,7 @@
 pub mod constrained;
 pub mod expsum;
 pub mod expsum_n;
+pub mod hertz_phase;
 pub mod modal;
 pub mod roots;
 pub mod roots_n;
