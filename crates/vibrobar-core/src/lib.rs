@@ -32,7 +32,7 @@ pub mod structure;
 
 pub use error::{EventLimitCause, ParamError, SimError};
 pub use params::{
-    Bar, Contact, ContactLaw, Damper, Forcing, Frequency, FrictionModel, Material, RunSettings, State,
-    System,
+    Bar, Contact, ContactLaw, Damper, Forcing, Frequency, FrictionModel, Material, RunSettings,
+    State, System,
 };
 pub use solver::{Observer, Solver};

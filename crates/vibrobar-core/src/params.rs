@@ -290,8 +290,20 @@ impl Contact {
         }
         positive("contact.ball_modulus_pa", self.ball_modulus_pa)?;
         positive("contact.wall_modulus_pa", self.wall_modulus_pa)?;
-        open_range("contact.ball_poisson", self.ball_poisson, -1.0, 0.5, "(−1, 0.5)")?;
-        open_range("contact.wall_poisson", self.wall_poisson, -1.0, 0.5, "(−1, 0.5)")?;
+        open_range(
+            "contact.ball_poisson",
+            self.ball_poisson,
+            -1.0,
+            0.5,
+            "(−1, 0.5)",
+        )?;
+        open_range(
+            "contact.wall_poisson",
+            self.wall_poisson,
+            -1.0,
+            0.5,
+            "(−1, 0.5)",
+        )?;
         if let Some(r) = self.wall_radius_m {
             positive("contact.wall_radius_m", r)?;
             if r <= ball_radius_m {

@@ -45,7 +45,11 @@ pub fn single_impact(law: &Hertz, mass_kg: f64, speed_m_s: f64) -> Result<Impact
     let e_scale = 0.5 * mass_kg * v0 * v0;
     let ig = Dopri5::<3> {
         rtol: CONTACT_RTOL,
-        atol: [CONTACT_RTOL * d_max, CONTACT_RTOL * v0, CONTACT_RTOL * e_scale],
+        atol: [
+            CONTACT_RTOL * d_max,
+            CONTACT_RTOL * v0,
+            CONTACT_RTOL * e_scale,
+        ],
     };
     // y = [δ, δ̇, ∫ P_damp δ̇ dt].
     let mut f = |_t: f64, y: &[f64; 3]| {
@@ -129,10 +133,16 @@ mod tests {
             let r = law.effective_radius_m;
             let es = law.effective_modulus_pa;
             let tc_pub = 2.868 * (m * m / (r * es * es * v0)).powf(0.2);
-            assert!((o.contact_time_s / tc - 1.0).abs() < 1e-4, "{v0}: {o:?} {tc}");
+            assert!(
+                (o.contact_time_s / tc - 1.0).abs() < 1e-4,
+                "{v0}: {o:?} {tc}"
+            );
             assert!((tc_pub / tc - 1.0).abs() < 1e-4, "{tc_pub} {tc}");
             assert!((o.max_force_n / fm - 1.0).abs() < 1e-4, "{v0}: {o:?} {fm}");
-            assert!((o.max_penetration_m / dm - 1.0).abs() < 1e-4, "{v0}: {o:?} {dm}");
+            assert!(
+                (o.max_penetration_m / dm - 1.0).abs() < 1e-4,
+                "{v0}: {o:?} {dm}"
+            );
             assert!((o.restitution - 1.0).abs() < 1e-6, "{o:?}");
             assert!(o.steps < 500, "{o:?}");
         }

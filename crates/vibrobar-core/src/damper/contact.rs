@@ -206,7 +206,11 @@ mod tests {
         let e_star = 1.0
             / ((1.0 - b.poisson.powi(2)) / b.modulus_pa + (1.0 - w.poisson.powi(2)) / w.modulus_pa);
         assert!((hz.effective_modulus_pa / e_star - 1.0).abs() < 1e-15);
-        assert!((hz.effective_modulus_pa - 167.3e9).abs() < 1e8, "{}", hz.effective_modulus_pa);
+        assert!(
+            (hz.effective_modulus_pa - 167.3e9).abs() < 1e8,
+            "{}",
+            hz.effective_modulus_pa
+        );
         assert_eq!(hz.effective_radius_m, 0.0075);
         let want = 4.0 / 3.0 * e_star * 0.0075_f64.sqrt();
         assert!((hz.stiffness_n_m32 / want - 1.0).abs() < 1e-15);

@@ -136,8 +136,8 @@ impl<const N: usize> Dopri5<N> {
         let mut acc = 0.0;
         let mut r = [[0.0; N]; 5];
         for i in 0..N {
-            let e = h
-                * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            let e =
+                h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
             let sc = self.atol[i] + self.rtol * y[i].abs().max(y1[i].abs());
             acc += (e / sc) * (e / sc);
             let dy = y1[i] - y[i];
@@ -146,8 +146,8 @@ impl<const N: usize> Dopri5<N> {
             r[1][i] = dy;
             r[2][i] = bspl;
             r[3][i] = dy - h * k7[i] - bspl;
-            r[4][i] = h
-                * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
+            r[4][i] =
+                h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
         }
         let err = (acc / N as f64).sqrt();
         Attempt {
