@@ -67,7 +67,7 @@ pub fn single_impact(law: &Hertz, mass_kg: f64, speed_m_s: f64) -> Result<Impact
         [0.0, v0, 0.0],
         t_c / 50.0,
         100.0 * t_c,
-        &[(0, 1.0)],
+        &[&|_t: f64, y: &[f64; 3]| y[0]],
         |st, th_end| {
             for k in 0..=FORCE_SAMPLES {
                 let th = th_end * k as f64 / FORCE_SAMPLES as f64;
@@ -91,7 +91,7 @@ pub fn single_impact(law: &Hertz, mass_kg: f64, speed_m_s: f64) -> Result<Impact
             steps: end.steps,
         });
     }
-    let v_out = end.y[1];
+    let v_out = end.y[1]; // δ = 0 there (the release)
     Ok(ImpactOutcome {
         speed_m_s: v0,
         contact_time_s: end.t,

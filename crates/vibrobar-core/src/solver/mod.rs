@@ -205,6 +205,20 @@ pub trait Solver: Send + Sync {
     ) -> Result<RunSummary, SimError>;
 }
 
+/// The solvers that apply only the instantaneous restitution law refuse a `hertz` contact
+/// instead of silently running another law.
+pub(crate) fn refuse_hertz(
+    damper: Option<&crate::params::Damper>,
+    why: &'static str,
+) -> Result<(), SimError> {
+    match damper {
+        Some(d) if d.contact.law == crate::params::ContactLaw::Hertz => {
+            Err(SimError::Unsupported(why))
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Checks every solver makes before it runs: the system, the initial state, and an end time that
 /// is finite and not before the start (a NaN or backward end would otherwise run nothing and
 /// return `Ok`, looking like a finished run).

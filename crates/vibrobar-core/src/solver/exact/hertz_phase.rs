@@ -28,8 +28,7 @@ pub struct PhaseEnd<const N: usize> {
 }
 
 /// Integrate `y' = f(t, y)` from `(t0, y0)` with first step `h0` until the first event: event
-/// `k` is `events[k].1 · y[events[k].0]` falling below 0 (each is `≥ 0` at the start), or until
-/// `t_end`. Every accepted step is passed to `on_step` with the fraction `θ_end ∈ (0, 1]` of it
+/// `k` is `events[k](t, y)` falling below 0 (each is `≥ 0` at the start), or until `t_end`. Every accepted step is passed to `on_step` with the fraction `θ_end ∈ (0, 1]` of it
 /// that belongs to the phase. No allocation.
 #[allow(clippy::too_many_arguments)]
 pub fn run_phase<const N: usize, F, S>(
@@ -39,7 +38,7 @@ pub fn run_phase<const N: usize, F, S>(
     y0: [f64; N],
     h0: f64,
     t_end: f64,
-    events: &[(usize, f64)],
+    events: &[&dyn Fn(f64, &[f64; N]) -> f64],
     mut on_step: S,
 ) -> Result<PhaseEnd<N>, SimError>
 where
@@ -70,8 +69,9 @@ where
         let st = &a.step;
         // The earliest event inside the step.
         let mut best: Option<(f64, usize)> = None;
-        for (k, &(idx, sgn)) in events.iter().enumerate() {
-            if let Some(th) = first_sign_change(|th| sgn * st.comp(idx, th), EVENT_SAMPLES) {
+        for (k, g) in events.iter().enumerate() {
+            let at = |th: f64| g(st.t0 + th * st.h, &st.at_theta(th));
+            if let Some(th) = first_sign_change(at, EVENT_SAMPLES) {
                 if best.is_none_or(|(b, _)| th < b) {
                     best = Some((th, k));
                 }
@@ -79,9 +79,7 @@ where
         }
         if let Some((th, k)) = best {
             on_step(st, th);
-            let mut ye = st.at_theta(th);
-            // The event component is exactly 0 at the end.
-            ye[events[k].0] = 0.0;
+            let ye = st.at_theta(th);
             return Ok(PhaseEnd {
                 t: st.t0 + th * st.h,
                 y: ye,
