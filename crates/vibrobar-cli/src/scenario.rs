@@ -18,7 +18,9 @@ use vibrobar_core::error::Compact;
 use vibrobar_core::params::BarModel;
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
 use vibrobar_core::structure::{Beam, Structure};
-use vibrobar_core::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};
+use vibrobar_core::{
+    Bar, Contact, ContactLaw, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System,
+};
 
 /// A whole scenario. Missing fields keep the paper's values.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -31,8 +33,15 @@ pub struct Scenario {
     /// Solid reference bar (missing fields: [`Bar::PAPER_SOLID`]).
     #[serde(deserialize_with = "solid_bar")]
     pub solid_bar: Bar,
-    /// The ball.
+    /// The ball. Its contact law is the file's `[contact]` section (kept in step with
+    /// [`Scenario::contact`] by every constructor and override), not a `[damper]` key.
+    #[serde(with = "damper_section")]
     pub damper: Damper,
+    /// `[contact]`: the ball–wall contact law and the elastic constants of `hertz`; absent: the
+    /// restitution law (and left out of the serialised scenario, so existing metadata and
+    /// fingerprints are unchanged).
+    #[serde(skip_serializing_if = "Contact::is_restitution")]
+    pub contact: Contact,
     /// External force; `frequency_ratio` in the file.
     #[serde(with = "forcing_section")]
     pub forcing: Forcing,
@@ -77,6 +86,7 @@ impl Default for Scenario {
             bar: Bar::PAPER_CAVITY,
             solid_bar: Bar::PAPER_SOLID,
             damper: Damper::default(),
+            contact: Contact::default(),
             forcing: Forcing::default(),
             run: RunSection::default(),
             initial: State::default(),
@@ -177,6 +187,32 @@ impl<'de> Deserialize<'de> for RunSection {
     }
 }
 
+/// `[damper]` as in the file: the core's [`Damper`] without its contact law, which is the
+/// `[contact]` section.
+mod damper_section {
+    use super::*;
+
+    pub fn serialize<S: Serializer>(d: &Damper, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::Error as _;
+        let mut t = match toml::Value::try_from(d).map_err(S::Error::custom)? {
+            toml::Value::Table(t) => t,
+            _ => return Err(S::Error::custom("a damper serialises to a table")),
+        };
+        t.remove("contact");
+        t.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Damper, D::Error> {
+        let t = toml::Table::deserialize(d)?;
+        if t.contains_key("contact") {
+            return Err(D::Error::custom(
+                "[damper]: unknown field `contact`; the contact law is the [contact] section",
+            ));
+        }
+        from_table(t)
+    }
+}
+
 /// `[forcing]` as in the file: `amplitude_n`, `static_force_n` and `frequency_ratio`
 /// (`Ω/ω₁` of the bar simulated: `√(K/M)` of a lumped bar, a beam's first mode) or `omega_rad_s`.
 mod forcing_section {
@@ -273,6 +309,8 @@ pub struct Overrides {
     pub friction: Option<FrictionModel>,
     /// `--friction-force-n`.
     pub friction_force_n: Option<f64>,
+    /// `--contact`.
+    pub contact: Option<ContactLaw>,
     /// `--solver`.
     pub solver: Option<String>,
     /// `--dt`.
@@ -299,6 +337,7 @@ impl Scenario {
         let gaps_given = raw.get("sweep").and_then(|s| s.get("gaps_m")).is_some();
         check_beam_against_bar(&raw)?;
         let mut s: Scenario = toml::from_str(text)?;
+        s.damper.contact = s.contact;
         if gap_given && !gaps_given {
             s.sweep.gaps_m = vec![s.damper.gap_m];
         }
@@ -336,6 +375,10 @@ impl Scenario {
             check_non_negative("--friction-force-n", f, "N")?;
             self.damper.friction_force_n = Some(f);
         }
+        if let Some(law) = o.contact {
+            self.contact.law = law;
+            self.damper.contact = self.contact;
+        }
         if let Some(name) = &o.solver {
             self.run.solver = name.clone();
         }
@@ -366,6 +409,7 @@ impl Scenario {
         s.apply(&Overrides {
             friction: args.friction.map(Into::into),
             friction_force_n: args.friction_force_n,
+            contact: args.contact.map(Into::into),
             solver: args.solver.clone(),
             dt: args.dt,
             duration: args.duration,
