@@ -144,7 +144,7 @@ fn contact_phase_matches_an_independent_fixed_step_rk4() {
 }
 
 /// The energy books of a paper run with the hertz law close: ΔE = input − viscous − contact
-/// dissipation, to a residual far below the input (the integrator's tolerance, rtol 1e-10).
+/// dissipation, to a residual far below the input (the integrator's tolerance, rtol 1e-9).
 #[test]
 fn paper_run_energy_books_close_with_contact_dissipation() {
     for friction in FrictionModel::ALL {

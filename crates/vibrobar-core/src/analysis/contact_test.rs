@@ -10,7 +10,7 @@ use crate::solver::dopri5::Dopri5;
 use crate::solver::exact::hertz_phase::run_phase;
 
 /// Relative tolerance of the contact phase (lab and solvers).
-pub const CONTACT_RTOL: f64 = 1e-10;
+pub const CONTACT_RTOL: f64 = 1e-9;
 
 /// What one impact did.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -150,7 +150,7 @@ mod tests {
 
     /// Damped with the exact `D(e)`: effective restitution within 1e-6 of the target over
     /// 0.01–1 m/s and e = 0.2…0.95; the damped penetration has its closed form; the energy books
-    /// close (kinetic loss = damping work) to 1e-7 relative (measured ≤ 2e-8 at rtol 1e-10).
+    /// close (kinetic loss = damping work) to 1e-6 relative (measured ≤ 1.5e-7 at rtol 1e-9).
     #[test]
     fn damped_impact_has_the_target_restitution_and_closes_its_books() {
         let (base, m) = paper_law();
@@ -162,7 +162,7 @@ mod tests {
                 let dm = law.max_penetration_m(m, v0);
                 assert!((o.max_penetration_m / dm - 1.0).abs() < 1e-6, "{o:?} {dm}");
                 let res = (o.kinetic_loss_j - o.damping_work_j).abs();
-                assert!(res <= 1e-7 * o.kinetic_loss_j, "{e} {v0}: {o:?}");
+                assert!(res <= 1e-6 * o.kinetic_loss_j, "{e} {v0}: {o:?}");
             }
         }
     }
