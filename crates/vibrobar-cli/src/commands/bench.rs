@@ -148,7 +148,7 @@ fn contact_law_row(
     let Some((_, t_rest, _)) = rows.iter().find(|r| r.0 == "exact") else {
         return Ok(());
     };
-    let mut case = single.clone();
+    let mut case = *single;
     if let Some(d) = case.system.damper.as_mut() {
         d.contact.law = vibrobar_core::ContactLaw::Hertz;
     } else {

@@ -21,7 +21,7 @@
 //! [`EventKind::Impact`] with the approach speed and `W_c` as its energy loss, so impact counts
 //! and the energy books keep their meaning. Work is bounded by [`MAX_CONTACT_STEPS`].
 
-use super::hertz_phase::{run_phase, MAX_CONTACT_STEPS};
+use super::hertz_phase::{run_phase, EventFn, MAX_CONTACT_STEPS};
 use super::{wall_of, Book, Consts, Md, St};
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
@@ -196,9 +196,9 @@ pub(super) fn contact(
         let switch = move |_t: f64, y: &Y| dsign * y[3];
         let lag = |t: f64, y: &Y| cs.fl - needed(t, y);
         let lead = |t: f64, y: &Y| cs.fl + needed(t, y);
-        let slide_ev: [&dyn Fn(f64, &Y) -> f64; 2] = [&release, &switch];
-        let stuck_ev: [&dyn Fn(f64, &Y) -> f64; 3] = [&release, &lag, &lead];
-        let events: &[&dyn Fn(f64, &Y) -> f64] = if stuck {
+        let slide_ev: [EventFn<'_, 5>; 2] = [&release, &switch];
+        let stuck_ev: [EventFn<'_, 5>; 3] = [&release, &lag, &lead];
+        let events: &[EventFn<'_, 5>] = if stuck {
             &stuck_ev
         } else if cs.frictional() {
             &slide_ev

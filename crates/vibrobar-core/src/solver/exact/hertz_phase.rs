@@ -13,6 +13,9 @@ pub const MAX_CONTACT_STEPS: u64 = 200_000;
 /// output is a degree-4 polynomial, see [`first_sign_change`]).
 const EVENT_SAMPLES: usize = 8;
 
+/// An event function of the phase: it ends where `g(t, y)` falls below 0.
+pub type EventFn<'a, const N: usize> = &'a dyn Fn(f64, &[f64; N]) -> f64;
+
 /// How a phase ended: at event `which` (index into the events given), at `t_end` of the run
 /// (`which = None`).
 #[derive(Debug, Clone, Copy)]
@@ -38,7 +41,7 @@ pub fn run_phase<const N: usize, F, S>(
     y0: [f64; N],
     h0: f64,
     t_end: f64,
-    events: &[&dyn Fn(f64, &[f64; N]) -> f64],
+    events: &[EventFn<'_, N>],
     mut on_step: S,
 ) -> Result<PhaseEnd<N>, SimError>
 where
