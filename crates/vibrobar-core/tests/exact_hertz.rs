@@ -195,7 +195,8 @@ fn bad_contact_input_names_the_field() {
         f(s.damper.as_mut().unwrap());
         s.validate().unwrap_err().to_string()
     };
-    let cases: [(&dyn Fn(&mut Damper), &str); 7] = [
+    type Edit<'a> = &'a dyn Fn(&mut Damper);
+    let cases: [(Edit, &str); 7] = [
         (
             &|d| d.contact.ball_modulus_pa = 0.0,
             "contact.ball_modulus_pa",
