@@ -147,3 +147,25 @@ fn contact_section_and_flag_reach_the_run_and_bad_values_name_the_field() {
         &["hertz", "rk4"],
     );
 }
+
+/// `contact-laws --quick` writes the comparison document with every section and a verdict
+/// computed from its own numbers.
+#[test]
+fn contact_laws_document_has_every_section_and_a_verdict() {
+    let dir = tempfile::tempdir().unwrap();
+    assert_ok(&vibrobar_in(
+        dir.path(),
+        &["contact-laws", "--quick", "--out", "c.md"],
+    ));
+    let doc = fs::read_to_string(dir.path().join("c.md")).unwrap();
+    for want in [
+        "## Figs. 3 and 5 sweep set, side by side",
+        "## Best gap at resonance",
+        "## Chaotic points: initial-condition ensembles",
+        "## Verdict",
+        "an adequate model",
+        "--quick (SHORT RUNS",
+    ] {
+        assert!(doc.contains(want), "missing {want:?}");
+    }
+}
