@@ -226,3 +226,40 @@ fn bad_contact_input_names_the_field() {
         .unwrap_err();
     assert!(err.to_string().contains("hertz"), "{err}");
 }
+
+/// A ball pressed on a wall by a constant push (the resting contact a grazing touch leads to,
+/// the case that must not stall). The floor of the damping's reference speed `δ̇₀` makes the rest
+/// an overdamped creep towards Hertz's static penetration `δ_s = (m_d a/K_h)^{2/3}`
+/// (`a = F_s/(M + m_d)`, time constant `D δ_s/(1.5 δ̇₀)` ≈ 55 ms here): after 50 ms the ball is
+/// between 0.7 δ_s and δ_s and still sinking. A long rest exceeds the bound on the work per
+/// contact (the explicit integrator is stability-limited by the contact's own 1e4 rad/s mode):
+/// a clear error within bounded time, never a hang.
+#[test]
+fn resting_contact_creeps_to_the_static_penetration_and_its_work_is_bounded() {
+    let fs = -2.0; // pushes the bar to −u: the ball (w = v − u) is pressed on the + wall
+    let sys = hertz(constant_push(fs, 1e-3, 0.5));
+    let d = sys.damper.unwrap();
+    let m = sys.lumped_bar().unwrap().mass_kg;
+    let lg = d.half_gap_m();
+    let init = State {
+        t_s: 0.0,
+        u_m: 0.0,
+        du_m_s: 0.0,
+        v_m: lg,
+        dv_m_s: 0.0,
+        cavity: None,
+    };
+    let s = Exact::default().run(&sys, &init, 0.05, &mut ()).unwrap();
+    let law = Hertz::of_damper(&d);
+    let a = fs.abs() / (m + d.ball_mass_kg);
+    let ds = (d.ball_mass_kg * a / law.stiffness_n_m32).powf(2.0 / 3.0);
+    let pen = s.final_state.w_m() - lg;
+    assert!(pen > 0.7 * ds && pen < ds, "{pen} {ds} {s:?}");
+    assert!(s.final_state.dw_m_s() > 0.0, "still sinking: {s:?}");
+    let t = std::time::Instant::now();
+    let e = Exact::default()
+        .run(&sys, &init, 100.0, &mut ())
+        .unwrap_err();
+    assert!(e.to_string().contains("integrator steps"), "{e}");
+    assert!(t.elapsed().as_secs_f64() < 10.0);
+}
