@@ -7,7 +7,8 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
 use crate::commands::{
-    beam, bench, explore, lumped_vs_beam, map, merge, modes, paper, placement, run, sweep,
+    beam, bench, contact_laws, contact_test, explore, lumped_vs_beam, map, merge, modes, paper,
+    placement, run, sweep,
 };
 
 /// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
@@ -142,6 +143,12 @@ pub enum Command {
     /// Write the generated Markdown document comparing the paper's lumped bar with the N-mode
     /// beam at the paper's geometry, with the convergence study in the number of modes.
     LumpedVsBeam(crate::commands::lumped_vs_beam::LumpedVsBeamArgs),
+    /// Single-impact laboratory of the hertz contact law: one impact on a rigid fixed wall per
+    /// approach speed (contact time, restitution, peak force and penetration), as CSV.
+    ContactTest(crate::commands::contact_test::ContactTestArgs),
+    /// Write the generated Markdown document comparing the restitution and hertz contact laws
+    /// on the lumped paper cases (sweeps, best gap, chaotic points by ensembles).
+    ContactLaws(crate::commands::contact_laws::ContactLawsArgs),
 }
 
 impl Command {
@@ -163,6 +170,8 @@ impl Command {
             Command::Modes(_) => "modes",
             Command::Placement(_) => "placement",
             Command::LumpedVsBeam(_) => "lumped-vs-beam",
+            Command::ContactTest(_) => "contact-test",
+            Command::ContactLaws(_) => "contact-laws",
         }
     }
 
@@ -190,6 +199,8 @@ impl Command {
             Command::Modes(a) => (one(&a.scenario), Some(a.out.as_path())),
             Command::Placement(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::LumpedVsBeam(a) => (vec![], Some(a.out.as_path())),
+            Command::ContactTest(a) => (one(&a.scenario), Some(a.out.as_path())),
+            Command::ContactLaws(a) => (vec![], Some(a.out.as_path())),
         }
     }
 
@@ -266,5 +277,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Modes(a) => modes::modes(&a),
         Command::Placement(a) => placement::run(&a),
         Command::LumpedVsBeam(a) => lumped_vs_beam::run(&a),
+        Command::ContactTest(a) => contact_test::run(&a),
+        Command::ContactLaws(a) => contact_laws::run(&a),
     }
 }

@@ -4,7 +4,7 @@
 
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
-use vibrobar_core::FrictionModel;
+use vibrobar_core::{ContactLaw, FrictionModel};
 
 /// Built-in parameter sets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -34,6 +34,25 @@ impl From<FrictionArg> for FrictionModel {
     }
 }
 
+/// Ball–wall contact law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ContactArg {
+    /// Instantaneous impact with restitution e (the paper's Eqs. 4–5).
+    Restitution,
+    /// Compliant Hertz contact with Hunt–Crossley damping calibrated to e (`[contact]`
+    /// constants; lumped bar, exact solver).
+    Hertz,
+}
+
+impl From<ContactArg> for ContactLaw {
+    fn from(c: ContactArg) -> Self {
+        match c {
+            ContactArg::Restitution => ContactLaw::Restitution,
+            ContactArg::Hertz => ContactLaw::Hertz,
+        }
+    }
+}
+
 /// Where the parameters come from, and the overrides shared by `sweep` and `run`.
 #[derive(Debug, Clone, Args)]
 pub struct ModelArgs {
@@ -49,6 +68,9 @@ pub struct ModelArgs {
     /// Friction force level in N, overriding η/r·m_d·g (= 0.0204 N for the paper's ball).
     #[arg(long, value_name = "F_N", allow_negative_numbers = true)]
     pub friction_force_n: Option<f64>,
+    /// Ball–wall contact law [default: the scenario's `[contact] law`, else restitution].
+    #[arg(long, value_enum)]
+    pub contact: Option<ContactArg>,
     /// Solver by name (help text below carries the default).
     #[arg(long, help = concat!(
         "Solver by name; an unknown name prints the available ones [default: ",

@@ -41,6 +41,7 @@ impl ScenarioArgs for Scenario {
         s.apply(&Overrides {
             friction: args.friction.map(Into::into),
             friction_force_n: args.friction_force_n,
+            contact: args.contact.map(Into::into),
             solver: args.solver.clone(),
             dt: args.dt,
             duration: args.duration,

@@ -150,6 +150,15 @@ pub enum SimError {
     /// The solver does not handle this system (the message says what and what to use instead).
     #[error("{0}")]
     Unsupported(&'static str),
+    /// A compliant (`hertz`) contact phase took more integrator steps than its bound (a
+    /// grazing contact that does not end, or a ball resting on a wall for good).
+    #[error("a hertz contact starting at t = {t_s} s took more than {steps} integrator steps without ending (a ball resting on or grazing a wall for a long time); use contact.law = restitution for this case")]
+    ContactStepLimit {
+        /// Start of the contact.
+        t_s: f64,
+        /// The bound.
+        steps: u64,
+    },
     /// The state became NaN or infinite.
     #[error("state is not finite at t = {t_s} s")]
     NonFinite {

@@ -31,5 +31,8 @@ pub mod solver;
 pub mod structure;
 
 pub use error::{EventLimitCause, ParamError, SimError};
-pub use params::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};
+pub use params::{
+    Bar, Contact, ContactLaw, Damper, Forcing, Frequency, FrictionModel, Material, RunSettings,
+    State, System,
+};
 pub use solver::{Observer, Solver};

@@ -121,6 +121,11 @@ pub struct Damper {
     pub friction: FrictionModel,
     /// Override of the friction force level; `None` derives `η/r · m_d · g`.
     pub friction_force_n: Option<f64>,
+    /// Ball–wall contact law (`[contact]`): instantaneous restitution (the paper's, default) or
+    /// compliant Hertz contact. Left out of serialised output while it is the default, so every
+    /// existing file stays byte-identical.
+    #[serde(skip_serializing_if = "Contact::is_restitution")]
+    pub contact: Contact,
 }
 
 impl Damper {
@@ -137,6 +142,7 @@ impl Damper {
             rolling_friction_m: 0.6e-3,
             friction,
             friction_force_n: None,
+            contact: Contact::default(),
         }
     }
 
@@ -165,6 +171,177 @@ impl Default for Damper {
     /// The paper's ball at its smaller gap (0.1 mm), frictionless.
     fn default() -> Self {
         Damper::paper(0.1e-3, FrictionModel::None)
+    }
+}
+
+/// Which ball–wall contact law acts at `w = ±l_g`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum ContactLaw {
+    /// Instantaneous impact with restitution `e` (the paper's Eqs. 4–5).
+    #[default]
+    Restitution,
+    /// Compliant Hertz contact with hysteretic (Hunt–Crossley) damping calibrated to `e`
+    /// ([`crate::damper::contact`]).
+    Hertz,
+}
+
+impl ContactLaw {
+    /// All laws, in a stable order.
+    pub const ALL: [ContactLaw; 2] = [ContactLaw::Restitution, ContactLaw::Hertz];
+    /// The name used in the CLI and in files.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            ContactLaw::Restitution => "restitution",
+            ContactLaw::Hertz => "hertz",
+        }
+    }
+    /// Parse the CLI / file name.
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.as_str() == s)
+    }
+}
+
+impl std::fmt::Display for ContactLaw {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// Elastic constants of one body in contact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Material {
+    /// Young's modulus.
+    pub modulus_pa: f64,
+    /// Poisson's ratio.
+    pub poisson: f64,
+}
+
+impl Material {
+    /// Cemented tungsten carbide (WC–6 % Co, the usual ball grade): `E = 630 GPa`, `ν = 0.22`
+    /// (handbook range 600–650 GPa, 0.21–0.24: ASM Handbook Vol. 2, "Cemented carbides"; the
+    /// crate's density 14 700 kg/m³ is the same grade).
+    pub const TUNGSTEN_CARBIDE: Material = Material {
+        modulus_pa: 630e9,
+        poisson: 0.22,
+    };
+    /// Alloy steel of a boring bar (AISI 4340 class): `E = 205 GPa`, `ν = 0.29` (ASM Handbook
+    /// Vol. 1).
+    pub const STEEL: Material = Material {
+        modulus_pa: 205e9,
+        poisson: 0.29,
+    };
+}
+
+/// The `[contact]` section: the law and, for `hertz`, the elastic constants of ball and wall.
+/// The ball's radius is [`Damper::ball_radius_m`] (the paper's 15 mm ball: its 26 g is a
+/// carbide sphere of that size); the target restitution is [`Damper::restitution`].
+/// Defaults: restitution law, carbide ball on a flat steel wall.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Contact {
+    /// Contact law.
+    pub law: ContactLaw,
+    /// Ball's Young's modulus.
+    pub ball_modulus_pa: f64,
+    /// Ball's Poisson ratio, in (−1, 0.5).
+    pub ball_poisson: f64,
+    /// Wall's Young's modulus.
+    pub wall_modulus_pa: f64,
+    /// Wall's Poisson ratio, in (−1, 0.5).
+    pub wall_poisson: f64,
+    /// Radius of a concave (bore) wall, larger than the ball's; `None` is a flat wall.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub wall_radius_m: Option<f64>,
+}
+
+impl Default for Contact {
+    fn default() -> Self {
+        Contact {
+            law: ContactLaw::Restitution,
+            ball_modulus_pa: Material::TUNGSTEN_CARBIDE.modulus_pa,
+            ball_poisson: Material::TUNGSTEN_CARBIDE.poisson,
+            wall_modulus_pa: Material::STEEL.modulus_pa,
+            wall_poisson: Material::STEEL.poisson,
+            wall_radius_m: None,
+        }
+    }
+}
+
+impl Contact {
+    /// The default contact with the `hertz` law.
+    pub fn hertz() -> Contact {
+        Contact {
+            law: ContactLaw::Hertz,
+            ..Contact::default()
+        }
+    }
+
+    /// Serde helper: the default section is left out of serialised output.
+    pub fn is_restitution(&self) -> bool {
+        *self == Contact::default()
+    }
+
+    /// Check the fields (for `hertz`; the restitution law does not use them) against the ball of
+    /// radius `ball_radius_m` and restitution `e`; the error names the field.
+    pub fn validate(&self, ball_radius_m: f64, restitution: f64) -> Result<(), ParamError> {
+        if self.law == ContactLaw::Restitution {
+            return Ok(());
+        }
+        positive("contact.ball_modulus_pa", self.ball_modulus_pa)?;
+        positive("contact.wall_modulus_pa", self.wall_modulus_pa)?;
+        open_range(
+            "contact.ball_poisson",
+            self.ball_poisson,
+            -1.0,
+            0.5,
+            "(−1, 0.5)",
+        )?;
+        open_range(
+            "contact.wall_poisson",
+            self.wall_poisson,
+            -1.0,
+            0.5,
+            "(−1, 0.5)",
+        )?;
+        if let Some(r) = self.wall_radius_m {
+            positive("contact.wall_radius_m", r)?;
+            if r <= ball_radius_m {
+                return Err(ParamError::OutOfRange {
+                    field: "contact.wall_radius_m",
+                    value: r,
+                    allowed: "(damper.ball_radius_m, ∞): a concave wall wider than the ball",
+                });
+            }
+        }
+        // Hunt–Crossley damping represents 0 < e ≤ 1 only: e = 0 needs infinite damping.
+        if !(restitution > 0.0 && restitution <= 1.0) {
+            return Err(ParamError::OutOfRange {
+                field: "damper.restitution",
+                value: restitution,
+                allowed: "(0, 1] with contact.law = hertz",
+            });
+        }
+        Ok(())
+    }
+}
+
+fn open_range(
+    field: &'static str,
+    value: f64,
+    lo: f64,
+    hi: f64,
+    allowed: &'static str,
+) -> Result<(), ParamError> {
+    finite(field, value)?;
+    if value > lo && value < hi {
+        Ok(())
+    } else {
+        Err(ParamError::OutOfRange {
+            field,
+            value,
+            allowed,
+        })
     }
 }
 
@@ -435,6 +612,7 @@ impl System {
             if let Some(f) = d.friction_force_n {
                 non_negative("damper.friction_force_n", f)?;
             }
+            d.contact.validate(d.ball_radius_m, d.restitution)?;
         }
         Ok(())
     }

@@ -141,6 +141,7 @@ fn sample_case(rng: &mut SplitMix64, index: usize) -> Case {
             rolling_friction_m: 0.6e-3,
             friction,
             friction_force_n,
+            contact: vibrobar_core::Contact::default(),
         }),
         forcing: Forcing {
             amplitude_n: f0,

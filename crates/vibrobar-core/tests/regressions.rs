@@ -143,6 +143,7 @@ fn regression_friction_work_of_a_slide_shorter_than_the_rounding_of_w() {
             rolling_friction_m: 0.6e-3,
             friction: FrictionModel::Coulomb,
             friction_force_n: Some(0.884),
+            contact: vibrobar_core::Contact::default(),
         }),
         forcing: Forcing {
             amplitude_n: 0.0,
@@ -219,6 +220,7 @@ fn regression_elastic_chatter_under_coulomb_friction_was_not_summed() {
             rolling_friction_m: 0.6e-3,
             friction: FrictionModel::Coulomb,
             friction_force_n: Some(0.2),
+            contact: vibrobar_core::Contact::default(),
         }),
         forcing: Forcing {
             amplitude_n: 0.0,

@@ -990,6 +990,45 @@ pub fn write_modes_csv(path: &Path, model: &vibrobar_core::structure::ModalModel
 }
 
 // ---------------------------------------------------------------------------------------------
+// contact-test
+
+/// `vibrobar contact-test`: one impact of the ball on a rigid fixed wall per approach speed.
+pub fn contact_test_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("speed_m_s", Format::Plain),
+            col("contact_time_s", Format::Plain),
+            col("restitution", Format::Plain),
+            col("max_force_n", Format::Plain),
+            col("max_penetration_m", Format::Plain),
+        ],
+    }
+}
+
+/// The fields of one impact, in column order.
+pub fn contact_test_values(o: &vibrobar_core::analysis::contact_test::ImpactOutcome) -> Vec<Value> {
+    vec![
+        Value::F(o.speed_m_s),
+        Value::F(o.contact_time_s),
+        Value::F(o.restitution),
+        Value::F(o.max_force_n),
+        Value::F(o.max_penetration_m),
+    ]
+}
+
+/// Write a contact-test CSV (atomic, under the output-path policy, through [`write_csv`]).
+pub fn write_contact_test_csv(
+    path: &Path,
+    rows: &[vibrobar_core::analysis::contact_test::ImpactOutcome],
+) -> Result<()> {
+    write_csv(
+        path,
+        &contact_test_schema(),
+        rows.iter().map(contact_test_values),
+    )
+}
+
+// ---------------------------------------------------------------------------------------------
 // whole files
 
 /// Write any serializable value as pretty JSON.

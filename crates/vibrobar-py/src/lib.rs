@@ -178,8 +178,9 @@ fn chunk_len() -> usize {
 // scenario
 
 /// Section names of a scenario file, in the order flat keywords are looked up.
-const SECTIONS: [&str; 8] = [
+const SECTIONS: [&str; 9] = [
     "damper",
+    "contact",
     "forcing",
     "run",
     "initial",
@@ -225,6 +226,8 @@ fn known_keys(t: &toml::Table) -> Vec<(Option<&'static str>, String)> {
     v.push((None, "gravity_m_s2".into()));
     let beam_default = toml::Value::try_from(Beam::default()).ok();
     let bar_default = toml::Value::try_from(vibrobar_core::Bar::PAPER_CAVITY).ok();
+    // `[contact]` is left out of the scenario's TOML for the default law: its keys still apply.
+    let contact_default = toml::Value::try_from(vibrobar_core::Contact::default()).ok();
     for sec in SECTIONS {
         let keys: Vec<String> = match (t.get(sec), sec) {
             (Some(toml::Value::Table(st)), _) => st.keys().cloned().collect(),
@@ -233,6 +236,11 @@ fn known_keys(t: &toml::Table) -> Vec<(Option<&'static str>, String)> {
                 .as_ref()
                 .and_then(|b| b.as_table())
                 .map(|b| b.keys().cloned().collect())
+                .unwrap_or_default(),
+            (None, "contact") => contact_default
+                .as_ref()
+                .and_then(|c| c.as_table())
+                .map(|c| c.keys().cloned().collect())
                 .unwrap_or_default(),
             // And a beam scenario knows the lumped bar's keys, to say where they belong.
             (None, "bar" | "solid_bar") => bar_default

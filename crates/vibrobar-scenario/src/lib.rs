@@ -22,7 +22,9 @@ use vibrobar_core::error::Compact;
 use vibrobar_core::params::BarModel;
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
 use vibrobar_core::structure::{Beam, Structure};
-use vibrobar_core::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};
+use vibrobar_core::{
+    Bar, Contact, ContactLaw, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System,
+};
 
 /// The default solver's name as a literal, so help texts can `concat!` it. Switching the default
 /// solver is this one line.
@@ -47,8 +49,15 @@ pub struct Scenario {
     /// Solid reference bar (missing fields: [`Bar::PAPER_SOLID`]).
     #[serde(deserialize_with = "solid_bar")]
     pub solid_bar: Bar,
-    /// The ball.
+    /// The ball. Its contact law is the file's `[contact]` section (kept in step with
+    /// [`Scenario::contact`] by every constructor and override), not a `[damper]` key.
+    #[serde(with = "damper_section")]
     pub damper: Damper,
+    /// `[contact]`: the ball–wall contact law and the elastic constants of `hertz`; absent: the
+    /// restitution law (and left out of the serialised scenario, so existing metadata and
+    /// fingerprints are unchanged).
+    #[serde(skip_serializing_if = "Contact::is_restitution")]
+    pub contact: Contact,
     /// External force; `frequency_ratio` in the file.
     #[serde(with = "forcing_section")]
     pub forcing: Forcing,
@@ -93,6 +102,7 @@ impl Default for Scenario {
             bar: Bar::PAPER_CAVITY,
             solid_bar: Bar::PAPER_SOLID,
             damper: Damper::default(),
+            contact: Contact::default(),
             forcing: Forcing::default(),
             run: RunSection::default(),
             initial: State::default(),
@@ -195,6 +205,32 @@ impl<'de> Deserialize<'de> for RunSection {
 
 /// `[forcing]` as in the file: `amplitude_n`, `static_force_n` and `frequency_ratio`
 /// (`Ω/ω₁` of the bar simulated: `√(K/M)` of a lumped bar, a beam's first mode) or `omega_rad_s`.
+/// `[damper]` as in the file: the core's [`Damper`] without its contact law, which is the
+/// `[contact]` section.
+mod damper_section {
+    use super::*;
+
+    pub fn serialize<S: Serializer>(d: &Damper, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::Error as _;
+        let mut t = match toml::Value::try_from(d).map_err(S::Error::custom)? {
+            toml::Value::Table(t) => t,
+            _ => return Err(S::Error::custom("a damper serialises to a table")),
+        };
+        t.remove("contact");
+        t.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Damper, D::Error> {
+        let t = toml::Table::deserialize(d)?;
+        if t.contains_key("contact") {
+            return Err(D::Error::custom(
+                "[damper]: unknown field `contact`; the contact law is the [contact] section",
+            ));
+        }
+        from_table(t)
+    }
+}
+
 mod forcing_section {
     use super::*;
 
@@ -280,6 +316,8 @@ pub struct Overrides {
     pub friction: Option<FrictionModel>,
     /// `--friction-force-n`.
     pub friction_force_n: Option<f64>,
+    /// `--contact`.
+    pub contact: Option<ContactLaw>,
     /// `--solver`.
     pub solver: Option<String>,
     /// `--dt`.
@@ -306,6 +344,7 @@ impl Scenario {
         let gaps_given = raw.get("sweep").and_then(|s| s.get("gaps_m")).is_some();
         check_beam_against_bar(&raw)?;
         let mut s: Scenario = toml::from_str(text)?;
+        s.damper.contact = s.contact;
         if gap_given && !gaps_given {
             s.sweep.gaps_m = vec![s.damper.gap_m];
         }
@@ -334,6 +373,10 @@ impl Scenario {
         if let Some(f) = o.friction_force_n {
             check_non_negative("--friction-force-n", f, "N")?;
             self.damper.friction_force_n = Some(f);
+        }
+        if let Some(law) = o.contact {
+            self.contact.law = law;
+            self.damper.contact = self.contact;
         }
         if let Some(name) = &o.solver {
             self.run.solver = name.clone();

@@ -126,6 +126,9 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         }
     }
     print_rms_side_by_side(&sweeps);
+    if run_sc.beam.is_none() {
+        contact_law_row(&rows, &single, &st)?;
+    }
     // The single run above is the lumped reference only when the bench's scenario is lumped.
     beam_rows(&names, &st, !args.single_only)
 }
@@ -134,6 +137,42 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
 fn median(x: &mut [f64]) -> f64 {
     x.sort_by(f64::total_cmp);
     x[x.len() / 2]
+}
+
+/// Issue #9 §6: the single run with the `hertz` contact law against the same run with the
+/// restitution law, both with the exact solver (the only one that has the law), and the cost
+/// per contact (what the extra time is spent on: the DP5 steps of the contact phases).
+fn contact_law_row(
+    rows: &[(String, f64, Option<f64>)],
+    single: &Case,
+    st: &vibrobar_core::RunSettings,
+) -> Result<()> {
+    let Some((_, t_rest, _)) = rows.iter().find(|r| r.0 == "exact") else {
+        return Ok(());
+    };
+    let mut case = *single;
+    if let Some(d) = case.system.damper.as_mut() {
+        d.contact.law = vibrobar_core::ContactLaw::Hertz;
+    } else {
+        return Ok(());
+    }
+    let s = solver("exact", st)?;
+    let _ = run_one(&case, st, s.as_ref());
+    let t = Instant::now();
+    let o = run_one(&case, st, s.as_ref())?;
+    let th = t.elapsed().as_secs_f64();
+    let extra_per_contact = (th - t_rest) / (o.result.summary.impacts.max(1) as f64);
+    println!(
+        "  exact  single run with contact = hertz: {} (RMS {:.4e} m, {} contacts), {:.2}× the \
+         restitution run (issue #9 target: ≤ 10×); {:.1} µs more per contact (the DP5 steps of \
+         the contact phase)",
+        fmt_secs(th),
+        o.result.rms_m,
+        o.result.impacts,
+        th / t_rest,
+        extra_per_contact * 1e6
+    );
+    Ok(())
 }
 
 /// Points of the placement map the bench projects (issue #8 §8): positions × gaps × ratios.

@@ -39,6 +39,9 @@ pub struct SystemArgs {
     /// Friction force level in N (default: the scenario's, else η/r·m_d·g = 0.0204 N).
     #[arg(long, allow_negative_numbers = true)]
     pub friction_force_n: Option<f64>,
+    /// Ball–wall contact law [default: the scenario's `[contact] law`, else restitution].
+    #[arg(long, value_enum)]
+    pub contact: Option<crate::cli::ContactArg>,
     /// Solver (`exact` event-driven when available, or `rk4` with fixed step `--dt`)
     /// [default: the scenario's, else exact].
     #[arg(long)]
@@ -86,6 +89,7 @@ impl SystemArgs {
         sc.apply(&Overrides {
             friction: self.friction.map(Into::into),
             friction_force_n: self.friction_force_n,
+            contact: self.contact.map(Into::into),
             solver: self.solver.clone(),
             dt: self.dt,
             duration: self.duration,

@@ -3,6 +3,8 @@
 
 pub mod beam;
 pub mod bench;
+pub mod contact_laws;
+pub mod contact_test;
 pub mod design;
 pub mod explore;
 pub mod lumped_vs_beam;
@@ -23,6 +25,7 @@ pub use vibrobar_core::analysis::case::{run_one, Case, CaseOutcome};
 use vibrobar_core::analysis::sweep::sweep_audited;
 pub use vibrobar_core::analysis::SweepRow;
 use vibrobar_core::analysis::{BatchError, Runner, SweepBase, SweepPoint};
+use vibrobar_core::ContactLaw;
 use vibrobar_core::{Observer, RunSettings, SimError, Solver, State, System};
 
 /// Look a solver up by name; the error lists the names the library provides.
@@ -172,7 +175,11 @@ impl Solver for PenetrationWatch<'_> {
         obs: &mut dyn Observer,
     ) -> Result<vibrobar_core::solver::RunSummary, SimError> {
         let r = self.inner.run(sys, init, t_end_s, obs)?;
-        if let Some(d) = sys.damper {
+        // Under the hertz law the penetration is the contact's own compression, not an error.
+        if let Some(d) = sys
+            .damper
+            .filter(|d| d.contact.law == ContactLaw::Restitution)
+        {
             let pen = r.max_penetration_m;
             if let Some(f) = vibrobar_core::limits::excessive_penetration(pen, d.gap_m) {
                 let ratio = sys.omega_rad_s() / sys.omega1_rad_s();

@@ -113,6 +113,7 @@ pub fn beam_scenario(a: &SystemArgs) -> anyhow::Result<(Scenario, Beam)> {
             sc.apply(&Overrides {
                 friction: a.friction.map(Into::into),
                 friction_force_n: a.friction_force_n,
+                contact: a.contact.map(Into::into),
                 solver: a.solver.clone(),
                 dt: a.dt,
                 duration: a.duration,

@@ -116,7 +116,11 @@ pub fn run(args: &RunArgs) -> Result<()> {
     };
     let interval_s = args.sample_every as f64 * settings.dt_s;
     let out = run_streamed(&case, &settings, solver.as_ref(), &args.out, interval_s)?;
-    let gap_m = sys.damper.map_or(f64::INFINITY, |d| d.gap_m);
+    // Under the hertz law the penetration is the contact's own compression, not an error.
+    let gap_m = sys
+        .damper
+        .filter(|d| d.contact.law == vibrobar_core::ContactLaw::Restitution)
+        .map_or(f64::INFINITY, |d| d.gap_m);
     let pen_m = out.result.summary.max_penetration_m;
     if let Some(f) = limits::excessive_penetration(pen_m, gap_m) {
         eprintln!(

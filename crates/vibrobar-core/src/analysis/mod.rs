@@ -8,6 +8,7 @@
 
 pub mod batch;
 pub mod case;
+pub mod contact_test;
 pub mod energy;
 pub mod ensemble;
 pub mod grid;

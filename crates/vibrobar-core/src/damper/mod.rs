@@ -9,5 +9,6 @@
 //! force on the bar `−F_ball` (friction is internal to the bar–ball pair), so the friction power
 //! on the pair is `F_ball ẇ`.
 
+pub mod contact;
 pub mod friction;
 pub mod impact;

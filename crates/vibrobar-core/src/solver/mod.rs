@@ -5,6 +5,7 @@
 //! friction switches, …). Analyses are [`Observer`]s: they never know which solver produced the
 //! segments, so every analysis works with every solver.
 
+pub mod dopri5;
 pub mod exact;
 pub mod modal_rk4;
 pub mod rk4;
@@ -202,6 +203,20 @@ pub trait Solver: Send + Sync {
         t_end_s: f64,
         obs: &mut dyn Observer,
     ) -> Result<RunSummary, SimError>;
+}
+
+/// The solvers that apply only the instantaneous restitution law refuse a `hertz` contact
+/// instead of silently running another law.
+pub(crate) fn refuse_hertz(
+    damper: Option<&crate::params::Damper>,
+    why: &'static str,
+) -> Result<(), SimError> {
+    match damper {
+        Some(d) if d.contact.law == crate::params::ContactLaw::Hertz => {
+            Err(SimError::Unsupported(why))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// Checks every solver makes before it runs: the system, the initial state, and an end time that

@@ -439,6 +439,10 @@ impl ModalRk4 {
         obs: &mut dyn ModalObserver,
     ) -> Result<ModalRunSummary, SimError> {
         sys.validate()?;
+        super::refuse_hertz(
+            sys.damper.as_ref(),
+            "contact.law = hertz: the modal rk4 solver applies the restitution law only; use the lumped bar with --solver exact",
+        )?;
         init.validate(sys)?;
         crate::params::finite("t_end_s", t_end_s)?;
         if t_end_s < init.t_s {

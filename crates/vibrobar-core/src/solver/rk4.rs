@@ -312,6 +312,10 @@ impl Solver for Rk4 {
         obs: &mut dyn Observer,
     ) -> Result<RunSummary, SimError> {
         super::validate_run(sys, init, t_end_s)?;
+        super::refuse_hertz(
+            sys.damper.as_ref(),
+            "contact.law = hertz: the rk4 solver applies the restitution law only; use --solver exact",
+        )?;
         sys.validate_fixed_step(self.dt_s, t_end_s - init.t_s)?;
         let bar = match &sys.bar {
             BarModel::Lumped(bar) => bar,

@@ -69,6 +69,7 @@ pub fn constant_push(static_force_n: f64, gap_m: f64, restitution: f64) -> Syste
             rolling_friction_m: 0.0,
             friction: FrictionModel::None,
             friction_force_n: None,
+            contact: vibrobar_core::Contact::default(),
         }),
         forcing: Forcing {
             amplitude_n: 0.0,

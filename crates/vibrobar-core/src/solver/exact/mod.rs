@@ -50,6 +50,8 @@
 pub mod constrained;
 pub mod expsum;
 pub mod expsum_n;
+pub mod hertz;
+pub mod hertz_phase;
 pub mod modal;
 pub mod roots;
 pub mod roots_n;
@@ -112,6 +114,8 @@ struct Consts {
     chatter_t: f64,
     /// The bar alone and the bar with the ball riding on it.
     osc: [Osc; 2],
+    /// The compliant contact law, `None` for the instantaneous restitution law.
+    hertz: Option<crate::damper::contact::Hertz>,
 }
 
 impl Consts {
@@ -284,6 +288,9 @@ enum Md {
     },
     Stick,
     Contact(Wall),
+    /// `hertz` law: the ball touches wall `Wall` (`ẇ` into it or 0); a compliant contact phase
+    /// follows ([`hertz::contact`]).
+    HertzTouch(Wall),
 }
 
 /// One closed-form piece of the motion.
@@ -589,6 +596,10 @@ impl Consts {
                 al: 0.0,
                 wd: 0.0,
             }; 2],
+            hertz: sys
+                .damper
+                .filter(|d| d.contact.law == crate::params::ContactLaw::Hertz)
+                .map(|d| crate::damper::contact::Hertz::of_damper(&d)),
         };
         cs.osc = [Osc::new(&cs, cs.m), Osc::new(&cs, cs.m + cs.md)];
         cs
@@ -666,6 +677,10 @@ impl Solver for Exact {
                 )?,
                 Md::Stick | Md::Contact(_) => {
                     pair_motion(&cs, mode, &mut s, t_end_s, &mut book, &mut search)?
+                }
+                Md::HertzTouch(wall) => {
+                    let law = cs.hertz.expect("a hertz touch needs the hertz law");
+                    hertz::contact(&cs, &law, wall.sign(), &mut s, t_end_s, &mut book)?
                 }
             };
             match next {
@@ -827,7 +842,12 @@ fn free_flight(
     let mode = match which {
         1 | 2 => {
             let sw = if which == 1 { 1.0 } else { -1.0 };
-            impact(cs, sw, &mut next, book)?
+            if cs.hertz.is_some() {
+                next.w = sw * cs.lg;
+                Md::HertzTouch(wall_of(sw))
+            } else {
+                impact(cs, sw, &mut next, book)?
+            }
         }
         _ => {
             next.dw = 0.0;
@@ -867,7 +887,9 @@ fn pair_motion(
             set.push(3, mk(ddu.affine(-wall.sign() * cs.md, cs.f_hold())));
             Mode::Contact(wall)
         }
-        Md::Free { .. } => unreachable!("pair_motion is called for stick and contact"),
+        Md::Free { .. } | Md::HertzTouch(_) => {
+            unreachable!("pair_motion is called for stick and contact")
+        }
     };
     let (best, which, end) = joint_search(&mut set, search, span, tol_t, &u)?;
     let seg = ExactSegment {
@@ -921,10 +943,13 @@ fn initial_mode(cs: &Consts, s: &mut St, book: &mut Book) -> Result<Md, SimError
         if sw * s.w >= cs.lg {
             s.w = sw * cs.lg;
             if sw * s.dw > 0.0 {
+                if cs.hertz.is_some() {
+                    return Ok(Md::HertzTouch(wall_of(sw)));
+                }
                 return impact(cs, sw, s, book);
             }
             if s.dw == 0.0 {
-                return contact_test(cs, sw, s);
+                return wall_touch(cs, sw, s);
             }
             return Ok(after_wall_free(sw, s.dw));
         }
@@ -1095,6 +1120,16 @@ fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Re
     )?;
     *s = next;
     contact_test(cs, j.sw, s)
+}
+
+/// Ball at wall `sw` with `ẇ = 0`: [`contact_test`], where a pressed ball under the `hertz` law
+/// starts a (resting) compliant contact instead of riding the wall rigidly.
+fn wall_touch(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
+    let md = contact_test(cs, sw, s)?;
+    Ok(match (md, cs.hertz) {
+        (Md::Contact(w), Some(_)) => Md::HertzTouch(w),
+        (m, _) => m,
+    })
 }
 
 /// Ball at wall `sw` with `ẇ = 0`: does it stay pressed on it (`sw·m_d ü_pair ≤ f_hold`)?

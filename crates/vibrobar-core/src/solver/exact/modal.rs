@@ -778,6 +778,10 @@ impl ModalExact {
         obs: &mut dyn ModalObserver,
     ) -> Result<(ModalRunSummary, u64), SimError> {
         sys.validate()?;
+        crate::solver::refuse_hertz(
+            sys.damper.as_ref(),
+            "contact.law = hertz is not yet wired into the N-mode exact solver (a beam); it runs on the lumped bar",
+        )?;
         init.validate(sys)?;
         crate::params::finite("t_end_s", t_end_s)?;
         if t_end_s < init.t_s {
