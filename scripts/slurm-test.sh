@@ -69,7 +69,15 @@ pids=()
 cleanup() {
     local rc=$?
     set +e
-    # Reverse order: slurmd, slurmctld, munged. TERM, then KILL whatever is still there.
+    # Jobs of this private cluster first (their slurmstepd would outlive slurmd), then the
+    # daemons in reverse order: slurmd, slurmctld, munged. TERM, then KILL what is still there.
+    if [ ${#pids[@]} -ge 3 ]; then
+        scancel --user="$(id -un)" 2>/dev/null
+        for _ in $(seq 30); do
+            [ -z "$(squeue -h -o %i 2>/dev/null)" ] && break
+            sleep 0.1
+        done
+    fi
     for ((i = ${#pids[@]} - 1; i >= 0; i--)); do kill "${pids[$i]}" 2>/dev/null; done
     for _ in $(seq 50); do
         alive=0
@@ -121,7 +129,7 @@ JobCompType=jobcomp/none
 SelectType=select/cons_tres
 SelectTypeParameters=CR_CPU
 SchedulerType=sched/builtin
-SchedulerParameters=kill_invalid_depend
+SchedulerParameters=kill_invalid_depend,batch_sched_delay=0,sched_min_interval=0
 MpiDefault=none
 ReturnToService=2
 MinJobAge=600
@@ -249,6 +257,7 @@ for cmd in map placement ensemble; do
     cmp "sharded/$cmd.csv" "ref/$cmd.csv" || fail "$cmd: $N-shard Slurm run differs from the unsharded run"
     [ "$(job_states "$arr" | sort -u)" = COMPLETED ] || fail "$cmd: array $arr: $(job_states "$arr")"
 
+    t1=$(date +%s.%N)
     # 2. Recovery: cancel task 2 once its journal has a row, then resubmit the whole array.
     out=recover/$cmd.csv
     read -r arr mrg < <(submit "$cmd" $N "$out" -- "${slow[@]}")
@@ -276,6 +285,7 @@ for cmd in map placement ensemble; do
         fail "$cmd: task 2 did not resume its journal ($(cat "recover/logs/$cmd.2.out"))"
     [ ! -e "$journal" ] || fail "$cmd: journal left behind after a complete run"
     recover_note="task 2 cancelled with $rows_before rows journaled, resumed"
+    t2=$(date +%s.%N)
 
     # 3. Failure: task 2 meets a journal of another job; no merged output, the merge never runs.
     out=fail/$cmd.csv
@@ -289,7 +299,7 @@ for cmd in map placement ensemble; do
     [ ! -e "fail/logs/$cmd.merge.out" ] || fail "$cmd: the merge job wrote a log: it ran"
     [ ! -e "$out" ] && [ ! -e "$out.meta.json" ] || fail "$cmd: a merged file exists after a failed task"
     grep -q "journal" "fail/logs/$cmd.2.out" || fail "$cmd: the failed task did not say why: $(cat "fail/logs/$cmd.2.out")"
-    echo "slurm-test: $cmd ok: $N shards == unsharded; $recover_note == unsharded; failed task -> merge $mstate, no output ($(elapsed "$t0") s)" >&2
+    echo "slurm-test: $cmd ok: $N shards == unsharded; $recover_note == unsharded; failed task -> merge $mstate, no output ($(elapsed "$t0") s: references+identity $(awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.1f", b - a }') s, recovery $(awk -v a="$t1" -v b="$t2" 'BEGIN { printf "%.1f", b - a }') s, failure $(elapsed "$t2") s)" >&2
 done
 t_test=$(elapsed "$t_tests")
 echo "slurm-test: PASSED: Slurm start-up $t_up s, tests $t_test s, total $(elapsed "$t_start") s" >&2
