@@ -1,7 +1,7 @@
 //! # vibrobar-cli
 //!
 //! The command line of vibrobar, and only that: the subcommand table ([`app`]), argument types
-//! ([`cli`]), scenario files ([`scenario`]), progress bars ([`progress`]) and one module per
+//! ([`cli`]), scenario flags ([`scenario`]; the scenario type is `vibrobar-scenario`), progress bars ([`progress`]) and one module per
 //! command ([`commands`]) that turns flags into calls of the other crates. The physics and the
 //! batch runner are in `vibrobar-core`, result files (atomic writes, journals, CSV schemas, NPY,
 //! metadata, shards) in `vibrobar-io`, the paper report and every figure in `vibrobar-report`.
@@ -14,17 +14,8 @@ pub mod commands;
 pub mod progress;
 pub mod scenario;
 
-/// The default solver's name as a literal, so help texts can `concat!` it. Switching the default
-/// solver is this one line.
-#[macro_export]
-macro_rules! default_solver {
-    () => {
-        "exact"
-    };
-}
-
-/// Solver used when none is given.
-pub const DEFAULT_SOLVER: &str = default_solver!();
+// The default solver is a fact of the scenario (its `[run] solver` default): one definition there.
+pub use vibrobar_scenario::{default_solver, DEFAULT_SOLVER};
 
 /// Version of this tool (the report crate's, the workspace's one version).
 pub const VERSION: &str = vibrobar_report::VERSION;

@@ -9,7 +9,7 @@ use vibrobar_core::params::{FrictionModel, RunSettings};
 use vibrobar_core::solver::{solver_by_name, Solver, SOLVER_NAMES};
 
 pub use crate::cli::{FrictionArg, Preset};
-use crate::scenario::{Overrides, Scenario, Source};
+use crate::scenario::{Overrides, Scenario, ScenarioArgs, Source};
 pub use crate::DEFAULT_SOLVER;
 
 impl Preset {

@@ -16,7 +16,7 @@ use super::{
     DEFAULT_SOLVER,
 };
 use crate::progress::Progress;
-use crate::scenario::{Scenario, Source};
+use crate::scenario::{Scenario, ScenarioArgs, Source};
 use anyhow::Context;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};

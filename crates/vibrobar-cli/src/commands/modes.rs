@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use vibrobar_core::structure::beam::{DEFAULT_CAPTURED_STATIC_FRACTION, MIN_DEFAULT_MODES};
 use vibrobar_core::structure::Structure;
 
-use crate::scenario::{Scenario, Source};
+use crate::scenario::{Scenario, ScenarioArgs, Source};
 use vibrobar_io::csv::fmt_coord;
 
 /// A length in mm for the summary, binary noise removed (`38`, not `37.99999999999998`).

@@ -15,7 +15,7 @@ use vibrobar_io::history::{is_npy, sample_count, HistoryWriter};
 
 use super::{fmt_secs, solver, Case};
 use crate::cli::RunArgs;
-use crate::scenario::{check_positive, Scenario};
+use crate::scenario::{check_positive, Scenario, ScenarioArgs};
 
 /// Feeds the core's [`Sampler`] and hands each sample to the writer as soon as it exists.
 struct Stream<'a> {

@@ -13,7 +13,7 @@ use vibrobar_core::analysis::{Batch, Runner};
 use super::{batch_error, fmt_secs, run_one, solver, Case, SweepRow};
 use crate::cli::SweepArgs;
 use crate::progress::Progress;
-use crate::scenario::{check_positive, parse_ratios, sweep_ratios, Scenario};
+use crate::scenario::{check_positive, parse_ratios, sweep_ratios, Scenario, ScenarioArgs};
 use vibrobar_io::csv::{sweep_csv_line, sweep_key, sweep_schema, SweepCsvRow};
 use vibrobar_io::{GridInfo, Metadata};
 

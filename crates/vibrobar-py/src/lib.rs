@@ -1,0 +1,1594 @@
+//! # vibrobar-py
+//!
+//! The native module `vibrobar._vibrobar` of the Python package (`python/vibrobar`). Every
+//! computation is the library's own, called the way the command line calls it, so the numbers
+//! are the CLI's bit for bit: the scenario is `vibrobar-scenario`'s, batches run on the core's
+//! `Runner`/`Batch` (its thread pool), tables use `vibrobar-io`'s CSV schemas (column names and
+//! the text of a row).
+//!
+//! Long calls release the GIL: the work runs on a worker thread while the calling thread, every
+//! [`POLL`], takes the GIL to check for signals (Ctrl-C raises the core runner's cancel flag, and
+//! the call raises `KeyboardInterrupt` once the runs in flight end) and to report progress to a
+//! Python callback, which therefore always runs on the caller's thread. A panic anywhere becomes
+//! a `RuntimeError`.
+
+use numpy::{IntoPyArray, PyReadonlyArray1};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::time::Duration;
+use vibrobar_core::analysis::case::{run_case, Sampler};
+use vibrobar_core::analysis::energy::EnergyAudit;
+use vibrobar_core::analysis::ensemble::{run_ensemble, EnsembleParams, IcRanges};
+use vibrobar_core::analysis::lyapunov::{max_lyapunov, max_lyapunov_modal, LyapunovParams};
+use vibrobar_core::analysis::map::{compute_point, compute_point_from, Axis, Grid, GridAxis};
+use vibrobar_core::analysis::map::{GridPoint, MapSpec};
+use vibrobar_core::analysis::poincare::{bifurcation, BifurcationSpec, Stroboscope};
+use vibrobar_core::analysis::regime::Tolerances;
+use vibrobar_core::analysis::sweep::sweep_audited;
+use vibrobar_core::analysis::{BatchError, Runner};
+use vibrobar_core::params::BarModel;
+use vibrobar_core::solver::{modal_run_by_name, solver_by_name, Event, EventKind, Fanout};
+use vibrobar_core::solver::{Segment, SOLVER_NAMES};
+use vibrobar_core::structure::{Beam, ModalState, ModalSystem};
+use vibrobar_core::{limits, Frequency, Observer, Solver, System};
+use vibrobar_io::csv::{self as iocsv, Schema, Value};
+use vibrobar_scenario::Scenario;
+
+/// How often the calling thread checks for Ctrl-C and reports progress while a call runs.
+const POLL: Duration = Duration::from_millis(100);
+
+// ---------------------------------------------------------------------------------------------
+// errors
+
+/// An input error (a field and its allowed range, as the command line says it): `ValueError`,
+/// or `TypeError` when a value has the wrong type.
+fn input_error(e: impl std::fmt::Display) -> PyErr {
+    let msg = e.to_string();
+    if msg.contains("invalid type") {
+        PyTypeError::new_err(msg)
+    } else {
+        PyValueError::new_err(msg)
+    }
+}
+
+fn anyhow_input(e: anyhow::Error) -> PyErr {
+    input_error(format!("{e:#}"))
+}
+
+/// An error of the computation itself (a run that failed).
+fn run_error(e: impl std::fmt::Display) -> PyErr {
+    PyRuntimeError::new_err(e.to_string())
+}
+
+fn batch_error<E: std::fmt::Display>(e: BatchError<E>) -> PyErr {
+    match e {
+        BatchError::Param(p) => input_error(p),
+        other => run_error(other),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// the worker and its watcher
+
+/// What a job sees: the cancel flag (raised on Ctrl-C or a failing progress callback) and the
+/// progress sink (`done`, `total` over its runs).
+struct Ctl {
+    cancel: AtomicBool,
+    done: AtomicUsize,
+    total: AtomicUsize,
+}
+
+impl Ctl {
+    fn progress(&self, done: usize, total: usize) {
+        self.total.store(total, Ordering::Relaxed);
+        self.done.store(done, Ordering::Relaxed);
+    }
+
+    fn cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
+    }
+}
+
+/// Run `job` with the GIL released on a worker thread; the caller's thread polls for signals and
+/// calls `progress(done, total)` whenever the count moved. A signal's exception (or the
+/// callback's) wins over the job's result, once the job has stopped.
+fn detached<R: Send>(
+    py: Python<'_>,
+    progress: Option<&Bound<'_, PyAny>>,
+    job: impl FnOnce(&Ctl) -> PyResult<R> + Send,
+) -> PyResult<R> {
+    let ctl = Ctl {
+        cancel: AtomicBool::new(false),
+        done: AtomicUsize::new(0),
+        total: AtomicUsize::new(0),
+    };
+    let cb: Option<Py<PyAny>> = progress.map(|p| p.clone().unbind());
+    let (result, interrupt) = py.detach(|| {
+        std::thread::scope(|s| {
+            let (tx, rx) = std::sync::mpsc::channel::<()>();
+            let ctl = &ctl;
+            let worker = s.spawn(move || {
+                let r = catch_unwind(AssertUnwindSafe(|| job(ctl)));
+                let _ = tx.send(());
+                r
+            });
+            let mut interrupt: Option<PyErr> = None;
+            let mut shown = (usize::MAX, usize::MAX);
+            let mut report = |interrupt: &mut Option<PyErr>| {
+                Python::attach(|py| {
+                    if interrupt.is_none() {
+                        if let Err(e) = py.check_signals() {
+                            ctl.cancel.store(true, Ordering::Relaxed);
+                            *interrupt = Some(e);
+                        }
+                    }
+                    let now = (
+                        ctl.done.load(Ordering::Relaxed),
+                        ctl.total.load(Ordering::Relaxed),
+                    );
+                    if let (Some(cb), None, true) = (&cb, &interrupt, now.1 > 0 && now != shown) {
+                        shown = now;
+                        if let Err(e) = cb.call1(py, now) {
+                            ctl.cancel.store(true, Ordering::Relaxed);
+                            *interrupt = Some(e);
+                        }
+                    }
+                })
+            };
+            while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) = rx.recv_timeout(POLL) {
+                report(&mut interrupt);
+            }
+            report(&mut interrupt);
+            (worker.join(), interrupt)
+        })
+    });
+    if let Some(e) = interrupt {
+        return Err(e);
+    }
+    match result {
+        Ok(Ok(r)) => r,
+        Ok(Err(p)) | Err(p) => Err(PyRuntimeError::new_err(format!(
+            "internal error (a panic in vibrobar; please report it): {}",
+            p.downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| p.downcast_ref::<&str>().copied())
+                .unwrap_or("no message")
+        ))),
+    }
+}
+
+/// A cancelled batch is the interrupt the watcher already holds; any other error stays.
+fn batch_result<T, E: std::fmt::Display>(r: Result<T, BatchError<E>>) -> PyResult<T> {
+    match r {
+        Err(BatchError::Cancelled { .. }) => Err(PyKeyboardInterrupt::new_err("cancelled")),
+        other => other.map_err(batch_error),
+    }
+}
+
+/// Items per chunk of a batch without a cancel flag of its own (bifurcation, ensemble): a few
+/// runs per worker, so Ctrl-C is seen after about one run's time.
+fn chunk_len() -> usize {
+    2 * std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+// ---------------------------------------------------------------------------------------------
+// scenario
+
+/// Section names of a scenario file, in the order flat keywords are looked up.
+const SECTIONS: [&str; 8] = [
+    "damper",
+    "forcing",
+    "run",
+    "initial",
+    "sweep",
+    "bar",
+    "solid_bar",
+    "beam",
+];
+
+/// Keys a section accepts but its serialisation leaves out when they are absent (`Option`s and
+/// the alternative forcing frequency). Anything else unknown is refused by the scenario's own
+/// `deny_unknown_fields`, with the valid names.
+const OPTIONAL_KEYS: [(&str, &str); 9] = [
+    ("damper", "friction_force_n"),
+    ("forcing", "frequency_ratio"),
+    ("forcing", "omega_rad_s"),
+    ("beam", "modes"),
+    ("beam", "force_position_m"),
+    ("beam", "response_position_m"),
+    ("beam", "tip_mass"),
+    ("beam", "cavity_section"),
+    ("beam", "fe_elements"),
+];
+
+/// The scenario as a TOML table in the file's layout; a `[beam]` scenario without `[bar]` and
+/// `[solid_bar]` (they do not apply to it and a file may not give both).
+fn scenario_table(s: &Scenario) -> PyResult<toml::Table> {
+    let mut t = match toml::Value::try_from(s).map_err(run_error)? {
+        toml::Value::Table(t) => t,
+        _ => return Err(run_error("a scenario serialises to a table")),
+    };
+    if s.beam.is_some() {
+        t.remove("bar");
+        t.remove("solid_bar");
+    }
+    Ok(t)
+}
+
+/// Every keyword name valid for `t`: section names and the keys of each section.
+fn known_keys(t: &toml::Table) -> Vec<(Option<&'static str>, String)> {
+    let mut v: Vec<(Option<&'static str>, String)> =
+        SECTIONS.iter().map(|s| (None, s.to_string())).collect();
+    v.push((None, "gravity_m_s2".into()));
+    let beam_default = toml::Value::try_from(Beam::default()).ok();
+    let bar_default = toml::Value::try_from(vibrobar_core::Bar::PAPER_CAVITY).ok();
+    for sec in SECTIONS {
+        let keys: Vec<String> = match (t.get(sec), sec) {
+            (Some(toml::Value::Table(st)), _) => st.keys().cloned().collect(),
+            // A lumped scenario still takes `[beam]` keys through `beam=dict(...)`.
+            (None, "beam") => beam_default
+                .as_ref()
+                .and_then(|b| b.as_table())
+                .map(|b| b.keys().cloned().collect())
+                .unwrap_or_default(),
+            // And a beam scenario knows the lumped bar's keys, to say where they belong.
+            (None, "bar" | "solid_bar") => bar_default
+                .as_ref()
+                .and_then(|b| b.as_table())
+                .map(|b| b.keys().cloned().collect())
+                .unwrap_or_default(),
+            _ => Vec::new(),
+        };
+        for k in keys {
+            v.push((Some(sec), k));
+        }
+    }
+    for (sec, k) in OPTIONAL_KEYS {
+        if !v.iter().any(|(s, kk)| *s == Some(sec) && kk == k) {
+            v.push((Some(sec), k.to_string()));
+        }
+    }
+    v
+}
+
+/// Levenshtein distance (keyword suggestions).
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let cur = row[j + 1];
+            row[j + 1] = (prev + usize::from(ca != *cb)).min(row[j] + 1).min(cur + 1);
+            prev = cur;
+        }
+    }
+    row[b.len()]
+}
+
+/// The valid name nearest to `name`, if it is near enough to be a likely typo; a name that
+/// starts with `name` (`gap` → `gap_m`) wins a tie.
+fn nearest<'a>(name: &str, candidates: impl Iterator<Item = &'a str>) -> Option<&'a str> {
+    candidates
+        .map(|c| (edit_distance(name, c), !c.starts_with(name), c))
+        .filter(|(d, _, c)| *d <= 2.max(c.len() / 3))
+        .min_by_key(|(d, p, _)| (*d, *p))
+        .map(|(_, _, c)| c)
+}
+
+/// The last line of a TOML/serde error: what was wrong with the value (its line and column
+/// refer to text the caller never saw).
+fn serde_message(e: &anyhow::Error) -> String {
+    let full = format!("{e:#}");
+    let msg = full
+        .lines()
+        .rev()
+        .find(|l| !l.trim().is_empty())
+        .unwrap_or(&full)
+        .trim()
+        .to_string();
+    // "unknown field `x`, expected one of `a`, `b`": add the nearest valid name.
+    if let Some(rest) = msg.split("unknown field `").nth(1) {
+        let mut parts = rest.split('`');
+        if let Some(bad) = parts.next() {
+            let valid: Vec<&str> = parts.skip(1).step_by(2).collect();
+            if let Some(n) = nearest(bad, valid.into_iter()) {
+                return format!("{msg}; did you mean `{n}`?");
+            }
+        }
+    }
+    msg
+}
+
+/// A Python value as TOML (`None` → `None`: the key is removed, an optional field left unset).
+fn to_toml(key: &str, v: &Bound<'_, PyAny>) -> PyResult<Option<toml::Value>> {
+    if v.is_none() {
+        return Ok(None);
+    }
+    if v.is_instance_of::<PyBool>() {
+        return Ok(Some(toml::Value::Boolean(v.extract()?)));
+    }
+    if v.is_instance_of::<PyInt>() {
+        return match v.extract::<i64>() {
+            Ok(i) => Ok(Some(toml::Value::Integer(i))),
+            Err(_) => Err(PyValueError::new_err(format!(
+                "{key}: integer {v} is too large"
+            ))),
+        };
+    }
+    if v.is_instance_of::<PyFloat>() {
+        return Ok(Some(toml::Value::Float(v.extract()?)));
+    }
+    if v.is_instance_of::<PyString>() {
+        return Ok(Some(toml::Value::String(v.extract()?)));
+    }
+    if let Ok(d) = v.cast::<PyDict>() {
+        let mut t = toml::Table::new();
+        for (k, x) in d.iter() {
+            let k: String = k.extract().map_err(|_| {
+                PyTypeError::new_err(format!("{key}: dictionary keys must be strings"))
+            })?;
+            if let Some(x) = to_toml(&format!("{key}.{k}"), &x)? {
+                t.insert(k, x);
+            }
+        }
+        return Ok(Some(toml::Value::Table(t)));
+    }
+    // NumPy scalars and 0-d arrays are numbers; lists, tuples and 1-d arrays are arrays.
+    if v.hasattr("__float__")? && !v.hasattr("__len__")? {
+        return Ok(Some(toml::Value::Float(v.extract::<f64>().map_err(
+            |_| PyTypeError::new_err(format!("{key}: expected a number, got {v}")),
+        )?)));
+    }
+    if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() || v.hasattr("tolist")? {
+        let items = if v.hasattr("tolist")? {
+            v.call_method0("tolist")?
+        } else {
+            v.clone()
+        };
+        let mut a = Vec::new();
+        for x in items.try_iter()? {
+            let x = x?;
+            match to_toml(key, &x)? {
+                Some(x) => a.push(x),
+                None => {
+                    return Err(PyTypeError::new_err(format!(
+                        "{key}: None is not allowed inside a list"
+                    )))
+                }
+            }
+        }
+        return Ok(Some(toml::Value::Array(a)));
+    }
+    Err(PyTypeError::new_err(format!(
+        "{key}: expected a number, string, bool, list or dict, got {}",
+        v.get_type().name()?
+    )))
+}
+
+/// A TOML value as Python.
+fn from_toml<'py>(py: Python<'py>, v: &toml::Value) -> PyResult<Bound<'py, PyAny>> {
+    Ok(match v {
+        toml::Value::String(s) => s.into_pyobject(py)?.into_any(),
+        toml::Value::Integer(i) => i.into_pyobject(py)?.into_any(),
+        toml::Value::Float(f) => f.into_pyobject(py)?.into_any(),
+        toml::Value::Boolean(b) => b.into_pyobject(py)?.to_owned().into_any(),
+        toml::Value::Datetime(d) => d.to_string().into_pyobject(py)?.into_any(),
+        toml::Value::Array(a) => {
+            let l = PyList::empty(py);
+            for x in a {
+                l.append(from_toml(py, x)?)?;
+            }
+            l.into_any()
+        }
+        toml::Value::Table(t) => {
+            let d = PyDict::new(py);
+            for (k, x) in t {
+                d.set_item(k, from_toml(py, x)?)?;
+            }
+            d.into_any()
+        }
+    })
+}
+
+/// Merge `v` into `slot`: tables key by key (recursively), anything else replaces.
+fn merge(slot: &mut toml::Table, key: &str, v: Option<toml::Value>) {
+    match (slot.get_mut(key), v) {
+        (_, None) => {
+            slot.remove(key);
+        }
+        (Some(toml::Value::Table(old)), Some(toml::Value::Table(new))) => {
+            for (k, x) in new {
+                merge(old, &k, Some(x));
+            }
+        }
+        (_, Some(x)) => {
+            slot.insert(key.to_string(), x);
+        }
+    }
+}
+
+/// `s` with keyword overrides: a section name takes a dict (merged into the section; `beam=None`
+/// goes back to the lumped bar), any other keyword is a field of the one section that has it
+/// (`gap_m` → `[damper]`, `solver` → `[run]`). The result is read back as a scenario file and
+/// validated, so errors name the field and its allowed range as the CLI does.
+fn with_overrides(s: &Scenario, kw: Option<&Bound<'_, PyDict>>) -> PyResult<Scenario> {
+    let Some(kw) = kw.filter(|k| !k.is_empty()) else {
+        s.validate().map_err(anyhow_input)?;
+        return Ok(s.clone());
+    };
+    let mut t = scenario_table(s)?;
+    let known = known_keys(&t);
+    let mut gap_given = false;
+    let mut gaps_given = false;
+    let mut bar_given = false;
+    let mut beam_given = false;
+    for (k, v) in kw.iter() {
+        let key: String = k.extract()?;
+        let val = to_toml(&key, &v)?;
+        if SECTIONS.contains(&key.as_str()) {
+            if !matches!(val, None | Some(toml::Value::Table(_))) {
+                return Err(PyTypeError::new_err(format!(
+                    "{key}: a section takes a dict of its fields, e.g. {key}=dict(...)"
+                )));
+            }
+            bar_given |= key == "bar" || key == "solid_bar";
+            beam_given |= key == "beam";
+            if let Some(toml::Value::Table(st)) = &val {
+                gap_given |= key == "damper" && st.contains_key("gap_m");
+                gaps_given |= key == "sweep" && st.contains_key("gaps_m");
+            }
+            merge(&mut t, &key, val);
+            continue;
+        }
+        if key == "gravity_m_s2" {
+            merge(&mut t, &key, val);
+            continue;
+        }
+        let all_owners: Vec<&'static str> = known
+            .iter()
+            .filter(|(sec, k)| sec.is_some() && *k == key)
+            .filter_map(|(sec, _)| *sec)
+            .collect();
+        // Flat names reach the sections this scenario has (a beam's or a lumped bar's).
+        let owners: Vec<&'static str> = all_owners
+            .iter()
+            .copied()
+            .filter(|sec| t.contains_key(*sec) || *sec == "damper" || *sec == "forcing")
+            .collect();
+        let sec = match owners.as_slice() {
+            [one] => *one,
+            [] if !all_owners.is_empty() => {
+                return Err(PyTypeError::new_err(format!(
+                    "`{key}` is a field of {}, which this scenario does not have ({}): give it as {}=dict({key}=...){}",
+                    all_owners
+                        .iter()
+                        .map(|s| format!("[{s}]"))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    if t.contains_key("beam") { "a [beam]" } else { "the lumped bar" },
+                    all_owners[0],
+                    if all_owners[0] == "beam" { ", or start from Scenario.paper_beam()" } else { "" }
+                )))
+            }
+            [] => {
+                let hint = nearest(&key, known.iter().map(|(_, k)| k.as_str()))
+                    .map(|n| format!("; did you mean `{n}`?"))
+                    .unwrap_or_default();
+                let mut names: Vec<&str> = known.iter().map(|(_, k)| k.as_str()).collect();
+                names.sort_unstable();
+                names.dedup();
+                return Err(PyTypeError::new_err(format!(
+                    "unknown scenario keyword `{key}`{hint} (valid: {})",
+                    names.join(", ")
+                )));
+            }
+            many => {
+                return Err(PyTypeError::new_err(format!(
+                    "`{key}` is a field of several sections ({}): give it as {}=dict({key}=...)",
+                    many.iter()
+                        .map(|s| format!("[{s}]"))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    many[0]
+                )))
+            }
+        };
+        gap_given |= sec == "damper" && key == "gap_m";
+        gaps_given |= sec == "sweep" && key == "gaps_m";
+        let section = t
+            .entry(sec.to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        if let toml::Value::Table(st) = section {
+            // One frequency: a ratio replaces an ω and the other way round.
+            match key.as_str() {
+                "frequency_ratio" => {
+                    st.remove("omega_rad_s");
+                }
+                "omega_rad_s" => {
+                    st.remove("frequency_ratio");
+                }
+                _ => {}
+            }
+            merge(st, &key, val);
+        }
+    }
+    if beam_given && t.contains_key("beam") && !bar_given {
+        // A beam given here replaces the lumped bar (which the scenario carried by default).
+        t.remove("bar");
+        t.remove("solid_bar");
+    }
+    // As in a file: a gap given without a sweep's gaps is the gap swept.
+    if gap_given && !gaps_given {
+        if let Some(g) = t.get("damper").and_then(|d| d.get("gap_m")).cloned() {
+            if let Some(toml::Value::Table(sw)) = t.get_mut("sweep") {
+                sw.insert("gaps_m".into(), toml::Value::Array(vec![g]));
+            }
+        }
+    }
+    let text = toml::to_string(&t).map_err(run_error)?;
+    let out = Scenario::from_toml(&text).map_err(|e| {
+        // Name the keyword whose value was refused (not the line of generated text).
+        let culprit = kw.iter().find_map(|(k, v)| {
+            if kw.len() == 1 {
+                return k.extract::<String>().ok();
+            }
+            let one = PyDict::new(kw.py());
+            one.set_item(&k, v).ok()?;
+            let k: String = k.extract().ok()?;
+            with_overrides(s, Some(&one)).err().map(|_| k)
+        });
+        let msg = serde_message(&e);
+        match culprit {
+            Some(k) => input_error(format!("{k}: {msg}")),
+            None => input_error(msg),
+        }
+    })?;
+    if solver_by_name(&out.run.solver, &out.settings()).is_none() {
+        return Err(PyValueError::new_err(format!(
+            "run.solver = {:?} is not a solver; allowed: {}",
+            out.run.solver,
+            SOLVER_NAMES.join(", ")
+        )));
+    }
+    out.validate().map_err(anyhow_input)?;
+    Ok(out)
+}
+
+/// A simulation scenario: the bar (lumped or a `[beam]`), the ball, the forcing, the run
+/// settings, the initial state and the sweep range, in SI units. Immutable: keyword overrides
+/// make a new scenario.
+#[pyclass(module = "vibrobar._vibrobar", name = "Scenario", frozen, eq)]
+#[derive(Clone, PartialEq)]
+struct PyScenario {
+    inner: Scenario,
+}
+
+#[pymethods]
+impl PyScenario {
+    /// The paper's scenario (lumped bar), with keyword overrides.
+    #[staticmethod]
+    #[pyo3(signature = (**overrides))]
+    fn paper(overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        Ok(PyScenario {
+            inner: with_overrides(&Scenario::paper(), overrides)?,
+        })
+    }
+
+    /// The paper's bar as a clamped–free Euler–Bernoulli beam (`[beam]` with its defaults),
+    /// with keyword overrides (`modes=3`, `beam=dict(length_m=0.2)`).
+    #[staticmethod]
+    #[pyo3(signature = (**overrides))]
+    fn paper_beam(overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let s = Scenario::from_toml("[beam]\n").map_err(anyhow_input)?;
+        Ok(PyScenario {
+            inner: with_overrides(&s, overrides)?,
+        })
+    }
+
+    /// Read a scenario file (TOML, SI units), with keyword overrides.
+    #[staticmethod]
+    #[pyo3(signature = (path, **overrides))]
+    fn from_toml(
+        path: std::path::PathBuf,
+        overrides: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let text = std::fs::read_to_string(&path).map_err(|e| {
+            pyo3::exceptions::PyOSError::new_err(format!(
+                "cannot read scenario file {}: {e}",
+                path.display()
+            ))
+        })?;
+        let s = Scenario::from_toml(&text)
+            .map_err(|e| input_error(format!("invalid scenario file {}: {e:#}", path.display())))?;
+        Ok(PyScenario {
+            inner: with_overrides(&s, overrides)?,
+        })
+    }
+
+    /// Parse scenario TOML text, with keyword overrides.
+    #[staticmethod]
+    #[pyo3(signature = (text, **overrides))]
+    fn from_toml_str(text: &str, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let s = Scenario::from_toml(text).map_err(anyhow_input)?;
+        Ok(PyScenario {
+            inner: with_overrides(&s, overrides)?,
+        })
+    }
+
+    /// A copy with keyword overrides.
+    #[pyo3(signature = (**overrides))]
+    fn replace(&self, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        Ok(PyScenario {
+            inner: with_overrides(&self.inner, overrides)?,
+        })
+    }
+
+    /// The scenario as TOML text; `Scenario.from_toml_str` reads it back as the same scenario.
+    fn to_toml(&self) -> PyResult<String> {
+        toml::to_string(&scenario_table(&self.inner)?).map_err(run_error)
+    }
+
+    /// The scenario as nested dicts, section → field → value (the TOML layout).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        from_toml(py, &toml::Value::Table(scenario_table(&self.inner)?))
+    }
+
+    /// Solver name (`[run] solver`).
+    #[getter]
+    fn solver(&self) -> String {
+        self.inner.run.solver.clone()
+    }
+
+    /// Total clearance of the ball in m (`[damper] gap_m`).
+    #[getter]
+    fn gap_m(&self) -> f64 {
+        self.inner.damper.gap_m
+    }
+
+    /// Forcing frequency as Ω/ω₁ of the bar with the cavity.
+    #[getter]
+    fn frequency_ratio(&self) -> PyResult<f64> {
+        self.inner.frequency_ratio().map_err(anyhow_input)
+    }
+
+    /// True for a `[beam]` scenario (the bar's modes), false for the lumped bar.
+    #[getter]
+    fn is_beam(&self) -> bool {
+        self.inner.beam.is_some()
+    }
+
+    fn __repr__(&self) -> PyResult<String> {
+        Ok(format!(
+            "Scenario.from_toml_str('''\n{}''')",
+            self.to_toml()?
+        ))
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// tables
+
+/// Rows of `schema` as columns: name → float64 array (empty optional fields NaN), int64 array
+/// (counts) or list of str (text); with the CSV text of the rows (header first), formatted by the
+/// same schema as the CLI's files.
+fn columns<'py>(
+    py: Python<'py>,
+    schema: &Schema,
+    rows: &[Vec<Value>],
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    let d = PyDict::new(py);
+    for (j, c) in schema.columns.iter().enumerate() {
+        let col = rows.iter().map(|r| &r[j]);
+        match (c.format, rows.first().map(|r| &r[j])) {
+            (iocsv::Format::Count, _) => {
+                let v: Vec<i64> = col
+                    .map(|x| match x {
+                        Value::U(n) => i64::try_from(*n).unwrap_or(i64::MAX),
+                        _ => 0,
+                    })
+                    .collect();
+                d.set_item(c.name.as_ref(), v.into_pyarray(py))?;
+            }
+            (iocsv::Format::Text, _) | (_, Some(Value::S(_))) => {
+                let v: Vec<String> = col.map(|x| x.s().to_string()).collect();
+                d.set_item(c.name.as_ref(), PyList::new(py, v)?)?;
+            }
+            _ => {
+                let v: Vec<f64> = col.map(Value::f).collect();
+                d.set_item(c.name.as_ref(), v.into_pyarray(py))?;
+            }
+        }
+    }
+    let mut csv = schema.header();
+    csv.push('\n');
+    for r in rows {
+        schema.format_into(r, &mut csv);
+        csv.push('\n');
+    }
+    Ok((d, csv))
+}
+
+fn make_solver(sc: &Scenario) -> PyResult<Box<dyn Solver>> {
+    solver_by_name(&sc.run.solver, &sc.settings()).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "solver must be one of {}, got {:?}",
+            SOLVER_NAMES.join(", "),
+            sc.run.solver
+        ))
+    })
+}
+
+/// An array argument: 1-d, finite values accepted by `ok`, at most `max` of them.
+fn values(
+    name: &str,
+    a: &PyReadonlyArray1<'_, f64>,
+    ok: impl Fn(f64) -> bool,
+    allowed: &str,
+    max: usize,
+) -> PyResult<Vec<f64>> {
+    let v = a.as_array().to_vec();
+    if v.is_empty() {
+        return Err(PyValueError::new_err(format!(
+            "{name} is empty (allowed: one or more values in {allowed})"
+        )));
+    }
+    if v.len() > max {
+        return Err(PyValueError::new_err(format!(
+            "{name} has {} values, more than the limit of {max}",
+            v.len()
+        )));
+    }
+    if let Some((i, x)) = v
+        .iter()
+        .enumerate()
+        .find(|(_, x)| !x.is_finite() || !ok(**x))
+    {
+        return Err(PyValueError::new_err(format!(
+            "{name}[{i}] = {x} is outside the allowed range {allowed}"
+        )));
+    }
+    Ok(v)
+}
+
+fn runner<'a>(
+    ctl: &'a Ctl,
+    progress: &'a (dyn Fn(usize, usize) + Sync),
+    threads: Option<usize>,
+) -> Runner<'a> {
+    Runner::default()
+        .with_progress(progress)
+        .with_cancel(&ctl.cancel)
+        .with_threads(threads)
+}
+
+fn check_threads(threads: Option<usize>) -> PyResult<()> {
+    if let Some(n) = threads {
+        limits::check_count("threads", n, 1, limits::MAX_THREADS, "").map_err(input_error)?;
+    }
+    Ok(())
+}
+
+/// Python warnings for runs whose ball went too far beyond the wall (rk4), as the CLI warns.
+fn warn_penetration(
+    py: Python<'_>,
+    worst: Option<(f64, f64, f64, f64)>,
+    solver: &str,
+) -> PyResult<()> {
+    if let Some((f, pen, ratio, gap_m)) = worst {
+        let msg = format!(
+            "the ball went {pen:.2e} m beyond the wall, {:.1} % of the gap (warning above {} %) at ratio {}, gap {} m: {solver} detects impacts only after a step; lower dt_s or use solver=\"exact\"",
+            100.0 * f,
+            100.0 * limits::RK4_PENETRATION_WARN_FRACTION,
+            iocsv::fmt_coord(ratio),
+            iocsv::fmt_coord(gap_m)
+        );
+        PyErr::warn(
+            py,
+            &py.get_type::<pyo3::exceptions::PyRuntimeWarning>(),
+            &std::ffi::CString::new(msg).unwrap_or_default(),
+            1,
+        )?;
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------------
+// run
+
+/// The impacts of a run as they happen.
+#[derive(Default)]
+struct ImpactLog {
+    t_s: Vec<f64>,
+    wall: Vec<i64>,
+    dw_before: Vec<f64>,
+    dw_after: Vec<f64>,
+    loss_j: Vec<f64>,
+    cap: usize,
+    dropped: bool,
+}
+
+impl Observer for ImpactLog {
+    fn event(&mut self, ev: &Event) {
+        if let EventKind::Impact {
+            wall,
+            dw_m_s,
+            energy_loss_j,
+        } = ev.kind
+        {
+            if self.t_s.len() >= self.cap {
+                self.dropped = true;
+                return;
+            }
+            self.t_s.push(ev.t_s);
+            self.wall.push(wall.sign() as i64);
+            self.dw_before.push(dw_m_s);
+            self.dw_after.push(ev.after.dw_m_s());
+            self.loss_j.push(energy_loss_j);
+        }
+    }
+}
+
+struct Collect<'a>(&'a mut Sampler);
+
+impl Observer for Collect<'_> {
+    fn segment(&mut self, seg: &dyn Segment) {
+        self.0.segment(seg);
+    }
+}
+
+/// One run of the scenario (its gap, ratio, initial state, solver and settings), as
+/// `vibrobar run`: the history every `sample_every` steps, the impacts, the statistics and the
+/// energy books.
+#[pyfunction]
+#[pyo3(signature = (scenario, sample_every = 10))]
+fn run<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    sample_every: u64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let sc = &scenario.inner;
+    if sample_every == 0 {
+        return Err(PyValueError::new_err(
+            "sample_every = 0 is outside the allowed range [1, ∞) steps",
+        ));
+    }
+    sc.validate().map_err(anyhow_input)?;
+    let settings = sc.settings();
+    let interval_s = sample_every as f64 * settings.dt_s;
+    limits::check_samples(
+        "rows = duration_s / (sample_every · dt_s)",
+        settings.duration_s,
+        interval_s,
+    )
+    .map_err(input_error)?;
+    let solver = make_solver(sc)?;
+    let sys = sc.damped_system().map_err(anyhow_input)?;
+    let init = sc.initial_state();
+    let (res, samples, audit, log) = detached(py, None, |_| {
+        let mut sampler = Sampler::new(init.t_s, interval_s);
+        let mut audit = EnergyAudit::new(&sys);
+        let mut log = ImpactLog {
+            cap: limits::MAX_SAMPLES as usize,
+            ..Default::default()
+        };
+        let r = {
+            let mut c = Collect(&mut sampler);
+            let mut obs: [&mut dyn Observer; 3] = [&mut audit, &mut c, &mut log];
+            run_case(
+                &sys,
+                &init,
+                &settings,
+                solver.as_ref(),
+                &mut Fanout(&mut obs),
+            )
+        };
+        let r = r.map_err(run_error)?;
+        Ok((r, sampler.samples, audit, log))
+    })?;
+    let d = PyDict::new(py);
+    let schema = iocsv::history_schema();
+    let mut cols: Vec<Vec<f64>> = (0..7).map(|_| Vec::with_capacity(samples.len())).collect();
+    for s in &samples {
+        for (c, x) in cols.iter_mut().zip(iocsv::history_values(s)) {
+            c.push(x);
+        }
+    }
+    let hist = PyDict::new(py);
+    for (c, v) in schema.columns.iter().zip(cols) {
+        hist.set_item(c.name.as_ref(), v.into_pyarray(py))?;
+    }
+    d.set_item("history", hist)?;
+    let imp = PyDict::new(py);
+    imp.set_item("t_s", log.t_s.into_pyarray(py))?;
+    imp.set_item("wall", log.wall.into_pyarray(py))?;
+    imp.set_item("dw_before_m_s", log.dw_before.into_pyarray(py))?;
+    imp.set_item("dw_after_m_s", log.dw_after.into_pyarray(py))?;
+    imp.set_item("energy_loss_j", log.loss_j.into_pyarray(py))?;
+    d.set_item("impact_table", imp)?;
+    d.set_item("impact_table_truncated", log.dropped)?;
+    d.set_item("rms_m", res.rms_m)?;
+    d.set_item("impacts", res.impacts)?;
+    d.set_item("impacts_in_window", res.impacts_in_window)?;
+    d.set_item("impacts_per_cycle", res.impacts_per_cycle)?;
+    d.set_item("max_penetration_m", res.summary.max_penetration_m.max(0.0))?;
+    d.set_item("solver", solver.name())?;
+    if let Some(e) = audit.balance() {
+        let b = PyDict::new(py);
+        b.set_item("work_input_j", e.work_input_j)?;
+        b.set_item("viscous_loss_j", e.viscous_loss_j)?;
+        b.set_item("impact_loss_j", e.impact_loss_j)?;
+        b.set_item("friction_work_j", e.friction_work_j)?;
+        b.set_item("delta_mechanical_j", e.delta_mechanical_j)?;
+        b.set_item("residual_j", e.residual_j)?;
+        d.set_item("energy", b)?;
+    }
+    let gap_m = sys.damper.map_or(f64::INFINITY, |d| d.gap_m);
+    let pen = res.summary.max_penetration_m;
+    if let Some(f) = limits::excessive_penetration(pen, gap_m) {
+        let ratio = sys.omega_rad_s() / sys.omega1_rad_s();
+        warn_penetration(py, Some((f, pen, ratio, gap_m)), solver.name())?;
+    }
+    Ok(d)
+}
+
+// ---------------------------------------------------------------------------------------------
+// sweep and map
+
+/// `vibrobar sweep`: the damped and the solid bar over `ratios` × `gaps_m` (gap-major rows).
+#[pyfunction]
+#[pyo3(signature = (scenario, ratios = None, gaps_m = None, progress = None, threads = None))]
+fn sweep<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    ratios: Option<PyReadonlyArray1<'py, f64>>,
+    gaps_m: Option<PyReadonlyArray1<'py, f64>>,
+    progress: Option<&Bound<'py, PyAny>>,
+    threads: Option<usize>,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    let sc = &scenario.inner;
+    check_threads(threads)?;
+    let gaps_m = match &gaps_m {
+        Some(g) => values("gaps_m", g, |x| x > 0.0, "(0, ∞) m", limits::MAX_SWEEP_RATIOS)?,
+        None if sc.sweep.gaps_m.is_empty() => {
+            return Err(PyValueError::new_err(
+                "sweep.gaps_m = [] in the scenario: no gap to sweep (allowed: one or more gaps > 0 m; or give gaps_m)",
+            ))
+        }
+        None => sc.sweep.gaps_m.clone(),
+    };
+    let ratios = match &ratios {
+        Some(r) => values(
+            "ratios",
+            r,
+            |x| x > 0.0,
+            "(0, ∞)",
+            limits::MAX_SWEEP_RATIOS + 1,
+        )?,
+        None => vibrobar_scenario::sweep_ratios(&sc.sweep).map_err(anyhow_input)?,
+    };
+    let points = sc.sweep_points(&gaps_m, &ratios);
+    sc.bars().map_err(anyhow_input)?;
+    for p in &points {
+        let mut s = sc.clone();
+        s.damper.gap_m = p.gap_m;
+        s.forcing.frequency = Frequency::Ratio(p.ratio);
+        s.validate().map_err(anyhow_input)?;
+    }
+    let settings = sc.settings();
+    let solver = make_solver(sc)?;
+    let base = sc.base().map_err(anyhow_input)?;
+    let rows = detached(py, progress, |ctl| {
+        let prog = |d, t| ctl.progress(d, t);
+        batch_result(sweep_audited(
+            &points,
+            &base,
+            &settings,
+            solver.as_ref(),
+            runner(ctl, &prog, threads),
+            false,
+        ))
+    })?;
+    let worst = rows
+        .iter()
+        .filter_map(|r| {
+            let pen = r.damped.summary.max_penetration_m;
+            limits::excessive_penetration(pen, r.point.gap_m)
+                .map(|f| (f, pen, r.point.ratio, r.point.gap_m))
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    warn_penetration(py, worst, solver.name())?;
+    let table: Vec<Vec<Value>> = rows
+        .iter()
+        .map(|r| iocsv::SweepCsvRow::from(r).values())
+        .collect();
+    columns(py, &iocsv::sweep_schema(), &table)
+}
+
+/// The map spec of a scenario, as `vibrobar map` and the explore commands build it.
+fn map_spec(sc: &Scenario) -> PyResult<MapSpec> {
+    Ok(MapSpec {
+        base: sc.base().map_err(anyhow_input)?,
+        friction: sc.damper.friction,
+        settings: sc.settings(),
+        tolerances: Tolerances::default(),
+    })
+}
+
+fn describe(p: &GridPoint) -> String {
+    p.coords
+        .iter()
+        .map(|(a, v)| format!("{} = {}", a.as_str(), iocsv::fmt_coord(*v)))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// `vibrobar map`: a design map over ratios × gaps (and optionally friction levels,
+/// restitutions, mass ratios), in grid order.
+#[pyfunction]
+#[pyo3(signature = (scenario, ratios, gaps_m, friction_forces_n = None, restitutions = None, mass_ratios = None, progress = None, threads = None))]
+#[allow(clippy::too_many_arguments)]
+fn design_map<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    ratios: PyReadonlyArray1<'py, f64>,
+    gaps_m: PyReadonlyArray1<'py, f64>,
+    friction_forces_n: Option<PyReadonlyArray1<'py, f64>>,
+    restitutions: Option<PyReadonlyArray1<'py, f64>>,
+    mass_ratios: Option<PyReadonlyArray1<'py, f64>>,
+    progress: Option<&Bound<'py, PyAny>>,
+    threads: Option<usize>,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    let sc = &scenario.inner;
+    check_threads(threads)?;
+    let max = vibrobar_core::analysis::sweep::MAX_GRID_POINTS;
+    let mut axes = vec![
+        GridAxis {
+            axis: Axis::FreqRatio,
+            values: values("ratios", &ratios, |x| x > 0.0, "(0, ∞)", max)?,
+        },
+        GridAxis {
+            axis: Axis::GapM,
+            values: values("gaps_m", &gaps_m, |x| x > 0.0, "(0, ∞) m", max)?,
+        },
+    ];
+    let mut extra = Vec::new();
+    type Check = fn(f64) -> bool;
+    type OptAxis<'a, 'py> = (
+        &'a str,
+        &'a Option<PyReadonlyArray1<'py, f64>>,
+        Axis,
+        Check,
+        &'a str,
+    );
+    let optional: [OptAxis<'_, 'py>; 3] = [
+        (
+            "friction_forces_n",
+            &friction_forces_n,
+            Axis::FrictionForceN,
+            |x| x >= 0.0,
+            "[0, ∞) N",
+        ),
+        (
+            "restitutions",
+            &restitutions,
+            Axis::Restitution,
+            |x| (0.0..=1.0).contains(&x),
+            "[0, 1]",
+        ),
+        (
+            "mass_ratios",
+            &mass_ratios,
+            Axis::MassRatio,
+            |x| x > 0.0,
+            "(0, ∞)",
+        ),
+    ];
+    for (name, a, axis, ok, allowed) in optional {
+        if let Some(a) = a {
+            axes.push(GridAxis {
+                axis,
+                values: values(name, a, ok, allowed, max)?,
+            });
+            extra.push(axis);
+        }
+    }
+    let grid = Grid::new(axes).map_err(|e| input_error(format!("grid: {e}")))?;
+    let spec = map_spec(sc)?;
+    let settings = spec.settings;
+    let points = grid.points();
+    for p in &points {
+        spec.damped_system(p)
+            .and_then(|s| {
+                s.validate()?;
+                s.validate_horizon(0.0, settings.duration_s)?;
+                spec.base.init.validate(&s)
+            })
+            .map_err(|e| input_error(format!("{e} (at {})", describe(p))))?;
+    }
+    let solver = make_solver(sc)?;
+    let rows = detached(py, progress, |ctl| {
+        let prog = |d, t| ctl.progress(d, t);
+        batch_result(
+            spec.batch(solver.as_ref())
+                .on(runner(ctl, &prog, threads))
+                .run(
+                    &points,
+                    |p| spec.ratio(p),
+                    |p, solid| {
+                        compute_point_from(&spec, solver.as_ref(), p, &spec.base.init, solid.rms_m)
+                    },
+                ),
+        )
+    })?;
+    let table: Vec<Vec<Value>> = rows.iter().map(|r| iocsv::map_values(r, &extra)).collect();
+    columns(py, &iocsv::map_schema(&extra), &table)
+}
+
+// ---------------------------------------------------------------------------------------------
+// one point: regime, Poincaré, Lyapunov
+
+/// The damped system at (ratio, gap_m), validated, with the scenario's map spec.
+fn point_system(
+    sc: &Scenario,
+    ratio: Option<f64>,
+    gap_m: Option<f64>,
+) -> PyResult<(MapSpec, GridPoint, System)> {
+    let ratio = match ratio {
+        Some(r) => r,
+        None => sc.frequency_ratio().map_err(anyhow_input)?,
+    };
+    let gap_m = gap_m.unwrap_or(sc.damper.gap_m);
+    for (name, x, allowed) in [("ratio", ratio, "(0, ∞)"), ("gap_m", gap_m, "(0, ∞) m")] {
+        if !(x.is_finite() && x > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "{name} = {x} is outside the allowed range {allowed}"
+            )));
+        }
+    }
+    let spec = map_spec(sc)?;
+    let p = GridPoint {
+        index: 0,
+        coords: vec![(Axis::FreqRatio, ratio), (Axis::GapM, gap_m)],
+    };
+    let sys = spec.damped_system(&p).map_err(input_error)?;
+    sys.validate().map_err(input_error)?;
+    spec.base.init.validate(&sys).map_err(input_error)?;
+    Ok((spec, p, sys))
+}
+
+fn transient(sc: &Scenario, t: Option<f64>) -> PyResult<f64> {
+    let st = sc.settings();
+    let t = t.unwrap_or(st.duration_s * (1.0 - st.rms_fraction));
+    if !(t.is_finite() && t >= 0.0 && t < st.duration_s) {
+        return Err(PyValueError::new_err(format!(
+            "transient_s = {t} is outside the allowed range [0, duration_s = {}) s",
+            st.duration_s
+        )));
+    }
+    Ok(t)
+}
+
+/// The steady-state regime at one point (solid and damped runs), as a map row.
+#[pyfunction]
+#[pyo3(signature = (scenario, ratio = None, gap_m = None))]
+fn regime<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    ratio: Option<f64>,
+    gap_m: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let sc = &scenario.inner;
+    let (spec, p, _) = point_system(sc, ratio, gap_m)?;
+    let solver = make_solver(sc)?;
+    let row = detached(py, None, |_| {
+        compute_point(&spec, solver.as_ref(), &p).map_err(run_error)
+    })?;
+    let d = PyDict::new(py);
+    d.set_item("regime", row.regime.to_string())?;
+    d.set_item("ratio", row.ratio)?;
+    d.set_item("gap_m", row.gap_m)?;
+    d.set_item("rms_solid_m", row.rms_solid_m)?;
+    d.set_item("rms_damped_m", row.rms_damped_m)?;
+    d.set_item("reduction_pct", row.reduction_pct)?;
+    d.set_item("impacts_per_cycle", row.impacts_per_cycle)?;
+    Ok(d)
+}
+
+/// Stroboscopic Poincaré section at forcing phase `phase_deg`, after `transient_s`.
+#[pyfunction]
+#[pyo3(signature = (scenario, ratio = None, gap_m = None, phase_deg = 0.0, transient_s = None))]
+fn poincare<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    ratio: Option<f64>,
+    gap_m: Option<f64>,
+    phase_deg: f64,
+    transient_s: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let sc = &scenario.inner;
+    let (spec, _, sys) = point_system(sc, ratio, gap_m)?;
+    if !phase_deg.is_finite() {
+        return Err(PyValueError::new_err(format!(
+            "phase_deg = {phase_deg} must be finite"
+        )));
+    }
+    let t = transient(sc, transient_s)?;
+    limits::check_samples(
+        "Poincaré points = (duration_s − transient_s) / forcing period",
+        spec.settings.duration_s - t,
+        sys.forcing_period_s(),
+    )
+    .map_err(input_error)?;
+    let solver = make_solver(sc)?;
+    let pts = detached(py, None, |_| {
+        let mut strobe = Stroboscope::for_system(&sys, phase_deg.to_radians(), t);
+        let init = spec.base.init;
+        solver
+            .run(
+                &sys,
+                &init,
+                init.t_s + spec.settings.duration_s,
+                &mut strobe,
+            )
+            .map_err(run_error)?;
+        Ok(strobe.points)
+    })?;
+    let rows: Vec<Vec<Value>> = pts
+        .iter()
+        .map(|s| iocsv::poincare_values(s).map(Value::F).to_vec())
+        .collect();
+    Ok(columns(py, &iocsv::poincare_schema(), &rows)?.0)
+}
+
+/// The largest Lyapunov exponent at one point (two nearby trajectories, renormalised every
+/// `periods` forcing periods).
+#[pyfunction]
+#[pyo3(signature = (scenario, ratio = None, gap_m = None, transient_s = None, periods = 5.0, d0 = 1e-9))]
+fn lyapunov<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    ratio: Option<f64>,
+    gap_m: Option<f64>,
+    transient_s: Option<f64>,
+    periods: f64,
+    d0: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let sc = &scenario.inner;
+    let (spec, _, sys) = point_system(sc, ratio, gap_m)?;
+    let t = transient(sc, transient_s)?;
+    for (name, x) in [("periods", periods), ("d0", d0)] {
+        if !(x.is_finite() && x > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "{name} = {x} is outside the allowed range (0, ∞)"
+            )));
+        }
+    }
+    let interval = periods * sys.forcing_period_s();
+    let duration = spec.settings.duration_s;
+    let intervals = ((duration - t) / interval).floor() as usize;
+    if intervals < 2 {
+        return Err(PyValueError::new_err(format!(
+            "duration_s = {duration} s leaves {intervals} intervals of {interval:.3e} s after the transient; at least 2 are needed (raise duration_s or lower periods)"
+        )));
+    }
+    let mut p = LyapunovParams::periods(&sys, t, periods, intervals);
+    p.d0 = d0;
+    p.blocks = p.blocks.min(intervals);
+    let solver = make_solver(sc)?;
+    let settings = spec.settings;
+    let init = spec.base.init;
+    let r = detached(py, None, |_| match &sys.bar {
+        BarModel::Lumped(_) => max_lyapunov(&sys, &init, solver.as_ref(), &p).map_err(run_error),
+        BarModel::Modal(model) => {
+            let run = modal_run_by_name(solver.name(), &settings).ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "no modal run for solver {} on a beam",
+                    solver.name()
+                ))
+            })?;
+            let init = ModalState::from_public(model, &init).map_err(input_error)?;
+            let ms = ModalSystem::from_system(&sys).map_err(input_error)?;
+            max_lyapunov_modal(&ms, &init, &*run, &p).map_err(run_error)
+        }
+    })?;
+    let d = PyDict::new(py);
+    d.set_item("exponent_per_s", r.exponent_per_s)?;
+    d.set_item("std_error_per_s", r.std_error_per_s)?;
+    d.set_item("intervals", intervals)?;
+    d.set_item("interval_s", interval)?;
+    d.set_item("blocks", r.block_means_per_s.len())?;
+    d.set_item("clamped", r.clamped)?;
+    d.set_item("d0", d0)?;
+    Ok(d)
+}
+
+// ---------------------------------------------------------------------------------------------
+// bifurcation and ensembles (chunked: their core functions take no cancel flag)
+
+/// A bifurcation diagram: stroboscopic `u` against `param` ("ratio" or "gap_m", SI values).
+#[pyfunction]
+#[pyo3(signature = (scenario, param, values_, ratio = None, gap_m = None, phase_deg = 0.0, transient_s = None, progress = None))]
+#[allow(clippy::too_many_arguments)]
+fn bifurcation_diagram<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    param: &str,
+    values_: PyReadonlyArray1<'py, f64>,
+    ratio: Option<f64>,
+    gap_m: Option<f64>,
+    phase_deg: f64,
+    transient_s: Option<f64>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
+    let sc = &scenario.inner;
+    let axis = match param {
+        "ratio" => Axis::FreqRatio,
+        "gap_m" => Axis::GapM,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "param must be \"ratio\" or \"gap_m\", got {other:?}"
+            )))
+        }
+    };
+    let vals = values(
+        "values",
+        &values_,
+        |x| x > 0.0,
+        "(0, ∞)",
+        limits::MAX_SWEEP_RATIOS * 100,
+    )?;
+    let (spec, _, sys) = point_system(sc, ratio, gap_m)?;
+    for &v in &vals {
+        let mut s = sys;
+        axis.apply(&mut s, v).map_err(input_error)?;
+        s.validate().map_err(input_error)?;
+        spec.base.init.validate(&s).map_err(input_error)?;
+    }
+    if !phase_deg.is_finite() {
+        return Err(PyValueError::new_err(format!(
+            "phase_deg = {phase_deg} must be finite"
+        )));
+    }
+    let bs = BifurcationSpec {
+        system: sys,
+        axis,
+        init: spec.base.init,
+        duration_s: spec.settings.duration_s,
+        transient_s: transient(sc, transient_s)?,
+        phase_rad: phase_deg.to_radians(),
+        impact_wall: None,
+    };
+    let solver = make_solver(sc)?;
+    let b = detached(py, progress, |ctl| {
+        let mut all = vibrobar_core::analysis::poincare::Bifurcation::default();
+        let n = vals.len();
+        for (k, chunk) in vals.chunks(chunk_len()).enumerate() {
+            if ctl.cancelled() {
+                return Err(PyKeyboardInterrupt::new_err("cancelled"));
+            }
+            let off = k * chunk_len();
+            let prog = |d: usize, _| ctl.progress(off + d, n);
+            let part = bifurcation(&bs, chunk, solver.as_ref(), &prog).map_err(batch_error)?;
+            all.points.extend(part.points);
+            all.impacts.extend(part.impacts);
+        }
+        Ok(all)
+    })?;
+    let pts = PyDict::new(py);
+    pts.set_item(
+        param,
+        b.points
+            .iter()
+            .map(|p| p.param)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    pts.set_item(
+        "t_s",
+        b.points
+            .iter()
+            .map(|p| p.t_s)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    pts.set_item(
+        "u_m",
+        b.points
+            .iter()
+            .map(|p| p.u_m)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    pts.set_item(
+        "du_m_s",
+        b.points
+            .iter()
+            .map(|p| p.du_m_s)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    let imp = PyDict::new(py);
+    imp.set_item(
+        param,
+        b.impacts
+            .iter()
+            .map(|p| p.param)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    imp.set_item(
+        "t_s",
+        b.impacts
+            .iter()
+            .map(|p| p.t_s)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    imp.set_item(
+        "wall",
+        b.impacts
+            .iter()
+            .map(|p| p.wall.sign() as i64)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    imp.set_item(
+        "dw_m_s",
+        b.impacts
+            .iter()
+            .map(|p| p.dw_m_s)
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    Ok((pts, imp))
+}
+
+/// Ensembles of random initial states at each (ratio, gap) point: RMS statistics and regimes.
+#[pyfunction]
+#[pyo3(signature = (scenario, ratios, gaps_m, members = 16, seed = 1, u_m = 5e-5, du_m_s = 0.2, dw_m_s = 0.2, progress = None))]
+#[allow(clippy::too_many_arguments)]
+fn ensemble<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    ratios: PyReadonlyArray1<'py, f64>,
+    gaps_m: PyReadonlyArray1<'py, f64>,
+    members: usize,
+    seed: u64,
+    u_m: f64,
+    du_m_s: f64,
+    dw_m_s: f64,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    let sc = &scenario.inner;
+    let max = vibrobar_core::analysis::sweep::MAX_GRID_POINTS;
+    let grid = Grid::new(vec![
+        GridAxis {
+            axis: Axis::FreqRatio,
+            values: values("ratios", &ratios, |x| x > 0.0, "(0, ∞)", max)?,
+        },
+        GridAxis {
+            axis: Axis::GapM,
+            values: values("gaps_m", &gaps_m, |x| x > 0.0, "(0, ∞) m", max)?,
+        },
+    ])
+    .map_err(input_error)?;
+    if members == 0 {
+        return Err(PyValueError::new_err(
+            "members = 0 is outside the allowed range [1, ∞)",
+        ));
+    }
+    for (name, x, unit) in [
+        ("u_m", u_m, "m"),
+        ("du_m_s", du_m_s, "m/s"),
+        ("dw_m_s", dw_m_s, "m/s"),
+    ] {
+        if !(x.is_finite() && x >= 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "{name} = {x} is outside the allowed range [0, ∞) {unit}"
+            )));
+        }
+    }
+    let spec = map_spec(sc)?;
+    let points = grid.points();
+    for p in &points {
+        spec.damped_system(p)
+            .and_then(|s| s.validate())
+            .map_err(|e| input_error(format!("{e} (at {})", describe(p))))?;
+    }
+    let params = EnsembleParams {
+        seed,
+        members,
+        ranges: IcRanges {
+            u_m: (-u_m, u_m),
+            du_m_s: (-du_m_s, du_m_s),
+            w_over_half_gap: (-1.0, 1.0),
+            dw_m_s: (-dw_m_s, dw_m_s),
+        },
+    };
+    params.validate().map_err(input_error)?;
+    let solver = make_solver(sc)?;
+    let stats = detached(py, progress, |ctl| {
+        let per = chunk_len().div_ceil(members).max(1);
+        let n = points.len() * members;
+        let mut all = Vec::with_capacity(points.len());
+        for (k, chunk) in points.chunks(per).enumerate() {
+            if ctl.cancelled() {
+                return Err(PyKeyboardInterrupt::new_err("cancelled"));
+            }
+            let off = k * per * members;
+            let prog = |d: usize, _| ctl.progress(off + d, n);
+            all.extend(
+                run_ensemble(&spec, solver.as_ref(), chunk, &params, &prog).map_err(batch_error)?,
+            );
+        }
+        Ok(all)
+    })?;
+    let rows: Vec<Vec<Value>> = stats
+        .iter()
+        .map(|s| {
+            iocsv::EnsembleCsvRow {
+                ratio: s.point.get(Axis::FreqRatio).unwrap_or(f64::NAN),
+                gap_mm: s.point.get(Axis::GapM).unwrap_or(f64::NAN) * 1e3,
+                members: s.members as u64,
+                rms_m: [s.mean_rms_m, s.std_rms_m, s.min_rms_m, s.max_rms_m],
+                regimes: iocsv::regime_counts(&s.regimes),
+            }
+            .values()
+        })
+        .collect();
+    columns(py, &iocsv::ensemble_schema(), &rows)
+}
+
+/// Names of the solvers (`solver=` of a scenario).
+#[pyfunction]
+fn solver_names() -> Vec<&'static str> {
+    SOLVER_NAMES.to_vec()
+}
+
+/// A test hook: a job that panics on the worker thread (the panic must come out as an
+/// exception), and a job that runs `seconds` of busy work with the GIL released, cancellable
+/// (the GIL and Ctrl-C tests).
+#[pyfunction]
+#[pyo3(signature = (seconds, panic = false))]
+fn _busy(py: Python<'_>, seconds: f64, panic: bool) -> PyResult<f64> {
+    detached(py, None, |ctl| {
+        if panic {
+            panic!("test panic");
+        }
+        let t0 = std::time::Instant::now();
+        let mut x = 0.0f64;
+        while t0.elapsed().as_secs_f64() < seconds {
+            if ctl.cancelled() {
+                return Err(PyKeyboardInterrupt::new_err("cancelled"));
+            }
+            for i in 0..10_000 {
+                x += (i as f64).sqrt();
+            }
+        }
+        Ok(x)
+    })
+}
+
+/// The native part of the `vibrobar` package.
+#[pymodule]
+fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyScenario>()?;
+    m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(design_map, m)?)?;
+    m.add_function(wrap_pyfunction!(regime, m)?)?;
+    m.add_function(wrap_pyfunction!(poincare, m)?)?;
+    m.add_function(wrap_pyfunction!(lyapunov, m)?)?;
+    m.add_function(wrap_pyfunction!(bifurcation_diagram, m)?)?;
+    m.add_function(wrap_pyfunction!(ensemble, m)?)?;
+    m.add_function(wrap_pyfunction!(solver_names, m)?)?;
+    m.add_function(wrap_pyfunction!(_busy, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("DEFAULT_SOLVER", vibrobar_scenario::DEFAULT_SOLVER)?;
+    Ok(())
+}

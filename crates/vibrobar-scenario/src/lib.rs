@@ -1,0 +1,871 @@
+//! # vibrobar-scenario
+//!
+//! Scenario files: TOML in SI units with unit-bearing names. Each section deserialises into the
+//! core's parameter type (`[bar]` → [`Bar`], `[damper]` → [`Damper`], `[forcing]` → [`Forcing`],
+//! `[run]` → [`RunSettings`] and the solver's name, `[initial]` → [`State`]), whose serde
+//! defaults are the paper's values: every field is optional. Unknown fields are errors, so a typo
+//! never silently falls back to a default.
+//!
+//! Where the TOML layout differs from the core type (`[solid_bar]` defaults to the paper's solid
+//! bar, `[forcing] frequency_ratio`, `[run] solver`, `[initial]` relative to the cavity centre),
+//! a thin adapter below maps the section onto the core type; no value is repeated here.
+
+#![warn(missing_docs)]
+
+use anyhow::{bail, Context, Result};
+use serde::de::{DeserializeOwned, Error as _};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::path::Path;
+use vibrobar_core::analysis::sweep::SweepRange;
+use vibrobar_core::analysis::{SweepBase, SweepPoint};
+use vibrobar_core::error::Compact;
+use vibrobar_core::params::BarModel;
+use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
+use vibrobar_core::structure::{Beam, Structure};
+use vibrobar_core::{Bar, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System};
+
+/// The default solver's name as a literal, so help texts can `concat!` it. Switching the default
+/// solver is this one line.
+#[macro_export]
+macro_rules! default_solver {
+    () => {
+        "exact"
+    };
+}
+
+/// Solver used when none is given.
+pub const DEFAULT_SOLVER: &str = default_solver!();
+
+/// A whole scenario. Missing fields keep the paper's values.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Scenario {
+    /// Gravity in m/s² (enters the derived friction force).
+    pub gravity_m_s2: f64,
+    /// Bar with the cavity (missing fields: [`Bar::PAPER_CAVITY`]).
+    pub bar: Bar,
+    /// Solid reference bar (missing fields: [`Bar::PAPER_SOLID`]).
+    #[serde(deserialize_with = "solid_bar")]
+    pub solid_bar: Bar,
+    /// The ball.
+    pub damper: Damper,
+    /// External force; `frequency_ratio` in the file.
+    #[serde(with = "forcing_section")]
+    pub forcing: Forcing,
+    /// Run settings and solver.
+    pub run: RunSection,
+    /// Initial conditions; in the file relative to the cavity centre (`w_m`, `dw_m_s`).
+    #[serde(with = "initial_section")]
+    pub initial: State,
+    /// Sweep range of `vibrobar sweep`.
+    pub sweep: SweepRange,
+    /// `[beam]`: the bar as a clamped–free Euler–Bernoulli beam (issue #8); absent: the lumped
+    /// `[bar]`. See the `[beam]` section of this module.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beam: Option<Beam>,
+    /// The bars' models, computed once ([`Scenario::bars`]; a beam's modes cost up to seconds).
+    #[serde(skip)]
+    bars_cache: BarsCache,
+}
+
+/// The damped and solid bars of a scenario, computed once. Not part of the scenario's value: it
+/// compares equal, prints nothing, and is emptied whenever the bar changes through a method
+/// ([`Scenario::apply_beam_flags`]).
+#[derive(Clone, Default)]
+struct BarsCache(std::sync::OnceLock<(Option<Beam>, Bar, Bar, BarModel, BarModel)>);
+
+impl PartialEq for BarsCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for BarsCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("BarsCache")
+    }
+}
+
+impl Default for Scenario {
+    fn default() -> Self {
+        Scenario {
+            gravity_m_s2: STANDARD_GRAVITY_M_S2,
+            bar: Bar::PAPER_CAVITY,
+            solid_bar: Bar::PAPER_SOLID,
+            damper: Damper::default(),
+            forcing: Forcing::default(),
+            run: RunSection::default(),
+            initial: State::default(),
+            sweep: SweepRange::default(),
+            beam: None,
+            bars_cache: BarsCache::default(),
+        }
+    }
+}
+
+/// `[run]`: the core's [`RunSettings`] plus the solver's name, flat in one TOML table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunSection {
+    /// Duration, step, RMS window.
+    pub settings: RunSettings,
+    /// Solver name.
+    pub solver: String,
+}
+
+impl Default for RunSection {
+    fn default() -> Self {
+        RunSection {
+            settings: RunSettings::default(),
+            solver: DEFAULT_SOLVER.to_string(),
+        }
+    }
+}
+
+/// Reject keys of `section` outside `allowed`, as `deny_unknown_fields` would.
+fn check_keys<E: serde::de::Error>(
+    section: &str,
+    t: &toml::Table,
+    allowed: &[&'static str],
+) -> Result<(), E> {
+    match t.keys().find(|k| !allowed.contains(&k.as_str())) {
+        Some(k) => Err(E::custom(format!(
+            "[{section}]: unknown field `{k}`, expected one of {}",
+            allowed
+                .iter()
+                .map(|a| format!("`{a}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Deserialise `T` from a table; the core type's serde defaults fill the missing fields.
+fn from_table<T: DeserializeOwned, E: serde::de::Error>(t: toml::Table) -> Result<T, E> {
+    T::deserialize(toml::Value::Table(t)).map_err(E::custom)
+}
+
+/// A value of a table as `f64` (integers accepted).
+fn take_f64<E: serde::de::Error>(t: &mut toml::Table, key: &str) -> Result<Option<f64>, E> {
+    t.remove(key)
+        .map(|v| f64::deserialize(v).map_err(|e| E::custom(format!("{key}: {e}"))))
+        .transpose()
+}
+
+/// `[solid_bar]`: a [`Bar`] whose missing fields are the paper's solid bar.
+fn solid_bar<'de, D: Deserializer<'de>>(d: D) -> Result<Bar, D::Error> {
+    let given = toml::Table::deserialize(d)?;
+    let mut t = match toml::Value::try_from(Bar::PAPER_SOLID).map_err(D::Error::custom)? {
+        toml::Value::Table(t) => t,
+        _ => return Err(D::Error::custom("a bar serialises to a table")),
+    };
+    // Unknown keys pass through and are refused by `Bar`'s `deny_unknown_fields`.
+    t.extend(given);
+    from_table(t)
+}
+
+impl Serialize for RunSection {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::Error as _;
+        let mut t = match toml::Value::try_from(self.settings).map_err(S::Error::custom)? {
+            toml::Value::Table(t) => t,
+            _ => return Err(S::Error::custom("run settings serialise to a table")),
+        };
+        t.insert("solver".into(), self.solver.clone().into());
+        t.serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for RunSection {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let mut t = toml::Table::deserialize(d)?;
+        check_keys("run", &t, &["duration_s", "dt_s", "rms_fraction", "solver"])?;
+        let solver = match t.remove("solver") {
+            Some(v) => {
+                String::deserialize(v).map_err(|e| D::Error::custom(format!("solver: {e}")))?
+            }
+            None => DEFAULT_SOLVER.to_string(),
+        };
+        Ok(RunSection {
+            settings: from_table(t)?,
+            solver,
+        })
+    }
+}
+
+/// `[forcing]` as in the file: `amplitude_n`, `static_force_n` and `frequency_ratio`
+/// (`Ω/ω₁` of the bar simulated: `√(K/M)` of a lumped bar, a beam's first mode) or `omega_rad_s`.
+mod forcing_section {
+    use super::*;
+
+    pub fn serialize<S: Serializer>(f: &Forcing, s: S) -> Result<S::Ok, S::Error> {
+        let mut t = toml::Table::new();
+        t.insert("amplitude_n".into(), f.amplitude_n.into());
+        t.insert("static_force_n".into(), f.static_force_n.into());
+        match f.frequency {
+            Frequency::Ratio(r) => t.insert("frequency_ratio".into(), r.into()),
+            Frequency::RadPerS(w) => t.insert("omega_rad_s".into(), w.into()),
+        };
+        t.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Forcing, D::Error> {
+        let mut t = toml::Table::deserialize(d)?;
+        check_keys(
+            "forcing",
+            &t,
+            &[
+                "amplitude_n",
+                "static_force_n",
+                "frequency_ratio",
+                "omega_rad_s",
+            ],
+        )?;
+        let ratio = take_f64::<D::Error>(&mut t, "frequency_ratio")?;
+        let omega = take_f64::<D::Error>(&mut t, "omega_rad_s")?;
+        let mut f: Forcing = from_table(t)?;
+        match (ratio, omega) {
+            (Some(_), Some(_)) => {
+                return Err(D::Error::custom(
+                    "[forcing]: give frequency_ratio or omega_rad_s, not both",
+                ))
+            }
+            (Some(r), None) => f.frequency = Frequency::Ratio(r),
+            (None, Some(w)) => f.frequency = Frequency::RadPerS(w),
+            (None, None) => {}
+        }
+        Ok(f)
+    }
+}
+
+/// `[initial]` as in the file: bar `u_m`, `du_m_s`; ball relative to the cavity centre `w_m`,
+/// `dw_m_s`. Missing fields keep [`State::default`] (at rest, ball centred).
+mod initial_section {
+    use super::*;
+
+    pub fn serialize<S: Serializer>(st: &State, s: S) -> Result<S::Ok, S::Error> {
+        let mut t = toml::Table::new();
+        t.insert("u_m".into(), st.u_m.into());
+        t.insert("du_m_s".into(), st.du_m_s.into());
+        t.insert("w_m".into(), st.w_m().into());
+        t.insert("dw_m_s".into(), st.dw_m_s().into());
+        t.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<State, D::Error> {
+        let mut t = toml::Table::deserialize(d)?;
+        check_keys("initial", &t, &["u_m", "du_m_s", "w_m", "dw_m_s"])?;
+        let d0 = State::default();
+        let mut get = |k: &str, default: f64| -> Result<f64, D::Error> {
+            Ok(take_f64::<D::Error>(&mut t, k)?.unwrap_or(default))
+        };
+        let u = get("u_m", d0.u_m)?;
+        let du = get("du_m_s", d0.du_m_s)?;
+        let w = get("w_m", d0.w_m())?;
+        let dw = get("dw_m_s", d0.dw_m_s())?;
+        Ok(State {
+            u_m: u,
+            du_m_s: du,
+            v_m: u + w,
+            dv_m_s: du + dw,
+            ..d0
+        })
+    }
+}
+
+/// Command-line overrides of a scenario, shared by every command that takes a system.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Overrides {
+    /// `--friction`.
+    pub friction: Option<FrictionModel>,
+    /// `--friction-force-n`.
+    pub friction_force_n: Option<f64>,
+    /// `--solver`.
+    pub solver: Option<String>,
+    /// `--dt`.
+    pub dt: Option<f64>,
+    /// `--duration`.
+    pub duration: Option<f64>,
+    /// `--rms-fraction`.
+    pub rms_fraction: Option<f64>,
+}
+
+impl Scenario {
+    /// The paper's values.
+    pub fn paper() -> Self {
+        Self::default()
+    }
+
+    /// Parse TOML text.
+    ///
+    /// A file that sets `[damper] gap_m` but has no `[sweep] gaps_m` sweeps that gap (not the
+    /// paper's two): the file's gap is what its author asked for.
+    pub fn from_toml(text: &str) -> Result<Self> {
+        let raw: toml::Table = toml::from_str(text)?;
+        let gap_given = raw.get("damper").and_then(|d| d.get("gap_m")).is_some();
+        let gaps_given = raw.get("sweep").and_then(|s| s.get("gaps_m")).is_some();
+        check_beam_against_bar(&raw)?;
+        let mut s: Scenario = toml::from_str(text)?;
+        if gap_given && !gaps_given {
+            s.sweep.gaps_m = vec![s.damper.gap_m];
+        }
+        Ok(s)
+    }
+
+    /// Read a scenario file ([`Scenario::load_any`]).
+    pub fn load(path: &Path) -> Result<Self> {
+        Self::load_any(path)
+    }
+
+    /// Read a scenario file, `[beam]` or not. It becomes an input of this process: no output
+    /// may replace it ([`vibrobar_io::register_input`]).
+    pub fn load_any(path: &Path) -> Result<Self> {
+        vibrobar_io::register_input(path);
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read scenario file {}", path.display()))?;
+        Self::from_toml(&text).with_context(|| format!("invalid scenario file {}", path.display()))
+    }
+
+    /// Apply command-line overrides; errors name the flag and its allowed range.
+    pub fn apply(&mut self, o: &Overrides) -> Result<()> {
+        if let Some(f) = o.friction {
+            self.damper.friction = f;
+        }
+        if let Some(f) = o.friction_force_n {
+            check_non_negative("--friction-force-n", f, "N")?;
+            self.damper.friction_force_n = Some(f);
+        }
+        if let Some(name) = &o.solver {
+            self.run.solver = name.clone();
+        }
+        if let Some(dt) = o.dt {
+            check_positive("--dt", dt, "s")?;
+            self.run.settings.dt_s = dt;
+        }
+        if let Some(d) = o.duration {
+            check_positive("--duration", d, "s")?;
+            self.run.settings.duration_s = d;
+        }
+        if let Some(f) = o.rms_fraction {
+            if !(f > 0.0 && f <= 1.0) {
+                bail!("--rms-fraction = {f} is outside the allowed range (0, 1]");
+            }
+            self.run.settings.rms_fraction = f;
+        }
+        Ok(())
+    }
+
+    /// Override the initial state from flags (`None` keeps the scenario's value); the ball's
+    /// flags are relative to the cavity centre.
+    pub fn override_initial(
+        &mut self,
+        u0_m: Option<f64>,
+        du0_m_s: Option<f64>,
+        w0_m: Option<f64>,
+        dw0_m_s: Option<f64>,
+    ) -> Result<()> {
+        let i = self.initial;
+        let mut v = [i.u_m, i.du_m_s, i.w_m(), i.dw_m_s()];
+        for (slot, (flag, x)) in v.iter_mut().zip([
+            ("--u0-m", u0_m),
+            ("--du0-m-s", du0_m_s),
+            ("--w0-m", w0_m),
+            ("--dw0-m-s", dw0_m_s),
+        ]) {
+            if let Some(x) = x {
+                check_finite(flag, x)?;
+                *slot = x;
+            }
+        }
+        let [u, du, w, dw] = v;
+        self.initial = State {
+            u_m: u,
+            du_m_s: du,
+            v_m: u + w,
+            dv_m_s: du + dw,
+            ..i
+        };
+        Ok(())
+    }
+
+    /// Run settings.
+    pub fn settings(&self) -> RunSettings {
+        self.run.settings
+    }
+
+    /// The forcing's frequency ratio against the bar with the cavity (`Ω/ω₁` of that bar).
+    pub fn frequency_ratio(&self) -> Result<f64> {
+        Ok(match self.forcing.frequency {
+            Frequency::Ratio(r) => r,
+            Frequency::RadPerS(w) => w / self.bars()?.0.omega1_rad_s(),
+        })
+    }
+
+    /// The solid reference of a `[beam]`: the same bar without the cavity's section loss (the
+    /// ball is absent from every solid run), with as many modes as the bar with the cavity.
+    pub fn solid_beam(beam: &Beam, modes: usize) -> Beam {
+        Beam {
+            cavity_section: None,
+            modes: Some(modes),
+            ..beam.clone()
+        }
+    }
+
+    /// The bar with the cavity and the solid reference bar, as the solvers see them: `[bar]`
+    /// and `[solid_bar]` for the lumped scenario; for a `[beam]`, its modes
+    /// ([`BarModel::Modal`]) and those of [`Scenario::solid_beam`] (its own first frequency, so
+    /// a ratio is `Ω/ω₁` of each bar). Computed once per scenario value; errors name the field.
+    pub fn bars(&self) -> Result<(BarModel, BarModel)> {
+        let key = (self.beam.clone(), self.bar, self.solid_bar);
+        if let Some(c) = self.bars_cache.0.get() {
+            if (&c.0, c.1, c.2) == (&key.0, key.1, key.2) {
+                return Ok((c.3, c.4));
+            }
+        }
+        let (damped, solid) = match &self.beam {
+            None => (BarModel::Lumped(self.bar), BarModel::Lumped(self.solid_bar)),
+            Some(b) => {
+                let damped = b.modal_model()?;
+                let solid = Self::solid_beam(b, damped.len()).modal_model()?;
+                (BarModel::Modal(damped), BarModel::Modal(solid))
+            }
+        };
+        let _ = self.bars_cache.0.set((key.0, key.1, key.2, damped, solid));
+        Ok((damped, solid))
+    }
+
+    /// Bars, ball, forcing, gravity and initial state of a batch.
+    pub fn base(&self) -> Result<SweepBase> {
+        let (damped_bar, solid_bar) = self.bars()?;
+        Ok(SweepBase {
+            damped_bar,
+            solid_bar,
+            ball: self.damper,
+            forcing: self.forcing,
+            gravity_m_s2: self.gravity_m_s2,
+            init: self.initial,
+        })
+    }
+
+    /// Sweep points in grid order, gap-major (every ratio of the first gap, then the next gap),
+    /// with the scenario's friction.
+    pub fn sweep_points(&self, gaps_m: &[f64], ratios: &[f64]) -> Vec<SweepPoint> {
+        gaps_m
+            .iter()
+            .flat_map(|&gap_m| {
+                ratios.iter().map(move |&ratio| SweepPoint {
+                    ratio,
+                    gap_m,
+                    friction: self.damper.friction,
+                    friction_force_n: self.damper.friction_force_n,
+                })
+            })
+            .collect()
+    }
+
+    /// The damped system as given (gap, friction, ratio from the scenario).
+    pub fn damped_system(&self) -> Result<System> {
+        Ok(System {
+            bar: self.bars()?.0,
+            damper: Some(self.damper),
+            forcing: self.forcing,
+            gravity_m_s2: self.gravity_m_s2,
+        })
+    }
+
+    /// Initial state from `[initial]`.
+    pub fn initial_state(&self) -> State {
+        self.initial
+    }
+
+    /// Validate everything a run needs; errors name the scenario field and its allowed range.
+    pub fn validate(&self) -> Result<()> {
+        positive("gravity_m_s2", self.gravity_m_s2)?;
+        let damped = self.damped_system()?;
+        damped.validate()?;
+        let solid = System {
+            bar: self.bars()?.1,
+            damper: None,
+            ..damped
+        };
+        // The lumped solid bar's fields are `solid_bar.*`; a beam's solid reference is the
+        // same [beam], already checked.
+        solid.validate().map_err(|e| match self.beam {
+            None => anyhow::anyhow!("solid_{e}"),
+            Some(_) => anyhow::anyhow!("solid reference bar: {e}"),
+        })?;
+        self.settings().validate()?;
+        self.initial_state().validate(&damped)?;
+        Ok(())
+    }
+}
+
+fn positive(field: &str, v: f64) -> Result<()> {
+    if !v.is_finite() || v <= 0.0 {
+        bail!(
+            "{field} = {} is outside the allowed range (0, ∞)",
+            Compact(v)
+        );
+    }
+    Ok(())
+}
+
+/// A flag that must be finite and > 0.
+pub fn check_positive(flag: &str, v: f64, unit: &str) -> Result<()> {
+    if !v.is_finite() || v <= 0.0 {
+        bail!(
+            "{flag} = {} {unit} is outside the allowed range (0, ∞) {unit}",
+            Compact(v)
+        );
+    }
+    Ok(())
+}
+
+/// A flag that must be finite and ≥ 0.
+pub fn check_non_negative(flag: &str, v: f64, unit: &str) -> Result<()> {
+    if !v.is_finite() || v < 0.0 {
+        bail!(
+            "{flag} = {} {unit} is outside the allowed range [0, ∞) {unit}",
+            Compact(v)
+        );
+    }
+    Ok(())
+}
+
+/// A flag that must be finite.
+pub fn check_finite(flag: &str, v: f64) -> Result<()> {
+    if !v.is_finite() {
+        bail!("{flag} must be a finite number, got {}", Compact(v));
+    }
+    Ok(())
+}
+
+/// The ratios of a `[sweep]` range, checked ([`ratio_range`]).
+pub fn sweep_ratios(r: &SweepRange) -> Result<Vec<f64>> {
+    ratio_range(r.ratio_start, r.ratio_stop, r.ratio_step)
+}
+
+/// Check and expand a ratio range.
+pub fn ratio_range(start: f64, stop: f64, step: f64) -> Result<Vec<f64>> {
+    for (name, x) in [("START", start), ("STOP", stop), ("STEP", step)] {
+        if !x.is_finite() {
+            bail!(
+                "--ratios {name} must be a finite number, got {}",
+                Compact(x)
+            );
+        }
+    }
+    if start <= 0.0 {
+        bail!(
+            "--ratios START = {} is outside the allowed range (0, ∞)",
+            Compact(start)
+        );
+    }
+    if step <= 0.0 {
+        bail!(
+            "--ratios STEP = {} is outside the allowed range (0, ∞)",
+            Compact(step)
+        );
+    }
+    if stop < start {
+        bail!(
+            "--ratios range is empty: STOP = {} < START = {} (allowed: STOP ≥ START)",
+            Compact(stop),
+            Compact(start)
+        );
+    }
+    vibrobar_core::limits::check(
+        "--ratios points (STOP − START)/STEP",
+        ((stop - start) / step).floor(),
+        0.0,
+        vibrobar_core::limits::MAX_SWEEP_RATIOS as f64,
+        "raise STEP",
+    )?;
+    Ok(vibrobar_core::analysis::linspace_inclusive(
+        start, stop, step,
+    ))
+}
+
+// ---------------------------------------------------------------------------------------------
+// [beam] (issue #8): the bar as an Euler–Bernoulli beam. The section deserialises straight into
+// core `structure::Beam` (paper geometry for missing fields). With `[beam]` present, `[bar]` and
+// `[solid_bar]` do not apply, so a file that sets both is refused rather than one silently
+// ignored. Every command runs a `[beam]` scenario on its modes ([`Scenario::bars`]).
+
+/// Refuse `[beam]` together with `[bar]` or `[solid_bar]`: both would describe the bar.
+fn check_beam_against_bar(raw: &toml::Table) -> Result<()> {
+    if raw.contains_key("beam") {
+        for other in ["bar", "solid_bar"] {
+            if raw.contains_key(other) {
+                bail!(
+                    "[beam] and [{other}] both describe the bar: with [beam], its modes come from \
+                     the beam's geometry and material and [{other}] does not apply; remove one of them"
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+impl Scenario {
+    /// The structure this scenario describes: its `[beam]`, else the lumped `[bar]`.
+    pub fn structure(&self) -> Structure {
+        match &self.beam {
+            Some(b) => Structure::Beam(b.clone()),
+            None => Structure::Lumped(self.bar),
+        }
+    }
+
+    /// Apply `--beam-modes` and `--cavity-position-mm` (a `[beam]` scenario only).
+    pub fn apply_beam_flags(
+        &mut self,
+        beam_modes: Option<usize>,
+        cavity_position_mm: Option<f64>,
+    ) -> Result<()> {
+        if beam_modes.is_none() && cavity_position_mm.is_none() {
+            return Ok(());
+        }
+        self.bars_cache = BarsCache::default();
+        let Some(b) = self.beam.as_mut() else {
+            bail!(
+                "--beam-modes and --cavity-position-mm need a scenario with a [beam] section \
+                 (this one is the lumped bar, one mode)"
+            );
+        };
+        if let Some(n) = beam_modes {
+            b.modes = Some(n);
+        }
+        if let Some(x) = cavity_position_mm {
+            check_finite("--cavity-position-mm", x)?;
+            // x / 1000, not x · 1e-3: a division is correctly rounded, so 175 mm is the same
+            // double as 0.175 m and the tip stays inside [0, L] (x · 1e-3 gave 0.17500000000000002).
+            b.cavity_position_m = x / 1e3;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn regression_bar_section_with_one_field_keeps_the_paper_values() {
+        let s = Scenario::from_toml("[bar]\ndamping_ratio = 0.02\n").unwrap();
+        assert_eq!(
+            s.bar,
+            Bar {
+                damping_ratio: 0.02,
+                ..Bar::PAPER_CAVITY
+            }
+        );
+        assert_eq!(s.solid_bar, Bar::PAPER_SOLID);
+        s.validate().unwrap();
+    }
+
+    #[test]
+    fn regression_solid_bar_section_with_one_field_keeps_the_paper_solid_values() {
+        let s = Scenario::from_toml("[solid_bar]\ndamping_ratio = 0.02\n").unwrap();
+        assert_eq!(
+            s.solid_bar,
+            Bar {
+                damping_ratio: 0.02,
+                ..Bar::PAPER_SOLID
+            }
+        );
+        assert_eq!(s.bar, Bar::PAPER_CAVITY);
+        let m = Scenario::from_toml("[solid_bar]\nmass_kg = 1\n").unwrap();
+        assert_eq!(
+            m.solid_bar.stiffness_n_per_m,
+            Bar::PAPER_SOLID.stiffness_n_per_m
+        );
+        assert_eq!(m.solid_bar.mass_kg, 1.0);
+    }
+
+    #[test]
+    fn regression_damper_gap_without_sweep_section_is_the_gap_swept() {
+        let s = Scenario::from_toml("[damper]\ngap_m = 5e-4\n").unwrap();
+        assert_eq!(s.sweep.gaps_m, vec![5e-4]);
+        // A [sweep] section without gaps_m does not hide the file's gap either.
+        let s =
+            Scenario::from_toml("[damper]\ngap_m = 5e-4\n[sweep]\nratio_step = 0.02\n").unwrap();
+        assert_eq!(s.sweep.gaps_m, vec![5e-4]);
+        // Explicit gaps win; no gap anywhere keeps the paper's two.
+        let s = Scenario::from_toml("[damper]\ngap_m = 5e-4\n[sweep]\ngaps_m = [1e-3]\n").unwrap();
+        assert_eq!(s.sweep.gaps_m, vec![1e-3]);
+        let s = Scenario::from_toml("[bar]\nmass_kg = 0.7\n").unwrap();
+        assert_eq!(s.sweep.gaps_m, SweepRange::paper().gaps_m);
+    }
+
+    #[test]
+    fn every_section_defaults_and_refuses_unknown_fields() {
+        assert_eq!(Scenario::from_toml("").unwrap(), Scenario::paper());
+        for (text, want) in [
+            ("[bar]\nmas_kg = 1\n", "mas_kg"),
+            ("[solid_bar]\nmas_kg = 1\n", "mas_kg"),
+            ("[damper]\nrestitutio = 0.5\n", "restitutio"),
+            ("[forcing]\nfrequency = 1.0\n", "frequency"),
+            (
+                "[forcing]\nfrequency_ratio = 1.0\nomega_rad_s = 3.0\n",
+                "not both",
+            ),
+            ("[run]\nsolverr = \"rk4\"\n", "solverr"),
+            ("[initial]\nv_m = 0.0\n", "v_m"),
+            ("[sweep]\ngap_m = [1e-4]\n", "gap_m"),
+            ("[forcing]\nfrequency_ratio = \"x\"\n", "frequency_ratio"),
+            ("colour = 1\n", "colour"),
+        ] {
+            let e = format!("{:#}", Scenario::from_toml(text).unwrap_err());
+            assert!(e.contains(want), "{text:?}: {e}");
+        }
+        let s = Scenario::from_toml(
+            "[forcing]\nfrequency_ratio = 0.97\n[run]\nsolver = \"rk4\"\ndt_s = 2e-6\n\
+             [initial]\nw_m = 1e-5\ndw_m_s = 0.1\nu_m = 2e-6\n",
+        )
+        .unwrap();
+        assert_eq!(s.forcing.frequency, Frequency::Ratio(0.97));
+        assert_eq!(s.forcing.amplitude_n, Forcing::default().amplitude_n);
+        assert_eq!(s.run.solver, "rk4");
+        assert_eq!(s.run.settings.dt_s, 2e-6);
+        assert_eq!(s.run.settings.duration_s, RunSettings::default().duration_s);
+        assert_eq!(s.initial.u_m, 2e-6);
+        assert_eq!(s.initial.v_m, 2e-6 + 1e-5);
+        assert_eq!(s.initial.dv_m_s, 0.1);
+    }
+
+    /// The scenario's JSON (written into every run and sweep metadata, and so into the sweep's
+    /// fingerprint) keeps the file's layout.
+    #[test]
+    fn scenario_serialises_in_the_file_layout() {
+        let j = serde_json::to_value(Scenario::paper()).unwrap();
+        let keys = |v: &serde_json::Value| -> Vec<String> {
+            v.as_object().unwrap().keys().cloned().collect()
+        };
+        assert_eq!(
+            keys(&j),
+            [
+                "bar",
+                "damper",
+                "forcing",
+                "gravity_m_s2",
+                "initial",
+                "run",
+                "solid_bar",
+                "sweep"
+            ]
+        );
+        assert_eq!(
+            keys(&j["forcing"]),
+            ["amplitude_n", "frequency_ratio", "static_force_n"]
+        );
+        assert_eq!(
+            keys(&j["run"]),
+            ["dt_s", "duration_s", "rms_fraction", "solver"]
+        );
+        assert_eq!(keys(&j["initial"]), ["du_m_s", "dw_m_s", "u_m", "w_m"]);
+        assert_eq!(j["solid_bar"]["mass_kg"], 0.668);
+        // And it reads back as the same scenario.
+        let toml_text = toml::to_string(&Scenario::paper()).unwrap();
+        assert_eq!(Scenario::from_toml(&toml_text).unwrap(), Scenario::paper());
+    }
+
+    #[test]
+    fn beam_section_takes_paper_defaults_and_refuses_unknown_fields() {
+        let s = Scenario::from_toml("[beam]\nmodes = 4\n").unwrap();
+        let b = s.beam.clone().unwrap();
+        assert_eq!(
+            b,
+            Beam {
+                modes: Some(4),
+                ..Beam::default()
+            }
+        );
+        assert!(matches!(s.structure(), Structure::Beam(_)));
+        let s = Scenario::from_toml(
+            "[beam]\nlength_m = 0.2\ndamping_ratio = [0.01, 0.02]\n\
+             [beam.tip_mass]\nmass_kg = 0.05\n[beam.cavity_section]\nhole_diameter_m = 0.015\nlength_m = 0.017\n",
+        )
+        .unwrap();
+        let b = s.beam.unwrap();
+        assert_eq!(b.length_m, 0.2);
+        assert_eq!(b.tip_mass.unwrap().rotary_inertia_kg_m2, 0.0);
+        for (text, want) in [
+            ("[beam]\nlenght_m = 0.2\n", "lenght_m"),
+            ("[beam.tip_mass]\nmass = 0.2\n", "mass"),
+            (
+                "[beam.cavity_section]\nhole_diameter_m = 0.01\n",
+                "length_m",
+            ),
+            ("[beam]\nmodes = -1\n", "modes"),
+        ] {
+            let e = format!("{:#}", Scenario::from_toml(text).unwrap_err());
+            assert!(e.contains(want), "{text:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn beam_with_bar_or_solid_bar_is_refused() {
+        for other in ["bar", "solid_bar"] {
+            let e = Scenario::from_toml(&format!("[beam]\n[{other}]\nmass_kg = 1\n"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(&format!("[beam] and [{other}]")), "{e}");
+        }
+    }
+
+    /// A `[beam]` scenario runs on its modes (it used to be refused by every simulating path):
+    /// the bar with the cavity is the beam's modal model, the solid reference the same bar
+    /// without the cavity section, with its own first frequency (the uniform bar's closed form).
+    #[test]
+    fn beam_scenario_runs_on_its_modes_and_the_solid_reference_drops_the_cavity_section() {
+        let text =
+            "[beam]\nmodes = 2\n[beam.cavity_section]\nhole_diameter_m = 0.015\nlength_m = 0.016\n";
+        let s = Scenario::from_toml(text).unwrap();
+        s.validate().unwrap();
+        let (damped, solid) = s.bars().unwrap();
+        let (BarModel::Modal(d), BarModel::Modal(so)) = (damped, solid) else {
+            panic!("a beam's bars are modal: {damped:?}, {solid:?}");
+        };
+        assert_eq!((d.len(), so.len()), (2, 2));
+        let b = s.beam.clone().unwrap();
+        let c =
+            (b.youngs_modulus_pa * b.second_moment_m4() / (b.density_kg_m3 * b.area_m2())).sqrt();
+        let w1 = (1.875_104_069 / b.length_m).powi(2) * c;
+        assert!((so.modes()[0].omega_rad_s / w1 - 1.0).abs() < 1e-9);
+        // The hole changes the bar with the cavity: its ω₁ is not the solid bar's.
+        let shift = d.modes()[0].omega_rad_s / w1 - 1.0;
+        assert!(shift.abs() > 1e-4, "{shift}");
+        assert_eq!(s.damped_system().unwrap().bar, damped);
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("b.toml");
+        std::fs::write(&p, "[beam]\n").unwrap();
+        assert!(Scenario::load(&p).unwrap().beam.is_some());
+        // Computed once: a clone (a sweep's point, a design command's scenario) shares them.
+        let mut s = Scenario::from_toml("[beam]\nmodes = 3\n").unwrap();
+        assert!(s.bars_cache.0.get().is_none());
+        assert_eq!(s.bars().unwrap().0.as_modal().unwrap().len(), 3);
+        assert!(s.clone().bars_cache.0.get().is_some());
+        // The flags change the bars (the cache is emptied): 3 modes → 1.
+        s.apply_beam_flags(Some(1), None).unwrap();
+        assert_eq!(s.bars().unwrap().0.as_modal().unwrap().len(), 1);
+        // Without [beam], nothing changes: same scenario, same JSON (no `beam` key).
+        let j = serde_json::to_value(Scenario::paper()).unwrap();
+        assert!(j.get("beam").is_none());
+        assert!(
+            matches!(Scenario::paper().structure(), Structure::Lumped(b) if b == Bar::PAPER_CAVITY)
+        );
+        assert_eq!(
+            Scenario::paper().bars().unwrap(),
+            (Bar::PAPER_CAVITY.into(), Bar::PAPER_SOLID.into())
+        );
+    }
+
+    #[test]
+    fn regression_cavity_position_mm_at_the_tip_is_inside_the_bar() {
+        let mut s = Scenario::from_toml("[beam]\n").unwrap();
+        s.apply_beam_flags(None, Some(175.0)).unwrap();
+        let b = s.beam.clone().unwrap();
+        assert_eq!(b.cavity_position_m, b.length_m);
+        s.structure().modal_model().unwrap();
+    }
+}

@@ -1,0 +1,610 @@
+"""vibrobar: vibro-impact (impact-damped) boring bars in Python.
+
+The exact event-driven solver, sweeps, design maps and the analyses of the ``vibrobar`` command
+line, with NumPy results identical to the command line's, bit for bit. Units are SI throughout
+and every name carries its unit (``gap_m``, ``dt_s``, ``rms_damped_m``).
+
+    >>> import vibrobar
+    >>> sc = vibrobar.Scenario.paper(gap_m=1e-4, friction="coulomb")
+    >>> r = vibrobar.run(sc)
+    >>> r.rms_m, r.impacts
+    >>> s = vibrobar.sweep(sc, ratios=[0.98, 1.0, 1.02])
+    >>> import pandas; pandas.DataFrame(s)
+
+Every function takes a :class:`Scenario` (default: the paper's) and keyword overrides of it
+(``solver="rk4"``, ``duration_s=0.5``, ...). Long calls release the GIL, run in parallel on the
+library's thread pool, report to ``progress`` (a callable ``progress(done, total)``, or ``True``
+for a progress bar: tqdm when installed) and stop on Ctrl-C with ``KeyboardInterrupt``.
+"""
+
+from __future__ import annotations
+
+import sys as _sys
+from typing import Any, Callable, Mapping, Optional, Sequence, Union
+
+import numpy as _np
+
+from . import _vibrobar
+from ._vibrobar import DEFAULT_SOLVER, Scenario, __version__, solver_names
+
+__all__ = [
+    "Scenario",
+    "Table",
+    "SweepResult",
+    "MapResult",
+    "RunResult",
+    "run",
+    "sweep",
+    "map",
+    "design_map",
+    "regime",
+    "poincare",
+    "bifurcation",
+    "lyapunov",
+    "ensemble",
+    "submit",
+    "solver_names",
+    "DEFAULT_SOLVER",
+    "__version__",
+]
+
+ArrayLike = Union[Sequence[float], _np.ndarray, float]
+Progress = Union[None, bool, Callable[[int, int], Any]]
+
+# Units of the columns of every table (xarray attributes; the names carry them too).
+UNITS = {
+    "ratio": "1 (Ω/ω₁)",
+    "gap_mm": "mm",
+    "gap_m": "m",
+    "rms_solid_m": "m",
+    "rms_damped_m": "m",
+    "mean_rms_m": "m",
+    "std_rms_m": "m",
+    "min_rms_m": "m",
+    "max_rms_m": "m",
+    "reduction_pct": "%",
+    "impacts": "1",
+    "impacts_per_cycle": "1/cycle",
+    "friction_force_n": "N",
+    "restitution": "1",
+    "mass_ratio": "1",
+    "t_s": "s",
+    "u_m": "m",
+    "du_m_s": "m/s",
+    "v_m": "m",
+    "dv_m_s": "m/s",
+    "w_m": "m",
+    "dw_m_s": "m/s",
+}
+
+
+class Table(dict):
+    """A table as a mapping column name → 1-d NumPy array (``pandas.DataFrame(table)`` works).
+
+    Column names are the command line's CSV columns; :meth:`to_csv` gives the CSV text the
+    command line writes for the same rows, character for character.
+    """
+
+    _dims: tuple = ()
+
+    def __init__(self, columns: Mapping[str, Any], csv: Optional[str] = None):
+        super().__init__(
+            (k, v if isinstance(v, _np.ndarray) else _np.asarray(v, dtype=str))
+            for k, v in columns.items()
+        )
+        self._csv = csv
+
+    def __len__(self) -> int:  # number of columns, as a dict
+        return super().__len__()
+
+    @property
+    def rows(self) -> int:
+        """Number of rows."""
+        return len(next(iter(self.values()))) if self else 0
+
+    def to_csv(self) -> str:
+        """The CSV text of the command line's file for these rows (header first)."""
+        if self._csv is None:
+            raise ValueError("this table has no CSV form")
+        return self._csv
+
+    def to_pandas(self):
+        """A ``pandas.DataFrame`` (needs pandas)."""
+        import pandas
+
+        return pandas.DataFrame(self)
+
+    def to_xarray(self):
+        """An ``xarray.Dataset`` on the grid's dimensions, units in each variable's attributes.
+
+        Needs xarray. Points missing from the grid are NaN (numbers) or "" (text).
+        """
+        import xarray
+
+        dims = [d for d in self._dims if d in self]
+        if not dims:
+            raise ValueError("this table has no grid dimensions")
+        coords = {d: _np.unique(self[d]) for d in dims}
+        index = tuple(_np.searchsorted(coords[d], self[d]) for d in dims)
+        shape = tuple(len(coords[d]) for d in dims)
+        data = {}
+        for name, col in self.items():
+            if name in dims:
+                continue
+            if col.dtype.kind in "fiu":
+                a = _np.full(shape, _np.nan)
+            else:
+                a = _np.full(shape, "", dtype=object)
+            a[index] = col
+            data[name] = (dims, a, {"units": UNITS[name]} if name in UNITS else {})
+        ds = xarray.Dataset(data, coords=coords)
+        for d in dims:
+            ds[d].attrs["units"] = UNITS.get(d, "")
+        return ds
+
+
+class SweepResult(Table):
+    """Rows of a sweep (gap-major), columns as ``vibrobar sweep``'s CSV; xarray dims ratio × gap_mm."""
+
+    _dims = ("gap_mm", "ratio")
+
+
+class MapResult(Table):
+    """Rows of a design map in grid order, columns as ``vibrobar map``'s CSV."""
+
+    _dims = ("ratio", "gap_mm", "friction_force_n", "restitution", "mass_ratio")
+
+
+class RunResult:
+    """One run: the history (``t_s``, ``u_m``, ``du_m_s``, ``v_m``, ``dv_m_s``, ``w_m``,
+    ``dw_m_s`` as arrays, also in :attr:`history`), the impacts and the statistics.
+
+    Attributes:
+        history: Table of the sampled states (the CLI's history columns; ``w_m`` is the ball
+            relative to the cavity centre).
+        impact_table: Table with ``t_s`` (s), ``wall`` (+1 / −1), ``dw_before_m_s`` and
+            ``dw_after_m_s`` (relative velocity ẇ before and after, m/s), ``energy_loss_j`` (J).
+        rms_m: RMS of the bar displacement u over the RMS window (the last ``rms_fraction``), m.
+        impacts: impacts over the whole run.
+        impacts_in_window: impacts in the RMS window.
+        impacts_per_cycle: impacts per forcing cycle in the RMS window.
+        max_penetration_m: largest ``|w| − l_g`` (0 when the ball stayed inside), m.
+        energy: energy books of the whole run, J: ``work_input_j``, ``viscous_loss_j``,
+            ``impact_loss_j``, ``friction_work_j``, ``delta_mechanical_j``, ``residual_j``.
+        solver: the solver's name.
+    """
+
+    def __init__(self, d: dict):
+        self.history = Table(d["history"])
+        self.impact_table = Table(d["impact_table"])
+        self.impact_table_truncated: bool = d["impact_table_truncated"]
+        self.rms_m: float = d["rms_m"]
+        self.impacts: int = d["impacts"]
+        self.impacts_in_window: int = d["impacts_in_window"]
+        self.impacts_per_cycle: float = d["impacts_per_cycle"]
+        self.max_penetration_m: float = d["max_penetration_m"]
+        self.energy: dict = d.get("energy", {})
+        self.solver: str = d["solver"]
+
+    def __getattr__(self, name: str):
+        history = self.__dict__.get("history")
+        if history is not None and name in history:
+            return history[name]
+        raise AttributeError(name)
+
+    def __repr__(self) -> str:
+        return (
+            f"RunResult(rms_m={self.rms_m:.6e}, impacts={self.impacts}, "
+            f"max_penetration_m={self.max_penetration_m:.3e}, samples={self.history.rows}, "
+            f"solver={self.solver!r})"
+        )
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def _scenario(scenario: Optional[Scenario], overrides: dict) -> Scenario:
+    if scenario is None:
+        scenario = Scenario.paper()
+    elif not isinstance(scenario, Scenario):
+        raise TypeError(
+            f"scenario must be a vibrobar.Scenario, got {type(scenario).__name__} "
+            "(make one with Scenario.paper(), Scenario.paper_beam() or Scenario.from_toml(path))"
+        )
+    return scenario.replace(**overrides) if overrides else scenario
+
+
+def _array(name: str, x: Any, required: bool = True) -> Optional[_np.ndarray]:
+    """A 1-d float64 array argument; a scalar is one value."""
+    if x is None:
+        if required:
+            raise TypeError(f"{name} is required")
+        return None
+    if isinstance(x, (str, bytes)):
+        raise TypeError(f"{name} must be a number or a 1-d array of numbers, got {x!r}")
+    try:
+        a = _np.asarray(x, dtype=_np.float64)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"{name} must be a number or a 1-d array of numbers: {e}") from None
+    if a.ndim == 0:
+        a = a.reshape(1)
+    if a.ndim != 1:
+        raise ValueError(f"{name} must be 1-d, got an array of shape {a.shape}")
+    return _np.ascontiguousarray(a)
+
+
+def _number(name: str, x: Any, optional: bool = True) -> Optional[float]:
+    if x is None and optional:
+        return None
+    if isinstance(x, bool) or not isinstance(x, (int, float, _np.integer, _np.floating)):
+        raise TypeError(f"{name} must be a number, got {type(x).__name__}")
+    return float(x)
+
+
+def _threads(threads: Any) -> Optional[int]:
+    if threads is None:
+        return None
+    if isinstance(threads, bool) or not isinstance(threads, (int, _np.integer)):
+        raise TypeError(f"threads must be an int, got {type(threads).__name__}")
+    if threads < 1:
+        raise ValueError(f"threads = {threads} is outside the allowed range [1, ∞)")
+    return int(threads)
+
+
+def _progress(progress: Progress, label: str):
+    """The callback for ``progress``: a callable as given, ``True`` a bar (tqdm if installed)."""
+    if progress is None or progress is False:
+        return None, lambda: None
+    if callable(progress):
+        return progress, lambda: None
+    if progress is not True:
+        raise TypeError("progress must be None, True or a callable progress(done, total)")
+    try:
+        from tqdm.auto import tqdm
+    except ImportError:
+        tqdm = None
+    if tqdm is not None:
+        bar = tqdm(desc=label, total=None, unit="run")
+
+        def cb(done, total):
+            bar.total = total
+            bar.n = done
+            bar.refresh()
+
+        return cb, bar.close
+
+    def cb(done, total):
+        print(f"\r{label}: {done}/{total}", end="", file=_sys.stderr, flush=True)
+
+    return cb, lambda: print(file=_sys.stderr)
+
+
+def run(scenario: Optional[Scenario] = None, *, sample_every: int = 10, **overrides) -> RunResult:
+    """One run of the scenario (``vibrobar run``): its gap, frequency ratio, initial state,
+    solver, duration and step.
+
+    Args:
+        scenario: the scenario (default: the paper's).
+        sample_every: keep one history row every this many time steps (every ``sample_every·dt_s``
+            seconds), ≥ 1.
+        **overrides: scenario keyword overrides (``gap_m=1e-4``, ``frequency_ratio=1.0``,
+            ``solver="rk4"``, ...).
+
+    Returns:
+        RunResult: the history arrays, the impact table, ``rms_m`` (m), ``impacts``,
+        ``max_penetration_m`` (m) and the energy books (J).
+    """
+    sc = _scenario(scenario, overrides)
+    if isinstance(sample_every, bool) or not isinstance(sample_every, (int, _np.integer)):
+        raise TypeError(f"sample_every must be an int, got {type(sample_every).__name__}")
+    if sample_every < 1:
+        raise ValueError(f"sample_every = {sample_every} is outside the allowed range [1, ∞) steps")
+    return RunResult(_vibrobar.run(sc, int(sample_every)))
+
+
+def sweep(
+    scenario: Optional[Scenario] = None,
+    ratios: Optional[ArrayLike] = None,
+    gaps_m: Optional[ArrayLike] = None,
+    *,
+    progress: Progress = None,
+    threads: Optional[int] = None,
+    **overrides,
+) -> SweepResult:
+    """RMS of the damped and of the solid bar over frequency ratios × gaps (``vibrobar sweep``).
+
+    Args:
+        scenario: the scenario (default: the paper's).
+        ratios: forcing frequency ratios Ω/ω₁ (> 0); default: the scenario's ``[sweep]`` range.
+        gaps_m: total clearances in m (> 0); default: the scenario's ``[sweep] gaps_m``.
+        progress: ``progress(done, total)`` callable over the runs, or True for a progress bar.
+        threads: worker threads (default: all cores, or ``RAYON_NUM_THREADS``).
+        **overrides: scenario keyword overrides (``solver="rk4"``, ``friction="coulomb"``, ...).
+
+    Returns:
+        SweepResult: columns ``ratio``, ``gap_mm`` (mm), ``friction``, ``solver``,
+        ``rms_solid_m`` (m), ``rms_damped_m`` (m), ``reduction_pct`` (%), ``impacts``; rows
+        gap-major, as the CLI's CSV.
+    """
+    sc = _scenario(scenario, overrides)
+    cb, close = _progress(progress, "sweep")
+    try:
+        cols, csv = _vibrobar.sweep(
+            sc, _array("ratios", ratios, False), _array("gaps_m", gaps_m, False), cb, _threads(threads)
+        )
+    finally:
+        close()
+    return SweepResult(cols, csv)
+
+
+def map(
+    scenario: Optional[Scenario] = None,
+    ratios: ArrayLike = None,
+    gaps_m: ArrayLike = None,
+    *,
+    friction_forces_n: Optional[ArrayLike] = None,
+    restitutions: Optional[ArrayLike] = None,
+    mass_ratios: Optional[ArrayLike] = None,
+    progress: Progress = None,
+    threads: Optional[int] = None,
+    client: Any = None,
+    shards: Optional[int] = None,
+    **overrides,
+) -> MapResult:
+    """A design map (``vibrobar map``): every combination of the axes given.
+
+    Args:
+        scenario: the scenario (default: the paper's).
+        ratios: forcing frequency ratios Ω/ω₁ (> 0).
+        gaps_m: total clearances in m (> 0).
+        friction_forces_n: optional axis, friction force levels in N (≥ 0).
+        restitutions: optional axis, coefficients of restitution in [0, 1].
+        mass_ratios: optional axis, ball mass over bar mass (> 0).
+        progress: ``progress(done, total)`` callable over the runs, or True for a progress bar.
+        threads: worker threads (default: all cores; on a Dask cluster, per task).
+        client: a ``dask.distributed.Client``: run the map as ``shards`` Dask tasks (round-robin
+            over the ratios) and merge them; the result is the same, bit for bit. Progress then
+            counts ratios as shards finish; Ctrl-C cancels the tasks. :func:`submit` gives the
+            future instead.
+        shards: number of Dask tasks (default: 4 per worker; at most one per ratio).
+        **overrides: scenario keyword overrides.
+
+    Returns:
+        MapResult: columns ``ratio``, ``gap_mm`` (mm), the optional axes, ``rms_solid_m`` (m),
+        ``rms_damped_m`` (m), ``reduction_pct`` (%), ``impacts_per_cycle``, ``regime``.
+    """
+    sc = _scenario(scenario, overrides)
+    cb, close = _progress(progress, "map")
+    if client is not None:
+        try:
+            return _on_dask(client, "map", sc, ratios, shards, cb, gaps_m=gaps_m,
+                            friction_forces_n=friction_forces_n, restitutions=restitutions,
+                            mass_ratios=mass_ratios, threads=threads)
+        finally:
+            close()
+    try:
+        cols, csv = _vibrobar.design_map(
+            sc,
+            _array("ratios", ratios),
+            _array("gaps_m", gaps_m),
+            _array("friction_forces_n", friction_forces_n, False),
+            _array("restitutions", restitutions, False),
+            _array("mass_ratios", mass_ratios, False),
+            cb,
+            _threads(threads),
+        )
+    finally:
+        close()
+    return MapResult(cols, csv)
+
+
+design_map = map
+
+
+def regime(
+    scenario: Optional[Scenario] = None,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    **overrides,
+) -> dict:
+    """The steady-state impact regime at one point (solid and damped runs).
+
+    Args:
+        ratio: Ω/ω₁ (default: the scenario's). gap_m: clearance in m (default: the scenario's).
+
+    Returns:
+        dict: ``regime`` (e.g. ``"none"`` without impacts, ``"chaotic"``; the names of ``vibrobar map``), ``ratio``, ``gap_m`` (m),
+        ``rms_solid_m``, ``rms_damped_m`` (m), ``reduction_pct`` (%), ``impacts_per_cycle``.
+    """
+    sc = _scenario(scenario, overrides)
+    return _vibrobar.regime(sc, _number("ratio", ratio), _number("gap_m", gap_m))
+
+
+def poincare(
+    scenario: Optional[Scenario] = None,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    *,
+    phase_deg: float = 0.0,
+    transient_s: Optional[float] = None,
+    **overrides,
+) -> Table:
+    """Stroboscopic Poincaré section: the state once per forcing period at phase ``phase_deg``.
+
+    Args:
+        ratio: Ω/ω₁; gap_m: clearance in m (defaults: the scenario's).
+        phase_deg: forcing phase of the section in degrees.
+        transient_s: discarded time in s (default: the part before the RMS window).
+
+    Returns:
+        Table: ``t_s`` (s), ``u_m`` (m), ``du_m_s`` (m/s), ``w_m`` (m), ``dw_m_s`` (m/s).
+    """
+    sc = _scenario(scenario, overrides)
+    return Table(
+        _vibrobar.poincare(
+            sc,
+            _number("ratio", ratio),
+            _number("gap_m", gap_m),
+            _number("phase_deg", phase_deg, False),
+            _number("transient_s", transient_s),
+        )
+    )
+
+
+def bifurcation(
+    scenario: Optional[Scenario] = None,
+    param: str = "ratio",
+    values: ArrayLike = None,
+    *,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    phase_deg: float = 0.0,
+    transient_s: Optional[float] = None,
+    progress: Progress = None,
+    **overrides,
+):
+    """A bifurcation diagram: stroboscopic points of u while ``param`` takes ``values``.
+
+    Args:
+        param: ``"ratio"`` (Ω/ω₁) or ``"gap_m"`` (m).
+        values: the parameter's values (> 0).
+        ratio, gap_m: the other parameter's fixed value (default: the scenario's).
+        phase_deg: forcing phase of the section in degrees.
+        transient_s: discarded time in s (default: the part before the RMS window).
+
+    Returns:
+        (points, impacts): two Tables; points has ``param``, ``t_s`` (s), ``u_m`` (m),
+        ``du_m_s`` (m/s); impacts has ``param``, ``t_s`` (s), ``wall`` (±1), ``dw_m_s`` (m/s).
+    """
+    sc = _scenario(scenario, overrides)
+    if not isinstance(param, str):
+        raise TypeError(f"param must be a str, got {type(param).__name__}")
+    cb, close = _progress(progress, "bifurcation")
+    try:
+        pts, imp = _vibrobar.bifurcation_diagram(
+            sc,
+            param,
+            _array("values", values),
+            _number("ratio", ratio),
+            _number("gap_m", gap_m),
+            _number("phase_deg", phase_deg, False),
+            _number("transient_s", transient_s),
+            cb,
+        )
+    finally:
+        close()
+    return Table(pts), Table(imp)
+
+
+def lyapunov(
+    scenario: Optional[Scenario] = None,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    *,
+    transient_s: Optional[float] = None,
+    periods: float = 5.0,
+    d0: float = 1e-9,
+    **overrides,
+) -> dict:
+    """The largest Lyapunov exponent at one point (two trajectories, renormalised).
+
+    Args:
+        transient_s: discarded time in s (default: the part before the RMS window).
+        periods: forcing periods per renormalisation interval (> 0).
+        d0: initial separation in the energy-scaled state space (> 0).
+
+    Returns:
+        dict: ``exponent_per_s`` (1/s), ``std_error_per_s`` (1/s), ``intervals``,
+        ``interval_s`` (s), ``blocks``, ``clamped``, ``d0``.
+    """
+    sc = _scenario(scenario, overrides)
+    return _vibrobar.lyapunov(
+        sc,
+        _number("ratio", ratio),
+        _number("gap_m", gap_m),
+        _number("transient_s", transient_s),
+        _number("periods", periods, False),
+        _number("d0", d0, False),
+    )
+
+
+def ensemble(
+    scenario: Optional[Scenario] = None,
+    ratios: ArrayLike = None,
+    gaps_m: ArrayLike = None,
+    *,
+    members: int = 16,
+    seed: int = 1,
+    u_m: float = 5e-5,
+    du_m_s: float = 0.2,
+    dw_m_s: float = 0.2,
+    progress: Progress = None,
+    client: Any = None,
+    shards: Optional[int] = None,
+    **overrides,
+) -> MapResult:
+    """Ensembles of random initial states at each (ratio, gap): RMS statistics and regimes
+    (``vibrobar ensemble``).
+
+    Args:
+        ratios: Ω/ω₁ values; gaps_m: clearances in m.
+        members: initial states per point (≥ 1); seed: random seed.
+        u_m, du_m_s, dw_m_s: half-ranges of the uniform initial u (m), u̇ and ẇ (m/s); the ball
+            starts anywhere in the cavity.
+        client, shards: run on a Dask cluster, as for :func:`map` (same result, bit for bit).
+
+    Returns:
+        Table: ``ratio``, ``gap_mm`` (mm), ``members``, ``mean_rms_m``, ``std_rms_m``,
+        ``min_rms_m``, ``max_rms_m`` (m), ``regimes`` (counts per regime).
+    """
+    sc = _scenario(scenario, overrides)
+    for name, x in (("members", members), ("seed", seed)):
+        if isinstance(x, bool) or not isinstance(x, (int, _np.integer)):
+            raise TypeError(f"{name} must be an int, got {type(x).__name__}")
+        if x < 0:
+            raise ValueError(f"{name} = {x} is outside the allowed range [0, ∞)")
+    cb, close = _progress(progress, "ensemble")
+    if client is not None:
+        try:
+            return _on_dask(client, "ensemble", sc, ratios, shards, cb, gaps_m=gaps_m,
+                            members=members, seed=seed, u_m=u_m, du_m_s=du_m_s, dw_m_s=dw_m_s)
+        finally:
+            close()
+    try:
+        cols, csv = _vibrobar.ensemble(
+            sc,
+            _array("ratios", ratios),
+            _array("gaps_m", gaps_m),
+            int(members),
+            int(seed),
+            _number("u_m", u_m, False),
+            _number("du_m_s", du_m_s, False),
+            _number("dw_m_s", dw_m_s, False),
+            cb,
+        )
+    finally:
+        close()
+    t = MapResult(cols, csv)
+    return t
+
+
+def _on_dask(client, fn, sc, ratios, shards, cb, **kwargs):
+    from . import _dask
+
+    _array("ratios", ratios)
+    return _dask.run(client, fn, sc, ratios, shards, cb, **kwargs)
+
+
+def submit(client, fn: str, scenario: Optional[Scenario] = None, ratios: ArrayLike = None, *,
+           shards: Optional[int] = None, **kwargs):
+    """Submit ``vibrobar.<fn>`` (``"map"`` or ``"ensemble"``) to a Dask cluster as shard tasks
+    and a merge task, and return the merge's ``distributed.Future`` at once: its ``result()`` is
+    what ``vibrobar.<fn>(scenario, ratios, **kwargs)`` returns, bit for bit; ``cancel()`` stops
+    the shards not yet started. ``kwargs`` are the function's own (``gaps_m=…``, ``members=…``,
+    scenario overrides go into ``scenario``)."""
+    from . import _dask
+
+    if fn not in ("map", "ensemble"):
+        raise ValueError(f"fn = {fn!r}: only 'map' and 'ensemble' run on Dask")
+    _array("ratios", ratios)
+    return _dask.submit(client, fn, scenario, ratios, shards, **kwargs)

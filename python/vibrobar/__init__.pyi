@@ -1,0 +1,132 @@
+"""Type stubs of the ``vibrobar`` package (units are SI; names carry them)."""
+
+from typing import Any, Callable, Mapping, Optional, Sequence, Union
+import numpy as np
+import numpy.typing as npt
+
+from ._vibrobar import DEFAULT_SOLVER as DEFAULT_SOLVER
+from ._vibrobar import Scenario as Scenario
+from ._vibrobar import __version__ as __version__
+from ._vibrobar import solver_names as solver_names
+
+ArrayLike = Union[Sequence[float], npt.NDArray[np.float64], float]
+Progress = Union[None, bool, Callable[[int, int], Any]]
+UNITS: dict[str, str]
+
+class Table(dict[str, np.ndarray]):
+    """Column name → 1-d NumPy array; the CLI's CSV column names."""
+    def __init__(self, columns: Mapping[str, Any], csv: Optional[str] = None) -> None: ...
+    @property
+    def rows(self) -> int: ...
+    def to_csv(self) -> str: ...
+    def to_pandas(self) -> Any: ...
+    def to_xarray(self) -> Any: ...
+
+class SweepResult(Table): ...
+class MapResult(Table): ...
+
+class RunResult:
+    history: Table
+    impact_table: Table
+    impact_table_truncated: bool
+    rms_m: float
+    impacts: int
+    impacts_in_window: int
+    impacts_per_cycle: float
+    max_penetration_m: float
+    energy: dict[str, float]
+    solver: str
+    t_s: npt.NDArray[np.float64]
+    u_m: npt.NDArray[np.float64]
+    du_m_s: npt.NDArray[np.float64]
+    v_m: npt.NDArray[np.float64]
+    dv_m_s: npt.NDArray[np.float64]
+    w_m: npt.NDArray[np.float64]
+    dw_m_s: npt.NDArray[np.float64]
+
+def run(scenario: Optional[Scenario] = None, *, sample_every: int = 10, **overrides: Any) -> RunResult: ...
+def sweep(
+    scenario: Optional[Scenario] = None,
+    ratios: Optional[ArrayLike] = None,
+    gaps_m: Optional[ArrayLike] = None,
+    *,
+    progress: Progress = None,
+    threads: Optional[int] = None,
+    **overrides: Any,
+) -> SweepResult: ...
+def map(
+    scenario: Optional[Scenario] = None,
+    ratios: ArrayLike = ...,
+    gaps_m: ArrayLike = ...,
+    *,
+    friction_forces_n: Optional[ArrayLike] = None,
+    restitutions: Optional[ArrayLike] = None,
+    mass_ratios: Optional[ArrayLike] = None,
+    progress: Progress = None,
+    threads: Optional[int] = None,
+    client: Any = None,
+    shards: Optional[int] = None,
+    **overrides: Any,
+) -> MapResult: ...
+design_map = map
+def regime(
+    scenario: Optional[Scenario] = None,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    **overrides: Any,
+) -> dict[str, Any]: ...
+def poincare(
+    scenario: Optional[Scenario] = None,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    *,
+    phase_deg: float = 0.0,
+    transient_s: Optional[float] = None,
+    **overrides: Any,
+) -> Table: ...
+def bifurcation(
+    scenario: Optional[Scenario] = None,
+    param: str = "ratio",
+    values: ArrayLike = ...,
+    *,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    phase_deg: float = 0.0,
+    transient_s: Optional[float] = None,
+    progress: Progress = None,
+    **overrides: Any,
+) -> tuple[Table, Table]: ...
+def lyapunov(
+    scenario: Optional[Scenario] = None,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    *,
+    transient_s: Optional[float] = None,
+    periods: float = 5.0,
+    d0: float = 1e-9,
+    **overrides: Any,
+) -> dict[str, Any]: ...
+def ensemble(
+    scenario: Optional[Scenario] = None,
+    ratios: ArrayLike = ...,
+    gaps_m: ArrayLike = ...,
+    *,
+    members: int = 16,
+    seed: int = 1,
+    u_m: float = 5e-5,
+    du_m_s: float = 0.2,
+    dw_m_s: float = 0.2,
+    progress: Progress = None,
+    client: Any = None,
+    shards: Optional[int] = None,
+    **overrides: Any,
+) -> MapResult: ...
+def submit(
+    client: Any,
+    fn: str,
+    scenario: Optional[Scenario] = None,
+    ratios: ArrayLike = ...,
+    *,
+    shards: Optional[int] = None,
+    **kwargs: Any,
+) -> Any: ...

@@ -1,0 +1,107 @@
+"""Type stubs of the native module (crates/vibrobar-py). Use the package ``vibrobar``."""
+
+from typing import Any, Callable, Optional, Union
+import os
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+DEFAULT_SOLVER: str
+
+_Override = Union[float, int, str, bool, list, dict, None]
+_Progress = Optional[Callable[[int, int], Any]]
+
+class Scenario:
+    """A simulation scenario in SI units (the TOML scenario file's sections): immutable."""
+
+    @staticmethod
+    def paper(**overrides: _Override) -> "Scenario":
+        """The paper's lumped bar, with keyword overrides (``gap_m=1e-4``, ``friction="coulomb"``)."""
+    @staticmethod
+    def paper_beam(**overrides: _Override) -> "Scenario":
+        """The paper's bar as an Euler–Bernoulli beam (``[beam]``), with overrides (``modes=3``)."""
+    @staticmethod
+    def from_toml(path: Union[str, os.PathLike[str]], **overrides: _Override) -> "Scenario":
+        """Read a scenario file (TOML, SI units), with keyword overrides."""
+    @staticmethod
+    def from_toml_str(text: str, **overrides: _Override) -> "Scenario":
+        """Parse scenario TOML text, with keyword overrides."""
+    def replace(self, **overrides: _Override) -> "Scenario":
+        """A copy with keyword overrides."""
+    def to_toml(self) -> str:
+        """The scenario as TOML text (reads back as the same scenario)."""
+    def to_dict(self) -> dict[str, Any]:
+        """Section → field → value."""
+    @property
+    def solver(self) -> str:
+        """Solver name (``[run] solver``)."""
+    @property
+    def gap_m(self) -> float:
+        """Total clearance of the ball, m."""
+    @property
+    def frequency_ratio(self) -> float:
+        """Ω/ω₁ of the bar with the cavity."""
+    @property
+    def is_beam(self) -> bool:
+        """True for a ``[beam]`` scenario."""
+    def __eq__(self, other: object) -> bool: ...
+
+def solver_names() -> list[str]:
+    """Names of the solvers."""
+
+def run(scenario: Scenario, sample_every: int = 10) -> dict[str, Any]: ...
+def sweep(
+    scenario: Scenario,
+    ratios: Optional[npt.NDArray[np.float64]] = None,
+    gaps_m: Optional[npt.NDArray[np.float64]] = None,
+    progress: _Progress = None,
+    threads: Optional[int] = None,
+) -> tuple[dict[str, Any], str]: ...
+def design_map(
+    scenario: Scenario,
+    ratios: npt.NDArray[np.float64],
+    gaps_m: npt.NDArray[np.float64],
+    friction_forces_n: Optional[npt.NDArray[np.float64]] = None,
+    restitutions: Optional[npt.NDArray[np.float64]] = None,
+    mass_ratios: Optional[npt.NDArray[np.float64]] = None,
+    progress: _Progress = None,
+    threads: Optional[int] = None,
+) -> tuple[dict[str, Any], str]: ...
+def regime(scenario: Scenario, ratio: Optional[float] = None, gap_m: Optional[float] = None) -> dict[str, Any]: ...
+def poincare(
+    scenario: Scenario,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    phase_deg: float = 0.0,
+    transient_s: Optional[float] = None,
+) -> dict[str, Any]: ...
+def lyapunov(
+    scenario: Scenario,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    transient_s: Optional[float] = None,
+    periods: float = 5.0,
+    d0: float = 1e-9,
+) -> dict[str, Any]: ...
+def bifurcation_diagram(
+    scenario: Scenario,
+    param: str,
+    values_: npt.NDArray[np.float64],
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    phase_deg: float = 0.0,
+    transient_s: Optional[float] = None,
+    progress: _Progress = None,
+) -> tuple[dict[str, Any], dict[str, Any]]: ...
+def ensemble(
+    scenario: Scenario,
+    ratios: npt.NDArray[np.float64],
+    gaps_m: npt.NDArray[np.float64],
+    members: int = 16,
+    seed: int = 1,
+    u_m: float = 5e-5,
+    du_m_s: float = 0.2,
+    dw_m_s: float = 0.2,
+    progress: _Progress = None,
+) -> tuple[dict[str, Any], str]: ...
+def _busy(seconds: float, panic: bool = False) -> float: ...
