@@ -81,7 +81,8 @@ dir=$(cd "$dir" && pwd)
 shard_file() { echo "$dir/$stem.$1.csv"; }
 
 # Quote every word for the batch scripts (arguments may hold spaces or quotes).
-q_args=$(printf '%q ' "${args[@]}")
+q_args=""
+[ ${#args[@]} -eq 0 ] || q_args=$(printf '%q ' "${args[@]}")
 shards=""
 for ((k = 1; k <= n; k++)); do shards+=" $(printf '%q' "$(shard_file "$k")")"; done
 
