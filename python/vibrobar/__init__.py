@@ -42,6 +42,7 @@ __all__ = [
     "bifurcation",
     "lyapunov",
     "ensemble",
+    "submit",
     "solver_names",
     "DEFAULT_SOLVER",
     "__version__",
@@ -346,6 +347,8 @@ def map(
     mass_ratios: Optional[ArrayLike] = None,
     progress: Progress = None,
     threads: Optional[int] = None,
+    client: Any = None,
+    shards: Optional[int] = None,
     **overrides,
 ) -> MapResult:
     """A design map (``vibrobar map``): every combination of the axes given.
@@ -358,7 +361,12 @@ def map(
         restitutions: optional axis, coefficients of restitution in [0, 1].
         mass_ratios: optional axis, ball mass over bar mass (> 0).
         progress: ``progress(done, total)`` callable over the runs, or True for a progress bar.
-        threads: worker threads (default: all cores).
+        threads: worker threads (default: all cores; on a Dask cluster, per task).
+        client: a ``dask.distributed.Client``: run the map as ``shards`` Dask tasks (round-robin
+            over the ratios) and merge them; the result is the same, bit for bit. Progress then
+            counts ratios as shards finish; Ctrl-C cancels the tasks. :func:`submit` gives the
+            future instead.
+        shards: number of Dask tasks (default: 4 per worker; at most one per ratio).
         **overrides: scenario keyword overrides.
 
     Returns:
@@ -367,6 +375,13 @@ def map(
     """
     sc = _scenario(scenario, overrides)
     cb, close = _progress(progress, "map")
+    if client is not None:
+        try:
+            return _on_dask(client, "map", sc, ratios, shards, cb, gaps_m=gaps_m,
+                            friction_forces_n=friction_forces_n, restitutions=restitutions,
+                            mass_ratios=mass_ratios, threads=threads)
+        finally:
+            close()
     try:
         cols, csv = _vibrobar.design_map(
             sc,
@@ -524,6 +539,8 @@ def ensemble(
     du_m_s: float = 0.2,
     dw_m_s: float = 0.2,
     progress: Progress = None,
+    client: Any = None,
+    shards: Optional[int] = None,
     **overrides,
 ) -> MapResult:
     """Ensembles of random initial states at each (ratio, gap): RMS statistics and regimes
@@ -534,6 +551,7 @@ def ensemble(
         members: initial states per point (≥ 1); seed: random seed.
         u_m, du_m_s, dw_m_s: half-ranges of the uniform initial u (m), u̇ and ẇ (m/s); the ball
             starts anywhere in the cavity.
+        client, shards: run on a Dask cluster, as for :func:`map` (same result, bit for bit).
 
     Returns:
         Table: ``ratio``, ``gap_mm`` (mm), ``members``, ``mean_rms_m``, ``std_rms_m``,
@@ -546,6 +564,12 @@ def ensemble(
         if x < 0:
             raise ValueError(f"{name} = {x} is outside the allowed range [0, ∞)")
     cb, close = _progress(progress, "ensemble")
+    if client is not None:
+        try:
+            return _on_dask(client, "ensemble", sc, ratios, shards, cb, gaps_m=gaps_m,
+                            members=members, seed=seed, u_m=u_m, du_m_s=du_m_s, dw_m_s=dw_m_s)
+        finally:
+            close()
     try:
         cols, csv = _vibrobar.ensemble(
             sc,
@@ -562,3 +586,25 @@ def ensemble(
         close()
     t = MapResult(cols, csv)
     return t
+
+
+def _on_dask(client, fn, sc, ratios, shards, cb, **kwargs):
+    from . import _dask
+
+    _array("ratios", ratios)
+    return _dask.run(client, fn, sc, ratios, shards, cb, **kwargs)
+
+
+def submit(client, fn: str, scenario: Optional[Scenario] = None, ratios: ArrayLike = None, *,
+           shards: Optional[int] = None, **kwargs):
+    """Submit ``vibrobar.<fn>`` (``"map"`` or ``"ensemble"``) to a Dask cluster as shard tasks
+    and a merge task, and return the merge's ``distributed.Future`` at once: its ``result()`` is
+    what ``vibrobar.<fn>(scenario, ratios, **kwargs)`` returns, bit for bit; ``cancel()`` stops
+    the shards not yet started. ``kwargs`` are the function's own (``gaps_m=…``, ``members=…``,
+    scenario overrides go into ``scenario``)."""
+    from . import _dask
+
+    if fn not in ("map", "ensemble"):
+        raise ValueError(f"fn = {fn!r}: only 'map' and 'ensemble' run on Dask")
+    _array("ratios", ratios)
+    return _dask.submit(client, fn, scenario, ratios, shards, **kwargs)

@@ -64,6 +64,8 @@ def map(
     mass_ratios: Optional[ArrayLike] = None,
     progress: Progress = None,
     threads: Optional[int] = None,
+    client: Any = None,
+    shards: Optional[int] = None,
     **overrides: Any,
 ) -> MapResult: ...
 design_map = map
@@ -115,5 +117,16 @@ def ensemble(
     du_m_s: float = 0.2,
     dw_m_s: float = 0.2,
     progress: Progress = None,
+    client: Any = None,
+    shards: Optional[int] = None,
     **overrides: Any,
 ) -> MapResult: ...
+def submit(
+    client: Any,
+    fn: str,
+    scenario: Optional[Scenario] = None,
+    ratios: ArrayLike = ...,
+    *,
+    shards: Optional[int] = None,
+    **kwargs: Any,
+) -> Any: ...

@@ -235,6 +235,7 @@ impl Schema {
             "sweep" => sweep_schema(),
             "map" => map_schema(&map_extra_axes(header)?),
             "placement" => placement_schema(),
+            "ensemble" => ensemble_schema(),
             _ => return None,
         };
         (s.header() == header).then_some(s)

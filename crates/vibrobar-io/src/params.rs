@@ -256,3 +256,26 @@ pub struct EnsembleFileParams {
     /// Ranges of the initial conditions.
     pub ic_half_ranges: IcHalfRanges,
 }
+
+impl EnsembleFileParams {
+    /// The grid (ratio outer, gap inner), or `None` if the lists do not make one.
+    pub fn grid(&self) -> Option<Grid> {
+        Grid::new(vec![
+            GridAxis {
+                axis: Axis::FreqRatio,
+                values: self.ratios.clone(),
+            },
+            GridAxis {
+                axis: Axis::GapM,
+                values: self.gaps_m.clone(),
+            },
+        ])
+        .ok()
+    }
+
+    /// The key columns (ratio, gap) of grid index `i`, as the row writes them.
+    pub fn key(&self, i: usize) -> Option<String> {
+        let p = self.grid()?.point(i)?;
+        Some(crate::csv::ensemble_schema().format(&crate::csv::map_key(&p, &[])))
+    }
+}

@@ -10,7 +10,7 @@ use crate::atomic::write_atomic;
 use crate::csv::{map_extra_axes, map_key, Schema};
 use crate::error::{IoError, Result};
 use crate::meta::{meta_path, GridInfo, Metadata, ShardInfo};
-use crate::params::{MapParams, PlacementParams, SweepParams};
+use crate::params::{EnsembleFileParams, MapParams, PlacementParams, SweepParams};
 use crate::target::{check_not_input, resolve_output};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -74,6 +74,10 @@ fn grid_key(
             let p: PlacementParams = meta.parameters_as(path).ok()?;
             Some(Box::new(move |i| p.key(i)))
         }
+        "ensemble" => {
+            let p: EnsembleFileParams = meta.parameters_as(path).ok()?;
+            Some(Box::new(move |i| p.key(i)))
+        }
         _ => None,
     }
 }
@@ -105,7 +109,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path) -> Result<usize> {
         let grid = meta.grid.clone().ok_or_else(|| {
             read_err(
                 path,
-                "metadata has no grid: not a sweep, map or placement file".into(),
+                "metadata has no grid: not a sweep, map, placement or ensemble file".into(),
             )
         })?;
         if let Some(f) = &first {

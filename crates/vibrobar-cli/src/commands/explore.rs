@@ -24,7 +24,7 @@ use vibrobar_io::csv::{
 use vibrobar_io::params::{
     BifurcationParams, EnsembleFileParams, IcHalfRanges, PoincareParams, PointParams,
 };
-use vibrobar_io::{npy, Metadata};
+use vibrobar_io::{npy, shard, GridInfo, Metadata};
 
 /// One design point: system flags plus ratio and gap.
 #[derive(Debug, Clone, clap::Args)]
@@ -484,6 +484,12 @@ pub struct EnsembleArgs {
     /// Threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Compute only slice K of N of the grid points (round-robin); merge the slices with `merge`.
+    #[arg(long)]
+    pub shard: Option<String>,
+    /// Continue an interrupted run from FILE.journal.
+    #[arg(long)]
+    pub resume: bool,
     /// Output CSV `ratio,gap_mm,members,mean_rms_m,std_rms_m,min_rms_m,max_rms_m,regimes`
     /// (`regimes` = `regime:count` joined by `;`).
     #[arg(long)]
@@ -537,30 +543,33 @@ pub fn run_ensemble_cmd(a: &EnsembleArgs) -> anyhow::Result<()> {
             dw_m_s: (-a.dw_m_s, a.dw_m_s),
         },
     };
+    params.validate()?;
+    // The whole job's size (each batch is checked again by the core).
+    vibrobar_core::limits::check(
+        "ensemble runs (points × members)",
+        points.len() as f64 * a.members as f64,
+        0.0,
+        vibrobar_core::limits::MAX_RUNS as f64,
+        "fewer points or members",
+    )?;
     let solver = a.system.solver()?;
-    let bar = Progress::new("ensemble", points.len() * a.members, 0);
-    let stats = with_threads(a.threads, || {
-        run_ensemble(&spec, solver.as_ref(), &points, &params, &bar.callback())
-    })??;
-    bar.finish();
-    let schema = ensemble_schema();
-    let rows: Vec<Vec<Value>> = stats
-        .iter()
-        .map(|s| {
-            EnsembleCsvRow {
-                ratio: s.point.get(Axis::FreqRatio).unwrap_or(f64::NAN),
-                gap_mm: s.point.get(Axis::GapM).unwrap_or(f64::NAN) * 1e3,
-                members: s.members as u64,
-                rms_m: [s.mean_rms_m, s.std_rms_m, s.min_rms_m, s.max_rms_m],
-                regimes: regime_counts(&s.regimes),
-            }
-            .values()
-        })
-        .collect();
-    for r in &rows {
-        println!("{}", schema.format(r));
+    let shard = a
+        .shard
+        .as_deref()
+        .map(shard::parse_shard)
+        .transpose()
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    // Before the journal is opened: a refused pool must not leave a header-only journal.
+    if let Some(n) = a.threads {
+        vibrobar_core::limits::check_count(
+            "--threads",
+            n,
+            1,
+            vibrobar_core::limits::MAX_THREADS,
+            "",
+        )?;
     }
-    let params = EnsembleFileParams {
+    let file_params = EnsembleFileParams {
         system: a.system.to_params()?,
         ratios: grid.axes()[0].values.clone(),
         gaps_m: grid.axes()[1].values.clone(),
@@ -573,7 +582,64 @@ pub fn run_ensemble_cmd(a: &EnsembleArgs) -> anyhow::Result<()> {
             w_over_half_gap: 1.0,
         },
     };
-    write_csv_with_meta(&a.out, "ensemble", &schema, rows, &params)?;
+    let schema = ensemble_schema();
+    let total = points.len();
+    let indices = shard::shard_indices(total, shard);
+    let meta = Metadata::new(
+        "ensemble",
+        &schema.header(),
+        file_params.clone(),
+        Some(GridInfo {
+            total,
+            shard,
+            indices: shard.map(|_| indices.clone()),
+        }),
+    );
+    let key = |i: usize| file_params.key(i).unwrap_or_default();
+    let journal = super::open_journal(&a.out, &meta, &schema, &indices, &key, a.resume)?;
+    let pending = journal.pending();
+    let bar = Progress::new(
+        "ensemble",
+        indices.len() * a.members,
+        journal.done_count() * a.members,
+    );
+    let progress = bar.callback();
+    // A few points per batch (enough members to keep every thread busy), each batch's rows
+    // journaled as soon as it is done, so a killed run loses at most one batch. A point's
+    // statistics depend on its own members only (member i's initial state is seeded by i), so
+    // the batching changes no digit.
+    let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
+    let per_batch = (2 * threads).div_ceil(a.members).max(1);
+    let mut done_runs = journal.done_count() * a.members;
+    for batch in pending.chunks(per_batch) {
+        let pts: Vec<GridPoint> = batch.iter().map(|&i| points[i].clone()).collect();
+        let offset = done_runs;
+        let stats = with_threads(a.threads, || {
+            run_ensemble(&spec, solver.as_ref(), &pts, &params, &|d, t| {
+                progress(offset + d, t)
+            })
+        })??;
+        done_runs += pts.len() * a.members;
+        for (i, s) in batch.iter().zip(&stats) {
+            let row = EnsembleCsvRow {
+                ratio: s.point.get(Axis::FreqRatio).unwrap_or(f64::NAN),
+                gap_mm: s.point.get(Axis::GapM).unwrap_or(f64::NAN) * 1e3,
+                members: s.members as u64,
+                rms_m: [s.mean_rms_m, s.std_rms_m, s.min_rms_m, s.max_rms_m],
+                regimes: regime_counts(&s.regimes),
+            }
+            .values();
+            journal.append(*i, &schema.format(&row))?;
+        }
+    }
+    bar.finish();
+    let rows = journal.rows();
+    journal.finish()?;
+    meta.write_beside(&a.out)
+        .with_context(|| format!("metadata beside {}", a.out.display()))?;
+    for (_, r) in &rows {
+        println!("{r}");
+    }
     eprintln!("wrote {}", a.out.display());
     Ok(())
 }

@@ -1,4 +1,4 @@
-//! `merge`: join the shard files of a map (`map --shard K/N`) or a placement study into the whole
+//! `merge`: join the shard files of a map (`map --shard K/N`), a placement study or an ensemble into the whole
 //! file, then write `FILE.optimum.csv` and the figures as an unsharded `map` (or `placement`) would. The merged file is byte-identical
 //! to the file an unsharded run writes.
 use anyhow::Context;
