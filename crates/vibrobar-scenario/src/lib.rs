@@ -220,14 +220,10 @@ mod damper_section {
         t.serialize(s)
     }
 
+    /// Straight through the core type, so a bad value keeps its own message and line; a
+    /// `contact` key is refused by [`Scenario::from_toml`] from the raw table.
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Damper, D::Error> {
-        let t = toml::Table::deserialize(d)?;
-        if t.contains_key("contact") {
-            return Err(D::Error::custom(
-                "[damper]: unknown field `contact`; the contact law is the [contact] section",
-            ));
-        }
-        from_table(t)
+        Damper::deserialize(d)
     }
 }
 
@@ -343,6 +339,9 @@ impl Scenario {
         let gap_given = raw.get("damper").and_then(|d| d.get("gap_m")).is_some();
         let gaps_given = raw.get("sweep").and_then(|s| s.get("gaps_m")).is_some();
         check_beam_against_bar(&raw)?;
+        if raw.get("damper").and_then(|d| d.get("contact")).is_some() {
+            bail!("[damper]: unknown field `contact`; the contact law is the [contact] section");
+        }
         let mut s: Scenario = toml::from_str(text)?;
         s.damper.contact = s.contact;
         if gap_given && !gaps_given {
@@ -854,6 +853,31 @@ mod tests {
                 .to_string();
             assert!(e.contains(&format!("[beam] and [{other}]")), "{e}");
         }
+    }
+
+    /// `[damper]` goes straight through the core type: a bad value keeps its own message and
+    /// its line (buffering the section for the `contact` check had moved the error to the
+    /// section header and lost the message in Python); `contact` under `[damper]` is refused.
+    #[test]
+    fn regression_damper_errors_keep_their_line_and_contact_belongs_to_its_section() {
+        let e = format!(
+            "{:#}",
+            Scenario::from_toml("[damper]\nfriction = \"sticky\"\n").unwrap_err()
+        );
+        assert!(
+            e.contains("line 2") && e.contains("unknown variant `sticky`"),
+            "{e}"
+        );
+        let e = Scenario::from_toml("[damper]\ncontact = \"hertz\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("the contact law is the [contact] section"),
+            "{e}"
+        );
+        let s = Scenario::from_toml("[contact]\nlaw = \"hertz\"\n").unwrap();
+        assert_eq!(s.damper.contact, s.contact);
+        assert!(!s.contact.is_restitution());
     }
 
     /// A `[beam]` scenario runs on its modes (it used to be refused by every simulating path):
