@@ -225,8 +225,16 @@ pub(crate) fn refuse_hertz(
 pub fn validate_run(sys: &System, init: &State, t_end_s: f64) -> Result<(), SimError> {
     sys.validate()?;
     init.validate(sys)?;
+    check_end_time(init.t_s, t_end_s)?;
+    sys.validate_horizon(init.t_s, t_end_s)?;
+    Ok(())
+}
+
+/// An end time that is finite and not before the start (a NaN or backward end would otherwise
+/// run nothing and return `Ok`, looking like a finished run).
+fn check_end_time(t0_s: f64, t_end_s: f64) -> Result<(), SimError> {
     crate::params::finite("t_end_s", t_end_s)?;
-    if t_end_s < init.t_s {
+    if t_end_s < t0_s {
         return Err(crate::error::ParamError::OutOfRange {
             field: "t_end_s",
             value: t_end_s,
@@ -234,7 +242,24 @@ pub fn validate_run(sys: &System, init: &State, t_end_s: f64) -> Result<(), SimE
         }
         .into());
     }
-    sys.validate_horizon(init.t_s, t_end_s)?;
+    Ok(())
+}
+
+/// The checks of [`validate_run`] for the modal solvers: the system, `hertz` refused with
+/// `hertz_why` (neither modal solver has a compliant contact phase yet), the initial state, the
+/// end time, and the phase of the fastest of `Ω` and `ω_N` over the run.
+pub(crate) fn validate_modal_run(
+    sys: &crate::structure::ModalSystem,
+    init: &crate::structure::ModalState,
+    t_end_s: f64,
+    hertz_why: &'static str,
+) -> Result<(), SimError> {
+    sys.validate()?;
+    refuse_hertz(sys.damper.as_ref(), hertz_why)?;
+    init.validate(sys)?;
+    check_end_time(init.t_s, t_end_s)?;
+    let rate = sys.omega_rad_s().max(sys.omega_max_rad_s());
+    crate::limits::check_phase(rate, init.t_s.abs().max(t_end_s.abs()))?;
     Ok(())
 }
 

@@ -60,8 +60,9 @@ impl ModalObserver for () {
     }
 }
 
-/// A plain [`Observer`] seen as a [`ModalObserver`] that ignores the modal state.
-struct Plain<'a>(&'a mut dyn Observer);
+/// A plain [`Observer`] seen as a [`ModalObserver`] that ignores the modal state (so a solver
+/// need not form it). One adapter for both modal solvers.
+pub(crate) struct Plain<'a>(pub(crate) &'a mut dyn Observer);
 
 impl Observer for Plain<'_> {
     fn segment(&mut self, seg: &dyn Segment) {
@@ -72,7 +73,11 @@ impl Observer for Plain<'_> {
     }
 }
 
-impl ModalObserver for Plain<'_> {}
+impl ModalObserver for Plain<'_> {
+    fn wants_modal(&self) -> bool {
+        false
+    }
+}
 
 /// What a modal run ends with.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -438,23 +443,12 @@ impl ModalRk4 {
         t_end_s: f64,
         obs: &mut dyn ModalObserver,
     ) -> Result<ModalRunSummary, SimError> {
-        sys.validate()?;
-        super::refuse_hertz(
-            sys.damper.as_ref(),
+        super::validate_modal_run(
+            sys,
+            init,
+            t_end_s,
             "contact.law = hertz: the modal rk4 solver applies the restitution law only; use the lumped bar with --solver exact",
         )?;
-        init.validate(sys)?;
-        crate::params::finite("t_end_s", t_end_s)?;
-        if t_end_s < init.t_s {
-            return Err(ParamError::OutOfRange {
-                field: "t_end_s",
-                value: t_end_s,
-                allowed: "[initial.t_s, ∞)",
-            }
-            .into());
-        }
-        let rate = sys.omega_rad_s().max(sys.omega_max_rad_s());
-        limits::check_phase(rate, init.t_s.abs().max(t_end_s.abs()))?;
         self.validate_step(sys, t_end_s - init.t_s)?;
 
         let rhs = Rhs::new(sys);

@@ -57,10 +57,10 @@ use super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::CONFINEMENT_TOL_M;
 use crate::damper::friction::{can_stick, sgn0, sliding_friction_on_ball_n};
 use crate::damper::impact::{modal_impact, modal_inverse_effective_mass_per_kg};
-use crate::error::{EventLimitCause, ParamError, SimError};
-use crate::limits::{self, MAX_BEAM_MODES};
+use crate::error::{EventLimitCause, SimError};
+use crate::limits::MAX_BEAM_MODES;
 use crate::params::{CavityMotion, FrictionModel, State};
-use crate::solver::modal_rk4::{ModalObserver, ModalRunSummary};
+use crate::solver::modal_rk4::{ModalObserver, ModalRunSummary, Plain};
 use crate::solver::{
     Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Wall,
 };
@@ -568,24 +568,6 @@ fn to_expsum(t: &TermSum, out: &mut ExpSumN) {
     out.f0 = f0;
 }
 
-/// A plain [`Observer`] seen as a [`ModalObserver`].
-struct Plain<'a>(&'a mut dyn Observer);
-
-impl Observer for Plain<'_> {
-    fn segment(&mut self, seg: &dyn Segment) {
-        self.0.segment(seg)
-    }
-    fn event(&mut self, ev: &Event) {
-        self.0.event(ev)
-    }
-}
-
-impl ModalObserver for Plain<'_> {
-    fn wants_modal(&self) -> bool {
-        false
-    }
-}
-
 /// How many events before the limit the tail looks at.
 const TAIL_EVENTS: u64 = 1024;
 
@@ -777,23 +759,12 @@ impl ModalExact {
         t_end_s: f64,
         obs: &mut dyn ModalObserver,
     ) -> Result<(ModalRunSummary, u64), SimError> {
-        sys.validate()?;
-        crate::solver::refuse_hertz(
-            sys.damper.as_ref(),
+        crate::solver::validate_modal_run(
+            sys,
+            init,
+            t_end_s,
             "contact.law = hertz is not yet wired into the N-mode exact solver (a beam); it runs on the lumped bar",
         )?;
-        init.validate(sys)?;
-        crate::params::finite("t_end_s", t_end_s)?;
-        if t_end_s < init.t_s {
-            return Err(ParamError::OutOfRange {
-                field: "t_end_s",
-                value: t_end_s,
-                allowed: "[initial.t_s, ∞)",
-            }
-            .into());
-        }
-        let rate = sys.omega_rad_s().max(sys.omega_max_rad_s());
-        limits::check_phase(rate, init.t_s.abs().max(t_end_s.abs()))?;
         let cs = Consts::new(sys)?;
         let mut book = Book {
             obs,
