@@ -8,6 +8,15 @@
 //! and `t_s.to_bits()`, the event and impact counts, the proven search steps, and `∫u²` over the
 //! whole run (`to_bits()`).
 //!
+//! Re-pinned once, for the slow-beat envelope of the N-term search (issue #8 §8): a proof
+//! with longer steps, so other step counts and event times that differ at the search's time
+//! resolution (first events 1e-16 to 1e-11 relative, the larger ones at touches). Those
+//! differences grow by a factor of about 2–3 per impact on the beam runs, as a perturbation of
+//! the forcing by 4 ulp grows in the code pinned before (same events, the same growth), so
+//! beyond some 10–40 events every beam case here is chaotic at the 1e-12 level; `n1_g0.05_aspub`
+//! kept every event time to 2e-15 and ∫u² to 1e-14, `n1_g0.1_none` to 1e-12 up to its 63rd
+//! event. The commit message gives the comparison.
+//!
 //! The literals were printed by this very test (`MODAL_GOLDEN_PRINT=1 cargo test --release
 //! --test modal_exact_golden -- --nocapture`), not by hand. A change that moves one is a change
 //! of the numerics: find out why before touching a literal.
@@ -135,16 +144,16 @@ fn cases() -> Vec<(&'static str, ModalSystem, f64)> {
 /// `(name, digest, events, impacts, steps, ∫u².to_bits())`.
 #[rustfmt::skip]
 const GOLDEN: [(&str, u64, u64, u64, u64, u64); 10] = [
-    ("n1_g0.1_none", 0x0969301120d1ab4f, 87, 87, 853, 0x3dc2d66fec86170a), // ∫u² 3.426547723120596e-11 m²s
-    ("n1_g0.05_aspub", 0x62117696ef28908c, 227, 128, 1490, 0x3dbf60056da39110), // ∫u² 2.8535471600603088e-11 m²s
-    ("n4_g0.1_none", 0xef1d6cce584586fd, 113, 113, 1469, 0x3de16ccbb4723f13), // ∫u² 1.2678343984309908e-10 m²s
-    ("n4_g0.1_aspub", 0xde94cc7c4a61c330, 258, 110, 2639, 0x3de1a2e8aa528984), // ∫u² 1.2832142740858613e-10 m²s
-    ("n4_g0.05_coulomb", 0x1c89b54212a85600, 884, 208, 6393, 0x3ded5d4fc8c6c34d), // ∫u² 2.136548476231327e-10 m²s
-    ("n4_g0.05_aspub_r0.98", 0xec1cbeb8c0395d11, 1338, 413, 8010, 0x3e039310c37ac3bd), // ∫u² 5.696921883533386e-10 m²s
-    ("n8_g0.1_none", 0x4c5f737cc2e4cf4f, 51, 51, 785, 0x3dd63466e861cc79), // ∫u² 8.078021072845332e-11 m²s
-    ("n8_g0.05_aspub", 0x3e3d6c7519854fa3, 920, 189, 8038, 0x3ddb96e3e0ab8dbe), // ∫u² 1.0036970574765499e-10 m²s
-    ("n4_3pt_g0.1_aspub", 0xa31b8b9ad12ef7b3, 179, 110, 1870, 0x3daba173f4aac014), // ∫u² 1.2564976529589065e-11 m²s
-    ("n4_3pt_g0.05_coulomb", 0x393c02d3047c2146, 808, 162, 6061, 0x3db9882136084502), // ∫u² 2.3220997500734745e-11 m²s
+    ("n1_g0.1_none", 0x2704a0075450859a, 87, 87, 542, 0x3dc2d66fec85c57e), // ∫u² 3.426547723107105e-11 m²s
+    ("n1_g0.05_aspub", 0x9e890f37cf2120ee, 227, 128, 1081, 0x3dbf60056da390b3), // ∫u² 2.8535471600602788e-11 m²s
+    ("n4_g0.1_none", 0xc75380c370995f98, 113, 113, 793, 0x3de169abfd7b097b), // ∫u² 1.2669465367472445e-10 m²s
+    ("n4_g0.1_aspub", 0x3b5a850e57c2429e, 216, 110, 1876, 0x3de182d4c8c6f1f1), // ∫u² 1.274097254683927e-10 m²s
+    ("n4_g0.05_coulomb", 0xe38a21c0e3e7e858, 916, 230, 6088, 0x3dedc5a7ba466814), // ∫u² 2.1662046907753516e-10 m²s
+    ("n4_g0.05_aspub_r0.98", 0xe7b076fd934c6456, 1268, 408, 7569, 0x3e034bd69ec3ef19), // ∫u² 5.61594602011979e-10 m²s
+    ("n8_g0.1_none", 0x1c0a671342075c2d, 51, 51, 440, 0x3dd63f7b54b7a3a3), // ∫u² 8.093766384482181e-11 m²s
+    ("n8_g0.05_aspub", 0xcebdcbead5ad5d73, 956, 200, 7977, 0x3ddbe27d0f5f33ed), // ∫u² 1.0144402318426227e-10 m²s
+    ("n4_3pt_g0.1_aspub", 0x098a753055ca542c, 179, 110, 1198, 0x3dab75622dddc2e6), // ∫u² 1.248669347895428e-11 m²s
+    ("n4_3pt_g0.05_coulomb", 0xcc6f1b483218faa5, 806, 171, 5545, 0x3db9afb4381344cf), // ∫u² 2.3361593479765107e-11 m²s
 ];
 
 #[test]
