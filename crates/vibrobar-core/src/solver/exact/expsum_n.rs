@@ -571,21 +571,55 @@ pub fn integral_product_n(x: &ExpSumN, y: &ExpSumN, a: f64, b: f64) -> f64 {
     sum + 0.5 * pairs
 }
 
-/// `∫_a^b x(τ)² dτ`: [`integral_product_n`] with each unordered pair taken once.
+/// `(p·q, p·q̄)` from their four shared products (the same bits as two [`C::mul`]s: `p·q̄` is
+/// `(p₀q₀ + p₁q₁, p₁q₀ − p₀q₁)` in either form).
+#[inline]
+fn mul_both(p: C, q: C) -> (C, C) {
+    let (ac, bd, ad, bc) = (p.0 * q.0, p.1 * q.1, p.0 * q.1, p.1 * q.0);
+    (C(ac - bd, ad + bc), C(ac + bd, bc - ad))
+}
+
+/// `∫_a^b x(τ)² dτ`: [`integral_product_n`] with each unordered pair taken once. From the
+/// segment start (`a = 0`, the usual case) `e^{λa} = 1` exactly, and its products are not formed.
 pub fn integral_square_n(x: &ExpSumN, a: f64, b: f64) -> f64 {
-    let h = b - a;
-    if h <= 0.0 {
+    if b - a <= 0.0 {
         return 0.0;
     }
+    let mut eb = [C(0.0, 0.0); MAX_TERMS + 1];
+    exps_at(x, b, &mut eb);
+    square_n(x, a, b, &eb)
+}
+
+/// [`integral_square_n`] up to `b = end.tau`, with `e^{λb}` from the transcendentals `end`
+/// already computed there for the basis of `x` (a segment's end, [`TrigN::fill`]): no `exp` or
+/// `sin_cos` of its own at that end. (The values agree with libm's to an ulp, so the integral
+/// agrees with [`integral_square_n`]'s to its rounding.)
+pub fn integral_square_n_to(x: &ExpSumN, a: f64, end: &TrigN) -> f64 {
+    let b = end.tau;
+    if b - a <= 0.0 {
+        return 0.0;
+    }
+    debug_assert_eq!(end.n, x.n);
+    let mut eb = [C(0.0, 0.0); MAX_TERMS + 1];
+    eb[0] = C(end.ch, end.sh);
+    for (o, k) in eb[1..=x.n].iter_mut().zip(&end.k[..x.n]) {
+        let e = 1.0 + k.em1;
+        *o = C(e * k.cd, e * k.sd);
+    }
+    square_n(x, a, b, &eb)
+}
+
+/// The integral of the square from `e^{λb}` (`eb`, the phasor basis of `x`).
+fn square_n(x: &ExpSumN, a: f64, b: f64, eb: &[C; MAX_TERMS + 1]) -> f64 {
+    let h = b - a;
     debug_assert!(x.c1 == 0.0 && x.c2 == 0.0);
     let n = x.n + 1;
     let mut cx = [C(0.0, 0.0); MAX_TERMS + 1];
     let mut lam = [C(0.0, 0.0); MAX_TERMS + 1];
     let mut ea = [C(0.0, 0.0); MAX_TERMS + 1];
-    let mut eb = [C(0.0, 0.0); MAX_TERMS + 1];
     phasors(x, &mut cx, &mut lam);
     exps_at(x, a, &mut ea);
-    exps_at(x, b, &mut eb);
+    let from0 = a == 0.0;
     let mut sum = x.k0 * x.k0 * h;
     for j in 0..n {
         let ij = int_exp(lam[j], ea[j], eb[j], h);
@@ -600,14 +634,17 @@ pub fn integral_square_n(x: &ExpSumN, a: f64, b: f64) -> f64 {
             if cx[k].0 == 0.0 && cx[k].1 == 0.0 {
                 continue;
             }
-            let i1 = int_exp(lam[j].add(lam[k]), ea[j].mul(ea[k]), eb[j].mul(eb[k]), h);
-            let i2 = int_exp(
-                lam[j].add(lam[k].conj()),
-                ea[j].mul(ea[k].conj()),
-                eb[j].mul(eb[k].conj()),
-                h,
-            );
-            let v = cx[j].mul(cx[k]).mul(i1).0 + cx[j].mul(cx[k].conj()).mul(i2).0;
+            // (1·1 and 1·1̄ are (1, 0) exactly: what `exps_at` gives at τ = 0, multiplied.)
+            let (ea1, ea2) = if from0 {
+                (C(1.0, 0.0), C(1.0, 0.0))
+            } else {
+                mul_both(ea[j], ea[k])
+            };
+            let (eb1, eb2) = mul_both(eb[j], eb[k]);
+            let i1 = int_exp(lam[j].add(lam[k]), ea1, eb1, h);
+            let i2 = int_exp(lam[j].add(lam[k].conj()), ea2, eb2, h);
+            let (c1, c2) = mul_both(cx[j], cx[k]);
+            let v = c1.mul(i1).0 + c2.mul(i2).0;
             pairs += if j == k { v } else { 2.0 * v };
         }
     }
@@ -814,6 +851,8 @@ mod tests {
                 (c2 - s2).abs() < 1e-10 * (1.0 + s2.abs()),
                 "{a} {b}: {c2} {s2}"
             );
+            let c3 = integral_square_n_to(&x, a, &TrigN::new(b, &x));
+            assert!((c3 - c2).abs() <= 1e-13 * c2.abs(), "{a} {b}: {c3} {c2}");
             let p = integral_product_n(&x, &x, a, b);
             assert!((p - c2).abs() <= 1e-13 * c2.abs(), "{p} {c2}");
         }

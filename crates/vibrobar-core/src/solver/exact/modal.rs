@@ -52,7 +52,9 @@
 
 use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
 use super::expsum::{integral_square, ExpSum, Trig};
-use super::expsum_n::{integral_product_n, integral_square_n, ExpSumN, Term, TrigN};
+use super::expsum_n::{
+    integral_product_n, integral_square_n, integral_square_n_to, ExpSumN, Term, TrigN,
+};
 use super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::CONFINEMENT_TOL_M;
 use crate::damper::friction::{can_stick, sgn0, sliding_friction_on_ball_n};
@@ -495,6 +497,11 @@ impl Segment for ModalExactSegment<'_> {
             SegMotion::Free(mo) => &mo.ur,
             SegMotion::Pair(pm) => &pm.ur,
         };
+        // Up to the segment's end (its relative end `end.tau`, which `t1 − t0` equals to its
+        // rounding), with the transcendentals already computed there.
+        if b_s.to_bits() == self.t1.to_bits() && self.end.n == ur.n {
+            return integral_square_n_to(ur, a_s - self.t0, self.end);
+        }
         integral_square_n(ur, a_s - self.t0, b_s - self.t0)
     }
     fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals {
