@@ -90,8 +90,10 @@
 //! Tested against the search without it on random beating sums with crossings, near touches and
 //! near misses (`envelope_search_finds_every_root_the_amplitude_search_finds`).
 //!
-//! **Cost** (measured, `examples/modal_exact_speed.rs`, 2 s paper-like runs): about 8 proven
-//! steps per event on one mode, 13 on the 4-mode beam, 14 on 8 modes. With the
+//! **Cost** (measured, `examples/modal_exact_speed.rs`, 2 s paper-like runs, with the envelope
+//! and the per-function cheap step): about 5 proven steps per event on one mode, 7 on the 4-mode
+//! beam, 8 on 8 modes without friction (8, 13 and 14 before the envelope); 4.5, 9.5 and 11.5 as
+//! published. With the
 //! as-published law the relative velocity `ẇ` itself rings with every mode an impact excites
 //! (each mode's share of `ẇ` is about equal at the cavity: `Σφₙ²/mₙ` grows like `N`), so the
 //! `ẇ = 0` search cannot set the fast terms aside and its steps resolve `ω_N`.
@@ -127,6 +129,32 @@
 //! friction). The budget of issue #8 (3× the lumped run's wall time, about 2.7× its
 //! instructions on this machine) would need about 42 M instructions as published, i.e. the
 //! searches at half their cost: more than any single proven-step refinement above gives.
+//!
+//! **Third round (issue #8 §8), measured** (callgrind, same runs; `()` observer / the bench's own
+//! path `analysis::run_case` with its RMS observer). Kept: the slow-beat envelope above, the
+//! cheap step per function, and in `expsum_n` the RMS integral from the segment end's own
+//! transcendentals (it was 22 % of the bench's beam run). Instructions, before → after: one unit
+//! mode none 22.1 → 19.5 M, as published 25.1 → 21.9 M; 4-mode none 40.1 → 31.5 M (lumped
+//! 14.3 M: 2.8× → 2.2×), bench path 49.6 → 38.9 M (lumped 16.3 M: 3.0× → 2.4×); 4-mode as
+//! published 70.2 M over 3 281 events → 68.9 M over 3 561 (21.4k → 19.3k per event; lumped 15.8 M
+//! over 2 703), bench path 84.4 → 81.9 M (25.7k → 23.0k per event; lumped 18.2 M: 4.6× → 4.5×);
+//! 8 modes none 61.1 → 53.0 M. (The 2 s runs are chaotic: a change of the step sequence moves
+//! the event count by up to 10 %, hence the per-event figures.) Tried and not kept: the wall
+//! as a *monotone companion* of `ẇ = 0` while sliding (the wall `l_g − σw` falls wherever
+//! `σẇ > 0`, so its value at a step's end proves the whole step, with a bound on
+//! `|(l_g − σw)' + σẇ|` from the coefficients): +12 % as published, since a value at every step
+//! end costs more than the wall's own 5 evaluations per search (its proofs are long), even with
+//! a Lipschitz skip (+10 %); the departure step at `0.9h₁` instead of `h₁/2` (−1 % per event).
+//! **What limits the as-published run**: its events. A trace of the `ẇ = 0` searches shows most
+//! friction switches of the beam coming in bursts 10–30 µs apart: the slow part of `ẇ` is near
+//! zero and the ringing of the top mode (half period ~24 µs) crosses it again and again; each is
+//! a real event of the model (the friction force flips), found by the departure step and about
+//! four Newton-like full evaluations (the cubic proof with `B₃ ~ ω_N³` lands short by
+//! `B₃h³/6`), which is near what any proof-based search needs. The beam has 1.3× the lumped
+//! run's events and each costs its 4 terms (about 3.3× the lumped instructions per event), so
+//! without friction the run is within the 3× budget (2.2–2.4× the instructions) and as published
+//! it is not (4.4–4.5×); closing that gap needs cheaper full evaluations (all terms: a trig
+//! recurrence along the Newton steps, a higher-order proof) rather than fewer proven steps.
 
 use super::expsum_n::{ExpSumN, Term, TrigN, MAX_TERMS};
 pub use super::roots::{Root, SEARCH_HORIZON_ITER};
