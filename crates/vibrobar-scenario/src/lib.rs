@@ -2,7 +2,8 @@
 //!
 //! Scenario files: TOML in SI units with unit-bearing names. Each section deserialises into the
 //! core's parameter type (`[bar]` → [`Bar`], `[damper]` → [`Damper`], `[forcing]` → [`Forcing`],
-//! `[run]` → [`RunSettings`] and the solver's name, `[initial]` → [`State`]), whose serde
+//! `[run]` → [`RunSettings`] and the solver's name, `[initial]` → [`State`], `[cutting]` →
+//! core `excitation::Cutting`), whose serde
 //! defaults are the paper's values: every field is optional. Unknown fields are errors, so a typo
 //! never silently falls back to a default.
 //!
@@ -19,8 +20,11 @@ use std::path::Path;
 use vibrobar_core::analysis::sweep::SweepRange;
 use vibrobar_core::analysis::{SweepBase, SweepPoint};
 use vibrobar_core::error::Compact;
+use vibrobar_core::excitation::Cutting;
 use vibrobar_core::params::BarModel;
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
+use vibrobar_core::solver::exact::cutting::ExactCutting;
+use vibrobar_core::solver::Solver;
 use vibrobar_core::structure::{Beam, Structure};
 use vibrobar_core::{
     Bar, Contact, ContactLaw, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System,
@@ -72,6 +76,12 @@ pub struct Scenario {
     /// `[bar]`. See the `[beam]` section of this module.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub beam: Option<Beam>,
+    /// `[cutting]`: the cutting process at the force point (issue #13), deserialised straight
+    /// into core [`Cutting`]; absent: no cut (and left out of the serialised scenario, so
+    /// existing metadata and fingerprints are unchanged). With it, the harmonic force is off
+    /// unless `[forcing]` sets `amplitude_n` ([`Scenario::from_toml`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cutting: Option<Cutting>,
     /// The bars' models, computed once ([`Scenario::bars`]; a beam's modes cost up to seconds).
     #[serde(skip)]
     bars_cache: BarsCache,
@@ -108,6 +118,7 @@ impl Default for Scenario {
             initial: State::default(),
             sweep: SweepRange::default(),
             beam: None,
+            cutting: None,
             bars_cache: BarsCache::default(),
         }
     }
@@ -322,6 +333,10 @@ pub struct Overrides {
     pub duration: Option<f64>,
     /// `--rms-fraction`.
     pub rms_fraction: Option<f64>,
+    /// `--width-mm`: the width of cut of a `[cutting]` scenario, in mm.
+    pub width_mm: Option<f64>,
+    /// `--spindle-rpm`: the spindle speed of a `[cutting]` scenario.
+    pub spindle_rpm: Option<f64>,
 }
 
 impl Scenario {
@@ -344,6 +359,15 @@ impl Scenario {
         }
         let mut s: Scenario = toml::from_str(text)?;
         s.damper.contact = s.contact;
+        // A cut is its own excitation: the paper's 15 N harmonic force would otherwise ride on
+        // every cutting run unasked. `[forcing] amplitude_n` (runout) turns it back on.
+        let amplitude_given = raw
+            .get("forcing")
+            .and_then(|f| f.get("amplitude_n"))
+            .is_some();
+        if s.cutting.is_some() && !amplitude_given {
+            s.forcing.amplitude_n = 0.0;
+        }
         if gap_given && !gaps_given {
             s.sweep.gaps_m = vec![s.damper.gap_m];
         }
@@ -393,6 +417,29 @@ impl Scenario {
                 bail!("--rms-fraction = {f} is outside the allowed range (0, 1]");
             }
             self.run.settings.rms_fraction = f;
+        }
+        if o.width_mm.is_some() || o.spindle_rpm.is_some() {
+            let Some(c) = self.cutting.as_mut() else {
+                bail!(
+                    "--width-mm and --spindle-rpm need a scenario with a [cutting] section \
+                     (this one has no cut)"
+                );
+            };
+            if let Some(b) = o.width_mm {
+                check_positive("--width-mm", b, "mm")?;
+                // A division is correctly rounded: 1.5 mm is the same double as 1.5e-3 m.
+                c.width_m = b / 1e3;
+            }
+            if let Some(n) = o.spindle_rpm {
+                vibrobar_core::limits::check(
+                    "--spindle-rpm",
+                    n,
+                    vibrobar_core::limits::SPINDLE_RPM_MIN,
+                    vibrobar_core::limits::SPINDLE_RPM_MAX,
+                    "revolutions per minute of a lathe spindle",
+                )?;
+                c.spindle_rpm = n;
+            }
         }
         Ok(())
     }
@@ -520,6 +567,33 @@ impl Scenario {
         self.initial
     }
 
+    /// The solver of a `[cutting]` scenario's runs: the exact solver with the delay stepping
+    /// ([`ExactCutting`]; the initial state is an offset from the cut's static equilibrium).
+    /// `None` without `[cutting]` (the solver is the one named by `[run] solver`). Only the
+    /// exact solver runs a cut: another name is refused with the section named.
+    pub fn cutting_solver(&self) -> Result<Option<Box<dyn Solver>>> {
+        let Some(c) = self.cutting else {
+            return Ok(None);
+        };
+        if self.run.solver != "exact" {
+            bail!(
+                "[cutting] runs with the exact solver only (its delay stepping); got [run] \
+                 solver = {:?} (or --solver): use \"exact\"",
+                self.run.solver
+            );
+        }
+        Ok(Some(Box::new(ExactCutting::new(c))))
+    }
+
+    /// Refuse `[cutting]` for `command`, which cannot use it (every command but `run`,
+    /// `ensemble` and `lobes`).
+    pub fn refuse_cutting(&self, command: &str) -> Result<()> {
+        if self.cutting.is_some() {
+            bail!("{}", cutting_refusal(command));
+        }
+        Ok(())
+    }
+
     /// Validate everything a run needs; errors name the scenario field and its allowed range.
     pub fn validate(&self) -> Result<()> {
         positive("gravity_m_s2", self.gravity_m_s2)?;
@@ -538,6 +612,9 @@ impl Scenario {
         })?;
         self.settings().validate()?;
         self.initial_state().validate(&damped)?;
+        if let Some(c) = &self.cutting {
+            c.validate()?;
+        }
         Ok(())
     }
 }
@@ -550,6 +627,24 @@ fn positive(field: &str, v: f64) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The commands that run a `[cutting]` scenario.
+pub const CUTTING_COMMANDS: [&str; 3] = ["run", "ensemble", "lobes"];
+
+/// The error for a `[cutting]` scenario given to `command`.
+pub fn cutting_refusal(command: &str) -> String {
+    format!(
+        "vibrobar {command} does not support the [cutting] section (the cutting process runs with \
+         {}); remove [cutting] from the scenario for this command",
+        CUTTING_COMMANDS.join(", ")
+    )
+}
+
+/// Whether the TOML text has a `[cutting]` section (unparsable text: no; its command reports
+/// the parse error).
+pub fn text_has_cutting(text: &str) -> bool {
+    toml::from_str::<toml::Table>(text).is_ok_and(|t| t.contains_key("cutting"))
 }
 
 /// A flag that must be finite and > 0.
@@ -934,5 +1029,121 @@ mod tests {
         let b = s.beam.clone().unwrap();
         assert_eq!(b.cavity_position_m, b.length_m);
         s.structure().modal_model().unwrap();
+    }
+
+    const CUT: &str =
+        "[cutting]\ncoefficient_n_m2 = 2e9\nwidth_m = 1e-3\nfeed_m = 1e-4\nspindle_rpm = 5000\n";
+
+    /// `[cutting]` deserialises into core `Cutting`, turns the harmonic force off unless
+    /// `[forcing] amplitude_n` is given, and is left out of a scenario without it.
+    #[test]
+    fn cutting_section_turns_the_harmonic_force_off_and_is_absent_when_not_given() {
+        let s = Scenario::from_toml(CUT).unwrap();
+        let c = s.cutting.unwrap();
+        assert_eq!(c.width_m, 1e-3);
+        assert_eq!(c.force_direction_factor, 1.0);
+        assert_eq!(
+            c.force_law,
+            vibrobar_core::excitation::CuttingForceLaw::Linear
+        );
+        assert_eq!(s.forcing.amplitude_n, 0.0);
+        s.validate().unwrap();
+        // Runout on top: [forcing] amplitude_n sets it; other [forcing] keys alone do not.
+        let s = Scenario::from_toml(&format!("{CUT}[forcing]\namplitude_n = 3.0\n")).unwrap();
+        assert_eq!(s.forcing.amplitude_n, 3.0);
+        let s = Scenario::from_toml(&format!("{CUT}[forcing]\nfrequency_ratio = 0.9\n")).unwrap();
+        assert_eq!(s.forcing.amplitude_n, 0.0);
+        // Round trip, and no `cutting` key without the section (metadata unchanged).
+        let s = Scenario::from_toml(CUT).unwrap();
+        let text = toml::to_string(&s).unwrap();
+        assert_eq!(Scenario::from_toml(&text).unwrap(), s);
+        assert!(serde_json::to_value(Scenario::paper())
+            .unwrap()
+            .get("cutting")
+            .is_none());
+        assert_eq!(Scenario::from_toml("").unwrap().forcing.amplitude_n, 15.0);
+        let e = format!(
+            "{:#}",
+            Scenario::from_toml(&format!("{CUT}widht_m = 1\n")).unwrap_err()
+        );
+        assert!(e.contains("widht_m"), "{e}");
+        let e = format!(
+            "{:#}",
+            Scenario::from_toml("[cutting]\nwidth_m = 1e-3\nfeed_m = 1e-4\nspindle_rpm = 5000\n")
+                .unwrap_err()
+        );
+        assert!(e.contains("coefficient_n_m2"), "{e}");
+    }
+
+    /// The issue's bad inputs, from the file: each error names `cutting.<field>` and its range.
+    #[test]
+    fn cutting_bad_inputs_name_the_field_and_range() {
+        for (key, value, range) in [
+            ("coefficient_n_m2", "0.0", "(0, ∞)"),
+            ("coefficient_n_m2", "-2e9", "(0, ∞)"),
+            ("width_m", "0.0", "(0, ∞)"),
+            ("width_m", "-1e-3", "(0, ∞)"),
+            ("feed_m", "0.0", "(0, ∞)"),
+            ("feed_m", "-1e-4", "(0, ∞)"),
+            ("spindle_rpm", "0.5", "[1, "),
+            ("spindle_rpm", "250000", "[1, "),
+            ("force_direction_factor", "0.0", "(0, 1]"),
+            ("force_direction_factor", "1.2", "(0, 1]"),
+            ("chip_direction_factor", "-0.5", "(0, 1]"),
+            ("chip_direction_factor", "2", "(0, 1]"),
+        ] {
+            let text = CUT
+                .lines()
+                .filter(|l| !l.starts_with(key))
+                .chain(std::iter::once(format!("{key} = {value}").as_str()))
+                .collect::<Vec<_>>()
+                .join("\n");
+            let s = Scenario::from_toml(&text).unwrap();
+            let e = s.validate().unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("cutting.{key}")) && e.contains(range),
+                "{key} = {value}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn cutting_flags_override_the_section_and_need_it() {
+        let mut s = Scenario::from_toml(CUT).unwrap();
+        s.apply(&Overrides {
+            width_mm: Some(1.5),
+            spindle_rpm: Some(7000.0),
+            ..Overrides::default()
+        })
+        .unwrap();
+        let c = s.cutting.unwrap();
+        assert_eq!((c.width_m, c.spindle_rpm), (1.5e-3, 7000.0));
+        for (o, want) in [
+            (
+                Overrides {
+                    width_mm: Some(0.0),
+                    ..Overrides::default()
+                },
+                "--width-mm",
+            ),
+            (
+                Overrides {
+                    spindle_rpm: Some(3e5),
+                    ..Overrides::default()
+                },
+                "--spindle-rpm",
+            ),
+        ] {
+            let e = s.clone().apply(&o).unwrap_err().to_string();
+            assert!(e.contains(want), "{e}");
+        }
+        let e = Scenario::paper()
+            .apply(&Overrides {
+                spindle_rpm: Some(5000.0),
+                ..Overrides::default()
+            })
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("[cutting]"), "{e}");
     }
 }

@@ -94,6 +94,7 @@ impl SystemArgs {
             dt: self.dt,
             duration: self.duration,
             rms_fraction: self.rms_fraction,
+            ..Overrides::default()
         })?;
         sc.apply_beam_flags(self.beam_modes, self.cavity_position_mm)?;
         let st = sc.settings();
@@ -133,7 +134,10 @@ impl SystemArgs {
     /// The solver named by `--solver` (or the scenario).
     pub fn solver(&self) -> anyhow::Result<Box<dyn Solver>> {
         let sc = self.scenario()?;
-        make_solver(&sc.run.solver, &sc.settings())
+        match sc.cutting_solver()? {
+            Some(s) => Ok(s),
+            None => make_solver(&sc.run.solver, &sc.settings()),
+        }
     }
 
     /// Parameters for metadata (SI units).
@@ -160,6 +164,7 @@ impl SystemArgs {
             solver: sc.run.solver.clone(),
             settings: sc.settings(),
             beam: sc.beam.clone(),
+            cutting: sc.cutting,
         })
     }
 
