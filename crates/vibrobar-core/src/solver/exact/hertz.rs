@@ -65,14 +65,14 @@ impl HertzSegment {
 }
 
 /// 5-point Gauss–Legendre nodes and weights on [−1, 1].
-const GL_X: [f64; 5] = [
+pub(crate) const GL_X: [f64; 5] = [
     -0.906_179_845_938_664,
     -0.538_469_310_105_683,
     0.0,
     0.538_469_310_105_683,
     0.906_179_845_938_664,
 ];
-const GL_W: [f64; 5] = [
+pub(crate) const GL_W: [f64; 5] = [
     0.236_926_885_056_189,
     0.478_628_670_499_366,
     0.568_888_888_888_889,
@@ -149,16 +149,16 @@ pub(super) fn contact(
     let meff = cs.m * cs.md / (cs.m + cs.md);
     let d_scale = law.with_damping(0.0).max_penetration_m(meff, v0);
     let v_scale = v0.max(cs.lg * cs.om);
-    let ig = Dopri5::<5> {
-        rtol: CONTACT_RTOL,
-        atol: [
+    let ig = Dopri5::<5>::new(
+        CONTACT_RTOL,
+        [
             CONTACT_RTOL * cs.lg,
             CONTACT_RTOL * v_scale,
             CONTACT_RTOL * d_scale,
             CONTACT_RTOL * v_scale,
             CONTACT_RTOL * 0.5 * meff * v_scale * v_scale,
         ],
-    };
+    );
     let mut y: Y = [s.u, s.du, 0.0, approach, 0.0];
     let mut t = t0;
     let mut h = law.undamped_contact_time_s(meff, v0) / 50.0;
