@@ -7,7 +7,7 @@
 use crate::damper::contact::Hertz;
 use crate::error::SimError;
 use crate::solver::dopri5::Dopri5;
-use crate::solver::exact::hertz_phase::run_phase;
+use crate::solver::exact::hertz_phase::{run_phase, Event};
 
 /// Relative tolerance of the contact phase (lab and solvers).
 pub const CONTACT_RTOL: f64 = 1e-9;
@@ -67,7 +67,7 @@ pub fn single_impact(law: &Hertz, mass_kg: f64, speed_m_s: f64) -> Result<Impact
         [0.0, v0, 0.0],
         t_c / 50.0,
         100.0 * t_c,
-        &[&|_t: f64, y: &[f64; 3]| y[0]],
+        &[Event::Comp { i: 0, sign: 1.0 }],
         |st, th_end| {
             for k in 0..=FORCE_SAMPLES {
                 let th = th_end * k as f64 / FORCE_SAMPLES as f64;

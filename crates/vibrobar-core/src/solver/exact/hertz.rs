@@ -21,7 +21,7 @@
 //! [`EventKind::Impact`] with the approach speed and `W_c` as its energy loss, so impact counts
 //! and the energy books keep their meaning. Work is bounded by [`MAX_CONTACT_STEPS`].
 
-use super::hertz_phase::{run_phase, EventFn, MAX_CONTACT_STEPS};
+use super::hertz_phase::{run_phase, Event, MAX_CONTACT_STEPS};
 use super::{wall_of, Book, Consts, Md, St};
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
@@ -104,7 +104,14 @@ impl Segment for HertzSegment {
         }
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
-        self.integrals(a_s, b_s).u2_m2_s
+        // The `u2_m2_s` of `integrals`, term for term (the RMS hot path: no forcing `sin`).
+        let (mid, half) = (0.5 * (a_s + b_s), 0.5 * (b_s - a_s));
+        let mut u2 = 0.0;
+        for (x, wgt) in GL_X.iter().zip(GL_W) {
+            let u = self.y_at(mid + half * x)[0];
+            u2 += wgt * half * u * u;
+        }
+        u2
     }
     fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals {
         let (mid, half) = (0.5 * (a_s + b_s), 0.5 * (b_s - a_s));
@@ -192,13 +199,13 @@ pub(super) fn contact(
         // Events: 0 release (δ < 0); sliding with friction: 1 δ̇ crosses 0 (the sign of ẇ);
         // stuck: 1, 2 the friction needed leaves [−f, f].
         let dsign = if sw * sigma >= 0.0 { 1.0 } else { -1.0 };
-        let release = |_t: f64, y: &Y| y[2];
-        let switch = move |_t: f64, y: &Y| dsign * y[3];
+        let release = Event::Comp { i: 2, sign: 1.0 };
+        let switch = Event::Comp { i: 3, sign: dsign };
         let lag = |t: f64, y: &Y| cs.fl - needed(t, y);
         let lead = |t: f64, y: &Y| cs.fl + needed(t, y);
-        let slide_ev: [EventFn<'_, 5>; 2] = [&release, &switch];
-        let stuck_ev: [EventFn<'_, 5>; 3] = [&release, &lag, &lead];
-        let events: &[EventFn<'_, 5>] = if stuck {
+        let slide_ev: [Event<'_, 5>; 2] = [release, switch];
+        let stuck_ev: [Event<'_, 5>; 3] = [release, Event::Fn(&lag), Event::Fn(&lead)];
+        let events: &[Event<'_, 5>] = if stuck {
             &stuck_ev
         } else if cs.frictional() {
             &slide_ev

@@ -28,7 +28,7 @@ use crate::error::SimError;
 use crate::limits::MAX_BEAM_MODES;
 use crate::solver::dopri5::{DenseStep, Dopri5};
 use crate::solver::exact::hertz::{APPROACH_FLOOR_REL, GL_W, GL_X};
-use crate::solver::exact::hertz_phase::{run_phase, EventFn, MAX_CONTACT_STEPS};
+use crate::solver::exact::hertz_phase::{run_phase, Event, MAX_CONTACT_STEPS};
 use crate::solver::{EventKind, Mode, Segment, SegmentIntegrals};
 
 /// Capacity of the phase's state: `N` displacements, `N` velocities, `δ`, `δ̇`, `W_c`.
@@ -86,7 +86,19 @@ impl Segment for ContactSegment<'_> {
         self.st_at(t_s).0.public(self.cs)
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
-        self.integrals(a_s, b_s).u2_m2_s
+        // The `u2_m2_s` of `integrals`, term for term (the RMS hot path: no forcing `sin`).
+        let cs = self.cs;
+        let (mid, half) = (0.5 * (a_s + b_s), 0.5 * (b_s - a_s));
+        let mut u2 = 0.0;
+        for (x, wgt) in GL_X.iter().zip(GL_W) {
+            let y = self.y_at(mid + half * x);
+            let mut ur = 0.0;
+            for i in 0..cs.n {
+                ur += cs.phi_r[i] * y[i];
+            }
+            u2 += wgt * half * ur * ur;
+        }
+        u2
     }
     fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals {
         let cs = self.cs;
@@ -218,13 +230,16 @@ pub(super) fn contact(
         // Events: 0 release (δ < 0); sliding with friction: 1 δ̇ crosses 0 (the sign of ẇ);
         // stuck: 1, 2 the friction needed leaves [−f, f].
         let dsign = if sw * sigma >= 0.0 { 1.0 } else { -1.0 };
-        let release = |_t: f64, y: &Y| y[id];
-        let switch = move |_t: f64, y: &Y| dsign * y[idd];
+        let release = Event::Comp { i: id, sign: 1.0 };
+        let switch = Event::Comp {
+            i: idd,
+            sign: dsign,
+        };
         let lag = |t: f64, y: &Y| cs.fl - needed(t, y);
         let lead = |t: f64, y: &Y| cs.fl + needed(t, y);
-        let slide_ev: [EventFn<'_, NY>; 2] = [&release, &switch];
-        let stuck_ev: [EventFn<'_, NY>; 3] = [&release, &lag, &lead];
-        let events: &[EventFn<'_, NY>] = if stuck {
+        let slide_ev: [Event<'_, NY>; 2] = [release, switch];
+        let stuck_ev: [Event<'_, NY>; 3] = [release, Event::Fn(&lag), Event::Fn(&lead)];
+        let events: &[Event<'_, NY>] = if stuck {
             &stuck_ev
         } else if cs.frictional() {
             &slide_ev
