@@ -184,14 +184,22 @@ pub(super) fn contact(
     };
     loop {
         let fb = if stuck { 0.0 } else { cs.fb(sigma) };
+        // The last `(t, F(t))`: the 6th and 7th stages of a step are both at `t + h`.
+        let mut last = (f64::NAN, 0.0);
         let mut f = |t: f64, y: &Y| {
+            let force = if t == last.0 {
+                last.1
+            } else {
+                let v = force_at(t);
+                last = (t, v);
+                v
+            };
             if stuck {
-                let ddu = (force_at(t) - cs.c * y[1] - cs.k * y[0]) / mtot;
+                let ddu = (force - cs.c * y[1] - cs.k * y[0]) / mtot;
                 return [y[1], ddu, 0.0, 0.0, 0.0];
             }
-            let p = law.force_n(y[2], y[3], v0);
-            let pd = law.damping_force_n(y[2], y[3], v0);
-            let ddu = (force_at(t) - cs.c * y[1] - cs.k * y[0] + sw * p - fb) / cs.m;
+            let (p, pd) = law.forces_n(y[2], y[3], v0);
+            let ddu = (force - cs.c * y[1] - cs.k * y[0] + sw * p - fb) / cs.m;
             let ddv = (-sw * p + fb) / cs.md;
             // δ̈ = sw·(v̈ − ü).
             [y[1], ddu, y[3], sw * (ddv - ddu), pd * y[3]]

@@ -24,6 +24,10 @@
 //! other modal velocities keep their components), the ball held on the wall for the summed
 //! sequence's duration, then the [`EventKind::ChatterLimit`] with the energy it removed.
 //!
+//! Under `contact.law = hertz` a wall touch starts the compliant contact phase of [`hertz`]
+//! (Dopri5 on the N modes and the ball, the force through the contact row) instead of the impact
+//! law; chatter limits and rigid wall contact do not occur under that law.
+//!
 //! The internal state keeps `w`, `ẇ` (relative coordinates, free of cancellation) beside the
 //! modal coordinates; the public state has `v = w + Σφₙ(x_d)qₙ`.
 //!

@@ -200,15 +200,23 @@ pub(super) fn contact(
     let needed = |t: f64, y: &Y| cs.md * pair_acc(t, y) + sw * law.elastic_force_n(y[id]);
     loop {
         let fb = if stuck { 0.0 } else { cs.fb(sigma) };
+        // The last `(t, F(t))`: the 6th and 7th stages of a step are both at `t + h`.
+        let mut last = (f64::NAN, 0.0);
         let mut f = |t: f64, y: &Y| {
             let mut out = [0.0; NY];
-            let force = cs.force_at(t);
+            let force = if t == last.0 {
+                last.1
+            } else {
+                let v = cs.force_at(t);
+                last = (t, v);
+                v
+            };
             // The force on the bar at the cavity: held, `−m_d ü_pair`; else `sw·P − F_ball`.
             let (on_bar, p, pd) = if stuck {
                 (-cs.md * pair_acc(t, y), 0.0, 0.0)
             } else {
-                let p = law.force_n(y[id], y[idd], v0);
-                (sw * p - fb, p, law.damping_force_n(y[id], y[idd], v0))
+                let (p, pd) = law.forces_n(y[id], y[idd], v0);
+                (sw * p - fb, p, pd)
             };
             let mut ddud = 0.0;
             for i in 0..n {
