@@ -402,3 +402,47 @@ fn modal_rk4_refuses_hertz() {
         .unwrap_err();
     assert!(err.to_string().contains("hertz"), "{err}");
 }
+
+/// A ball pressed on a wall of a beam whose modes are free (ω → 0, no damping) by a constant
+/// push at the tip (the resting contact a grazing touch leads to): a long rest ends at the bound
+/// on the work per contact with an error that names it, in bounded time, never a hang. (The
+/// creep towards Hertz's static penetration is tested on the lumped bar, tests/exact_hertz.rs;
+/// here the damping's reference-speed floor, 1e-3·l_g·max(Ω, ω₁), is tiny with these free
+/// modes, so the rest is stiff and reaches the bound within milliseconds.)
+#[test]
+fn resting_contact_on_the_beam_is_bounded() {
+    let beam = Structure::Beam(Beam {
+        modes: Some(3),
+        ..Beam::default()
+    })
+    .modal_model()
+    .unwrap();
+    let mut modes = beam.modes().to_vec();
+    for m in &mut modes {
+        m.omega_rad_s = 1e-3;
+        m.damping_ratio = 0.0;
+    }
+    let d = hertz(Damper::paper(1e-3, FrictionModel::None));
+    let sys = ModalSystem {
+        model: ModalModel::new(&modes, beam.static_tip_compliance_m_per_n).unwrap(),
+        damper: Some(d),
+        forcing: Forcing {
+            amplitude_n: 0.0,
+            frequency: params::Frequency::Ratio(1.0),
+            // Pushes the bar to −u (φ_f, φ_d > 0): the ball (w = v − u) is pressed on +.
+            static_force_n: -2.0,
+        },
+        gravity_m_s2: params::STANDARD_GRAVITY_M_S2,
+    };
+    let lg = d.half_gap_m();
+    let init = ModalState {
+        v_m: lg,
+        ..ModalState::REST
+    };
+    let t = std::time::Instant::now();
+    let e = ModalExact::default()
+        .run(&sys, &init, 100.0, &mut ())
+        .unwrap_err();
+    assert!(e.to_string().contains("integrator steps"), "{e}");
+    assert!(t.elapsed().as_secs_f64() < 20.0);
+}

@@ -187,7 +187,7 @@ pub(super) fn contact(
         // The last `(t, F(t))`: the 6th and 7th stages of a step are both at `t + h`.
         let mut last = (f64::NAN, 0.0);
         let mut f = |t: f64, y: &Y| {
-            let force = if t == last.0 {
+            let force = if t.to_bits() == last.0.to_bits() {
                 last.1
             } else {
                 let v = force_at(t);

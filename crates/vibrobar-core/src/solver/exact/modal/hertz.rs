@@ -93,8 +93,8 @@ impl Segment for ContactSegment<'_> {
         for (x, wgt) in GL_X.iter().zip(GL_W) {
             let y = self.y_at(mid + half * x);
             let mut ur = 0.0;
-            for i in 0..cs.n {
-                ur += cs.phi_r[i] * y[i];
+            for (p, q) in cs.phi_r[..cs.n].iter().zip(&y[..cs.n]) {
+                ur += p * q;
             }
             u2 += wgt * half * ur * ur;
         }
@@ -204,7 +204,7 @@ pub(super) fn contact(
         let mut last = (f64::NAN, 0.0);
         let mut f = |t: f64, y: &Y| {
             let mut out = [0.0; NY];
-            let force = if t == last.0 {
+            let force = if t.to_bits() == last.0.to_bits() {
                 last.1
             } else {
                 let v = cs.force_at(t);
