@@ -7,8 +7,8 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
 use crate::commands::{
-    beam, bench, contact_laws, contact_test, explore, lumped_vs_beam, map, merge, modes, paper,
-    placement, run, sweep,
+    beam, bench, contact_convergence, contact_laws, contact_test, explore, lumped_vs_beam, map,
+    merge, modes, paper, placement, run, sweep,
 };
 
 /// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
@@ -149,6 +149,9 @@ pub enum Command {
     /// Write the generated Markdown document comparing the restitution and hertz contact laws
     /// on the lumped paper cases (sweeps, best gap, chaotic points by ensembles).
     ContactLaws(crate::commands::contact_laws::ContactLawsArgs),
+    /// Write the generated study of the beam's answers against the number of modes under the
+    /// restitution and hertz contact laws (Markdown, CSV and figure).
+    ContactConvergence(crate::commands::contact_convergence::ContactConvergenceArgs),
 }
 
 impl Command {
@@ -172,6 +175,7 @@ impl Command {
             Command::LumpedVsBeam(_) => "lumped-vs-beam",
             Command::ContactTest(_) => "contact-test",
             Command::ContactLaws(_) => "contact-laws",
+            Command::ContactConvergence(_) => "contact-convergence",
         }
     }
 
@@ -201,6 +205,7 @@ impl Command {
             Command::LumpedVsBeam(a) => (vec![], Some(a.out.as_path())),
             Command::ContactTest(a) => (one(&a.scenario), Some(a.out.as_path())),
             Command::ContactLaws(a) => (vec![], Some(a.out.as_path())),
+            Command::ContactConvergence(a) => (vec![], Some(a.out.as_path())),
         }
     }
 
@@ -292,5 +297,6 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::LumpedVsBeam(a) => lumped_vs_beam::run(&a),
         Command::ContactTest(a) => contact_test::run(&a),
         Command::ContactLaws(a) => contact_laws::run(&a),
+        Command::ContactConvergence(a) => contact_convergence::run(&a),
     }
 }

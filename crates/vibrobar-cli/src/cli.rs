@@ -40,7 +40,7 @@ pub enum ContactArg {
     /// Instantaneous impact with restitution e (the paper's Eqs. 4–5).
     Restitution,
     /// Compliant Hertz contact with Hunt–Crossley damping calibrated to e (`[contact]`
-    /// constants; lumped bar, exact solver).
+    /// constants; exact solver, lumped bar or beam).
     Hertz,
 }
 

@@ -422,6 +422,13 @@ fn paper_quick_writes_everything() {
     ] {
         assert!(report.contains(needle), "REPORT.md lacks {needle:?}");
     }
+    // Claim C1 (issue #9): restitution against hertz on the same cases, with its verdict.
+    let c1 = report
+        .lines()
+        .find(|l| l.starts_with("| C1 |"))
+        .expect("claim C1 in REPORT.md");
+    assert!(c1.contains("adequate model") && c1.contains("s.e."), "{c1}");
+    assert!(report.contains("exact: restitution vs hertz"));
     // Initial-condition ensemble: --quick has 4 members; frictionless 0.1 mm at the 11 ratios,
     // then the three friction sets at 1 mm, r = 1.
     let (header, rows) = csv(&out.join("ic_ensemble.csv"));
@@ -442,7 +449,12 @@ fn paper_quick_writes_everything() {
     assert_eq!(rows[11][col("gap_mm")], "1");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
-    assert_eq!(json["claims"].as_array().unwrap().len(), 16);
+    // 16 claims of the paper and C1 (issue #9: instantaneous impacts against hertz).
+    assert_eq!(json["claims"].as_array().unwrap().len(), 17);
+    assert!(json["contact_laws"]["mean_abs_pp"]
+        .as_f64()
+        .unwrap()
+        .is_finite());
     assert_eq!(json["ic_ensemble"]["points"].as_array().unwrap().len(), 14);
     assert_eq!(json["ic_ensemble"]["seed"], 1);
     no_partial_files(&out);

@@ -169,3 +169,58 @@ fn contact_laws_document_has_every_section_and_a_verdict() {
         assert!(doc.contains(want), "missing {want:?}");
     }
 }
+
+/// `contact-convergence --quick` writes the document, the CSV (its header, one row per law and
+/// N for point A) and the figure; the hertz rows dissipate through contacts, the restitution
+/// rows through impacts, and each law gets a verdict computed from the table.
+#[test]
+fn contact_convergence_writes_table_figure_and_verdicts() {
+    let dir = tempfile::tempdir().unwrap();
+    assert_ok(&vibrobar_in(
+        dir.path(),
+        &["contact-convergence", "--quick", "--out", "cc.md"],
+    ));
+    let text = fs::read_to_string(dir.path().join("cc.csv")).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    assert_eq!(
+        header,
+        "point,gap_mm,ratio,law,modes,inverse_effective_mass_per_kg,residual_compliance_m_per_n,rms_solid_m,rms_damped_m,reduction_pct,dissipation_w,impacts_per_cycle,regime"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 2 * 4, "{text}");
+    for law in ["restitution", "hertz"] {
+        let of: Vec<&Vec<&str>> = rows.iter().filter(|r| r[3] == law).collect();
+        assert_eq!(of.len(), 4);
+        for (k, r) in of.iter().enumerate() {
+            assert_eq!(r[0], "A");
+            assert_eq!(r[4], (k + 1).to_string());
+            let loss: f64 = r[10].parse().unwrap();
+            assert!(loss > 0.0 && loss.is_finite(), "{r:?}");
+        }
+    }
+    // The residual compliance falls as modes are added.
+    let res: Vec<f64> = rows[..4].iter().map(|r| r[6].parse().unwrap()).collect();
+    assert!(
+        res.windows(2).all(|w| w[1] <= w[0]) && res[3] < res[0],
+        "{res:?}"
+    );
+    for f in ["cc.png", "cc.svg"] {
+        assert!(
+            fs::metadata(dir.path().join(f)).unwrap().len() > 1000,
+            "{f}"
+        );
+    }
+    let doc = fs::read_to_string(dir.path().join("cc.md")).unwrap();
+    for want in [
+        "## Point A",
+        "**Criterion.**",
+        "## Verdict",
+        "`restitution` converges at",
+        "`hertz` converges at",
+        "## Residual flexibility of the truncated modes",
+        "--quick",
+    ] {
+        assert!(doc.contains(want), "missing {want:?}");
+    }
+}

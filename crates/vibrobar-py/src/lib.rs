@@ -967,7 +967,12 @@ fn run<'py>(
         b.set_item("residual_j", e.residual_j)?;
         d.set_item("energy", b)?;
     }
-    let gap_m = sys.damper.map_or(f64::INFINITY, |d| d.gap_m);
+    // Under the hertz law the penetration is the contact's own compression, not an error (as
+    // the CLI).
+    let gap_m = sys
+        .damper
+        .filter(|d| d.contact.law == vibrobar_core::ContactLaw::Restitution)
+        .map_or(f64::INFINITY, |d| d.gap_m);
     let pen = res.summary.max_penetration_m;
     if let Some(f) = limits::excessive_penetration(pen, gap_m) {
         let ratio = sys.omega_rad_s() / sys.omega1_rad_s();
@@ -1033,8 +1038,10 @@ fn sweep<'py>(
             false,
         ))
     })?;
+    let restitution = base.ball.contact.law == vibrobar_core::ContactLaw::Restitution;
     let worst = rows
         .iter()
+        .filter(|_| restitution)
         .filter_map(|r| {
             let pen = r.damped.summary.max_penetration_m;
             limits::excessive_penetration(pen, r.point.gap_m)

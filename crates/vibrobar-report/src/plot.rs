@@ -331,6 +331,31 @@ pub fn rms_vs_ratio(stem: &Path, title: &str, curves: &[Curve]) -> Result<()> {
     })
 }
 
+/// One panel of [`panels`]: caption, x label, y label, curves.
+pub type Panel = (String, String, String, Vec<Curve>);
+
+/// Line panels on a grid of `rows × cols` (e.g. a study against the number of modes), with
+/// legends; `stem.png` and `stem.svg`.
+pub fn panels(stem: &Path, title: &str, rows: usize, cols: usize, ps: &[Panel]) -> Result<()> {
+    fn draw<DB: DrawingBackend>(
+        root: &DrawingArea<DB, Shift>,
+        title: &str,
+        grid: (usize, usize),
+        ps: &[Panel],
+    ) -> Result<()> {
+        let root = root.titled(title, ("sans-serif", 24)).map_err(pe)?;
+        let areas = root.split_evenly(grid);
+        for (a, (cap, xl, yl, curves)) in areas.iter().zip(ps) {
+            line_chart(a, cap, xl, yl, curves, &[], true, false)?;
+        }
+        Ok(())
+    }
+    let size = (700 * cols as u32, 480 * rows as u32 + 40);
+    render_both(stem, size, &|r| draw(r, title, (rows, cols), ps), &|r| {
+        draw(r, title, (rows, cols), ps)
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

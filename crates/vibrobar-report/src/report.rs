@@ -25,6 +25,95 @@ pub const IC_MEAN_TOL: f64 = 0.05;
 /// Ratios of "impacts only at 0.99–1.01" and of the near-resonance robustness claim.
 pub const IMPACT_BAND: [f64; 3] = [0.99, 1.0, 1.01];
 
+/// Largest mean |Δ reduction| (percentage points) between `restitution` and `hertz` over the
+/// sweep set for which instantaneous impacts count as an adequate model.
+pub const CONTACT_MEAN_PP_TOL: f64 = 2.0;
+/// Largest |Δ ensemble mean| / standard error at the chaotic points for the same claim.
+pub const CONTACT_Z_TOL: f64 = 3.0;
+/// Who checks the contact-law claim (its `Claim::by`).
+pub const CONTACT_BY: &str = "exact: restitution vs hertz";
+
+/// `restitution` against `hertz` on the lumped paper cases (issue #9 §5): the numbers behind the
+/// claim "instantaneous impacts are an adequate model", one definition for `vibrobar
+/// contact-laws` and `vibrobar paper`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ContactComparison {
+    /// Points of the sweep set compared.
+    pub points: usize,
+    /// Mean |Δ reduction| over the sweep set, percentage points.
+    pub mean_abs_pp: f64,
+    /// Largest Δ (hertz − restitution), percentage points, and where.
+    pub worst_pp: f64,
+    /// Where the largest Δ is (`variant, gap, ratio`).
+    pub worst_at: String,
+    /// Largest |Δ ensemble mean| / standard error at the chaotic points.
+    pub max_z: f64,
+    /// Ensemble members per point.
+    pub members: usize,
+}
+
+impl ContactComparison {
+    /// Compare the sweep rows of the two laws (same points, same order) and their ensembles
+    /// (same points, same order, `members` each).
+    pub fn new(
+        variants: &[Variant],
+        restitution: &[SweepRow],
+        hertz: &[SweepRow],
+        ens_restitution: &[EnsembleStats],
+        ens_hertz: &[EnsembleStats],
+        members: usize,
+    ) -> ContactComparison {
+        let mut worst = (0.0f64, String::new());
+        let mut sum_abs = 0.0;
+        for (r, h) in restitution.iter().zip(hertz) {
+            let key = variants
+                .iter()
+                .find(|v| v.friction == r.point.friction && v.force_n == r.point.friction_force_n)
+                .map_or("?".to_string(), |v| v.key.clone());
+            let delta = h.reduction_pct() - r.reduction_pct();
+            sum_abs += delta.abs();
+            if delta.abs() > worst.0.abs() {
+                worst = (
+                    delta,
+                    format!("{key}, {} mm, r = {}", r.point.gap_m * 1e3, r.point.ratio),
+                );
+            }
+        }
+        let max_z = ens_restitution
+            .iter()
+            .zip(ens_hertz)
+            .map(|(r, h)| Self::z(r, h, members).abs())
+            .fold(0.0, f64::max);
+        ContactComparison {
+            points: restitution.len(),
+            mean_abs_pp: sum_abs / restitution.len().max(1) as f64,
+            worst_pp: worst.0,
+            worst_at: worst.1,
+            max_z,
+            members,
+        }
+    }
+
+    /// `(mean_h − mean_r)/s.e.` of one ensemble pair.
+    pub fn z(r: &EnsembleStats, h: &EnsembleStats, members: usize) -> f64 {
+        let se = ((r.std_rms_m.powi(2) + h.std_rms_m.powi(2)) / members.max(1) as f64).sqrt();
+        (h.mean_rms_m - r.mean_rms_m) / se.max(f64::MIN_POSITIVE)
+    }
+
+    /// Whether instantaneous impacts are an adequate model by the stated criterion.
+    pub fn adequate(&self) -> bool {
+        self.mean_abs_pp < CONTACT_MEAN_PP_TOL && self.max_z < CONTACT_Z_TOL
+    }
+
+    /// The criterion, in words.
+    pub fn rule() -> String {
+        format!(
+            "mean |Δ reduction| < {CONTACT_MEAN_PP_TOL} points over the Figs. 3/5 sweep set and \
+             every chaotic-point ensemble |Δ mean|/s.e. < {CONTACT_Z_TOL} (exact solver, lumped bar)"
+        )
+    }
+}
+
 /// What a parameter set is for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum Role {
@@ -83,6 +172,8 @@ pub struct ReportInput {
     pub files: Vec<String>,
     /// Initial-condition ensemble (None: skipped).
     pub ensemble: Option<IcEnsemble>,
+    /// `restitution` against `hertz` on the same cases (None: skipped).
+    pub contact: Option<ContactComparison>,
 }
 
 /// One point of the initial-condition ensemble.
@@ -598,6 +689,29 @@ pub fn claims(input: &ReportInput) -> Vec<Claim> {
         ));
     }
     out.extend(ic_claims(input));
+    if let Some(c) = &input.contact {
+        out.push(Claim {
+            id: "C1".into(),
+            text: "Instantaneous impacts are an adequate model (the paper's Eqs. 4–5 against a \
+                   compliant Hertz contact calibrated to the same e)"
+                .into(),
+            paper: "assumed".into(),
+            rule: ContactComparison::rule(),
+            rows: vec![ClaimRow {
+                params: "all sets, lumped bar".into(),
+                role: Role::Stated,
+                findings: vec![Finding {
+                    value: format!(
+                        "mean |Δ| {:.2} points over {} points (largest {:+.2} at {}); ensembles \
+                         ({} members) up to {:.1} s.e.",
+                        c.mean_abs_pp, c.points, c.worst_pp, c.worst_at, c.members, c.max_z
+                    ),
+                    holds: c.adequate(),
+                }],
+            }],
+            by: Some(CONTACT_BY.into()),
+        });
+    }
     out
 }
 
@@ -965,6 +1079,9 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
     let _ = writeln!(s, "{head}\n{sep}");
     let (per_solver, by_other): (Vec<&Claim>, Vec<&Claim>) =
         claims.iter().partition(|c| c.by.is_none());
+    let (by_contact, by_other): (Vec<&Claim>, Vec<&Claim>) = by_other
+        .into_iter()
+        .partition(|c| c.by.as_deref() == Some(CONTACT_BY));
     for c in &per_solver {
         let _ = write!(s, "| {} | {} | {} |", c.id, cell(&c.text), cell(&c.paper));
         for v in c.verdicts() {
@@ -989,6 +1106,30 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
                 cell(&c.paper),
                 cell(&c.verdicts().join(" "))
             );
+        }
+    }
+    if !by_contact.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nChecked against the compliant contact law (`{CONTACT_BY}`, the cases and criterion \
+             of `docs/contact-laws.md`, computed by this run):\n\n\
+             | # | Claim | Paper | Rule | Ours | Holds |\n|---|---|---|---|---|---|"
+        );
+        for c in &by_contact {
+            for row in &c.rows {
+                for f in &row.findings {
+                    let _ = writeln!(
+                        s,
+                        "| {} | {} | {} | {} | {} | {} |",
+                        c.id,
+                        cell(&c.text),
+                        cell(&c.paper),
+                        cell(&c.rule),
+                        cell(&f.value),
+                        if f.holds { "yes" } else { "**no**" }
+                    );
+                }
+            }
         }
     }
 
@@ -1355,6 +1496,7 @@ mod tests {
                 points,
                 wall_s: 0.0,
             }),
+            contact: None,
         }
     }
 

@@ -64,18 +64,18 @@ struct SideBySide {
     beam: PlacementRow,
 }
 
-/// A design point of the convergence study.
-struct DesignPoint {
-    name: &'static str,
-    gap_mm: f64,
-    ratio: f64,
-    why: &'static str,
+/// A design point of the convergence study (also `contact-convergence`'s).
+pub(crate) struct DesignPoint {
+    pub(crate) name: &'static str,
+    pub(crate) gap_mm: f64,
+    pub(crate) ratio: f64,
+    pub(crate) why: &'static str,
 }
 
 /// The design points of the N study, all with the cavity at the paper's position. (The paper's
 /// 1.0 mm gap is not one of them: frictionless and from rest, the ball there never reaches a wall
 /// at resonance, in either model, so every N gives 0 and the point measures nothing.)
-const POINTS: [DesignPoint; 3] = [
+pub(crate) const POINTS: [DesignPoint; 3] = [
     DesignPoint {
         name: "A",
         gap_mm: 0.1,

@@ -3,6 +3,7 @@
 
 pub mod beam;
 pub mod bench;
+pub mod contact_convergence;
 pub mod contact_laws;
 pub mod contact_test;
 pub mod design;

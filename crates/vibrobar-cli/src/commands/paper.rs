@@ -351,6 +351,21 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
         );
         Some(e)
     };
+    // Claim C1: the same cases under the compliant contact law (exact solver, both laws).
+    let contact = {
+        let m = if members == 0 {
+            ENSEMBLE_MEMBERS.1
+        } else {
+            members
+        };
+        let t = Instant::now();
+        let runs = super::contact_laws::law_runs(&settings, &ratios, m, &variants)?;
+        eprintln!(
+            "  contact laws (exact, restitution vs hertz, ensembles of {m}): done in {}",
+            fmt_secs(t.elapsed().as_secs_f64())
+        );
+        Some(runs.comparison(&variants))
+    };
 
     let mut files = Vec::new();
     let first = &data[0];
@@ -462,6 +477,7 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
             f
         },
         ensemble,
+        contact,
     };
     let cl = claims(&input);
     write_json(
@@ -481,6 +497,7 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
                     "friction_work_j": r.friction_work_j,
                 })).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
+            "contact_laws": input.contact,
             "ic_ensemble": input.ensemble.as_ref().map(|e| serde_json::json!({
                 "solver": e.solver,
                 "seed": e.seed,

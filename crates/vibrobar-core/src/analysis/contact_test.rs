@@ -7,7 +7,7 @@
 use crate::damper::contact::Hertz;
 use crate::error::SimError;
 use crate::solver::dopri5::Dopri5;
-use crate::solver::exact::hertz_phase::run_phase;
+use crate::solver::exact::hertz_phase::{run_phase, Event};
 
 /// Relative tolerance of the contact phase (lab and solvers).
 pub const CONTACT_RTOL: f64 = 1e-9;
@@ -43,14 +43,14 @@ pub fn single_impact(law: &Hertz, mass_kg: f64, speed_m_s: f64) -> Result<Impact
     let d_max = law.with_damping(0.0).max_penetration_m(mass_kg, v0);
     let t_c = law.undamped_contact_time_s(mass_kg, v0);
     let e_scale = 0.5 * mass_kg * v0 * v0;
-    let ig = Dopri5::<3> {
-        rtol: CONTACT_RTOL,
-        atol: [
+    let ig = Dopri5::<3>::new(
+        CONTACT_RTOL,
+        [
             CONTACT_RTOL * d_max,
             CONTACT_RTOL * v0,
             CONTACT_RTOL * e_scale,
         ],
-    };
+    );
     // y = [δ, δ̇, ∫ P_damp δ̇ dt].
     let mut f = |_t: f64, y: &[f64; 3]| {
         let p = law.force_n(y[0], y[1], v0);
@@ -67,7 +67,7 @@ pub fn single_impact(law: &Hertz, mass_kg: f64, speed_m_s: f64) -> Result<Impact
         [0.0, v0, 0.0],
         t_c / 50.0,
         100.0 * t_c,
-        &[&|_t: f64, y: &[f64; 3]| y[0]],
+        &[Event::Comp { i: 0, sign: 1.0 }],
         |st, th_end| {
             for k in 0..=FORCE_SAMPLES {
                 let th = th_end * k as f64 / FORCE_SAMPLES as f64;

@@ -126,6 +126,17 @@ impl Hertz {
         self.elastic_force_n(delta_m) * (1.0 + self.damping * ddelta_m_s / approach_m_s)
     }
 
+    /// [`Hertz::force_n`] and [`Hertz::damping_force_n`] from one evaluation of the elastic part
+    /// (the same values: the contact phase's right-hand side).
+    #[inline]
+    pub fn forces_n(&self, delta_m: f64, ddelta_m_s: f64, approach_m_s: f64) -> (f64, f64) {
+        let el = self.elastic_force_n(delta_m);
+        (
+            el * (1.0 + self.damping * ddelta_m_s / approach_m_s),
+            el * self.damping * ddelta_m_s / approach_m_s,
+        )
+    }
+
     /// Damping part of the force (its power `· δ̇` is the contact's dissipation).
     #[inline]
     pub fn damping_force_n(&self, delta_m: f64, ddelta_m_s: f64, approach_m_s: f64) -> f64 {

@@ -21,6 +21,8 @@ pub struct DenseStep<const N: usize> {
     /// State at `t0 + h`.
     pub y1: [f64; N],
     r: [[f64; N]; 5],
+    /// Components integrated (the rest are carried unchanged).
+    len: usize,
 }
 
 impl<const N: usize> DenseStep<N> {
@@ -28,12 +30,25 @@ impl<const N: usize> DenseStep<N> {
     #[inline]
     pub fn at_theta(&self, th: f64) -> [f64; N] {
         let t1 = 1.0 - th;
-        let mut y = [0.0; N];
-        for (i, yi) in y.iter_mut().enumerate() {
+        let mut y = self.r[0];
+        for (i, yi) in y.iter_mut().enumerate().take(self.len) {
             let r = |k: usize| self.r[k][i];
             *yi = r(0) + th * (r(1) + t1 * (r(2) + th * (r(3) + t1 * r(4))));
         }
         y
+    }
+    /// Bounds `(lo, hi)` of component `i` of the dense output over the whole step `θ ∈ [0, 1]`:
+    /// `r0 + θ r1` lies between `y0` and `y1`, and `θ(1−θ) ≤ 1/4` bounds the rest. Lets an event
+    /// scan skip a step where the component cannot reach 0 (exact: no sample can be outside).
+    #[inline]
+    pub fn comp_bounds(&self, i: usize) -> (f64, f64) {
+        let r = |k: usize| self.r[k][i];
+        let (a, b) = (r(0), r(0) + r(1));
+        let curv = 0.25 * (r(2).abs() + r(3).abs() + 0.25 * r(4).abs());
+        // Margin for the rounding of the evaluated polynomial.
+        let round =
+            8.0 * f64::EPSILON * (r(0).abs() + r(1).abs() + r(2).abs() + r(3).abs() + r(4).abs());
+        (a.min(b) - curv - round, a.max(b) + curv + round)
     }
     /// One component of the dense output at `θ`.
     #[inline]
@@ -44,13 +59,18 @@ impl<const N: usize> DenseStep<N> {
     }
 }
 
-/// Error control of [`Dopri5`]: `|err_i| ≤ atol_i + rtol·max(|y0_i|, |y1_i|)` in the RMS norm.
+/// Error control of [`Dopri5`]: `|err_i| ≤ atol_i + rtol·max(|y0_i|, |y1_i|)` in the RMS norm
+/// over the first `len` components.
 #[derive(Debug, Clone, Copy)]
 pub struct Dopri5<const N: usize> {
     /// Relative tolerance.
     pub rtol: f64,
     /// Absolute tolerance per component.
     pub atol: [f64; N],
+    /// Components integrated, `≤ N`: a fixed-capacity state (the N-mode bar's, sized for
+    /// [`crate::limits::MAX_BEAM_MODES`]) integrates only its first `len`; the rest are carried
+    /// unchanged and left out of the error norm.
+    pub len: usize,
 }
 
 const C: [f64; 7] = [0.0, 0.2, 0.3, 0.8, 8.0 / 9.0, 1.0, 1.0];
@@ -99,6 +119,11 @@ pub struct Attempt<const N: usize> {
 }
 
 impl<const N: usize> Dopri5<N> {
+    /// Every component integrated.
+    pub fn new(rtol: f64, atol: [f64; N]) -> Self {
+        Dopri5 { rtol, atol, len: N }
+    }
+
     /// One step of size `h` from `(t, y)` with derivative `f0 = f(t, y)`.
     pub fn attempt<F: FnMut(f64, &[f64; N]) -> [f64; N]>(
         &self,
@@ -108,9 +133,10 @@ impl<const N: usize> Dopri5<N> {
         f0: &[f64; N],
         h: f64,
     ) -> Attempt<N> {
+        let len = self.len.min(N);
         let lin = |cs: &[(f64, &[f64; N])]| {
             let mut out = *y;
-            for (i, o) in out.iter_mut().enumerate() {
+            for (i, o) in out.iter_mut().enumerate().take(len) {
                 let mut acc = 0.0;
                 for (c, k) in cs {
                     acc += c * k[i];
@@ -135,7 +161,8 @@ impl<const N: usize> Dopri5<N> {
         let k7 = f(t + h, &y1);
         let mut acc = 0.0;
         let mut r = [[0.0; N]; 5];
-        for i in 0..N {
+        r[0] = *y;
+        for i in 0..len {
             let e =
                 h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
             let sc = self.atol[i] + self.rtol * y[i].abs().max(y1[i].abs());
@@ -149,7 +176,7 @@ impl<const N: usize> Dopri5<N> {
             r[4][i] =
                 h * (D1 * k1[i] + D3 * k3[i] + D4 * k4[i] + D5 * k5[i] + D6 * k6[i] + D7 * k7[i]);
         }
-        let err = (acc / N as f64).sqrt();
+        let err = (acc / len as f64).sqrt();
         Attempt {
             step: DenseStep {
                 t0: t,
@@ -157,6 +184,7 @@ impl<const N: usize> Dopri5<N> {
                 y0: *y,
                 y1,
                 r,
+                len,
             },
             f1: k7,
             err: if err.is_nan() { f64::INFINITY } else { err },
@@ -216,10 +244,7 @@ mod tests {
     /// steps agree with `cos t` to the tolerance (5th order steps, 4th order interpolant).
     #[test]
     fn oscillator_end_state_and_dense_output_match_the_closed_form() {
-        let ig = Dopri5::<2> {
-            rtol: 1e-11,
-            atol: [1e-13; 2],
-        };
+        let ig = Dopri5::<2>::new(1e-11, [1e-13; 2]);
         let mut f = |_t: f64, y: &[f64; 2]| [y[1], -y[0]];
         let (mut t, mut y, mut h) = (0.0_f64, [1.0, 0.0], 1e-3_f64);
         let mut f0 = f(t, &y);

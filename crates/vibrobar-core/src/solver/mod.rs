@@ -266,16 +266,18 @@ fn check_end_time(t0_s: f64, t_end_s: f64) -> Result<(), SimError> {
 }
 
 /// The checks of [`validate_run`] for the modal solvers: the system, `hertz` refused with
-/// `hertz_why` (neither modal solver has a compliant contact phase yet), the initial state, the
-/// end time, and the phase of the fastest of `Ω` and `ω_N` over the run.
+/// `hertz_why` by a solver without a compliant contact phase (`None`: it has one), the initial
+/// state, the end time, and the phase of the fastest of `Ω` and `ω_N` over the run.
 pub(crate) fn validate_modal_run(
     sys: &crate::structure::ModalSystem,
     init: &crate::structure::ModalState,
     t_end_s: f64,
-    hertz_why: &'static str,
+    hertz_why: Option<&'static str>,
 ) -> Result<(), SimError> {
     sys.validate()?;
-    refuse_hertz(sys.damper.as_ref(), hertz_why)?;
+    if let Some(why) = hertz_why {
+        refuse_hertz(sys.damper.as_ref(), why)?;
+    }
     init.validate(sys)?;
     check_end_time(init.t_s, t_end_s)?;
     let rate = sys.omega_rad_s().max(sys.omega_max_rad_s());

@@ -447,7 +447,7 @@ impl ModalRk4 {
             sys,
             init,
             t_end_s,
-            "contact.law = hertz: the modal rk4 solver applies the restitution law only; use the lumped bar with --solver exact",
+            Some("contact.law = hertz: the modal rk4 solver applies the restitution law only; use --solver exact"),
         )?;
         self.validate_step(sys, t_end_s - init.t_s)?;
 

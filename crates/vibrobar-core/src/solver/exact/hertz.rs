@@ -21,7 +21,7 @@
 //! [`EventKind::Impact`] with the approach speed and `W_c` as its energy loss, so impact counts
 //! and the energy books keep their meaning. Work is bounded by [`MAX_CONTACT_STEPS`].
 
-use super::hertz_phase::{run_phase, EventFn, MAX_CONTACT_STEPS};
+use super::hertz_phase::{run_phase, Event, MAX_CONTACT_STEPS};
 use super::{wall_of, Book, Consts, Md, St};
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
@@ -65,14 +65,14 @@ impl HertzSegment {
 }
 
 /// 5-point Gauss–Legendre nodes and weights on [−1, 1].
-const GL_X: [f64; 5] = [
+pub(crate) const GL_X: [f64; 5] = [
     -0.906_179_845_938_664,
     -0.538_469_310_105_683,
     0.0,
     0.538_469_310_105_683,
     0.906_179_845_938_664,
 ];
-const GL_W: [f64; 5] = [
+pub(crate) const GL_W: [f64; 5] = [
     0.236_926_885_056_189,
     0.478_628_670_499_366,
     0.568_888_888_888_889,
@@ -104,7 +104,14 @@ impl Segment for HertzSegment {
         }
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
-        self.integrals(a_s, b_s).u2_m2_s
+        // The `u2_m2_s` of `integrals`, term for term (the RMS hot path: no forcing `sin`).
+        let (mid, half) = (0.5 * (a_s + b_s), 0.5 * (b_s - a_s));
+        let mut u2 = 0.0;
+        for (x, wgt) in GL_X.iter().zip(GL_W) {
+            let u = self.y_at(mid + half * x)[0];
+            u2 += wgt * half * u * u;
+        }
+        u2
     }
     fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals {
         let (mid, half) = (0.5 * (a_s + b_s), 0.5 * (b_s - a_s));
@@ -149,16 +156,16 @@ pub(super) fn contact(
     let meff = cs.m * cs.md / (cs.m + cs.md);
     let d_scale = law.with_damping(0.0).max_penetration_m(meff, v0);
     let v_scale = v0.max(cs.lg * cs.om);
-    let ig = Dopri5::<5> {
-        rtol: CONTACT_RTOL,
-        atol: [
+    let ig = Dopri5::<5>::new(
+        CONTACT_RTOL,
+        [
             CONTACT_RTOL * cs.lg,
             CONTACT_RTOL * v_scale,
             CONTACT_RTOL * d_scale,
             CONTACT_RTOL * v_scale,
             CONTACT_RTOL * 0.5 * meff * v_scale * v_scale,
         ],
-    };
+    );
     let mut y: Y = [s.u, s.du, 0.0, approach, 0.0];
     let mut t = t0;
     let mut h = law.undamped_contact_time_s(meff, v0) / 50.0;
@@ -177,14 +184,22 @@ pub(super) fn contact(
     };
     loop {
         let fb = if stuck { 0.0 } else { cs.fb(sigma) };
+        // The last `(t, F(t))`: the 6th and 7th stages of a step are both at `t + h`.
+        let mut last = (f64::NAN, 0.0);
         let mut f = |t: f64, y: &Y| {
+            let force = if t.to_bits() == last.0.to_bits() {
+                last.1
+            } else {
+                let v = force_at(t);
+                last = (t, v);
+                v
+            };
             if stuck {
-                let ddu = (force_at(t) - cs.c * y[1] - cs.k * y[0]) / mtot;
+                let ddu = (force - cs.c * y[1] - cs.k * y[0]) / mtot;
                 return [y[1], ddu, 0.0, 0.0, 0.0];
             }
-            let p = law.force_n(y[2], y[3], v0);
-            let pd = law.damping_force_n(y[2], y[3], v0);
-            let ddu = (force_at(t) - cs.c * y[1] - cs.k * y[0] + sw * p - fb) / cs.m;
+            let (p, pd) = law.forces_n(y[2], y[3], v0);
+            let ddu = (force - cs.c * y[1] - cs.k * y[0] + sw * p - fb) / cs.m;
             let ddv = (-sw * p + fb) / cs.md;
             // δ̈ = sw·(v̈ − ü).
             [y[1], ddu, y[3], sw * (ddv - ddu), pd * y[3]]
@@ -192,13 +207,13 @@ pub(super) fn contact(
         // Events: 0 release (δ < 0); sliding with friction: 1 δ̇ crosses 0 (the sign of ẇ);
         // stuck: 1, 2 the friction needed leaves [−f, f].
         let dsign = if sw * sigma >= 0.0 { 1.0 } else { -1.0 };
-        let release = |_t: f64, y: &Y| y[2];
-        let switch = move |_t: f64, y: &Y| dsign * y[3];
+        let release = Event::Comp { i: 2, sign: 1.0 };
+        let switch = Event::Comp { i: 3, sign: dsign };
         let lag = |t: f64, y: &Y| cs.fl - needed(t, y);
         let lead = |t: f64, y: &Y| cs.fl + needed(t, y);
-        let slide_ev: [EventFn<'_, 5>; 2] = [&release, &switch];
-        let stuck_ev: [EventFn<'_, 5>; 3] = [&release, &lag, &lead];
-        let events: &[EventFn<'_, 5>] = if stuck {
+        let slide_ev: [Event<'_, 5>; 2] = [release, switch];
+        let stuck_ev: [Event<'_, 5>; 3] = [release, Event::Fn(&lag), Event::Fn(&lead)];
+        let events: &[Event<'_, 5>] = if stuck {
             &stuck_ev
         } else if cs.frictional() {
             &slide_ev

@@ -16,6 +16,22 @@ const EVENT_SAMPLES: usize = 8;
 /// An event function of the phase: it ends where `g(t, y)` falls below 0.
 pub type EventFn<'a, const N: usize> = &'a dyn Fn(f64, &[f64; N]) -> f64;
 
+/// An event of the phase: where `g` falls below 0.
+#[derive(Clone, Copy)]
+pub enum Event<'a, const N: usize> {
+    /// `g = sign·y[i]`: one component. A step where [`DenseStep::comp_bounds`] keeps it
+    /// positive is skipped without sampling (most steps of a contact: the penetration is far
+    /// from 0), and the samples read that one component; the event found is the same.
+    Comp {
+        /// Component.
+        i: usize,
+        /// `±1`.
+        sign: f64,
+    },
+    /// Any function of the state.
+    Fn(EventFn<'a, N>),
+}
+
 /// How a phase ended: at event `which` (index into the events given), at `t_end` of the run
 /// (`which = None`).
 #[derive(Debug, Clone, Copy)]
@@ -41,7 +57,7 @@ pub fn run_phase<const N: usize, F, S>(
     y0: [f64; N],
     h0: f64,
     t_end: f64,
-    events: &[EventFn<'_, N>],
+    events: &[Event<'_, N>],
     mut on_step: S,
 ) -> Result<PhaseEnd<N>, SimError>
 where
@@ -72,9 +88,21 @@ where
         let st = &a.step;
         // The earliest event inside the step.
         let mut best: Option<(f64, usize)> = None;
-        for (k, g) in events.iter().enumerate() {
-            let at = |th: f64| g(st.t0 + th * st.h, &st.at_theta(th));
-            if let Some(th) = first_sign_change(at, EVENT_SAMPLES) {
+        for (k, ev) in events.iter().enumerate() {
+            let found = match *ev {
+                Event::Comp { i, sign } => {
+                    let (lo, hi) = st.comp_bounds(i);
+                    if (sign > 0.0 && lo > 0.0) || (sign < 0.0 && hi < 0.0) {
+                        None
+                    } else {
+                        first_sign_change(|th| sign * st.comp(i, th), EVENT_SAMPLES)
+                    }
+                }
+                Event::Fn(g) => {
+                    first_sign_change(|th| g(st.t0 + th * st.h, &st.at_theta(th)), EVENT_SAMPLES)
+                }
+            };
+            if let Some(th) = found {
                 if best.is_none_or(|(b, _)| th < b) {
                     best = Some((th, k));
                 }

@@ -24,6 +24,10 @@
 //! other modal velocities keep their components), the ball held on the wall for the summed
 //! sequence's duration, then the [`EventKind::ChatterLimit`] with the energy it removed.
 //!
+//! Under `contact.law = hertz` a wall touch starts the compliant contact phase of [`hertz`]
+//! (Dopri5 on the N modes and the ball, the force through the contact row) instead of the impact
+//! law; chatter limits and rigid wall contact do not occur under that law.
+//!
 //! The internal state keeps `w`, `ẇ` (relative coordinates, free of cancellation) beside the
 //! modal coordinates; the public state has `v = w + Σφₙ(x_d)qₙ`.
 //!
@@ -67,6 +71,8 @@ use crate::solver::{
     Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Wall,
 };
 use crate::structure::{ModalState, ModalSystem, Point};
+
+mod hertz;
 
 const NM: usize = MAX_BEAM_MODES;
 
@@ -126,6 +132,8 @@ struct Consts {
     tol_t: f64,
     chatter_h: f64,
     chatter_t: f64,
+    /// The compliant law, when `contact.law = hertz` (wall touches start [`hertz::contact`]).
+    hertz: Option<crate::damper::contact::Hertz>,
 }
 
 impl Consts {
@@ -168,6 +176,10 @@ impl Consts {
             tol_t: 1e-15 / om.max(omax),
             chatter_h: 1e-10 * lg,
             chatter_t: 1e-9 * 2.0 * std::f64::consts::PI / om,
+            hertz: sys
+                .damper
+                .filter(|d| d.contact.law == crate::params::ContactLaw::Hertz)
+                .map(|d| crate::damper::contact::Hertz::of_damper(&d)),
         };
         for (i, mode) in modes.iter().enumerate() {
             let (m, k) = (mode.modal_mass_kg, mode.modal_stiffness_n_per_m());
@@ -297,6 +309,9 @@ enum Md {
     },
     Stick,
     Contact(Wall),
+    /// `hertz` law: the ball touches the wall (`ẇ` into it or 0); a compliant contact phase
+    /// follows ([`hertz::contact`]).
+    HertzTouch(Wall),
 }
 
 /// The closed-form motion of one free-flight segment (run-long buffer, rewritten per segment
@@ -766,12 +781,7 @@ impl ModalExact {
         t_end_s: f64,
         obs: &mut dyn ModalObserver,
     ) -> Result<(ModalRunSummary, u64), SimError> {
-        crate::solver::validate_modal_run(
-            sys,
-            init,
-            t_end_s,
-            "contact.law = hertz is not yet wired into the N-mode exact solver (a beam); it runs on the lumped bar",
-        )?;
+        crate::solver::validate_modal_run(sys, init, t_end_s, None)?;
         let cs = Consts::new(sys)?;
         let mut book = Book {
             obs,
@@ -840,6 +850,9 @@ impl ModalExact {
                 )?,
                 Md::Stick | Md::Contact(_) => {
                     pair_motion(&cs, &mut held, mode, &mut s, t_end_s, &mut book, &mut work)?
+                }
+                Md::HertzTouch(wall) => {
+                    hertz::contact(&cs, wall.sign(), &mut s, t_end_s, &mut book)?
                 }
             };
             match next {
@@ -1067,7 +1080,12 @@ fn free_flight(
     let mode = match which {
         1 | 2 => {
             let sw = if which == 1 { 1.0 } else { -1.0 };
-            impact(cs, sw, s, book, work, held)?
+            if cs.hertz.is_some() {
+                s.w = sw * cs.lg;
+                Md::HertzTouch(wall_of(sw))
+            } else {
+                impact(cs, sw, s, book, work, held)?
+            }
         }
         _ => {
             s.dw = 0.0;
@@ -1114,11 +1132,14 @@ fn initial_mode(cs: &Consts, s: &mut St, book: &mut Book, held: &mut Held) -> Re
         if sw * s.w >= cs.lg {
             s.w = sw * cs.lg;
             if sw * s.dw > 0.0 {
+                if cs.hertz.is_some() {
+                    return Ok(Md::HertzTouch(wall_of(sw)));
+                }
                 let mut work = Work::new();
                 return impact(cs, sw, s, book, &mut work, held);
             }
             if s.dw == 0.0 {
-                return contact_test(cs, sw, s);
+                return hertz::wall_touch(cs, sw, s);
             }
             return Ok(after_wall_free(sw, s.dw));
         }
@@ -1335,7 +1356,9 @@ fn pair_motion(
             push(3, -wall.sign(), f_hold);
             Mode::Contact(wall)
         }
-        Md::Free { .. } => unreachable!("pair_motion is called for stick and contact"),
+        Md::Free { .. } | Md::HertzTouch(_) => {
+            unreachable!("pair_motion is called for stick and contact")
+        }
     };
     let (best, which) = if nc == 0 {
         (span, 0)
