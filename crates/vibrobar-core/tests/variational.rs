@@ -168,3 +168,23 @@ fn impact_accumulation_and_release_match_finite_differences() {
         "{ev:?}"
     );
 }
+
+#[test]
+fn stick_and_unstick_match_finite_differences() {
+    // Coulomb friction of 8 N: the ball slides, sticks to the bar and breaks free twice a period.
+    let sys = paper(0.1e-3, FrictionModel::Coulomb, 1.0, Some(8.0), None);
+    let (x, t) = window(&sys, 0.3, 3.0);
+    let (_, fj) = check("coulomb 8 N", &sys, &x, t);
+    assert!(
+        fj.events.sticks >= 4 && fj.events.unsticks >= 4,
+        "{:?}",
+        fj.events
+    );
+    // Stick removes one dimension (ẇ = 0) for good: the Jacobian is singular, its determinant
+    // is rounding next to the product of its column norms (Hadamard's bound).
+    let js = scaled(&sys, &fj.jacobian);
+    let cols: f64 = (0..4)
+        .map(|c| (0..4).map(|r| js[r][c] * js[r][c]).sum::<f64>().sqrt())
+        .product();
+    assert!(det4(&js).abs() < 1e-12 * cols, "{} vs {cols}", det4(&js));
+}

@@ -13,6 +13,7 @@ pub mod energy;
 pub mod ensemble;
 pub mod grid;
 pub mod lyapunov;
+pub mod lyapunov_spectrum;
 pub mod map;
 pub mod placement;
 pub mod poincare;

@@ -129,11 +129,34 @@ pub fn det4(m: &Mat4) -> f64 {
     s0 * c5 - s1 * c4 + s2 * c3 + s3 * c2 - s4 * c1 + s5 * c0
 }
 
+/// Where a tangent map comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Step {
+    /// The transition matrix of a segment `[t0, t1]` in `mode`.
+    Segment {
+        /// Start.
+        t0_s: f64,
+        /// End.
+        t1_s: f64,
+        /// Mode.
+        mode: Mode,
+    },
+    /// The saltation matrix of an event (`None` when the event has none: grazing, then the
+    /// map is the reset's `G` alone).
+    Event {
+        /// Time.
+        t_s: f64,
+        /// What happened.
+        kind: EventKind,
+        /// Whether an impact was taken to its plastic limit (accumulation).
+        plastic: bool,
+    },
+}
+
 /// What receives the tangent maps of a run, in time order: `x ↦ m x` for each segment and event.
 pub trait TangentSink {
-    /// Apply `m` (the transition matrix of a segment ending at `t_s`, or a saltation matrix
-    /// of an event at `t_s`).
-    fn apply(&mut self, m: &Mat4, t_s: f64);
+    /// Apply `m`, the tangent map of `step`.
+    fn apply(&mut self, m: &Mat4, step: Step);
 }
 
 /// Accumulates the Jacobian `J ← m J`.
@@ -150,7 +173,7 @@ impl Default for JacobianSink {
 }
 
 impl TangentSink for JacobianSink {
-    fn apply(&mut self, m: &Mat4, _t_s: f64) {
+    fn apply(&mut self, m: &Mat4, _step: Step) {
         self.jacobian = mat_mul(m, &self.jacobian);
     }
 }
@@ -462,9 +485,10 @@ impl<T: TangentSink> Variational<T> {
         let t = ev.t_s;
         let x = &ev.before;
         let f_minus = s.field(p.before, x, t);
+        let mut plastic = false;
         let (g, grad, rate, x_plus) = match ev.kind {
             EventKind::Impact { .. } => {
-                let plastic = followed_by_contact && s.e > 0.0;
+                plastic = followed_by_contact && s.e > 0.0;
                 let g = if plastic { s.plastic_g() } else { s.impact_g() };
                 if plastic {
                     self.counts.plastic_impacts += 1;
@@ -522,7 +546,14 @@ impl<T: TangentSink> Variational<T> {
                 g
             }
         };
-        self.sink.apply(&m, t);
+        self.sink.apply(
+            &m,
+            Step::Event {
+                t_s: t,
+                kind: ev.kind,
+                plastic,
+            },
+        );
         self.cur = Some(after);
     }
 }
@@ -543,7 +574,14 @@ impl<T: TangentSink> Observer for Variational<T> {
         }
         self.cur = Some(phase);
         let m = self.sys.segment_stm(mode, t1 - t0);
-        self.sink.apply(&m, t1);
+        self.sink.apply(
+            &m,
+            Step::Segment {
+                t0_s: t0,
+                t1_s: t1,
+                mode,
+            },
+        );
     }
 
     fn event(&mut self, ev: &Event) {
