@@ -562,7 +562,9 @@ impl<T: TangentSink> Observer for Variational<T> {
     fn segment(&mut self, seg: &dyn Segment) {
         let (t0, t1) = (seg.t_start_s(), seg.t_end_s());
         let mode = seg.mode();
-        let sigma = if mode == Mode::Free {
+        // The friction sign matters only with a friction force.
+        let frictional = self.sys.model != FrictionModel::None && self.sys.fl > 0.0;
+        let sigma = if mode == Mode::Free && frictional {
             crate::damper::friction::sgn0(seg.state_at(0.5 * (t0 + t1)).dw_m_s())
         } else {
             0.0
