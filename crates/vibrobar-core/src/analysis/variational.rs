@@ -63,6 +63,17 @@
 //! is not differentiable there); it is counted in [`EventCounts::grazing`] and only `G` is
 //! applied. Near grazing `S` is large: that is the true sensitivity, not an error.
 //!
+//! # The stroboscopic map (periodic orbits)
+//!
+//! The flow is non-autonomous (forcing `F₀ sin Ωt`); the Jacobian is taken at fixed start and
+//! end times. The stroboscopic map over `k` forcing periods, `P(x₀) = x(t₀ + kT)`, and its
+//! Jacobian `DP` (whose eigenvalues are the Floquet multipliers of a periodic orbit) are
+//! `flow_with_jacobian(&Exact::default(), &sys, &x0, x0.t_s + k·T, &mut ())`;
+//! [`FlowJacobian::end_field`] is `∂x(t_end)/∂t_end`. The state passed in is the public
+//! `(u, u̇, v, v̇)`; whether the ball starts stuck or on a wall is decided by the solver from
+//! that state, as for any run (see "constrained phases" above for what the Jacobian then
+//! means).
+//!
 //! # Not covered
 //!
 //! * The Hertz contact law (compliant contact phases): [`Variational::new`] refuses it.
