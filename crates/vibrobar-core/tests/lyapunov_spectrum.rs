@@ -210,4 +210,7 @@ fn bad_input_is_a_clear_error() {
     assert!(run(&hz, &ok).contains("Hertz"), "{}", run(&hz, &ok));
     let solid = System::paper_solid(1.0);
     assert!(run(&solid, &ok).contains("damper"));
+    let rk4 = vibrobar_core::solver::Rk4 { dt_s: 1e-6 };
+    let e = lyapunov_spectrum(&sys, &State::REST, &rk4, &ok).unwrap_err();
+    assert!(e.to_string().contains("needs the exact solver"), "{e}");
 }

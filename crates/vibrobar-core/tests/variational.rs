@@ -188,3 +188,59 @@ fn stick_and_unstick_match_finite_differences() {
         .product();
     assert!(det4(&js).abs() < 1e-12 * cols, "{} vs {cols}", det4(&js));
 }
+
+/// Finds the middle of the first stick segment after `t_from`.
+struct FirstStick {
+    t_from: f64,
+    mid: Option<f64>,
+}
+
+impl vibrobar_core::solver::Observer for FirstStick {
+    fn segment(&mut self, seg: &dyn vibrobar_core::solver::Segment) {
+        if self.mid.is_none()
+            && seg.t_start_s() > self.t_from
+            && seg.mode() == vibrobar_core::solver::Mode::Stick
+        {
+            self.mid = Some(0.5 * (seg.t_start_s() + seg.t_end_s()));
+        }
+    }
+}
+
+#[test]
+fn a_run_that_starts_stuck_is_differentiated_along_the_stick() {
+    // Started inside a stick phase: a perturbation of the velocities (ẇ ≠ 0) slides briefly
+    // and sticks again with the momentum shared (the projection P); a perturbation of a
+    // position sticks elsewhere. The slide moves the ball by δẇ|δẇ|/(2a): the map is C¹ but
+    // not C², so central differences of the velocity columns converge like h, not h².
+    let sys = paper(0.1e-3, FrictionModel::Coulomb, 1.0, Some(8.0), None);
+    let mut f = FirstStick {
+        t_from: 0.3,
+        mid: None,
+    };
+    Exact::default()
+        .run(&sys, &State::REST, 0.35, &mut f)
+        .unwrap();
+    let x = settled(&sys, f.mid.expect("a stick phase after 0.3 s"));
+    assert_eq!(x.dw_m_s(), 0.0);
+    let t_end = x.t_s + 2.0 * sys.forcing_period_s();
+    let fj = flow_with_jacobian(&Exact::default(), &sys, &x, t_end, &mut ()).unwrap();
+    assert!(
+        fj.events.sticks >= 2 && fj.events.unsticks >= 2,
+        "{:?}",
+        fj.events
+    );
+    let js = scaled(&sys, &fj.jacobian);
+    let err = |h: f64, c: usize| rel_err(&fd_jacobian(&sys, &x, t_end, h, &[c]), &js, &[c]);
+    for c in [0, 2] {
+        let e = err(H, c);
+        assert!(e < TOL, "position column {c}: {e:e}");
+    }
+    for c in [1, 3] {
+        let (e4, e5) = (err(1e-4, c), err(1e-5, c));
+        eprintln!("velocity column {c}: FD error {e4:.2e} at h = 1e-4, {e5:.2e} at 1e-5");
+        assert!(
+            e5 < 0.2 * e4 && e5 < 3e-4,
+            "velocity column {c}: {e4:e}, {e5:e}"
+        );
+    }
+}

@@ -248,6 +248,7 @@ pub fn lyapunov_spectrum(
     solver: &dyn Solver,
     p: &SpectrumParams,
 ) -> Result<SpectrumResult, SimError> {
+    super::variational::require_exact(solver)?;
     crate::params::non_negative("transient_s", p.transient_s)?;
     crate::params::positive("duration_s", p.duration_s)?;
     if p.blocks < 2 || p.blocks > crate::limits::MAX_LYAPUNOV_INTERVALS {

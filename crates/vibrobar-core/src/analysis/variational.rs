@@ -97,6 +97,18 @@ pub type Mat4 = [[f64; 4]; 4];
 
 /// Why the variational layer refuses a modal bar.
 pub const VARIATIONAL_LUMPED_ONLY: &str = "the variational flow (Jacobian, Lyapunov spectrum) is built for the lumped bar; the N-mode bar's 2N+2-dimensional tangent map is not implemented";
+/// Why the variational layer refuses a solver other than `exact`.
+pub const VARIATIONAL_EXACT_ONLY: &str = "the variational flow (Jacobian, Lyapunov spectrum) needs the exact solver: its saltation matrices need the event times and states the exact solver resolves (a fixed-step solver puts events on its grid)";
+
+/// `Unsupported` unless `solver` is the exact solver.
+pub fn require_exact(solver: &dyn Solver) -> Result<(), SimError> {
+    if solver.name() == "exact" {
+        Ok(())
+    } else {
+        Err(SimError::Unsupported(VARIATIONAL_EXACT_ONLY))
+    }
+}
+
 /// Why the variational layer refuses the Hertz law.
 pub const VARIATIONAL_NO_HERTZ: &str = "the variational flow (Jacobian, Lyapunov spectrum) covers the instantaneous restitution law; the saltation of a Hertz contact phase is not implemented";
 /// Why the variational layer refuses a bar without a ball.
@@ -629,7 +641,7 @@ pub struct FlowJacobian {
     pub summary: RunSummary,
 }
 
-/// Run the exact solver `solver` on `sys` from `init` to `t_end_s` and return the end state with
+/// Run the exact solver `solver` (any other is refused) on `sys` from `init` to `t_end_s` and return the end state with
 /// the Jacobian of the flow map (the stroboscopic map over `k` forcing periods is
 /// `t_end_s = init.t_s + k·T`). `extra` sees the run too (`&mut ()` for nothing).
 pub fn flow_with_jacobian(
@@ -639,6 +651,7 @@ pub fn flow_with_jacobian(
     t_end_s: f64,
     extra: &mut dyn Observer,
 ) -> Result<FlowJacobian, SimError> {
+    require_exact(solver)?;
     let mut var = Variational::new(sys, JacobianSink::default())?;
     let summary = {
         let v: &mut dyn Observer = &mut var;
