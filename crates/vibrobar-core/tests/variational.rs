@@ -244,3 +244,52 @@ fn a_run_that_starts_stuck_is_differentiated_along_the_stick() {
         );
     }
 }
+
+/// Records the saltation matrices of unstick and release events.
+#[derive(Default)]
+struct Continuous(Vec<Mat4>);
+
+impl vibrobar_core::analysis::variational::TangentSink for Continuous {
+    fn apply(&mut self, m: &Mat4, step: vibrobar_core::analysis::variational::Step) {
+        use vibrobar_core::solver::EventKind;
+        if let vibrobar_core::analysis::variational::Step::Event {
+            kind: EventKind::Unstick | EventKind::ContactRelease { .. },
+            ..
+        } = step
+        {
+            self.0.push(*m);
+        }
+    }
+}
+
+#[test]
+fn unstick_and_release_saltations_are_the_identity() {
+    // Coulomb unstick and frictionless release: at the threshold the friction (or wall) force
+    // equals what the pair needs, the vector field is continuous there, so S = I (to rounding
+    // of f⁺ − f⁻). (An as-published release is not: its friction force F switches on as the
+    // ball leaves; the FD test with that law covers it.)
+    for (fm, f) in [
+        (FrictionModel::Coulomb, Some(8.0)),
+        (FrictionModel::None, None),
+    ] {
+        let sys = paper(0.1e-3, fm, 1.0, f, None);
+        let x = settled(&sys, 0.3);
+        let mut var =
+            vibrobar_core::analysis::variational::Variational::new(&sys, Continuous::default())
+                .unwrap();
+        Exact::default()
+            .run(&sys, &x, x.t_s + 1000.0 * sys.forcing_period_s(), &mut var)
+            .unwrap();
+        var.finish();
+        assert!(!var.sink.0.is_empty(), "{fm:?}: {:?}", var.counts);
+        for m in &var.sink.0 {
+            let s = scaled(&sys, m);
+            for (r, row) in s.iter().enumerate() {
+                for (c, v) in row.iter().enumerate() {
+                    let want = if r == c { 1.0 } else { 0.0 };
+                    assert!((v - want).abs() < 1e-6, "{fm:?}: S[{r}][{c}] = {v}");
+                }
+            }
+        }
+    }
+}

@@ -47,7 +47,7 @@
 //! | impact accumulation (chatter limit), `e = 0` into contact | same | plastic map `P` | into the pair's flow |
 //! | friction switch (`ẇ` changes sign) | `v̇ − u̇` | `I` | friction force `F_ball` reverses |
 //! | stick | `v̇ − u̇` | `I` | ball joins the bar: `S` zeroes `δẇ` |
-//! | unstick, contact release | `f_l ∓ m_d ü_pair(x, t)` | `I` | 0: at the threshold the friction (or wall) force equals what the pair needs |
+//! | unstick, contact release | `f_l ∓ m_d ü_pair(x, t)` | `I` | 0 for Coulomb and frictionless: at the threshold the friction (or wall) force equals what the pair needs; an as-published release switches its friction force `F` on |
 //!
 //! `det S = e²` for an impact of the frictionless lumped bar (`det G = −e` on the velocities,
 //! `ẇ⁺/ẇ⁻ = −e` from the time shift); with friction the force jump adds a term.
