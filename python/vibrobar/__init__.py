@@ -41,6 +41,7 @@ __all__ = [
     "poincare",
     "bifurcation",
     "lyapunov",
+    "lyapunov_spectrum",
     "ensemble",
     "submit",
     "solver_names",
@@ -525,6 +526,41 @@ def lyapunov(
         _number("transient_s", transient_s),
         _number("periods", periods, False),
         _number("d0", d0, False),
+    )
+
+
+def lyapunov_spectrum(
+    scenario: Optional[Scenario] = None,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    *,
+    transient_s: Optional[float] = None,
+    blocks: int = 10,
+    **overrides,
+) -> dict:
+    """Every Lyapunov exponent at one point, by QR of the variational flow with saltation
+    matrices at the events (lumped bar, ``solver="exact"``, restitution law).
+
+    Args:
+        transient_s: discarded time in s (default: the part before the RMS window); the
+            exponents are averaged over the rest of the run.
+        blocks: blocks of the window for the standard errors (≥ 2).
+
+    Returns:
+        dict: ``exponents_per_s`` (four, 1/s; ``None`` is −∞: a direction removed by stick or
+        wall contact), ``std_error_per_s``, ``collapsed``, ``sum_per_s``, ``impacts_per_s``,
+        ``duration_s``, ``blocks``, ``chatter_limits``, ``grazing``. Without friction and with
+        nothing collapsed, ``sum_per_s`` equals −C/M + 2 ln(e) × ``impacts_per_s``.
+    """
+    sc = _scenario(scenario, overrides)
+    if isinstance(blocks, bool) or not isinstance(blocks, int) or blocks < 2:
+        raise ValueError(f"blocks = {blocks!r} is outside the allowed range [2, 1000000] (an integer)")
+    return _vibrobar.lyapunov_spectrum(
+        sc,
+        _number("ratio", ratio),
+        _number("gap_m", gap_m),
+        _number("transient_s", transient_s),
+        blocks,
     )
 
 

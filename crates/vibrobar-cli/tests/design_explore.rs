@@ -151,6 +151,62 @@ fn lyapunov_json_and_text() {
     assert_fails_with(&o, &["--duration"]);
 }
 
+/// `lyapunov --spectrum`: every exponent; the frictionless identity is printed beside the sum and
+/// agrees with it; the two-trajectory output is unchanged without the flag.
+#[test]
+fn lyapunov_spectrum_json_and_text() {
+    // The symmetric two-impact orbit (0.08 mm, r = 1): no wall contact, four finite exponents.
+    let args = [
+        "lyapunov",
+        "--friction",
+        "none",
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "0.08",
+        "--solver",
+        "exact",
+        "--duration",
+        "1",
+        "--spectrum",
+    ];
+    let o = vibrobar(&[&args[..], &["--json"]].concat());
+    assert_ok(&o);
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let l: Vec<f64> = j["exponents_per_s"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(l.len(), 4);
+    assert!(l[0] < 0.0, "a stable orbit: {l:?}");
+    let (sum, id) = (
+        j["sum_per_s"].as_f64().unwrap(),
+        j["volume_identity_per_s"].as_f64().unwrap(),
+    );
+    assert!((sum - l.iter().sum::<f64>()).abs() < 1e-9 * sum.abs());
+    assert!((sum - id).abs() < 1e-9 * id.abs(), "{sum} vs {id}");
+    assert_eq!(j["collapsed"].as_u64(), Some(0));
+    assert!(j["events"]["impacts"].as_u64().unwrap() > 100);
+    let o = vibrobar(&args);
+    assert_ok(&o);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.starts_with("λ = [") && text.contains("Σλ"), "{text}");
+    // The paper's 0.1 mm point rides the walls: two directions collapse, reported as −∞/null.
+    let mut wall = args.to_vec();
+    wall[6] = "0.1";
+    let o = vibrobar(&[&wall[..], &["--json"]].concat());
+    assert_ok(&o);
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["collapsed"].as_u64(), Some(2));
+    assert!(j["exponents_per_s"][3].is_null() && j["exponents_per_s"][0].as_f64().unwrap() > 0.0);
+    // rk4 cannot give saltation matrices; a modal bar or the Hertz law are refused by the core.
+    let mut rk = args.to_vec();
+    rk[8] = "rk4";
+    assert_fails_with(&vibrobar(&rk), &["--spectrum needs --solver exact"]);
+}
+
 #[test]
 fn ensemble_counts_members_and_is_reproducible() {
     let d = tempfile::tempdir().unwrap();

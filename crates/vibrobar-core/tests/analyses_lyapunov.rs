@@ -62,3 +62,20 @@ fn bad_parameters_are_errors() {
     p.intervals = 0;
     assert!(max_lyapunov(&sys, &State::REST, &Rk4 { dt_s: 2e-6 }, &p).is_err());
 }
+
+/// Bug: a Coulomb run whose renormalisation interval ended with the ball on a wall was refused
+/// ("initial.w_m (v − u) … outside [−gap/2, +gap/2]"): the projection set `v = u ± l_g`, and
+/// `(u + l_g) − u` rounded an ulp outside. The projection now steps `v` inwards until it reads
+/// inside.
+#[test]
+fn regression_coulomb_run_ending_on_a_wall_was_refused() {
+    let sys = System::paper_damped(0.1e-3, FrictionModel::Coulomb, 1.0);
+    let r = max_lyapunov(
+        &sys,
+        &State::REST,
+        &vibrobar_core::solver::Exact::default(),
+        &LyapunovParams::periods(&sys, 0.5, 5.0, 1000),
+    )
+    .unwrap();
+    assert!(r.exponent_per_s > 3.0 * r.std_error_per_s, "{r:?}");
+}

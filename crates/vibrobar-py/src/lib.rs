@@ -23,6 +23,9 @@ use vibrobar_core::analysis::case::{run_case, Sampler};
 use vibrobar_core::analysis::energy::EnergyAudit;
 use vibrobar_core::analysis::ensemble::{run_ensemble, EnsembleParams, IcRanges};
 use vibrobar_core::analysis::lyapunov::{max_lyapunov, max_lyapunov_modal, LyapunovParams};
+use vibrobar_core::analysis::lyapunov_spectrum::{
+    lyapunov_spectrum as core_spectrum, SpectrumParams,
+};
 use vibrobar_core::analysis::map::{compute_point, compute_point_from, Axis, Grid, GridAxis};
 use vibrobar_core::analysis::map::{GridPoint, MapSpec};
 use vibrobar_core::analysis::poincare::{bifurcation, BifurcationSpec, Stroboscope};
@@ -1354,6 +1357,52 @@ fn lyapunov<'py>(
     Ok(d)
 }
 
+/// Every Lyapunov exponent at one point by QR of the variational flow with saltation matrices
+/// (lumped bar, exact solver, restitution law), over the run after the transient.
+#[pyfunction]
+#[pyo3(signature = (scenario, ratio = None, gap_m = None, transient_s = None, blocks = 10))]
+fn lyapunov_spectrum<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    ratio: Option<f64>,
+    gap_m: Option<f64>,
+    transient_s: Option<f64>,
+    blocks: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let sc = &scenario.inner;
+    let (spec, _, sys) = point_system(sc, ratio, gap_m)?;
+    let t = transient(sc, transient_s)?;
+    let solver = make_solver(sc)?;
+    if solver.name() != "exact" {
+        return Err(PyValueError::new_err(format!(
+            "lyapunov_spectrum needs solver = \"exact\" (the saltation matrices need the event times the exact solver resolves; got {:?})",
+            solver.name()
+        )));
+    }
+    let p = SpectrumParams {
+        transient_s: t,
+        duration_s: spec.settings.duration_s - t,
+        blocks,
+        scales: None,
+    };
+    let init = spec.base.init;
+    let r = detached(py, None, |_| {
+        core_spectrum(&sys, &init, solver.as_ref(), &p).map_err(run_error)
+    })?;
+    let d = PyDict::new(py);
+    // −∞ (a direction removed by stick or wall contact) is None.
+    d.set_item("exponents_per_s", r.exponents_per_s.clone())?;
+    d.set_item("std_error_per_s", r.std_error_per_s.clone())?;
+    d.set_item("collapsed", r.collapsed)?;
+    d.set_item("sum_per_s", r.sum_per_s)?;
+    d.set_item("impacts_per_s", r.impacts_per_s)?;
+    d.set_item("duration_s", r.duration_s)?;
+    d.set_item("blocks", blocks)?;
+    d.set_item("chatter_limits", r.events.chatter_limits)?;
+    d.set_item("grazing", r.events.grazing)?;
+    Ok(d)
+}
+
 // ---------------------------------------------------------------------------------------------
 // bifurcation and ensembles (chunked: their core functions take no cancel flag)
 
@@ -1631,6 +1680,7 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(regime, m)?)?;
     m.add_function(wrap_pyfunction!(poincare, m)?)?;
     m.add_function(wrap_pyfunction!(lyapunov, m)?)?;
+    m.add_function(wrap_pyfunction!(lyapunov_spectrum, m)?)?;
     m.add_function(wrap_pyfunction!(bifurcation_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble, m)?)?;
     m.add_function(wrap_pyfunction!(solver_names, m)?)?;

@@ -128,6 +128,9 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     print_rms_side_by_side(&sweeps);
     if run_sc.beam.is_none() {
         contact_law_row(&rows, &single, &st)?;
+        if names.iter().any(|n| n == "exact") {
+            spectrum_row(&single, &st)?;
+        }
     }
     cutting_row(&st)?;
     // The single run above is the lumped reference only when the bench's scenario is lumped.
@@ -249,6 +252,54 @@ pub fn cutting_row(st: &vibrobar_core::RunSettings) -> Result<()> {
         fmt_secs(median(&mut tc)),
         fmt_secs(median(&mut th)),
         median(&mut ratio)
+    );
+    Ok(())
+}
+
+/// Issue #11 §5: the Lyapunov spectrum (QR of the variational flow) of the single run's system
+/// over its RMS window, against the plain exact run over the whole span; medians of 5 each.
+fn spectrum_row(single: &Case, st: &vibrobar_core::RunSettings) -> Result<()> {
+    use vibrobar_core::analysis::lyapunov_spectrum::{lyapunov_spectrum, SpectrumParams};
+    use vibrobar_core::solver::Solver;
+    let sys = &single.system;
+    if sys.damper.is_none()
+        || sys
+            .damper
+            .is_some_and(|d| d.contact.law == vibrobar_core::ContactLaw::Hertz)
+    {
+        return Ok(());
+    }
+    let p = SpectrumParams {
+        transient_s: st.window_start_s(),
+        duration_s: st.duration_s - st.window_start_s(),
+        blocks: 10,
+        scales: None,
+    };
+    let exact = vibrobar_core::solver::Exact::default();
+    let t_end = single.init.t_s + st.duration_s;
+    let (mut ts, mut tr) = (Vec::new(), Vec::new());
+    let mut last = None;
+    for _ in 0..5 {
+        let t = Instant::now();
+        last = Some(lyapunov_spectrum(sys, &single.init, &exact, &p)?);
+        ts.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        exact.run(sys, &single.init, t_end, &mut ())?;
+        tr.push(t.elapsed().as_secs_f64());
+    }
+    let r = last.expect("five repetitions");
+    let l1 = r.exponents_per_s[0].map_or("−∞".into(), |x| format!("{x:.1}"));
+    let (ms, mr) = (median(&mut ts), median(&mut tr));
+    println!(
+        "  exact  Lyapunov spectrum (QR of the variational flow over the {} s window, {} \
+         impacts/s): median {} (λ₁ = {l1} 1/s, {} directions collapsed); plain exact run of the \
+         whole span: median {} ({:.2}×)",
+        vibrobar_core::error::Compact(p.duration_s),
+        vibrobar_core::error::Compact(r.impacts_per_s.round()),
+        fmt_secs(ms),
+        r.collapsed,
+        fmt_secs(mr),
+        ms / mr
     );
     Ok(())
 }

@@ -10,11 +10,12 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use vibrobar_core::analysis::ensemble::{run_ensemble, EnsembleParams, IcRanges};
 use vibrobar_core::analysis::lyapunov::{max_lyapunov, max_lyapunov_modal, LyapunovParams};
+use vibrobar_core::analysis::lyapunov_spectrum::{lyapunov_spectrum, SpectrumParams};
 use vibrobar_core::analysis::map::{Axis, Grid, GridAxis, GridPoint, MapSpec};
 use vibrobar_core::analysis::poincare::{bifurcation, BifurcationSpec, Stroboscope};
 use vibrobar_core::analysis::regime::Tolerances;
-use vibrobar_core::params::BarModel;
 use vibrobar_core::params::System;
+use vibrobar_core::params::{BarModel, FrictionModel};
 use vibrobar_core::solver::modal_run_by_name;
 use vibrobar_core::structure::{ModalState, ModalSystem};
 use vibrobar_io::csv::{
@@ -390,10 +391,18 @@ pub struct LyapunovArgs {
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
+    /// All four exponents by QR of the variational flow with saltation matrices (lumped bar,
+    /// exact solver, restitution law) over the window after the transient, instead of the
+    /// largest by two trajectories (--periods and --d0 do not apply).
+    #[arg(long)]
+    pub spectrum: bool,
 }
 
 /// `vibrobar lyapunov`.
 pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
+    if a.spectrum {
+        return run_spectrum(a);
+    }
     let sys = a.point.system()?;
     let solver = a.point.system.solver()?;
     let transient = transient_or_default(a.transient, &a.point.system)?;
@@ -442,6 +451,88 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
             "λ = {:.4} ± {:.4} 1/s ({} intervals of {:.3e} s, {} projections into the cavity)",
             r.exponent_per_s, r.std_error_per_s, intervals, interval, r.clamped
         );
+    }
+    Ok(())
+}
+
+/// `vibrobar lyapunov --spectrum`: every exponent by QR of the variational flow.
+fn run_spectrum(a: &LyapunovArgs) -> anyhow::Result<()> {
+    let sys = a.point.system()?;
+    let solver = a.point.system.solver()?;
+    if solver.name() != "exact" {
+        bail!(
+            "--spectrum needs --solver exact (the saltation matrices need the event times the exact solver resolves; got --solver {})",
+            solver.name()
+        );
+    }
+    let transient = transient_or_default(a.transient, &a.point.system)?;
+    let spec = spec(&a.point.system)?;
+    let window = spec.settings.duration_s - transient;
+    let p = SpectrumParams {
+        transient_s: transient,
+        duration_s: window,
+        blocks: 10,
+        scales: None,
+    };
+    let r = lyapunov_spectrum(&sys, &spec.base.init, solver.as_ref(), &p)?;
+    // The frictionless bar's phase-volume identity: Σλ = −C/M + 2 ln(e) × impacts per second.
+    let identity = match (sys.lumped_bar(), sys.damper) {
+        (Some(bar), Some(d))
+            if sys.friction_level_n() == 0.0 || d.friction == FrictionModel::None =>
+        {
+            Some(
+                -bar.damping_n_s_per_m() / bar.mass_kg + 2.0 * d.restitution.ln() * r.impacts_per_s,
+            )
+        }
+        _ => None,
+    };
+    if a.json {
+        let ev = r.events;
+        let j = serde_json::json!({
+            "exponents_per_s": r.exponents_per_s,
+            "std_error_per_s": r.std_error_per_s,
+            "collapsed": r.collapsed,
+            "sum_per_s": r.sum_per_s,
+            "volume_identity_per_s": identity,
+            "impacts_per_s": r.impacts_per_s,
+            "duration_s": r.duration_s,
+            "blocks": p.blocks,
+            "events": {
+                "impacts": ev.impacts,
+                "plastic_impacts": ev.plastic_impacts,
+                "friction_switches": ev.friction_switches,
+                "sticks": ev.sticks,
+                "unsticks": ev.unsticks,
+                "chatter_limits": ev.chatter_limits,
+                "releases": ev.releases,
+                "grazing": ev.grazing,
+            },
+            "parameters": a.point.to_params()?,
+        });
+        let _ = writeln!(std::io::stdout(), "{}", serde_json::to_string_pretty(&j)?);
+    } else {
+        let show = |v: &[Option<f64>], none: &str| -> String {
+            v.iter()
+                .map(|x| x.map_or(none.to_string(), |x| format!("{x:.4}")))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        println!(
+            "λ = [{}] 1/s, ± [{}] ({} s window in {} blocks, {} impacts/s, {} directions collapsed by stick or wall contact)",
+            show(&r.exponents_per_s, "−∞"),
+            show(&r.std_error_per_s, "–"),
+            vibrobar_core::error::Compact(r.duration_s),
+            p.blocks,
+            vibrobar_core::error::Compact(r.impacts_per_s),
+            r.collapsed
+        );
+        match identity {
+            Some(id) if r.collapsed == 0 => println!(
+                "Σλ = {:.6} 1/s; frictionless identity −C/M + 2 ln(e) × impacts/s = {:.6} 1/s",
+                r.sum_per_s, id
+            ),
+            _ => println!("Σλ (finite exponents) = {:.6} 1/s", r.sum_per_s),
+        }
     }
     Ok(())
 }

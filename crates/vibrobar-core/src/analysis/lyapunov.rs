@@ -175,15 +175,7 @@ pub fn max_lyapunov(
     let lg = sys.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
     // Without a ball the ball coordinates are meaningless: measure (u, u̇) only.
     let dims = if has_ball { 4 } else { 2 };
-    let clamp = |s: &mut State| -> bool {
-        let w = s.w_m();
-        if w.abs() > lg {
-            s.v_m = s.u_m + lg.copysign(w);
-            true
-        } else {
-            false
-        }
-    };
+    let clamp = |s: &mut State| -> bool { onto_cavity(s, lg) };
 
     let mut x = solver
         .run(sys, init, init.t_s + p.transient_s, &mut ())?
@@ -242,6 +234,26 @@ pub fn max_lyapunov(
         x = xn;
     }
     summarise(rates, p.blocks, clamped)
+}
+
+/// Put a ball that reads outside the cavity (`|v − u| > l_g`) back on the wall it crossed:
+/// `v = u ± l_g`, then stepped inwards by ulps while the recomputed `v − u` is still outside
+/// (`(u + l_g) − u` can exceed `l_g` by an ulp, which the next run's initial-state check
+/// refuses). Returns whether the state was moved.
+pub(crate) fn onto_cavity(s: &mut State, lg: f64) -> bool {
+    let w = s.w_m();
+    if w.abs() <= lg {
+        return false;
+    }
+    s.v_m = s.u_m + lg.copysign(w);
+    // Bounded: each step moves v by one ulp of v towards u; a few suffice.
+    for _ in 0..64 {
+        if s.w_m().abs() <= lg {
+            break;
+        }
+        s.v_m -= w.signum() * f64::EPSILON * s.v_m.abs().max(f64::MIN_POSITIVE);
+    }
+    true
 }
 
 /// The checks of the settings every estimate makes.

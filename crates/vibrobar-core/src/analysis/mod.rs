@@ -13,11 +13,13 @@ pub mod energy;
 pub mod ensemble;
 pub mod grid;
 pub mod lyapunov;
+pub mod lyapunov_spectrum;
 pub mod map;
 pub mod placement;
 pub mod poincare;
 pub mod regime;
 pub mod sweep;
+pub mod variational;
 
 pub use batch::{par_map_with_progress, Batch, BatchError, Runner, SweepBase};
 pub use case::{run_case, ImpactCounter, RmsObserver, RunResult, Sampler};
