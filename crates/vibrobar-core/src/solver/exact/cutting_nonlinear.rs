@@ -161,10 +161,7 @@ pub(super) fn step(
         };
         [y[1], (p.sys.force_n(t) + f_cut - c * y[1] - k * y[0]) / m]
     };
-    let dp = Dopri5::<2> {
-        rtol: 0.0,
-        atol: [1.0; 2],
-    };
+    let dp = Dopri5::<2>::new(0.0, [1.0; 2]);
     let f0 = rhs(t, y);
     let mut h = t_stop - t;
     let mut att = dp.attempt(&mut rhs, t, y, &f0, h);
