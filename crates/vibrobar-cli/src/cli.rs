@@ -92,6 +92,13 @@ pub struct ModelArgs {
     /// overriding `[beam] cavity_position_m`.
     #[arg(long, value_name = "X", allow_negative_numbers = true)]
     pub cavity_position_mm: Option<f64>,
+    /// Width of cut b in mm of a `[cutting]` scenario, overriding `[cutting] width_m`.
+    #[arg(long, value_name = "B", allow_negative_numbers = true)]
+    pub width_mm: Option<f64>,
+    /// Spindle speed in rpm of a `[cutting]` scenario, in [1, 200000], overriding
+    /// `[cutting] spindle_rpm`.
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    pub spindle_rpm: Option<f64>,
 }
 
 /// `vibrobar sweep`.

@@ -46,6 +46,8 @@ impl ScenarioArgs for Scenario {
             dt: args.dt,
             duration: args.duration,
             rms_fraction: None,
+            width_mm: args.width_mm,
+            spindle_rpm: args.spindle_rpm,
         })?;
         s.apply_beam_flags(args.beam_modes, args.cavity_position_mm)?;
         Ok(s)

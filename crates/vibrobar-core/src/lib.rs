@@ -10,6 +10,7 @@
 //! * [`model`]: the equations of motion and the mechanical energy.
 //! * [`solver`]: the [`solver::Solver`] trait and its implementations.
 //! * [`analysis`]: RMS, impact statistics, time histories, sweeps, energy audit.
+//! * [`excitation`]: the cutting process (a delay equation), besides the harmonic forcing.
 //! * [`structure`]: the bar as modes (lumped, Euler–Bernoulli beam, measured), computed once
 //!   per run.
 //! * [`euler_bernoulli`]: lumped `M`, `K` of a cantilever bar from its geometry.
@@ -24,6 +25,7 @@ pub mod analysis;
 pub mod damper;
 pub mod error;
 pub mod euler_bernoulli;
+pub mod excitation;
 pub mod limits;
 pub mod model;
 pub mod params;

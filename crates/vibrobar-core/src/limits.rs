@@ -18,6 +18,7 @@
 //! | Lyapunov renormalisation intervals | ≤ [`MAX_LYAPUNOV_INTERVALS`] = 1e6 | |
 //! | forcing phase `max(Ω, ω_max)·t` | ≤ [`MAX_PHASE_RAD`] = 1e10 rad | `sin(Ωt)` keeps 1e-6 rad of phase |
 //! | frequency ratio `Ω/ω₁` (`√(K/M)` of a lumped bar) | [[`FREQ_RATIO_MIN`], [`FREQ_RATIO_MAX`]] = [1e-3, 1e3] | a one-mode model; outside, the response underflows or the period overflows |
+//! | spindle speed `[cutting] spindle_rpm` | [[`SPINDLE_RPM_MIN`], [`SPINDLE_RPM_MAX`]] = [1, 200 000] rpm | a lathe spindle; the delay `60/n` stays within a run |
 //! | RMS window `rms_fraction·duration` | ≥ `dt` | an empty window has no RMS |
 //! | Lyapunov `d0` | [[`LYAPUNOV_D0_MIN`], [`LYAPUNOV_D0_MAX`]] = [1e-12, 1e-2] | representable and still linear |
 //! | beam geometry and material | [`BEAM_LENGTH_M`], [`BEAM_DIAMETER_M`], [`BEAM_YOUNGS_MODULUS_PA`], [`BEAM_DENSITY_KG_M3`] | real bars; keeps `M`, `K` finite |
@@ -66,6 +67,10 @@ pub const MAX_PHASE_RAD: f64 = 1e10;
 pub const FREQ_RATIO_MIN: f64 = 1e-3;
 /// Largest frequency ratio `Ω/ω₁`.
 pub const FREQ_RATIO_MAX: f64 = 1e3;
+/// Slowest spindle speed of a cut, rpm (`[cutting] spindle_rpm`, `--spindle-rpm`).
+pub const SPINDLE_RPM_MIN: f64 = 1.0;
+/// Fastest spindle speed of a cut, rpm: a delay of 0.3 ms, above any lathe spindle.
+pub const SPINDLE_RPM_MAX: f64 = 200_000.0;
 /// Smallest Lyapunov separation `d0` (scaled units, state components are O(1)–O(100)): below
 /// it the perturbation is lost to rounding and the estimate measures round-off.
 pub const LYAPUNOV_D0_MIN: f64 = 1e-12;

@@ -11,6 +11,7 @@ use std::path::Path;
 use vibrobar_core::analysis::map::{Axis, GridPoint, MapRow, Optimum};
 use vibrobar_core::analysis::placement::{PlacementPoint, PlacementRow};
 use vibrobar_core::analysis::regime::Regime;
+use vibrobar_core::solver::CutSample;
 use vibrobar_core::State;
 
 /// How a column is written (and so how it is read back).
@@ -339,6 +340,40 @@ pub fn history_schema() -> Schema {
             .map(|n| col(n, Format::Sci))
             .collect(),
     }
+}
+
+/// The columns a cutting run adds to [`history_schema`]: the chip thickness, whether the tool
+/// cuts (0/1) and the cutting force on the bar.
+const CUTTING_COLUMNS: [(&str, Format); 3] = [
+    ("chip_thickness_m", Format::Sci),
+    ("in_cut", Format::Count),
+    ("cutting_force_n", Format::Sci),
+];
+
+/// Columns of a cutting run's history: [`history_schema`], then
+/// `chip_thickness_m,in_cut,cutting_force_n`.
+pub fn cutting_history_schema() -> Schema {
+    let mut s = history_schema();
+    s.columns
+        .extend(CUTTING_COLUMNS.iter().map(|&(n, f)| col(n, f)));
+    s
+}
+
+/// The fields of one cutting-history row, in column order.
+pub fn cutting_history_values(s: &State, c: &CutSample) -> [Value; 10] {
+    let h = history_values(s);
+    [
+        Value::F(h[0]),
+        Value::F(h[1]),
+        Value::F(h[2]),
+        Value::F(h[3]),
+        Value::F(h[4]),
+        Value::F(h[5]),
+        Value::F(h[6]),
+        Value::F(c.chip_thickness_m),
+        Value::U(u64::from(c.in_cut)),
+        Value::F(c.cutting_force_n),
+    ]
 }
 
 /// The fields of one history row, in column order.

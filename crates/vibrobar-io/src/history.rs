@@ -5,14 +5,19 @@
 //! whole-array writers ([`crate::csv::write_history_csv`], [`crate::npy::write_f64`]).
 
 use crate::atomic::AtomicFile;
-use crate::csv::{history_schema, history_values, Schema, Value};
+use crate::csv::{
+    cutting_history_schema, cutting_history_values, history_schema, history_values, Schema, Value,
+};
 use crate::error::{IoError, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use vibrobar_core::solver::CutSample;
 use vibrobar_core::State;
 
 /// Columns of a history row.
 pub const HISTORY_COLUMNS: usize = 7;
+/// Columns of a cutting run's history row ([`crate::csv::cutting_history_schema`]).
+pub const CUTTING_HISTORY_COLUMNS: usize = 10;
 
 /// Samples on the grid `t0 + k·interval` (k = 0, 1, …) that are ≤ `t_end`, evaluated exactly
 /// as the core's `Sampler` evaluates them (a run's last segment ends at `t_end`).
@@ -54,11 +59,22 @@ pub struct HistoryWriter {
 impl HistoryWriter {
     /// Start `path` (NPY if it ends in `.npy`, else CSV) for `rows` rows.
     pub fn create(path: &Path, rows: u64) -> Result<HistoryWriter> {
+        Self::create_with(path, rows, false)
+    }
+
+    /// Start `path` for `rows` rows of a cutting run ([`crate::csv::cutting_history_schema`];
+    /// rows through [`HistoryWriter::push_cut`]) when `cutting`, else as [`HistoryWriter::create`].
+    pub fn create_with(path: &Path, rows: u64, cutting: bool) -> Result<HistoryWriter> {
         let npy = is_npy(path);
-        let schema = history_schema();
+        let schema = if cutting {
+            cutting_history_schema()
+        } else {
+            history_schema()
+        };
+        let cols = schema.columns.len();
         let mut file = AtomicFile::create(path)?;
         let head = if npy {
-            crate::npy::header(&[rows as usize, HISTORY_COLUMNS])
+            crate::npy::header(&[rows as usize, cols])
         } else {
             format!("{}\n", schema.header()).into_bytes()
         };
@@ -91,6 +107,32 @@ impl HistoryWriter {
         } else {
             self.line.clear();
             self.schema.format_into(&v.map(Value::F), &mut self.line);
+            self.line.push('\n');
+            self.file.write_all(self.line.as_bytes())
+        };
+        match res {
+            Ok(()) => self.rows += 1,
+            Err(e) => self.error = Some(e),
+        }
+    }
+
+    /// Append one sample of a cutting run (a writer from [`HistoryWriter::create_with`] with
+    /// `cutting`).
+    pub fn push_cut(&mut self, s: &State, c: &CutSample) {
+        if self.error.is_some() {
+            return;
+        }
+        debug_assert_eq!(self.schema.columns.len(), CUTTING_HISTORY_COLUMNS);
+        let v = cutting_history_values(s, c);
+        let res = if self.npy {
+            let mut b = [0u8; 8 * CUTTING_HISTORY_COLUMNS];
+            for (chunk, x) in b.chunks_exact_mut(8).zip(&v) {
+                chunk.copy_from_slice(&x.f().to_le_bytes());
+            }
+            self.file.write_all(&b)
+        } else {
+            self.line.clear();
+            self.schema.format_into(&v, &mut self.line);
             self.line.push('\n');
             self.file.write_all(self.line.as_bytes())
         };

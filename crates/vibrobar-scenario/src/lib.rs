@@ -19,6 +19,7 @@ use std::path::Path;
 use vibrobar_core::analysis::sweep::SweepRange;
 use vibrobar_core::analysis::{SweepBase, SweepPoint};
 use vibrobar_core::error::Compact;
+use vibrobar_core::excitation::Cutting;
 use vibrobar_core::params::BarModel;
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
 use vibrobar_core::structure::{Beam, MeasuredMode, ModalModel, Structure};
@@ -84,6 +85,12 @@ pub struct Scenario {
     /// `[[solid_modes]]`: the solid reference as measured modes (only with `[[modes]]`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub solid_modes: Option<Vec<MeasuredMode>>,
+    /// `[cutting]`: the cutting process at the force point (issue #13), deserialised straight
+    /// into core [`Cutting`]; absent: no cut (and left out of the serialised scenario, so
+    /// existing metadata and fingerprints are unchanged). With it, the harmonic force is off
+    /// unless `[forcing]` sets `amplitude_n` ([`Scenario::from_toml`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cutting: Option<Cutting>,
     /// The bars' models, computed once ([`Scenario::bars`]; a beam's modes cost up to seconds).
     #[serde(skip)]
     bars_cache: BarsCache,
@@ -141,6 +148,7 @@ impl Default for Scenario {
             beam: None,
             modes: None,
             solid_modes: None,
+            cutting: None,
             bars_cache: BarsCache::default(),
         }
     }
@@ -355,6 +363,10 @@ pub struct Overrides {
     pub duration: Option<f64>,
     /// `--rms-fraction`.
     pub rms_fraction: Option<f64>,
+    /// `--width-mm`: the width of cut of a `[cutting]` scenario, in mm.
+    pub width_mm: Option<f64>,
+    /// `--spindle-rpm`: the spindle speed of a `[cutting]` scenario.
+    pub spindle_rpm: Option<f64>,
 }
 
 impl Scenario {
@@ -386,6 +398,15 @@ impl Scenario {
                 }
                 None => s.reference = Some(SolidReference::NoBall),
             }
+        }
+        // A cut is its own excitation: the paper's 15 N harmonic force would otherwise ride on
+        // every cutting run unasked. `[forcing] amplitude_n` (runout) turns it back on.
+        let amplitude_given = raw
+            .get("forcing")
+            .and_then(|f| f.get("amplitude_n"))
+            .is_some();
+        if s.cutting.is_some() && !amplitude_given {
+            s.forcing.amplitude_n = 0.0;
         }
         if gap_given && !gaps_given {
             s.sweep.gaps_m = vec![s.damper.gap_m];
@@ -436,6 +457,29 @@ impl Scenario {
                 bail!("--rms-fraction = {f} is outside the allowed range (0, 1]");
             }
             self.run.settings.rms_fraction = f;
+        }
+        if o.width_mm.is_some() || o.spindle_rpm.is_some() {
+            let Some(c) = self.cutting.as_mut() else {
+                bail!(
+                    "--width-mm and --spindle-rpm need a scenario with a [cutting] section \
+                     (this one has no cut)"
+                );
+            };
+            if let Some(b) = o.width_mm {
+                check_positive("--width-mm", b, "mm")?;
+                // A division is correctly rounded: 1.5 mm is the same double as 1.5e-3 m.
+                c.width_m = b / 1e3;
+            }
+            if let Some(n) = o.spindle_rpm {
+                vibrobar_core::limits::check(
+                    "--spindle-rpm",
+                    n,
+                    vibrobar_core::limits::SPINDLE_RPM_MIN,
+                    vibrobar_core::limits::SPINDLE_RPM_MAX,
+                    "revolutions per minute of a lathe spindle",
+                )?;
+                c.spindle_rpm = n;
+            }
         }
         Ok(())
     }
@@ -587,6 +631,9 @@ impl Scenario {
             })?;
         self.settings().validate()?;
         self.initial_state().validate(&damped)?;
+        if let Some(c) = &self.cutting {
+            c.validate()?;
+        }
         Ok(())
     }
 }
@@ -1041,6 +1088,122 @@ mod tests {
         let b = s.beam.clone().unwrap();
         assert_eq!(b.cavity_position_m, b.length_m);
         s.structure().modal_model().unwrap();
+    }
+
+    const CUT: &str =
+        "[cutting]\ncoefficient_n_m2 = 2e9\nwidth_m = 1e-3\nfeed_m = 1e-4\nspindle_rpm = 5000\n";
+
+    /// `[cutting]` deserialises into core `Cutting`, turns the harmonic force off unless
+    /// `[forcing] amplitude_n` is given, and is left out of a scenario without it.
+    #[test]
+    fn cutting_section_turns_the_harmonic_force_off_and_is_absent_when_not_given() {
+        let s = Scenario::from_toml(CUT).unwrap();
+        let c = s.cutting.unwrap();
+        assert_eq!(c.width_m, 1e-3);
+        assert_eq!(c.force_direction_factor, 1.0);
+        assert_eq!(
+            c.force_law,
+            vibrobar_core::excitation::CuttingForceLaw::Linear
+        );
+        assert_eq!(s.forcing.amplitude_n, 0.0);
+        s.validate().unwrap();
+        // Runout on top: [forcing] amplitude_n sets it; other [forcing] keys alone do not.
+        let s = Scenario::from_toml(&format!("{CUT}[forcing]\namplitude_n = 3.0\n")).unwrap();
+        assert_eq!(s.forcing.amplitude_n, 3.0);
+        let s = Scenario::from_toml(&format!("{CUT}[forcing]\nfrequency_ratio = 0.9\n")).unwrap();
+        assert_eq!(s.forcing.amplitude_n, 0.0);
+        // Round trip, and no `cutting` key without the section (metadata unchanged).
+        let s = Scenario::from_toml(CUT).unwrap();
+        let text = toml::to_string(&s).unwrap();
+        assert_eq!(Scenario::from_toml(&text).unwrap(), s);
+        assert!(serde_json::to_value(Scenario::paper())
+            .unwrap()
+            .get("cutting")
+            .is_none());
+        assert_eq!(Scenario::from_toml("").unwrap().forcing.amplitude_n, 15.0);
+        let e = format!(
+            "{:#}",
+            Scenario::from_toml(&format!("{CUT}widht_m = 1\n")).unwrap_err()
+        );
+        assert!(e.contains("widht_m"), "{e}");
+        let e = format!(
+            "{:#}",
+            Scenario::from_toml("[cutting]\nwidth_m = 1e-3\nfeed_m = 1e-4\nspindle_rpm = 5000\n")
+                .unwrap_err()
+        );
+        assert!(e.contains("coefficient_n_m2"), "{e}");
+    }
+
+    /// The issue's bad inputs, from the file: each error names `cutting.<field>` and its range.
+    #[test]
+    fn cutting_bad_inputs_name_the_field_and_range() {
+        for (key, value, range) in [
+            ("coefficient_n_m2", "0.0", "(0, ∞)"),
+            ("coefficient_n_m2", "-2e9", "(0, ∞)"),
+            ("width_m", "0.0", "(0, ∞)"),
+            ("width_m", "-1e-3", "(0, ∞)"),
+            ("feed_m", "0.0", "(0, ∞)"),
+            ("feed_m", "-1e-4", "(0, ∞)"),
+            ("spindle_rpm", "0.5", "[1, "),
+            ("spindle_rpm", "250000", "[1, "),
+            ("force_direction_factor", "0.0", "(0, 1]"),
+            ("force_direction_factor", "1.2", "(0, 1]"),
+            ("chip_direction_factor", "-0.5", "(0, 1]"),
+            ("chip_direction_factor", "2", "(0, 1]"),
+        ] {
+            let text = CUT
+                .lines()
+                .filter(|l| !l.starts_with(key))
+                .chain(std::iter::once(format!("{key} = {value}").as_str()))
+                .collect::<Vec<_>>()
+                .join("\n");
+            let s = Scenario::from_toml(&text).unwrap();
+            let e = s.validate().unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("cutting.{key}")) && e.contains(range),
+                "{key} = {value}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn cutting_flags_override_the_section_and_need_it() {
+        let mut s = Scenario::from_toml(CUT).unwrap();
+        s.apply(&Overrides {
+            width_mm: Some(1.5),
+            spindle_rpm: Some(7000.0),
+            ..Overrides::default()
+        })
+        .unwrap();
+        let c = s.cutting.unwrap();
+        assert_eq!((c.width_m, c.spindle_rpm), (1.5e-3, 7000.0));
+        for (o, want) in [
+            (
+                Overrides {
+                    width_mm: Some(0.0),
+                    ..Overrides::default()
+                },
+                "--width-mm",
+            ),
+            (
+                Overrides {
+                    spindle_rpm: Some(3e5),
+                    ..Overrides::default()
+                },
+                "--spindle-rpm",
+            ),
+        ] {
+            let e = s.clone().apply(&o).unwrap_err().to_string();
+            assert!(e.contains(want), "{e}");
+        }
+        let e = Scenario::paper()
+            .apply(&Overrides {
+                spindle_rpm: Some(5000.0),
+                ..Overrides::default()
+            })
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("[cutting]"), "{e}");
     }
 }
 

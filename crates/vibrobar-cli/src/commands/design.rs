@@ -94,6 +94,7 @@ impl SystemArgs {
             dt: self.dt,
             duration: self.duration,
             rms_fraction: self.rms_fraction,
+            ..Overrides::default()
         })?;
         sc.apply_beam_flags(self.beam_modes, self.cavity_position_mm)?;
         let st = sc.settings();

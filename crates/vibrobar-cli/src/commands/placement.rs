@@ -118,6 +118,7 @@ pub fn beam_scenario(a: &SystemArgs) -> anyhow::Result<(Scenario, Beam)> {
                 dt: a.dt,
                 duration: a.duration,
                 rms_fraction: a.rms_fraction,
+                ..Overrides::default()
             })?;
             sc.apply_beam_flags(a.beam_modes, None)?;
             let st = sc.settings();

@@ -76,6 +76,9 @@ pub struct Sampler {
     next_k: u64,
     /// Samples, in time order.
     pub samples: Vec<State>,
+    /// The cut at each sample of a cutting run (empty otherwise), alongside
+    /// [`Sampler::samples`].
+    pub cuts: Vec<crate::solver::CutSample>,
 }
 
 impl Sampler {
@@ -86,6 +89,7 @@ impl Sampler {
             t0_s,
             next_k: 0,
             samples: Vec::new(),
+            cuts: Vec::new(),
         }
     }
 
@@ -101,6 +105,9 @@ impl Observer for Sampler {
             let t = self.next_t();
             if t >= seg.t_start_s() {
                 self.samples.push(seg.state_at(t));
+                if let Some(c) = seg.cutting_at(t) {
+                    self.cuts.push(c);
+                }
             }
             self.next_k += 1;
         }

@@ -20,6 +20,10 @@ use crate::params::System;
 use crate::solver::{Event, EventKind, Observer, Segment, SegmentIntegrals};
 use serde::Serialize;
 
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
+}
+
 /// The energy books of a run (or of a window of it). All in joules.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct EnergyBalance {
@@ -31,6 +35,10 @@ pub struct EnergyBalance {
     pub impact_loss_j: f64,
     /// Work of the ball–bar friction, `∫F_ball ẇ dt` (positive = energy put in).
     pub friction_work_j: f64,
+    /// Work of the cutting force on the bar, `∫F_cut u̇_tip dt` (a cutting run; left out of
+    /// serialised books when 0, so existing outputs are unchanged).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub cutting_work_j: f64,
     /// Mechanical energy at the end minus at the start.
     pub delta_mechanical_j: f64,
     /// `Δ − (input − viscous − impact + friction)`: 0 for an exact solution.
@@ -44,6 +52,7 @@ pub struct EnergyAudit {
     /// Start of the audited window (events exactly at it belong before the window).
     pub window_start_s: f64,
     sums: SegmentIntegrals,
+    cutting_work_j: f64,
     impact_loss_j: f64,
     e_start_j: Option<f64>,
     e_end_j: f64,
@@ -61,6 +70,7 @@ impl EnergyAudit {
             sys: *sys,
             window_start_s,
             sums: SegmentIntegrals::default(),
+            cutting_work_j: 0.0,
             impact_loss_j: 0.0,
             e_start_j: None,
             e_end_j: f64::NAN,
@@ -72,12 +82,15 @@ impl EnergyAudit {
         let e0 = self.e_start_j?;
         let i = &self.sums;
         let delta = self.e_end_j - e0;
-        let books = i.forcing_work_j - i.viscous_loss_j - self.impact_loss_j + i.friction_work_j;
+        let books = i.forcing_work_j - i.viscous_loss_j - self.impact_loss_j
+            + i.friction_work_j
+            + self.cutting_work_j;
         Some(EnergyBalance {
             work_input_j: i.forcing_work_j,
             viscous_loss_j: i.viscous_loss_j,
             impact_loss_j: self.impact_loss_j,
             friction_work_j: i.friction_work_j,
+            cutting_work_j: self.cutting_work_j,
             delta_mechanical_j: delta,
             residual_j: delta - books,
         })
@@ -96,6 +109,7 @@ impl Observer for EnergyAudit {
         }
         if b > a {
             self.sums += seg.integrals(a, b);
+            self.cutting_work_j += seg.cutting_work_j(a, b);
         }
         self.e_end_j = seg.mechanical_energy_j(b);
     }

@@ -95,6 +95,17 @@ pub enum Mode {
     Contact(Wall),
 }
 
+/// The cut at one instant of a cutting run.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct CutSample {
+    /// Chip thickness `h = h0 + c_chip (s(t − τ) − u_tip)` (≤ 0 out of the cut).
+    pub chip_thickness_m: f64,
+    /// The tool cuts (`h > 0`).
+    pub in_cut: bool,
+    /// Force of the cut on the bar at the force point, `c_force F(h)` (0 out of the cut).
+    pub cutting_force_n: f64,
+}
+
 /// Integrals over part of a segment, the raw material of RMS and the energy audit.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct SegmentIntegrals {
@@ -135,6 +146,15 @@ pub trait Segment {
     /// strain energy; `½Mu̇² + ½Ku²` for the lumped bar) plus the ball's `½m_d v̇²`. The public
     /// [`State`] cannot give it for a modal bar, so the energy audit asks the segment.
     fn mechanical_energy_j(&self, t_s: f64) -> f64;
+    /// The cut at `t` of a cutting run ([`crate::excitation::Cutting`]); `None` without a cut.
+    fn cutting_at(&self, _t_s: f64) -> Option<CutSample> {
+        None
+    }
+    /// Work of the cutting force on the bar over `[a, b]`, `∫ F_cut u̇_tip dt` (0 without a
+    /// cut); [`SegmentIntegrals::forcing_work_j`] holds the harmonic force's work only.
+    fn cutting_work_j(&self, _a_s: f64, _b_s: f64) -> f64 {
+        0.0
+    }
 }
 
 /// Sees a run as it is computed. Every method defaults to a no-op.

@@ -48,6 +48,7 @@
 //! is only defined statistically: rounding-level changes of an event time change it by a few %.
 
 pub mod constrained;
+pub mod cutting;
 pub mod expsum;
 pub mod expsum_n;
 pub mod hertz;
@@ -116,6 +117,79 @@ struct Consts {
     osc: [Osc; 2],
     /// The compliant contact law, `None` for the instantaneous restitution law.
     hertz: Option<crate::damper::contact::Hertz>,
+    /// The bar's own stiffness `K` (mechanical energy, `a_b`). `k` is `K` plus the cutting
+    /// stiffness while the tool cuts ([`cutting`]); without a cut the two are equal.
+    k_spring: f64,
+    /// The cut over the current piece of a cutting run ([`cutting`]); `None`: no cut.
+    cut: Option<CutPiece>,
+}
+
+/// The cut over one piece of a cutting run, in the local time `τ` of the segment starting at
+/// the piece's start: the delayed surface `d(τ) = s(t − T)` is the quadratic `d0 + d1 τ + d2 τ²`
+/// ([`cutting`] fits it to the stored history), the chip `h = h0 + c_chip (d − u)`.
+#[derive(Debug, Clone, Copy)]
+struct CutPiece {
+    /// `c_force K_f b` (linear law): force per chip thickness.
+    kfb: f64,
+    /// `c_chip`.
+    c_chip: f64,
+    /// Feed `h0`.
+    h0: f64,
+    /// The tool cuts over this piece (the stiffness carries `c_force K_f b c_chip`).
+    in_cut: bool,
+    /// The delayed surface's coefficients.
+    d: [f64; 3],
+    /// Departure order of the chip function at the piece start (1 right after a cut event).
+    order: usize,
+    /// Tolerance on the chip thickness.
+    tol: f64,
+}
+
+impl CutPiece {
+    /// The cutting force's polynomial part `c_force K_f b (h0 + c_chip d(τ))` in the cut, else 0
+    /// (the part `−c_force K_f b c_chip u` is in the stiffness).
+    fn poly(&self) -> [f64; 3] {
+        if !self.in_cut {
+            return [0.0; 3];
+        }
+        let k = self.kfb * self.c_chip;
+        [
+            self.kfb * self.h0 + k * self.d[0],
+            k * self.d[1],
+            k * self.d[2],
+        ]
+    }
+
+    /// The chip thickness `h0 + c_chip (d − u)` over a segment whose bar motion is `u`.
+    fn chip(&self, u: &ExpSum) -> ExpSum {
+        let c = self.c_chip;
+        ExpSum {
+            f0: self.h0 + c * (self.d[0] - u.f0),
+            k0: self.h0 + c * (self.d[0] - u.k0),
+            c1: c * (self.d[1] - u.c1),
+            c2: c * (self.d[2] - u.c2),
+            a: -c * u.a,
+            b: -c * u.b,
+            p: -c * u.p,
+            q: -c * u.q,
+            ..*u
+        }
+    }
+
+    /// What a segment keeps of the cut (chip, force, in or out) for outputs and the books.
+    fn segment(&self, u: &ExpSum) -> CutSeg {
+        CutSeg {
+            h: self.chip(u),
+            kfb: if self.in_cut { self.kfb } else { 0.0 },
+        }
+    }
+}
+
+/// The cut along one segment: its chip thickness and `c_force K_f b` (0 out of the cut).
+#[derive(Debug, Clone, Copy)]
+struct CutSeg {
+    h: ExpSum,
+    kfb: f64,
 }
 
 impl Consts {
@@ -131,7 +205,7 @@ impl Consts {
     }
     /// `a_b = (F − C u̇ − K u)/M`: bar acceleration without the ball force.
     fn a_b(&self, s: &St) -> f64 {
-        (s.force - self.c * s.du - self.k * s.u) / self.m
+        (s.force - self.c * s.du - self.k_spring * s.u) / self.m
     }
     /// Friction force on the ball while sliding with sign `σ` (the law of `damper::friction`).
     fn fb(&self, sigma: f64) -> f64 {
@@ -181,15 +255,27 @@ impl Consts {
                 o.f0_d * (o.kk * c0 + o.cw * s0),
             )
         };
-        let uc = (self.fs + fc) / self.k;
+        // The particular solution of the polynomial force: constant without a cut; in a cut
+        // `A0 + A1 τ + A2 τ²` with `k A2 = P2`, `k A1 + 2c A2 = P1`, `k A0 + c A1 + 2m A2 = P0`.
+        let (uc, c1, c2) = match &self.cut {
+            None => ((self.fs + fc) / self.k, 0.0, 0.0),
+            Some(cp) => {
+                let [p0, p1, p2] = cp.poly();
+                let a2 = p2 / self.k;
+                let a1 = (p1 - 2.0 * self.c * a2) / self.k;
+                let a0 = (self.fs + fc + p0 - self.c * a1 - 2.0 * mass * a2) / self.k;
+                (a0, a1, a2)
+            }
+        };
         let (al, wd) = (o.al, o.wd);
         let p = u0 - uc - a;
-        let q = (du0 - self.om * b + al * p) / wd;
+        // `du0 − 0.0` is `du0` to the bit: runs without a cut are unchanged.
+        let q = (du0 - c1 - self.om * b + al * p) / wd;
         let u = ExpSum {
             f0: u0,
             k0: uc,
-            c1: 0.0,
-            c2: 0.0,
+            c1,
+            c2,
             a,
             b,
             om: self.om,
@@ -198,7 +284,24 @@ impl Consts {
             al,
             wd,
         };
-        let force = self.force_sum(s0, c0, &u);
+        let mut force = self.force_sum(s0, c0, &u);
+        if let Some(cp) = &self.cut {
+            // The total force on the bar: the cutting force `c_force K_f b h` in the cut (the
+            // stiffness `k` holds its `−c_force K_f b c_chip u`; `a_b` uses `K`).
+            let kc = if cp.in_cut { cp.kfb * cp.c_chip } else { 0.0 };
+            let [p0, p1, p2] = cp.poly();
+            force = ExpSum {
+                f0: force.f0 + p0 - kc * u.f0,
+                k0: force.k0 + p0 - kc * u.k0,
+                c1: p1 - kc * u.c1,
+                c2: p2 - kc * u.c2,
+                a: force.a - kc * u.a,
+                b: force.b - kc * u.b,
+                p: -kc * u.p,
+                q: -kc * u.q,
+                ..force
+            };
+        }
         Ok((u, force))
     }
 
@@ -309,6 +412,8 @@ pub struct ExactSegment {
     /// Transcendentals at the local end time `end.tau` (where the next state is taken), shared
     /// by that state and `∫u²` up to `t1`.
     end: Trig,
+    /// The cut along this segment (a cutting run), `None` otherwise.
+    cut: Option<CutSeg>,
 }
 
 impl ExactSegment {
@@ -356,6 +461,9 @@ impl Segment for ExactSegment {
         crate::model::lumped_mechanical_energy_j(m, k, md, &self.state_at(t_s))
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
+        if self.cut.is_some() {
+            return self.integrals(a_s, b_s).u2_m2_s;
+        }
         if b_s.to_bits() == self.t1.to_bits() {
             // Up to the segment end: its transcendentals are known (local end `end.tau`, which
             // is `t1 − t0` up to the rounding of `t1`).
@@ -364,8 +472,29 @@ impl Segment for ExactSegment {
             integral_square(&self.u, a_s - self.t0, b_s - self.t0)
         }
     }
+    fn cutting_work_j(&self, a_s: f64, b_s: f64) -> f64 {
+        match &self.cut {
+            Some(c) => cutting::cutting_work(self, c, a_s - self.t0, b_s - self.t0),
+            None => 0.0,
+        }
+    }
+
+    fn cutting_at(&self, t_s: f64) -> Option<super::CutSample> {
+        self.cut.map(|c| {
+            let h = c.h.value(t_s - self.t0);
+            super::CutSample {
+                chip_thickness_m: h,
+                in_cut: c.kfb > 0.0,
+                cutting_force_n: c.kfb * h.max(0.0),
+            }
+        })
+    }
+
     fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals {
         let (a, b) = (a_s - self.t0, b_s - self.t0);
+        if let Some(c) = &self.cut {
+            return cutting::segment_integrals(self, c, a, b);
+        }
         let du = self.u.deriv();
         SegmentIntegrals {
             u2_m2_s: integral_square(&self.u, a, b),
@@ -403,6 +532,8 @@ struct Book<'a> {
     lg: f64,
     /// What the last events before the event limit did (recorded only near the limit).
     tail: Tail,
+    /// Set when a segment ended at a cut event ([`CUT`]); the cutting driver clears it.
+    cut_event: bool,
 }
 
 /// How many events before the limit [`Tail`] looks at.
@@ -550,7 +681,11 @@ impl Book<'_> {
 impl Consts {
     /// `M`, `K`, `m_d` of [`ExactSegment::mechanical_energy_j`].
     fn energy_consts(&self) -> (f64, f64, Option<f64>) {
-        (self.m, self.k, self.lg.is_finite().then_some(self.md))
+        (
+            self.m,
+            self.k_spring,
+            self.lg.is_finite().then_some(self.md),
+        )
     }
 
     /// The constants of a run of `sys` (validated) with its lumped `bar`.
@@ -600,6 +735,8 @@ impl Consts {
                 .damper
                 .filter(|d| d.contact.law == crate::params::ContactLaw::Hertz)
                 .map(|d| crate::damper::contact::Hertz::of_damper(&d)),
+            k_spring: bar.stiffness_n_per_m,
+            cut: None,
         };
         cs.osc = [Osc::new(&cs, cs.m), Osc::new(&cs, cs.m + cs.md)];
         cs
@@ -645,6 +782,7 @@ impl Solver for Exact {
             check: self.check_invariants,
             lg: cs.lg,
             tail: Tail::new(self.max_events),
+            cut_event: false,
         };
         let mut s = St {
             t: init.t_s,
@@ -660,36 +798,38 @@ impl Solver for Exact {
         let mut search = Search::default();
         let mut mode = initial_mode(&cs, &mut s, &mut book)?;
         while s.t < t_end_s {
-            let next = match mode {
-                Md::Free {
-                    sigma,
-                    k_plus,
-                    k_minus,
-                    k_sw,
-                } => free_flight(
-                    &cs,
-                    sigma,
-                    [k_plus, k_minus, k_sw],
-                    &mut s,
-                    t_end_s,
-                    &mut book,
-                    &mut search,
-                )?,
-                Md::Stick | Md::Contact(_) => {
-                    pair_motion(&cs, mode, &mut s, t_end_s, &mut book, &mut search)?
-                }
-                Md::HertzTouch(wall) => {
-                    let law = cs.hertz.expect("a hertz touch needs the hertz law");
-                    hertz::contact(&cs, &law, wall.sign(), &mut s, t_end_s, &mut book)?
-                }
-            };
-            match next {
+            match advance(&cs, mode, &mut s, t_end_s, &mut book, &mut search)? {
                 Some(m) => mode = m,
                 None => break,
             }
         }
         book.summary.final_state = s.public();
         Ok(book.summary)
+    }
+}
+
+/// One segment of mode `mode` from `s`, at most to `t_end_s`; the next mode, or `None` when
+/// `t_end_s` was reached. The one event loop of the lumped bar, with or without a cut.
+fn advance(
+    cs: &Consts,
+    mode: Md,
+    s: &mut St,
+    t_end_s: f64,
+    book: &mut Book,
+    search: &mut Search,
+) -> Result<Option<Md>, SimError> {
+    match mode {
+        Md::Free {
+            sigma,
+            k_plus,
+            k_minus,
+            k_sw,
+        } => free_flight(cs, sigma, [k_plus, k_minus, k_sw], s, t_end_s, book, search),
+        Md::Stick | Md::Contact(_) => pair_motion(cs, mode, s, t_end_s, book, search),
+        Md::HertzTouch(wall) => {
+            let law = cs.hertz.expect("a hertz touch needs the hertz law");
+            hertz::contact(cs, &law, wall.sign(), s, t_end_s, book)
+        }
     }
 }
 
@@ -714,6 +854,7 @@ fn solid_bar(
         energy: cs.energy_consts(),
         fb: 0.0,
         end: Trig::new(t_end_s - s.t, u.om, u.al, u.wd),
+        cut: cs.cut.map(|c| c.segment(&u)),
     };
     if t_end_s > s.t {
         book.obs.segment(&seg);
@@ -787,8 +928,9 @@ fn free_flight(
     let w = ExpSum {
         f0: s.w,
         k0: s.w + u.a + u.p,
-        c1: s.du + s.dw,
-        c2: 0.5 * fb / cs.md,
+        // `− u.c1`, `− u.c2`: the bar's polynomial part in a cut (0 otherwise, to the bit).
+        c1: s.du + s.dw - u.c1,
+        c2: 0.5 * fb / cs.md - u.c2,
         a: -u.a,
         b: -u.b,
         p: -u.p,
@@ -797,7 +939,7 @@ fn free_flight(
     };
     // Candidates and what they mean: 1 wall +, 2 wall −, 3 ẇ = 0.
     let both_walls = !cs.frictional() || sigma == 0.0;
-    let mut set = EventSet::<3>::new(&w);
+    let mut set = EventSet::<4>::new(&w);
     if both_walls || sigma > 0.0 {
         let g = w.affine(-1.0, cs.lg);
         set.push(1, Cand::new(g, k_plus, cs.tol_x));
@@ -810,7 +952,7 @@ fn free_flight(
         let g = w.deriv().affine(sigma, 0.0);
         set.push(3, Cand::new(g, k_sw, cs.tol_v));
     }
-    let (best, which, end) = joint_search(&mut set, search, span, tol_t, &u)?;
+    let (best, which, end) = joint_search(cs, &mut set, search, span, tol_t, &u)?;
     let seg = ExactSegment {
         t0: s.t,
         t1: if which == 0 { t_end_s } else { s.t + best },
@@ -822,12 +964,23 @@ fn free_flight(
         energy: cs.energy_consts(),
         fb,
         end,
+        cut: cs.cut.map(|c| c.segment(&u)),
     };
     let mut next = close_segment(&seg, book);
     book.check_state(&next)?;
     *s = next;
     match which {
         0 => return Ok(None),
+        // The tool left or re-entered the cut: the same flight goes on with the other force.
+        CUT => {
+            book.cut_event = true;
+            return Ok(Some(Md::Free {
+                sigma,
+                k_plus: 0,
+                k_minus: 0,
+                k_sw: 0,
+            }));
+        }
         // Same flight on from the proven point, no zero at hand any more.
         HORIZON => {
             return Ok(Some(Md::Free {
@@ -876,7 +1029,7 @@ fn pair_motion(
     let w = ExpSum::constant(s.w, &u);
     // Margins that stay positive while the mode holds.
     let mk = |g: ExpSum| Cand::new(g, 0, cs.tol_f);
-    let mut set = EventSet::<2>::new(&w);
+    let mut set = EventSet::<3>::new(&w);
     let seg_mode = match mode {
         Md::Stick => {
             set.push(1, mk(ddu.affine(-cs.md, cs.fl))); // ball lags
@@ -891,7 +1044,7 @@ fn pair_motion(
             unreachable!("pair_motion is called for stick and contact")
         }
     };
-    let (best, which, end) = joint_search(&mut set, search, span, tol_t, &u)?;
+    let (best, which, end) = joint_search(cs, &mut set, search, span, tol_t, &u)?;
     let seg = ExactSegment {
         t0: s.t,
         t1: if which == 0 { t_end_s } else { s.t + best },
@@ -903,6 +1056,7 @@ fn pair_motion(
         energy: cs.energy_consts(),
         fb: 0.0,
         end,
+        cut: cs.cut.map(|c| c.segment(&u)),
     };
     let mut next = close_segment(&seg, book);
     next.dw = 0.0;
@@ -911,6 +1065,10 @@ fn pair_motion(
     match which {
         0 => return Ok(None),
         HORIZON => return Ok(Some(mode)),
+        CUT => {
+            book.cut_event = true;
+            return Ok(Some(mode));
+        }
         _ => {}
     }
     let (kind, new_mode) = match (which, mode) {
@@ -1101,6 +1259,7 @@ fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Re
         energy: cs.energy_consts(),
         fb: 0.0,
         end: Trig::new(j.dt, u.om, u.al, u.wd),
+        cut: cs.cut.map(|c| c.segment(&u)),
     };
     if seg.t1 > seg.t0 {
         book.obs.segment(&seg);
@@ -1146,17 +1305,28 @@ fn contact_test(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
 /// at the proven point without an event and the same mode goes on from there.
 const HORIZON: u8 = u8::MAX;
 
+/// `which` of the chip thickness reaching 0: the tool leaves or re-enters the cut
+/// ([`cutting`]); the segment ends there and the same mode goes on with the other force.
+const CUT: u8 = u8::MAX - 1;
+
 /// The segment's joint event search: drop the margins that cannot fall, find the earliest zero
 /// on `[0, span]`, and return `(τ, which, Trig at τ)`; `which = 0` means no event before `span`,
 /// [`HORIZON`] no event before `τ < span` with the search's work bound reached.
 /// The transcendentals the search already has at the zero are reused for the end state.
 fn joint_search<const N: usize>(
+    cs: &Consts,
     set: &mut EventSet<N>,
     scratch: &mut Scratch,
     span: f64,
     tol_t: f64,
     u: &ExpSum,
 ) -> Result<(f64, u8, Trig), SimError> {
+    if let Some(cp) = &cs.cut {
+        // The chip function, positive while the mode holds: `h` in the cut, `−h` out of it.
+        let h = cp.chip(u);
+        let g = if cp.in_cut { h } else { h.affine(-1.0, 0.0) };
+        set.push(CUT, Cand::new(g, cp.order, cp.tol));
+    }
     let n = drop_constant_margins(&mut set.cands[..set.n], &mut set.ids[..set.n]);
     let (root, i, trig) = first_root_multi_trig(&set.cands[..n], 0.0, span, tol_t, scratch);
     let (best, which) = match root {
@@ -1206,6 +1376,7 @@ mod tests {
             check,
             lg: 1e-4,
             tail: Tail::new(10),
+            cut_event: false,
         }
     }
 

@@ -1,0 +1,495 @@
+//! The cutting process (issue #13) in the exact solver: time-domain growth rates against the
+//! characteristic roots of the linear DDE, loss of contact, the ball, energy books, convergence.
+
+use vibrobar_core::analysis::energy::EnergyAudit;
+use vibrobar_core::excitation::{Cutting, CuttingForceLaw};
+use vibrobar_core::params::{
+    Bar, BarModel, Damper, Forcing, Frequency, FrictionModel, State, System,
+};
+use vibrobar_core::solver::exact::cutting::ExactCutting;
+use vibrobar_core::solver::Fanout;
+use vibrobar_core::solver::{Observer, Segment, Solver};
+
+const F_HZ: f64 = 600.0;
+const K: f64 = 2.2e6;
+const ZETA: f64 = 0.01;
+const KF: f64 = 2e9;
+const H0: f64 = 1e-4;
+
+fn wn() -> f64 {
+    2.0 * std::f64::consts::PI * F_HZ
+}
+
+fn bar() -> Bar {
+    Bar {
+        mass_kg: K / (wn() * wn()),
+        stiffness_n_per_m: K,
+        damping_ratio: ZETA,
+    }
+}
+
+fn sys(damper: Option<Damper>) -> System {
+    System {
+        bar: BarModel::Lumped(bar()),
+        damper,
+        forcing: Forcing {
+            amplitude_n: 0.0,
+            frequency: Frequency::Ratio(1.0),
+            static_force_n: 0.0,
+        },
+        gravity_m_s2: 9.81,
+    }
+}
+
+fn cut(width_m: f64, rpm: f64) -> Cutting {
+    Cutting {
+        coefficient_n_m2: KF,
+        width_m,
+        feed_m: H0,
+        spindle_rpm: rpm,
+        force_direction_factor: 1.0,
+        chip_direction_factor: 1.0,
+        force_law: CuttingForceLaw::Linear,
+    }
+}
+
+/// One mode's stability boundary at `rpm`, independently: on lobe `j` the chatter frequency
+/// `ω > ω_n` satisfies `ωT = 3π + 2 arg G(iω) + 2πj`; `b = −1/(2 K_f Re G)`; minimum over `j`.
+/// Returns `(b_lim, ω_c)`.
+fn b_lim(rpm: f64) -> (f64, f64) {
+    let tau = 60.0 / rpm;
+    let wn = wn();
+    let arg_g = |w: f64| {
+        let r = w / wn;
+        -(2.0 * ZETA * r).atan2(1.0 - r * r)
+    };
+    let b_of = |w: f64| {
+        let r = w / wn;
+        let d = (1.0 - r * r).powi(2) + (2.0 * ZETA * r).powi(2);
+        -K * d / (2.0 * KF * (1.0 - r * r))
+    };
+    let mut best = (f64::INFINITY, 0.0);
+    for j in 0..200 {
+        // f(w) = wT − 3π − 2 arg G − 2πj increases with w on (ω_n, ∞).
+        let f = |w: f64| {
+            w * tau
+                - 3.0 * std::f64::consts::PI
+                - 2.0 * arg_g(w)
+                - 2.0 * std::f64::consts::PI * j as f64
+        };
+        let (mut lo, mut hi) = (wn * (1.0 + 1e-12), wn * 10.0);
+        if f(lo) > 0.0 || f(hi) < 0.0 {
+            continue;
+        }
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if f(mid) > 0.0 {
+                hi = mid
+            } else {
+                lo = mid
+            }
+        }
+        let w = 0.5 * (lo + hi);
+        let b = b_of(w);
+        if b < best.0 {
+            best = (b, w);
+        }
+    }
+    best
+}
+
+/// Rightmost root of `λ² + 2ζω_nλ + ω_n² + (k_c/m)(1 − e^{−λT}) = 0` by Newton from `iω_c`.
+fn root(b: f64, rpm: f64, w_c: f64) -> (f64, f64) {
+    let tau = 60.0 / rpm;
+    let m = bar().mass_kg;
+    let kc = KF * b / m;
+    let wn = wn();
+    // complex arithmetic on (re, im)
+    let mul = |a: (f64, f64), b: (f64, f64)| (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
+    let div = |a: (f64, f64), b: (f64, f64)| {
+        let d = b.0 * b.0 + b.1 * b.1;
+        ((a.0 * b.0 + a.1 * b.1) / d, (a.1 * b.0 - a.0 * b.1) / d)
+    };
+    let cexp = |z: (f64, f64)| {
+        let e = z.0.exp();
+        (e * z.1.cos(), e * z.1.sin())
+    };
+    let mut l = (0.0, w_c);
+    for _ in 0..100 {
+        let e = cexp((-l.0 * tau, -l.1 * tau));
+        let l2 = mul(l, l);
+        let f = (
+            l2.0 + 2.0 * ZETA * wn * l.0 + wn * wn + kc * (1.0 - e.0),
+            l2.1 + 2.0 * ZETA * wn * l.1 - kc * e.1,
+        );
+        let df = (
+            2.0 * l.0 + 2.0 * ZETA * wn + kc * tau * e.0,
+            2.0 * l.1 + kc * tau * e.1,
+        );
+        let step = div(f, df);
+        l = (l.0 - step.0, l.1 - step.1);
+        if step.0.abs() + step.1.abs() < 1e-13 * wn {
+            break;
+        }
+    }
+    l
+}
+
+/// Samples of `u` on a grid from the segments.
+struct Sampler {
+    dt: f64,
+    next: f64,
+    t: Vec<f64>,
+    u: Vec<f64>,
+    max_abs_w: f64,
+    min_chip: f64,
+    out_of_cut: bool,
+}
+
+impl Sampler {
+    fn new(dt: f64) -> Self {
+        Sampler {
+            dt,
+            next: 0.0,
+            t: vec![],
+            u: vec![],
+            max_abs_w: 0.0,
+            min_chip: f64::INFINITY,
+            out_of_cut: false,
+        }
+    }
+}
+
+impl Observer for Sampler {
+    fn segment(&mut self, seg: &dyn Segment) {
+        while self.next <= seg.t_end_s() {
+            if self.next >= seg.t_start_s() {
+                let st = seg.state_at(self.next);
+                self.t.push(self.next);
+                self.u.push(st.u_m);
+                self.max_abs_w = self.max_abs_w.max(st.w_m().abs());
+                let c = seg.cutting_at(self.next).unwrap();
+                self.min_chip = self.min_chip.min(c.chip_thickness_m);
+                self.out_of_cut |= !c.in_cut;
+            }
+            self.next += self.dt;
+        }
+    }
+}
+
+/// Growth rate of the envelope: least squares of ln(peak |u − u_eq|) over time, peaks in the
+/// window `[t_a, t_b]`.
+fn growth(s: &Sampler, u_eq: f64, t_a: f64, t_b: f64) -> f64 {
+    let x: Vec<f64> = s.u.iter().map(|u| (u - u_eq).abs()).collect();
+    let mut pts = vec![];
+    for i in 1..x.len() - 1 {
+        if x[i] > x[i - 1] && x[i] >= x[i + 1] && s.t[i] >= t_a && s.t[i] <= t_b {
+            // parabolic refinement of the peak height
+            let (a, b, c) = (x[i - 1], x[i], x[i + 1]);
+            let den = a - 2.0 * b + c;
+            let peak = if den != 0.0 {
+                b - 0.125 * (a - c).powi(2) / den
+            } else {
+                b
+            };
+            pts.push((s.t[i], peak.ln()));
+        }
+    }
+    let n = pts.len() as f64;
+    let (mt, my) = pts
+        .iter()
+        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / n, a.1 + p.1 / n));
+    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
+        (a.0 + (p.0 - mt) * (p.1 - my), a.1 + (p.0 - mt).powi(2))
+    });
+    sxy / sxx
+}
+
+fn lobe_minimum_rpm(j: u32) -> f64 {
+    // VALIDATION.md: n_j = 60ω/(ε + 2πj), ω = ω_n√(1+2ζ), ε = π + 2 atan√(1+2ζ).
+    let q = (1.0 + 2.0 * ZETA).sqrt();
+    60.0 * wn() * q
+        / (std::f64::consts::PI + 2.0 * q.atan() + 2.0 * std::f64::consts::PI * j as f64)
+}
+
+/// A run of the bar without a ball from a velocity kick, sampled 40 times per chatter period.
+fn run_kicked(b: f64, rpm: f64, kick: State, t_end: f64, w_c: f64, steps: u32) -> (Sampler, f64) {
+    let solver = ExactCutting {
+        steps_per_period: steps,
+        ..ExactCutting::new(cut(b, rpm))
+    };
+    let s0 = sys(None);
+    let u_eq = solver.equilibrium_u_m(&s0, K);
+    let mut smp = Sampler::new(2.0 * std::f64::consts::PI / w_c / 40.0);
+    solver.run(&s0, &kick, t_end, &mut smp).unwrap();
+    (smp, u_eq)
+}
+
+/// Issue #13 validation: ball out of reach, linear law, the tool never leaving the cut. At 0.9
+/// and 1.1 b_lim the envelope's growth rate, fitted over at least five e-folding times, is the
+/// real part of the rightmost characteristic root (Newton on the one-mode characteristic
+/// equation) to 5 %, at five spindle speeds: two lobe minima (the closed-form n_j), a steep
+/// point between lobes, and two others.
+#[test]
+fn growth_rates_match_the_rightmost_characteristic_root() {
+    let speeds = [
+        lobe_minimum_rpm(1),
+        lobe_minimum_rpm(2),
+        25_000.0,
+        30_000.0,
+        5_000.0,
+    ];
+    for rpm in speeds {
+        let (bl, wc) = b_lim(rpm);
+        for f in [0.9, 1.1] {
+            let l = root(f * bl, rpm, wc);
+            assert!(l.0.signum() == (f - 1.0).signum(), "{rpm} {f}: {l:?}");
+            let efold = 1.0 / l.0.abs();
+            let t_end = 6.5 * efold;
+            // Small enough that 6.5 e-folds of growth keep the tool in the cut.
+            let kick = State {
+                du_m_s: 1e-5 * H0 * wn(),
+                ..State::default()
+            };
+            let (smp, u_eq) = run_kicked(f * bl, rpm, kick, t_end, wc, 64);
+            assert!(
+                !smp.out_of_cut && smp.min_chip > 0.0,
+                "{rpm} {f}: left the cut"
+            );
+            // Five e-folding times after the first (the other roots' transient).
+            let g = growth(&smp, u_eq, efold, t_end);
+            let ratio = g / l.0;
+            println!("{rpm:.0} rpm, {f} b_lim = {:.6e} m: root {:.5} 1/s, fit {g:.5} 1/s, ratio {ratio:.6}", f * bl, l.0);
+            assert!(
+                (ratio - 1.0).abs() < 0.05,
+                "{rpm} rpm, {f} b_lim: fit {g}, root {}",
+                l.0
+            );
+        }
+    }
+    // The steep point is steep: b_lim there is many times the lobe minimum.
+    assert!(b_lim(30_000.0).0 > 10.0 * b_lim(lobe_minimum_rpm(1)).0);
+    // And the lobe minima are the closed form's 2ζ(1+ζ)k/K_f.
+    let bmin = 2.0 * ZETA * (1.0 + ZETA) * K / KF;
+    assert!((b_lim(lobe_minimum_rpm(1)).0 / bmin - 1.0).abs() < 1e-6);
+}
+
+/// Peak |u − u_eq| over `[t_a, t_b]`.
+fn peak(s: &Sampler, u_eq: f64, t_a: f64, t_b: f64) -> f64 {
+    s.t.iter()
+        .zip(&s.u)
+        .filter(|(t, _)| **t >= t_a && **t <= t_b)
+        .map(|(_, u)| (u - u_eq).abs())
+        .fold(0.0, f64::max)
+}
+
+/// Issue #13 validation, loss of contact: at 0.98 b_lim kicks of 0.01, 2 and 10 h0 (the last
+/// two throw the tool out of the cut) all die out; at 1.5 b_lim the tool leaving the cut bounds
+/// the motion.
+#[test]
+fn loss_of_contact_below_and_above_the_boundary() {
+    let rpm = 30_000.0;
+    let (bl, wc) = b_lim(rpm);
+    let sigma = root(0.98 * bl, rpm, wc).0;
+    assert!(sigma < 0.0);
+    for kick in [0.01, 2.0, 10.0] {
+        let init = State {
+            u_m: kick * H0,
+            ..State::default()
+        };
+        let t_end = 8.0 / sigma.abs();
+        let (smp, u_eq) = run_kicked(0.98 * bl, rpm, init, t_end, wc, 64);
+        assert_eq!(smp.out_of_cut, kick > 1.0, "kick {kick} h0");
+        let late = peak(&smp, u_eq, 0.9 * t_end, t_end);
+        println!(
+            "0.98 b_lim, kick {kick} h0: late peak {:.3e} h0 after {t_end:.2} s",
+            late / H0
+        );
+        assert!(late < 0.01 * kick * H0, "kick {kick}: {late}");
+    }
+    // Above the boundary the motion grows until the tool leaves the cut, then stays bounded.
+    let t_end = 1.0;
+    let init = State {
+        u_m: 0.01 * H0,
+        ..State::default()
+    };
+    let (smp, u_eq) = run_kicked(1.5 * bl, rpm, init, t_end, wc, 64);
+    assert!(smp.out_of_cut);
+    let (mid, late) = (peak(&smp, u_eq, 0.5, 0.75), peak(&smp, u_eq, 0.75, 1.0));
+    println!("1.5 b_lim: peaks {:.3} h0, {:.3} h0", mid / H0, late / H0);
+    // Grown 50-fold from the kick, then held near h0 (the tool leaves the cut each period).
+    assert!(
+        late > 0.5 * H0 && late < 1.05 * mid && late < 5.0 * H0,
+        "{mid} {late}"
+    );
+}
+
+/// The convergence of the delay stepping in the pieces per period, against a run with 1024
+/// pieces per period: the error in `u` at the end of a growing run (1.1 b_lim, 0.1 s, 5000
+/// rpm). The quadratic through a piece's ends and middle errs by `O(Δ³)` pointwise, but its
+/// error `∝ x(x − Δ/2)(x − Δ)` averages to zero over the piece, so the run converges as Δ⁴:
+/// the least-squares order over 8, 16, 32 and 64 pieces per period is asserted in [3.5, 4.5].
+#[test]
+fn cutting_convergence_order() {
+    let rpm = 5_000.0;
+    let (bl, _) = b_lim(rpm);
+    let init = State {
+        du_m_s: 1e-2 * H0 * wn(),
+        ..State::default()
+    };
+    let end = |steps: u32| -> f64 {
+        let solver = ExactCutting {
+            steps_per_period: steps,
+            ..ExactCutting::new(cut(1.1 * bl, rpm))
+        };
+        solver
+            .run(&sys(None), &init, 0.1, &mut ())
+            .unwrap()
+            .final_state
+            .u_m
+    };
+    let reference = end(1024);
+    let pts: Vec<(f64, f64)> = [8u32, 16, 32, 64]
+        .iter()
+        .map(|&n| ((n as f64).ln(), (end(n) - reference).abs().ln()))
+        .collect();
+    let m = pts.len() as f64;
+    let (mx, my) = pts
+        .iter()
+        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / m, a.1 + p.1 / m));
+    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
+        (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2))
+    });
+    let order = -sxy / sxx;
+    let errs: Vec<f64> = pts.iter().map(|p| p.1.exp()).collect();
+    println!("errors in u at 8, 16, 32, 64 pieces per period: {errs:?} m; order {order:.3}");
+    assert!((3.5..=4.5).contains(&order), "order {order}: {errs:?}");
+    // The coarsest still resolves the motion: its error is far below the amplitude (~1e-6 m).
+    assert!(errs[0] < 1e-8);
+}
+
+fn ball(gap_m: f64, friction: FrictionModel, friction_force_n: Option<f64>) -> Damper {
+    Damper {
+        ball_mass_kg: 0.01,
+        gap_m,
+        friction,
+        friction_force_n,
+        ..Damper::default()
+    }
+}
+
+/// Counts impacts and stick/unstick events.
+#[derive(Default)]
+struct Events {
+    impacts: u64,
+    unstick: u64,
+}
+
+impl Observer for Events {
+    fn event(&mut self, ev: &vibrobar_core::solver::Event) {
+        match ev.kind {
+            vibrobar_core::solver::EventKind::Impact { .. } => self.impacts += 1,
+            vibrobar_core::solver::EventKind::Unstick => self.unstick += 1,
+            _ => {}
+        }
+    }
+}
+
+/// A ball held to the bar by Coulomb friction far above any inertial force is the bar with the
+/// ball's mass added at the cavity (damping coefficient unchanged): the cutting run of the damped
+/// bar follows the run of that heavier bar without a ball, and grows where it grows.
+#[test]
+fn ball_held_by_huge_friction_is_the_stuck_ball_bar() {
+    let rpm = 5_000.0;
+    let (bl, wc) = b_lim(rpm);
+    let b = 1.1 * bl;
+    let d = ball(1e-3, FrictionModel::Coulomb, Some(1e6));
+    let damped = sys(Some(d));
+    let heavy_bar = {
+        let m = bar().mass_kg + d.ball_mass_kg;
+        let c = bar().damping_n_s_per_m();
+        Bar {
+            mass_kg: m,
+            stiffness_n_per_m: K,
+            damping_ratio: c / (2.0 * (K * m).sqrt()),
+        }
+    };
+    let heavy = System {
+        bar: BarModel::Lumped(heavy_bar),
+        ..sys(None)
+    };
+    // The ball moves with the bar from the start (`ẇ = 0`).
+    let init = State {
+        du_m_s: 1e-2 * H0 * wn(),
+        dv_m_s: 1e-2 * H0 * wn(),
+        ..State::default()
+    };
+    let solver = ExactCutting::new(cut(b, rpm));
+    let mut a = Sampler::new(2.0 * std::f64::consts::PI / wc / 40.0);
+    let mut ev = Events::default();
+    let ra = solver
+        .run(&damped, &init, 0.3, &mut Fanout(&mut [&mut a, &mut ev]))
+        .unwrap();
+    let mut h = Sampler::new(2.0 * std::f64::consts::PI / wc / 40.0);
+    let rh = solver.run(&heavy, &init, 0.3, &mut h).unwrap();
+    assert_eq!((ev.impacts, ev.unstick), (0, 0));
+    let amp = peak(&h, solver.equilibrium_u_m(&heavy, K), 0.0, 0.3);
+    let diff =
+        a.u.iter()
+            .zip(&h.u)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+    println!("stuck ball vs heavy bar: max |Δu| {diff:.3e} m of {amp:.3e} m");
+    assert!(diff < 1e-6 * amp, "{diff} {amp}");
+    assert!((ra.final_state.w_m()).abs() < 1e-15);
+    assert!((ra.final_state.u_m - rh.final_state.u_m).abs() < 1e-6 * amp);
+}
+
+/// Energy books close on cutting runs with impacts (frictionless and coulomb ball, tool leaving
+/// the cut): `ΔE = forcing − viscous − impacts + friction + cutting work` to rounding.
+#[test]
+fn energy_books_close_on_cutting_runs_with_impacts() {
+    let rpm = 30_000.0;
+    let (bl, wc) = b_lim(rpm);
+    for (friction, f) in [
+        (FrictionModel::None, None),
+        (FrictionModel::Coulomb, Some(0.5)),
+    ] {
+        let s = sys(Some(ball(2e-5, friction, f)));
+        // With the invariant checks: |w| ≤ l_g + 1e-12 m at every event and segment end.
+        let mut solver = ExactCutting::new(cut(1.5 * bl, rpm));
+        solver.exact.check_invariants = true;
+        let mut audit = EnergyAudit::new(&s);
+        let mut ev = Events::default();
+        let mut smp = Sampler::new(2.0 * std::f64::consts::PI / wc / 40.0);
+        let init = State {
+            u_m: 0.05 * H0,
+            ..State::default()
+        };
+        solver
+            .run(
+                &s,
+                &init,
+                0.3,
+                &mut Fanout(&mut [&mut audit, &mut ev, &mut smp]),
+            )
+            .unwrap();
+        let e = audit.balance().unwrap();
+        let scale = e.work_input_j.abs()
+            + e.viscous_loss_j
+            + e.impact_loss_j
+            + e.friction_work_j.abs()
+            + e.cutting_work_j.abs();
+        println!(
+            "{friction}: {} impacts, left the cut {}, books {e:?}, residual/scale {:.2e}",
+            ev.impacts,
+            smp.out_of_cut,
+            e.residual_j / scale
+        );
+        assert!(ev.impacts > 100 && smp.out_of_cut);
+        // No harmonic force: its work is rounding (force − cutting force).
+        assert!(e.cutting_work_j > 0.0 && e.work_input_j.abs() < 1e-12 * scale);
+        assert!(e.residual_j.abs() < 1e-9 * scale, "{e:?}");
+        assert!(smp.max_abs_w <= 1e-5 + 1e-12);
+    }
+}
