@@ -12,6 +12,9 @@ use vibrobar_core::analysis::lobes::LobeRow;
 /// between lobes rise without bound and would flatten the lobes themselves.
 const Y_RANGE_OF_MINIMA: f64 = 6.0;
 
+/// A curve ready to draw: label, colour, points (rpm, mm).
+type Drawn = (&'static str, RGBColor, Vec<(f64, f64)>);
+
 /// One curve: label, colour, `b_lim` of a row.
 type CurveDef = (&'static str, RGBColor, fn(&LobeRow) -> f64);
 
@@ -68,7 +71,7 @@ fn draw<DB: DrawingBackend>(
         .light_line_style(WHITE.mix(0.0))
         .draw()
         .map_err(err)?;
-    let curves: Vec<(&str, RGBColor, Vec<(f64, f64)>)> = CURVES
+    let curves: Vec<Drawn> = CURVES
         .iter()
         .map(|&(label, col, b)| {
             let pts = rows
