@@ -258,6 +258,19 @@ fn preflight(cmd: &Command) -> Result<()> {
     for p in &inputs {
         vibrobar_io::register_input(p);
     }
+    // Every command either runs a [cutting] scenario or refuses it, here, in one place.
+    let name = cmd.name();
+    if name != "merge" && !vibrobar_scenario::CUTTING_COMMANDS.contains(&name) {
+        for p in &inputs {
+            if std::fs::read_to_string(p).is_ok_and(|t| vibrobar_scenario::text_has_cutting(&t)) {
+                anyhow::bail!(
+                    "{} ({})",
+                    vibrobar_scenario::cutting_refusal(name),
+                    p.display()
+                );
+            }
+        }
+    }
     if let Some(out) = out {
         vibrobar_io::refuse_input(out)?;
     }

@@ -52,6 +52,10 @@ pub struct SystemParams {
     /// lumped bar, so the metadata and fingerprints of lumped jobs are unchanged.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub beam: Option<Beam>,
+    /// The `[cutting]` section of a cutting job; absent otherwise, so the metadata and
+    /// fingerprints of every other job are unchanged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cutting: Option<vibrobar_core::excitation::Cutting>,
 }
 
 fn standard_gravity() -> f64 {

@@ -178,7 +178,7 @@ fn chunk_len() -> usize {
 // scenario
 
 /// Section names of a scenario file, in the order flat keywords are looked up.
-const SECTIONS: [&str; 9] = [
+const SECTIONS: [&str; 10] = [
     "damper",
     "contact",
     "forcing",
@@ -188,6 +188,7 @@ const SECTIONS: [&str; 9] = [
     "bar",
     "solid_bar",
     "beam",
+    "cutting",
 ];
 
 /// Keys a section accepts but its serialisation leaves out when they are absent (`Option`s and
@@ -556,6 +557,7 @@ fn with_overrides(s: &Scenario, kw: Option<&Bound<'_, PyDict>>) -> PyResult<Scen
             None => input_error(msg),
         }
     })?;
+    out.cutting_solver().map_err(anyhow_input)?;
     if solver_by_name(&out.run.solver, &out.settings()).is_none() {
         return Err(PyValueError::new_err(format!(
             "run.solver = {:?} is not a solver; allowed: {}",
@@ -721,7 +723,19 @@ fn columns<'py>(
     Ok((d, csv))
 }
 
-fn make_solver(sc: &Scenario) -> PyResult<Box<dyn Solver>> {
+/// The solver of `command`'s runs: a `[cutting]` scenario's delay stepping where the command
+/// supports the cut (`run`, `ensemble`), refused with the section named elsewhere.
+fn make_solver(sc: &Scenario, command: &str) -> PyResult<Box<dyn Solver>> {
+    if sc.cutting.is_some() {
+        if !vibrobar_scenario::CUTTING_COMMANDS.contains(&command) {
+            return Err(PyValueError::new_err(vibrobar_scenario::cutting_refusal(
+                command,
+            )));
+        }
+        if let Some(s) = sc.cutting_solver().map_err(anyhow_input)? {
+            return Ok(s);
+        }
+    }
     solver_by_name(&sc.run.solver, &sc.settings()).ok_or_else(|| {
         PyValueError::new_err(format!(
             "solver must be one of {}, got {:?}",
@@ -874,7 +888,7 @@ fn run<'py>(
         interval_s,
     )
     .map_err(input_error)?;
-    let solver = make_solver(sc)?;
+    let solver = make_solver(sc, "run")?;
     let sys = sc.damped_system().map_err(anyhow_input)?;
     let init = sc.initial_state();
     let (res, samples, audit, log) = detached(py, None, |_| {
@@ -896,8 +910,9 @@ fn run<'py>(
             )
         };
         let r = r.map_err(run_error)?;
-        Ok((r, sampler.samples, audit, log))
+        Ok((r, (sampler.samples, sampler.cuts), audit, log))
     })?;
+    let (samples, cuts) = samples;
     let d = PyDict::new(py);
     let schema = iocsv::history_schema();
     let mut cols: Vec<Vec<f64>> = (0..7).map(|_| Vec::with_capacity(samples.len())).collect();
@@ -909,6 +924,20 @@ fn run<'py>(
     let hist = PyDict::new(py);
     for (c, v) in schema.columns.iter().zip(cols) {
         hist.set_item(c.name.as_ref(), v.into_pyarray(py))?;
+    }
+    if !cuts.is_empty() {
+        // A cutting run: the columns `vibrobar run` adds (its schema's names).
+        let cs = iocsv::cutting_history_schema();
+        let names: Vec<&str> = cs.columns[schema.columns.len()..]
+            .iter()
+            .map(|c| c.name.as_ref())
+            .collect();
+        let h: Vec<f64> = cuts.iter().map(|c| c.chip_thickness_m).collect();
+        let in_cut: Vec<i64> = cuts.iter().map(|c| i64::from(c.in_cut)).collect();
+        let f: Vec<f64> = cuts.iter().map(|c| c.cutting_force_n).collect();
+        hist.set_item(names[0], h.into_pyarray(py))?;
+        hist.set_item(names[1], in_cut.into_pyarray(py))?;
+        hist.set_item(names[2], f.into_pyarray(py))?;
     }
     d.set_item("history", hist)?;
     let imp = PyDict::new(py);
@@ -931,6 +960,9 @@ fn run<'py>(
         b.set_item("viscous_loss_j", e.viscous_loss_j)?;
         b.set_item("impact_loss_j", e.impact_loss_j)?;
         b.set_item("friction_work_j", e.friction_work_j)?;
+        if sc.cutting.is_some() {
+            b.set_item("cutting_work_j", e.cutting_work_j)?;
+        }
         b.set_item("delta_mechanical_j", e.delta_mechanical_j)?;
         b.set_item("residual_j", e.residual_j)?;
         d.set_item("energy", b)?;
@@ -988,7 +1020,7 @@ fn sweep<'py>(
         s.validate().map_err(anyhow_input)?;
     }
     let settings = sc.settings();
-    let solver = make_solver(sc)?;
+    let solver = make_solver(sc, "sweep")?;
     let base = sc.base().map_err(anyhow_input)?;
     let rows = detached(py, progress, |ctl| {
         let prog = |d, t| ctl.progress(d, t);
@@ -1118,7 +1150,7 @@ fn design_map<'py>(
             })
             .map_err(|e| input_error(format!("{e} (at {})", describe(p))))?;
     }
-    let solver = make_solver(sc)?;
+    let solver = make_solver(sc, "map")?;
     let rows = detached(py, progress, |ctl| {
         let prog = |d, t| ctl.progress(d, t);
         batch_result(
@@ -1192,7 +1224,7 @@ fn regime<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let sc = &scenario.inner;
     let (spec, p, _) = point_system(sc, ratio, gap_m)?;
-    let solver = make_solver(sc)?;
+    let solver = make_solver(sc, "regime")?;
     let row = detached(py, None, |_| {
         compute_point(&spec, solver.as_ref(), &p).map_err(run_error)
     })?;
@@ -1232,7 +1264,7 @@ fn poincare<'py>(
         sys.forcing_period_s(),
     )
     .map_err(input_error)?;
-    let solver = make_solver(sc)?;
+    let solver = make_solver(sc, "poincare")?;
     let pts = detached(py, None, |_| {
         let mut strobe = Stroboscope::for_system(&sys, phase_deg.to_radians(), t);
         let init = spec.base.init;
@@ -1312,7 +1344,7 @@ fn lyapunov<'py>(
     let mut p = LyapunovParams::periods(&sys, t, periods, intervals);
     p.d0 = d0;
     p.blocks = p.blocks.min(intervals);
-    let solver = make_solver(sc)?;
+    let solver = make_solver(sc, "lyapunov")?;
     let settings = spec.settings;
     let init = spec.base.init;
     let r = detached(py, None, |_| match &sys.bar {
@@ -1396,7 +1428,7 @@ fn bifurcation_diagram<'py>(
         phase_rad: phase_deg.to_radians(),
         impact_wall: None,
     };
-    let solver = make_solver(sc)?;
+    let solver = make_solver(sc, "bifurcation")?;
     let b = detached(py, progress, |ctl| {
         let mut all = vibrobar_core::analysis::poincare::Bifurcation::default();
         let n = vals.len();
@@ -1544,7 +1576,7 @@ fn ensemble<'py>(
         },
     };
     params.validate().map_err(input_error)?;
-    let solver = make_solver(sc)?;
+    let solver = make_solver(sc, "ensemble")?;
     let stats = detached(py, progress, |ctl| {
         let per = chunk_len().div_ceil(members).max(1);
         let n = points.len() * members;

@@ -22,6 +22,8 @@ use vibrobar_core::error::Compact;
 use vibrobar_core::excitation::Cutting;
 use vibrobar_core::params::BarModel;
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
+use vibrobar_core::solver::exact::cutting::ExactCutting;
+use vibrobar_core::solver::Solver;
 use vibrobar_core::structure::{Beam, MeasuredMode, ModalModel, Structure};
 use vibrobar_core::{
     Bar, Contact, ContactLaw, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System,
@@ -611,6 +613,33 @@ impl Scenario {
         self.initial
     }
 
+    /// The solver of a `[cutting]` scenario's runs: the exact solver with the delay stepping
+    /// ([`ExactCutting`]; the initial state is an offset from the cut's static equilibrium).
+    /// `None` without `[cutting]` (the solver is the one named by `[run] solver`). Only the
+    /// exact solver runs a cut: another name is refused with the section named.
+    pub fn cutting_solver(&self) -> Result<Option<Box<dyn Solver>>> {
+        let Some(c) = self.cutting else {
+            return Ok(None);
+        };
+        if self.run.solver != "exact" {
+            bail!(
+                "[cutting] runs with the exact solver only (its delay stepping); got [run] \
+                 solver = {:?} (or --solver): use \"exact\"",
+                self.run.solver
+            );
+        }
+        Ok(Some(Box::new(ExactCutting::new(c))))
+    }
+
+    /// Refuse `[cutting]` for `command`, which cannot use it (every command but `run`,
+    /// `ensemble` and `lobes`).
+    pub fn refuse_cutting(&self, command: &str) -> Result<()> {
+        if self.cutting.is_some() {
+            bail!("{}", cutting_refusal(command));
+        }
+        Ok(())
+    }
+
     /// Validate everything a run needs; errors name the scenario field and its allowed range.
     pub fn validate(&self) -> Result<()> {
         positive("gravity_m_s2", self.gravity_m_s2)?;
@@ -646,6 +675,24 @@ fn positive(field: &str, v: f64) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The commands that run a `[cutting]` scenario.
+pub const CUTTING_COMMANDS: [&str; 3] = ["run", "ensemble", "lobes"];
+
+/// The error for a `[cutting]` scenario given to `command`.
+pub fn cutting_refusal(command: &str) -> String {
+    format!(
+        "vibrobar {command} does not support the [cutting] section (the cutting process runs with \
+         {}); remove [cutting] from the scenario for this command",
+        CUTTING_COMMANDS.join(", ")
+    )
+}
+
+/// Whether the TOML text has a `[cutting]` section (unparsable text: no; its command reports
+/// the parse error).
+pub fn text_has_cutting(text: &str) -> bool {
+    toml::from_str::<toml::Table>(text).is_ok_and(|t| t.contains_key("cutting"))
 }
 
 /// A flag that must be finite and > 0.

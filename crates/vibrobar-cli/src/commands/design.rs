@@ -134,7 +134,10 @@ impl SystemArgs {
     /// The solver named by `--solver` (or the scenario).
     pub fn solver(&self) -> anyhow::Result<Box<dyn Solver>> {
         let sc = self.scenario()?;
-        make_solver(&sc.run.solver, &sc.settings())
+        match sc.cutting_solver()? {
+            Some(s) => Ok(s),
+            None => make_solver(&sc.run.solver, &sc.settings()),
+        }
     }
 
     /// Parameters for metadata (SI units).
@@ -161,6 +164,7 @@ impl SystemArgs {
             solver: sc.run.solver.clone(),
             settings: sc.settings(),
             beam: sc.beam.clone(),
+            cutting: sc.cutting,
         })
     }
 

@@ -26,8 +26,20 @@ struct Stream<'a> {
 impl Observer for Stream<'_> {
     fn segment(&mut self, seg: &dyn Segment) {
         self.sampler.segment(seg);
-        for s in self.sampler.samples.drain(..) {
-            self.writer.push(&s);
+        if self.sampler.cuts.is_empty() {
+            for s in self.sampler.samples.drain(..) {
+                self.writer.push(&s);
+            }
+        } else {
+            // A cutting run: every sample has its cut.
+            for (s, c) in self
+                .sampler
+                .samples
+                .drain(..)
+                .zip(self.sampler.cuts.drain(..))
+            {
+                self.writer.push_cut(&s, &c);
+            }
         }
     }
 }
@@ -46,9 +58,11 @@ fn run_streamed(
     solver: &dyn Solver,
     out: &Path,
     interval_s: f64,
+    cutting: bool,
 ) -> Result<Streamed> {
     let t_end = case.init.t_s + settings.duration_s;
-    let mut writer = HistoryWriter::create(out, sample_count(case.init.t_s, interval_s, t_end))?;
+    let mut writer =
+        HistoryWriter::create_with(out, sample_count(case.init.t_s, interval_s, t_end), cutting)?;
     let mut audit = case.energy_audit.then(|| EnergyAudit::new(&case.system));
     let res = {
         let mut stream = Stream {
@@ -106,7 +120,13 @@ pub fn run(args: &RunArgs) -> Result<()> {
         settings.duration_s,
         args.sample_every as f64 * settings.dt_s,
     )?;
-    let solver = solver(&sc.run.solver, &settings)?;
+    // A [cutting] scenario runs the exact solver's delay stepping, from offsets of the cut's
+    // static equilibrium ([initial]).
+    let solver = match sc.cutting_solver()? {
+        Some(s) => s,
+        None => solver(&sc.run.solver, &settings)?,
+    };
+    let cutting = sc.cutting.is_some();
     let sys = sc.damped_system()?;
     let case = Case {
         system: sys,
@@ -115,7 +135,14 @@ pub fn run(args: &RunArgs) -> Result<()> {
         energy_audit: true,
     };
     let interval_s = args.sample_every as f64 * settings.dt_s;
-    let out = run_streamed(&case, &settings, solver.as_ref(), &args.out, interval_s)?;
+    let out = run_streamed(
+        &case,
+        &settings,
+        solver.as_ref(),
+        &args.out,
+        interval_s,
+        cutting,
+    )?;
     // Under the hertz law the penetration is the contact's own compression, not an error.
     let gap_m = sys
         .damper
@@ -141,6 +168,8 @@ pub fn run(args: &RunArgs) -> Result<()> {
         "run",
         &if is_npy {
             String::new()
+        } else if cutting {
+            vibrobar_io::csv::cutting_history_schema().header()
         } else {
             vibrobar_io::csv::history_schema().header()
         },
@@ -197,6 +226,19 @@ fn print_summary(
         settings.dt_s,
         settings.rms_fraction * 100.0
     ));
+    if let Some(c) = &sc.cutting {
+        say(format!(
+            "  cut        : {} law, K_f = {:e} N/m², b = {} mm, h0 = {} mm, {} rpm (delay {:.4e} s), c_force {}, c_chip {}",
+            c.force_law,
+            c.coefficient_n_m2,
+            c.width_m * 1e3,
+            c.feed_m * 1e3,
+            c.spindle_rpm,
+            c.delay_s(),
+            c.force_direction_factor,
+            c.chip_direction_factor
+        ));
+    }
     say(format!("  RMS u      : {:.4e} m", r.rms_m));
     say(format!(
         "  impacts    : {} total, {} in the RMS window, {:.3} per forcing cycle",
@@ -223,6 +265,9 @@ fn print_summary(
             e.delta_mechanical_j,
             e.residual_j
         ));
+        if sc.cutting.is_some() {
+            say(format!("  cutting    : work {:+.4e} J", e.cutting_work_j));
+        }
     }
     let sidecar = match vibrobar_io::resolve_output(&args.out) {
         Ok(o) if !o.is_regular() => "no .meta.json beside a special file",
