@@ -74,8 +74,10 @@ fn one_mode_minimum_and_lobe_minimum_speeds_match_the_closed_form() {
         assert!(rel(s / K_F, b_min) < 1e-9, "{} vs {b_min}", s / K_F);
         assert!(rel(w, w_min) < 1e-9, "{w} vs {w_min}");
         let eps = PI + 2.0 * (1.0 + 2.0 * zeta).sqrt().atan();
+        let mut worst_n = 0.0f64;
         for j in 0..6u64 {
             let n_j = 60.0 * w_min / (eps + 2.0 * PI * j as f64);
+            worst_n = worst_n.max(rel(t.lobe_minimum_rpm(j), n_j));
             assert!(rel(t.lobe_minimum_rpm(j), n_j) < 1e-9, "lobe {j}");
             // At n_j the boundary sits on the lobe's lowest point, on lobe j.
             let p = t.boundary_at(n_j, K_F).unwrap();
@@ -87,6 +89,12 @@ fn one_mode_minimum_and_lobe_minimum_speeds_match_the_closed_form() {
                 assert!(t.boundary_at(f * n_j, K_F).unwrap().b_lim_m > p.b_lim_m * (1.0 + 1e-9));
             }
         }
+        println!(
+            "k = {k:e} N/m, f = {f} Hz, ζ = {zeta}: b_lim,min relative error {:.1e}, ω {:.1e}, n_j (j = 0..5) {:.1e}",
+            rel(s / K_F, b_min),
+            rel(w, w_min),
+            worst_n
+        );
     }
 }
 
