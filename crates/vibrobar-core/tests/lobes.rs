@@ -344,3 +344,63 @@ fn thousand_speeds_take_under_a_tenth_of_a_second() {
         assert!(best < 0.1, "{n} modes: {best} s");
     }
 }
+
+/// Deterministic random modal models (1–5 modes, closely spaced modes and light damping
+/// included, shapes of either sign, a stuck ball of up to 20 % of the first modal mass): every
+/// boundary equals the brute-force scan of all lobes.
+#[test]
+fn random_modal_models_match_the_brute_force_scan() {
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let mut next = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for case in 0..10 {
+        let n = 1 + (next() * 5.0) as usize;
+        let mut f = 300.0 + 900.0 * next();
+        let modes: Vec<Mode> = (0..n)
+            .map(|k| {
+                // Every third model has two modes within 3 % of each other.
+                f *= if case % 3 == 0 && k == 1 {
+                    1.0 + 0.03 * next()
+                } else {
+                    1.5 + 4.0 * next()
+                };
+                Mode {
+                    omega_rad_s: 2.0 * PI * f,
+                    damping_ratio: 0.002 + 0.05 * next(),
+                    modal_mass_kg: 0.05 + 0.5 * next(),
+                    shape_cavity: 2.0 * next() - 1.0,
+                    shape_force: 1.0,
+                    shape_response: 1.0,
+                }
+            })
+            .collect();
+        let model = Structure::Measured(modes).modal_model().unwrap();
+        let m_d = 0.2 * model.modes()[0].modal_mass_kg * next();
+        for lin in [
+            Linearisation::BallFree,
+            Linearisation::BallStuck { ball_mass_kg: m_d },
+        ] {
+            let r = TipReceptance::new(&model, lin).unwrap();
+            let mut t = LobeTable::new(r).unwrap();
+            let w_1 = model.modes()[0].omega_rad_s;
+            let w_n = model.modes().last().unwrap().omega_rad_s;
+            for _ in 0..4 {
+                let rpm = 1000.0 * (100.0f64).powf(next());
+                let p = t.boundary_at(rpm, K_F).unwrap();
+                let (s, w) = brute_force(&r, rpm, 0.2 * w_1, 40.0 * w_n, 300_000);
+                assert!(
+                    rel(p.b_lim_m, s / K_F) < 1e-9,
+                    "case {case} {lin:?} at {rpm} rpm: {} vs {} ({} vs {} Hz)",
+                    p.b_lim_m,
+                    s / K_F,
+                    p.chatter_frequency_hz,
+                    w / (2.0 * PI)
+                );
+            }
+        }
+    }
+}
