@@ -404,3 +404,34 @@ fn random_modal_models_match_the_brute_force_scan() {
         }
     }
 }
+
+/// The cutting module's one-mode boundary (`excitation::one_mode_limit_width_m`, used by
+/// the bench and the time-domain tests; its own per-lobe bisection) agrees with the lobes here.
+#[test]
+fn the_cutting_modules_one_mode_boundary_agrees() {
+    use vibrobar_core::excitation::{one_mode_limit_width_m, Cutting, CuttingForceLaw};
+    let bar = Bar::PAPER_CAVITY;
+    let mut t = LobeTable::new(
+        TipReceptance::new(&ModalModel::lumped(&bar), Linearisation::BallFree).unwrap(),
+    )
+    .unwrap();
+    for rpm in [700.0, 3100.0, 5000.0, 17_500.0, 36_000.0, 120_000.0] {
+        let cut = Cutting {
+            coefficient_n_m2: K_F,
+            width_m: 1e-4,
+            feed_m: 1e-4,
+            spindle_rpm: rpm,
+            force_direction_factor: 0.8,
+            chip_direction_factor: 0.9,
+            force_law: CuttingForceLaw::Linear,
+        };
+        let (b, w) =
+            one_mode_limit_width_m(&cut, bar.mass_kg, bar.stiffness_n_per_m, bar.damping_ratio);
+        let p = t.boundary_at(rpm, cut.oriented_coefficient_n_m2()).unwrap();
+        assert!(rel(p.b_lim_m, b) < 1e-9, "{rpm} rpm: {} vs {b}", p.b_lim_m);
+        assert!(
+            rel(2.0 * PI * p.chatter_frequency_hz, w) < 1e-9,
+            "{rpm} rpm"
+        );
+    }
+}
