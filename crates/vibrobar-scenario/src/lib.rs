@@ -2,7 +2,8 @@
 //!
 //! Scenario files: TOML in SI units with unit-bearing names. Each section deserialises into the
 //! core's parameter type (`[bar]` → [`Bar`], `[damper]` → [`Damper`], `[forcing]` → [`Forcing`],
-//! `[run]` → [`RunSettings`] and the solver's name, `[initial]` → [`State`]), whose serde
+//! `[run]` → [`RunSettings`] and the solver's name, `[initial]` → [`State`], `[cutting]` →
+//! core `excitation::Cutting`), whose serde
 //! defaults are the paper's values: every field is optional. Unknown fields are errors, so a typo
 //! never silently falls back to a default.
 //!
