@@ -3,7 +3,8 @@
 //! Scenario files: TOML in SI units with unit-bearing names. Each section deserialises into the
 //! core's parameter type (`[bar]` → [`Bar`], `[damper]` → [`Damper`], `[forcing]` → [`Forcing`],
 //! `[run]` → [`RunSettings`] and the solver's name, `[initial]` → [`State`], `[cutting]` →
-//! core `excitation::Cutting`), whose serde
+//! core `excitation::Cutting`, each `[[modes]]` / `[[solid_modes]]` table →
+//! core `structure::MeasuredMode`), whose serde
 //! defaults are the paper's values: every field is optional. Unknown fields are errors, so a typo
 //! never silently falls back to a default.
 //!
