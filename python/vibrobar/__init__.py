@@ -43,6 +43,7 @@ __all__ = [
     "lyapunov",
     "lyapunov_spectrum",
     "ensemble",
+    "lobes",
     "submit",
     "solver_names",
     "DEFAULT_SOLVER",
@@ -76,6 +77,13 @@ UNITS = {
     "dv_m_s": "m/s",
     "w_m": "m",
     "dw_m_s": "m/s",
+    "spindle_rpm": "rpm",
+    "b_lim_m": "m",
+    "b_lim_ball_stuck_m": "m",
+    "b_lim_solid_m": "m",
+    "chatter_frequency_hz": "Hz",
+    "chatter_frequency_ball_stuck_hz": "Hz",
+    "chatter_frequency_solid_hz": "Hz",
 }
 
 
@@ -562,6 +570,36 @@ def lyapunov_spectrum(
         _number("transient_s", transient_s),
         blocks,
     )
+
+
+def lobes(
+    scenario: Optional[Scenario] = None,
+    rpm_start: float = None,
+    rpm_stop: float = None,
+    rpm_step: float = None,
+    **overrides,
+) -> Table:
+    """Exact linear stability lobes of regenerative chatter (``vibrobar lobes``).
+
+    The scenario needs a ``[cutting]`` section (its coefficient and direction factors set the
+    boundary); its bar is the lumped ``[bar]``, a ``[beam]`` or ``[[modes]]``. The speeds are
+    ``rpm_start:rpm_stop:rpm_step`` (stop included), as ``--rpm`` expands them, each in
+    [1, 200000] rpm.
+
+    Returns:
+        Table: the rows of the command's CSV: ``spindle_rpm``, ``b_lim_m`` and
+        ``chatter_frequency_hz`` (ball free), ``b_lim_ball_stuck_m``,
+        ``chatter_frequency_ball_stuck_hz``, ``b_lim_solid_m``, ``chatter_frequency_solid_hz``,
+        ``lobe``, ``lobe_ball_stuck``, ``lobe_solid``; :meth:`Table.to_csv` is the CLI's file.
+    """
+    sc = _scenario(scenario, overrides)
+    cols, csv = _vibrobar.lobes(
+        sc,
+        _number("rpm_start", rpm_start, False),
+        _number("rpm_stop", rpm_stop, False),
+        _number("rpm_step", rpm_step, False),
+    )
+    return Table(cols, csv)
 
 
 def ensemble(

@@ -106,6 +106,13 @@ def lyapunov(
     d0: float = 1e-9,
     **overrides: Any,
 ) -> dict[str, Any]: ...
+def lobes(
+    scenario: Optional[Scenario] = None,
+    rpm_start: float = ...,
+    rpm_stop: float = ...,
+    rpm_step: float = ...,
+    **overrides: Any,
+) -> Table: ...
 def ensemble(
     scenario: Optional[Scenario] = None,
     ratios: ArrayLike = ...,

@@ -93,6 +93,9 @@ def bifurcation_diagram(
     transient_s: Optional[float] = None,
     progress: _Progress = None,
 ) -> tuple[dict[str, Any], dict[str, Any]]: ...
+def lobes(
+    scenario: Scenario, rpm_start: float, rpm_stop: float, rpm_step: float
+) -> tuple[dict[str, Any], str]: ...
 def ensemble(
     scenario: Scenario,
     ratios: npt.NDArray[np.float64],

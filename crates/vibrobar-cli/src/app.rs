@@ -7,8 +7,8 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
 use crate::commands::{
-    beam, bench, contact_convergence, contact_laws, contact_test, explore, lumped_vs_beam, map,
-    merge, modes, paper, placement, run, sweep,
+    beam, bench, contact_convergence, contact_laws, contact_test, explore, lobes, lumped_vs_beam,
+    map, merge, modes, paper, placement, run, sweep,
 };
 
 /// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
@@ -152,6 +152,10 @@ pub enum Command {
     /// Write the generated study of the beam's answers against the number of modes under the
     /// restitution and hertz contact laws (Markdown, CSV and figure).
     ContactConvergence(crate::commands::contact_convergence::ContactConvergenceArgs),
+    /// Exact linear stability lobes of regenerative chatter of a [cutting] scenario: the
+    /// limiting width of cut over spindle speed for the damped bar (ball free, ball stuck) and
+    /// the solid reference, as CSV and a figure.
+    Lobes(crate::commands::lobes::LobesArgs),
 }
 
 impl Command {
@@ -176,6 +180,7 @@ impl Command {
             Command::ContactTest(_) => "contact-test",
             Command::ContactLaws(_) => "contact-laws",
             Command::ContactConvergence(_) => "contact-convergence",
+            Command::Lobes(_) => "lobes",
         }
     }
 
@@ -206,6 +211,7 @@ impl Command {
             Command::ContactTest(a) => (one(&a.scenario), Some(a.out.as_path())),
             Command::ContactLaws(a) => (vec![], Some(a.out.as_path())),
             Command::ContactConvergence(a) => (vec![], Some(a.out.as_path())),
+            Command::Lobes(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
         }
     }
 
@@ -296,6 +302,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Placement(a) => placement::run(&a),
         Command::LumpedVsBeam(a) => lumped_vs_beam::run(&a),
         Command::ContactTest(a) => contact_test::run(&a),
+        Command::Lobes(a) => lobes::run(&a),
         Command::ContactLaws(a) => contact_laws::run(&a),
         Command::ContactConvergence(a) => contact_convergence::run(&a),
     }

@@ -209,14 +209,14 @@ const OPTIONAL_KEYS: [(&str, &str); 9] = [
     ("beam", "fe_elements"),
 ];
 
-/// The scenario as a TOML table in the file's layout; a `[beam]` scenario without `[bar]` and
-/// `[solid_bar]` (they do not apply to it and a file may not give both).
+/// The scenario as a TOML table in the file's layout; a `[beam]` or `[[modes]]` scenario
+/// without `[bar]` and `[solid_bar]` (they do not apply to it and a file may not give both).
 fn scenario_table(s: &Scenario) -> PyResult<toml::Table> {
     let mut t = match toml::Value::try_from(s).map_err(run_error)? {
         toml::Value::Table(t) => t,
         _ => return Err(run_error("a scenario serialises to a table")),
     };
-    if s.beam.is_some() {
+    if s.beam.is_some() || s.modes.is_some() {
         t.remove("bar");
         t.remove("solid_bar");
     }
@@ -1295,6 +1295,31 @@ fn poincare<'py>(
     Ok(columns(py, &iocsv::poincare_schema(), &rows)?.0)
 }
 
+/// Exact linear stability lobes of regenerative chatter (`vibrobar lobes`): the speeds
+/// `rpm_start:rpm_stop:rpm_step` as the command line expands and checks them, the scenario's
+/// `[cutting]` and structure, the rows of its CSV.
+#[pyfunction]
+#[pyo3(signature = (scenario, rpm_start, rpm_stop, rpm_step))]
+fn lobes<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    rpm_start: f64,
+    rpm_stop: f64,
+    rpm_step: f64,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    let rpms = vibrobar_scenario::spindle_speeds("rpm", rpm_start, rpm_stop, rpm_step)
+        .map_err(anyhow_input)?;
+    let spec = scenario.inner.lobe_spec().map_err(anyhow_input)?;
+    let rows = detached(py, None, |_| {
+        let mut l = vibrobar_core::analysis::lobes::Lobes::new(&spec).map_err(input_error)?;
+        rpms.iter()
+            .map(|&n| l.row(n).map_err(input_error))
+            .collect::<PyResult<Vec<_>>>()
+    })?;
+    let rows: Vec<Vec<Value>> = rows.iter().map(iocsv::lobes_values).collect();
+    columns(py, &iocsv::lobes_schema(), &rows)
+}
+
 /// The largest Lyapunov exponent at one point (two nearby trajectories, renormalised every
 /// `periods` forcing periods).
 #[pyfunction]
@@ -1683,6 +1708,7 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(lyapunov_spectrum, m)?)?;
     m.add_function(wrap_pyfunction!(bifurcation_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble, m)?)?;
+    m.add_function(wrap_pyfunction!(lobes, m)?)?;
     m.add_function(wrap_pyfunction!(solver_names, m)?)?;
     m.add_function(wrap_pyfunction!(_busy, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

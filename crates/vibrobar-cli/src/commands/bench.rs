@@ -134,7 +134,8 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     }
     cutting_row(&st)?;
     // The single run above is the lumped reference only when the bench's scenario is lumped.
-    beam_rows(&names, &st, !args.single_only)
+    beam_rows(&names, &st, !args.single_only)?;
+    lobes_row()
 }
 
 /// Median of a non-empty sample.
@@ -473,4 +474,41 @@ fn print_rms_side_by_side(sweeps: &[(String, Vec<super::SweepRow>)]) {
             worst[k].1
         );
     }
+}
+
+/// Repetitions of the lobes row; its times are their medians.
+const LOBES_REPEATS: usize = 7;
+
+/// Issue #13 speed: exact linear lobes (three boundaries: ball free, ball stuck, solid) over
+/// 1000 spindle speeds from 1000 to 50 000 rpm, tables built inside the timing, for the paper's
+/// lumped bar (1 mode) and the paper's bar as a 4-mode beam; medians of [`LOBES_REPEATS`].
+fn lobes_row() -> Result<()> {
+    use vibrobar_core::analysis::lobes::{lobes, LobeSpec};
+    use vibrobar_core::structure::{Beam, ModalModel};
+    let rpms: Vec<f64> = (0..1000)
+        .map(|i| 1000.0 + 49_000.0 * i as f64 / 999.0)
+        .collect();
+    let beam = Beam::default().with_modes(4).modal_model()?;
+    let lumped = ModalModel::lumped(&vibrobar_core::Bar::PAPER_CAVITY);
+    let mut line =
+        String::from("  lobes  1000 speeds 1000–50 000 rpm × 3 boundaries (median of 7):");
+    for (label, m) in [("1 mode (lumped)", lumped), ("4 modes (beam)", beam)] {
+        let spec = LobeSpec {
+            damped: m,
+            solid: m,
+            ball_mass_kg: vibrobar_core::Damper::paper(1e-4, vibrobar_core::FrictionModel::None)
+                .ball_mass_kg,
+            oriented_coefficient_n_m2: 2e9,
+        };
+        let mut t: Vec<f64> = (0..LOBES_REPEATS)
+            .map(|_| {
+                let t0 = Instant::now();
+                lobes(&spec, &rpms).map(|_| t0.elapsed().as_secs_f64())
+            })
+            .collect::<Result<_, _>>()?;
+        line += &format!(" {label} {:.1} ms", median(&mut t) * 1e3);
+        line += if label.starts_with('1') { "," } else { "" };
+    }
+    println!("{line} (issue #13 target: < 0.1 s each)");
+    Ok(())
 }
