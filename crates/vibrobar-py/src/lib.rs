@@ -1397,7 +1397,7 @@ fn lyapunov_spectrum<'py>(
     let sc = &scenario.inner;
     let (spec, _, sys) = point_system(sc, ratio, gap_m)?;
     let t = transient(sc, transient_s)?;
-    let solver = make_solver(sc)?;
+    let solver = make_solver(sc, "lyapunov")?;
     if solver.name() != "exact" {
         return Err(PyValueError::new_err(format!(
             "lyapunov_spectrum needs solver = \"exact\" (the saltation matrices need the event times the exact solver resolves; got {:?})",
