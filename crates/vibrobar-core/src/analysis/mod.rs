@@ -14,6 +14,7 @@ pub mod ensemble;
 pub mod grid;
 pub mod lyapunov;
 pub mod map;
+pub mod orbit;
 pub mod placement;
 pub mod poincare;
 pub mod regime;
