@@ -26,3 +26,34 @@ fn explore() {
         }
     }
 }
+
+#[test]
+fn explore_cont() {
+    use vibrobar_core::analysis::grid::Axis;
+    use vibrobar_core::analysis::orbit::continuation::*;
+    let sys = paper(0.06e-3, 1.0);
+    let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(0)).unwrap();
+    let orb = find_orbit(&sec, &x0, &FiniteDifference::default(), &NewtonSettings::default()).unwrap();
+    let t = std::time::Instant::now();
+    let b = continue_orbit(&orb, Axis::GapM, 0.06e-3, 0.002e-3, &FiniteDifference::default(), &ContinuationSettings::default()).unwrap();
+    println!("{} points in {:?}; {:?}", b.points.len(), t.elapsed(), b.stop_reasons);
+    for p in &b.points {
+        if p.branch == 0 && p.event.is_some() || p.branch > 0 {
+            println!("{} {:e} {:e} {} {} {:?} {:?} {:?}", p.branch, p.param, p.orbit.rms_m, p.orbit.sequence, p.orbit.section.periods, p.event, p.orbit.multipliers.iter().map(|l| format!("{:.7}{:+.7}i", l.re, l.im)).collect::<Vec<_>>(), p.orbit.physicality);
+        }
+    }
+}
+
+#[test]
+fn explore_touch() {
+    for i in 0..21 {
+        let gap = 0.05374e-3 + i as f64 * 0.00001e-3;
+        let sys = paper(gap, 1.0);
+        let os = symmetric_orbits(&sys).unwrap();
+        for (k, _) in os.iter().enumerate() {
+            let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(k)).unwrap();
+            let orb = find_orbit(&sec, &x0, &FiniteDifference::default(), &NewtonSettings::default()).unwrap();
+            println!("{gap:e} {k}/{} {:?} sym {:?}", os.len(), orb.multipliers.iter().map(|l| format!("{:.7}{:+.7}i", l.re, l.im)).collect::<Vec<_>>(), orb.symmetry_defect().unwrap());
+        }
+    }
+}
