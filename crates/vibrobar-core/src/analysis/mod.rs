@@ -19,6 +19,7 @@ pub mod placement;
 pub mod poincare;
 pub mod regime;
 pub mod sweep;
+pub mod variational;
 
 pub use batch::{par_map_with_progress, Batch, BatchError, Runner, SweepBase};
 pub use case::{run_case, ImpactCounter, RmsObserver, RunResult, Sampler};

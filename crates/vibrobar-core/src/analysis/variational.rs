@@ -1,0 +1,638 @@
+//! Variational equations of the exact flow of the lumped bar (issue #11, item 1): the Jacobian
+//! `∂x(t₁)/∂x(t₀)` of the solver's flow map, with saltation matrices at every event.
+//!
+//! # Built on the observer stream
+//!
+//! [`Variational`] is an [`Observer`]: it never re-runs or copies the solver. A run reports
+//! smooth [`Segment`]s and [`Event`]s; the tangent map of the run is the product, in time order,
+//! of one state transition matrix per segment and one saltation matrix per event. Both are 4×4
+//! in the public coordinates `x = (u, u̇, v, v̇)` of [`State`]. The solver's results are untouched
+//! (the layer only reads what it is shown), and nothing is allocated per segment or event.
+//!
+//! # Between events (closed form)
+//!
+//! Every mode is linear with constant coefficients plus a forcing that does not depend on the
+//! state, so the transition matrix of a segment of length `τ` is that of the homogeneous part:
+//!
+//! * the bar of mass `m` (`M` in free flight, `M + m_d` for the pair), `α = C/2m`,
+//!   `ω_d = √(K/m − α²)`:
+//!   `Φ(τ) = e^{−ατ} [[cos + (α/ω_d) sin, sin/ω_d], [−(K/m) sin/ω_d, cos − (α/ω_d) sin]]`
+//!   (`sin`, `cos` of `ω_d τ`), `det Φ = e^{−(C/m)τ}`;
+//! * the ball in free flight: `[[1, τ], [0, 1]]` (its acceleration `F_ball/m_d` is constant);
+//! * stick and wall contact (one body of mass `M + m_d`): first the projection `P` onto the
+//!   constrained motion — `u̇, v̇ → (M u̇ + m_d v̇)/(M + m_d)` (momentum), and in wall contact
+//!   `v → u ± l_g` — then the pair's `Φ` with `v` following `u` at fixed `w`.
+//!
+//! **Constrained phases.** During stick the motion lives on `ẇ = 0` (three dimensions: `u`, `u̇`,
+//! `w`), during wall contact on `w = ±l_g`, `ẇ = 0` (two: `u`, `u̇`). The Jacobian stays 4×4:
+//! it maps into that subspace (its rank drops to 3 or 2) and the saltation matrices at stick,
+//! at a plastic impact (chatter accumulation, `e = 0`) and at unstick/release map between the
+//! full and the constrained motion. A run that starts stuck or on a wall is differentiated along
+//! the constraint (`P` applies at the start): a perturbation off it is not differentiable there
+//! (a ball lifted off a wall falls back in a time `∝ √δw`).
+//!
+//! # At events (saltation)
+//!
+//! For an event on the surface `h(x, t) = 0` reached by the flow `f⁻` and followed by the reset
+//! `x⁺ = g(x⁻)` and the flow `f⁺`, the first-order map of perturbations is
+//! (Müller 1995; Leine & Nijmeijer 2004, §3.5; di Bernardo et al. 2008, §2.5)
+//!
+//! `S = G + (f⁺ − G f⁻) ∇hᵀ / (∇h·f⁻ + ∂h/∂t)`,  `G = ∂g/∂x`,
+//!
+//! with `f± = f±(x±, t)` evaluated at the event. The specialisations:
+//!
+//! | event | `h` | `G` | `f⁺ − G f⁻` |
+//! |---|---|---|---|
+//! | impact (`e`) at wall `s` | `v − u − s l_g` | restitution map on `(u̇, v̇)` | velocities and forces jump |
+//! | impact accumulation (chatter limit), `e = 0` into contact | same | plastic map `P` | into the pair's flow |
+//! | friction switch (`ẇ` changes sign) | `v̇ − u̇` | `I` | friction force `F_ball` reverses |
+//! | stick | `v̇ − u̇` | `I` | ball joins the bar: `S` zeroes `δẇ` |
+//! | unstick, contact release | `f_l ∓ m_d ü_pair(x, t)` | `I` | 0: at the threshold the friction (or wall) force equals what the pair needs |
+//!
+//! `det S = e²` for an impact of the frictionless lumped bar (`det G = −e` on the velocities,
+//! `ẇ⁺/ẇ⁻ = −e` from the time shift); with friction the force jump adds a term.
+//!
+//! The solver jumps over an accumulating impact sequence (infinitely many impacts) to its
+//! plastic limit at the first impact and rides the wall for the sequence's duration `Δt`; its
+//! [`EventKind::ChatterLimit`] then marks the end of that sum. The variational layer sees the
+//! impact followed by a contact segment and applies the plastic saltation. The dependence of
+//! `Δt` on the state matters only when the ball leaves the wall at once at the limit; that case
+//! is counted ([`EventCounts::chatter_releases`]) and treated as `S = I` there.
+//!
+//! An impact with `ẇ⁻ = 0` (a touch, grazing) has no saltation matrix (`∇h·f⁻ = 0`: the map
+//! is not differentiable there); it is counted in [`EventCounts::grazing`] and only `G` is
+//! applied. Near grazing `S` is large: that is the true sensitivity, not an error.
+//!
+//! # Not covered
+//!
+//! * The Hertz contact law (compliant contact phases): [`Variational::new`] refuses it.
+//! * The N-mode bar (`ModalExact`): refused; the same construction with the 2N×2N modal `Φ`
+//!   and the contact row `w = v − Σ φₙ qₙ` is the way to add it.
+//! * Parameter derivatives (ratio, gap, friction, restitution): not provided. They enter as
+//!   extra columns `∂x/∂p` with the inhomogeneous terms `∂f/∂p` integrated over each segment
+//!   and `∂g/∂p`, `∂h/∂p` at each event; a central difference of the map costs two runs.
+//!
+//! References: P. C. Müller, "Calculation of Lyapunov exponents for dynamic systems with
+//! discontinuities", Chaos, Solitons & Fractals 5 (1995) 1671–1681; R. I. Leine and
+//! H. Nijmeijer, *Dynamics and Bifurcations of Non-Smooth Mechanical Systems*, Springer 2004.
+
+use crate::damper::friction::sliding_friction_on_ball_n;
+use crate::error::SimError;
+use crate::params::{ContactLaw, FrictionModel, State, System};
+use crate::solver::{Event, EventKind, Mode, Observer, RunSummary, Segment, Solver};
+
+/// A 4×4 matrix, row-major, on `(u, u̇, v, v̇)`.
+pub type Mat4 = [[f64; 4]; 4];
+
+/// Why the variational layer refuses a modal bar.
+pub const VARIATIONAL_LUMPED_ONLY: &str = "the variational flow (Jacobian, Lyapunov spectrum) is built for the lumped bar; the N-mode bar's 2N+2-dimensional tangent map is not implemented";
+/// Why the variational layer refuses the Hertz law.
+pub const VARIATIONAL_NO_HERTZ: &str = "the variational flow (Jacobian, Lyapunov spectrum) covers the instantaneous restitution law; the saltation of a Hertz contact phase is not implemented";
+/// Why the variational layer refuses a bar without a ball.
+pub const VARIATIONAL_NEEDS_BALL: &str =
+    "the variational flow needs a damper (a solid bar is linear: its Jacobian is the bar's closed form)";
+
+/// The identity.
+pub const IDENTITY: Mat4 = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0],
+];
+
+/// `a · b`.
+#[inline]
+pub fn mat_mul(a: &Mat4, b: &Mat4) -> Mat4 {
+    let mut c = [[0.0; 4]; 4];
+    for i in 0..4 {
+        for j in 0..4 {
+            c[i][j] = a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j] + a[i][3] * b[3][j];
+        }
+    }
+    c
+}
+
+/// Determinant (Laplace expansion over 2×2 minors).
+pub fn det4(m: &Mat4) -> f64 {
+    let s0 = m[0][0] * m[1][1] - m[1][0] * m[0][1];
+    let s1 = m[0][0] * m[1][2] - m[1][0] * m[0][2];
+    let s2 = m[0][0] * m[1][3] - m[1][0] * m[0][3];
+    let s3 = m[0][1] * m[1][2] - m[1][1] * m[0][2];
+    let s4 = m[0][1] * m[1][3] - m[1][1] * m[0][3];
+    let s5 = m[0][2] * m[1][3] - m[1][2] * m[0][3];
+    let c5 = m[2][2] * m[3][3] - m[3][2] * m[2][3];
+    let c4 = m[2][1] * m[3][3] - m[3][1] * m[2][3];
+    let c3 = m[2][1] * m[3][2] - m[3][1] * m[2][2];
+    let c2 = m[2][0] * m[3][3] - m[3][0] * m[2][3];
+    let c1 = m[2][0] * m[3][2] - m[3][0] * m[2][2];
+    let c0 = m[2][0] * m[3][1] - m[3][0] * m[2][1];
+    s0 * c5 - s1 * c4 + s2 * c3 + s3 * c2 - s4 * c1 + s5 * c0
+}
+
+/// What receives the tangent maps of a run, in time order: `x ↦ m x` for each segment and event.
+pub trait TangentSink {
+    /// Apply `m` (the transition matrix of a segment ending at `t_s`, or a saltation matrix
+    /// of an event at `t_s`).
+    fn apply(&mut self, m: &Mat4, t_s: f64);
+}
+
+/// Accumulates the Jacobian `J ← m J`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JacobianSink {
+    /// The product so far.
+    pub jacobian: Mat4,
+}
+
+impl Default for JacobianSink {
+    fn default() -> Self {
+        JacobianSink { jacobian: IDENTITY }
+    }
+}
+
+impl TangentSink for JacobianSink {
+    fn apply(&mut self, m: &Mat4, _t_s: f64) {
+        self.jacobian = mat_mul(m, &self.jacobian);
+    }
+}
+
+/// How many events of each kind the tangent map went through.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct EventCounts {
+    /// Impacts with restitution (ball leaves the wall).
+    pub impacts: u64,
+    /// Impacts taken to the plastic limit (accumulating sequence summed, or `e = 0` into contact).
+    pub plastic_impacts: u64,
+    /// Friction switches.
+    pub friction_switches: u64,
+    /// Stick events.
+    pub sticks: u64,
+    /// Unstick events.
+    pub unsticks: u64,
+    /// Chatter-limit (impact accumulation) events.
+    pub chatter_limits: u64,
+    /// Chatter limits where the ball left the wall at once (event-time sensitivity of the
+    /// accumulation time not included there).
+    pub chatter_releases: u64,
+    /// Contact releases.
+    pub releases: u64,
+    /// Events without a saltation matrix (impact with `ẇ⁻ = 0`, or a vanishing crossing rate):
+    /// the map is not differentiable there.
+    pub grazing: u64,
+}
+
+/// The ball's phase: mode and friction sign of a free flight.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Phase {
+    mode: Mode,
+    sigma: f64,
+}
+
+/// An event waiting for the mode that follows it (its `f⁺`).
+#[derive(Debug, Clone, Copy)]
+struct Pending {
+    ev: Event,
+    before: Phase,
+}
+
+/// Constants of the lumped system.
+#[derive(Debug, Clone, Copy)]
+struct Lumped {
+    m: f64,
+    md: f64,
+    k: f64,
+    c: f64,
+    e: f64,
+    fl: f64,
+    model: FrictionModel,
+    fs: f64,
+    f0: f64,
+    om: f64,
+}
+
+impl Lumped {
+    fn force(&self, t: f64) -> f64 {
+        self.fs + self.f0 * (self.om * t).sin()
+    }
+    fn dforce_dt(&self, t: f64) -> f64 {
+        self.f0 * self.om * (self.om * t).cos()
+    }
+    /// Friction force on the ball in a free flight with sign `σ`.
+    fn fb(&self, sigma: f64) -> f64 {
+        sliding_friction_on_ball_n(self.model, self.fl, sigma)
+    }
+    fn mu_ratio(&self) -> f64 {
+        self.md / (self.m + self.md)
+    }
+
+    /// The vector field `f = (u̇, ü, v̇, v̈)` of phase `p` at `x`, `t`.
+    fn field(&self, p: Phase, x: &State, t: f64) -> [f64; 4] {
+        let free = self.force(t) - self.c * x.du_m_s - self.k * x.u_m;
+        match p.mode {
+            Mode::Free | Mode::NoBall => {
+                let fb = self.fb(p.sigma);
+                [x.du_m_s, (free - fb) / self.m, x.dv_m_s, fb / self.md]
+            }
+            Mode::Stick | Mode::Contact(_) => {
+                let a = free / (self.m + self.md);
+                [x.du_m_s, a, x.dv_m_s, a]
+            }
+        }
+    }
+
+    /// `e^{−ατ}`-form transition matrix of the bar of mass `mass` over `τ` (2×2).
+    fn bar_phi(&self, mass: f64, tau: f64) -> [[f64; 2]; 2] {
+        let al = self.c / (2.0 * mass);
+        let wn2 = self.k / mass;
+        let wd = (wn2 - al * al).sqrt();
+        let ex = (-al * tau).exp();
+        let (s, co) = (wd * tau).sin_cos();
+        let sw = s / wd;
+        [
+            [ex * (co + al * sw), ex * sw],
+            [-wn2 * ex * sw, ex * (co - al * sw)],
+        ]
+    }
+
+    /// The projection onto the constrained motion of phase `mode` (identity in free flight).
+    fn projection(&self, mode: Mode) -> Mat4 {
+        let r = self.mu_ratio();
+        match mode {
+            Mode::Free | Mode::NoBall => IDENTITY,
+            Mode::Stick => [
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0 - r, 0.0, r],
+                [0.0, 0.0, 1.0, 0.0],
+                [0.0, 1.0 - r, 0.0, r],
+            ],
+            Mode::Contact(_) => [
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0 - r, 0.0, r],
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0 - r, 0.0, r],
+            ],
+        }
+    }
+
+    /// Transition matrix of a segment of phase `mode` and length `τ`.
+    fn segment_stm(&self, mode: Mode, tau: f64) -> Mat4 {
+        match mode {
+            Mode::Free | Mode::NoBall => {
+                let p = self.bar_phi(self.m, tau);
+                [
+                    [p[0][0], p[0][1], 0.0, 0.0],
+                    [p[1][0], p[1][1], 0.0, 0.0],
+                    [0.0, 0.0, 1.0, tau],
+                    [0.0, 0.0, 0.0, 1.0],
+                ]
+            }
+            Mode::Stick | Mode::Contact(_) => {
+                let p = self.bar_phi(self.m + self.md, tau);
+                // v(τ) = u(τ) + (v₀ − u₀), v̇ = u̇; then the projection at the start.
+                let pair = [
+                    [p[0][0], p[0][1], 0.0, 0.0],
+                    [p[1][0], p[1][1], 0.0, 0.0],
+                    [p[0][0] - 1.0, p[0][1], 1.0, 0.0],
+                    [p[1][0], p[1][1], 0.0, 0.0],
+                ];
+                mat_mul(&pair, &self.projection(mode))
+            }
+        }
+    }
+
+    /// Restitution map on `(u̇, v̇)` as a 4×4 `G` (positions kept).
+    fn impact_g(&self) -> Mat4 {
+        // u̇⁺ = u̇ + β(v̇ − u̇), v̇⁺ = u̇⁺ − e(v̇ − u̇), β = μ(1+e)/(1+μ), μ = m_d/M.
+        let mu = self.md / self.m;
+        let beta = mu * (1.0 + self.e) / (1.0 + mu);
+        [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0 - beta, 0.0, beta],
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 1.0 - beta + self.e, 0.0, beta - self.e],
+        ]
+    }
+
+    /// `G = ∂g/∂x` of the plastic limit (common momentum-conserving velocity).
+    fn plastic_g(&self) -> Mat4 {
+        let r = self.mu_ratio();
+        [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0 - r, 0.0, r],
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 1.0 - r, 0.0, r],
+        ]
+    }
+}
+
+/// `S = G + (f⁺ − G f⁻) ∇hᵀ / rate`, `rate = ∇h·f⁻ + ∂h/∂t`. Returns `None` when the rate
+/// vanishes (grazing).
+fn saltation(
+    g: &Mat4,
+    f_minus: &[f64; 4],
+    f_plus: &[f64; 4],
+    grad_h: &[f64; 4],
+    rate: f64,
+) -> Option<Mat4> {
+    if rate == 0.0 || !rate.is_finite() {
+        return None;
+    }
+    let mut gf = [0.0; 4];
+    for i in 0..4 {
+        gf[i] = (0..4).map(|j| g[i][j] * f_minus[j]).sum();
+    }
+    let mut s = *g;
+    for i in 0..4 {
+        let d = (f_plus[i] - gf[i]) / rate;
+        for j in 0..4 {
+            s[i][j] += d * grad_h[j];
+        }
+    }
+    Some(s)
+}
+
+/// The variational layer: an [`Observer`] that hands the tangent map of each segment and event
+/// of a lumped exact run to a [`TangentSink`].
+pub struct Variational<T: TangentSink> {
+    sys: Lumped,
+    /// The tangent maps go here.
+    pub sink: T,
+    /// Events seen.
+    pub counts: EventCounts,
+    cur: Option<Phase>,
+    pending: Option<Pending>,
+}
+
+impl<T: TangentSink> Variational<T> {
+    /// The layer for `sys` (lumped bar with a damper under the restitution law).
+    pub fn new(sys: &System, sink: T) -> Result<Self, SimError> {
+        sys.validate()?;
+        let bar = sys
+            .lumped_bar()
+            .ok_or(SimError::Unsupported(VARIATIONAL_LUMPED_ONLY))?;
+        let d = sys
+            .damper
+            .ok_or(SimError::Unsupported(VARIATIONAL_NEEDS_BALL))?;
+        if d.contact.law == ContactLaw::Hertz {
+            return Err(SimError::Unsupported(VARIATIONAL_NO_HERTZ));
+        }
+        Ok(Variational {
+            sys: Lumped {
+                m: bar.mass_kg,
+                md: d.ball_mass_kg,
+                k: bar.stiffness_n_per_m,
+                c: bar.damping_n_s_per_m(),
+                e: d.restitution,
+                fl: sys.friction_level_n(),
+                model: d.friction,
+                fs: sys.forcing.static_force_n,
+                f0: sys.forcing.amplitude_n,
+                om: sys.omega_rad_s(),
+            },
+            sink,
+            counts: EventCounts::default(),
+            cur: None,
+            pending: None,
+        })
+    }
+
+    /// Apply what is still pending (an event at the very end of the run). Call once after the
+    /// run; [`flow_with_jacobian`] does.
+    pub fn finish(&mut self) {
+        if let Some(p) = self.pending.take() {
+            let after = self.default_after(&p.ev);
+            self.resolve(p, after, false);
+        }
+    }
+
+    /// The phase after event `ev` when no segment follows to say it.
+    fn default_after(&self, ev: &Event) -> Phase {
+        let free = |dw: f64| Phase {
+            mode: Mode::Free,
+            sigma: crate::damper::friction::sgn0(dw),
+        };
+        match ev.kind {
+            EventKind::Impact { wall, .. } if ev.after.dw_m_s() == 0.0 => Phase {
+                mode: Mode::Contact(wall),
+                sigma: 0.0,
+            },
+            EventKind::Impact { .. } => free(ev.after.dw_m_s()),
+            EventKind::FrictionSwitch => Phase {
+                mode: Mode::Free,
+                sigma: -self.cur.map_or(0.0, |c| c.sigma),
+            },
+            EventKind::Stick => Phase {
+                mode: Mode::Stick,
+                sigma: 0.0,
+            },
+            EventKind::Unstick => free(0.0),
+            EventKind::ChatterLimit { wall, .. } => Phase {
+                mode: Mode::Contact(wall),
+                sigma: 0.0,
+            },
+            EventKind::ContactRelease { wall } => Phase {
+                mode: Mode::Free,
+                sigma: -wall.sign(),
+            },
+        }
+    }
+
+    /// The phase before event `ev` implied by its kind (for an event that follows another at
+    /// once).
+    fn phase_before(ev: &Event, last: Option<Phase>) -> Phase {
+        match ev.kind {
+            EventKind::Impact { .. } | EventKind::FrictionSwitch | EventKind::Stick => Phase {
+                mode: Mode::Free,
+                sigma: last.map_or(0.0, |p| p.sigma),
+            },
+            EventKind::Unstick => Phase {
+                mode: Mode::Stick,
+                sigma: 0.0,
+            },
+            EventKind::ChatterLimit { wall, .. } | EventKind::ContactRelease { wall } => Phase {
+                mode: Mode::Contact(wall),
+                sigma: 0.0,
+            },
+        }
+    }
+
+    /// Build and apply the saltation of `p` with the phase `after` that follows it.
+    fn resolve(&mut self, p: Pending, after: Phase, followed_by_contact: bool) {
+        let s = &self.sys;
+        let ev = &p.ev;
+        let t = ev.t_s;
+        let x = &ev.before;
+        let f_minus = s.field(p.before, x, t);
+        let (g, grad, rate, x_plus) = match ev.kind {
+            EventKind::Impact { .. } => {
+                let plastic = followed_by_contact && s.e > 0.0;
+                let g = if plastic { s.plastic_g() } else { s.impact_g() };
+                if plastic {
+                    self.counts.plastic_impacts += 1;
+                } else {
+                    self.counts.impacts += 1;
+                }
+                let mut xp = ev.after;
+                if plastic {
+                    let v = (1.0 - s.mu_ratio()) * x.du_m_s + s.mu_ratio() * x.dv_m_s;
+                    xp.du_m_s = v;
+                    xp.dv_m_s = v;
+                }
+                (g, [-1.0, 0.0, 1.0, 0.0], x.dw_m_s(), xp)
+            }
+            EventKind::FrictionSwitch | EventKind::Stick => {
+                if ev.kind == EventKind::Stick {
+                    self.counts.sticks += 1;
+                } else {
+                    self.counts.friction_switches += 1;
+                }
+                (
+                    IDENTITY,
+                    [0.0, -1.0, 0.0, 1.0],
+                    f_minus[3] - f_minus[1],
+                    ev.after,
+                )
+            }
+            EventKind::Unstick | EventKind::ContactRelease { .. } => {
+                if ev.kind == EventKind::Unstick {
+                    self.counts.unsticks += 1;
+                } else {
+                    self.counts.releases += 1;
+                }
+                // h = f_l − q·m_d ü_pair with ü_pair = (F(t) − C u̇ − K u)/(M + m_d); only
+                // the direction of ∇h and the rate matter up to a common factor.
+                let r = s.md / (s.m + s.md);
+                let grad = [-s.k * r, -s.c * r, 0.0, 0.0];
+                let rate = grad[0] * f_minus[0] + grad[1] * f_minus[1] + r * s.dforce_dt(t);
+                (IDENTITY, grad, rate, ev.after)
+            }
+            EventKind::ChatterLimit { .. } => {
+                self.counts.chatter_limits += 1;
+                if matches!(after.mode, Mode::Free) {
+                    self.counts.chatter_releases += 1;
+                }
+                self.cur = Some(after);
+                return;
+            }
+        };
+        let f_plus = s.field(after, &x_plus, t);
+        let m = match saltation(&g, &f_minus, &f_plus, &grad, rate) {
+            Some(m) => m,
+            None => {
+                self.counts.grazing += 1;
+                g
+            }
+        };
+        self.sink.apply(&m, t);
+        self.cur = Some(after);
+    }
+}
+
+impl<T: TangentSink> Observer for Variational<T> {
+    fn segment(&mut self, seg: &dyn Segment) {
+        let (t0, t1) = (seg.t_start_s(), seg.t_end_s());
+        let mode = seg.mode();
+        let sigma = if mode == Mode::Free {
+            crate::damper::friction::sgn0(seg.state_at(0.5 * (t0 + t1)).dw_m_s())
+        } else {
+            0.0
+        };
+        let phase = Phase { mode, sigma };
+        if let Some(p) = self.pending.take() {
+            let contact = matches!(mode, Mode::Contact(_));
+            self.resolve(p, phase, contact);
+        }
+        self.cur = Some(phase);
+        let m = self.sys.segment_stm(mode, t1 - t0);
+        self.sink.apply(&m, t1);
+    }
+
+    fn event(&mut self, ev: &Event) {
+        if let Some(p) = self.pending.take() {
+            // Two events at one instant (no segment between): the second's kind says what
+            // phase the first led to.
+            let next_before = Self::phase_before(ev, self.cur);
+            let contact = matches!(next_before.mode, Mode::Contact(_));
+            self.resolve(p, next_before, contact);
+        }
+        let before = match self.cur {
+            Some(c) => c,
+            None => Self::phase_before(ev, None),
+        };
+        self.pending = Some(Pending { ev: *ev, before });
+    }
+}
+
+/// The end state of a run, its Jacobian and the events it went through.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FlowJacobian {
+    /// The state at `t_end_s`.
+    pub state: State,
+    /// `∂x(t_end)/∂x(t₀)` on `x = (u, u̇, v, v̇)`, at fixed start and end times.
+    pub jacobian: Mat4,
+    /// The vector field at the end, `∂x(t_end)/∂t_end` (for a phase condition or a period
+    /// derivative).
+    pub end_field: [f64; 4],
+    /// The events the tangent map went through.
+    pub events: EventCounts,
+    /// The solver's summary.
+    pub summary: RunSummary,
+}
+
+/// Run the exact solver `solver` on `sys` from `init` to `t_end_s` and return the end state with
+/// the Jacobian of the flow map (the stroboscopic map over `k` forcing periods is
+/// `t_end_s = init.t_s + k·T`). `extra` sees the run too (`&mut ()` for nothing).
+pub fn flow_with_jacobian(
+    solver: &dyn Solver,
+    sys: &System,
+    init: &State,
+    t_end_s: f64,
+    extra: &mut dyn Observer,
+) -> Result<FlowJacobian, SimError> {
+    let mut var = Variational::new(sys, JacobianSink::default())?;
+    let summary = {
+        let v: &mut dyn Observer = &mut var;
+        solver.run(
+            sys,
+            init,
+            t_end_s,
+            &mut crate::solver::Fanout(&mut [v, extra]),
+        )?
+    };
+    var.finish();
+    let jacobian = var.sink.jacobian;
+    let end_phase = var.cur.unwrap_or(Phase {
+        mode: Mode::Free,
+        sigma: crate::damper::friction::sgn0(summary.final_state.dw_m_s()),
+    });
+    Ok(FlowJacobian {
+        state: summary.final_state,
+        jacobian,
+        end_field: var.sys.field(end_phase, &summary.final_state, t_end_s),
+        events: var.counts,
+        summary,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn determinant_of_products_and_blocks() {
+        let a: Mat4 = [
+            [2.0, 1.0, 0.0, 3.0],
+            [0.5, -1.0, 2.0, 0.0],
+            [1.0, 0.0, 1.0, 1.0],
+            [0.0, 2.0, -1.0, 4.0],
+        ];
+        let b: Mat4 = [
+            [1.0, 0.0, 2.0, 0.0],
+            [0.0, 3.0, 0.0, 1.0],
+            [1.0, 1.0, 1.0, 0.0],
+            [0.0, 0.0, 0.5, 2.0],
+        ];
+        let (da, db) = (det4(&a), det4(&b));
+        assert!((det4(&mat_mul(&a, &b)) - da * db).abs() < 1e-12 * (da * db).abs());
+        assert!((det4(&IDENTITY) - 1.0).abs() < 1e-15);
+    }
+}
