@@ -14,7 +14,12 @@ fn explore() {
         let os = symmetric_orbits(&sys).unwrap();
         for (i, o) in os.iter().enumerate() {
             let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(i)).unwrap();
-            let orb = find_orbit(&sec, &x0, &FiniteDifference::default(), &NewtonSettings::default());
+            let orb = find_orbit(
+                &sec,
+                &x0,
+                &FiniteDifference::default(),
+                &NewtonSettings::default(),
+            );
             match orb {
                 Ok(orb) => println!(
                     "gap {gap:e} #{i} rms {:e} (analytic {:e}) it {} res {:e} seq {} mult {:?} phys {:?} sym {:?}",
@@ -33,13 +38,46 @@ fn explore_cont() {
     use vibrobar_core::analysis::orbit::continuation::*;
     let sys = paper(0.06e-3, 1.0);
     let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(0)).unwrap();
-    let orb = find_orbit(&sec, &x0, &FiniteDifference::default(), &NewtonSettings::default()).unwrap();
+    let orb = find_orbit(
+        &sec,
+        &x0,
+        &FiniteDifference::default(),
+        &NewtonSettings::default(),
+    )
+    .unwrap();
     let t = std::time::Instant::now();
-    let b = continue_orbit(&orb, Axis::GapM, 0.06e-3, 0.002e-3, &FiniteDifference::default(), &ContinuationSettings::default()).unwrap();
-    println!("{} points in {:?}; {:?}", b.points.len(), t.elapsed(), b.stop_reasons);
+    let b = continue_orbit(
+        &orb,
+        Axis::GapM,
+        0.06e-3,
+        0.002e-3,
+        &FiniteDifference::default(),
+        &ContinuationSettings::default(),
+    )
+    .unwrap();
+    println!(
+        "{} points in {:?}; {:?}",
+        b.points.len(),
+        t.elapsed(),
+        b.stop_reasons
+    );
     for p in &b.points {
         if p.branch == 0 && p.event.is_some() || p.branch > 0 {
-            println!("{} {:e} {:e} {} {} {:?} {:?} {:?}", p.branch, p.param, p.orbit.rms_m, p.orbit.sequence, p.orbit.section.periods, p.event, p.orbit.multipliers.iter().map(|l| format!("{:.7}{:+.7}i", l.re, l.im)).collect::<Vec<_>>(), p.orbit.physicality);
+            println!(
+                "{} {:e} {:e} {} {} {:?} {:?} {:?}",
+                p.branch,
+                p.param,
+                p.orbit.rms_m,
+                p.orbit.sequence,
+                p.orbit.section.periods,
+                p.event,
+                p.orbit
+                    .multipliers
+                    .iter()
+                    .map(|l| format!("{:.7}{:+.7}i", l.re, l.im))
+                    .collect::<Vec<_>>(),
+                p.orbit.physicality
+            );
         }
     }
 }
@@ -52,8 +90,38 @@ fn explore_touch() {
         let os = symmetric_orbits(&sys).unwrap();
         for (k, _) in os.iter().enumerate() {
             let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(k)).unwrap();
-            let orb = find_orbit(&sec, &x0, &FiniteDifference::default(), &NewtonSettings::default()).unwrap();
-            println!("{gap:e} {k}/{} {:?} sym {:?}", os.len(), orb.multipliers.iter().map(|l| format!("{:.7}{:+.7}i", l.re, l.im)).collect::<Vec<_>>(), orb.symmetry_defect().unwrap());
+            let orb = find_orbit(
+                &sec,
+                &x0,
+                &FiniteDifference::default(),
+                &NewtonSettings::default(),
+            )
+            .unwrap();
+            println!(
+                "{gap:e} {k}/{} {:?} sym {:?}",
+                os.len(),
+                orb.multipliers
+                    .iter()
+                    .map(|l| format!("{:.7}{:+.7}i", l.re, l.im))
+                    .collect::<Vec<_>>(),
+                orb.symmetry_defect().unwrap()
+            );
         }
     }
+}
+
+#[test]
+fn explore_exact() {
+    let sys = paper(0.08e-3, 1.0);
+    let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(0)).unwrap();
+    let a = find_orbit(
+        &sec,
+        &x0,
+        &FiniteDifference::default(),
+        &NewtonSettings::default(),
+    )
+    .unwrap();
+    let b = find_orbit(&sec, &x0, &ExactJacobian, &NewtonSettings::default()).unwrap();
+    println!("{}\n{}", a.jacobian, b.jacobian);
+    println!("{:?}\n{:?}", a.multipliers, b.multipliers);
 }

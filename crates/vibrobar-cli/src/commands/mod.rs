@@ -11,6 +11,7 @@ pub mod lumped_vs_beam;
 pub mod map;
 pub mod merge;
 pub mod modes;
+pub mod orbit;
 pub mod paper;
 pub mod placement;
 pub mod run;

@@ -32,8 +32,7 @@
 //! multipliers do not depend on it).
 
 use super::{
-    describe, find_orbit, scales, to_vector, MapJacobian, NewtonSettings,
-    PeriodicOrbit, Section,
+    describe, find_orbit, scales, to_vector, MapJacobian, NewtonSettings, PeriodicOrbit, Section,
 };
 use crate::analysis::grid::Axis;
 use crate::error::{ParamError, SimError};
@@ -205,7 +204,12 @@ fn class_of(o: &PeriodicOrbit) -> Class {
 fn cyclic_canonical(s: &str) -> String {
     let c: Vec<char> = s.chars().collect();
     (0..c.len().max(1))
-        .map(|r| c[r.min(c.len())..].iter().chain(&c[..r.min(c.len())]).collect::<String>())
+        .map(|r| {
+            c[r.min(c.len())..]
+                .iter()
+                .chain(&c[..r.min(c.len())])
+                .collect::<String>()
+        })
         .min()
         .unwrap_or_default()
 }
@@ -326,7 +330,10 @@ impl Cont<'_> {
             })?;
             y += d;
             // Keep w inside the cavity.
-            let lg = self.system(y[4])?.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
+            let lg = self
+                .system(y[4])?
+                .damper
+                .map_or(f64::INFINITY, |d| d.half_gap_m());
             y[2] = y[2].clamp(-lg / self.sc[2], lg / self.sc[2]);
         }
         unreachable!("the loop returns")
@@ -346,7 +353,9 @@ impl Cont<'_> {
         let mut orbit = orbit;
         orbit.residual = {
             let px = sec.flow(&x)?;
-            (0..4).map(|i| ((px[i] - x[i]) / self.sc[i]).abs()).fold(0.0, f64::max)
+            (0..4)
+                .map(|i| ((px[i] - x[i]) / self.sc[i]).abs())
+                .fold(0.0, f64::max)
         };
         Ok(Pt {
             y,
@@ -360,9 +369,7 @@ impl Cont<'_> {
     fn rephase(&self, p: Pt) -> Result<Pt, SimError> {
         let kt = p.sec.period_s();
         let ev = &p.orbit.events;
-        let near = ev
-            .iter()
-            .any(|e| e.dt_s < 0.02 * kt || e.dt_s > 0.98 * kt);
+        let near = ev.iter().any(|e| e.dt_s < 0.02 * kt || e.dt_s > 0.98 * kt);
         if !near || ev.is_empty() {
             return Ok(p);
         }
@@ -495,6 +502,8 @@ fn follow(
     });
     let mut h = c.settings.step_initial;
     let mut n = 1;
+    let mut jumped = false;
+    let mut jumps = 0;
     let max_points = if branch == 0 {
         c.settings.max_points
     } else {
@@ -508,6 +517,48 @@ fn follow(
             return Ok("the orbit lost every event (the ball floats freely; its position is neutral and the branch is not continued)".into());
         }
         if h < c.settings.step_min {
+            // Near grazing the map has a square-root singularity and the corrector cannot follow
+            // the tangent: try to step across at fixed parameter.
+            if !jumped && jumps < MAX_JUMPS {
+                jumps += 1;
+                // Only a point with another event sequence is a crossing (the same sequence
+                // would be the branch folding back at the nonsmooth point).
+                let ca = class_of(&cur.orbit);
+                let across = jump_across(c, &cur).filter(|p| class_of(&p.orbit).seq != ca.seq);
+                if let Some(p) = across {
+                    let cb = class_of(&p.orbit);
+                    let ev = event_between(&ca, &cb, cur.tangent[4], p.tangent[4])
+                        .or(Some(BranchEvent::Grazing));
+                    out.push(BranchPoint {
+                        param: c.param(p.y[4]),
+                        orbit: p.orbit.clone(),
+                        event: ev,
+                        branch,
+                    });
+                    n += 1;
+                    cur = c.rephase(p)?;
+                    h = c.settings.step_initial * 0.1;
+                    jumped = true;
+                    continue;
+                }
+            }
+            let lg = cur
+                .sec
+                .system
+                .damper
+                .map_or(f64::INFINITY, |d| d.half_gap_m());
+            let ph = cur.orbit.physicality;
+            if ph.grazing_margin_m < 1e-2 * lg {
+                if let Some(last) = out.last_mut() {
+                    last.event.get_or_insert(BranchEvent::Grazing);
+                }
+                return Ok(format!(
+                    "grazing at {} = {}: a free flight turns {:.2e} m from a wall (a new impact appears) and no orbit was found past it",
+                    c.axis.as_str(),
+                    c.param(cur.y[4]),
+                    ph.grazing_margin_m
+                ));
+            }
             return Ok(format!(
                 "step below {:e} at {} = {} (the corrector fails: a nonsmooth point the branch cannot pass)",
                 c.settings.step_min,
@@ -525,7 +576,10 @@ fn follow(
         }
         let attempt = step(c, &cur, hh, to_end.then_some(end));
         let next = match attempt {
-            Ok(p) => p,
+            Ok(p) => {
+                jumped = false;
+                p
+            }
             Err(_) => {
                 h *= 0.5;
                 continue;
@@ -622,6 +676,36 @@ fn locate(c: &Cont, cur: &Pt, h: f64, ca: &Class) -> Option<Pt> {
     best
 }
 
+/// Most fixed-parameter jumps across nonsmooth points per branch.
+const MAX_JUMPS: usize = 20;
+
+/// Past a point where the tangent cannot be followed (grazing): Newton at fixed parameters a
+/// little further along the branch's direction, from the current orbit.
+fn jump_across(c: &Cont, cur: &Pt) -> Option<Pt> {
+    let dir = if cur.tangent[4] >= 0.0 { 1.0 } else { -1.0 };
+    let x = to_vector(&cur.orbit.state);
+    for d in [1e-4, 1e-3, 1e-2] {
+        let q = cur.y[4] + dir * d;
+        let sec = c.section(cur.sec.t0_s, q).ok()?;
+        let Ok(orb) = find_orbit(&sec, &x, c.jac, &NewtonSettings::default()) else {
+            continue;
+        };
+        let xs = to_vector(&orb.state);
+        let mut y = V5::zeros();
+        for i in 0..4 {
+            y[i] = xs[i] / c.sc[i];
+        }
+        y[4] = q;
+        let Ok((_, j, dp)) = c.eval(sec.t0_s, &y) else {
+            continue;
+        };
+        if let Ok(p) = c.point(sec.t0_s, y, &j, dp, &cur.tangent) {
+            return Some(p);
+        }
+    }
+    None
+}
+
 /// The value of `axis` in `sys`.
 pub fn param_of(sys: &System, axis: Axis) -> f64 {
     let d = sys.damper.unwrap_or_default();
@@ -671,10 +755,15 @@ fn switch_at_doubling(
                 continue;
             };
             // A genuine period-2k orbit: not the period-k one seen twice.
-            let half = Section { periods: c.periods, ..sec };
+            let half = Section {
+                periods: c.periods,
+                ..sec
+            };
             let xs = to_vector(&orb.state);
             let Ok(ph) = half.flow(&xs) else { continue };
-            let dist = (0..4).map(|k| ((ph[k] - xs[k]) / c.sc[k]).abs()).fold(0.0, f64::max);
+            let dist = (0..4)
+                .map(|k| ((ph[k] - xs[k]) / c.sc[k]).abs())
+                .fold(0.0, f64::max);
             if dist < 1e-5 {
                 continue;
             }

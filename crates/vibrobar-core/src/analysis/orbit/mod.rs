@@ -208,6 +208,51 @@ impl MapJacobian for FiniteDifference {
     }
 }
 
+/// The exact Jacobian: the variational flow with saltation matrices
+/// ([`crate::analysis::variational::flow_with_jacobian`]), taken from `(u, u̇, v, v̇)` to the map's
+/// `(u, u̇, w, ẇ)`. One run per evaluation instead of nine.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ExactJacobian;
+
+impl MapJacobian for ExactJacobian {
+    fn name(&self) -> &'static str {
+        "variational"
+    }
+
+    fn map_and_jacobian(
+        &self,
+        sec: &Section,
+        x: &[f64; 4],
+    ) -> Result<([f64; 4], Matrix4<f64>), SimError> {
+        let fj = crate::analysis::variational::flow_with_jacobian(
+            &Exact::default(),
+            &sec.system,
+            &sec.state(x),
+            sec.t0_s + sec.period_s(),
+            &mut (),
+        )?;
+        Ok((to_vector(&fj.state), to_relative(&fj.jacobian)))
+    }
+}
+
+/// `T J T⁻¹` with `T: (u, u̇, v, v̇) → (u, u̇, v − u, v̇ − u̇)`.
+pub fn to_relative(j: &crate::analysis::variational::Mat4) -> Matrix4<f64> {
+    let t = Matrix4::new(
+        1.0, 0.0, 0.0, 0.0, //
+        0.0, 1.0, 0.0, 0.0, //
+        -1.0, 0.0, 1.0, 0.0, //
+        0.0, -1.0, 0.0, 1.0,
+    );
+    let t_inv = Matrix4::new(
+        1.0, 0.0, 0.0, 0.0, //
+        0.0, 1.0, 0.0, 0.0, //
+        1.0, 0.0, 1.0, 0.0, //
+        0.0, 1.0, 0.0, 1.0,
+    );
+    let jm = Matrix4::from_fn(|r, c| j[r][c]);
+    t * jm * t_inv
+}
+
 fn sub(a: &[f64; 4], b: &[f64; 4]) -> [f64; 4] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2], a[3] - b[3]]
 }
@@ -250,7 +295,9 @@ pub struct OrbitEvent {
 /// switch, `s` stick, `u` unstick, `c` chatter limit (contact begins), `r` release.
 pub fn event_letter(kind: &EventKind) -> char {
     match kind {
-        EventKind::Impact { wall: Wall::Plus, .. } => '+',
+        EventKind::Impact {
+            wall: Wall::Plus, ..
+        } => '+',
         EventKind::Impact { .. } => '-',
         EventKind::FrictionSwitch => 'f',
         EventKind::Stick => 's',
@@ -311,7 +358,10 @@ pub const STABILITY_MARGIN: f64 = 1e-7;
 impl PeriodicOrbit {
     /// Largest `|λ|`.
     pub fn max_abs_multiplier(&self) -> f64 {
-        self.multipliers.iter().map(|l| l.norm()).fold(0.0, f64::max)
+        self.multipliers
+            .iter()
+            .map(|l| l.norm())
+            .fold(0.0, f64::max)
     }
 
     /// Asymptotically stable: every `|λ| < 1 −` [`STABILITY_MARGIN`].
@@ -338,7 +388,9 @@ impl PeriodicOrbit {
         let (a, b) = (to_vector(&self.state), to_vector(&s));
         let sc = scales(&self.section.system);
         Ok(Some(
-            (0..4).map(|i| ((a[i] + b[i]) / sc[i]).abs()).fold(0.0, f64::max),
+            (0..4)
+                .map(|i| ((a[i] + b[i]) / sc[i]).abs())
+                .fold(0.0, f64::max),
         ))
     }
 }
@@ -565,7 +617,8 @@ pub fn describe(
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Start {
     /// The analytic symmetric orbit ([`symmetric_orbits`]) with this index (in the order of
-    /// their impact phase); a quarter period after its `+` impact.
+    /// their impact phase); a quarter period after its `+` impact. With friction, that of the
+    /// same system without it.
     Symmetric(usize),
     /// A run from `init` over `settle_s`; the section is put in the middle of the longest
     /// event-free stretch of the last `k` periods.
@@ -589,7 +642,13 @@ pub fn starting_guess(
     let t = sys.forcing_period_s();
     let (t_sec, state) = match *start {
         Start::Symmetric(i) => {
-            let os = symmetric_orbits(sys)?;
+            // With friction the frictionless orbit is the guess (Newton then finds the orbit
+            // with friction, when it is near).
+            let mut frictionless = *sys;
+            if let Some(d) = frictionless.damper.as_mut() {
+                d.friction = crate::params::FrictionModel::None;
+            }
+            let os = symmetric_orbits(&frictionless)?;
             let Some(o) = os.get(i) else {
                 return Err(ParamError::OutOfRange {
                     field: "symmetric orbit index (--branch)",
