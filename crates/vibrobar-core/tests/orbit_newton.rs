@@ -1,127 +1,222 @@
-//! Newton's method on the stroboscopic map against the analytic symmetric orbit, and its
-//! Floquet multipliers against finite differences and simulated perturbation growth.
+//! Newton's method on the stroboscopic map (`analysis::orbit`) against independent computations:
+//! the analytic symmetric two-impact orbit (RMS, impact phase and velocity), finite differences
+//! of the exact solver for the monodromy matrix, and the growth of simulated perturbations for
+//! the Floquet multipliers. Bad input: the period's range and a Newton that does not converge.
 use vibrobar_core::analysis::orbit::*;
+use vibrobar_core::solver::{EventKind, Wall};
 use vibrobar_core::*;
 
 fn paper(gap_m: f64, ratio: f64) -> System {
     System::paper_damped(gap_m, FrictionModel::None, ratio)
 }
 
+/// The paper's bar with e = 0.8, 0.1 mm gap, r = 0.9: two symmetric orbits, one stable (as in
+/// `exact_periodic_orbit.rs`).
+fn two_branch_case() -> System {
+    let mut sys = paper(0.1e-3, 0.9);
+    sys.damper.as_mut().unwrap().restitution = 0.8;
+    sys
+}
+
+fn cases() -> Vec<(System, usize)> {
+    let mut v: Vec<(System, usize)> = [0.06e-3, 0.08e-3, 0.09e-3, 0.1e-3]
+        .iter()
+        .map(|&g| (paper(g, 1.0), 0))
+        .collect();
+    v.push((two_branch_case(), 0));
+    v.push((two_branch_case(), 1));
+    v
+}
+
 #[test]
-fn explore() {
-    for gap in [0.06e-3, 0.07e-3, 0.08e-3, 0.09e-3, 0.1e-3, 0.12e-3] {
-        let sys = paper(gap, 1.0);
-        let os = symmetric_orbits(&sys).unwrap();
-        for (i, o) in os.iter().enumerate() {
-            let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(i)).unwrap();
-            let orb = find_orbit(
-                &sec,
-                &x0,
-                &FiniteDifference::default(),
-                &NewtonSettings::default(),
+fn newton_converges_to_the_analytic_symmetric_orbit_from_a_perturbed_start() {
+    for (sys, i) in cases() {
+        let o = symmetric_orbits(&sys).unwrap()[i];
+        let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(i)).unwrap();
+        let sc = scales(&sys);
+        // 2 % of each scale off the orbit (w inward).
+        let guess = [
+            x0[0] + 0.02 * sc[0],
+            x0[1] - 0.02 * sc[1],
+            x0[2] - 0.02 * sc[2] * x0[2].signum(),
+            x0[3] + 0.02 * sc[3],
+        ];
+        for jac in [
+            &ExactJacobian as &dyn MapJacobian,
+            &FiniteDifference::default(),
+        ] {
+            let orb = find_orbit(&sec, &guess, jac, &NewtonSettings::default()).unwrap();
+            assert!(orb.iterations >= 1 && orb.residual <= 1e-9, "{orb:?}");
+            assert!(((orb.rms_m - o.rms_m(&sys)) / o.rms_m(&sys)).abs() < 1e-9);
+            assert_eq!(orb.impacts_per_period, 2);
+            assert!(orb.symmetry_defect().unwrap().unwrap() < 1e-9);
+            assert!(orb.physicality.confined);
+            let t = sys.forcing_period_s();
+            let plus = orb
+                .events
+                .iter()
+                .find(|e| {
+                    matches!(
+                        e.kind,
+                        EventKind::Impact {
+                            wall: Wall::Plus,
+                            ..
+                        }
+                    )
+                })
+                .unwrap();
+            let EventKind::Impact { dw_m_s, .. } = plus.kind else {
+                unreachable!()
+            };
+            let ph = ((sec.t0_s + plus.dt_s - o.t0) / t).rem_euclid(1.0);
+            assert!(
+                ph.min(1.0 - ph) < 1e-9,
+                "impact phase off by {ph:e} periods"
             );
-            match orb {
-                Ok(orb) => println!(
-                    "gap {gap:e} #{i} rms {:e} (analytic {:e}) it {} res {:e} seq {} mult {:?} phys {:?} sym {:?}",
-                    orb.rms_m, o.rms_m(&sys), orb.iterations, orb.residual, orb.sequence,
-                    orb.multipliers.iter().map(|l| (l.re, l.im, l.norm())).collect::<Vec<_>>(), orb.physicality, orb.symmetry_defect()
-                ),
-                Err(e) => println!("gap {gap:e} #{i} err {e}"),
+            let dw = o.impact_speed_m_s();
+            assert!(((dw_m_s - dw) / dw).abs() < 1e-8, "{dw_m_s} vs {dw}");
+        }
+    }
+}
+
+#[test]
+fn newton_from_a_settled_run_finds_the_stable_symmetric_orbit() {
+    let sys = paper(0.08e-3, 1.0);
+    let o = symmetric_orbits(&sys).unwrap()[0];
+    let (sec, x0) = starting_guess(
+        &sys,
+        1,
+        &Start::Settled {
+            init: State::REST,
+            settle_s: 0.4,
+        },
+    )
+    .unwrap();
+    let orb = find_orbit(&sec, &x0, &ExactJacobian, &NewtonSettings::default()).unwrap();
+    assert!(orb.stable());
+    assert!(((orb.rms_m - o.rms_m(&sys)) / o.rms_m(&sys)).abs() < 1e-9);
+    assert_eq!(orb.sequence.len(), 2);
+}
+
+#[test]
+fn exact_jacobian_matches_finite_differences() {
+    for (sys, i) in cases() {
+        let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(i)).unwrap();
+        let orb = find_orbit(&sec, &x0, &ExactJacobian, &NewtonSettings::default()).unwrap();
+        let x = to_vector(&orb.state);
+        let (_, fd) = FiniteDifference::default()
+            .map_and_jacobian(&sec, &x)
+            .unwrap();
+        let (_, ex) = ExactJacobian.map_and_jacobian(&sec, &x).unwrap();
+        // Entries relative to their row and column scales.
+        let sc = scales(&sys);
+        for r in 0..4 {
+            for c in 0..4 {
+                let d = (fd[(r, c)] - ex[(r, c)]) * sc[c] / sc[r];
+                assert!(
+                    d.abs() < 1e-6,
+                    "entry ({r}, {c}): {} vs {}",
+                    fd[(r, c)],
+                    ex[(r, c)]
+                );
             }
         }
-    }
-}
-
-#[test]
-fn explore_cont() {
-    use vibrobar_core::analysis::grid::Axis;
-    use vibrobar_core::analysis::orbit::continuation::*;
-    let sys = paper(0.06e-3, 1.0);
-    let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(0)).unwrap();
-    let orb = find_orbit(
-        &sec,
-        &x0,
-        &FiniteDifference::default(),
-        &NewtonSettings::default(),
-    )
-    .unwrap();
-    let t = std::time::Instant::now();
-    let b = continue_orbit(
-        &orb,
-        Axis::GapM,
-        0.06e-3,
-        0.002e-3,
-        &FiniteDifference::default(),
-        &ContinuationSettings::default(),
-    )
-    .unwrap();
-    println!(
-        "{} points in {:?}; {:?}",
-        b.points.len(),
-        t.elapsed(),
-        b.stop_reasons
-    );
-    for p in &b.points {
-        if p.branch == 0 && p.event.is_some() || p.branch > 0 {
-            println!(
-                "{} {:e} {:e} {} {} {:?} {:?} {:?}",
-                p.branch,
-                p.param,
-                p.orbit.rms_m,
-                p.orbit.sequence,
-                p.orbit.section.periods,
-                p.event,
-                p.orbit
-                    .multipliers
-                    .iter()
-                    .map(|l| format!("{:.7}{:+.7}i", l.re, l.im))
-                    .collect::<Vec<_>>(),
-                p.orbit.physicality
-            );
+        let (a, b) = (multipliers_of(&fd), multipliers_of(&ex));
+        for (l, m) in a.iter().zip(&b) {
+            assert!((l - m).norm() < 1e-6, "{a:?} vs {b:?}");
         }
     }
 }
 
+/// Slope of `ln |P^n(x + δ) − x|` over `n`, fitted by least squares: the growth rate of a
+/// simulated perturbation, to compare with `ln max |λ|`.
+fn growth_rate(sec: &Section, x: &[f64; 4], eps: f64, n: usize) -> f64 {
+    let sc = scales(&sec.system);
+    let mut y = sec.clamp([0, 1, 2, 3].map(|i| x[i] + eps * sc[i] * [0.5, -0.3, -0.6, 0.55][i]));
+    let mut pts = Vec::new();
+    for k in 1..=n {
+        y = sec.flow(&y).unwrap();
+        let d = (0..4)
+            .map(|i| ((y[i] - x[i]) / sc[i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        if k > 5 {
+            pts.push((k as f64, d.ln()));
+        }
+    }
+    let m = pts.len() as f64;
+    let (sx, sy) = pts.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
+    let (mx, my) = (sx / m, sy / m);
+    let num: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let den: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    num / den
+}
+
 #[test]
-fn explore_touch() {
-    for i in 0..21 {
-        let gap = 0.05374e-3 + i as f64 * 0.00001e-3;
+fn largest_multiplier_predicts_simulated_perturbation_growth() {
+    // Unstable (a complex pair outside, 0.1 mm) and stable (0.08 mm) orbits at r = 1.
+    for (gap, eps, n) in [(0.1e-3, 1e-10, 40), (0.08e-3, 1e-6, 60)] {
         let sys = paper(gap, 1.0);
-        let os = symmetric_orbits(&sys).unwrap();
-        for (k, _) in os.iter().enumerate() {
-            let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(k)).unwrap();
-            let orb = find_orbit(
-                &sec,
-                &x0,
-                &FiniteDifference::default(),
-                &NewtonSettings::default(),
-            )
-            .unwrap();
-            println!(
-                "{gap:e} {k}/{} {:?} sym {:?}",
-                os.len(),
-                orb.multipliers
-                    .iter()
-                    .map(|l| format!("{:.7}{:+.7}i", l.re, l.im))
-                    .collect::<Vec<_>>(),
-                orb.symmetry_defect().unwrap()
-            );
-        }
+        let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(0)).unwrap();
+        let orb = find_orbit(&sec, &x0, &ExactJacobian, &NewtonSettings::default()).unwrap();
+        let want = orb.max_abs_multiplier().ln();
+        let got = growth_rate(&sec, &to_vector(&orb.state), eps, n);
+        assert!(
+            (got - want).abs() < 0.03 * want.abs().max(0.1),
+            "gap {gap}: growth {got} per period, ln max|λ| = {want}"
+        );
     }
 }
 
 #[test]
-fn explore_exact() {
+fn bad_periods_are_refused_naming_the_flag() {
+    let sys = paper(0.08e-3, 1.0);
+    for k in [0, MAX_ORBIT_PERIOD + 1, u32::MAX] {
+        let e = Section::new(sys, 0.0, k).unwrap_err().to_string();
+        assert!(e.contains("--period") && e.contains("[1, 64]"), "{e}");
+        let e = starting_guess(&sys, k, &Start::Symmetric(0))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--period"), "{e}");
+    }
+}
+
+#[test]
+fn newton_that_does_not_converge_says_so_with_its_residual() {
     let sys = paper(0.08e-3, 1.0);
     let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(0)).unwrap();
-    let a = find_orbit(
-        &sec,
-        &x0,
-        &FiniteDifference::default(),
-        &NewtonSettings::default(),
-    )
-    .unwrap();
-    let b = find_orbit(&sec, &x0, &ExactJacobian, &NewtonSettings::default()).unwrap();
-    println!("{}\n{}", a.jacobian, b.jacobian);
-    println!("{:?}\n{:?}", a.multipliers, b.multipliers);
+    let sc = scales(&sys);
+    let far = [x0[0] + 3.0 * sc[0], x0[1], x0[2], x0[3] - 0.5 * sc[3]];
+    let settings = NewtonSettings {
+        max_iterations: 1,
+        tolerance: 1e-9,
+    };
+    match find_orbit(&sec, &far, &ExactJacobian, &settings) {
+        Err(e @ SimError::NoConvergence { residual, .. }) => {
+            assert!(residual > 1e-9);
+            let m = e.to_string();
+            assert!(
+                m.contains("did not converge") && m.contains("residual"),
+                "{m}"
+            );
+        }
+        other => panic!("expected NoConvergence, got {other:?}"),
+    }
+    // A period-2 "orbit" of the symmetric orbit is the same orbit: Newton on P² from it is at
+    // rest at once, and a non-orbit is never returned (residual within tolerance).
+    let (sec2, x2) = starting_guess(&sys, 2, &Start::Symmetric(0)).unwrap();
+    let orb = find_orbit(&sec2, &x2, &ExactJacobian, &NewtonSettings::default()).unwrap();
+    assert!(orb.residual <= 1e-9 && orb.impacts_per_period == 4);
+}
+
+#[test]
+fn symmetric_orbit_rms_is_the_solver_rms_over_a_period() {
+    // The closed-form RMS of the analytic orbit against the exact solver's ∫u² over the orbit
+    // (an independent integral: segments' closed forms vs Simpson on the bar flow).
+    let sys = two_branch_case();
+    for (i, o) in symmetric_orbits(&sys).unwrap().iter().enumerate() {
+        let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(i)).unwrap();
+        let orb = describe(&sec, &x0, nalgebra::Matrix4::identity(), "none", 0.0, 0).unwrap();
+        assert!(((orb.rms_m - o.rms_m(&sys)) / o.rms_m(&sys)).abs() < 1e-9);
+    }
 }

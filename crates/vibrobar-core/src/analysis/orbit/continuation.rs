@@ -548,15 +548,26 @@ fn follow(
                 .damper
                 .map_or(f64::INFINITY, |d| d.half_gap_m());
             let ph = cur.orbit.physicality;
-            if ph.grazing_margin_m < 1e-2 * lg {
+            let slow = ph.min_impact_speed_m_s < 1e-2 * c.sc[3];
+            if ph.grazing_margin_m < 1e-2 * lg || slow {
                 if let Some(last) = out.last_mut() {
                     last.event.get_or_insert(BranchEvent::Grazing);
                 }
+                let what = if slow {
+                    format!(
+                        "an impact at {:.2e} m/s is about to disappear",
+                        ph.min_impact_speed_m_s
+                    )
+                } else {
+                    format!(
+                        "a free flight turns {:.2e} m from a wall (a new impact appears)",
+                        ph.grazing_margin_m
+                    )
+                };
                 return Ok(format!(
-                    "grazing at {} = {}: a free flight turns {:.2e} m from a wall (a new impact appears) and no orbit was found past it",
+                    "grazing at {} = {}: {what}, and no orbit was found past it",
                     c.axis.as_str(),
                     c.param(cur.y[4]),
-                    ph.grazing_margin_m
                 ));
             }
             return Ok(format!(
@@ -599,7 +610,9 @@ fn follow(
         if let (Some(e), true) = (ev, c.settings.locate) {
             if let Some(l) = locate(c, &cur, hh, &ca) {
                 let cl = class_of(&l.orbit);
-                let e = event_between(&ca, &cl, cur.tangent[4], l.tangent[4]).unwrap_or(e);
+                // The kind from the located point's class; a fold from the tangents of the full
+                // step (at the singular point itself the tangent is ill-conditioned).
+                let e = event_between(&ca, &cl, cur.tangent[4], next.tangent[4]).unwrap_or(e);
                 let fresh = (l.y - next.y).amax() > 1e-12;
                 out.push(BranchPoint {
                     param: c.param(l.y[4]),
