@@ -128,6 +128,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     print_rms_side_by_side(&sweeps);
     if run_sc.beam.is_none() {
         contact_law_row(&rows, &single, &st)?;
+        super::orbit::bench_row()?;
     }
     // The single run above is the lumped reference only when the bench's scenario is lumped.
     beam_rows(&names, &st, !args.single_only)

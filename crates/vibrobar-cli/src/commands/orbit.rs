@@ -468,3 +468,38 @@ pub fn run_continue(a: &ContinueArgs) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// Issue #11 §6 in `vibrobar bench`: the median wall time of a 200-point branch (the symmetric
+/// orbit of the paper's bar at r = 1 followed in the gap from 0.06 mm, exact Jacobian, one
+/// thread) and of one Newton solve, over 5 repetitions.
+pub fn bench_row() -> anyhow::Result<()> {
+    let sys = System::paper_damped(0.06e-3, FrictionModel::None, 1.0);
+    let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(0))?;
+    let newton = NewtonSettings::default();
+    let settings = ContinuationSettings {
+        max_points: 200,
+        switch_branches: false,
+        ..Default::default()
+    };
+    let (mut tn, mut tc) = (Vec::new(), Vec::new());
+    let mut n = 0;
+    for _ in 0..5 {
+        let t = std::time::Instant::now();
+        let o = find_orbit(&sec, &x0, &ExactJacobian, &newton)?;
+        tn.push(t.elapsed().as_secs_f64());
+        let t = std::time::Instant::now();
+        let b = continue_orbit(&o, Axis::GapM, 0.06e-3, 0.2e-3, &ExactJacobian, &settings)?;
+        tc.push(t.elapsed().as_secs_f64());
+        n = b.points.len();
+    }
+    let med = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    println!(
+        "  exact  periodic orbits (r = 1, frictionless): Newton from the analytic orbit median {:.2} ms; a {n}-point branch in the gap from 0.06 mm median {:.1} ms over 5 (issue #11 target: 200 points < 2 s on one core)",
+        med(&mut tn) * 1e3,
+        med(&mut tc) * 1e3
+    );
+    Ok(())
+}
