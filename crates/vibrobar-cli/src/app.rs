@@ -135,6 +135,9 @@ pub enum Command {
     /// Pseudo-arclength continuation of a periodic orbit in one parameter, with folds, period
     /// doublings, torus and branch points, grazing and stick onset (CSV and figure).
     Continue(crate::commands::orbit::ContinueArgs),
+    /// Write the generated Markdown document with the stability region of the symmetric
+    /// two-impact orbit over ratio × gap (frictionless and Coulomb), its ends and their types.
+    OrbitStability(crate::commands::orbit_docs::OrbitStabilityArgs),
     /// Seeded initial-condition ensemble: spread of RMS and regime counts per point.
     Ensemble(crate::commands::explore::EnsembleArgs),
     /// Time a 200 × 100 ratio × gap map (from a subsample) for each solver.
@@ -173,6 +176,7 @@ impl Command {
             Command::Lyapunov(_) => "lyapunov",
             Command::Orbit(_) => "orbit",
             Command::Continue(_) => "continue",
+            Command::OrbitStability(_) => "orbit-stability",
             Command::Ensemble(_) => "ensemble",
             Command::BenchMap(_) => "bench-map",
             Command::Modes(_) => "modes",
@@ -204,6 +208,7 @@ impl Command {
             Command::Lyapunov(a) => (one(&a.point.system.scenario), None),
             Command::Orbit(a) => (one(&a.point.system.scenario), Some(a.out.as_path())),
             Command::Continue(a) => (one(&a.system.scenario), Some(a.out.as_path())),
+            Command::OrbitStability(a) => (vec![], Some(a.out.as_path())),
             Command::Ensemble(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::BenchMap(a) => (one(&a.scenario), None),
             Command::Modes(a) => (one(&a.scenario), Some(a.out.as_path())),
@@ -283,6 +288,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Lyapunov(a) => explore::run_lyapunov(&a),
         Command::Orbit(a) => orbit::run_orbit(&a),
         Command::Continue(a) => orbit::run_continue(&a),
+        Command::OrbitStability(a) => crate::commands::orbit_docs::run(&a),
         Command::Ensemble(a) => explore::run_ensemble_cmd(&a),
         Command::BenchMap(a) => map::run_bench(&a),
         Command::Bench(a) => bench::bench(&a),

@@ -12,6 +12,7 @@ pub mod map;
 pub mod merge;
 pub mod modes;
 pub mod orbit;
+pub mod orbit_docs;
 pub mod paper;
 pub mod placement;
 pub mod run;

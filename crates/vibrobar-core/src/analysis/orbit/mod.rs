@@ -23,6 +23,7 @@
 //! `|w|` (how close a new impact is: the grazing margin) and the slowest impact.
 
 pub mod continuation;
+pub mod region;
 pub mod symmetric;
 
 use crate::analysis::case::RmsObserver;
