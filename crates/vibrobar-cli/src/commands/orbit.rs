@@ -11,7 +11,7 @@ use vibrobar_core::analysis::orbit::continuation::{
     continue_orbit, param_of, ContinuationSettings, CONTINUATION_PARAMS, MAX_CONTINUATION_POINTS,
 };
 use vibrobar_core::analysis::orbit::{
-    find_orbit, starting_guess, symmetric_orbits, ExactJacobian, FiniteDifference, MapJacobian,
+    find_orbit, orbit_auto, starting_guess, ExactJacobian, FiniteDifference, MapJacobian,
     NewtonSettings, PeriodicOrbit, Start, MAX_ORBIT_PERIOD,
 };
 use vibrobar_core::params::FrictionModel;
@@ -131,24 +131,11 @@ fn start_orbit(
             Ok((symmetric(i)?, "symmetric".into(), Some(i), None))
         }
         StartArg::Auto => {
-            let mut frictionless = *sys;
-            if let Some(d) = frictionless.damper.as_mut() {
-                d.friction = FrictionModel::None;
-            }
-            let n = if periods % 2 == 1 {
-                symmetric_orbits(&frictionless).map_or(0, |v| v.len())
-            } else {
-                0
-            };
-            // The stable symmetric orbit if there is one, else the first that converges.
-            let mut found: Vec<(usize, PeriodicOrbit)> = (0..n)
-                .filter_map(|i| symmetric(i).ok().map(|o| (i, o)))
-                .collect();
-            found.sort_by_key(|(_, o)| !o.stable());
-            if let Some((i, o)) = found.into_iter().next() {
-                return Ok((o, "symmetric".into(), Some(i), None));
-            }
-            Ok((settled(settle)?, "settled".into(), None, Some(settle)))
+            let (o, st) = orbit_auto(sys, periods, &init, settle, jac)?;
+            Ok(match st {
+                Start::Symmetric(i) => (o, "symmetric".into(), Some(i), None),
+                Start::Settled { .. } => (o, "settled".into(), None, Some(settle)),
+            })
         }
     }
 }

@@ -712,3 +712,43 @@ impl Observer for EventTimes {
         }
     }
 }
+
+/// Newton from the best available guess: the stable analytic symmetric orbit (of the
+/// frictionless system, for an odd period) if one converges, else the first that converges, else
+/// a run from `init` over `settle_s`. Returns the orbit and the start it used.
+pub fn orbit_auto(
+    sys: &System,
+    periods: u32,
+    init: &State,
+    settle_s: f64,
+    jac: &dyn MapJacobian,
+) -> Result<(PeriodicOrbit, Start), SimError> {
+    check_system(sys)?;
+    check_period(periods)?;
+    let newton = NewtonSettings::default();
+    let mut frictionless = *sys;
+    if let Some(d) = frictionless.damper.as_mut() {
+        d.friction = crate::params::FrictionModel::None;
+    }
+    let n = if periods % 2 == 1 {
+        symmetric_orbits(&frictionless).map_or(0, |v| v.len())
+    } else {
+        0
+    };
+    let mut found: Vec<(usize, PeriodicOrbit)> = (0..n)
+        .filter_map(|i| {
+            let (sec, x0) = starting_guess(sys, periods, &Start::Symmetric(i)).ok()?;
+            find_orbit(&sec, &x0, jac, &newton).ok().map(|o| (i, o))
+        })
+        .collect();
+    found.sort_by_key(|(_, o)| !o.stable());
+    if let Some((i, o)) = found.into_iter().next() {
+        return Ok((o, Start::Symmetric(i)));
+    }
+    let start = Start::Settled {
+        init: *init,
+        settle_s,
+    };
+    let (sec, x0) = starting_guess(sys, periods, &start)?;
+    Ok((find_orbit(&sec, &x0, jac, &newton)?, start))
+}
