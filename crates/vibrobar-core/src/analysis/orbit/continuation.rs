@@ -308,7 +308,8 @@ impl Cont<'_> {
             if r <= tol && it > 0 {
                 return Ok((y, j, dp));
             }
-            if it == self.settings.newton.max_iterations || !(r < 10.0 * last.max(tol)) {
+            let diverging = r.is_nan() || r >= 10.0 * last.max(tol);
+            if it == self.settings.newton.max_iterations || diverging {
                 return Err(SimError::NoConvergence {
                     what: "the continuation corrector",
                     iterations: it,
@@ -464,7 +465,8 @@ pub fn continue_orbit(
 pub fn check_interval(axis: Axis, from: f64, to: f64) -> Result<(), ParamError> {
     crate::params::finite("--from", from)?;
     crate::params::finite("--to", to)?;
-    if from == to {
+    // An empty interval (the ends equal).
+    if (to - from).abs() <= 0.0 {
         return Err(ParamError::OutOfRange {
             field: "--to",
             value: to,
@@ -791,7 +793,7 @@ fn switch_at_doubling(
                 },
                 ..*c
             };
-            if sub.from == sub.to {
+            if (sub.to - sub.from).abs() <= 0.0 {
                 continue;
             }
             let r = follow(&sub, &orb, branch, out)?;
