@@ -44,6 +44,10 @@ fn commands_writing(out: &str) -> Vec<Vec<String>> {
             "--members",
             "2",
         ]),
+        v(&["orbit", "--ratio", "1", "--gap-mm", "0.08"]),
+        v(&[
+            "continue", "--ratio", "1", "--param", "gap-mm", "--from", "0.08", "--to", "0.081",
+        ]),
         v(&[
             "placement",
             "--positions-mm",

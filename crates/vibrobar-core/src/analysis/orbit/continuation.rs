@@ -119,8 +119,7 @@ impl Default for ContinuationSettings {
     }
 }
 
-/// Largest number of points a continuation may be asked for.
-pub const MAX_CONTINUATION_POINTS: usize = 100_000;
+pub use crate::limits::MAX_CONTINUATION_POINTS;
 
 /// One point of a branch.
 #[derive(Debug, Clone, PartialEq)]

@@ -36,9 +36,7 @@ use num_complex::Complex64;
 
 pub use symmetric::{symmetric_orbits, SymmetricOrbit};
 
-/// Largest period `k` (in forcing cycles) of an orbit: beyond it a "periodic orbit" is better
-/// studied as a Poincaré section, and the map's sensitivity grows like `|λ|^k`.
-pub const MAX_ORBIT_PERIOD: u32 = 64;
+pub use crate::limits::MAX_ORBIT_PERIOD;
 
 /// Why an orbit needs a lumped bar.
 pub const ORBIT_LUMPED_ONLY: &str = "periodic orbits are computed on the lumped bar only: a modal bar's state has 2N + 2 dimensions and its stroboscopic map is not implemented yet";
