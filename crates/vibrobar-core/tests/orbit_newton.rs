@@ -220,3 +220,63 @@ fn symmetric_orbit_rms_is_the_solver_rms_over_a_period() {
         assert!(((orb.rms_m - o.rms_m(&sys)) / o.rms_m(&sys)).abs() < 1e-9);
     }
 }
+
+#[test]
+fn friction_only_orbit_has_den_hartogs_amplitude() {
+    // Den Hartog (1931): an undamped bar with Coulomb friction to ground (a ball 1e9 times
+    // heavier than the bar, gap far beyond the motion) moving without stops has the peak
+    // X/(F0/K) = √(V0² − f²U²), V0 = 1/(1 − r²), U = sin(π/r)/(r(1 + cos(π/r))).
+    use vibrobar_core::solver::{Event, Observer, Solver};
+    struct Peaks(f64);
+    impl Observer for Peaks {
+        fn event(&mut self, ev: &Event) {
+            if ev.kind == EventKind::FrictionSwitch {
+                self.0 = self.0.max(ev.before.u_m.abs());
+            }
+        }
+    }
+    for (r, f) in [(0.6, 0.3), (0.8, 0.5), (1.5, 0.3)] {
+        let k = 1e4;
+        let sys = System {
+            bar: Bar {
+                mass_kg: 1.0,
+                stiffness_n_per_m: k,
+                damping_ratio: 0.0,
+            }
+            .into(),
+            damper: Some(Damper {
+                ball_mass_kg: 1e9,
+                friction_force_n: Some(f),
+                ..Damper::paper(100.0, FrictionModel::Coulomb)
+            }),
+            forcing: Forcing {
+                amplitude_n: 1.0,
+                frequency: Frequency::Ratio(r),
+                static_force_n: 0.0,
+            },
+            gravity_m_s2: 9.81,
+        };
+        // A short settling run only: Newton does the rest.
+        let start = Start::Settled {
+            init: State::REST,
+            settle_s: 5.0 * sys.forcing_period_s(),
+        };
+        let (sec, x0) = starting_guess(&sys, 1, &start).unwrap();
+        let orb = find_orbit(&sec, &x0, &ExactJacobian, &NewtonSettings::default()).unwrap();
+        assert_eq!(orb.impacts_per_period, 0);
+        assert_eq!(orb.sequence, "ff", "r={r} f={f}: motion with stops");
+        let mut p = Peaks(0.0);
+        vibrobar_core::solver::Exact::default()
+            .run(&sys, &orb.state, sec.t0_s + sec.period_s(), &mut p)
+            .unwrap();
+        let v0 = 1.0 / (1.0 - r * r);
+        let pr = std::f64::consts::PI / r;
+        let u = pr.sin() / (r * (1.0 + pr.cos()));
+        let want = (v0 * v0 - f * f * u * u).sqrt();
+        let x = p.0 * k;
+        assert!(
+            ((x - want) / want).abs() < 1e-7,
+            "r={r} f={f}: {x} vs {want}"
+        );
+    }
+}
