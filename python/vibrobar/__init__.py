@@ -42,6 +42,8 @@ __all__ = [
     "bifurcation",
     "lyapunov",
     "lyapunov_spectrum",
+    "orbit",
+    "continuation",
     "ensemble",
     "lobes",
     "submit",
@@ -503,6 +505,89 @@ def bifurcation(
     finally:
         close()
     return Table(pts), Table(imp)
+
+
+def orbit(
+    scenario: Optional[Scenario] = None,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    *,
+    period: int = 1,
+    start: str = "auto",
+    branch: Optional[int] = None,
+    settle_s: Optional[float] = None,
+    **overrides,
+) -> dict:
+    """A periodic orbit of ``period`` forcing cycles (Newton on the stroboscopic map), like
+    ``vibrobar orbit``.
+
+    Args:
+        period: forcing cycles per orbit, in [1, 64].
+        start: ``"auto"`` (the analytic symmetric orbit when one exists, else a settled run),
+            ``"symmetric"`` (orbit number ``branch``) or ``"settled"`` (a run over ``settle_s``).
+
+    Returns:
+        dict: ``rms_m``, ``impacts_per_period``, ``period``, ``multipliers`` (list of
+        ``(re, im)``, largest first), ``max_abs_multiplier``, ``stable``, ``event_sequence``,
+        ``state`` (at the section), ``confined``, ``max_penetration_m``, ``residual``.
+    """
+    sc = _scenario(scenario, overrides)
+    if isinstance(period, bool) or not isinstance(period, (int, _np.integer)):
+        raise TypeError(f"period must be an int, got {period!r}")
+    if not 1 <= int(period) <= 64:
+        raise ValueError(f"period = {period} is outside the allowed range [1, 64] forcing cycles")
+    return _vibrobar.orbit(
+        sc,
+        _number("ratio", ratio),
+        _number("gap_m", gap_m),
+        int(period),
+        start,
+        branch,
+        _number("settle_s", settle_s),
+    )
+
+
+def continuation(
+    scenario: Optional[Scenario] = None,
+    param: str = "gap_m",
+    from_: float = 0.06e-3,
+    to: float = 0.12e-3,
+    *,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    period: int = 1,
+    start: str = "auto",
+    max_points: int = 2000,
+    switch_branches: bool = True,
+    **overrides,
+) -> Table:
+    """Pseudo-arclength continuation of a periodic orbit in ``param`` (``"ratio"``,
+    ``"gap_m"``, ``"friction_force_n"``, ``"restitution"``; SI values) from ``from_`` to
+    ``to``, like ``vibrobar continue``.
+
+    Returns:
+        Table: ``param``, ``rms_m``, ``max_abs_multiplier``, ``stable``,
+        ``impacts_per_period``, ``period``, ``event`` (the CSV's columns; ``to_csv()`` its text
+        with ``param`` in SI units).
+    """
+    sc = _scenario(scenario, overrides)
+    if isinstance(period, bool) or not isinstance(period, (int, _np.integer)):
+        raise TypeError(f"period must be an int, got {period!r}")
+    if not 1 <= int(period) <= 64:
+        raise ValueError(f"period = {period} is outside the allowed range [1, 64] forcing cycles")
+    cols, csv = _vibrobar.continuation(
+        sc,
+        param,
+        _number("from_", from_, False),
+        _number("to", to, False),
+        _number("ratio", ratio),
+        _number("gap_m", gap_m),
+        int(period),
+        start,
+        int(max_points),
+        bool(switch_branches),
+    )
+    return Table(cols, csv)
 
 
 def lyapunov(

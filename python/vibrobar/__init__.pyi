@@ -96,6 +96,31 @@ def bifurcation(
     progress: Progress = None,
     **overrides: Any,
 ) -> tuple[Table, Table]: ...
+def orbit(
+    scenario: Optional[Scenario] = None,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    *,
+    period: int = 1,
+    start: str = "auto",
+    branch: Optional[int] = None,
+    settle_s: Optional[float] = None,
+    **overrides: Any,
+) -> dict[str, Any]: ...
+def continuation(
+    scenario: Optional[Scenario] = None,
+    param: str = "gap_m",
+    from_: float = 0.06e-3,
+    to: float = 0.12e-3,
+    *,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    period: int = 1,
+    start: str = "auto",
+    max_points: int = 2000,
+    switch_branches: bool = True,
+    **overrides: Any,
+) -> Table: ...
 def lyapunov(
     scenario: Optional[Scenario] = None,
     ratio: Optional[float] = None,

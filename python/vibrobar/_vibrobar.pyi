@@ -75,6 +75,27 @@ def poincare(
     phase_deg: float = 0.0,
     transient_s: Optional[float] = None,
 ) -> dict[str, Any]: ...
+def orbit(
+    scenario: Scenario,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    period: int = 1,
+    start: str = "auto",
+    branch: Optional[int] = None,
+    settle_s: Optional[float] = None,
+) -> dict[str, Any]: ...
+def continuation(
+    scenario: Scenario,
+    param: str,
+    from_: float,
+    to: float,
+    ratio: Optional[float] = None,
+    gap_m: Optional[float] = None,
+    period: int = 1,
+    start: str = "auto",
+    max_points: int = 2000,
+    switch_branches: bool = True,
+) -> tuple[dict[str, Any], str]: ...
 def lyapunov(
     scenario: Scenario,
     ratio: Optional[float] = None,

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use crate::commands::{
     beam, bench, contact_convergence, contact_laws, contact_test, explore, lobes, lumped_vs_beam,
-    map, merge, modes, paper, placement, run, sweep,
+    map, merge, modes, orbit, paper, placement, run, sweep,
 };
 
 /// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
@@ -129,6 +129,15 @@ pub enum Command {
     Bifurcation(crate::commands::explore::BifurcationArgs),
     /// Maximal Lyapunov exponent at one point (two-trajectory divergence with renormalisation).
     Lyapunov(crate::commands::explore::LyapunovArgs),
+    /// A periodic orbit of period k forcing cycles by Newton's method on the stroboscopic map:
+    /// RMS, impacts, Floquet multipliers, stability and physicality checks (JSON).
+    Orbit(crate::commands::orbit::OrbitArgs),
+    /// Pseudo-arclength continuation of a periodic orbit in one parameter, with folds, period
+    /// doublings, torus and branch points, grazing and stick onset (CSV and figure).
+    Continue(crate::commands::orbit::ContinueArgs),
+    /// Write the generated Markdown document with the stability region of the symmetric
+    /// two-impact orbit over ratio × gap (frictionless and Coulomb), its ends and their types.
+    OrbitStability(crate::commands::orbit_docs::OrbitStabilityArgs),
     /// Seeded initial-condition ensemble: spread of RMS and regime counts per point.
     Ensemble(crate::commands::explore::EnsembleArgs),
     /// Time a 200 × 100 ratio × gap map (from a subsample) for each solver.
@@ -172,6 +181,9 @@ impl Command {
             Command::Poincare(_) => "poincare",
             Command::Bifurcation(_) => "bifurcation",
             Command::Lyapunov(_) => "lyapunov",
+            Command::Orbit(_) => "orbit",
+            Command::Continue(_) => "continue",
+            Command::OrbitStability(_) => "orbit-stability",
             Command::Ensemble(_) => "ensemble",
             Command::BenchMap(_) => "bench-map",
             Command::Modes(_) => "modes",
@@ -203,6 +215,9 @@ impl Command {
             Command::Poincare(a) => (one(&a.point.system.scenario), Some(a.out.as_path())),
             Command::Bifurcation(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::Lyapunov(a) => (one(&a.point.system.scenario), None),
+            Command::Orbit(a) => (one(&a.point.system.scenario), Some(a.out.as_path())),
+            Command::Continue(a) => (one(&a.system.scenario), Some(a.out.as_path())),
+            Command::OrbitStability(a) => (vec![], Some(a.out.as_path())),
             Command::Ensemble(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::BenchMap(a) => (one(&a.scenario), None),
             Command::Modes(a) => (one(&a.scenario), Some(a.out.as_path())),
@@ -295,6 +310,9 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Poincare(a) => explore::run_poincare(&a),
         Command::Bifurcation(a) => explore::run_bifurcation(&a),
         Command::Lyapunov(a) => explore::run_lyapunov(&a),
+        Command::Orbit(a) => orbit::run_orbit(&a),
+        Command::Continue(a) => orbit::run_continue(&a),
+        Command::OrbitStability(a) => crate::commands::orbit_docs::run(&a),
         Command::Ensemble(a) => explore::run_ensemble_cmd(&a),
         Command::BenchMap(a) => map::run_bench(&a),
         Command::Bench(a) => bench::bench(&a),

@@ -186,6 +186,19 @@ pub enum SimError {
         /// `F0/|K − MΩ² + iCΩ|` (may be infinite).
         amplitude_m: f64,
     },
+    /// An iteration (Newton's method on a periodic orbit, a continuation step) did not reach
+    /// its tolerance: nothing is returned as if it had.
+    #[error("{what} did not converge after {iterations} iterations: residual {} > tolerance {}", Compact(*residual), Compact(*tolerance))]
+    NoConvergence {
+        /// What was iterated, and what to try.
+        what: &'static str,
+        /// Iterations done.
+        iterations: usize,
+        /// The last residual.
+        residual: f64,
+        /// The tolerance.
+        tolerance: f64,
+    },
 }
 
 /// The likely cause of [`SimError::TooManyEvents`], read off the last events before the limit.

@@ -102,6 +102,14 @@ pub const MAX_FE_ELEMENTS: usize = 600;
 /// Largest tip mass as a multiple of the bar's own mass `ρAL` (and tip rotary inertia as a
 /// multiple of `ρAL·L²`): beyond it the bar is a spring under a rigid body, not a boring bar.
 pub const MAX_TIP_MASS_RATIO: f64 = 1e3;
+/// Longest periodic orbit, in forcing cycles (`--period`): beyond it a "periodic orbit" is
+/// better studied as a Poincaré section, and the map's sensitivity grows like `|λ|^k`.
+pub const MAX_ORBIT_PERIOD: u32 = 64;
+/// Most points of one continuation branch (`--max-points`).
+pub const MAX_CONTINUATION_POINTS: usize = 100_000;
+/// Most ratios and gaps of `orbit-stability`'s grid (each point is a Newton solve and each ratio
+/// a continuation).
+pub const MAX_ORBIT_STABILITY_AXIS: usize = 1000;
 
 /// `value` must lie in `[min, max]` (NaN never does). `why` says why or how to get within it
 /// (may be empty). Returns the value.

@@ -746,6 +746,46 @@ pub fn bifurcation_impacts_schema(param: &'static str) -> Schema {
     }
 }
 
+/// Columns of a continuation branch (`continue`):
+/// `param,rms_m,max_abs_multiplier,stable,impacts_per_period,period,event`. `param` is the
+/// followed parameter in the units of `--param` (mm for `gap-mm`), `stable` is `true`/`false`,
+/// `period` the orbit's period in forcing cycles (doubled on a branch switched to at a period
+/// doubling), `event` empty or one of `fold`, `period-doubling`, `torus`, `branch-point`,
+/// `grazing`, `stick-onset` (between the previous row of the same branch and this one).
+pub fn continuation_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("param", Format::Plain),
+            col("rms_m", Format::Sci),
+            col("max_abs_multiplier", Format::Plain),
+            col("stable", Format::Text),
+            col("impacts_per_period", Format::Count),
+            col("period", Format::Count),
+            opt("event", Format::Text),
+        ],
+    }
+}
+
+/// One row of [`continuation_schema`] from a branch point; `scale` turns the parameter into the
+/// file's unit (1e3 for `gap-mm`).
+pub fn continuation_values(
+    p: &vibrobar_core::analysis::orbit::continuation::BranchPoint,
+    scale: f64,
+) -> Vec<Value> {
+    vec![
+        Value::F(p.param * scale),
+        Value::F(p.orbit.rms_m),
+        Value::F(p.orbit.max_abs_multiplier()),
+        Value::S(if p.orbit.stable() { "true" } else { "false" }.into()),
+        Value::U(p.orbit.impacts_per_period as u64),
+        Value::U(p.orbit.section.periods as u64),
+        match p.event {
+            Some(e) => Value::S(e.as_str().into()),
+            None => Value::Empty,
+        },
+    ]
+}
+
 /// One row of an ensemble CSV (`ensemble`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnsembleCsvRow {
@@ -1170,6 +1210,10 @@ mod tests {
             placement_schema().header(),
             "position_mm,gap_mm,mean_reduction_pct,worst_rms_m,worst_ratio,min_reduction_pct,\
              mean_impacts_per_cycle,regime"
+        );
+        assert_eq!(
+            continuation_schema().header(),
+            "param,rms_m,max_abs_multiplier,stable,impacts_per_period,period,event"
         );
     }
 

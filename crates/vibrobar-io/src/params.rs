@@ -230,6 +230,42 @@ pub struct BifurcationParams {
     pub transient_s: f64,
 }
 
+/// Parameters of a periodic orbit (`kind = "orbit"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OrbitParams {
+    /// The point.
+    #[serde(flatten)]
+    pub point: PointParams,
+    /// Period in forcing cycles.
+    pub period: u32,
+    /// Starting guess: `symmetric` (with `branch`) or `settled` (with `settle_s`).
+    pub start: String,
+    /// Index of the analytic symmetric orbit used as the start.
+    pub branch: Option<usize>,
+    /// Settling time of a `settled` start, s.
+    pub settle_s: Option<f64>,
+    /// Jacobian of the map: `variational` or `finite-difference`.
+    pub jacobian: String,
+}
+
+/// Parameters of a continuation (`kind = "continuation"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ContinuationParams {
+    /// The starting orbit's point and settings.
+    #[serde(flatten)]
+    pub orbit: OrbitParams,
+    /// Followed parameter (`--param`: `ratio`, `gap-mm`, `friction-force-n`, `restitution`).
+    pub param: String,
+    /// Interval start, in the parameter's unit.
+    pub from: f64,
+    /// Interval end, in the parameter's unit.
+    pub to: f64,
+    /// Largest number of points of the main branch.
+    pub max_points: usize,
+    /// Branches switched to at period doublings.
+    pub switch_branches: bool,
+}
+
 /// Half ranges of an ensemble's initial conditions (uniform in ±).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct IcHalfRanges {

@@ -15,7 +15,7 @@
 use numpy::{IntoPyArray, PyReadonlyArray1};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use pyo3::types::{IntoPyDict, PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Duration;
@@ -1429,6 +1429,199 @@ fn lyapunov_spectrum<'py>(
 }
 
 // ---------------------------------------------------------------------------------------------
+// periodic orbits and continuation (issue #11)
+
+/// The starting orbit of `orbit` and `continuation`: `start` is "auto", "symmetric" (with
+/// `branch`) or "settled" (with `settle_s`, default the transient).
+fn start_orbit(
+    sc: &Scenario,
+    sys: &System,
+    period: u32,
+    start: &str,
+    branch: Option<usize>,
+    settle_s: Option<f64>,
+) -> PyResult<vibrobar_core::analysis::orbit::PeriodicOrbit> {
+    use vibrobar_core::analysis::orbit::*;
+    check_period(period).map_err(input_error)?;
+    let settle = transient(sc, settle_s)?;
+    let settle = if settle > 0.0 {
+        settle
+    } else {
+        sc.settings().duration_s
+    };
+    let init = map_spec(sc)?.base.init;
+    let jac = ExactJacobian;
+    let newton = NewtonSettings::default();
+    let from = |st: Start| -> PyResult<PeriodicOrbit> {
+        let (sec, x0) = starting_guess(sys, period, &st).map_err(input_error)?;
+        find_orbit(&sec, &x0, &jac, &newton).map_err(run_error)
+    };
+    match start {
+        "auto" => orbit_auto(sys, period, &init, settle, &jac)
+            .map(|(o, _)| o)
+            .map_err(run_error),
+        "symmetric" => from(Start::Symmetric(branch.unwrap_or(0))),
+        "settled" => from(Start::Settled {
+            init,
+            settle_s: settle,
+        }),
+        _ => Err(PyValueError::new_err(format!(
+            "start must be \"auto\", \"symmetric\" or \"settled\", got {start:?}"
+        ))),
+    }
+}
+
+fn orbit_dict<'py>(
+    py: Python<'py>,
+    o: &vibrobar_core::analysis::orbit::PeriodicOrbit,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("rms_m", o.rms_m)?;
+    d.set_item("impacts_per_period", o.impacts_per_period)?;
+    d.set_item("period", o.section.periods)?;
+    let mult: Vec<(f64, f64)> = o.multipliers.iter().map(|l| (l.re, l.im)).collect();
+    d.set_item("multipliers", mult)?;
+    d.set_item("max_abs_multiplier", o.max_abs_multiplier())?;
+    d.set_item("stable", o.stable())?;
+    d.set_item("event_sequence", &o.sequence)?;
+    let s = &o.state;
+    d.set_item(
+        "state",
+        [
+            ("t_s", s.t_s),
+            ("u_m", s.u_m),
+            ("du_m_s", s.du_m_s),
+            ("w_m", s.w_m()),
+            ("dw_m_s", s.dw_m_s()),
+        ]
+        .into_py_dict(py)?,
+    )?;
+    d.set_item("confined", o.physicality.confined)?;
+    d.set_item("max_penetration_m", o.physicality.max_penetration_m)?;
+    d.set_item("residual", o.residual)?;
+    Ok(d)
+}
+
+/// A periodic orbit of `period` forcing cycles at one point (Newton on the stroboscopic map).
+#[pyfunction]
+#[pyo3(signature = (scenario, ratio = None, gap_m = None, period = 1, start = "auto", branch = None, settle_s = None))]
+#[allow(clippy::too_many_arguments)]
+fn orbit<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    ratio: Option<f64>,
+    gap_m: Option<f64>,
+    period: u32,
+    start: &str,
+    branch: Option<usize>,
+    settle_s: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let sc = &scenario.inner;
+    let (_, _, sys) = point_system(sc, ratio, gap_m)?;
+    let start = start.to_string();
+    let o = detached(py, None, |_| {
+        start_orbit(sc, &sys, period, &start, branch, settle_s)
+    })?;
+    orbit_dict(py, &o)
+}
+
+/// Continuation of the orbit at `param = from_` to `to` ("ratio", "gap_m", "friction_force_n",
+/// "restitution"; SI): the continuation CSV's columns and its text.
+#[pyfunction]
+#[pyo3(signature = (scenario, param, from_, to, ratio = None, gap_m = None, period = 1, start = "auto", max_points = 2000, switch_branches = true))]
+#[allow(clippy::too_many_arguments)]
+fn continuation<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    param: &str,
+    from_: f64,
+    to: f64,
+    ratio: Option<f64>,
+    gap_m: Option<f64>,
+    period: u32,
+    start: &str,
+    max_points: usize,
+    switch_branches: bool,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    use vibrobar_core::analysis::orbit::continuation::*;
+    let sc = &scenario.inner;
+    let axis = match param {
+        "ratio" => Axis::FreqRatio,
+        "gap_m" => Axis::GapM,
+        "friction_force_n" => Axis::FrictionForceN,
+        "restitution" => Axis::Restitution,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "param must be one of \"ratio\", \"gap_m\", \"friction_force_n\", \"restitution\", got {param:?}"
+            )))
+        }
+    };
+    check_interval(axis, from_, to).map_err(input_error)?;
+    let (ratio, gap_m) = match axis {
+        Axis::FreqRatio => (Some(from_), gap_m),
+        Axis::GapM => (ratio, Some(from_)),
+        _ => (ratio, gap_m),
+    };
+    let (_, _, mut sys) = point_system(sc, ratio, gap_m)?;
+    axis.apply(&mut sys, from_).map_err(input_error)?;
+    sys.validate().map_err(input_error)?;
+    let start = start.to_string();
+    let settings = ContinuationSettings {
+        max_points,
+        switch_branches,
+        ..Default::default()
+    };
+    let b = detached(py, None, |_| {
+        let o = start_orbit(sc, &sys, period, &start, None, None)?;
+        continue_orbit(
+            &o,
+            axis,
+            from_,
+            to,
+            &vibrobar_core::analysis::orbit::ExactJacobian,
+            &settings,
+        )
+        .map_err(run_error)
+    })?;
+    let schema = iocsv::continuation_schema();
+    let mut csv = schema.header();
+    csv.push('\n');
+    for p in &b.points {
+        csv.push_str(&schema.format(&iocsv::continuation_values(p, 1.0)));
+        csv.push('\n');
+    }
+    let d = PyDict::new(py);
+    let col = |f: &dyn Fn(&BranchPoint) -> f64| b.points.iter().map(f).collect::<Vec<f64>>();
+    d.set_item("param", col(&|p| p.param).into_pyarray(py))?;
+    d.set_item("rms_m", col(&|p| p.orbit.rms_m).into_pyarray(py))?;
+    d.set_item(
+        "max_abs_multiplier",
+        col(&|p| p.orbit.max_abs_multiplier()).into_pyarray(py),
+    )?;
+    let stable: Vec<bool> = b.points.iter().map(|p| p.orbit.stable()).collect();
+    d.set_item("stable", stable.into_pyarray(py))?;
+    let ipp: Vec<u64> = b
+        .points
+        .iter()
+        .map(|p| p.orbit.impacts_per_period as u64)
+        .collect();
+    d.set_item("impacts_per_period", ipp.into_pyarray(py))?;
+    let per: Vec<u64> = b
+        .points
+        .iter()
+        .map(|p| p.orbit.section.periods as u64)
+        .collect();
+    d.set_item("period", per.into_pyarray(py))?;
+    let ev: Vec<&str> = b
+        .points
+        .iter()
+        .map(|p| p.event.map_or("", |e| e.as_str()))
+        .collect();
+    d.set_item("event", ev)?;
+    Ok((d, csv))
+}
+
+// ---------------------------------------------------------------------------------------------
 // bifurcation and ensembles (chunked: their core functions take no cancel flag)
 
 /// A bifurcation diagram: stroboscopic `u` against `param` ("ratio" or "gap_m", SI values).
@@ -1706,6 +1899,8 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(poincare, m)?)?;
     m.add_function(wrap_pyfunction!(lyapunov, m)?)?;
     m.add_function(wrap_pyfunction!(lyapunov_spectrum, m)?)?;
+    m.add_function(wrap_pyfunction!(orbit, m)?)?;
+    m.add_function(wrap_pyfunction!(continuation, m)?)?;
     m.add_function(wrap_pyfunction!(bifurcation_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble, m)?)?;
     m.add_function(wrap_pyfunction!(lobes, m)?)?;

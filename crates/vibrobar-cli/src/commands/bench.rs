@@ -131,6 +131,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         if names.iter().any(|n| n == "exact") {
             spectrum_row(&single, &st)?;
         }
+        super::orbit::bench_row()?;
     }
     cutting_row(&st)?;
     // The single run above is the lumped reference only when the bench's scenario is lumped.

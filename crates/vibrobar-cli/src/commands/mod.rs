@@ -13,6 +13,8 @@ pub mod lumped_vs_beam;
 pub mod map;
 pub mod merge;
 pub mod modes;
+pub mod orbit;
+pub mod orbit_docs;
 pub mod paper;
 pub mod placement;
 pub mod run;

@@ -16,6 +16,7 @@ pub mod lobes;
 pub mod lyapunov;
 pub mod lyapunov_spectrum;
 pub mod map;
+pub mod orbit;
 pub mod placement;
 pub mod poincare;
 pub mod regime;

@@ -1,0 +1,138 @@
+//! `vibrobar orbit` and `vibrobar continue` (issue #11): the output contracts, metadata, figure,
+//! and the errors for a bad period, interval or parameter name.
+mod common;
+
+use common::{assert_fails_with, vibrobar, vibrobar_ok};
+
+#[test]
+fn orbit_writes_the_contract_json_with_metadata() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.json");
+    let o = out.to_str().unwrap();
+    vibrobar_ok(&[
+        "orbit",
+        "--preset",
+        "paper",
+        "--friction",
+        "none",
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "0.08",
+        "--period",
+        "1",
+        "--out",
+        o,
+    ]);
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let rms = j["rms_m"].as_f64().unwrap();
+    assert!((7.0e-6..8.0e-6).contains(&rms), "{rms}");
+    assert_eq!(j["impacts_per_period"], 2);
+    assert_eq!(j["stable"], true);
+    let m = j["multipliers"].as_array().unwrap();
+    assert_eq!(m.len(), 4);
+    for l in m {
+        let (re, im) = (l[0].as_f64().unwrap(), l[1].as_f64().unwrap());
+        assert!(re.hypot(im) < 1.0);
+    }
+    assert_eq!(j["physical"]["confined"], true);
+    assert!(dir.path().join("o.json.meta.json").exists());
+}
+
+#[test]
+fn continue_writes_the_contract_csv_and_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b.csv");
+    let o = out.to_str().unwrap();
+    let run = vibrobar_ok(&[
+        "continue",
+        "--preset",
+        "paper",
+        "--friction",
+        "none",
+        "--ratio",
+        "1",
+        "--param",
+        "gap-mm",
+        "--from",
+        "0.06",
+        "--to",
+        "0.12",
+        "--out",
+        o,
+    ]);
+    let text = std::fs::read_to_string(&out).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "param,rms_m,max_abs_multiplier,stable,impacts_per_period,period,event"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert!(rows.len() > 50);
+    let torus: Vec<_> = rows.iter().filter(|r| r[6] == "torus").collect();
+    assert_eq!(torus.len(), 1);
+    let g: f64 = torus[0][0].parse().unwrap();
+    assert!((0.094..0.096).contains(&g), "{g}");
+    // Stable before the torus point, unstable after it.
+    let first: f64 = rows[0][0].parse().unwrap();
+    assert!((first - 0.06).abs() < 1e-12 && rows[0][3] == "true");
+    assert_eq!(rows.last().unwrap()[3], "false");
+    for f in ["b.png", "b.svg", "b.csv.meta.json"] {
+        assert!(dir.path().join(f).exists(), "{f}");
+    }
+    assert!(String::from_utf8_lossy(&run.stdout).contains("torus at gap-mm = 0.0948"));
+}
+
+#[test]
+fn bad_input_names_the_flag_and_its_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dir.path().join("x.json");
+    let o = o.to_str().unwrap();
+    let base = ["--preset", "paper", "--friction", "none", "--ratio", "1"];
+    let orbit = |extra: &[&str]| {
+        let mut a = vec!["orbit"];
+        a.extend(base);
+        a.extend(["--gap-mm", "0.08", "--out", o]);
+        a.extend(extra);
+        vibrobar(&a)
+    };
+    assert_fails_with(&orbit(&["--period", "0"]), &["--period", "[1, 64]"]);
+    assert_fails_with(&orbit(&["--period", "1000000"]), &["--period", "[1, 64]"]);
+    assert_fails_with(&orbit(&["--solver", "rk4"]), &["exact solver"]);
+    let cont = |extra: &[&str]| {
+        let mut a = vec!["continue"];
+        a.extend(base);
+        a.extend(["--out", o]);
+        a.extend(extra);
+        vibrobar(&a)
+    };
+    assert_fails_with(
+        &cont(&["--param", "gap", "--from", "0.06", "--to", "0.1"]),
+        &["--param must be one of ratio, gap-mm, friction-force-n, restitution"],
+    );
+    assert_fails_with(
+        &cont(&[
+            "--param",
+            "cavity-position-mm",
+            "--from",
+            "10",
+            "--to",
+            "20",
+        ]),
+        &["N-mode bar"],
+    );
+    assert_fails_with(
+        &cont(&["--param", "gap-mm", "--from", "0.06", "--to", "0.06"]),
+        &["interval is empty"],
+    );
+    assert_fails_with(
+        &cont(&["--param", "gap-mm", "--from", "0.06", "--to", "inf"]),
+        &["--to"],
+    );
+    assert_fails_with(
+        &cont(&["--param", "gap-mm", "--from", "0.06", "--to", "-1"]),
+        &["--to", "gap"],
+    );
+    assert!(!dir.path().join("x.json").exists());
+}

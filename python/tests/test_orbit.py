@@ -1,0 +1,37 @@
+"""Periodic orbits and continuation from Python (issue #11): the same numbers as the command
+line's core, checked against the analytic symmetric orbit's known stability interval."""
+import pytest
+
+import vibrobar
+from vibrobar import Scenario
+
+
+def test_orbit_is_the_stable_symmetric_orbit():
+    o = vibrobar.orbit(Scenario.paper(friction="none"), ratio=1.0, gap_m=0.08e-3)
+    assert o["impacts_per_period"] == 2 and o["period"] == 1
+    assert o["stable"] and o["max_abs_multiplier"] < 1.0
+    assert len(o["multipliers"]) == 4 and o["event_sequence"] in ("+-", "-+")
+    assert o["confined"] and o["residual"] <= 1e-9
+    # Past the torus point (0.0949 mm) the same orbit is unstable.
+    u = vibrobar.orbit(Scenario.paper(friction="none"), ratio=1.0, gap_m=0.1e-3)
+    assert not u["stable"] and u["max_abs_multiplier"] > 1.0
+    with pytest.raises(ValueError, match=r"period = 0 is outside the allowed range \[1, 64\]"):
+        vibrobar.orbit(period=0)
+
+
+def test_continuation_finds_the_torus_point():
+    t = vibrobar.continuation(
+        Scenario.paper(friction="none"), "gap_m", 0.06e-3, 0.12e-3, ratio=1.0
+    )
+    assert list(t) == [
+        "param", "rms_m", "max_abs_multiplier", "stable", "impacts_per_period", "period", "event",
+    ]
+    events = [(p, e) for p, e in zip(t["param"], t["event"]) if e]
+    assert [e for _, e in events] == ["torus"]
+    assert 0.094e-3 < events[0][0] < 0.096e-3
+    assert t.to_csv().startswith("param,rms_m,max_abs_multiplier,stable,")
+    assert t.to_csv().count("\n") == t.rows + 1
+    with pytest.raises(ValueError, match="param must be one of"):
+        vibrobar.continuation(Scenario.paper(), "gap_mm", 0.06, 0.12, ratio=1.0)
+    with pytest.raises(ValueError, match="--to"):
+        vibrobar.continuation(Scenario.paper(), "gap_m", 1e-4, 1e-4, ratio=1.0)
