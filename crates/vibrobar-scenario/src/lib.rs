@@ -24,7 +24,7 @@ use vibrobar_core::params::BarModel;
 use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
 use vibrobar_core::solver::exact::cutting::ExactCutting;
 use vibrobar_core::solver::Solver;
-use vibrobar_core::structure::{Beam, Structure};
+use vibrobar_core::structure::{Beam, MeasuredMode, ModalModel, Structure};
 use vibrobar_core::{
     Bar, Contact, ContactLaw, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System,
 };
@@ -47,6 +47,11 @@ pub const DEFAULT_SOLVER: &str = default_solver!();
 pub struct Scenario {
     /// Gravity in m/s² (enters the derived friction force).
     pub gravity_m_s2: f64,
+    /// `reference = "no_ball"`: with `[[modes]]` and no `[[solid_modes]]`, the solid reference
+    /// is the same modes without the ball; set by [`Scenario::from_toml`] so that every
+    /// output's metadata records it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference: Option<SolidReference>,
     /// Bar with the cavity (missing fields: [`Bar::PAPER_CAVITY`]).
     pub bar: Bar,
     /// Solid reference bar (missing fields: [`Bar::PAPER_SOLID`]).
@@ -75,6 +80,13 @@ pub struct Scenario {
     /// `[bar]`. See the `[beam]` section of this module.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub beam: Option<Beam>,
+    /// `[[modes]]`: the bar as measured modes (issue #13 §2), exclusive with `[bar]`,
+    /// `[solid_bar]` and `[beam]`. See the `[[modes]]` section of this module.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub modes: Option<Vec<MeasuredMode>>,
+    /// `[[solid_modes]]`: the solid reference as measured modes (only with `[[modes]]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solid_modes: Option<Vec<MeasuredMode>>,
     /// `[cutting]`: the cutting process at the force point (issue #13), deserialised straight
     /// into core [`Cutting`]; absent: no cut (and left out of the serialised scenario, so
     /// existing metadata and fingerprints are unchanged). With it, the harmonic force is off
@@ -90,7 +102,25 @@ pub struct Scenario {
 /// compares equal, prints nothing, and is emptied whenever the bar changes through a method
 /// ([`Scenario::apply_beam_flags`]).
 #[derive(Clone, Default)]
-struct BarsCache(std::sync::OnceLock<(Option<Beam>, Bar, Bar, BarModel, BarModel)>);
+struct BarsCache(std::sync::OnceLock<(BarsKey, BarModel, BarModel)>);
+
+/// What the bars are computed from: `[beam]`, `[[modes]]`, `[[solid_modes]]`, `[bar]`,
+/// `[solid_bar]`.
+type BarsKey = (
+    Option<Beam>,
+    Option<Vec<MeasuredMode>>,
+    Option<Vec<MeasuredMode>>,
+    Bar,
+    Bar,
+);
+
+/// The solid reference of a `[[modes]]` scenario without `[[solid_modes]]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolidReference {
+    /// The same modes without the ball.
+    NoBall,
+}
 
 impl PartialEq for BarsCache {
     fn eq(&self, _: &Self) -> bool {
@@ -108,6 +138,7 @@ impl Default for Scenario {
     fn default() -> Self {
         Scenario {
             gravity_m_s2: STANDARD_GRAVITY_M_S2,
+            reference: None,
             bar: Bar::PAPER_CAVITY,
             solid_bar: Bar::PAPER_SOLID,
             damper: Damper::default(),
@@ -117,6 +148,8 @@ impl Default for Scenario {
             initial: State::default(),
             sweep: SweepRange::default(),
             beam: None,
+            modes: None,
+            solid_modes: None,
             cutting: None,
             bars_cache: BarsCache::default(),
         }
@@ -353,11 +386,21 @@ impl Scenario {
         let gap_given = raw.get("damper").and_then(|d| d.get("gap_m")).is_some();
         let gaps_given = raw.get("sweep").and_then(|s| s.get("gaps_m")).is_some();
         check_beam_against_bar(&raw)?;
+        check_modes_against_bar(&raw)?;
         if raw.get("damper").and_then(|d| d.get("contact")).is_some() {
             bail!("[damper]: unknown field `contact`; the contact law is the [contact] section");
         }
         let mut s: Scenario = toml::from_str(text)?;
         s.damper.contact = s.contact;
+        if let Some(m) = &s.modes {
+            measured_model("modes", m)?;
+            match &s.solid_modes {
+                Some(so) => {
+                    measured_model("solid_modes", so)?;
+                }
+                None => s.reference = Some(SolidReference::NoBall),
+            }
+        }
         // A cut is its own excitation: the paper's 15 N harmonic force would otherwise ride on
         // every cutting run unasked. `[forcing] amplitude_n` (runout) turns it back on.
         let amplitude_given = raw
@@ -489,36 +532,40 @@ impl Scenario {
         })
     }
 
-    /// The solid reference of a `[beam]`: the same bar without the cavity's section loss (the
-    /// ball is absent from every solid run), with as many modes as the bar with the cavity.
-    pub fn solid_beam(beam: &Beam, modes: usize) -> Beam {
-        Beam {
-            cavity_section: None,
-            modes: Some(modes),
-            ..beam.clone()
-        }
-    }
-
     /// The bar with the cavity and the solid reference bar, as the solvers see them: `[bar]`
     /// and `[solid_bar]` for the lumped scenario; for a `[beam]`, its modes
-    /// ([`BarModel::Modal`]) and those of [`Scenario::solid_beam`] (its own first frequency, so
+    /// ([`BarModel::Modal`]) and those of [`Beam::solid_reference`] (its own first frequency, so
     /// a ratio is `Ω/ω₁` of each bar). Computed once per scenario value; errors name the field.
     pub fn bars(&self) -> Result<(BarModel, BarModel)> {
-        let key = (self.beam.clone(), self.bar, self.solid_bar);
+        let key: BarsKey = (
+            self.beam.clone(),
+            self.modes.clone(),
+            self.solid_modes.clone(),
+            self.bar,
+            self.solid_bar,
+        );
         if let Some(c) = self.bars_cache.0.get() {
-            if (&c.0, c.1, c.2) == (&key.0, key.1, key.2) {
-                return Ok((c.3, c.4));
+            if c.0 == key {
+                return Ok((c.1, c.2));
             }
         }
-        let (damped, solid) = match &self.beam {
-            None => (BarModel::Lumped(self.bar), BarModel::Lumped(self.solid_bar)),
-            Some(b) => {
+        let (damped, solid) = match (&self.beam, &self.modes) {
+            (_, Some(m)) => {
+                let damped = measured_model("modes", m)?;
+                let solid = match &self.solid_modes {
+                    Some(so) => measured_model("solid_modes", so)?,
+                    None => damped,
+                };
+                (BarModel::Modal(damped), BarModel::Modal(solid))
+            }
+            (None, None) => (BarModel::Lumped(self.bar), BarModel::Lumped(self.solid_bar)),
+            (Some(b), None) => {
                 let damped = b.modal_model()?;
-                let solid = Self::solid_beam(b, damped.len()).modal_model()?;
+                let solid = b.solid_reference(damped.len()).modal_model()?;
                 (BarModel::Modal(damped), BarModel::Modal(solid))
             }
         };
-        let _ = self.bars_cache.0.set((key.0, key.1, key.2, damped, solid));
+        let _ = self.bars_cache.0.set((key, damped, solid));
         Ok((damped, solid))
     }
 
@@ -605,10 +652,12 @@ impl Scenario {
         };
         // The lumped solid bar's fields are `solid_bar.*`; a beam's solid reference is the
         // same [beam], already checked.
-        solid.validate().map_err(|e| match self.beam {
-            None => anyhow::anyhow!("solid_{e}"),
-            Some(_) => anyhow::anyhow!("solid reference bar: {e}"),
-        })?;
+        solid
+            .validate()
+            .map_err(|e| match (&self.beam, &self.modes) {
+                (None, None) => anyhow::anyhow!("solid_{e}"),
+                _ => anyhow::anyhow!("solid reference bar: {e}"),
+            })?;
         self.settings().validate()?;
         self.initial_state().validate(&damped)?;
         if let Some(c) = &self.cutting {
@@ -744,11 +793,13 @@ fn check_beam_against_bar(raw: &toml::Table) -> Result<()> {
 }
 
 impl Scenario {
-    /// The structure this scenario describes: its `[beam]`, else the lumped `[bar]`.
+    /// The structure this scenario describes: its `[[modes]]`, its `[beam]`, else the lumped
+    /// `[bar]`.
     pub fn structure(&self) -> Structure {
-        match &self.beam {
-            Some(b) => Structure::Beam(b.clone()),
-            None => Structure::Lumped(self.bar),
+        match (&self.beam, &self.modes) {
+            (_, Some(m)) => Structure::Measured(m.iter().map(MeasuredMode::mode).collect()),
+            (Some(b), None) => Structure::Beam(b.clone()),
+            (None, None) => Structure::Lumped(self.bar),
         }
     }
 
@@ -765,7 +816,12 @@ impl Scenario {
         let Some(b) = self.beam.as_mut() else {
             bail!(
                 "--beam-modes and --cavity-position-mm need a scenario with a [beam] section \
-                 (this one is the lumped bar, one mode)"
+                 (this one is {})",
+                if self.modes.is_some() {
+                    "measured modes, [[modes]]"
+                } else {
+                    "the lumped bar, one mode"
+                }
             );
         };
         if let Some(n) = beam_modes {
@@ -779,6 +835,57 @@ impl Scenario {
         }
         Ok(())
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// [[modes]] (issue #13 §2): the bar as measured modes, one table per mode (`frequency_hz`,
+// `damping_ratio`, `modal_mass_kg` with the shape 1 at the tool tip, `shape_cavity`), the core's
+// `structure::MeasuredMode`. It describes the bar, so `[bar]`, `[solid_bar]` and `[beam]` are
+// refused beside it. `[[solid_modes]]` gives the solid reference; without it the reference is
+// the same modes without the ball (`reference = "no_ball"` in the scenario and its metadata).
+
+/// Refuse `[[modes]]` beside another description of the bar, `[[solid_modes]]` without
+/// `[[modes]]`, and `reference` anywhere but with `[[modes]]` alone.
+fn check_modes_against_bar(raw: &toml::Table) -> Result<()> {
+    let modes = raw.contains_key("modes");
+    if modes {
+        for other in ["bar", "solid_bar", "beam"] {
+            if raw.contains_key(other) {
+                bail!(
+                    "[[modes]] and [{other}] both describe the bar: with [[modes]] the bar is its \
+                     measured modes and [{other}] does not apply; remove one of them"
+                );
+            }
+        }
+    }
+    if raw.contains_key("solid_modes") && !modes {
+        bail!("[[solid_modes]] needs [[modes]]: it is the solid reference of measured modes");
+    }
+    if raw.contains_key("reference") && (!modes || raw.contains_key("solid_modes")) {
+        bail!(
+            "reference = \"no_ball\" applies only to [[modes]] without [[solid_modes]] (the \
+             solid reference is then the same modes without the ball)"
+        );
+    }
+    Ok(())
+}
+
+/// The modal model of a `[[section]]` of measured modes; errors name the entry and field,
+/// `modes[i].frequency_hz`, and the range.
+fn measured_model(section: &str, modes: &[MeasuredMode]) -> Result<ModalModel> {
+    vibrobar_core::limits::check_count(
+        "number of [[modes]] / [[solid_modes]] entries",
+        modes.len(),
+        1,
+        vibrobar_core::limits::MAX_BEAM_MODES,
+        "",
+    )
+    .with_context(|| format!("[[{section}]]"))?;
+    for (i, m) in modes.iter().enumerate() {
+        m.validate()
+            .map_err(|e| anyhow::anyhow!("{section}[{i}].{e}"))?;
+    }
+    Ok(Structure::Measured(modes.iter().map(MeasuredMode::mode).collect()).modal_model()?)
 }
 
 #[cfg(test)]
@@ -1144,5 +1251,179 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("[cutting]"), "{e}");
+    }
+}
+
+#[cfg(test)]
+mod measured_modes_tests {
+    use super::*;
+    use vibrobar_core::analysis::{run_case, Sampler};
+
+    /// The paper's lumped bar as one measured mode: `f = √(K/M)/2π`, `m = M`, `φ_c = 1`.
+    fn paper_as_modes() -> String {
+        let b = Bar::PAPER_CAVITY;
+        let so = Bar::PAPER_SOLID;
+        let f = |b: &Bar| b.natural_freq_rad_s() / (2.0 * std::f64::consts::PI);
+        format!(
+            "[[modes]]\nfrequency_hz = {:?}\ndamping_ratio = {:?}\nmodal_mass_kg = {:?}\nshape_cavity = 1.0\n\
+             [[solid_modes]]\nfrequency_hz = {:?}\ndamping_ratio = {:?}\nmodal_mass_kg = {:?}\nshape_cavity = 1.0\n",
+            f(&b),
+            b.damping_ratio,
+            b.mass_kg,
+            f(&so),
+            so.damping_ratio,
+            so.mass_kg
+        )
+    }
+
+    fn tip_history(sc: &Scenario, solid: bool) -> Vec<f64> {
+        let settings = RunSettings {
+            duration_s: 0.05,
+            ..sc.settings()
+        };
+        let (damped, solid_bar) = sc.bars().unwrap();
+        let mut sys = sc.damped_system().unwrap();
+        if solid {
+            sys.bar = solid_bar;
+            sys.damper = None;
+        } else {
+            assert_eq!(sys.bar, damped);
+        }
+        let solver = vibrobar_core::solver::solver_by_name("exact", &settings).unwrap();
+        let mut s = Sampler::new(0.0, 1e-5);
+        let r = run_case(
+            &sys,
+            &sc.initial_state(),
+            &settings,
+            solver.as_ref(),
+            &mut s,
+        )
+        .unwrap();
+        if !solid {
+            assert!(
+                r.impacts > 10,
+                "the comparison must include impacts: {}",
+                r.impacts
+            );
+        }
+        s.samples.iter().map(|x| x.u_m).collect()
+    }
+
+    /// Issue #13 §2: a one-mode table with the paper's M and K and `shape_cavity = 1`
+    /// reproduces the lumped bar (the lumped exact solver against the modal one) to 1e-9
+    /// relative over 0.05 s, impacts included, and so does its solid reference.
+    #[test]
+    fn one_measured_mode_reproduces_the_lumped_bar() {
+        let modes = Scenario::from_toml(&paper_as_modes()).unwrap();
+        modes.validate().unwrap();
+        assert!(matches!(modes.structure(), Structure::Measured(ref m) if m.len() == 1));
+        assert_eq!(modes.reference, None);
+        let paper = Scenario::paper();
+        for solid in [false, true] {
+            let (a, b) = (tip_history(&paper, solid), tip_history(&modes, solid));
+            assert_eq!(a.len(), b.len());
+            let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let worst = a
+                .iter()
+                .zip(&b)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max);
+            println!("solid = {solid}: max |Δu| = {worst:.3e} m of max |u| = {scale:.3e} m");
+            assert!(worst <= 1e-9 * scale, "solid = {solid}: {worst} of {scale}");
+        }
+    }
+
+    #[test]
+    fn measured_modes_without_solid_modes_use_the_same_modes_without_the_ball() {
+        let text = "[[modes]]\nfrequency_hz = 600\ndamping_ratio = 0.01\nmodal_mass_kg = 0.15\nshape_cavity = 0.8\n\
+                    [[modes]]\nfrequency_hz = 3700\ndamping_ratio = 0.02\nmodal_mass_kg = 0.15\nshape_cavity = -0.3\n";
+        let s = Scenario::from_toml(text).unwrap();
+        s.validate().unwrap();
+        assert_eq!(s.reference, Some(SolidReference::NoBall));
+        let (d, so) = s.bars().unwrap();
+        assert_eq!(d, so);
+        let m = d.as_modal().unwrap();
+        assert_eq!(m.len(), 2);
+        assert_eq!(m.modes()[1].shape_cavity, -0.3);
+        assert_eq!(m.modes()[1].shape_force, 1.0);
+        // The metadata (the scenario's JSON) records the reference, and the file reads back.
+        let j = serde_json::to_value(&s).unwrap();
+        assert_eq!(j["reference"], "no_ball");
+        assert_eq!(j["modes"][0]["frequency_hz"], 600.0);
+        let mut t = toml::Table::try_from(&s).unwrap();
+        t.remove("bar");
+        t.remove("solid_bar");
+        let back = Scenario::from_toml(&toml::to_string(&t).unwrap()).unwrap();
+        assert_eq!(back.bars().unwrap(), s.bars().unwrap());
+    }
+
+    #[test]
+    fn measured_modes_bad_input_names_the_entry_field_and_range() {
+        let mode = |f: &str, z: &str, m: &str| {
+            format!("[[modes]]\nfrequency_hz = {f}\ndamping_ratio = {z}\nmodal_mass_kg = {m}\nshape_cavity = 1\n")
+        };
+        let ok = mode("600", "0.01", "0.2");
+        for (text, want) in [
+            (
+                ok.clone() + &mode("-5", "0.01", "0.2"),
+                "modes[1].frequency_hz = -5 is outside the allowed range (0, ∞)",
+            ),
+            (
+                mode("0", "0.01", "0.2"),
+                "modes[0].frequency_hz = 0 is outside the allowed range (0, ∞)",
+            ),
+            (
+                mode("600", "0.01", "0"),
+                "modes[0].modal_mass_kg = 0 is outside the allowed range (0, ∞)",
+            ),
+            (
+                mode("600", "1.0", "0.2"),
+                "modes[0].damping_ratio = 1 is outside the allowed range [0, 1)",
+            ),
+            (
+                mode("600", "-0.1", "0.2"),
+                "modes[0].damping_ratio = -0.1 is outside the allowed range [0, 1)",
+            ),
+            (
+                mode("600", "nan", "0.2"),
+                "modes[0].damping_ratio must be a finite number",
+            ),
+            (
+                ok.replace("[[modes]]", "[[solid_modes]]") + &mode("600", "0.01", "-1"),
+                "modes[0].modal_mass_kg = -1",
+            ),
+            (
+                ok.clone() + &mode("600", "0.01", "-1").replace("[[modes]]", "[[solid_modes]]"),
+                "solid_modes[0].modal_mass_kg = -1 is outside the allowed range (0, ∞)",
+            ),
+            (
+                ok.clone() + "[bar]\nmass_kg = 1\n",
+                "[[modes]] and [bar] both describe the bar",
+            ),
+            (
+                ok.clone() + "[solid_bar]\nmass_kg = 1\n",
+                "[[modes]] and [solid_bar] both describe the bar",
+            ),
+            (
+                ok.clone() + "[beam]\n",
+                "[[modes]] and [beam] both describe the bar",
+            ),
+            (
+                mode("600", "0.01", "0.2").replace("[[modes]]", "[[solid_modes]]"),
+                "[[solid_modes]] needs [[modes]]",
+            ),
+            (ok.clone() + "shape_force = 1\n", "shape_force"),
+            (
+                "reference = \"no_ball\"\n".to_string(),
+                "applies only to [[modes]]",
+            ),
+            ("modes = []\n".to_string(), "[[modes]]"),
+        ] {
+            let e = format!("{:#}", Scenario::from_toml(&text).unwrap_err());
+            assert!(e.contains(want), "{text:?}: {e}");
+        }
+        // Given explicitly, the reference is accepted where it applies.
+        let s = Scenario::from_toml(&("reference = \"no_ball\"\n".to_string() + &ok)).unwrap();
+        assert_eq!(s.reference, Some(SolidReference::NoBall));
     }
 }

@@ -199,19 +199,15 @@ impl PlacementSpec {
         }
     }
 
-    /// The solid reference: the same bar without cavity section (and, in its runs, without
-    /// ball), with as many modes as the bar with the cavity (the beam's `modes`, or the default
-    /// rule applied to the bar with its cavity as given), as the commands' scenarios build it.
+    /// The solid reference ([`Beam::solid_reference`]) with as many modes as the bar with the
+    /// cavity (the beam's `modes`, or the default rule applied to the bar with its cavity as
+    /// given).
     pub fn solid_beam(&self) -> Result<Beam, ParamError> {
         let modes = match self.beam.modes {
             Some(n) => n,
             None => self.beam.modal_model()?.len(),
         };
-        Ok(Beam {
-            cavity_section: None,
-            modes: Some(modes),
-            ..self.beam.clone()
-        })
+        Ok(self.beam.solid_reference(modes))
     }
 
     /// The damped bar's modes with the cavity at `x_m` (checked first).

@@ -180,6 +180,18 @@ impl Default for Beam {
 }
 
 impl Beam {
+    /// The solid reference of this bar with a cavity: the same bar without the cavity's
+    /// section loss (the ball is absent from every solid run), with `modes` modes (as many as
+    /// the bar with the cavity, so both are compared on the same basis). The one rule for every
+    /// command (scenarios, placement).
+    pub fn solid_reference(&self, modes: usize) -> Beam {
+        Beam {
+            cavity_section: None,
+            modes: Some(modes),
+            ..self.clone()
+        }
+    }
+
     /// Cross-section area `πD²/4`.
     pub fn area_m2(&self) -> f64 {
         PI * self.diameter_m.powi(2) / 4.0

@@ -114,6 +114,52 @@ impl Mode {
     }
 }
 
+/// One mode as a tap test gives it (a scenario's `[[modes]]` entry), in the tip normalisation
+/// (module docs): the force acts and the response is read at the tool tip, where every shape is
+/// 1, so only the cavity's shape is given. Field names are the columns of `vibrobar modes`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasuredMode {
+    /// Undamped natural frequency, Hz.
+    pub frequency_hz: f64,
+    /// Modal damping ratio `ζ`.
+    pub damping_ratio: f64,
+    /// Modal mass with the shape 1 at the tip.
+    pub modal_mass_kg: f64,
+    /// The shape at the cavity centre (the ball).
+    pub shape_cavity: f64,
+}
+
+impl MeasuredMode {
+    /// Check every field; the error names the field (a caller prefixes which entry) and its
+    /// range: frequency and mass in (0, ∞), damping in [0, 1), the shape finite.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        positive("frequency_hz", self.frequency_hz)?;
+        positive("modal_mass_kg", self.modal_mass_kg)?;
+        finite("damping_ratio", self.damping_ratio)?;
+        if !(self.damping_ratio >= 0.0 && self.damping_ratio < 1.0) {
+            return Err(ParamError::OutOfRange {
+                field: "damping_ratio",
+                value: self.damping_ratio,
+                allowed: "[0, 1)",
+            });
+        }
+        finite("shape_cavity", self.shape_cavity)
+    }
+
+    /// The mode: `ω = 2πf`, shapes 1 at the force and response points (the tip).
+    pub fn mode(&self) -> Mode {
+        Mode {
+            omega_rad_s: 2.0 * std::f64::consts::PI * self.frequency_hz,
+            damping_ratio: self.damping_ratio,
+            modal_mass_kg: self.modal_mass_kg,
+            shape_cavity: self.shape_cavity,
+            shape_force: 1.0,
+            shape_response: 1.0,
+        }
+    }
+}
+
 /// A point of the bar that a solver or an analysis looks at.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Point {
