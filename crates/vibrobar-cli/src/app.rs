@@ -7,8 +7,8 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
 use crate::commands::{
-    beam, bench, contact_laws, contact_test, explore, lumped_vs_beam, map, merge, modes, paper,
-    placement, run, sweep,
+    beam, bench, contact_laws, contact_test, explore, lobes, lumped_vs_beam, map, merge, modes,
+    paper, placement, run, sweep,
 };
 
 /// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
@@ -149,6 +149,10 @@ pub enum Command {
     /// Write the generated Markdown document comparing the restitution and hertz contact laws
     /// on the lumped paper cases (sweeps, best gap, chaotic points by ensembles).
     ContactLaws(crate::commands::contact_laws::ContactLawsArgs),
+    /// Exact linear stability lobes of regenerative chatter of a [cutting] scenario: the
+    /// limiting width of cut over spindle speed for the damped bar (ball free, ball stuck) and
+    /// the solid reference, as CSV and a figure.
+    Lobes(crate::commands::lobes::LobesArgs),
 }
 
 impl Command {
@@ -172,6 +176,7 @@ impl Command {
             Command::LumpedVsBeam(_) => "lumped-vs-beam",
             Command::ContactTest(_) => "contact-test",
             Command::ContactLaws(_) => "contact-laws",
+            Command::Lobes(_) => "lobes",
         }
     }
 
@@ -201,6 +206,7 @@ impl Command {
             Command::LumpedVsBeam(a) => (vec![], Some(a.out.as_path())),
             Command::ContactTest(a) => (one(&a.scenario), Some(a.out.as_path())),
             Command::ContactLaws(a) => (vec![], Some(a.out.as_path())),
+            Command::Lobes(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
         }
     }
 
@@ -291,6 +297,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Placement(a) => placement::run(&a),
         Command::LumpedVsBeam(a) => lumped_vs_beam::run(&a),
         Command::ContactTest(a) => contact_test::run(&a),
+        Command::Lobes(a) => lobes::run(&a),
         Command::ContactLaws(a) => contact_laws::run(&a),
     }
 }

@@ -44,6 +44,7 @@ fn commands_writing(out: &str) -> Vec<Vec<String>> {
             "--members",
             "2",
         ]),
+        v(&["lobes", "--rpm", "1000:2000:500"]),
         v(&[
             "placement",
             "--positions-mm",

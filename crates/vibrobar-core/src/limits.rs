@@ -19,6 +19,7 @@
 //! | forcing phase `max(Ω, ω_max)·t` | ≤ [`MAX_PHASE_RAD`] = 1e10 rad | `sin(Ωt)` keeps 1e-6 rad of phase |
 //! | frequency ratio `Ω/ω₁` (`√(K/M)` of a lumped bar) | [[`FREQ_RATIO_MIN`], [`FREQ_RATIO_MAX`]] = [1e-3, 1e3] | a one-mode model; outside, the response underflows or the period overflows |
 //! | spindle speed `[cutting] spindle_rpm` | [[`SPINDLE_RPM_MIN`], [`SPINDLE_RPM_MAX`]] = [1, 200 000] rpm | a lathe spindle; the delay `60/n` stays within a run |
+//! | spindle speeds of one `lobes` call | ≤ [`MAX_LOBE_SPEEDS`] = 1e6 | about 10 s; the rows stay in memory |
 //! | RMS window `rms_fraction·duration` | ≥ `dt` | an empty window has no RMS |
 //! | Lyapunov `d0` | [[`LYAPUNOV_D0_MIN`], [`LYAPUNOV_D0_MAX`]] = [1e-12, 1e-2] | representable and still linear |
 //! | beam geometry and material | [`BEAM_LENGTH_M`], [`BEAM_DIAMETER_M`], [`BEAM_YOUNGS_MODULUS_PA`], [`BEAM_DENSITY_KG_M3`] | real bars; keeps `M`, `K` finite |
@@ -51,6 +52,8 @@ pub const MAX_SAMPLES: f64 = 1e7;
 pub const MAX_GRID_POINTS: usize = 10_000_000;
 /// Most ratios of one `sweep` (each gets a solid and a damped run per gap).
 pub const MAX_SWEEP_RATIOS: usize = 100_000;
+/// Most spindle speeds of one lobes computation.
+pub const MAX_LOBE_SPEEDS: usize = 1_000_000;
 /// Most ensemble members per point.
 pub const MAX_ENSEMBLE_MEMBERS: usize = 100_000;
 /// Most runs of one batch (grid points × ensemble members).

@@ -1026,6 +1026,53 @@ pub fn write_modes_csv(path: &Path, model: &vibrobar_core::structure::ModalModel
 }
 
 // ---------------------------------------------------------------------------------------------
+// lobes
+
+/// `vibrobar lobes`: the stability boundary of regenerative chatter at each spindle speed, for
+/// the damped bar with the ball free and stuck, and for the solid reference; the lobe index `j`
+/// of each boundary (`ωτ = ε + 2πj`).
+pub fn lobes_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("spindle_rpm", Format::Coord),
+            col("b_lim_m", Format::Plain),
+            col("chatter_frequency_hz", Format::Plain),
+            col("b_lim_ball_stuck_m", Format::Plain),
+            col("chatter_frequency_ball_stuck_hz", Format::Plain),
+            col("b_lim_solid_m", Format::Plain),
+            col("chatter_frequency_solid_hz", Format::Plain),
+            col("lobe", Format::Count),
+            col("lobe_ball_stuck", Format::Count),
+            col("lobe_solid", Format::Count),
+        ],
+    }
+}
+
+/// The fields of one lobes row, in column order.
+pub fn lobes_values(r: &vibrobar_core::analysis::lobes::LobeRow) -> Vec<Value> {
+    vec![
+        Value::F(r.spindle_rpm),
+        Value::F(r.ball_free.b_lim_m),
+        Value::F(r.ball_free.chatter_frequency_hz),
+        Value::F(r.ball_stuck.b_lim_m),
+        Value::F(r.ball_stuck.chatter_frequency_hz),
+        Value::F(r.solid.b_lim_m),
+        Value::F(r.solid.chatter_frequency_hz),
+        Value::U(r.ball_free.lobe),
+        Value::U(r.ball_stuck.lobe),
+        Value::U(r.solid.lobe),
+    ]
+}
+
+/// Write a lobes CSV (atomic, under the output-path policy, through [`write_csv`]).
+pub fn write_lobes_csv(
+    path: &Path,
+    rows: &[vibrobar_core::analysis::lobes::LobeRow],
+) -> Result<()> {
+    write_csv(path, &lobes_schema(), rows.iter().map(lobes_values))
+}
+
+// ---------------------------------------------------------------------------------------------
 // contact-test
 
 /// `vibrobar contact-test`: one impact of the ball on a rigid fixed wall per approach speed.

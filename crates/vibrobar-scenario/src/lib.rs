@@ -771,6 +771,84 @@ pub fn ratio_range(start: f64, stop: f64, step: f64) -> Result<Vec<f64>> {
     ))
 }
 
+/// Check and expand a spindle-speed range `START:STOP:STEP` (STOP included) of `flag` (e.g.
+/// `--rpm`): finite, not empty, at most [`vibrobar_core::limits::MAX_LOBE_SPEEDS`] speeds,
+/// each within the spindle range of `[cutting] spindle_rpm`.
+pub fn spindle_speeds(flag: &str, start: f64, stop: f64, step: f64) -> Result<Vec<f64>> {
+    use vibrobar_core::limits::{MAX_LOBE_SPEEDS, SPINDLE_RPM_MAX, SPINDLE_RPM_MIN};
+    for (name, x) in [("START", start), ("STOP", stop), ("STEP", step)] {
+        if !x.is_finite() {
+            bail!("{flag} {name} must be a finite number, got {}", Compact(x));
+        }
+    }
+    if step <= 0.0 {
+        bail!(
+            "{flag} STEP = {} is outside the allowed range (0, ∞)",
+            Compact(step)
+        );
+    }
+    if stop < start {
+        bail!(
+            "{flag} range is empty: STOP = {} < START = {} (allowed: STOP ≥ START)",
+            Compact(stop),
+            Compact(start)
+        );
+    }
+    for (name, x) in [("START", start), ("STOP", stop)] {
+        if !(SPINDLE_RPM_MIN..=SPINDLE_RPM_MAX).contains(&x) {
+            bail!(
+                "{flag} {name} = {} rpm is outside the allowed range [{}, {}] rpm",
+                Compact(x),
+                Compact(SPINDLE_RPM_MIN),
+                Compact(SPINDLE_RPM_MAX)
+            );
+        }
+    }
+    vibrobar_core::limits::check(
+        "--rpm speeds (STOP − START)/STEP",
+        ((stop - start) / step).floor(),
+        0.0,
+        (MAX_LOBE_SPEEDS - 1) as f64,
+        "raise STEP",
+    )?;
+    Ok(
+        vibrobar_core::analysis::linspace_inclusive(start, stop, step)
+            .into_iter()
+            .map(|x| x.min(stop))
+            .collect(),
+    )
+}
+
+impl Scenario {
+    /// What the lobes of this scenario need (issue #13 §4): the bar with the cavity, the solid
+    /// reference (`[solid_bar]`, the solid beam, `[[solid_modes]]`, or the same modes: `no_ball`),
+    /// the ball's mass, and `K_f·c_force·c_chip` from `[cutting]` (required; the error names
+    /// the section).
+    pub fn lobe_spec(&self) -> Result<vibrobar_core::analysis::lobes::LobeSpec> {
+        let Some(c) = self.cutting else {
+            bail!(
+                "the stability lobes need a [cutting] section (coefficient_n_m2, width_m, feed_m, \
+                 spindle_rpm; the coefficient and direction factors set the boundary); this \
+                 scenario has none"
+            );
+        };
+        c.validate()?;
+        let (damped, solid) = self.bars()?;
+        let model = |b: BarModel| -> Result<ModalModel> {
+            Ok(match b {
+                BarModel::Lumped(bar) => Structure::Lumped(bar).modal_model()?,
+                BarModel::Modal(m) => m,
+            })
+        };
+        Ok(vibrobar_core::analysis::lobes::LobeSpec {
+            damped: model(damped).context("bar with the cavity")?,
+            solid: model(solid).context("solid reference bar")?,
+            ball_mass_kg: self.damper.ball_mass_kg,
+            oriented_coefficient_n_m2: c.oriented_coefficient_n_m2(),
+        })
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // [beam] (issue #8): the bar as an Euler–Bernoulli beam. The section deserialises straight into
 // core `structure::Beam` (paper geometry for missing fields). With `[beam]` present, `[bar]` and

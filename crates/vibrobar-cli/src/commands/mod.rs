@@ -7,6 +7,7 @@ pub mod contact_laws;
 pub mod contact_test;
 pub mod design;
 pub mod explore;
+pub mod lobes;
 pub mod lumped_vs_beam;
 pub mod map;
 pub mod merge;

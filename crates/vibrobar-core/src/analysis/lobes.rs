@@ -597,9 +597,16 @@ impl Lobes {
         &self.tables
     }
 
-    /// The three boundaries at `spindle_rpm` (checked: finite, positive).
+    /// The three boundaries at `spindle_rpm`, checked against the spindle range of
+    /// [`crate::limits`] (the same as `[cutting] spindle_rpm`).
     pub fn row(&mut self, spindle_rpm: f64) -> Result<LobeRow, ParamError> {
-        crate::params::positive("spindle speed (rpm)", spindle_rpm)?;
+        crate::limits::check(
+            "spindle speed of the lobes (--rpm)",
+            spindle_rpm,
+            crate::limits::SPINDLE_RPM_MIN,
+            crate::limits::SPINDLE_RPM_MAX,
+            "revolutions per minute of a lathe spindle",
+        )?;
         let k = self.spec.oriented_coefficient_n_m2;
         let [a, b, c] = &mut self.tables;
         Ok(LobeRow {

@@ -1,5 +1,6 @@
 //! Figures of the design analyses (PNG for viewing, SVG for papers), drawn with plotters and the
 //! embedded DejaVu Sans font (no system fonts needed).
+pub mod lobes;
 pub mod map;
 pub mod placement;
 
