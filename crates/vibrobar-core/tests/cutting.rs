@@ -267,6 +267,20 @@ fn growth_rates_match_the_rightmost_characteristic_root() {
             );
         }
     }
+    // The core's one-mode limit (the bench's width) is this test's, at every speed.
+    for rpm in speeds {
+        let (b, w) = vibrobar_core::excitation::one_mode_limit_width_m(
+            &cut(1.0, rpm),
+            bar().mass_kg,
+            K,
+            ZETA,
+        );
+        let (bt, wt) = b_lim(rpm);
+        assert!(
+            (b / bt - 1.0).abs() < 1e-9 && (w / wt - 1.0).abs() < 1e-9,
+            "{rpm}"
+        );
+    }
     // The steep point is steep: b_lim there is many times the lobe minimum.
     assert!(b_lim(30_000.0).0 > 10.0 * b_lim(lobe_minimum_rpm(1)).0);
     // And the lobe minima are the closed form's 2ζ(1+ζ)k/K_f.

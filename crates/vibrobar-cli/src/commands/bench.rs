@@ -129,6 +129,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     if run_sc.beam.is_none() {
         contact_law_row(&rows, &single, &st)?;
     }
+    cutting_row(&st)?;
     // The single run above is the lumped reference only when the bench's scenario is lumped.
     beam_rows(&names, &st, !args.single_only)
 }
@@ -171,6 +172,69 @@ fn contact_law_row(
         o.result.impacts,
         th / t_rest,
         extra_per_contact * 1e6
+    );
+    Ok(())
+}
+
+/// Issue #13: a cutting run of the damped paper bar (frictionless ball, gap 0.1 mm) at 5000 rpm
+/// and 1.5 b_lim (K_f = 2e9 N/m², h0 = 0.1 mm, linear law; b_lim of the bar without the ball,
+/// which a frictionless ball leaves unchanged), started 0.1 h0 off its equilibrium so that
+/// regenerative chatter grows and the ball impacts, against the paper's harmonic run of the same
+/// bar (r = 1), both with the exact solver; alternating pairs, medians.
+pub fn cutting_row(st: &vibrobar_core::RunSettings) -> Result<()> {
+    use vibrobar_core::analysis::run_case;
+    use vibrobar_core::excitation::{one_mode_limit_width_m, Cutting, CuttingForceLaw};
+    use vibrobar_core::solver::exact::cutting::ExactCutting;
+    use vibrobar_core::{Bar, FrictionModel, State, System};
+    let harmonic = System::paper_damped(0.1e-3, FrictionModel::None, 1.0);
+    let bar = Bar::PAPER_CAVITY;
+    let mut cut = Cutting {
+        coefficient_n_m2: 2e9,
+        width_m: 1.0,
+        feed_m: 1e-4,
+        spindle_rpm: 5000.0,
+        force_direction_factor: 1.0,
+        chip_direction_factor: 1.0,
+        force_law: CuttingForceLaw::Linear,
+    };
+    let (b_lim, _) =
+        one_mode_limit_width_m(&cut, bar.mass_kg, bar.stiffness_n_per_m, bar.damping_ratio);
+    cut.width_m = 1.5 * b_lim;
+    let mut cutting_sys = harmonic;
+    cutting_sys.forcing.amplitude_n = 0.0;
+    let cutting = ExactCutting::new(cut);
+    let exact = solver("exact", st)?;
+    let kick = State {
+        u_m: 0.1 * cut.feed_m,
+        v_m: 0.1 * cut.feed_m,
+        ..State::REST
+    };
+    let time = |sys: &System, init: &State, s: &dyn vibrobar_core::Solver| -> Result<(f64, u64)> {
+        let t = Instant::now();
+        let r = run_case(sys, init, st, s, &mut ())?;
+        Ok((t.elapsed().as_secs_f64(), r.impacts))
+    };
+    time(&harmonic, &State::REST, exact.as_ref())?;
+    time(&cutting_sys, &kick, &cutting)?;
+    let (mut th, mut tc, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
+    let mut impacts = 0;
+    for _ in 0..BEAM_PAIRS {
+        let (h, _) = time(&harmonic, &State::REST, exact.as_ref())?;
+        let (c, n) = time(&cutting_sys, &kick, &cutting)?;
+        impacts = n;
+        th.push(h);
+        tc.push(c);
+        ratio.push(c / h);
+    }
+    println!(
+        "  exact  cutting run (paper bar, 5000 rpm, b = 1.5 b_lim = {:.4} mm, {} s, {impacts} \
+         impacts): median {} vs harmonic run {}; median ratio {:.2}× over {BEAM_PAIRS} \
+         alternating pairs (issue #13 target: ≤ 5× per simulated second)",
+        cut.width_m * 1e3,
+        st.duration_s,
+        fmt_secs(median(&mut tc)),
+        fmt_secs(median(&mut th)),
+        median(&mut ratio)
     );
     Ok(())
 }

@@ -163,6 +163,59 @@ impl Cutting {
     }
 }
 
+/// The linear stability limit `b_lim` of this cut (its width ignored) on a one-mode bar of mass
+/// `m`, stiffness `k` and damping ratio `ζ` at its spindle speed, with the chatter frequency:
+/// on lobe `j` the frequency `ω > ω_n` solves `ωT = 3π + 2 arg G(iω) + 2πj` (bisection to
+/// rounding; `ωT` grows with `ω` there), `b = −1/(2 K_f c_force c_chip Re G(iω))`, and the limit
+/// is the minimum over the lobes. For the bench and the tests of the time-domain solver; the
+/// lobes of N-mode and measured structures are `analysis::lobes`'s.
+pub fn one_mode_limit_width_m(cut: &Cutting, m: f64, k: f64, zeta: f64) -> (f64, f64) {
+    use std::f64::consts::PI;
+    let tau = cut.delay_s();
+    let wn = (k / m).sqrt();
+    let kf = cut.oriented_coefficient_n_m2();
+    let arg_g = |w: f64| {
+        let r = w / wn;
+        -(2.0 * zeta * r).atan2(1.0 - r * r)
+    };
+    let b_of = |w: f64| {
+        let r = w / wn;
+        let d = (1.0 - r * r).powi(2) + (2.0 * zeta * r).powi(2);
+        -k * d / (2.0 * kf * (1.0 - r * r))
+    };
+    let mut best = (f64::INFINITY, f64::NAN);
+    // ωT − 3π − 2 arg G runs from about −π at ω_n to ∞: lobes j = 0, 1, … up to where ω_n T
+    // passes them.
+    let j_max = (wn * tau / (2.0 * PI)).ceil() as u64 + 1;
+    for j in 0..=j_max.min(1_000_000) {
+        let f = |w: f64| w * tau - 3.0 * PI - 2.0 * arg_g(w) - 2.0 * PI * j as f64;
+        let (mut lo, mut hi) = (wn * (1.0 + 1e-12), wn * 2.0);
+        while f(hi) < 0.0 && hi < wn * 1e6 {
+            hi *= 2.0;
+        }
+        if f(lo) > 0.0 || f(hi) < 0.0 {
+            continue;
+        }
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if f(mid) > 0.0 {
+                hi = mid
+            } else {
+                lo = mid
+            }
+            if hi - lo <= 4.0 * f64::EPSILON * hi {
+                break;
+            }
+        }
+        let w = 0.5 * (lo + hi);
+        let b = b_of(w);
+        if b < best.0 {
+            best = (b, w);
+        }
+    }
+    best
+}
+
 #[cfg(test)]
 #[allow(clippy::float_cmp)] // exact values: products of given numbers
 mod tests {

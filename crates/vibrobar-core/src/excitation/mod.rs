@@ -4,4 +4,4 @@
 
 mod cutting;
 
-pub use cutting::{Cutting, CuttingForceLaw};
+pub use cutting::{one_mode_limit_width_m, Cutting, CuttingForceLaw};

@@ -23,8 +23,8 @@
 //! Accuracy. The only approximation is the quadratic for the delayed surface through a piece's
 //! ends and middle. Its pointwise error is `O(Δ³)` in the piece length `Δ`, but that error,
 //! `∝ x(x − Δ/2)(x − Δ)`, averages to zero over the piece, and the run converges as `Δ⁴`:
-//! measured order 3.99 over 8–64 pieces per period (test `cutting_convergence_order`); at the
-//! default 64 pieces per period the error in `u` is ~1e-12 m against 1e-6 m of motion. The
+//! measured order 3.95 over 8–64 pieces per period (test `cutting_convergence_order`); at the
+//! default 32 pieces per period the error in `u` is ~2e-11 m against 1e-6 m of motion. The
 //! energy books close with the cutting work as an entry of their own
 //! ([`Segment::cutting_work_j`]; the integrals by Gauss–Legendre quadrature on the short pieces).
 //!
@@ -40,7 +40,7 @@ use super::{
     advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, Tail, CUT,
     HORIZON,
 };
-use super::{joint_search, Consts, EventSet, Osc};
+use super::{joint_search, Consts, EventSet, Osc, Trig};
 use crate::error::{EventLimitCause, SimError};
 use crate::excitation::{Cutting, CuttingForceLaw};
 use crate::params::{BarModel, State, System};
@@ -52,7 +52,7 @@ use std::collections::VecDeque;
 pub const MAX_EVENT_KNOTS: usize = 1 << 15;
 
 /// Default pieces per period of the fastest motion (the bar in the cut, or the harmonic force).
-pub const DEFAULT_STEPS_PER_PERIOD: u32 = 64;
+pub const DEFAULT_STEPS_PER_PERIOD: u32 = 32;
 
 /// The exact solver on a cutting run: [`Exact`]'s event loop with the delay stepping.
 ///
@@ -228,10 +228,10 @@ impl Observer for Recorder<'_, '_> {
         self.inner.segment(seg);
         let t1 = seg.t_end_s();
         let st = seg.state_at(t1);
-        let in_cut = seg.cutting_at(t1).is_some_and(|c| c.in_cut);
         let mut h = self.hist.borrow_mut();
-        h.in_cut = in_cut;
-        let (s, ds) = if in_cut {
+        // `in_cut` is the piece's (the driver sets it before each step of the event loop; a
+        // cut event ends the step).
+        let (s, ds) = if h.in_cut {
             (st.u_m, st.du_m_s)
         } else {
             let x = t1 - h.tau;
@@ -274,21 +274,36 @@ const GL8: [(f64, f64); 8] = [
 ];
 
 /// `∫_a^b f` by 8-point Gauss–Legendre on pieces of at most 1/2 rad of the fastest term
-/// (error far below rounding for these smooth sums).
-fn quad(a: f64, b: f64, rate: f64, mut f: impl FnMut(f64) -> f64) -> f64 {
+/// (error far below rounding for these smooth sums); `f` gets the transcendentals at the node.
+fn quad<const N: usize>(
+    seg: &ExactSegment,
+    a: f64,
+    b: f64,
+    mut f: impl FnMut(&Trig) -> [f64; N],
+) -> [f64; N] {
+    let mut sum = [0.0; N];
     if b <= a {
-        return 0.0;
+        return sum;
     }
+    let u = &seg.u;
+    let rate = u.om.max(u.wd).max(u.al);
     let n = ((b - a) * rate / 0.5).ceil().clamp(1.0, 1e6) as usize;
     let h = (b - a) / n as f64;
-    let mut sum = 0.0;
     for i in 0..n {
         let mid = a + (i as f64 + 0.5) * h;
         for (x, w) in GL8 {
-            sum += w * f(mid + 0.5 * h * x);
+            let tr = Trig::new(mid + 0.5 * h * x, u.om, u.al, u.wd);
+            for (s, v) in sum.iter_mut().zip(f(&tr)) {
+                *s += w * v;
+            }
         }
     }
-    0.5 * h * sum
+    sum.map(|s| 0.5 * h * s)
+}
+
+/// `∫ u²` over local `[a, b]` of a cutting segment (the RMS's hot path).
+pub(super) fn integral_u2(seg: &ExactSegment, a: f64, b: f64) -> f64 {
+    quad(seg, a, b, |tr| [seg.u.value_t(tr).powi(2)])[0]
 }
 
 /// The integrals of a segment of a cutting run over local `[a, b]`: the forcing work is the
@@ -299,14 +314,16 @@ pub(super) fn segment_integrals(
     a: f64,
     b: f64,
 ) -> SegmentIntegrals {
-    let rate = seg.u.om.max(seg.u.wd).max(seg.u.al);
     let du = seg.u.deriv();
+    let [u2, fw, vl] = quad(seg, a, b, |tr| {
+        let (u, v) = (seg.u.value_t(tr), du.value_t(tr));
+        let harmonic = seg.force.value_t(tr) - c.kfb * c.h.value_t(tr);
+        [u * u, harmonic * v, v * v]
+    });
     SegmentIntegrals {
-        u2_m2_s: quad(a, b, rate, |t| seg.u.value(t).powi(2)),
-        forcing_work_j: quad(a, b, rate, |t| {
-            (seg.force.value(t) - c.kfb * c.h.value(t)) * du.value(t)
-        }),
-        viscous_loss_j: seg.c * quad(a, b, rate, |t| du.value(t).powi(2)),
+        u2_m2_s: u2,
+        forcing_work_j: fw,
+        viscous_loss_j: seg.c * vl,
         friction_work_j: if seg.fb == 0.0 {
             0.0
         } else {
@@ -320,9 +337,8 @@ pub(super) fn cutting_work(seg: &ExactSegment, c: &CutSeg, a: f64, b: f64) -> f6
     if c.kfb == 0.0 {
         return 0.0;
     }
-    let rate = seg.u.om.max(seg.u.wd).max(seg.u.al);
     let du = seg.u.deriv();
-    c.kfb * quad(a, b, rate, |t| c.h.value(t) * du.value(t))
+    c.kfb * quad(seg, a, b, |tr| [c.h.value_t(tr) * du.value_t(tr)])[0]
 }
 
 /// The bar without a ball over one piece: the cut's chip is its only event function.
@@ -562,6 +578,7 @@ impl Solver for ExactCutting {
                 let d = hist.borrow().quadratic(a, win_end.max(a));
                 let cs = consts(in_cut, d, order);
                 book.cut_event = false;
+                hist.borrow_mut().in_cut = in_cut;
                 if has_ball {
                     match advance(&cs, mode, &mut s, step_end, &mut book, &mut search)? {
                         Some(m) => mode = m,

@@ -462,7 +462,7 @@ impl Segment for ExactSegment {
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
         if self.cut.is_some() {
-            return self.integrals(a_s, b_s).u2_m2_s;
+            return cutting::integral_u2(self, a_s - self.t0, b_s - self.t0);
         }
         if b_s.to_bits() == self.t1.to_bits() {
             // Up to the segment end: its transcendentals are known (local end `end.tau`, which
