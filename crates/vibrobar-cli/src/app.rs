@@ -153,6 +153,10 @@ pub enum Command {
     /// limiting width of cut over spindle speed for the damped bar (ball free, ball stuck) and
     /// the solid reference, as CSV and a figure.
     Lobes(crate::commands::lobes::LobesArgs),
+    /// Width–amplitude diagram of a [cutting] scenario at one spindle speed (issue #14): the
+    /// settled vibration of the solid and the damped bar from the small and the large
+    /// disturbance over a range of widths; resumable (--resume) and shardable (--shard K/N).
+    WidthDiagram(crate::commands::time_domain::WidthDiagramArgs),
 }
 
 impl Command {
@@ -177,6 +181,7 @@ impl Command {
             Command::ContactTest(_) => "contact-test",
             Command::ContactLaws(_) => "contact-laws",
             Command::Lobes(_) => "lobes",
+            Command::WidthDiagram(_) => "width-diagram",
         }
     }
 
@@ -207,6 +212,7 @@ impl Command {
             Command::ContactTest(a) => (one(&a.scenario), Some(a.out.as_path())),
             Command::ContactLaws(a) => (vec![], Some(a.out.as_path())),
             Command::Lobes(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
+            Command::WidthDiagram(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
         }
     }
 
@@ -298,6 +304,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::LumpedVsBeam(a) => lumped_vs_beam::run(&a),
         Command::ContactTest(a) => contact_test::run(&a),
         Command::Lobes(a) => lobes::run(&a),
+        Command::WidthDiagram(a) => crate::commands::time_domain::width_diagram(&a),
         Command::ContactLaws(a) => contact_laws::run(&a),
     }
 }

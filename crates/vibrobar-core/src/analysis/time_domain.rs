@@ -12,7 +12,8 @@
 //! - **Acceptable** ([`Judged::acceptable`]), over the judging window: the peak-to-peak tip
 //!   vibration below `vibration_limit_m`; the tool never out of the cut; the envelope growth rate
 //!   (least-squares slope of `ln` of each revolution's peak-to-peak, per revolution) below
-//!   `growth_tolerance_per_rev`. A run that hits the event limit is not acceptable and is
+//!   `growth_tolerance_per_rev`, unless the vibration is below [`GROWTH_FLOOR_LIMIT_FRACTION`]
+//!   of the limit (a bounded rattle is judged by its size, not by fit noise). A run that hits the event limit is not acceptable and is
 //!   counted apart ([`Judged::event_limit`]).
 //! - **Regime** ([`classify_revolutions`]): from the tip sampled once per spindle revolution.
 
@@ -46,6 +47,11 @@ pub const MAX_WINDOW_REVS: f64 = 1e6;
 pub const MAX_DOUBLINGS: u32 = 12;
 /// Most re-bisections below a failure found by the monotonicity check.
 pub const MAX_REBISECTIONS: u32 = 8;
+/// Below this fraction of the vibration limit a run is judged by its size alone, not by its
+/// fitted growth: a ball rattling at nanometres (impacts far apart, each a kick) has a
+/// meaningless log-slope. A growing instability from the small disturbance (0.02 of the
+/// default limit) stays above it.
+pub const GROWTH_FLOOR_LIMIT_FRACTION: f64 = 1e-3;
 /// Envelope floor, relative to the feed: vibration below it counts as decayed (the log fit
 /// would otherwise fit rounding noise).
 const ENVELOPE_FLOOR_FEED_FRACTION: f64 = 1e-9;
@@ -526,9 +532,10 @@ pub fn judge_run(
     let out_frac = (obs.out_of_cut_s / judge_s).clamp(0.0, 1.0);
     let tol = settings.growth_tolerance_per_rev;
     let regime = classify_revolutions(&obs.samples, growth, tol, decayed);
-    let acceptable = peak < settings.vibration_limit_for(cutting.feed_m)
-        && obs.out_of_cut_s == 0.0
-        && (decayed || growth < tol);
+    let limit = settings.vibration_limit_for(cutting.feed_m);
+    let by_size = peak < GROWTH_FLOOR_LIMIT_FRACTION * limit;
+    let acceptable =
+        peak < limit && obs.out_of_cut_s == 0.0 && (decayed || by_size || growth < tol);
     Ok(Judged {
         peak_to_peak_m: peak,
         out_of_cut_fraction: out_frac,
@@ -866,6 +873,23 @@ pub fn td_lobe_search(
         } else {
             Some(j.acceptable)
         })
+    })
+}
+
+/// The row of one speed: its four searches in [`SEARCH_ORDER`], one after the other.
+pub fn td_lobe_row(
+    p: &CutProblem,
+    spindle_rpm: f64,
+    lin: &LinearAt,
+) -> Result<TdLobeRow, SimError> {
+    let mut searches = [None; 4];
+    for (k, s) in searches.iter_mut().enumerate() {
+        *s = Some(td_lobe_search(p, spindle_rpm, lin, k)?);
+    }
+    Ok(TdLobeRow {
+        spindle_rpm,
+        linear: *lin,
+        searches: searches.map(|s| s.expect("all four searched")),
     })
 }
 
