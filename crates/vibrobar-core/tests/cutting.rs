@@ -507,3 +507,106 @@ fn energy_books_close_on_cutting_runs_with_impacts() {
         assert!(smp.max_abs_w <= 1e-5 + 1e-12);
     }
 }
+
+fn three_quarter(width_m: f64, rpm: f64) -> Cutting {
+    Cutting {
+        force_law: CuttingForceLaw::ThreeQuarter,
+        ..cut(width_m, rpm)
+    }
+}
+
+/// The three-quarter law (DP5 steps on the pieces): its slope at h0 is the linear law's, so at
+/// small amplitude the envelope grows and decays at the same characteristic root (5 %), and the
+/// equilibrium carries 4/3 of the linear law's static force.
+#[test]
+fn three_quarter_law_linearises_to_the_same_root() {
+    for (rpm, f) in [(lobe_minimum_rpm(1), 1.1), (30_000.0, 0.9)] {
+        let (bl, wc) = b_lim(rpm);
+        let l = root(f * bl, rpm, wc);
+        let efold = 1.0 / l.0.abs();
+        let t_end = 6.5 * efold;
+        let solver = ExactCutting::new(three_quarter(f * bl, rpm));
+        let s0 = sys(None);
+        let u_eq = solver.equilibrium_u_m(&s0, K);
+        let lin_eq = ExactCutting::new(cut(f * bl, rpm)).equilibrium_u_m(&s0, K);
+        assert!((u_eq / lin_eq - 4.0 / 3.0).abs() < 1e-12);
+        let mut smp = Sampler::new(2.0 * std::f64::consts::PI / wc / 40.0);
+        let kick = State {
+            du_m_s: 1e-5 * H0 * wn(),
+            ..State::default()
+        };
+        solver.run(&s0, &kick, t_end, &mut smp).unwrap();
+        assert!(!smp.out_of_cut);
+        let g = growth(&smp, u_eq, efold, t_end);
+        println!(
+            "three-quarter, {rpm:.0} rpm, {f} b_lim: fit {g:.5}, root {:.5}",
+            l.0
+        );
+        assert!((g / l.0 - 1.0).abs() < 0.05, "{g} {}", l.0);
+    }
+}
+
+/// Least-squares order of the final `u` of the three-quarter law over 16–128 pieces per period
+/// against 1024.
+fn three_quarter_order(width_m: f64, rpm: f64, init: State, t_end: f64) -> (f64, Vec<f64>) {
+    let end = |steps: u32| -> f64 {
+        let solver = ExactCutting {
+            steps_per_period: steps,
+            ..ExactCutting::new(three_quarter(width_m, rpm))
+        };
+        solver
+            .run(&sys(None), &init, t_end, &mut ())
+            .unwrap()
+            .final_state
+            .u_m
+    };
+    let reference = end(1024);
+    let pts: Vec<(f64, f64)> = [16u32, 32, 64, 128]
+        .iter()
+        .map(|&n| ((n as f64).ln(), (end(n) - reference).abs().ln()))
+        .collect();
+    let m = pts.len() as f64;
+    let (mx, my) = pts
+        .iter()
+        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / m, a.1 + p.1 / m));
+    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
+        (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2))
+    });
+    (-sxy / sxx, pts.iter().map(|p| p.1.exp()).collect())
+}
+
+/// The three-quarter integrator's convergence in the pieces per period (fixed DP5 steps on the
+/// history's 4th-order Hermite pieces). In the cut (1.1 b_lim, small kick) the order is the
+/// history's, asserted in [3.5, 5.5]. Through loss of contact (1.5 b_lim, a 2 h0 kick) the
+/// force `∝ h^{3/4}` has an unbounded slope where the tool leaves the cut, and the order drops
+/// (measured ~1.6, asserted in [1.2, 2.5]); the event itself is located on the dense output.
+#[test]
+fn three_quarter_convergence_order() {
+    let rpm = 30_000.0;
+    let (bl, _) = b_lim(rpm);
+    let kick = State {
+        du_m_s: 1e-2 * H0 * wn(),
+        ..State::default()
+    };
+    let (order, errs) = three_quarter_order(1.1 * bl, rpm, kick, 0.02);
+    println!("three-quarter in the cut: errors at 16..128 pieces per period {errs:?} m; order {order:.3}");
+    assert!((3.5..=5.5).contains(&order), "order {order}: {errs:?}");
+    let jump = State {
+        u_m: 2.0 * H0,
+        ..State::default()
+    };
+    let (order, errs) = three_quarter_order(1.5 * bl, rpm, jump, 0.02);
+    println!("three-quarter through loss of contact: errors {errs:?} m; order {order:.3}");
+    assert!((1.2..=2.5).contains(&order), "order {order}: {errs:?}");
+    // With a ball the law is refused, naming the law.
+    let e = ExactCutting::new(three_quarter(bl, rpm))
+        .run(
+            &sys(Some(ball(1e-4, FrictionModel::None, None))),
+            &State::default(),
+            0.01,
+            &mut (),
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("three-quarter"), "{e}");
+}

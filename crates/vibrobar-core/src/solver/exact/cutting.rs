@@ -32,9 +32,10 @@
 //! ([`MAX_EVENT_KNOTS`] events per revolution beyond the pieces); beyond it the run stops with an
 //! error naming the limit.
 //!
-//! Scope: the lumped bar with the restitution contact law, every friction law, the linear
-//! force law. The three-quarter law, the modal bar and the Hertz contact are refused with an
-//! error that says so.
+//! Scope: the lumped bar with the restitution contact law and every friction law, the linear
+//! force law; the three-quarter law on the bar without a ball ([`super::cutting_nonlinear`]:
+//! DP5 steps on the same pieces). The modal bar, the Hertz contact and the three-quarter law
+//! with a ball are refused with an error that says so.
 
 use super::{
     advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, Tail, CUT,
@@ -100,7 +101,7 @@ struct Knot {
 }
 
 /// The machined surface over the last revolution, a ring sized once per run.
-struct History {
+pub(super) struct History {
     k: VecDeque<Knot>,
     cap: usize,
     /// Overflow of the ring or of the breakpoint queue, reported after the observer call.
@@ -150,7 +151,7 @@ impl History {
     }
 
     /// `s(x)`: from the right at a knot (`right`), else from the left; cubic Hermite between.
-    fn eval(&self, x: f64, right: bool) -> f64 {
+    pub(super) fn eval(&self, x: f64, right: bool) -> f64 {
         let n = self.k.len();
         let i = if right {
             self.k.partition_point(|k| k.t <= x)
@@ -262,7 +263,7 @@ impl Observer for Recorder<'_, '_> {
 }
 
 /// Gauss–Legendre nodes and weights on `[−1, 1]`, 8 points (exact for degree 15).
-const GL8: [(f64, f64); 8] = [
+pub(super) const GL8: [(f64, f64); 8] = [
     (-0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
     (-0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
     (-0.525_532_409_916_329, 0.313_706_645_877_887_3),
@@ -408,10 +409,11 @@ impl Solver for ExactCutting {
              cut is not supported yet",
         )?;
         cut.validate()?;
-        if cut.force_law != CuttingForceLaw::Linear {
+        let nonlinear = cut.force_law == CuttingForceLaw::ThreeQuarter;
+        if nonlinear && sys.damper.is_some() {
             return Err(SimError::Unsupported(
-                "[cutting] force_law = \"three-quarter\" needs the nonlinear integrator, which is \
-                 not built yet; use force_law = \"linear\"",
+                "[cutting] force_law = \"three-quarter\" runs on the bar without a ball so far \
+                 (its integrator has no ball events yet); use force_law = \"linear\" with a ball",
             ));
         }
         crate::limits::check(
@@ -579,7 +581,37 @@ impl Solver for ExactCutting {
                 let cs = consts(in_cut, d, order);
                 book.cut_event = false;
                 hist.borrow_mut().in_cut = in_cut;
-                if has_ball {
+                if nonlinear {
+                    // The three-quarter law: one DP5 step ([`super::cutting_nonlinear`]). The
+                    // mode follows the chip's sign at a step start (a crossing at a step end).
+                    let x = s.t - tau;
+                    let hh = cut.feed_m
+                        + cut.chip_direction_factor * (hist.borrow().eval(x, true) - s.u);
+                    // Not right after a located cut event: the step redone to the event ends
+                    // within rounding of the zero, on either side.
+                    if order == 0 && ((in_cut && hh < 0.0) || (!in_cut && hh > 0.0)) {
+                        book.cut_event = true;
+                    } else {
+                        let piece = super::cutting_nonlinear::Piece {
+                            bar: &bar,
+                            sys,
+                            cut,
+                            hist: &hist,
+                            tau,
+                        };
+                        let mut y = [s.u, s.du];
+                        let (t1, ev) = super::cutting_nonlinear::step(
+                            &piece, in_cut, s.t, &mut y, step_end, book.obs,
+                        )?;
+                        s = St {
+                            t: t1,
+                            u: y[0],
+                            du: y[1],
+                            ..s
+                        };
+                        book.cut_event = ev;
+                    }
+                } else if has_ball {
                     match advance(&cs, mode, &mut s, step_end, &mut book, &mut search)? {
                         Some(m) => mode = m,
                         None => {
