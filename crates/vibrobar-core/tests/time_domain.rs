@@ -409,3 +409,35 @@ fn revolution_classifier_on_synthetic_samples() {
         RevRegime::Decaying
     );
 }
+
+/// Three-quarter law (subcritical Hopf), the bar without a ball, 5000 rpm: from the small
+/// disturbance the largest acceptable width is within 2 % of the linear boundary; from the large
+/// disturbance it lies below it (the bistable band). The damped bar with the ball out of reach
+/// cannot be compared yet: the three-quarter law refuses a ball (the cutting solver's scope).
+#[test]
+fn three_quarter_law_small_at_the_boundary_large_below_it() {
+    let p = problem(CuttingForceLaw::ThreeQuarter, short());
+    let n = 5000.0;
+    let lin = linear_at(&p, &[n]).unwrap()[0];
+    let small = td_lobe_search(&p, n, &lin, 0).unwrap();
+    let large = td_lobe_search(&p, n, &lin, 1).unwrap();
+    println!(
+        "three-quarter, 5000 rpm: b_lim_solid {:.6e}, small {:.6e}, large {:.6e} ({} + {} runs)",
+        lin.b_lim_solid_m, small.width_m, large.width_m, small.runs, large.runs
+    );
+    assert!(
+        (small.width_m / lin.b_lim_solid_m - 1.0).abs() < 0.02,
+        "{small:?}"
+    );
+    assert!(large.width_m < lin.b_lim_solid_m, "{large:?}");
+    // The same windows with the linear law: the large disturbance's own shortfall (a stable bar
+    // decaying from 2A within the settling window) is smaller than the three-quarter law's band.
+    let pl = problem(CuttingForceLaw::Linear, short());
+    let large_linear = td_lobe_search(&pl, n, &lin, 1).unwrap();
+    println!("linear, 5000 rpm, large: {:.6e}", large_linear.width_m);
+    assert!(large.width_m < large_linear.width_m, "{large:?} {large_linear:?}");
+    // The ball is refused by name, not ignored.
+    let lin_d = lin;
+    let e = td_lobe_search(&p, n, &lin_d, 2).unwrap_err().to_string();
+    assert!(e.contains("three-quarter") || e.contains("ball"), "{e}");
+}
