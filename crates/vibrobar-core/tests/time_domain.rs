@@ -435,7 +435,10 @@ fn three_quarter_law_small_at_the_boundary_large_below_it() {
     let pl = problem(CuttingForceLaw::Linear, short());
     let large_linear = td_lobe_search(&pl, n, &lin, 1).unwrap();
     println!("linear, 5000 rpm, large: {:.6e}", large_linear.width_m);
-    assert!(large.width_m < large_linear.width_m, "{large:?} {large_linear:?}");
+    assert!(
+        large.width_m < large_linear.width_m,
+        "{large:?} {large_linear:?}"
+    );
     // The ball is refused by name, not ignored.
     let lin_d = lin;
     let e = td_lobe_search(&p, n, &lin_d, 2).unwrap_err().to_string();
