@@ -928,3 +928,39 @@ pub fn td_lobes(
         })
         .collect())
 }
+
+/// Spread of one search's width over `seeds` seeded perturbations of its disturbance
+/// (amplitude scaled by a uniform factor in `[1 − rel, 1 + rel]`, seeds `1..=seeds`), as the
+/// maps' ensembles report chaotic points: `(min, mean, max)` of the widths, m.
+pub fn width_spread(
+    p: &CutProblem,
+    spindle_rpm: f64,
+    lin: &LinearAt,
+    which: usize,
+    seeds: u64,
+    rel: f64,
+) -> Result<(f64, f64, f64), SimError> {
+    if !(rel.is_finite() && (0.0..1.0).contains(&rel)) || seeds == 0 {
+        return Err(SimError::Param(ParamError::OutOfRange {
+            field: "spread (seeds ≥ 1, relative perturbation in [0, 1))",
+            value: rel,
+            allowed: "[0, 1)",
+        }));
+    }
+    let d = SEARCH_ORDER[which].1;
+    let base = p.settings.disturbance_m(d, p.cutting.feed_m);
+    let (mut lo, mut hi, mut sum) = (f64::INFINITY, 0.0f64, 0.0);
+    for seed in 1..=seeds {
+        let f = super::ensemble::SplitMix64::new(seed).uniform(1.0 - rel, 1.0 + rel);
+        let mut q = *p;
+        match d {
+            Disturbance::Small => q.settings.small_disturbance_m = Some(base * f),
+            Disturbance::Large => q.settings.large_disturbance_m = Some(base * f),
+        }
+        let w = td_lobe_search(&q, spindle_rpm, lin, which)?.width_m;
+        lo = lo.min(w);
+        hi = hi.max(w);
+        sum += w;
+    }
+    Ok((lo, sum / seeds as f64, hi))
+}
