@@ -46,6 +46,8 @@ __all__ = [
     "continuation",
     "ensemble",
     "lobes",
+    "width_diagram",
+    "time_domain_lobes",
     "submit",
     "solver_names",
     "DEFAULT_SOLVER",
@@ -745,6 +747,59 @@ def ensemble(
         close()
     t = MapResult(cols, csv)
     return t
+
+
+def width_diagram(
+    scenario: Optional[Scenario] = None,
+    spindle_rpm: float = None,
+    widths_m: ArrayLike = None,
+    *,
+    progress: Progress = None,
+    **overrides,
+) -> Table:
+    """Width–amplitude diagram of a ``[cutting]`` scenario at one spindle speed (issue #14;
+    ``vibrobar width-diagram``): for each width, from the small and the large disturbance of
+    ``[time_domain]``, for the solid and the damped bar, the settled vibration.
+
+    Returns:
+        Table: ``width_m``, ``disturbance`` (small/large), ``bar`` (solid/damped),
+        ``peak_to_peak_m``, ``out_of_cut_fraction``, ``impacts_per_rev``, ``regime``,
+        ``static_deflection_m``, ``growth_per_rev``, ``acceptable``, ``spindle_rpm``.
+    """
+    sc = _scenario(scenario, overrides)
+    cb, close = _progress(progress, "width-diagram")
+    try:
+        cols, csv = _vibrobar.width_diagram(
+            sc, _number("spindle_rpm", spindle_rpm, False), _array("widths_m", widths_m), cb
+        )
+    finally:
+        close()
+    return Table(cols, csv)
+
+
+def time_domain_lobes(
+    scenario: Optional[Scenario] = None,
+    spindle_rpm: ArrayLike = None,
+    *,
+    progress: Progress = None,
+    **overrides,
+) -> Table:
+    """Time-domain lobes of a ``[cutting]`` scenario (issue #14; ``vibrobar lobes
+    --time-domain``): per spindle speed the largest acceptable width of the solid and the damped
+    bar from the small and the large disturbance.
+
+    Returns:
+        Table: ``spindle_rpm``, ``b_lim_m``, ``b_lim_solid_m``, ``b_solid_small_m``,
+        ``b_solid_large_m``, ``b_damped_small_m``, ``b_damped_large_m`` (m),
+        ``event_limit_runs``, ``non_monotonic``, ``capped``, ``runs``.
+    """
+    sc = _scenario(scenario, overrides)
+    cb, close = _progress(progress, "time-domain lobes")
+    try:
+        cols, csv = _vibrobar.time_domain_lobes(sc, _array("spindle_rpm", spindle_rpm), cb)
+    finally:
+        close()
+    return Table(cols, csv)
 
 
 def _on_dask(client, fn, sc, ratios, shards, cb, **kwargs):

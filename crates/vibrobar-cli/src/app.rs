@@ -165,6 +165,10 @@ pub enum Command {
     /// limiting width of cut over spindle speed for the damped bar (ball free, ball stuck) and
     /// the solid reference, as CSV and a figure.
     Lobes(crate::commands::lobes::LobesArgs),
+    /// Width–amplitude diagram of a [cutting] scenario at one spindle speed (issue #14): the
+    /// settled vibration of the solid and the damped bar from the small and the large
+    /// disturbance over a range of widths; resumable (--resume) and shardable (--shard K/N).
+    WidthDiagram(crate::commands::time_domain::WidthDiagramArgs),
 }
 
 impl Command {
@@ -193,6 +197,7 @@ impl Command {
             Command::ContactLaws(_) => "contact-laws",
             Command::ContactConvergence(_) => "contact-convergence",
             Command::Lobes(_) => "lobes",
+            Command::WidthDiagram(_) => "width-diagram",
         }
     }
 
@@ -227,6 +232,7 @@ impl Command {
             Command::ContactLaws(a) => (vec![], Some(a.out.as_path())),
             Command::ContactConvergence(a) => (vec![], Some(a.out.as_path())),
             Command::Lobes(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
+            Command::WidthDiagram(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
         }
     }
 
@@ -321,6 +327,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::LumpedVsBeam(a) => lumped_vs_beam::run(&a),
         Command::ContactTest(a) => contact_test::run(&a),
         Command::Lobes(a) => lobes::run(&a),
+        Command::WidthDiagram(a) => crate::commands::time_domain::width_diagram(&a),
         Command::ContactLaws(a) => contact_laws::run(&a),
         Command::ContactConvergence(a) => contact_convergence::run(&a),
     }

@@ -237,6 +237,8 @@ impl Schema {
             "map" => map_schema(&map_extra_axes(header)?),
             "placement" => placement_schema(),
             "ensemble" => ensemble_schema(),
+            WIDTH_DIAGRAM_KIND => width_diagram_schema(),
+            TD_LOBES_KIND => td_lobes_schema(),
             _ => return None,
         };
         (s.header() == header).then_some(s)
@@ -1022,6 +1024,137 @@ pub fn read_csv(path: &Path, schema: &Schema) -> Result<Vec<Vec<Value>>> {
         .enumerate()
         .map(|(i, l)| schema.parse_at(l, path, i + 2))
         .collect()
+}
+
+// ---------------------------------------------------------------------------------------------
+// time-domain judging of cutting runs (issue #14): width diagrams and time-domain lobes
+
+/// Metadata kind of a width–amplitude diagram (`vibrobar width-diagram`).
+pub const WIDTH_DIAGRAM_KIND: &str = "width-diagram";
+/// Metadata kind of time-domain lobes (`vibrobar lobes --time-domain`).
+pub const TD_LOBES_KIND: &str = "td-lobes";
+
+/// Columns of a width–amplitude diagram; `(width_m, disturbance, bar)` identify a row. The
+/// measured columns are empty for a run that hit the event limit (`regime = event-limit`).
+pub fn width_diagram_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("width_m", Format::Coord),
+            col("disturbance", Format::Text),
+            col("bar", Format::Text),
+            opt("peak_to_peak_m", Format::Sci),
+            opt("out_of_cut_fraction", Format::Plain),
+            opt("impacts_per_rev", Format::Plain),
+            col("regime", Format::Text),
+            col("static_deflection_m", Format::Sci),
+            opt("growth_per_rev", Format::Sci),
+            col("acceptable", Format::Count),
+            col("spindle_rpm", Format::Coord),
+        ],
+    }
+}
+
+/// One width-diagram line from a core row.
+pub fn width_diagram_values(
+    r: &vibrobar_core::analysis::time_domain::DiagramRow,
+    spindle_rpm: f64,
+) -> Vec<Value> {
+    let j = &r.judged;
+    let num = |x: f64| {
+        if j.event_limit {
+            Value::Empty
+        } else {
+            Value::F(x)
+        }
+    };
+    vec![
+        Value::F(r.width_m),
+        Value::S(r.disturbance.as_str().into()),
+        Value::S(r.bar.as_str().into()),
+        num(j.peak_to_peak_m),
+        num(j.out_of_cut_fraction),
+        num(j.impacts_per_rev),
+        Value::S(j.regime.as_str().into_owned()),
+        Value::F(j.static_deflection_m),
+        num(j.growth_per_rev),
+        Value::U(u64::from(j.acceptable)),
+        Value::F(spindle_rpm),
+    ]
+}
+
+/// The journal key of a width-diagram row.
+pub fn width_diagram_key(width_m: f64, disturbance: &str, bar: &str) -> String {
+    width_diagram_schema().format(&[
+        Value::F(width_m),
+        Value::S(disturbance.into()),
+        Value::S(bar.into()),
+    ])
+}
+
+/// Columns of time-domain lobes; `spindle_rpm` identifies a row. `non_monotonic` is 1 where a
+/// width below a bisection result failed; `capped` counts searches still acceptable at the
+/// doubling cap (their width is a lower bound).
+pub fn td_lobes_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("spindle_rpm", Format::Coord),
+            col("b_lim_m", Format::Sci),
+            col("b_lim_solid_m", Format::Sci),
+            col("b_solid_small_m", Format::Sci),
+            col("b_solid_large_m", Format::Sci),
+            col("b_damped_small_m", Format::Sci),
+            col("b_damped_large_m", Format::Sci),
+            col("event_limit_runs", Format::Count),
+            col("non_monotonic", Format::Count),
+            col("capped", Format::Count),
+            col("runs", Format::Count),
+        ],
+    }
+}
+
+/// One time-domain lobes line from a core row.
+pub fn td_lobes_values(r: &vibrobar_core::analysis::time_domain::TdLobeRow) -> Vec<Value> {
+    let s = &r.searches;
+    vec![
+        Value::F(r.spindle_rpm),
+        Value::F(r.linear.b_lim_m),
+        Value::F(r.linear.b_lim_solid_m),
+        Value::F(s[0].width_m),
+        Value::F(s[1].width_m),
+        Value::F(s[2].width_m),
+        Value::F(s[3].width_m),
+        Value::U(u64::from(r.event_limit_runs())),
+        Value::U(u64::from(r.non_monotonic())),
+        Value::U(s.iter().filter(|x| x.capped).count() as u64),
+        Value::U(s.iter().map(|x| u64::from(x.runs)).sum()),
+    ]
+}
+
+/// The journal key of a time-domain lobes row.
+pub fn td_lobes_key(spindle_rpm: f64) -> String {
+    td_lobes_schema().format(&[Value::F(spindle_rpm)])
+}
+
+#[cfg(test)]
+mod td_tests {
+    use super::*;
+
+    /// The issue's header prefixes, and the kinds merge knows.
+    #[test]
+    fn headers_start_as_the_issue_says() {
+        assert!(width_diagram_schema().header().starts_with(
+            "width_m,disturbance,bar,peak_to_peak_m,out_of_cut_fraction,impacts_per_rev,regime,static_deflection_m"
+        ));
+        assert!(td_lobes_schema().header().starts_with(
+            "spindle_rpm,b_lim_m,b_lim_solid_m,b_solid_small_m,b_solid_large_m,b_damped_small_m,b_damped_large_m,event_limit_runs"
+        ));
+        for (kind, s) in [
+            (WIDTH_DIAGRAM_KIND, width_diagram_schema()),
+            (TD_LOBES_KIND, td_lobes_schema()),
+        ] {
+            assert_eq!(Schema::for_file(kind, &s.header()), Some(s));
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

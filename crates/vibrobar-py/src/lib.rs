@@ -1858,6 +1858,75 @@ fn ensemble<'py>(
     columns(py, &iocsv::ensemble_schema(), &rows)
 }
 
+/// Width–amplitude diagram of a `[cutting]` scenario at one spindle speed (issue #14): for each
+/// width, from the small and the large disturbance of `[time_domain]`, for the solid and the
+/// damped bar, the settled vibration; the columns of `vibrobar width-diagram`.
+#[pyfunction]
+#[pyo3(signature = (scenario, spindle_rpm, widths_m, progress = None))]
+fn width_diagram<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    spindle_rpm: f64,
+    widths_m: PyReadonlyArray1<'py, f64>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    use vibrobar_core::analysis::time_domain as td;
+    let sc = &scenario.inner;
+    let widths = values("widths_m", &widths_m, |x| x > 0.0, "(0, ∞) m", 100_000)?;
+    vibrobar_core::limits::check(
+        "spindle_rpm",
+        spindle_rpm,
+        vibrobar_core::limits::SPINDLE_RPM_MIN,
+        vibrobar_core::limits::SPINDLE_RPM_MAX,
+        "revolutions per minute",
+    )
+    .map_err(input_error)?;
+    let p = sc.cut_problem().map_err(anyhow_input)?;
+    let rows = detached(py, progress, |ctl| {
+        let prog = |d: usize, n: usize| ctl.progress(d, n);
+        let runner = vibrobar_core::analysis::Runner::default().with_progress(&prog);
+        td::width_diagram(&p, spindle_rpm, &widths, &runner).map_err(batch_error)
+    })?;
+    let rows: Vec<Vec<Value>> = rows
+        .iter()
+        .map(|r| iocsv::width_diagram_values(r, spindle_rpm))
+        .collect();
+    columns(py, &iocsv::width_diagram_schema(), &rows)
+}
+
+/// Time-domain lobes of a `[cutting]` scenario (issue #14): per spindle speed the largest
+/// acceptable width of the solid and the damped bar from the small and the large disturbance;
+/// the columns of `vibrobar lobes --time-domain`.
+#[pyfunction]
+#[pyo3(signature = (scenario, spindle_rpm, progress = None))]
+fn time_domain_lobes<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    spindle_rpm: PyReadonlyArray1<'py, f64>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    use vibrobar_core::analysis::time_domain as td;
+    let sc = &scenario.inner;
+    let rpms = values(
+        "spindle_rpm",
+        &spindle_rpm,
+        |x| {
+            (vibrobar_core::limits::SPINDLE_RPM_MIN..=vibrobar_core::limits::SPINDLE_RPM_MAX)
+                .contains(&x)
+        },
+        "[1, 200000] rpm",
+        100_000,
+    )?;
+    let p = sc.cut_problem().map_err(anyhow_input)?;
+    let rows = detached(py, progress, |ctl| {
+        let prog = |d: usize, n: usize| ctl.progress(d, n);
+        let runner = vibrobar_core::analysis::Runner::default().with_progress(&prog);
+        td::td_lobes(&p, &rpms, &runner).map_err(batch_error)
+    })?;
+    let rows: Vec<Vec<Value>> = rows.iter().map(iocsv::td_lobes_values).collect();
+    columns(py, &iocsv::td_lobes_schema(), &rows)
+}
+
 /// Names of the solvers (`solver=` of a scenario).
 #[pyfunction]
 fn solver_names() -> Vec<&'static str> {
@@ -1904,6 +1973,8 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bifurcation_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble, m)?)?;
     m.add_function(wrap_pyfunction!(lobes, m)?)?;
+    m.add_function(wrap_pyfunction!(width_diagram, m)?)?;
+    m.add_function(wrap_pyfunction!(time_domain_lobes, m)?)?;
     m.add_function(wrap_pyfunction!(solver_names, m)?)?;
     m.add_function(wrap_pyfunction!(_busy, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

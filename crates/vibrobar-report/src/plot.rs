@@ -301,6 +301,23 @@ pub fn time_history(
     })
 }
 
+/// A line plot of several curves (legend on, y from zero), with `hlines` drawn across.
+pub fn lines(
+    stem: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    curves: &[Curve],
+    hlines: &[f64],
+) -> Result<()> {
+    render_both(
+        stem,
+        (1100, 750),
+        &|r| line_chart(r, title, x_label, y_label, curves, hlines, true, true),
+        &|r| line_chart(r, title, x_label, y_label, curves, hlines, true, true),
+    )
+}
+
 /// Fig. 3/5 style: RMS vs ratio, several curves.
 pub fn rms_vs_ratio(stem: &Path, title: &str, curves: &[Curve]) -> Result<()> {
     let scaled: Vec<Curve> = curves

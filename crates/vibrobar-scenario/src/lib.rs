@@ -19,6 +19,7 @@ use serde::de::{DeserializeOwned, Error as _};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::path::Path;
 use vibrobar_core::analysis::sweep::SweepRange;
+use vibrobar_core::analysis::time_domain::{CutProblem, TimeDomainSettings};
 use vibrobar_core::analysis::{SweepBase, SweepPoint};
 use vibrobar_core::error::Compact;
 use vibrobar_core::excitation::Cutting;
@@ -95,6 +96,12 @@ pub struct Scenario {
     /// unless `[forcing]` sets `amplitude_n` ([`Scenario::from_toml`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cutting: Option<Cutting>,
+    /// `[time_domain]`: the judge of cutting runs and the lobe search (issue #14: disturbances,
+    /// windows, vibration limit, growth tolerance, bisection tolerance), deserialised straight
+    /// into core [`TimeDomainSettings`]; absent: its defaults (and left out of the serialised
+    /// scenario).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_domain: Option<TimeDomainSettings>,
     /// The bars' models, computed once ([`Scenario::bars`]; a beam's modes cost up to seconds).
     #[serde(skip)]
     bars_cache: BarsCache,
@@ -153,6 +160,7 @@ impl Default for Scenario {
             modes: None,
             solid_modes: None,
             cutting: None,
+            time_domain: None,
             bars_cache: BarsCache::default(),
         }
     }
@@ -633,6 +641,32 @@ impl Scenario {
         Ok(Some(Box::new(ExactCutting::new(c))))
     }
 
+    /// The cutting problem of a `[cutting]` scenario for the time-domain judge (issue #14): the
+    /// damped and the solid system, the cut, the exact solver and `[time_domain]`. Errors name
+    /// the missing section or the bad field.
+    pub fn cut_problem(&self) -> Result<CutProblem> {
+        let Some(c) = self.cutting else {
+            bail!("the time-domain judge needs a [cutting] section in the scenario");
+        };
+        self.validate()?;
+        self.cutting_solver()?;
+        let damped = self.damped_system()?;
+        let solid = System {
+            bar: self.bars()?.1,
+            damper: None,
+            ..damped
+        };
+        let p = CutProblem {
+            damped,
+            solid,
+            cutting: c,
+            solver: ExactCutting::new(c),
+            settings: self.time_domain.unwrap_or_default(),
+        };
+        p.validate()?;
+        Ok(p)
+    }
+
     /// Refuse `[cutting]` for `command`, which cannot use it (every command but `run`,
     /// `ensemble` and `lobes`).
     pub fn refuse_cutting(&self, command: &str) -> Result<()> {
@@ -680,7 +714,7 @@ fn positive(field: &str, v: f64) -> Result<()> {
 }
 
 /// The commands that run a `[cutting]` scenario.
-pub const CUTTING_COMMANDS: [&str; 3] = ["run", "ensemble", "lobes"];
+pub const CUTTING_COMMANDS: [&str; 4] = ["run", "ensemble", "lobes", "width-diagram"];
 
 /// The error for a `[cutting]` scenario given to `command`.
 pub fn cutting_refusal(command: &str) -> String {

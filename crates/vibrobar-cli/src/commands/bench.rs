@@ -134,6 +134,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         super::orbit::bench_row()?;
     }
     cutting_row(&st)?;
+    time_domain_row()?;
     // The single run above is the lumped reference only when the bench's scenario is lumped.
     beam_rows(&names, &st, !args.single_only)?;
     lobes_row()
@@ -310,6 +311,67 @@ fn spectrum_row(single: &Case, st: &vibrobar_core::RunSettings) -> Result<()> {
 const PLACEMENT_MAP: (usize, usize, usize) = (50, 50, 11);
 /// Threads of the projected placement map.
 const PLACEMENT_THREADS: usize = 2;
+
+/// Judged runs timed for the time-domain row (issue #14).
+const TD_RUNS: usize = 5;
+/// Width searches per speed (solid, damped × small, large).
+const TD_SEARCHES: f64 = 4.0;
+/// Speeds of the issue's diagram (1000–10 000 rpm).
+const TD_SPEEDS: f64 = 60.0;
+/// Ratio of the fourth to the first natural frequency of a uniform cantilever
+/// ((10.9955/1.8751)²): the delay stepping's pieces follow the fastest mode.
+const CANTILEVER_F4_OVER_F1: f64 = 34.39;
+
+/// Issue #14: one judged run (default windows, 300 revolutions) of the tip-referred paper bar
+/// (scenarios/cutting-paper.toml's numbers) at 5000 rpm and b_lim_solid, from the small
+/// disturbance, solid and damped; the median, the cost of the issue's 60-speed diagram from it
+/// (4 searches of the measured mean run count per speed, runs scaled by 5000/n rpm) on 2
+/// cores, and a projection for a 4-mode beam (pieces × f4/f1; the modal per-piece cost not
+/// included, so a lower bound).
+pub fn time_domain_row() -> Result<()> {
+    use vibrobar_core::analysis::time_domain::{linear_at, td_lobe_row, BarKind, Disturbance};
+    let sc = vibrobar_scenario::Scenario::from_toml(include_str!(
+        "../../../../scenarios/cutting-paper.toml"
+    ))?;
+    let p = sc.cut_problem()?;
+    let n = 5000.0;
+    let lin = linear_at(&p, &[n])?[0];
+    let mut t = Vec::with_capacity(2 * TD_RUNS);
+    for _ in 0..TD_RUNS {
+        for (b, om) in [
+            (BarKind::Solid, lin.omega_solid_rad_s),
+            (BarKind::Damped, lin.omega_damped_rad_s),
+        ] {
+            let t0 = std::time::Instant::now();
+            p.judge(b, Disturbance::Small, lin.b_lim_solid_m, n, om)?;
+            t.push(t0.elapsed().as_secs_f64());
+        }
+    }
+    let run = median(&mut t);
+    let t0 = std::time::Instant::now();
+    let row = td_lobe_row(&p, n, &lin)?;
+    let speed_s = t0.elapsed().as_secs_f64();
+    let runs: u32 = row.searches.iter().map(|s| s.runs).sum();
+    // Mean of 5000/n over 60 speeds evenly from 1000 to 10 000 rpm.
+    let scale: f64 = (0..60)
+        .map(|i| 5000.0 / (1000.0 + 9000.0 * f64::from(i) / 59.0))
+        .sum::<f64>()
+        / 60.0;
+    let diagram = TD_SPEEDS * f64::from(runs) * run * scale / 2.0;
+    println!(
+        "  exact  time-domain lobes (issue #14; paper bar, default windows {} + {} rev): one \
+         judged run at 5000 rpm median {}; one speed's four searches {} ({runs} runs, {:.1} per \
+         search); 60 speeds 1000–10 000 rpm on 2 cores ≈ {} (target 5 min); 4-mode beam ≥ {}",
+        p.settings.settle_revs,
+        p.settings.judge_revs,
+        fmt_secs(run),
+        fmt_secs(speed_s),
+        f64::from(runs) / TD_SEARCHES,
+        fmt_secs(diagram),
+        fmt_secs(diagram * CANTILEVER_F4_OVER_F1),
+    );
+    Ok(())
+}
 
 /// Pairs (lumped run, beam run) timed alternately for the beam rows; the median of the pairs'
 /// ratios holds on a shared machine where single timings drift.

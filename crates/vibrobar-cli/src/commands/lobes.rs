@@ -34,6 +34,18 @@ pub struct LobesArgs {
     /// No figure (CSV and metadata only).
     #[arg(long)]
     pub no_figure: bool,
+    /// Time-domain lobes (issue #14): per speed the largest acceptable width of the solid and
+    /// the damped bar from the small and the large disturbance of `[time_domain]` (lumped bar;
+    /// see `vibrobar width-diagram`), instead of the exact linear lobes.
+    #[arg(long)]
+    pub time_domain: bool,
+    /// With --time-domain: complete an interrupted run from its journal.
+    #[arg(long, requires = "time_domain")]
+    pub resume: bool,
+    /// With --time-domain: compute only shard K of N (speeds K, K+N, …); join with `vibrobar
+    /// merge`.
+    #[arg(long, value_name = "K/N", requires = "time_domain")]
+    pub shard: Option<String>,
     /// Output CSV: spindle_rpm,b_lim_m,chatter_frequency_hz,b_lim_ball_stuck_m,
     /// chatter_frequency_ball_stuck_hz,b_lim_solid_m,chatter_frequency_solid_hz,lobe,
     /// lobe_ball_stuck,lobe_solid; parameters go to FILE.meta.json, the figure to STEM.png and
@@ -70,6 +82,23 @@ pub fn parse_rpm(text: &str) -> Result<(f64, f64, f64, Vec<f64>)> {
 /// Run the command.
 pub fn run(args: &LobesArgs) -> Result<()> {
     let (start, stop, step, rpms) = parse_rpm(&args.rpm)?;
+    if args.time_domain {
+        if args.beam_modes.is_some() || args.cavity_position_mm.is_some() {
+            anyhow::bail!(
+                "--time-domain runs the lumped [bar] only so far (the cutting solver's scope); \
+                 --beam-modes and --cavity-position-mm do not apply"
+            );
+        }
+        let _ = (start, stop, step);
+        return super::time_domain::td_lobes(&super::time_domain::TdLobesArgs {
+            scenario: args.scenario.clone(),
+            rpms,
+            resume: args.resume,
+            shard: args.shard.clone(),
+            no_figure: args.no_figure,
+            out: args.out.clone(),
+        });
+    }
     let mut sc = Scenario::load_any(&args.scenario)?;
     sc.apply_beam_flags(args.beam_modes, args.cavity_position_mm)?;
     let spec = sc.lobe_spec()?;

@@ -1,4 +1,5 @@
-//! `merge`: join the shard files of a map (`map --shard K/N`), a placement study or an ensemble into the whole
+//! `merge`: join the shard files of a map (`map --shard K/N`), a placement study, an ensemble, a
+//! width diagram or time-domain lobes into the whole
 //! file, then write `FILE.optimum.csv` and the figures as an unsharded `map` (or `placement`) would. The merged file is byte-identical
 //! to the file an unsharded run writes.
 use anyhow::Context;
@@ -33,6 +34,10 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<()> {
         match meta.kind.as_str() {
             "map" => super::map::postprocess(&args.out)?,
             "placement" => super::placement::postprocess(&args.out)?,
+            vibrobar_io::csv::WIDTH_DIAGRAM_KIND => {
+                super::time_domain::width_diagram_figure(&args.out)?
+            }
+            vibrobar_io::csv::TD_LOBES_KIND => super::time_domain::td_lobes_figure(&args.out)?,
             _ => {}
         }
     }

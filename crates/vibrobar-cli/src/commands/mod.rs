@@ -19,6 +19,7 @@ pub mod paper;
 pub mod placement;
 pub mod run;
 pub mod sweep;
+pub mod time_domain;
 
 pub use design::{
     check_value, fmt_coord, make_solver, parse_range, with_threads, SystemArgs, DEFAULT_SOLVER,

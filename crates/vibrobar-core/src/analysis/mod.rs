@@ -4,7 +4,7 @@
 //! it): `case` (one run and its observers) and `grid` (ranges, axes, grids) are leaves; `batch`
 //! (the batch runner: pool, cancellation, progress, solid runs shared per ratio) uses `case`;
 //! `sweep` and `poincare` use `batch`; `regime` uses `poincare`; `map` uses `regime` and
-//! `batch`; `placement` uses `regime`, `batch` and `case`; `ensemble` uses `map`; `lobes` is a leaf (receptances only). `scripts/module_deps.py` lists the edges.
+//! `batch`; `placement` uses `regime`, `batch` and `case`; `ensemble` uses `map`; `lobes` is a leaf (receptances only); `time_domain` uses `batch`, `lobes` and `regime`. `scripts/module_deps.py` lists the edges.
 
 pub mod batch;
 pub mod case;
@@ -21,6 +21,7 @@ pub mod placement;
 pub mod poincare;
 pub mod regime;
 pub mod sweep;
+pub mod time_domain;
 pub mod variational;
 
 pub use batch::{par_map_with_progress, Batch, BatchError, Runner, SweepBase};

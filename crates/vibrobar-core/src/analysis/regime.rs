@@ -317,7 +317,7 @@ fn impact_period(c: &Collected, k: u32, tol: &Tolerances) -> Option<u32> {
     ok.then_some(n as u32)
 }
 
-fn strobe_periodic(pts: &[State], k: usize, rel: f64) -> bool {
+pub(crate) fn strobe_periodic(pts: &[State], k: usize, rel: f64) -> bool {
     let umax = pts.iter().fold(0.0f64, |m, s| m.max(s.u_m.abs()));
     let vmax = pts.iter().fold(0.0f64, |m, s| m.max(s.du_m_s.abs()));
     pts.iter().zip(pts.iter().skip(k)).all(|(a, b)| {
