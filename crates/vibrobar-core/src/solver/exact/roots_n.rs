@@ -155,6 +155,28 @@
 //! without friction the run is within the 3× budget (2.2–2.4× the instructions) and as published
 //! it is not (4.4–4.5×); closing that gap needs cheaper full evaluations (all terms: a trig
 //! recurrence along the Newton steps, a higher-order proof) rather than fewer proven steps.
+//!
+//! **Fourth round (issue #8 §8), measured, nothing kept** (callgrind, `()` observer, same runs;
+//! instructions, events): lumped 14.3 M none / 15.8 M (2 703) as published; one unit mode
+//! 19.5 M (2 263) / 21.8 M (2 754); 4 modes 31.5 M (2 305) / 68.8 M (3 562); 8 modes 53.0 M
+//! (2 300) / 430.6 M (12 194: 4.5× the lumped run's events, 35k instructions each, the friction
+//! bursts of `ω_8`). Per full evaluation on 4 modes: `TrigN::fill` ~770 instructions (five
+//! `sin_cos` of ~80, four libm `exp_m1` of ~45), `eval` ~640; neither has a hot line left
+//! (the instructions are spread over the terms' arithmetic). Tried, both with the step's own
+//! transcendentals from Taylor series where every `|ω h|, α h ≤ 1/8` and combined with a base
+//! point's by angle addition (cancellation-free forms for `cos − 1`, `e^{−αh} − 1`; base = the
+//! last point filled directly, so no chain of additions): (1) along the search's full steps:
+//! 68.8 M / 3 562 → 67.8 M / 3 462 events, *more* direct fills per event (6.2 against 5.6), as
+//! the Newton-like steps near a friction switch are of the order of `1/ω_4` ≈ 1 µs, not below
+//! it; 4 modes none +0.5 %. (2) The segment end at a bracketed root (`τ + h`, `h ≤` the time
+//! resolution) from the search's last full point instead of a fresh `fill`: it hits at every
+//! bracketed event and saves one fill per event, 4 modes none 31.5 → 30.7 M (−2.5 %, same
+//! 2 305 events), as published 19.3k → 19.1k per event (−1.3 %), one mode −1.1 % none, 8 modes
+//! −2.9 % none; not kept, because it moves every modal golden (the ∫u² of one unit mode
+//! without friction by ~1.5e-12 relative over its 87 impacts) for a gain far below the
+//! budget's gap. What remains
+//! is as the third round says: the as-published beam needs its events found at about half
+//! the cost (or a proof that resolves a burst of switches jointly), not a cheaper constant.
 
 use super::expsum_n::{ExpSumN, Term, TrigN, MAX_TERMS};
 pub use super::roots::{Root, SEARCH_HORIZON_ITER};
