@@ -382,18 +382,66 @@ fn bar_only(
     Ok(())
 }
 
-impl Solver for ExactCutting {
-    fn name(&self) -> &'static str {
-        "exact"
+/// Where a cutting run ended: its final state, the machined surface over the last revolution
+/// and the pending breakpoints, so that a run can go on from it with another cut (e.g. another
+/// width: chatter grown at one width, then the width lowered).
+#[derive(Debug, Clone)]
+pub struct CutContinuation {
+    state: State,
+    knots: VecDeque<Knot>,
+    bp: VecDeque<f64>,
+    in_cut: bool,
+    tau: f64,
+    shift: f64,
+}
+
+impl CutContinuation {
+    /// The run's final state (absolute, not an offset from the equilibrium).
+    pub fn state(&self) -> &State {
+        &self.state
     }
 
-    fn run(
+    /// Whether the tool was in the cut at the end.
+    pub fn in_cut(&self) -> bool {
+        self.in_cut
+    }
+}
+
+impl ExactCutting {
+    /// [`Solver::run`], also returning where the run ended, to continue it.
+    pub fn run_keeping(
         &self,
         sys: &System,
         init: &State,
         t_end_s: f64,
         obs: &mut dyn Observer,
-    ) -> Result<RunSummary, SimError> {
+    ) -> Result<(RunSummary, CutContinuation), SimError> {
+        self.drive(sys, init, None, t_end_s, obs)
+    }
+
+    /// Go on from `from` (the end of an earlier run of the same system) up to `t_end_s` with
+    /// this solver's cut: the state and the surface history are the earlier run's, the force
+    /// law and width are this cut's. The delay and the surface's advance out of the cut must be
+    /// the earlier run's (same `spindle_rpm`, `feed_m`, `chip_direction_factor`). The ball's
+    /// mode is found again from the state, as at a start.
+    pub fn continue_run(
+        &self,
+        sys: &System,
+        from: &CutContinuation,
+        t_end_s: f64,
+        obs: &mut dyn Observer,
+    ) -> Result<(RunSummary, CutContinuation), SimError> {
+        self.drive(sys, &from.state, Some(from), t_end_s, obs)
+    }
+
+    fn drive(
+        &self,
+        sys: &System,
+        init: &State,
+        from: Option<&CutContinuation>,
+        t_end_s: f64,
+        obs: &mut dyn Observer,
+    ) -> Result<(RunSummary, CutContinuation), SimError> {
         let cut = &self.cutting;
         let bar =
             match &sys.bar {
@@ -428,11 +476,17 @@ impl Solver for ExactCutting {
         let kc = kfb * cut.chip_direction_factor;
         let tau = cut.delay_s();
         let u_eq = self.equilibrium_u_m(sys, k);
-        let start = State {
-            u_m: u_eq + init.u_m,
-            v_m: u_eq + init.v_m,
-            cavity: None,
-            ..*init
+        let start = match from {
+            Some(c) => State {
+                cavity: None,
+                ..c.state
+            },
+            None => State {
+                u_m: u_eq + init.u_m,
+                v_m: u_eq + init.v_m,
+                cavity: None,
+                ..*init
+            },
         };
         super::super::validate_run(sys, &start, t_end_s)?;
         let t0 = start.t_s;
@@ -469,9 +523,21 @@ impl Solver for ExactCutting {
         let h_max = (2.0 * std::f64::consts::PI / w_fast / self.steps_per_period as f64).min(tau);
         let pieces = (tau / h_max).ceil() + 4.0;
         let cap = 2 * pieces as usize + MAX_EVENT_KNOTS;
-        let h0_chip = cut.feed_m - cut.chip_direction_factor * init.u_m;
-        let in_cut0 = h0_chip > 0.0;
+        let mut h0_chip = cut.feed_m - cut.chip_direction_factor * init.u_m;
+        let mut in_cut0 = h0_chip > 0.0;
         let shift = cut.feed_m / cut.chip_direction_factor;
+        let mut cap = cap;
+        if let Some(c) = from {
+            if c.tau.to_bits() != tau.to_bits() || c.shift.to_bits() != shift.to_bits() {
+                return Err(SimError::Unsupported(
+                    "continuing a cutting run: [cutting] spindle_rpm, feed_m and \
+                     chip_direction_factor must be the continued run's (its surface history's \
+                     delay and advance)",
+                ));
+            }
+            in_cut0 = c.in_cut;
+            cap = cap.max(c.knots.len().max(c.bp.len()) + MAX_EVENT_KNOTS);
+        }
         let hist = RefCell::new(History {
             k: VecDeque::with_capacity(cap),
             cap,
@@ -481,7 +547,15 @@ impl Solver for ExactCutting {
             tau,
             shift,
         });
-        {
+        if let Some(c) = from {
+            let mut h = hist.borrow_mut();
+            h.k.extend(c.knots.iter().copied());
+            h.bp.extend(c.bp.iter().copied());
+            // The chip at the start, from the continued surface.
+            h0_chip = cut.feed_m + cut.chip_direction_factor * (h.eval(t0 - tau, true) - start.u_m);
+            // The cut changes here: a breakpoint of the history.
+            h.breakpoint(t0);
+        } else {
             let mut h = hist.borrow_mut();
             // The smooth surface of the tool at rest at the equilibrium, one revolution back.
             h.push(Knot {
@@ -659,6 +733,32 @@ impl Solver for ExactCutting {
         }
         book.summary.final_state = s.public();
         book.summary.events += cut_events;
-        Ok(book.summary)
+        let summary = book.summary;
+        let h = hist.into_inner();
+        let end = CutContinuation {
+            state: summary.final_state,
+            knots: h.k,
+            bp: h.bp,
+            in_cut,
+            tau,
+            shift,
+        };
+        Ok((summary, end))
+    }
+}
+
+impl Solver for ExactCutting {
+    fn name(&self) -> &'static str {
+        "exact"
+    }
+
+    fn run(
+        &self,
+        sys: &System,
+        init: &State,
+        t_end_s: f64,
+        obs: &mut dyn Observer,
+    ) -> Result<RunSummary, SimError> {
+        self.drive(sys, init, None, t_end_s, obs).map(|r| r.0)
     }
 }
