@@ -2,7 +2,7 @@
 //! unstable parts dashed, one colour per branch (the main one and those switched to at period
 //! doublings), events marked and labelled.
 
-use super::{err, init_font, with_ext};
+use super::{err, init_font};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -117,22 +117,5 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, f: &BranchFigure) -> 
 
 /// Write the figure as `stem.png` and `stem.svg`.
 pub fn branch_files(stem: &Path, f: &BranchFigure) -> anyhow::Result<Vec<PathBuf>> {
-    let png = with_ext(stem, "png");
-    let svg = with_ext(stem, "svg");
-    let (png_tmp, svg_tmp) = (with_ext(stem, "partial.png"), with_ext(stem, "partial.svg"));
-    vibrobar_io::track_partial(&png_tmp);
-    vibrobar_io::track_partial(&svg_tmp);
-    {
-        let root = BitMapBackend::new(&png_tmp, (1000, 680)).into_drawing_area();
-        draw(&root, f)?;
-        root.present().map_err(err)?;
-    }
-    vibrobar_io::publish(&png_tmp, &png)?;
-    {
-        let root = SVGBackend::new(&svg_tmp, (1000, 680)).into_drawing_area();
-        draw(&root, f)?;
-        root.present().map_err(err)?;
-    }
-    vibrobar_io::publish(&svg_tmp, &svg)?;
-    Ok(vec![png, svg])
+    png_and_svg!(stem, (1000, 680), |root| draw(&root, f))
 }

@@ -2,7 +2,7 @@
 //! speed for the damped bar (ball free, ball stuck) and the solid reference, each with its
 //! stable side (below the curve) shaded. Drawn like the other figures (plotters, PNG + SVG,
 //! published atomically under the output-path policy).
-use super::{err, init_font, with_ext};
+use super::{err, init_font};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -120,25 +120,5 @@ pub fn draw_lobes_figure(
     title: &str,
 ) -> anyhow::Result<Vec<PathBuf>> {
     let stem = csv.with_extension("");
-    let (png, svg) = (with_ext(&stem, "png"), with_ext(&stem, "svg"));
-    let (png_tmp, svg_tmp) = (
-        with_ext(&stem, "partial.png"),
-        with_ext(&stem, "partial.svg"),
-    );
-    // plotters writes them itself: an interrupt must still remove them.
-    vibrobar_io::track_partial(&png_tmp);
-    vibrobar_io::track_partial(&svg_tmp);
-    {
-        let root = BitMapBackend::new(&png_tmp, (1000, 650)).into_drawing_area();
-        draw(&root, rows, title)?;
-        root.present().map_err(err)?;
-    }
-    vibrobar_io::publish(&png_tmp, &png)?;
-    {
-        let root = SVGBackend::new(&svg_tmp, (1000, 650)).into_drawing_area();
-        draw(&root, rows, title)?;
-        root.present().map_err(err)?;
-    }
-    vibrobar_io::publish(&svg_tmp, &svg)?;
-    Ok(vec![png, svg])
+    png_and_svg!(&stem, (1000, 650), |root| draw(&root, rows, title))
 }

@@ -1,5 +1,36 @@
 //! Figures of the design analyses (PNG for viewing, SVG for papers), drawn with plotters and the
 //! embedded DejaVu Sans font (no system fonts needed).
+
+/// Draw one figure to `stem.png` and `stem.svg` (`size` in pixels) and return both paths: each
+/// drawn to a temporary that an interrupt removes, then published under the output-path policy
+/// (atomic, links followed). A macro because plotters' two backends are different types and the
+/// `draw` expression is generic over them; `|root|` names the drawing area it is given.
+macro_rules! png_and_svg {
+    ($stem:expr, $size:expr, |$root:ident| $draw:expr) => {{
+        use plotters::prelude::IntoDrawingArea as _;
+        let stem: &std::path::Path = $stem;
+        let png = $crate::figures::with_ext(stem, "png");
+        let svg = $crate::figures::with_ext(stem, "svg");
+        let png_tmp = $crate::figures::with_ext(stem, "partial.png");
+        let svg_tmp = $crate::figures::with_ext(stem, "partial.svg");
+        vibrobar_io::track_partial(&png_tmp);
+        vibrobar_io::track_partial(&svg_tmp);
+        {
+            let $root = plotters::prelude::BitMapBackend::new(&png_tmp, $size).into_drawing_area();
+            $draw?;
+            $root.present().map_err($crate::figures::err)?;
+        }
+        vibrobar_io::publish(&png_tmp, &png)?;
+        {
+            let $root = plotters::prelude::SVGBackend::new(&svg_tmp, $size).into_drawing_area();
+            $draw?;
+            $root.present().map_err($crate::figures::err)?;
+        }
+        vibrobar_io::publish(&svg_tmp, &svg)?;
+        Ok(vec![png, svg])
+    }};
+}
+
 pub mod branch;
 pub mod lobes;
 pub mod map;
@@ -317,26 +348,7 @@ fn draw_heat<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, h: &Heat) -> any
 
 /// Write a heat map as `stem.png` and `stem.svg`; returns both paths.
 pub fn heat_files(stem: &Path, h: &Heat) -> anyhow::Result<Vec<PathBuf>> {
-    let png = with_ext(stem, "png");
-    let svg = with_ext(stem, "svg");
-    // Drawn to temporaries and published under the output-path policy (atomic, links followed).
-    let (png_tmp, svg_tmp) = (with_ext(stem, "partial.png"), with_ext(stem, "partial.svg"));
-    // plotters writes them itself: an interrupt must still remove them.
-    vibrobar_io::track_partial(&png_tmp);
-    vibrobar_io::track_partial(&svg_tmp);
-    {
-        let root = BitMapBackend::new(&png_tmp, (1000, 700)).into_drawing_area();
-        draw_heat(&root, h)?;
-        root.present().map_err(err)?;
-    }
-    vibrobar_io::publish(&png_tmp, &png)?;
-    {
-        let root = SVGBackend::new(&svg_tmp, (1000, 700)).into_drawing_area();
-        draw_heat(&root, h)?;
-        root.present().map_err(err)?;
-    }
-    vibrobar_io::publish(&svg_tmp, &svg)?;
-    Ok(vec![png, svg])
+    png_and_svg!(stem, (1000, 700), |root| draw_heat(&root, h))
 }
 
 /// `stem` + `.ext` (keeps dots in the stem).
@@ -423,26 +435,7 @@ fn draw_scatter<DB: DrawingBackend>(
 
 /// Write a scatter plot as `stem.png` and `stem.svg`.
 pub fn scatter_files(stem: &Path, s: &Scatter) -> anyhow::Result<Vec<PathBuf>> {
-    let png = with_ext(stem, "png");
-    let svg = with_ext(stem, "svg");
-    // Drawn to temporaries and published under the output-path policy (atomic, links followed).
-    let (png_tmp, svg_tmp) = (with_ext(stem, "partial.png"), with_ext(stem, "partial.svg"));
-    // plotters writes them itself: an interrupt must still remove them.
-    vibrobar_io::track_partial(&png_tmp);
-    vibrobar_io::track_partial(&svg_tmp);
-    {
-        let root = BitMapBackend::new(&png_tmp, (900, 650)).into_drawing_area();
-        draw_scatter(&root, s)?;
-        root.present().map_err(err)?;
-    }
-    vibrobar_io::publish(&png_tmp, &png)?;
-    {
-        let root = SVGBackend::new(&svg_tmp, (900, 650)).into_drawing_area();
-        draw_scatter(&root, s)?;
-        root.present().map_err(err)?;
-    }
-    vibrobar_io::publish(&svg_tmp, &svg)?;
-    Ok(vec![png, svg])
+    png_and_svg!(stem, (900, 650), |root| draw_scatter(&root, s))
 }
 
 #[cfg(test)]
