@@ -412,8 +412,7 @@ fn revolution_classifier_on_synthetic_samples() {
 
 /// Three-quarter law (subcritical Hopf), the bar without a ball, 5000 rpm: from the small
 /// disturbance the largest acceptable width is within 2 % of the linear boundary; from the large
-/// disturbance it lies below it (the bistable band). The damped bar with the ball out of reach
-/// cannot be compared yet: the three-quarter law refuses a ball (the cutting solver's scope).
+/// disturbance it lies below it (the bistable band). The damped bar's search (a ball) runs too.
 #[test]
 fn three_quarter_law_small_at_the_boundary_large_below_it() {
     let p = problem(CuttingForceLaw::ThreeQuarter, short());
@@ -439,10 +438,17 @@ fn three_quarter_law_small_at_the_boundary_large_below_it() {
         large.width_m < large_linear.width_m,
         "{large:?} {large_linear:?}"
     );
-    // The ball is refused by name, not ignored.
-    let lin_d = lin;
-    let e = td_lobe_search(&p, n, &lin_d, 2).unwrap_err().to_string();
-    assert!(e.contains("three-quarter") || e.contains("ball"), "{e}");
+    // The damped bar runs with the three-quarter law too (the closed-form pieces with the
+    // fitted remainder): its search returns a width, a positive finite one.
+    let damped = td_lobe_search(&p, n, &lin, 2).unwrap();
+    println!(
+        "three-quarter, 5000 rpm, damped bar: {:.6e} ({} runs)",
+        damped.width_m, damped.runs
+    );
+    assert!(
+        damped.width_m.is_finite() && damped.width_m > 0.0,
+        "{damped:?}"
+    );
 }
 
 /// Spread over seeded perturbations of the disturbance (±20 %, 4 seeds): none for the linear

@@ -144,6 +144,10 @@ struct CutPiece {
     order: usize,
     /// Tolerance on the chip thickness.
     tol: f64,
+    /// The three-quarter law's remainder `c_force F(h) − c_force K_f b h` fitted as
+    /// `r0 + r1 τ + r2 τ²` over the piece ([`cutting`]), `None` with the linear law (whose
+    /// runs stay bit-identical).
+    r: Option<[f64; 3]>,
 }
 
 impl CutPiece {
@@ -154,11 +158,15 @@ impl CutPiece {
             return [0.0; 3];
         }
         let k = self.kfb * self.c_chip;
-        [
+        let p = [
             self.kfb * self.h0 + k * self.d[0],
             k * self.d[1],
             k * self.d[2],
-        ]
+        ];
+        match self.r {
+            None => p,
+            Some(r) => [p[0] + r[0], p[1] + r[1], p[2] + r[2]],
+        }
     }
 
     /// The chip thickness `h0 + c_chip (d − u)` over a segment whose bar motion is `u`.
@@ -182,6 +190,7 @@ impl CutPiece {
         CutSeg {
             h: self.chip(u),
             kfb: if self.in_cut { self.kfb } else { 0.0 },
+            r: if self.in_cut { self.r } else { None },
         }
     }
 }
@@ -191,6 +200,20 @@ impl CutPiece {
 struct CutSeg {
     h: ExpSum,
     kfb: f64,
+    /// The three-quarter law's fitted remainder (see [`CutPiece`]), in the cut only.
+    r: Option<[f64; 3]>,
+}
+
+impl CutSeg {
+    /// The cutting force the segment's closed form carries at local `τ`: `c_force K_f b h`
+    /// plus the fitted remainder (three-quarter law).
+    fn force_t(&self, h: f64, tau: f64) -> f64 {
+        let f = self.kfb * h;
+        match self.r {
+            None => f,
+            Some(r) => f + r[0] + tau * (r[1] + tau * r[2]),
+        }
+    }
 }
 
 impl Consts {
@@ -486,7 +509,10 @@ impl Segment for ExactSegment {
             super::CutSample {
                 chip_thickness_m: h,
                 in_cut: c.kfb > 0.0,
-                cutting_force_n: c.kfb * h.max(0.0),
+                cutting_force_n: match c.r {
+                    None => c.kfb * h.max(0.0),
+                    Some(_) => c.force_t(h, t_s - self.t0),
+                },
             }
         })
     }
