@@ -96,19 +96,23 @@
 //!   does not hold `F` (as published: zero holding capacity), so the event term vanishes;
 //! * **gap `gap_m = 2 l_g`** enters only the wall surfaces `h = w − s l_g`: `∂h/∂gap = −s/2`
 //!   at each impact (the moving surface), and on the wall `v = u + s l_g` the projection (which
-//!   keeps `δw = 0`) is followed by the offset `∂v/∂gap += s/2`.
-//!
-//! The forcing frequency is not carried: it enters every segment through `F₀ t cos Ωt` (a
-//! secular particular response `Re[e^{iΩt}(t/D − D'/D²)]`, `D(s) = m s² + c s + k`), the
-//! unstick threshold, and the stroboscopic end time `t₀ + 2πk/Ω` (through
-//! [`FlowJacobian::end_field`]).
+//!   keeps `δw = 0`) is followed by the offset `∂v/∂gap += s/2`;
+//! * **frequency ratio `r = Ω/ω₁`** enters every segment through `∂F/∂r = ω₁ F₀ t cos Ωt`
+//!   (absolute time `t`): the particular solution of `m ü + C u̇ + K u = F₀ t cos Ωt` is
+//!   `u_p = Re[F₀ e^{st}(t/D − D'/D²)]`, `s = iΩ`, `D(s) = m s² + C s + K` (differentiate
+//!   `L e^{st} = D(s) e^{st}` in `s`), and the segment adds `x_p(t₁) − Φ(τ) x_p(t₀)` (`m = M`
+//!   in free flight; `M + m_d` for the pair, the ball following at fixed `w`). At unstick and
+//!   release `∂h/∂r = r_m F₀ t cos Ωt · ω₁` (`r_m = m_d/(M + m_d)`), which matters only where
+//!   `f⁺ ≠ f⁻` (the as-published release). The column is at fixed end time; the stroboscopic
+//!   map's end `t₀ + 2πk/Ω` adds `end_field · (−kT/r)`
+//!   (`orbit::continuation::map_param_derivative`).
 //!
 //! # Not covered
 //!
 //! * The Hertz contact law (compliant contact phases): [`Variational::new`] refuses it.
 //! * The N-mode bar (`ModalExact`): refused; the same construction with the 2N×2N modal `Φ`
 //!   and the contact row `w = v − Σ φₙ qₙ` is the way to add it.
-//! * The parameter derivative in the forcing frequency (ratio): not provided (see below).
+//! * Parameter derivatives other than [`Param`]'s (mass ratio, forcing amplitude).
 //!
 //! References: P. C. Müller, "Calculation of Lyapunov exponents for dynamic systems with
 //! discontinuities", Chaos, Solitons & Fractals 5 (1995) 1671–1681; R. I. Leine and
@@ -280,6 +284,8 @@ struct Lumped {
     fs: f64,
     f0: f64,
     om: f64,
+    /// `∂Ω/∂ratio = ω₁`.
+    om1: f64,
 }
 
 impl Lumped {
@@ -323,6 +329,34 @@ impl Lumped {
         [
             [ex * (co + al * sw), ex * sw],
             [-wn2 * ex * sw, ex * (co - al * sw)],
+        ]
+    }
+
+    /// `(u_p, u̇_p)(t)`: a particular solution of `mass ü + C u̇ + K u = F₀ t cos Ωt`,
+    /// `Re[F₀ e^{st} (t/D − D'/D²)]`, `s = iΩ`, `D(s) = mass s² + C s + K` (differentiate
+    /// `L e^{st} = D(s) e^{st}` in `s`).
+    fn secular_particular(&self, mass: f64, t: f64) -> [f64; 2] {
+        use nalgebra::Complex;
+        let sj = Complex::new(0.0, self.om);
+        let d = sj * sj * mass + sj * self.c + self.k;
+        let dp = sj * (2.0 * mass) + self.c;
+        let est = Complex::new(0.0, self.om * t).exp() * self.f0;
+        let a = Complex::new(t, 0.0) / d - dp / (d * d);
+        let u = est * a;
+        let du = est * (sj * a + Complex::new(1.0, 0.0) / d);
+        [u.re, du.re]
+    }
+
+    /// `∫ Φ(τ − s) (0, F₀ s cos Ωs / mass) ds` over `[t0, t1]`, from zero.
+    fn secular_response(&self, mass: f64, t0: f64, t1: f64) -> [f64; 2] {
+        let (a, b) = (
+            self.secular_particular(mass, t0),
+            self.secular_particular(mass, t1),
+        );
+        let p = self.bar_phi(mass, t1 - t0);
+        [
+            b[0] - p[0][0] * a[0] - p[0][1] * a[1],
+            b[1] - p[1][0] * a[0] - p[1][1] * a[1],
         ]
     }
 
@@ -449,6 +483,9 @@ pub enum Param {
     FrictionForceN,
     /// The gap `gap_m = 2 l_g` in metres (the walls are at `|w| = l_g`).
     GapM,
+    /// The forcing frequency ratio `Ω/ω₁` (at fixed start and end times: the stroboscopic
+    /// map's end time `t₀ + 2πk/Ω` adds `end_field · ∂t_end/∂ratio`).
+    FreqRatio,
 }
 
 /// `m · d`.
@@ -482,6 +519,7 @@ impl<T: TangentSink> Variational<T> {
                 fs: sys.forcing.static_force_n,
                 f0: sys.forcing.amplitude_n,
                 om: sys.omega_rad_s(),
+                om1: sys.omega1_rad_s(),
             },
             sink,
             counts: EventCounts::default(),
@@ -506,9 +544,20 @@ impl<T: TangentSink> Variational<T> {
     /// The inhomogeneous part of `∂x/∂p` over a segment of `mode` and length `τ`, from zero:
     /// `∫₀^τ Φ(τ − s) ∂f/∂p ds`. Only the friction level enters a vector field (the ball's
     /// sliding force `b F`, `b = ∂F_ball/∂F`, constant over a free flight).
-    fn segment_param_term(&self, mode: Mode, sigma: f64, tau: f64) -> [f64; 4] {
+    fn segment_param_term(&self, mode: Mode, sigma: f64, t0: f64, t1: f64) -> [f64; 4] {
         let s = &self.sys;
+        let tau = t1 - t0;
         match (self.param, mode) {
+            (Some(Param::FreqRatio), Mode::Free | Mode::NoBall) => {
+                let r = s.secular_response(s.m, t0, t1);
+                [r[0] * s.om1, r[1] * s.om1, 0.0, 0.0]
+            }
+            (Some(Param::FreqRatio), Mode::Stick | Mode::Contact(_)) => {
+                // The pair moves as one body; the ball follows at fixed w.
+                let r = s.secular_response(s.m + s.md, t0, t1);
+                let (a, b) = (r[0] * s.om1, r[1] * s.om1);
+                [a, b, a, b]
+            }
             (Some(Param::FrictionForceN), Mode::Free) => {
                 let b = sliding_friction_on_ball_n(s.model, 1.0, sigma);
                 // Bar: M ü + C u̇ + K u = −b, from rest: (I − Φ(τ)) (−b/K, 0).
@@ -657,6 +706,21 @@ impl<T: TangentSink> Variational<T> {
         if let Some(p) = self.param {
             // d⁺ = S d⁻ + ∂g/∂p + (f⁺ − G f⁻) (∂h/∂p) / rate.
             let mut q = [0.0; 4];
+            if p == Param::FreqRatio
+                && matches!(
+                    ev.kind,
+                    EventKind::Unstick | EventKind::ContactRelease { .. }
+                )
+                && salt.is_some()
+            {
+                // h = r (F(t) − C u̇ − K u) − threshold: ∂h/∂ratio = r F₀ t cos Ωt · ω₁.
+                let r = s.md / (s.m + s.md);
+                let dh = r * s.f0 * t * (s.om * t).cos() * s.om1;
+                let gf = mat_vec(&g, &f_minus);
+                for i in 0..4 {
+                    q[i] = (f_plus[i] - gf[i]) * dh / rate;
+                }
+            }
             if let EventKind::Impact { wall, .. } = ev.kind {
                 match p {
                     Param::Restitution if !plastic => {
@@ -726,7 +790,7 @@ impl<T: TangentSink> Observer for Variational<T> {
             } else {
                 0.0
             };
-            let q = self.segment_param_term(mode, sig, t1 - t0);
+            let q = self.segment_param_term(mode, sig, t0, t1);
             let d = mat_vec(&m, &self.dxdp);
             self.dxdp = [0, 1, 2, 3].map(|i| d[i] + q[i]);
         }

@@ -5,8 +5,8 @@
 //! kept along the branch) and the parameter mapped so that the requested interval is `[0, 1]`,
 //! `p = from + p̃ (to − from)`. `F(y) = (P(x; p) − x)/s`; its Jacobian `[S⁻¹DPS − I | ∂F/∂p̃]`
 //! (the state part from the [`MapJacobian`], the parameter column exact from the variational
-//! layer for gap, friction level and restitution ([`map_param_derivative`], one run), by
-//! central differences of the map for the frequency ratio (two runs)). Each
+//! layer ([`map_param_derivative`], one run; for the ratio with the moving end time `t₀ + kT`),
+//! by central differences of the map for the mass ratio (two runs)). Each
 //! step predicts along the unit tangent (the kernel of the Jacobian, oriented like the previous
 //! one) and corrects with Newton on `F = 0` plus the arclength condition `t·(y − y_pred) = 0`
 //! (Keller). The step grows after easy corrections and is halved after a failed one or a turn of
@@ -733,15 +733,14 @@ fn jump_across(c: &Cont, cur: &Pt) -> Option<Pt> {
     None
 }
 
-/// The variational layer's parameter for `axis`, where it carries one (not the frequency
-/// ratio, whose derivative moves the map's end time and the forcing of every segment, nor the
-/// mass ratio).
+/// The variational layer's parameter for `axis`, where it carries one (not the mass ratio).
 pub fn exact_param(axis: Axis) -> Option<Param> {
     match axis {
         Axis::Restitution => Some(Param::Restitution),
         Axis::FrictionForceN => Some(Param::FrictionForceN),
         Axis::GapM => Some(Param::GapM),
-        Axis::FreqRatio | Axis::MassRatio => None,
+        Axis::FreqRatio => Some(Param::FreqRatio),
+        Axis::MassRatio => None,
     }
 }
 
@@ -756,7 +755,7 @@ pub fn map_param_derivative(
     let Some(p) = exact_param(axis) else {
         return Ok(None);
     };
-    let (_, d) = flow_with_param_derivative(
+    let (fj, mut d) = flow_with_param_derivative(
         &Exact::default(),
         &sec.system,
         &sec.state(x),
@@ -764,6 +763,13 @@ pub fn map_param_derivative(
         p,
         &mut (),
     )?;
+    if p == Param::FreqRatio {
+        // The end time t₀ + 2πk/(r ω₁) moves: ∂t_end/∂r = −kT/r.
+        let dt = -sec.period_s() / param_of(&sec.system, axis);
+        for (di, fi) in d.iter_mut().zip(fj.end_field) {
+            *di += fi * dt;
+        }
+    }
     // To the map's relative coordinates (w = v − u).
     Ok(Some([d[0], d[1], d[2] - d[0], d[3] - d[1]]))
 }
