@@ -255,3 +255,47 @@ fn fold_where_the_two_analytic_symmetric_orbits_merge() {
     let i = b.points.iter().position(|p| p.event.is_some()).unwrap();
     assert!(b.points[i + 3].param < r);
 }
+
+/// The continuation's exact parameter column against its central-difference check, at points
+/// of orbits (gap, restitution, ratio: the symmetric orbit at 0.08 mm; friction level: Coulomb 5 N and
+/// 8 N sections of settled runs, slip and stick), in the map's coordinates `(u, u̇, w, ẇ)`.
+#[test]
+fn exact_parameter_column_agrees_with_central_differences() {
+    let sc_err = |sec: &Section, axis: Axis, x: &[f64; 4], h: f64| -> f64 {
+        let ex = map_param_derivative(sec, axis, x).unwrap().unwrap();
+        let fd = map_param_derivative_fd(sec, axis, x, h).unwrap();
+        let sc = scales(&sec.system);
+        let (mut e, mut n) = (0.0f64, 0.0f64);
+        for i in 0..4 {
+            e = e.max(((ex[i] - fd[i]) / sc[i]).abs());
+            n = n.max((fd[i] / sc[i]).abs());
+        }
+        eprintln!(
+            "{axis:?}: exact vs FD rel err {:.3e} (scaled |∂P/∂p| {n:.3e})",
+            e / n
+        );
+        assert!(n > 0.0);
+        e / n
+    };
+    let o = orbit_at(&paper(0.08e-3), Start::Symmetric(0));
+    let x = to_vector(&o.state);
+    assert!(sc_err(&o.section, Axis::GapM, &x, 1e-5 * 0.08e-3) < 1e-6);
+    assert!(sc_err(&o.section, Axis::Restitution, &x, 1e-5 * 0.5) < 1e-6);
+    for f_n in [5.0, 8.0] {
+        let mut sys = System::paper_damped(0.1e-3, FrictionModel::Coulomb, 1.0);
+        sys.damper.as_mut().unwrap().friction_force_n = Some(f_n);
+        let init = Exact::default()
+            .run(&sys, &State::REST, 0.3, &mut ())
+            .unwrap()
+            .final_state;
+        let sec = Section::new(sys, init.t_s, 1).unwrap();
+        let x = to_vector(&init);
+        assert!(sc_err(&sec, Axis::FrictionForceN, &x, 1e-5 * f_n) < 1e-6);
+    }
+    // The ratio: the forcing of every segment and the map's end time t₀ + 2π/Ω move.
+    assert!(sc_err(&o.section, Axis::FreqRatio, &x, 1e-7) < 1e-6);
+    // The mass ratio stays on central differences.
+    assert!(map_param_derivative(&o.section, Axis::MassRatio, &x)
+        .unwrap()
+        .is_none());
+}

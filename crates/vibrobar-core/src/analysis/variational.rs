@@ -74,14 +74,45 @@
 //! that state, as for any run (see "constrained phases" above for what the Jacobian then
 //! means).
 //!
+//! # Parameter derivatives
+//!
+//! [`flow_with_param_derivative`] carries one extra column `d = ∂x/∂p` (zero at the start,
+//! start state and times fixed) through the same segments and events:
+//!
+//! * segment: `d ← Φ(τ) d + ∫₀^τ Φ(τ − s) ∂f/∂p ds`;
+//! * event: `d ← S d + ∂g/∂p + (f⁺ − G f⁻) (∂h/∂p) / (∇h·f⁻ + ∂h/∂t)` (the event time moves
+//!   by `δt* = −(∇h·δx + ∂h/∂p δp)/rate`; the same derivation as `S`).
+//!
+//! The parameters ([`Param`]):
+//!
+//! * **restitution `e`** enters only the impact reset: `∂u̇⁺/∂e = μ/(1+μ) ẇ⁻`,
+//!   `∂v̇⁺/∂e = (μ/(1+μ) − 1) ẇ⁻` (`μ = m_d/M`); zero at a plastic (accumulated) impact, whose
+//!   limit does not depend on `e` (its duration does, which matters only at a chatter release,
+//!   counted in [`EventCounts::chatter_releases`]);
+//! * **friction level `F`** enters the free flight as the constant force `b F` on the ball and
+//!   `−b F` on the bar (`b = ∂F_ball/∂F = ∓sgn ẇ`): closed form
+//!   `Δ(u, u̇) = (I − Φ_M(τ)) (−b/K, 0)`, `Δv = b τ²/(2 m_d)`, `Δv̇ = b τ/m_d`. In stick and wall
+//!   contact it enters only the unstick/release threshold `h`, where `f⁺ = f⁻` (Coulomb) or `h`
+//!   does not hold `F` (as published: zero holding capacity), so the event term vanishes;
+//! * **gap `gap_m = 2 l_g`** enters only the wall surfaces `h = w − s l_g`: `∂h/∂gap = −s/2`
+//!   at each impact (the moving surface), and on the wall `v = u + s l_g` the projection (which
+//!   keeps `δw = 0`) is followed by the offset `∂v/∂gap += s/2`;
+//! * **frequency ratio `r = Ω/ω₁`** enters every segment through `∂F/∂r = ω₁ F₀ t cos Ωt`
+//!   (absolute time `t`): the particular solution of `m ü + C u̇ + K u = F₀ t cos Ωt` is
+//!   `u_p = Re[F₀ e^{st}(t/D − D'/D²)]`, `s = iΩ`, `D(s) = m s² + C s + K` (differentiate
+//!   `L e^{st} = D(s) e^{st}` in `s`), and the segment adds `x_p(t₁) − Φ(τ) x_p(t₀)` (`m = M`
+//!   in free flight; `M + m_d` for the pair, the ball following at fixed `w`). At unstick and
+//!   release `∂h/∂r = r_m F₀ t cos Ωt · ω₁` (`r_m = m_d/(M + m_d)`), which matters only where
+//!   `f⁺ ≠ f⁻` (the as-published release). The column is at fixed end time; the stroboscopic
+//!   map's end `t₀ + 2πk/Ω` adds `end_field · (−kT/r)`
+//!   (`orbit::continuation::map_param_derivative`).
+//!
 //! # Not covered
 //!
 //! * The Hertz contact law (compliant contact phases): [`Variational::new`] refuses it.
 //! * The N-mode bar (`ModalExact`): refused; the same construction with the 2N×2N modal `Φ`
 //!   and the contact row `w = v − Σ φₙ qₙ` is the way to add it.
-//! * Parameter derivatives (ratio, gap, friction, restitution): not provided. They enter as
-//!   extra columns `∂x/∂p` with the inhomogeneous terms `∂f/∂p` integrated over each segment
-//!   and `∂g/∂p`, `∂h/∂p` at each event; a central difference of the map costs two runs.
+//! * Parameter derivatives other than [`Param`]'s (mass ratio, forcing amplitude).
 //!
 //! References: P. C. Müller, "Calculation of Lyapunov exponents for dynamic systems with
 //! discontinuities", Chaos, Solitons & Fractals 5 (1995) 1671–1681; R. I. Leine and
@@ -253,6 +284,8 @@ struct Lumped {
     fs: f64,
     f0: f64,
     om: f64,
+    /// `∂Ω/∂ratio = ω₁`.
+    om1: f64,
 }
 
 impl Lumped {
@@ -296,6 +329,34 @@ impl Lumped {
         [
             [ex * (co + al * sw), ex * sw],
             [-wn2 * ex * sw, ex * (co - al * sw)],
+        ]
+    }
+
+    /// `(u_p, u̇_p)(t)`: a particular solution of `mass ü + C u̇ + K u = F₀ t cos Ωt`,
+    /// `Re[F₀ e^{st} (t/D − D'/D²)]`, `s = iΩ`, `D(s) = mass s² + C s + K` (differentiate
+    /// `L e^{st} = D(s) e^{st}` in `s`).
+    fn secular_particular(&self, mass: f64, t: f64) -> [f64; 2] {
+        use nalgebra::Complex;
+        let sj = Complex::new(0.0, self.om);
+        let d = sj * sj * mass + sj * self.c + self.k;
+        let dp = sj * (2.0 * mass) + self.c;
+        let est = Complex::new(0.0, self.om * t).exp() * self.f0;
+        let a = Complex::new(t, 0.0) / d - dp / (d * d);
+        let u = est * a;
+        let du = est * (sj * a + Complex::new(1.0, 0.0) / d);
+        [u.re, du.re]
+    }
+
+    /// `∫ Φ(τ − s) (0, F₀ s cos Ωs / mass) ds` over `[t0, t1]`, from zero.
+    fn secular_response(&self, mass: f64, t0: f64, t1: f64) -> [f64; 2] {
+        let (a, b) = (
+            self.secular_particular(mass, t0),
+            self.secular_particular(mass, t1),
+        );
+        let p = self.bar_phi(mass, t1 - t0);
+        [
+            b[0] - p[0][0] * a[0] - p[0][1] * a[1],
+            b[1] - p[1][0] * a[0] - p[1][1] * a[1],
         ]
     }
 
@@ -406,6 +467,31 @@ pub struct Variational<T: TangentSink> {
     pub counts: EventCounts,
     cur: Option<Phase>,
     pending: Option<Pending>,
+    /// The parameter whose derivative column `∂x/∂p` is carried (none by default).
+    param: Option<Param>,
+    /// `∂x/∂p` on `(u, u̇, v, v̇)` at the current time (zero at the start).
+    dxdp: [f64; 4],
+}
+
+/// A parameter whose derivative `∂x(t_end)/∂p` the layer can carry (see "Parameter
+/// derivatives" in the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Param {
+    /// The coefficient of restitution `e`.
+    Restitution,
+    /// The sliding friction level `F` in newtons.
+    FrictionForceN,
+    /// The gap `gap_m = 2 l_g` in metres (the walls are at `|w| = l_g`).
+    GapM,
+    /// The forcing frequency ratio `Ω/ω₁` (at fixed start and end times: the stroboscopic
+    /// map's end time `t₀ + 2πk/Ω` adds `end_field · ∂t_end/∂ratio`).
+    FreqRatio,
+}
+
+/// `m · d`.
+#[inline]
+fn mat_vec(m: &Mat4, d: &[f64; 4]) -> [f64; 4] {
+    [0, 1, 2, 3].map(|i| m[i][0] * d[0] + m[i][1] * d[1] + m[i][2] * d[2] + m[i][3] * d[3])
 }
 
 impl<T: TangentSink> Variational<T> {
@@ -433,12 +519,66 @@ impl<T: TangentSink> Variational<T> {
                 fs: sys.forcing.static_force_n,
                 f0: sys.forcing.amplitude_n,
                 om: sys.omega_rad_s(),
+                om1: sys.omega1_rad_s(),
             },
             sink,
             counts: EventCounts::default(),
             cur: None,
             pending: None,
+            param: None,
+            dxdp: [0.0; 4],
         })
+    }
+
+    /// Also carry the column `∂x/∂p` of parameter `p` (from zero at the start).
+    pub fn with_param(mut self, p: Param) -> Self {
+        self.param = Some(p);
+        self
+    }
+
+    /// `∂x/∂p` so far (zero when no parameter is carried).
+    pub fn dx_dp(&self) -> [f64; 4] {
+        self.dxdp
+    }
+
+    /// The inhomogeneous part of `∂x/∂p` over a segment of `mode` and length `τ`, from zero:
+    /// `∫₀^τ Φ(τ − s) ∂f/∂p ds`. Only the friction level enters a vector field (the ball's
+    /// sliding force `b F`, `b = ∂F_ball/∂F`, constant over a free flight).
+    fn segment_param_term(&self, mode: Mode, sigma: f64, t0: f64, t1: f64) -> [f64; 4] {
+        let s = &self.sys;
+        let tau = t1 - t0;
+        match (self.param, mode) {
+            (Some(Param::FreqRatio), Mode::Free | Mode::NoBall) => {
+                let r = s.secular_response(s.m, t0, t1);
+                [r[0] * s.om1, r[1] * s.om1, 0.0, 0.0]
+            }
+            (Some(Param::FreqRatio), Mode::Stick | Mode::Contact(_)) => {
+                // The pair moves as one body; the ball follows at fixed w.
+                let r = s.secular_response(s.m + s.md, t0, t1);
+                let (a, b) = (r[0] * s.om1, r[1] * s.om1);
+                [a, b, a, b]
+            }
+            (Some(Param::FrictionForceN), Mode::Free) => {
+                let b = sliding_friction_on_ball_n(s.model, 1.0, sigma);
+                // Bar: M ü + C u̇ + K u = −b, from rest: (I − Φ(τ)) (−b/K, 0).
+                let p = s.bar_phi(s.m, tau);
+                let up = -b / s.k;
+                // Ball: v̈ = b/m_d.
+                let a = b / s.md;
+                [
+                    (1.0 - p[0][0]) * up,
+                    -p[1][0] * up,
+                    0.5 * a * tau * tau,
+                    a * tau,
+                ]
+            }
+            (Some(Param::GapM), Mode::Contact(wall)) => {
+                // On the wall `v = u + s l_g`: the projection keeps `δw = 0`, the offset
+                // `∂w/∂gap = s/2` (`l_g = gap/2`) is restored here.
+                [0.0, 0.0, 0.5 * wall.sign(), 0.0]
+            }
+            _ => [0.0; 4],
+        }
     }
 
     /// Apply what is still pending (an event at the very end of the run). Call once after the
@@ -562,7 +702,51 @@ impl<T: TangentSink> Variational<T> {
             }
         };
         let f_plus = s.field(after, &x_plus, t);
-        let m = match saltation(&g, &f_minus, &f_plus, &grad, rate) {
+        let salt = saltation(&g, &f_minus, &f_plus, &grad, rate);
+        if let Some(p) = self.param {
+            // d⁺ = S d⁻ + ∂g/∂p + (f⁺ − G f⁻) (∂h/∂p) / rate.
+            let mut q = [0.0; 4];
+            if p == Param::FreqRatio
+                && matches!(
+                    ev.kind,
+                    EventKind::Unstick | EventKind::ContactRelease { .. }
+                )
+                && salt.is_some()
+            {
+                // h = r (F(t) − C u̇ − K u) − threshold: ∂h/∂ratio = r F₀ t cos Ωt · ω₁.
+                let r = s.md / (s.m + s.md);
+                let dh = r * s.f0 * t * (s.om * t).cos() * s.om1;
+                let gf = mat_vec(&g, &f_minus);
+                for i in 0..4 {
+                    q[i] = (f_plus[i] - gf[i]) * dh / rate;
+                }
+            }
+            if let EventKind::Impact { wall, .. } = ev.kind {
+                match p {
+                    Param::Restitution if !plastic => {
+                        let mu = s.md / s.m;
+                        let db = mu / (1.0 + mu) * x.dw_m_s();
+                        q[1] = db;
+                        q[3] = db - x.dw_m_s();
+                    }
+                    Param::GapM if salt.is_some() => {
+                        let gf = mat_vec(&g, &f_minus);
+                        // h = w − s l_g with l_g = gap/2.
+                        let dh = -0.5 * wall.sign();
+                        for i in 0..4 {
+                            q[i] = (f_plus[i] - gf[i]) * dh / rate;
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            // Unstick and release: `h` holds the friction level only for Coulomb, where
+            // `f⁺ = f⁻` at the threshold, so the term vanishes; no other event's `h` or `g`
+            // depends on these parameters.
+            let d = mat_vec(salt.as_ref().unwrap_or(&g), &self.dxdp);
+            self.dxdp = [0, 1, 2, 3].map(|i| d[i] + q[i]);
+        }
+        let m = match salt {
             Some(m) => m,
             None => {
                 self.counts.grazing += 1;
@@ -599,6 +783,17 @@ impl<T: TangentSink> Observer for Variational<T> {
         }
         self.cur = Some(phase);
         let m = self.sys.segment_stm(mode, t1 - t0);
+        if self.param.is_some() {
+            // The friction sign even at a zero level (the derivative there is not zero).
+            let sig = if mode == Mode::Free && self.sys.model != FrictionModel::None {
+                crate::damper::friction::sgn0(seg.state_at(0.5 * (t0 + t1)).dw_m_s())
+            } else {
+                0.0
+            };
+            let q = self.segment_param_term(mode, sig, t0, t1);
+            let d = mat_vec(&m, &self.dxdp);
+            self.dxdp = [0, 1, 2, 3].map(|i| d[i] + q[i]);
+        }
         self.sink.apply(
             &m,
             Step::Segment {
@@ -651,8 +846,33 @@ pub fn flow_with_jacobian(
     t_end_s: f64,
     extra: &mut dyn Observer,
 ) -> Result<FlowJacobian, SimError> {
+    flow_tangent(solver, sys, init, t_end_s, None, extra).map(|(f, _)| f)
+}
+
+/// [`flow_with_jacobian`] plus `∂x(t_end)/∂p` at fixed start state and times, on
+/// `(u, u̇, v, v̇)`.
+pub fn flow_with_param_derivative(
+    solver: &dyn Solver,
+    sys: &System,
+    init: &State,
+    t_end_s: f64,
+    param: Param,
+    extra: &mut dyn Observer,
+) -> Result<(FlowJacobian, [f64; 4]), SimError> {
+    flow_tangent(solver, sys, init, t_end_s, Some(param), extra)
+}
+
+fn flow_tangent(
+    solver: &dyn Solver,
+    sys: &System,
+    init: &State,
+    t_end_s: f64,
+    param: Option<Param>,
+    extra: &mut dyn Observer,
+) -> Result<(FlowJacobian, [f64; 4]), SimError> {
     require_exact(solver)?;
     let mut var = Variational::new(sys, JacobianSink::default())?;
+    var.param = param;
     let summary = {
         let v: &mut dyn Observer = &mut var;
         solver.run(
@@ -668,13 +888,16 @@ pub fn flow_with_jacobian(
         mode: Mode::Free,
         sigma: crate::damper::friction::sgn0(summary.final_state.dw_m_s()),
     });
-    Ok(FlowJacobian {
-        state: summary.final_state,
-        jacobian,
-        end_field: var.sys.field(end_phase, &summary.final_state, t_end_s),
-        events: var.counts,
-        summary,
-    })
+    Ok((
+        FlowJacobian {
+            state: summary.final_state,
+            jacobian,
+            end_field: var.sys.field(end_phase, &summary.final_state, t_end_s),
+            events: var.counts,
+            summary,
+        },
+        var.dxdp,
+    ))
 }
 
 #[cfg(test)]

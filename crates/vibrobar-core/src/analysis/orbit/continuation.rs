@@ -4,7 +4,9 @@
 //! **Unknowns** `y = (ξ, p̃)`: the scaled state at the section `ξ = x/s` (the scales of the start,
 //! kept along the branch) and the parameter mapped so that the requested interval is `[0, 1]`,
 //! `p = from + p̃ (to − from)`. `F(y) = (P(x; p) − x)/s`; its Jacobian `[S⁻¹DPS − I | ∂F/∂p̃]`
-//! (the state part from the [`MapJacobian`], the parameter column by central differences). Each
+//! (the state part from the [`MapJacobian`], the parameter column exact from the variational
+//! layer ([`map_param_derivative`], one run; for the ratio with the moving end time `t₀ + kT`),
+//! by central differences of the map for the mass ratio (two runs)). Each
 //! step predicts along the unit tangent (the kernel of the Jacobian, oriented like the previous
 //! one) and corrects with Newton on `F = 0` plus the arclength condition `t·(y − y_pred) = 0`
 //! (Keller). The step grows after easy corrections and is halved after a failed one or a turn of
@@ -35,6 +37,7 @@ use super::{
     describe, find_orbit, scales, to_vector, MapJacobian, NewtonSettings, PeriodicOrbit, Section,
 };
 use crate::analysis::grid::Axis;
+use crate::analysis::variational::{flow_with_param_derivative, Param};
 use crate::error::{ParamError, SimError};
 use crate::params::System;
 use crate::solver::{Exact, Solver};
@@ -269,16 +272,26 @@ impl Cont<'_> {
                 j[(i, k)] = dp[(i, k)] * self.sc[k] / self.sc[i] - if i == k { 1.0 } else { 0.0 };
             }
         }
-        // ∂F/∂p̃ by central differences (one-sided at the interval's natural ends is not
-        // needed: the parameter stays valid slightly beyond them or the step fails).
-        let d = 1e-7;
-        let fp = |pt: f64| -> Result<[f64; 4], SimError> {
-            let s = self.section(t0, pt)?;
-            s.flow(&x)
-        };
-        let (a, b) = (fp(y[4] + d)?, fp(y[4] - d)?);
-        for i in 0..4 {
-            j[(i, 4)] = (a[i] - b[i]) / (2.0 * d * self.sc[i]);
+        // ∂F/∂p̃: exact where the variational layer carries the parameter, else central
+        // differences of the map (one-sided at the interval's natural ends is not needed: the
+        // parameter stays valid slightly beyond them or the step fails).
+        match map_param_derivative(&sec, self.axis, &x)? {
+            Some(col) => {
+                for i in 0..4 {
+                    j[(i, 4)] = col[i] * (self.to - self.from) / self.sc[i];
+                }
+            }
+            None => {
+                let d = 1e-7;
+                let fp = |pt: f64| -> Result<[f64; 4], SimError> {
+                    let s = self.section(t0, pt)?;
+                    s.flow(&x)
+                };
+                let (a, b) = (fp(y[4] + d)?, fp(y[4] - d)?);
+                for i in 0..4 {
+                    j[(i, 4)] = (a[i] - b[i]) / (2.0 * d * self.sc[i]);
+                }
+            }
         }
         Ok((f, j, dp))
     }
@@ -718,6 +731,65 @@ fn jump_across(c: &Cont, cur: &Pt) -> Option<Pt> {
         }
     }
     None
+}
+
+/// The variational layer's parameter for `axis`, where it carries one (not the mass ratio).
+pub fn exact_param(axis: Axis) -> Option<Param> {
+    match axis {
+        Axis::Restitution => Some(Param::Restitution),
+        Axis::FrictionForceN => Some(Param::FrictionForceN),
+        Axis::GapM => Some(Param::GapM),
+        Axis::FreqRatio => Some(Param::FreqRatio),
+        Axis::MassRatio => None,
+    }
+}
+
+/// `∂P(x)/∂p` of the stroboscopic map at fixed `x = (u, u̇, w, ẇ)`, per SI unit of `axis`,
+/// from one run of the variational layer; `None` where it carries no such parameter
+/// ([`exact_param`]).
+pub fn map_param_derivative(
+    sec: &Section,
+    axis: Axis,
+    x: &[f64; 4],
+) -> Result<Option<[f64; 4]>, SimError> {
+    let Some(p) = exact_param(axis) else {
+        return Ok(None);
+    };
+    let (fj, mut d) = flow_with_param_derivative(
+        &Exact::default(),
+        &sec.system,
+        &sec.state(x),
+        sec.t0_s + sec.period_s(),
+        p,
+        &mut (),
+    )?;
+    if p == Param::FreqRatio {
+        // The end time t₀ + 2πk/(r ω₁) moves: ∂t_end/∂r = −kT/r.
+        let dt = -sec.period_s() / param_of(&sec.system, axis);
+        for (di, fi) in d.iter_mut().zip(fj.end_field) {
+            *di += fi * dt;
+        }
+    }
+    // To the map's relative coordinates (w = v − u).
+    Ok(Some([d[0], d[1], d[2] - d[0], d[3] - d[1]]))
+}
+
+/// `∂P(x)/∂p` by central differences of the map with step `h` in the SI value of `axis` (the
+/// check on [`map_param_derivative`], and the path for the axes it does not cover).
+pub fn map_param_derivative_fd(
+    sec: &Section,
+    axis: Axis,
+    x: &[f64; 4],
+    h: f64,
+) -> Result<[f64; 4], SimError> {
+    let p0 = param_of(&sec.system, axis);
+    let at = |p: f64| -> Result<[f64; 4], SimError> {
+        let mut s = sec.system;
+        axis.apply(&mut s, p)?;
+        Section::new(s, sec.t0_s, sec.periods)?.flow(x)
+    };
+    let (a, b) = (at(p0 + h)?, at(p0 - h)?);
+    Ok([0, 1, 2, 3].map(|i| (a[i] - b[i]) / (2.0 * h)))
 }
 
 /// The value of `axis` in `sys`.
