@@ -726,6 +726,15 @@ fn columns<'py>(
     Ok((d, csv))
 }
 
+/// `d[key]` = the values as a NumPy array.
+fn set_column<T: numpy::Element>(
+    d: &Bound<'_, PyDict>,
+    key: &str,
+    values: impl Iterator<Item = T>,
+) -> PyResult<()> {
+    d.set_item(key, values.collect::<Vec<T>>().into_pyarray(d.py()))
+}
+
 /// The solver of `command`'s runs: a `[cutting]` scenario's delay stepping where the command
 /// supports the cut (`run`, `ensemble`), refused with the section named elsewhere.
 fn make_solver(sc: &Scenario, command: &str) -> PyResult<Box<dyn Solver>> {
@@ -935,12 +944,9 @@ fn run<'py>(
             .iter()
             .map(|c| c.name.as_ref())
             .collect();
-        let h: Vec<f64> = cuts.iter().map(|c| c.chip_thickness_m).collect();
-        let in_cut: Vec<i64> = cuts.iter().map(|c| i64::from(c.in_cut)).collect();
-        let f: Vec<f64> = cuts.iter().map(|c| c.cutting_force_n).collect();
-        hist.set_item(names[0], h.into_pyarray(py))?;
-        hist.set_item(names[1], in_cut.into_pyarray(py))?;
-        hist.set_item(names[2], f.into_pyarray(py))?;
+        set_column(&hist, names[0], cuts.iter().map(|c| c.chip_thickness_m))?;
+        set_column(&hist, names[1], cuts.iter().map(|c| i64::from(c.in_cut)))?;
+        set_column(&hist, names[2], cuts.iter().map(|c| c.cutting_force_n))?;
     }
     d.set_item("history", hist)?;
     let imp = PyDict::new(py);
@@ -1591,27 +1597,21 @@ fn continuation<'py>(
         csv.push('\n');
     }
     let d = PyDict::new(py);
-    let col = |f: &dyn Fn(&BranchPoint) -> f64| b.points.iter().map(f).collect::<Vec<f64>>();
-    d.set_item("param", col(&|p| p.param).into_pyarray(py))?;
-    d.set_item("rms_m", col(&|p| p.orbit.rms_m).into_pyarray(py))?;
-    d.set_item(
+    let pts = || b.points.iter();
+    set_column(&d, "param", pts().map(|p| p.param))?;
+    set_column(&d, "rms_m", pts().map(|p| p.orbit.rms_m))?;
+    set_column(
+        &d,
         "max_abs_multiplier",
-        col(&|p| p.orbit.max_abs_multiplier()).into_pyarray(py),
+        pts().map(|p| p.orbit.max_abs_multiplier()),
     )?;
-    let stable: Vec<bool> = b.points.iter().map(|p| p.orbit.stable()).collect();
-    d.set_item("stable", stable.into_pyarray(py))?;
-    let ipp: Vec<u64> = b
-        .points
-        .iter()
-        .map(|p| p.orbit.impacts_per_period as u64)
-        .collect();
-    d.set_item("impacts_per_period", ipp.into_pyarray(py))?;
-    let per: Vec<u64> = b
-        .points
-        .iter()
-        .map(|p| p.orbit.section.periods as u64)
-        .collect();
-    d.set_item("period", per.into_pyarray(py))?;
+    set_column(&d, "stable", pts().map(|p| p.orbit.stable()))?;
+    set_column(
+        &d,
+        "impacts_per_period",
+        pts().map(|p| p.orbit.impacts_per_period as u64),
+    )?;
+    set_column(&d, "period", pts().map(|p| p.orbit.section.periods as u64))?;
     let ev: Vec<&str> = b
         .points
         .iter()
@@ -1694,71 +1694,15 @@ fn bifurcation_diagram<'py>(
         Ok(all)
     })?;
     let pts = PyDict::new(py);
-    pts.set_item(
-        param,
-        b.points
-            .iter()
-            .map(|p| p.param)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    pts.set_item(
-        "t_s",
-        b.points
-            .iter()
-            .map(|p| p.t_s)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    pts.set_item(
-        "u_m",
-        b.points
-            .iter()
-            .map(|p| p.u_m)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    pts.set_item(
-        "du_m_s",
-        b.points
-            .iter()
-            .map(|p| p.du_m_s)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
+    set_column(&pts, param, b.points.iter().map(|p| p.param))?;
+    set_column(&pts, "t_s", b.points.iter().map(|p| p.t_s))?;
+    set_column(&pts, "u_m", b.points.iter().map(|p| p.u_m))?;
+    set_column(&pts, "du_m_s", b.points.iter().map(|p| p.du_m_s))?;
     let imp = PyDict::new(py);
-    imp.set_item(
-        param,
-        b.impacts
-            .iter()
-            .map(|p| p.param)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    imp.set_item(
-        "t_s",
-        b.impacts
-            .iter()
-            .map(|p| p.t_s)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    imp.set_item(
-        "wall",
-        b.impacts
-            .iter()
-            .map(|p| p.wall.sign() as i64)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
-    imp.set_item(
-        "dw_m_s",
-        b.impacts
-            .iter()
-            .map(|p| p.dw_m_s)
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
-    )?;
+    set_column(&imp, param, b.impacts.iter().map(|p| p.param))?;
+    set_column(&imp, "t_s", b.impacts.iter().map(|p| p.t_s))?;
+    set_column(&imp, "wall", b.impacts.iter().map(|p| p.wall.sign() as i64))?;
+    set_column(&imp, "dw_m_s", b.impacts.iter().map(|p| p.dw_m_s))?;
     Ok((pts, imp))
 }
 
