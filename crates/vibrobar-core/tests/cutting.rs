@@ -1,7 +1,7 @@
 //! The cutting process (issue #13) in the exact solver: time-domain growth rates against the
 //! characteristic roots of the linear DDE, loss of contact, the ball, energy books, convergence.
 
-use vibrobar_core::analysis::energy::EnergyAudit;
+use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
 use vibrobar_core::excitation::{Cutting, CuttingForceLaw};
 use vibrobar_core::params::{
     Bar, BarModel, Damper, Forcing, Frequency, FrictionModel, State, System,
@@ -463,37 +463,12 @@ fn ball_held_by_huge_friction_is_the_stuck_ball_bar() {
 /// the cut): `ΔE = forcing − viscous − impacts + friction + cutting work` to rounding.
 #[test]
 fn energy_books_close_on_cutting_runs_with_impacts() {
-    let rpm = 30_000.0;
-    let (bl, wc) = b_lim(rpm);
     for (friction, f) in [
         (FrictionModel::None, None),
         (FrictionModel::Coulomb, Some(0.5)),
     ] {
-        let s = sys(Some(ball(2e-5, friction, f)));
-        // With the invariant checks: |w| ≤ l_g + 1e-12 m at every event and segment end.
-        let mut solver = ExactCutting::new(cut(1.5 * bl, rpm));
-        solver.exact.check_invariants = true;
-        let mut audit = EnergyAudit::new(&s);
         let mut ev = Events::default();
-        let mut smp = Sampler::new(2.0 * std::f64::consts::PI / wc / 40.0);
-        let init = State {
-            u_m: 0.05 * H0,
-            ..State::default()
-        };
-        solver
-            .run(
-                &s,
-                &init,
-                0.3,
-                &mut Fanout(&mut [&mut audit, &mut ev, &mut smp]),
-            )
-            .unwrap();
-        let e = audit.balance().unwrap();
-        let scale = e.work_input_j.abs()
-            + e.viscous_loss_j
-            + e.impact_loss_j
-            + e.friction_work_j.abs()
-            + e.cutting_work_j.abs();
+        let (e, scale, smp) = impacting_cut_run(cut, friction, f, &mut ev);
         println!(
             "{friction}: {} impacts, left the cut {}, books {e:?}, residual/scale {:.2e}",
             ev.impacts,
@@ -506,6 +481,44 @@ fn energy_books_close_on_cutting_runs_with_impacts() {
         assert!(e.residual_j.abs() < 1e-9 * scale, "{e:?}");
         assert!(smp.max_abs_w <= 1e-5 + 1e-12);
     }
+}
+
+/// A 0.3 s run of the bar with a ball in a 20 µm gap under the cut `law` at 1.5 b_lim and
+/// 30 000 rpm (the tool leaves the cut), kicked by 0.05 h0, with the solver's invariant checks
+/// on (|w| ≤ l_g + 1e-12 m at every event and segment end): the energy books, their scale
+/// (the sum of the magnitudes of their entries) and what the sampler saw; `extra` watches too.
+fn impacting_cut_run(
+    law: fn(f64, f64) -> Cutting,
+    friction: FrictionModel,
+    friction_force_n: Option<f64>,
+    extra: &mut dyn Observer,
+) -> (EnergyBalance, f64, Sampler) {
+    let rpm = 30_000.0;
+    let (bl, wc) = b_lim(rpm);
+    let s = sys(Some(ball(2e-5, friction, friction_force_n)));
+    let mut solver = ExactCutting::new(law(1.5 * bl, rpm));
+    solver.exact.check_invariants = true;
+    let mut audit = EnergyAudit::new(&s);
+    let mut smp = Sampler::new(2.0 * std::f64::consts::PI / wc / 40.0);
+    let init = State {
+        u_m: 0.05 * H0,
+        ..State::default()
+    };
+    solver
+        .run(
+            &s,
+            &init,
+            0.3,
+            &mut Fanout(&mut [&mut audit, extra, &mut smp]),
+        )
+        .unwrap();
+    let e = audit.balance().unwrap();
+    let scale = e.work_input_j.abs()
+        + e.viscous_loss_j
+        + e.impact_loss_j
+        + e.friction_work_j.abs()
+        + e.cutting_work_j.abs();
+    (e, scale, smp)
 }
 
 fn three_quarter(width_m: f64, rpm: f64) -> Cutting {
@@ -722,36 +735,12 @@ impl Observer for Momentum {
 /// force the pieces carry: the linear law's plus the fitted remainder) to rounding.
 #[test]
 fn three_quarter_with_an_impacting_ball_keeps_momentum_and_books() {
-    let rpm = 30_000.0;
-    let (bl, wc) = b_lim(rpm);
     for (friction, f) in [
         (FrictionModel::None, None),
         (FrictionModel::Coulomb, Some(0.5)),
     ] {
-        let s = sys(Some(ball(2e-5, friction, f)));
-        let mut solver = ExactCutting::new(three_quarter(1.5 * bl, rpm));
-        solver.exact.check_invariants = true;
-        let mut audit = EnergyAudit::new(&s);
         let mut mom = Momentum::default();
-        let mut smp = Sampler::new(2.0 * std::f64::consts::PI / wc / 40.0);
-        let init = State {
-            u_m: 0.05 * H0,
-            ..State::default()
-        };
-        solver
-            .run(
-                &s,
-                &init,
-                0.3,
-                &mut Fanout(&mut [&mut audit, &mut mom, &mut smp]),
-            )
-            .unwrap();
-        let e = audit.balance().unwrap();
-        let scale = e.work_input_j.abs()
-            + e.viscous_loss_j
-            + e.impact_loss_j
-            + e.friction_work_j.abs()
-            + e.cutting_work_j.abs();
+        let (e, scale, smp) = impacting_cut_run(three_quarter, friction, f, &mut mom);
         println!(
             "three-quarter, {friction}: {} impacts, momentum {:.2e} of {:.2e}, left the cut {}, \
              residual/scale {:.2e}",
@@ -770,7 +759,7 @@ fn three_quarter_with_an_impacting_ball_keeps_momentum_and_books() {
         );
         assert!(e.cutting_work_j > 0.0 && e.work_input_j.abs() < 1e-12 * scale);
         assert!(e.residual_j.abs() < 1e-9 * scale, "{e:?}");
-        assert!(smp.max_abs_w <= 2e-5 + 1e-12);
+        assert!(smp.max_abs_w <= 1e-5 + 1e-12);
     }
 }
 
