@@ -169,6 +169,11 @@ pub enum Command {
     /// settled vibration of the solid and the damped bar from the small and the large
     /// disturbance over a range of widths; resumable (--resume) and shardable (--shard K/N).
     WidthDiagram(crate::commands::time_domain::WidthDiagramArgs),
+    /// Design by time-domain lobes of a [cutting] scenario (issue #14): each gap × ball mass
+    /// (lumped bar) or gap × cavity position (beam) scored by its worst-case acceptable width
+    /// over a band of spindle speeds from the large disturbance, beside the solid bar; the
+    /// optimum and a heat map; resumable (--resume) and shardable (--shard K/N).
+    LobeDesign(crate::commands::lobe_design::LobeDesignArgs),
 }
 
 impl Command {
@@ -198,6 +203,7 @@ impl Command {
             Command::ContactConvergence(_) => "contact-convergence",
             Command::Lobes(_) => "lobes",
             Command::WidthDiagram(_) => "width-diagram",
+            Command::LobeDesign(_) => "lobe-design",
         }
     }
 
@@ -233,6 +239,7 @@ impl Command {
             Command::ContactConvergence(a) => (vec![], Some(a.out.as_path())),
             Command::Lobes(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
             Command::WidthDiagram(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
+            Command::LobeDesign(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
         }
     }
 
@@ -328,6 +335,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::ContactTest(a) => contact_test::run(&a),
         Command::Lobes(a) => lobes::run(&a),
         Command::WidthDiagram(a) => crate::commands::time_domain::width_diagram(&a),
+        Command::LobeDesign(a) => crate::commands::lobe_design::run(&a),
         Command::ContactLaws(a) => contact_laws::run(&a),
         Command::ContactConvergence(a) => contact_convergence::run(&a),
     }

@@ -239,6 +239,7 @@ impl Schema {
             "ensemble" => ensemble_schema(),
             WIDTH_DIAGRAM_KIND => width_diagram_schema(),
             TD_LOBES_KIND => td_lobes_schema(),
+            LOBE_DESIGN_KIND => lobe_design_schema(lobe_design_axis(header)?),
             _ => return None,
         };
         (s.header() == header).then_some(s)
@@ -1153,6 +1154,144 @@ mod td_tests {
             (TD_LOBES_KIND, td_lobes_schema()),
         ] {
             assert_eq!(Schema::for_file(kind, &s.header()), Some(s));
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// design by time-domain lobes (issue #14 §3): `vibrobar lobe-design`
+
+/// Metadata kind of a design study by time-domain lobes (`vibrobar lobe-design`).
+pub const LOBE_DESIGN_KIND: &str = "lobe-design";
+
+/// Columns of a design study by time-domain lobes, one row per design; `(gap_m, <axis>)`
+/// identify a row, where `<axis>` is `ball_mass_kg` (lumped bar) or `position_m` (cavity centre
+/// from the clamp, beam). The widths are the large disturbance's over the band of speeds:
+/// the damped bar's worst case (at `worst_rpm`) and mean, the solid bar's over the same band,
+/// and their ratios (`worst_gain`, `mean_gain`; empty when the solid bar has no acceptable
+/// width). The counts are the damped searches': runs at the event limit, speeds flagged
+/// non-monotonic or capped, runs made.
+pub fn lobe_design_schema(axis: vibrobar_core::analysis::lobe_design::DesignAxis) -> Schema {
+    Schema {
+        columns: vec![
+            col("gap_m", Format::Coord),
+            col(axis.column(), Format::Coord),
+            col("worst_width_m", Format::Sci),
+            col("worst_rpm", Format::Coord),
+            col("mean_width_m", Format::Sci),
+            col("solid_worst_width_m", Format::Sci),
+            col("solid_worst_rpm", Format::Coord),
+            col("solid_mean_width_m", Format::Sci),
+            opt("worst_gain", Format::Plain),
+            opt("mean_gain", Format::Plain),
+            col("event_limit_runs", Format::Count),
+            col("non_monotonic", Format::Count),
+            col("capped", Format::Count),
+            col("runs", Format::Count),
+        ],
+    }
+}
+
+/// The design axis of a lobe-design header (its second column).
+pub fn lobe_design_axis(header: &str) -> Option<vibrobar_core::analysis::lobe_design::DesignAxis> {
+    vibrobar_core::analysis::lobe_design::DesignAxis::from_column(header.split(',').nth(1)?)
+}
+
+/// One lobe-design line from a core row.
+pub fn lobe_design_values(r: &vibrobar_core::analysis::lobe_design::DesignRow) -> Vec<Value> {
+    let gain = |g: Option<f64>| g.map_or(Value::Empty, Value::F);
+    vec![
+        Value::F(r.point.gap_m),
+        Value::F(r.point.value),
+        Value::F(r.damped.worst_width_m),
+        Value::F(r.damped.worst_rpm),
+        Value::F(r.damped.mean_width_m),
+        Value::F(r.solid.worst_width_m),
+        Value::F(r.solid.worst_rpm),
+        Value::F(r.solid.mean_width_m),
+        gain(r.worst_gain()),
+        gain(r.mean_gain()),
+        Value::U(u64::from(r.event_limit_runs)),
+        Value::U(u64::from(r.non_monotonic)),
+        Value::U(u64::from(r.capped)),
+        Value::U(u64::from(r.runs)),
+    ]
+}
+
+/// The journal key of a lobe-design row (its first two columns).
+pub fn lobe_design_key(
+    axis: vibrobar_core::analysis::lobe_design::DesignAxis,
+    gap_m: f64,
+    value: f64,
+) -> String {
+    lobe_design_schema(axis).format(&[Value::F(gap_m), Value::F(value)])
+}
+
+/// Read a whole lobe-design CSV back into core rows (index = row order, as a whole file is
+/// written), with its axis.
+pub fn read_lobe_design_csv(
+    path: &Path,
+) -> Result<(
+    vibrobar_core::analysis::lobe_design::DesignAxis,
+    Vec<vibrobar_core::analysis::lobe_design::DesignRow>,
+)> {
+    use vibrobar_core::analysis::lobe_design::{BandScore, DesignPoint, DesignRow};
+    let text = std::fs::read_to_string(path).map_err(IoError::os(path))?;
+    let header = text.lines().next().unwrap_or("");
+    let axis = lobe_design_axis(header).ok_or_else(|| IoError::Corrupt {
+        path: path.to_path_buf(),
+        line: 1,
+        why: format!("header {header:?} is not a lobe-design header"),
+    })?;
+    let rows = read_csv(path, &lobe_design_schema(axis))?;
+    let count = |v: &Value| v.f() as u32;
+    Ok((
+        axis,
+        rows.iter()
+            .enumerate()
+            .map(|(index, v)| DesignRow {
+                point: DesignPoint {
+                    index,
+                    gap_m: v[0].f(),
+                    value: v[1].f(),
+                },
+                damped: BandScore {
+                    worst_width_m: v[2].f(),
+                    worst_rpm: v[3].f(),
+                    mean_width_m: v[4].f(),
+                },
+                solid: BandScore {
+                    worst_width_m: v[5].f(),
+                    worst_rpm: v[6].f(),
+                    mean_width_m: v[7].f(),
+                },
+                event_limit_runs: count(&v[10]),
+                non_monotonic: count(&v[11]),
+                capped: count(&v[12]),
+                runs: count(&v[13]),
+            })
+            .collect(),
+    ))
+}
+
+#[cfg(test)]
+mod lobe_design_tests {
+    use super::*;
+    use vibrobar_core::analysis::lobe_design::DesignAxis;
+
+    /// Both axes' headers, and the kind merge knows.
+    #[test]
+    fn headers_and_kind() {
+        assert_eq!(
+            lobe_design_schema(DesignAxis::BallMass).header(),
+            "gap_m,ball_mass_kg,worst_width_m,worst_rpm,mean_width_m,solid_worst_width_m,\
+             solid_worst_rpm,solid_mean_width_m,worst_gain,mean_gain,event_limit_runs,\
+             non_monotonic,capped,runs"
+        );
+        for a in DesignAxis::ALL {
+            let s = lobe_design_schema(a);
+            assert_eq!(lobe_design_axis(&s.header()), Some(a));
+            assert_eq!(Schema::for_file(LOBE_DESIGN_KIND, &s.header()), Some(s));
         }
     }
 }

@@ -1,5 +1,5 @@
 //! `merge`: join the shard files of a map (`map --shard K/N`), a placement study, an ensemble, a
-//! width diagram or time-domain lobes into the whole
+//! width diagram, time-domain lobes or a lobe-design study into the whole
 //! file, then write `FILE.optimum.csv` and the figures as an unsharded `map` (or `placement`) would. The merged file is byte-identical
 //! to the file an unsharded run writes.
 use anyhow::Context;
@@ -38,6 +38,7 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<()> {
                 super::time_domain::width_diagram_figure(&args.out)?
             }
             vibrobar_io::csv::TD_LOBES_KIND => super::time_domain::td_lobes_figure(&args.out)?,
+            vibrobar_io::csv::LOBE_DESIGN_KIND => super::lobe_design::postprocess(&args.out, true)?,
             _ => {}
         }
     }

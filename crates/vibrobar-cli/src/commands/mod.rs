@@ -8,6 +8,7 @@ pub mod contact_laws;
 pub mod contact_test;
 pub mod design;
 pub mod explore;
+pub mod lobe_design;
 pub mod lobes;
 pub mod lumped_vs_beam;
 pub mod map;
