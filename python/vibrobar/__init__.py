@@ -48,6 +48,7 @@ __all__ = [
     "lobes",
     "width_diagram",
     "time_domain_lobes",
+    "lobe_design",
     "submit",
     "solver_names",
     "DEFAULT_SOLVER",
@@ -88,6 +89,14 @@ UNITS = {
     "chatter_frequency_hz": "Hz",
     "chatter_frequency_ball_stuck_hz": "Hz",
     "chatter_frequency_solid_hz": "Hz",
+    "ball_mass_kg": "kg",
+    "position_m": "m",
+    "worst_width_m": "m",
+    "worst_rpm": "rpm",
+    "mean_width_m": "m",
+    "solid_worst_width_m": "m",
+    "solid_worst_rpm": "rpm",
+    "solid_mean_width_m": "m",
 }
 
 
@@ -797,6 +806,47 @@ def time_domain_lobes(
     cb, close = _progress(progress, "time-domain lobes")
     try:
         cols, csv = _vibrobar.time_domain_lobes(sc, _array("spindle_rpm", spindle_rpm), cb)
+    finally:
+        close()
+    return Table(cols, csv)
+
+
+def lobe_design(
+    scenario: Optional[Scenario] = None,
+    spindle_rpm: ArrayLike = None,
+    gaps_m: ArrayLike = None,
+    *,
+    ball_masses_kg: ArrayLike = None,
+    positions_m: ArrayLike = None,
+    progress: Progress = None,
+    **overrides,
+) -> Table:
+    """Design by time-domain lobes of a ``[cutting]`` scenario (issue #14; ``vibrobar
+    lobe-design``): each gap × ball mass (``ball_masses_kg``, lumped bar) or gap × cavity
+    position from the clamp (``positions_m``, a ``[beam]``) scored by its worst-case acceptable
+    width over the spindle speeds from the large disturbance, beside the solid bar's. Give
+    exactly one of ``ball_masses_kg`` and ``positions_m``.
+
+    Returns:
+        Table: one row per design (gap outer): ``gap_m``, ``ball_mass_kg`` or ``position_m``,
+        ``worst_width_m``, ``worst_rpm``, ``mean_width_m``, ``solid_worst_width_m``,
+        ``solid_worst_rpm``, ``solid_mean_width_m``, ``worst_gain``, ``mean_gain``,
+        ``event_limit_runs``, ``non_monotonic``, ``capped``, ``runs``. The optimum is the row
+        with the largest ``worst_width_m`` (ties: larger mean, then earlier row).
+    """
+    sc = _scenario(scenario, overrides)
+    cb, close = _progress(progress, "lobe-design")
+    masses = None if ball_masses_kg is None else _array("ball_masses_kg", ball_masses_kg)
+    positions = None if positions_m is None else _array("positions_m", positions_m)
+    try:
+        cols, csv = _vibrobar.lobe_design(
+            sc,
+            _array("spindle_rpm", spindle_rpm),
+            _array("gaps_m", gaps_m),
+            masses,
+            positions,
+            cb,
+        )
     finally:
         close()
     return Table(cols, csv)

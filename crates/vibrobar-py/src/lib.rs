@@ -1871,6 +1871,65 @@ fn time_domain_lobes<'py>(
     columns(py, &iocsv::td_lobes_schema(), &rows)
 }
 
+/// Design by time-domain lobes of a `[cutting]` scenario (issue #14 §3): each gap × ball mass
+/// (`ball_masses_kg`) or gap × cavity position from the clamp (`positions_m`, a `[beam]`)
+/// scored by its worst-case acceptable width over the speeds from the large disturbance, beside
+/// the solid bar's (searched once per speed); the columns of `vibrobar lobe-design`, rows in its
+/// order (gap outer).
+#[pyfunction]
+#[pyo3(signature = (scenario, spindle_rpm, gaps_m, ball_masses_kg = None, positions_m = None, progress = None))]
+fn lobe_design<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    spindle_rpm: PyReadonlyArray1<'py, f64>,
+    gaps_m: PyReadonlyArray1<'py, f64>,
+    ball_masses_kg: Option<PyReadonlyArray1<'py, f64>>,
+    positions_m: Option<PyReadonlyArray1<'py, f64>>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    use vibrobar_core::analysis::lobe_design as ld;
+    let sc = &scenario.inner;
+    let rpms = values(
+        "spindle_rpm",
+        &spindle_rpm,
+        |x| {
+            (vibrobar_core::limits::SPINDLE_RPM_MIN..=vibrobar_core::limits::SPINDLE_RPM_MAX)
+                .contains(&x)
+        },
+        "[1, 200000] rpm",
+        100_000,
+    )?;
+    let gaps = values("gaps_m", &gaps_m, |x| x > 0.0, "(0, ∞) m", 100_000)?;
+    let (axis, second) = match (&ball_masses_kg, &positions_m) {
+        (Some(m), None) => (
+            ld::DesignAxis::BallMass,
+            values("ball_masses_kg", m, |x| x > 0.0, "(0, ∞) kg", 100_000)?,
+        ),
+        (None, Some(x)) => (
+            ld::DesignAxis::Position,
+            values("positions_m", x, |x| x >= 0.0, "[0, L] m", 100_000)?,
+        ),
+        _ => {
+            return Err(PyValueError::new_err(
+                "give exactly one of ball_masses_kg (lumped bar) and positions_m (beam)",
+            ))
+        }
+    };
+    let spec = ld::LobeDesignSpec {
+        base: sc.cut_problem().map_err(anyhow_input)?,
+        beam: sc.beam.clone(),
+        axis,
+    };
+    let grid = ld::DesignGrid::new(axis, gaps, second).map_err(input_error)?;
+    let (_, rows) = detached(py, progress, |ctl| {
+        let prog = |d: usize, n: usize| ctl.progress(d, n);
+        let runner = vibrobar_core::analysis::Runner::default().with_progress(&prog);
+        ld::lobe_design(&spec, &grid, &rpms, &runner).map_err(batch_error)
+    })?;
+    let rows: Vec<Vec<Value>> = rows.iter().map(iocsv::lobe_design_values).collect();
+    columns(py, &iocsv::lobe_design_schema(axis), &rows)
+}
+
 /// Names of the solvers (`solver=` of a scenario).
 #[pyfunction]
 fn solver_names() -> Vec<&'static str> {
@@ -1919,6 +1978,7 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(lobes, m)?)?;
     m.add_function(wrap_pyfunction!(width_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(time_domain_lobes, m)?)?;
+    m.add_function(wrap_pyfunction!(lobe_design, m)?)?;
     m.add_function(wrap_pyfunction!(solver_names, m)?)?;
     m.add_function(wrap_pyfunction!(_busy, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -135,6 +135,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
     }
     cutting_row(&st)?;
     time_domain_row()?;
+    lobe_design_row()?;
     // The single run above is the lumped reference only when the bench's scenario is lumped.
     beam_rows(&names, &st, !args.single_only)?;
     lobes_row()
@@ -369,6 +370,67 @@ pub fn time_domain_row() -> Result<()> {
         f64::from(runs) / TD_SEARCHES,
         fmt_secs(diagram),
         fmt_secs(diagram * CANTILEVER_F4_OVER_F1),
+    );
+    Ok(())
+}
+
+/// Repetitions of the lobe-design row's timed design; its time is their median.
+const LD_REPS: usize = 3;
+/// The study the lobe-design row projects (issue #14 §3): gaps × ball masses × speeds, stated
+/// as 0.05–0.4 mm step 0.05 × 10–35 g step 5 × 1000–10 000 rpm step 500.
+const LD_GRID: (usize, usize, usize) = (8, 6, 19);
+
+/// Issue #14 §3: one design (the paper bar's ball, gap 0.1 mm, 26 g) scored at one speed
+/// (5000 rpm, default windows: one large-disturbance search of the damped bar), the median of
+/// [`LD_REPS`], and the projection for [`LD_GRID`] on 2 cores (every design at every speed plus
+/// the solid reference once per speed, each search's cost scaled by 5000/n rpm as the windows
+/// are in revolutions; other designs make other run counts, so a projection, not a promise).
+pub fn lobe_design_row() -> Result<()> {
+    use vibrobar_core::analysis::lobe_design::{
+        score_design, solid_reference, DesignAxis, DesignPoint, LobeDesignSpec,
+    };
+    let sc = vibrobar_scenario::Scenario::from_toml(include_str!(
+        "../../../../scenarios/cutting-paper.toml"
+    ))?;
+    let spec = LobeDesignSpec {
+        base: sc.cut_problem()?,
+        beam: None,
+        axis: DesignAxis::BallMass,
+    };
+    let n = 5000.0;
+    let solid = solid_reference(
+        &spec.base,
+        &[n],
+        &vibrobar_core::analysis::Runner::default(),
+    )
+    .map_err(|e| anyhow::anyhow!("lobe-design bench, solid reference: {e}"))?;
+    let d = DesignPoint {
+        index: 0,
+        gap_m: sc.damper.gap_m,
+        value: sc.damper.ball_mass_kg,
+    };
+    let mut t = Vec::with_capacity(LD_REPS);
+    let mut runs = 0;
+    for _ in 0..LD_REPS {
+        let t0 = std::time::Instant::now();
+        runs = score_design(&spec, &d, &solid)?.runs;
+        t.push(t0.elapsed().as_secs_f64());
+    }
+    let one = median(&mut t);
+    let (g, m, s) = LD_GRID;
+    let scale: f64 = (0..s)
+        .map(|i| 5000.0 / (1000.0 + 500.0 * i as f64))
+        .sum::<f64>()
+        / s as f64;
+    let searches = (g * m * s + s) as f64;
+    println!(
+        "  exact  lobe-design (issue #14 §3; paper bar, default windows): one design at one speed \
+         (5000 rpm, gap {} mm, {} g, {runs} runs) median {}; {g} gaps × {m} ball masses × {s} \
+         speeds 1000–10 000 rpm (+ {s} solid searches) on 2 cores ≈ {}",
+        vibrobar_io::csv::fmt_coord(d.gap_m * 1e3),
+        vibrobar_io::csv::fmt_coord(d.value * 1e3),
+        fmt_secs(one),
+        fmt_secs(searches * one * scale / 2.0),
     );
     Ok(())
 }
