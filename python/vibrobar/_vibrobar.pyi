@@ -128,4 +128,12 @@ def ensemble(
     dw_m_s: float = 0.2,
     progress: _Progress = None,
 ) -> tuple[dict[str, Any], str]: ...
+def lobe_design(
+    scenario: Scenario,
+    spindle_rpm: npt.NDArray[np.float64],
+    gaps_m: npt.NDArray[np.float64],
+    ball_masses_kg: Optional[npt.NDArray[np.float64]] = None,
+    positions_m: Optional[npt.NDArray[np.float64]] = None,
+    progress: _Progress = None,
+) -> tuple[dict[str, Any], str]: ...
 def _busy(seconds: float, panic: bool = False) -> float: ...

@@ -266,7 +266,7 @@ impl BandScore {
     pub fn of(rpms: &[f64], widths_m: &[f64]) -> BandScore {
         let mut worst = (f64::INFINITY, f64::NAN);
         for (&n, &w) in rpms.iter().zip(widths_m) {
-            if w < worst.0 || (w == worst.0 && n < worst.1) {
+            if w.total_cmp(&worst.0).then(n.total_cmp(&worst.1)).is_lt() {
                 worst = (w, n);
             }
         }
@@ -410,12 +410,13 @@ pub fn lobe_design(
 /// the smaller index. `None` for no rows.
 pub fn optimum(rows: &[DesignRow]) -> Option<&DesignRow> {
     rows.iter().reduce(|best, r| {
-        let better = r.damped.worst_width_m > best.damped.worst_width_m
-            || (r.damped.worst_width_m == best.damped.worst_width_m
-                && (r.damped.mean_width_m > best.damped.mean_width_m
-                    || (r.damped.mean_width_m == best.damped.mean_width_m
-                        && r.point.index < best.point.index)));
-        if better {
+        let better = r
+            .damped
+            .worst_width_m
+            .total_cmp(&best.damped.worst_width_m)
+            .then(r.damped.mean_width_m.total_cmp(&best.damped.mean_width_m))
+            .then(best.point.index.cmp(&r.point.index));
+        if better.is_gt() {
             r
         } else {
             best
