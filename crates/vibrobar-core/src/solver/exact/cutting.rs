@@ -575,11 +575,6 @@ impl ExactCutting {
                      cut is not supported yet",
                 )),
             };
-        crate::solver::refuse_hertz(
-            sys.damper.as_ref(),
-            "[cutting] runs with the restitution contact law only; [contact] law = hertz with a \
-             cut is not supported yet",
-        )?;
         cut.validate()?;
         let nonlinear = cut.force_law == CuttingForceLaw::ThreeQuarter;
         crate::limits::check(
@@ -751,6 +746,8 @@ impl ExactCutting {
             Md::Stick
         };
         let mut order = 0;
+        // A `hertz` contact phase carried over a piece end or a cut event.
+        let mut phase = None;
         let mut cut_events: u64 = 0;
         // The window start of a piece that begins at the previous piece's end (exact `t_k`).
         let mut win_prev: Option<(u64, f64)> = None;
@@ -808,6 +805,19 @@ impl ExactCutting {
                         };
                         book.cut_event = ev;
                     }
+                } else if let (true, Md::HertzTouch(wall), Some(law)) = (has_ball, mode, cs.hertz) {
+                    // A compliant contact phase over this piece ([`super::cutting_hertz`]).
+                    mode = super::cutting_hertz::contact_piece(
+                        &cs,
+                        &law,
+                        cut,
+                        wall.sign(),
+                        &mut phase,
+                        &mut s,
+                        step_end,
+                        order,
+                        &mut book,
+                    )?;
                 } else if has_ball {
                     let mut cs = cs;
                     if nonlinear && in_cut {
