@@ -53,10 +53,14 @@
 //! chip's zero: through loss of contact the order drops as on the no-ball DP5 path (~1.6 there).
 //! The books close with the cutting work of the force the pieces carry (linear part plus fit).
 //!
-//! Scope: the lumped bar with the restitution contact law and every friction law, both force
-//! laws (the three-quarter law on the bar without a ball by [`super::cutting_nonlinear`]: DP5
-//! steps on the same pieces). The modal bar and the Hertz contact are refused with an error that
-//! says so.
+//! Scope: the lumped bar with both contact laws and every friction law, both force laws (the
+//! three-quarter law on the bar without a ball by [`super::cutting_nonlinear`]: DP5 steps on the
+//! same pieces). Under `[contact] law = hertz` a wall touch starts the compliant phase of
+//! [`super::cutting_hertz`]: DP5 on bar + ball with the cutting force from the piece's delayed
+//! surface quadratic, piece by piece (it stops at every piece end and breakpoint and resumes), the
+//! tool leaving or re-entering the cut located on its dense output and stored as every cut event
+//! is; its accuracy is the contact phase's (rtol 1e-9) on top of the pieces'. The modal bar is
+//! refused with an error that says so.
 
 use super::{
     advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, Tail, CUT,
