@@ -558,3 +558,57 @@ fn a_modal_bar_with_the_hertz_law_and_a_cut_is_refused() {
         other => panic!("{other:?}"),
     }
 }
+
+/// A run stopped inside a contact phase and continued ([`ExactCutting::continue_run`]) goes on
+/// with the phase where it stopped (the penetration and the contact's dissipation kept), and
+/// follows the uninterrupted run.
+#[test]
+fn a_run_continued_from_inside_a_contact_is_the_uninterrupted_run() {
+    let s = sys(ball(FrictionModel::None, None, hertz(1.0)));
+    let c = cut(CuttingForceLaw::Linear, 1.5);
+    let solver = ExactCutting::new(c);
+    let init = kick(1.5);
+    let t_end = 0.01;
+    // A time inside a contact: the middle of a contact segment after 3 ms.
+    struct Mid(Option<f64>);
+    impl Observer for Mid {
+        fn segment(&mut self, seg: &dyn Segment) {
+            if self.0.is_none() && seg.t_start_s() > 3e-3 && matches!(seg.mode(), Mode::Contact(_))
+            {
+                self.0 = Some(0.5 * (seg.t_start_s() + seg.t_end_s()));
+            }
+        }
+    }
+    let mut mid = Mid(None);
+    let dt = c.delay_s() / 200.0;
+    let mut whole = Watch::new(dt);
+    let mut cw = Contacts::default();
+    solver
+        .run(
+            &s,
+            &init,
+            t_end,
+            &mut Fanout(&mut [&mut mid, &mut whole, &mut cw]),
+        )
+        .unwrap();
+    let t1 = mid.0.unwrap();
+    let mut parts = Watch::new(dt);
+    let mut cp = Contacts::default();
+    let (r1, end) = solver
+        .run_keeping(&s, &init, t1, &mut Fanout(&mut [&mut parts, &mut cp]))
+        .unwrap();
+    let pen = r1.final_state.w_m().abs() - GAP / 2.0;
+    assert!(pen > 0.0, "not inside a contact at {t1}: {pen}");
+    solver
+        .continue_run(&s, &end, t_end, &mut Fanout(&mut [&mut parts, &mut cp]))
+        .unwrap();
+    let amp = whole.u.iter().map(|u| u.abs()).fold(0.0, f64::max);
+    let d = max_diff(&whole.u, &parts.u);
+    println!(
+        "stopped at {t1:.5e} s with {pen:.3e} m penetration: max |Δu| {d:.3e} m of {amp:.3e} m; \
+         contacts {} vs {}",
+        cp.n, cw.n
+    );
+    assert_eq!(cp.n, cw.n);
+    assert!(d < 1e-6 * amp, "{d} {amp}");
+}

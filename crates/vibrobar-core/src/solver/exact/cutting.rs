@@ -521,6 +521,8 @@ pub struct CutContinuation {
     in_cut: bool,
     tau: f64,
     shift: f64,
+    /// A `hertz` contact phase under way at the end (its integrator state and wall).
+    contact: Option<(super::cutting_hertz::Phase, crate::solver::Wall)>,
 }
 
 impl CutContinuation {
@@ -605,7 +607,16 @@ impl ExactCutting {
                 ..*init
             },
         };
-        super::super::validate_run(sys, &start, t_end_s)?;
+        // A continued run inside a `hertz` contact starts with the ball in the wall: the
+        // state is checked at the wall, the penetration is the phase's.
+        let checked = match from.and_then(|c| c.contact) {
+            Some((_, wall)) if sys.damper.is_some() => State {
+                v_m: start.u_m + wall.sign() * sys.damper.map_or(0.0, |d| d.half_gap_m()),
+                ..start
+            },
+            _ => start,
+        };
+        super::super::validate_run(sys, &checked, t_end_s)?;
         let t0 = start.t_s;
         // The two sets of constants: out of the cut the bar's own, in it the stiffness `K + kc`
         // (the damping `C` stays the bar's).
@@ -743,15 +754,19 @@ impl ExactCutting {
             c
         };
         let mut search = Search::default();
-        let mut mode = if has_ball {
-            let d0 = hist.borrow().quadratic(t0 - tau, t0 - tau);
-            initial_mode(&consts(in_cut, d0, 0), &mut s, &mut book)?
-        } else {
-            Md::Stick
+        // A `hertz` contact phase carried over a piece end or a cut event (or from the run
+        // continued: it goes on where it stopped, the penetration kept).
+        let resumed = from.and_then(|c| c.contact).filter(|_| has_ball);
+        let mut phase = resumed.map(|r| r.0);
+        let mut mode = match resumed {
+            Some((_, wall)) => Md::HertzTouch(wall),
+            None if has_ball => {
+                let d0 = hist.borrow().quadratic(t0 - tau, t0 - tau);
+                initial_mode(&consts(in_cut, d0, 0), &mut s, &mut book)?
+            }
+            None => Md::Stick,
         };
         let mut order = 0;
-        // A `hertz` contact phase carried over a piece end or a cut event.
-        let mut phase = None;
         let mut cut_events: u64 = 0;
         // The window start of a piece that begins at the previous piece's end (exact `t_k`).
         let mut win_prev: Option<(u64, f64)> = None;
@@ -886,6 +901,10 @@ impl ExactCutting {
             in_cut,
             tau,
             shift,
+            contact: match (mode, phase) {
+                (Md::HertzTouch(wall), Some(p)) => Some((p, wall)),
+                _ => None,
+            },
         };
         Ok((summary, end))
     }
