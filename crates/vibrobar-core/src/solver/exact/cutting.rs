@@ -53,10 +53,14 @@
 //! chip's zero: through loss of contact the order drops as on the no-ball DP5 path (~1.6 there).
 //! The books close with the cutting work of the force the pieces carry (linear part plus fit).
 //!
-//! Scope: the lumped bar with the restitution contact law and every friction law, both force
-//! laws (the three-quarter law on the bar without a ball by [`super::cutting_nonlinear`]: DP5
-//! steps on the same pieces). The modal bar and the Hertz contact are refused with an error that
-//! says so.
+//! Scope: the lumped bar with both contact laws and every friction law, both force laws (the
+//! three-quarter law on the bar without a ball by [`super::cutting_nonlinear`]: DP5 steps on the
+//! same pieces). Under `[contact] law = hertz` a wall touch starts the compliant phase of
+//! [`super::cutting_hertz`]: DP5 on bar + ball with the cutting force from the piece's delayed
+//! surface quadratic, piece by piece (it stops at every piece end and breakpoint and resumes), the
+//! tool leaving or re-entering the cut located on its dense output and stored as every cut event
+//! is; its accuracy is the contact phase's (rtol 1e-9) on top of the pieces'. The modal bar is
+//! refused with an error that says so.
 
 use super::{
     advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, Tail, CUT,
@@ -517,6 +521,8 @@ pub struct CutContinuation {
     in_cut: bool,
     tau: f64,
     shift: f64,
+    /// A `hertz` contact phase under way at the end (its integrator state and wall).
+    contact: Option<(super::cutting_hertz::Phase, crate::solver::Wall)>,
 }
 
 impl CutContinuation {
@@ -575,11 +581,6 @@ impl ExactCutting {
                      cut is not supported yet",
                 )),
             };
-        crate::solver::refuse_hertz(
-            sys.damper.as_ref(),
-            "[cutting] runs with the restitution contact law only; [contact] law = hertz with a \
-             cut is not supported yet",
-        )?;
         cut.validate()?;
         let nonlinear = cut.force_law == CuttingForceLaw::ThreeQuarter;
         crate::limits::check(
@@ -606,7 +607,16 @@ impl ExactCutting {
                 ..*init
             },
         };
-        super::super::validate_run(sys, &start, t_end_s)?;
+        // A continued run inside a `hertz` contact starts with the ball in the wall: the
+        // state is checked at the wall, the penetration is the phase's.
+        let checked = match from.and_then(|c| c.contact) {
+            Some((_, wall)) if sys.damper.is_some() => State {
+                v_m: start.u_m + wall.sign() * sys.damper.map_or(0.0, |d| d.half_gap_m()),
+                ..start
+            },
+            _ => start,
+        };
+        super::super::validate_run(sys, &checked, t_end_s)?;
         let t0 = start.t_s;
         // The two sets of constants: out of the cut the bar's own, in it the stiffness `K + kc`
         // (the damping `C` stays the bar's).
@@ -744,11 +754,17 @@ impl ExactCutting {
             c
         };
         let mut search = Search::default();
-        let mut mode = if has_ball {
-            let d0 = hist.borrow().quadratic(t0 - tau, t0 - tau);
-            initial_mode(&consts(in_cut, d0, 0), &mut s, &mut book)?
-        } else {
-            Md::Stick
+        // A `hertz` contact phase carried over a piece end or a cut event (or from the run
+        // continued: it goes on where it stopped, the penetration kept).
+        let resumed = from.and_then(|c| c.contact).filter(|_| has_ball);
+        let mut phase = resumed.map(|r| r.0);
+        let mut mode = match resumed {
+            Some((_, wall)) => Md::HertzTouch(wall),
+            None if has_ball => {
+                let d0 = hist.borrow().quadratic(t0 - tau, t0 - tau);
+                initial_mode(&consts(in_cut, d0, 0), &mut s, &mut book)?
+            }
+            None => Md::Stick,
         };
         let mut order = 0;
         let mut cut_events: u64 = 0;
@@ -808,6 +824,19 @@ impl ExactCutting {
                         };
                         book.cut_event = ev;
                     }
+                } else if let (true, Md::HertzTouch(wall), Some(law)) = (has_ball, mode, cs.hertz) {
+                    // A compliant contact phase over this piece ([`super::cutting_hertz`]).
+                    mode = super::cutting_hertz::contact_piece(
+                        &cs,
+                        &law,
+                        cut,
+                        wall.sign(),
+                        &mut phase,
+                        &mut s,
+                        step_end,
+                        order,
+                        &mut book,
+                    )?;
                 } else if has_ball {
                     let mut cs = cs;
                     if nonlinear && in_cut {
@@ -872,6 +901,10 @@ impl ExactCutting {
             in_cut,
             tau,
             shift,
+            contact: match (mode, phase) {
+                (Md::HertzTouch(wall), Some(p)) => Some((p, wall)),
+                _ => None,
+            },
         };
         Ok((summary, end))
     }

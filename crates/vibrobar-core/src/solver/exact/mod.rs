@@ -49,6 +49,7 @@
 
 pub mod constrained;
 pub mod cutting;
+mod cutting_hertz;
 mod cutting_nonlinear;
 pub mod expsum;
 pub mod expsum_n;
