@@ -440,7 +440,7 @@ pub fn lobe_design_row() -> Result<()> {
 const BEAM_PAIRS: usize = 7;
 
 /// The beam rows (issue #8 §8): the paper's bar as a 4-mode beam (cavity 38 mm from the free
-/// end, r = 1, gap 0.1 mm, frictionless and as-published friction) against the paper's lumped
+/// end, r = 1, gap 0.1 mm, frictionless, as-published and coulomb friction) against the paper's lumped
 /// run with the same solver, timed in alternating pairs, and the projected wall time of a
 /// 50 × 50 placement map over 11 ratios on 2 threads, from a timed 2 × 2 × 11 placement. A
 /// solver that does not run beams says so instead of a number.
@@ -462,7 +462,7 @@ fn beam_rows(names: &[String], st: &vibrobar_core::RunSettings, placement: bool)
     let model = spec.damped_model(x_d)?;
     println!(
         "  beam rows (the paper's bar whatever --scenario): a {}-mode beam (cavity {} mm from the \
-         free end), r = 1, gap 0.1 mm, frictionless and as-published, {} s",
+         free end), r = 1, gap 0.1 mm, frictionless, as-published and coulomb, {} s",
         model.len(),
         vibrobar_io::csv::fmt_coord((spec.beam.length_m - x_d) * 1e3),
         st.duration_s
@@ -476,7 +476,11 @@ fn beam_rows(names: &[String], st: &vibrobar_core::RunSettings, placement: bool)
                 continue;
             }
         };
-        for friction in [FrictionModel::None, FrictionModel::AsPublished] {
+        for friction in [
+            FrictionModel::None,
+            FrictionModel::AsPublished,
+            FrictionModel::Coulomb,
+        ] {
             let ball = Damper::paper(0.1e-3, friction);
             let beam = spec.system(&model, Some(ball), 1.0);
             let lumped = vibrobar_core::System::paper_damped(0.1e-3, friction, 1.0);
