@@ -731,3 +731,80 @@ fn modal_cutting_bad_input_names_the_field() {
         .to_string();
     assert!(e.contains("[cutting]"), "{e}");
 }
+
+/// Issue #14 on a modal bar: the time-domain judge runs the modal cutting solver (the start's
+/// velocity in the mode nearest `ω_c`). Ball out of reach, linear law, small disturbance: the
+/// time-domain lobes of the three-mode table equal its exact linear lobes within 2 % and lie
+/// on or above them (never below by more than the bisection tolerance), solid and damped, at
+/// two speeds; across the boundary the judge says decaying below and out of the cut above.
+#[test]
+fn time_domain_lobes_on_a_modal_bar_equal_the_exact_lobes() {
+    use vibrobar_core::analysis::time_domain::{
+        linear_at, td_lobe_search, BarKind, CutProblem, Disturbance, RevRegime, TimeDomainSettings,
+    };
+    let far = Damper {
+        gap_m: 10.0,
+        ..Damper::paper(1e-3, FrictionModel::None)
+    };
+    let c = cut(1e-3, 5000.0);
+    let p = CutProblem {
+        damped: modal_system(table3(), Some(far)),
+        solid: modal_system(table3(), None),
+        cutting: c,
+        solver: ExactCutting::new(c),
+        settings: TimeDomainSettings {
+            settle_revs: 20.0,
+            judge_revs: 40.0,
+            monotonic_checks: 3,
+            ..TimeDomainSettings::default()
+        },
+    };
+    let rpms = [4_000.0, 9_000.0];
+    let lin = linear_at(&p, &rpms).unwrap();
+    let tol = p.settings.bisection_tolerance;
+    for (i, rpm) in rpms.iter().enumerate() {
+        // The exact lobes are this test's own N-mode limit.
+        let (bl, _) = b_lim_n(&table3(), *rpm);
+        assert!(
+            (lin[i].b_lim_solid_m / bl - 1.0).abs() < 1e-6,
+            "{rpm}: {lin:?}"
+        );
+        for k in [0, 2] {
+            let s = td_lobe_search(&p, *rpm, &lin[i], k).unwrap();
+            let exact = if k == 0 {
+                lin[i].b_lim_solid_m
+            } else {
+                lin[i].b_lim_m
+            };
+            let rel = s.width_m / exact - 1.0;
+            println!(
+                "{rpm} rpm search {k}: td {:.6e} m, exact {exact:.6e} m, rel {rel:+.4}",
+                s.width_m
+            );
+            assert!(rel.abs() < 0.02 && rel > -tol, "{rpm} {k}: {rel}");
+            assert_eq!(s.event_limit_runs, 0);
+        }
+    }
+    let om = lin[0].omega_solid_rad_s;
+    let b = lin[0].b_lim_solid_m;
+    let below = p
+        .judge(BarKind::Solid, Disturbance::Small, 0.98 * b, rpms[0], om)
+        .unwrap();
+    assert!(
+        below.acceptable && below.regime == RevRegime::Decaying,
+        "{below:?}"
+    );
+    let above = p
+        .judge(BarKind::Solid, Disturbance::Large, 1.3 * b, rpms[0], om)
+        .unwrap();
+    assert!(
+        !above.acceptable && above.out_of_cut_fraction > 0.0,
+        "{above:?}"
+    );
+    // Static deflection of the cut at the tip: K_f b h0 Σ 1/kₙ.
+    let flex: f64 = table3()
+        .iter()
+        .map(|m| 1.0 / (m.modal_mass_kg * m.omega_rad_s * m.omega_rad_s))
+        .sum();
+    assert!((below.static_deflection_m / (KF * 0.98 * b * H0 * flex) - 1.0).abs() < 1e-12);
+}
