@@ -55,8 +55,8 @@
 //!
 //! Scope: the lumped bar with the restitution contact law and every friction law, both force
 //! laws (the three-quarter law on the bar without a ball by [`super::cutting_nonlinear`]: DP5
-//! steps on the same pieces). The modal bar and the Hertz contact are refused with an error that
-//! says so.
+//! steps on the same pieces). A modal bar goes to [`super::modal::cutting`] (the linear law;
+//! [`Solver::run`] only). The Hertz contact is refused with an error that says so.
 
 use super::{
     advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, Tail, CUT,
@@ -681,8 +681,8 @@ impl ExactCutting {
             match &sys.bar {
                 BarModel::Lumped(b) => *b,
                 BarModel::Modal(_) => return Err(SimError::Unsupported(
-                    "[cutting] runs on the lumped [bar] only so far; a modal bar ([beam]) with a \
-                     cut is not supported yet",
+                    "[cutting] on a modal bar ([beam], [[modes]]) runs through Solver::run only; \
+                     keeping and continuing a cutting run is the lumped [bar]'s only so far",
                 )),
             };
         crate::solver::refuse_hertz(
