@@ -85,8 +85,8 @@ pub fn run(args: &LobesArgs) -> Result<()> {
     if args.time_domain {
         if args.beam_modes.is_some() || args.cavity_position_mm.is_some() {
             anyhow::bail!(
-                "--time-domain runs the lumped [bar] only so far (the cutting solver's scope); \
-                 --beam-modes and --cavity-position-mm do not apply"
+                "--time-domain runs the scenario's own structure ([bar], [beam] or [[modes]]); \
+                 --beam-modes and --cavity-position-mm do not apply to it"
             );
         }
         let _ = (start, stop, step);

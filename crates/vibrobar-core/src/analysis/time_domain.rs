@@ -5,8 +5,8 @@
 //! - **Start** ([`start_offset`]): the static equilibrium of the cut on a smooth surface, the ball
 //!   at rest relative to the bar at the cavity centre, plus a tool velocity `ω_c·A`. `ω_c` is the
 //!   linear chatter frequency of the bar being run at that speed (exact lobes, [`super::lobes`]);
-//!   on the lumped bar the one mode is the mode nearest `ω_c`. The ball keeps its absolute
-//!   velocity (zero). `A` is the small or the large disturbance
+//!   the velocity goes to the mode nearest `ω_c` (the lumped bar's one mode; on a modal bar
+//!   [`modal_start_offset`]). The ball keeps its absolute velocity (zero). `A` is the small or the large disturbance
 //!   ([`TimeDomainSettings::small_disturbance_m`], `large_disturbance_m`).
 //! - **Windows** in spindle revolutions: a settling window, then a judging window.
 //! - **Acceptable** ([`Judged::acceptable`]), over the judging window: the peak-to-peak tip
@@ -23,8 +23,10 @@ use crate::error::{ParamError, SimError};
 use crate::excitation::Cutting;
 use crate::params::{finite, positive, BarModel, State, System};
 use crate::solver::exact::cutting::ExactCutting;
+use crate::solver::exact::modal::cutting::ModalCutting;
+use crate::solver::exact::modal::ModalExact;
 use crate::solver::{Event, EventKind, Observer, Segment, Solver};
-use crate::structure::ModalModel;
+use crate::structure::{ModalModel, ModalState};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::f64::consts::PI;
@@ -239,6 +241,37 @@ pub fn start_offset(chatter_omega_rad_s: f64, disturbance_m: f64) -> State {
         dv_m_s: 0.0,
         cavity: None,
     }
+}
+
+/// The start's offset on a modal bar (the form [`ModalCutting`] takes): the tool velocity
+/// `ω_c·A` at the force point given to the mode nearest `ω_c` (`q̇ₙ = ω_c A/φₙ(x_f)`, the
+/// nearest mode that moves the force point), the ball at the cavity centre with its absolute
+/// velocity unchanged (zero).
+pub fn modal_start_offset(
+    model: &ModalModel,
+    chatter_omega_rad_s: f64,
+    disturbance_m: f64,
+) -> Result<ModalState, ParamError> {
+    let mut s = ModalState::REST;
+    let nearest = model
+        .modes()
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| m.shape_force != 0.0)
+        .min_by(|a, b| {
+            (a.1.omega_rad_s - chatter_omega_rad_s)
+                .abs()
+                .total_cmp(&(b.1.omega_rad_s - chatter_omega_rad_s).abs())
+        });
+    let Some((i, m)) = nearest else {
+        return Err(ParamError::OutOfRange {
+            field: "modes.shape_force (the force point's shape of every mode)",
+            value: 0.0,
+            allowed: "non-zero for at least one mode: the cut must move the bar",
+        });
+    };
+    s.dq_m_s[i] = chatter_omega_rad_s * disturbance_m / m.shape_force;
+    Ok(s)
 }
 
 /// The settled vibration of one run, over the judging window.
@@ -469,8 +502,9 @@ impl Observer for RevObserver {
     }
 }
 
-/// One cutting run of `sys` (a lumped bar; with or without the ball) with the cut `cutting`,
-/// started by `start_offset(ω_c, A)`, judged over the windows of `settings`.
+/// One cutting run of `sys` (a lumped or modal bar; with or without the ball) with the cut
+/// `cutting`, started by [`start_offset`] (lumped) or [`modal_start_offset`] (modal) at
+/// `(ω_c, A)`, judged over the windows of `settings`.
 pub fn judge_run(
     sys: &System,
     cutting: &Cutting,
@@ -480,27 +514,48 @@ pub fn judge_run(
     settings: &TimeDomainSettings,
 ) -> Result<Judged, SimError> {
     settings.validate()?;
-    let k = match &sys.bar {
-        BarModel::Lumped(b) => b.stiffness_n_per_m,
-        BarModel::Modal(_) => {
-            return Err(SimError::Unsupported(
-                "time-domain lobes run on the lumped [bar] only so far (the cutting solver's \
-                 scope); a modal bar ([beam], [[modes]]) is not supported yet",
-            ))
-        }
-    };
-    let run = ExactCutting {
-        cutting: *cutting,
-        ..*solver
-    };
-    let u_eq = run.equilibrium_u_m(sys, k);
     let tau = cutting.delay_s();
     let revs = settings.judge_revs.ceil() as usize;
     let t_judge = settings.settle_revs * tau;
-    let mut obs = RevObserver::new(t_judge, tau, revs, u_eq);
-    let t_end = obs.end();
-    let start = start_offset(chatter_omega_rad_s, disturbance_m);
-    let out = run.run(sys, &start, t_end, &mut obs);
+    let (u_eq, out, obs) = match &sys.bar {
+        BarModel::Lumped(b) => {
+            let run = ExactCutting {
+                cutting: *cutting,
+                ..*solver
+            };
+            let u_eq = run.equilibrium_u_m(sys, b.stiffness_n_per_m);
+            let mut obs = RevObserver::new(t_judge, tau, revs, u_eq);
+            let t_end = obs.end();
+            let start = start_offset(chatter_omega_rad_s, disturbance_m);
+            let out = run.run(sys, &start, t_end, &mut obs).map(|_| ());
+            (u_eq, out, obs)
+        }
+        BarModel::Modal(model) => {
+            // The modal cutting run: the tip is the response point (`u_eq` the static
+            // deflection there), the start's velocity in the mode nearest `ω_c`.
+            let msys = crate::structure::ModalSystem::from_system(sys)?;
+            let run = ModalCutting {
+                exact: ModalExact {
+                    max_events: solver.exact.max_events,
+                    check_invariants: solver.exact.check_invariants,
+                },
+                cutting: *cutting,
+                steps_per_period: solver.steps_per_period,
+            };
+            let q_eq = run.equilibrium_q_m(&msys);
+            let u_eq: f64 = model
+                .modes()
+                .iter()
+                .zip(&q_eq)
+                .map(|(m, q)| m.shape_response * q)
+                .sum();
+            let mut obs = RevObserver::new(t_judge, tau, revs, u_eq);
+            let t_end = obs.end();
+            let start = modal_start_offset(model, chatter_omega_rad_s, disturbance_m)?;
+            let out = run.run(&msys, &start, t_end, &mut obs).map(|_| ());
+            (u_eq, out, obs)
+        }
+    };
     match out {
         Err(SimError::TooManyEvents { .. }) => {
             return Ok(Judged {
@@ -515,7 +570,7 @@ pub fn judge_run(
             })
         }
         Err(e) => return Err(e),
-        Ok(_) => {}
+        Ok(()) => {}
     }
     let floor = ENVELOPE_FLOOR_FEED_FRACTION * cutting.feed_m;
     let p2p: Vec<f64> = obs

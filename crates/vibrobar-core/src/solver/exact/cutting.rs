@@ -59,8 +59,9 @@
 //! [`super::cutting_hertz`]: DP5 on bar + ball with the cutting force from the piece's delayed
 //! surface quadratic, piece by piece (it stops at every piece end and breakpoint and resumes), the
 //! tool leaving or re-entering the cut located on its dense output and stored as every cut event
-//! is; its accuracy is the contact phase's (rtol 1e-9) on top of the pieces'. The modal bar is
-//! refused with an error that says so.
+//! is; its accuracy is the contact phase's (rtol 1e-9) on top of the pieces'. A modal bar goes to
+//! [`super::modal::cutting`] (the linear law, the restitution contact law; [`Solver::run`]
+//! only).
 
 use super::{
     advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, Tail, CUT,
@@ -239,6 +240,116 @@ impl History {
         let d2 = 2.0 * (y1 - 2.0 * ym + y0) / (len * len);
         let d1 = (y1 - y0) / len - d2 * len;
         [y0, d1, d2]
+    }
+}
+
+/// The history's interface for the modal cutting run ([`super::modal::cutting`]), which keeps
+/// its own event loop and records the knots itself (the force point's `u` is not the public
+/// state's).
+impl History {
+    /// The smooth surface of the tool at rest at `u_eq` up to `t0`, its right side at `t0` the
+    /// start's (`u0`, `du0` in the cut, else the surface advanced by `shift`); `t0` a breakpoint.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn smooth(
+        cap: usize,
+        tau: f64,
+        shift: f64,
+        t0: f64,
+        u_eq: f64,
+        in_cut: bool,
+        u0: f64,
+        du0: f64,
+    ) -> History {
+        let mut h = History {
+            k: VecDeque::with_capacity(cap),
+            cap,
+            full: false,
+            bp: VecDeque::with_capacity(cap),
+            in_cut,
+            tau,
+            shift,
+        };
+        let (s_r, ds_r) = if in_cut {
+            (u0, du0)
+        } else {
+            (u_eq + shift, 0.0)
+        };
+        h.push(Knot {
+            t: t0 - 2.0 * tau,
+            s_l: u_eq,
+            ds_l: 0.0,
+            s_r: u_eq,
+            ds_r: 0.0,
+        });
+        h.push(Knot {
+            t: t0,
+            s_l: u_eq,
+            ds_l: 0.0,
+            s_r,
+            ds_r,
+        });
+        h.breakpoint(t0);
+        h
+    }
+
+    /// Store the surface `s`, `ṡ` at `t` (both sides).
+    pub(super) fn record(&mut self, t: f64, s: f64, ds: f64) {
+        self.push(Knot {
+            t,
+            s_l: s,
+            ds_l: ds,
+            s_r: s,
+            ds_r: ds,
+        });
+    }
+
+    /// The right side at the newest knot, when it is at `t` (after an event in the cut).
+    pub(super) fn record_right(&mut self, t: f64, s: f64, ds: f64) {
+        if let Some(last) = self.k.back_mut() {
+            if last.t.to_bits() == t.to_bits() {
+                last.s_r = s;
+                last.ds_r = ds;
+            }
+        }
+    }
+
+    /// The surface at `t` out of the cut: the one a revolution back, advanced by the feed.
+    pub(super) fn surface_out_of_cut(&self, t: f64) -> (f64, f64) {
+        let x = t - self.tau;
+        (self.eval(x, false) + self.shift, self.slope_left(x))
+    }
+
+    /// Queue the breakpoint source `t`.
+    pub(super) fn add_breakpoint(&mut self, t: f64) {
+        self.breakpoint(t);
+    }
+
+    /// Drop the knots before `t` (one kept) and the breakpoints already passed at `t`.
+    pub(super) fn forget_before(&mut self, t_knots: f64, t: f64) {
+        self.trim(t_knots);
+        while self.bp.front().is_some_and(|&tk| tk + self.tau <= t) {
+            self.bp.pop_front();
+        }
+    }
+
+    /// The next breakpoint source.
+    pub(super) fn first_breakpoint(&self) -> Option<f64> {
+        self.bp.front().copied()
+    }
+
+    /// The quadratic through the surface over the window `[a, b]` ([`History::quadratic`]).
+    pub(super) fn window_quadratic(&self, a: f64, b: f64) -> [f64; 3] {
+        self.quadratic(a, b)
+    }
+
+    /// The surface and its slope at `x`, from the right.
+    pub(super) fn value_slope(&self, x: f64) -> (f64, f64) {
+        (self.eval(x, true), self.slope_left(x))
+    }
+
+    /// The ring or the breakpoint queue overflowed.
+    pub(super) fn is_full(&self) -> bool {
+        self.full
     }
 }
 
@@ -577,8 +688,8 @@ impl ExactCutting {
             match &sys.bar {
                 BarModel::Lumped(b) => *b,
                 BarModel::Modal(_) => return Err(SimError::Unsupported(
-                    "[cutting] runs on the lumped [bar] only so far; a modal bar ([beam]) with a \
-                     cut is not supported yet",
+                    "[cutting] on a modal bar ([beam], [[modes]]) runs through Solver::run only; \
+                     keeping and continuing a cutting run is the lumped [bar]'s only so far",
                 )),
             };
         cut.validate()?;
@@ -922,6 +1033,22 @@ impl Solver for ExactCutting {
         t_end_s: f64,
         obs: &mut dyn Observer,
     ) -> Result<RunSummary, SimError> {
+        if let BarModel::Modal(model) = &sys.bar {
+            // A modal bar ([beam], [[modes]]): the modal cutting run, its initial state the
+            // public offset put into mode 1 (`ModalState::from_public`).
+            let msys = crate::structure::ModalSystem::from_system(sys)?;
+            let minit = crate::structure::ModalState::from_public(model, init)?;
+            return Ok(super::modal::cutting::ModalCutting {
+                exact: super::modal::ModalExact {
+                    max_events: self.exact.max_events,
+                    check_invariants: self.exact.check_invariants,
+                },
+                cutting: self.cutting,
+                steps_per_period: self.steps_per_period,
+            }
+            .run(&msys, &minit, t_end_s, obs)?
+            .summary);
+        }
         self.drive(sys, init, None, t_end_s, obs).map(|r| r.0)
     }
 }

@@ -72,6 +72,7 @@ use crate::solver::{
 };
 use crate::structure::{ModalState, ModalSystem, Point};
 
+pub mod cutting;
 mod hertz;
 
 const NM: usize = MAX_BEAM_MODES;
