@@ -191,7 +191,7 @@ fn fold_and_torus_curves_meet_at_the_same_codimension_two_point() {
 
 #[test]
 fn bad_input_names_the_flag() {
-    let e = CurveKind::parse("hopf").unwrap_err().to_string();
+    let e = CurveKind::parse("hopf").unwrap_err();
     assert!(e.contains("--kind"), "{e}");
     let o = orbit_at(&paper(0.0949e-3, FrictionModel::None, 1.0));
     for (ratios, gaps_m, flag) in [

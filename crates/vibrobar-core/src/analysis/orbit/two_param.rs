@@ -113,15 +113,14 @@ impl CurveKind {
     }
 
     /// Parse a `--kind` value; the error names the flag and lists the kinds.
-    pub fn parse(s: &str) -> Result<CurveKind, ParamError> {
+    pub fn parse(s: &str) -> Result<CurveKind, String> {
         CURVE_KINDS
             .iter()
             .find(|(n, _)| *n == s)
             .map(|(_, k)| *k)
-            .ok_or(ParamError::OutOfRange {
-                field: "--kind (the codimension-one point to continue)",
-                value: f64::NAN,
-                allowed: "fold, period-doubling, torus, branch-point or grazing",
+            .ok_or_else(|| {
+                let names: Vec<&str> = CURVE_KINDS.iter().map(|(n, _)| *n).collect();
+                format!("--kind must be one of {}, got {s:?}", names.join(", "))
             })
     }
 }
@@ -726,12 +725,9 @@ pub fn continue_curve(
     // sit slightly off the symmetric branch): the first correction projects it onto it.
     let symmetric = start.symmetry_defect()?.is_some_and(|d| d < 1e-3);
     if kind == CurveKind::BranchPoint && !symmetric {
-        return Err(ParamError::OutOfRange {
-            field: "--kind branch-point",
-            value: f64::NAN,
-            allowed: "a symmetric orbit (x(t + kT/2) = −x(t), odd period) as the start: a symmetry-breaking branch point needs one",
-        }
-        .into());
+        return Err(SimError::Unsupported(
+            "--kind branch-point needs a symmetric orbit (x(t + kT/2) = −x(t), odd period) at the start: a symmetry-breaking branch point has one",
+        ));
     }
     let lg = base.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
     let sc = scales(&base);
@@ -979,4 +975,103 @@ pub fn test_function(orbit: &PeriodicOrbit, kind: CurveKind) -> Result<Option<f6
     let m = Matrix4::from_fn(|i, k| sg * j[(i, k)] * sc[k] / sc[i]);
     let mono = if symmetric { m * m } else { m };
     Ok(test_of_matrix(kind, &m, &mono))
+}
+
+/// The located orbit where the symmetric orbit of `sys` (stable at `seed_gap_m`) first loses
+/// stability, continuing in the gap toward `to_m`, with the event there (`None` when it stays
+/// stable or the event has no curve kind).
+fn first_loss(
+    sys: &System,
+    seed: &PeriodicOrbit,
+    seed_gap_m: f64,
+    to_m: f64,
+) -> Result<Option<(PeriodicOrbit, CurveKind)>, SimError> {
+    let s = super::continuation::ContinuationSettings {
+        max_points: 3000,
+        switch_branches: false,
+        ..Default::default()
+    };
+    let _ = sys;
+    let b = super::continuation::continue_orbit(
+        seed,
+        Axis::GapM,
+        seed_gap_m,
+        to_m,
+        &super::ExactJacobian,
+        &s,
+    )?;
+    Ok(b.points
+        .iter()
+        .find(|p| !p.orbit.stable())
+        .and_then(|p| Some((p.orbit.clone(), CurveKind::of_event(p.event?)?))))
+}
+
+/// The stability boundary of the symmetric two-impact orbit of `base` (its ratio and gap are
+/// ignored) in the settings' box: at each seed ratio, the most stable symmetric orbit on the
+/// grid `gaps_m`, the one-parameter continuation in the gap to where it loses stability on each
+/// side, and from each such point not already on a curve of its kind, the two-parameter curve
+/// ([`continue_curve`]). A curve point is on the boundary when every other multiplier is inside
+/// the unit circle ([`on_boundary`]).
+pub fn stability_boundary(
+    base: &System,
+    seed_ratios: &[f64],
+    gaps_m: &[f64],
+    settings: &Curve2Settings,
+) -> Result<Vec<Curve>, SimError> {
+    check_settings(settings)?;
+    let mut curves: Vec<Curve> = Vec::new();
+    for &r in seed_ratios {
+        let at = |g: f64| -> Option<PeriodicOrbit> {
+            let mut s = *base;
+            Axis::FreqRatio.apply(&mut s, r).ok()?;
+            Axis::GapM.apply(&mut s, g).ok()?;
+            super::region::symmetric_orbit_at(&s, &super::ExactJacobian)
+        };
+        let best = gaps_m
+            .iter()
+            .filter_map(|&g| at(g).map(|o| (g, o)))
+            .min_by(|a, b| {
+                a.1.max_abs_multiplier()
+                    .total_cmp(&b.1.max_abs_multiplier())
+            });
+        let Some((g, seed)) = best else { continue };
+        if !seed.stable() {
+            continue;
+        }
+        let sys = seed.section.system;
+        for to in [gaps_m[0], gaps_m[gaps_m.len() - 1]] {
+            let Some((o, kind)) = first_loss(&sys, &seed, g, to)? else {
+                continue;
+            };
+            let (ro, go) = (ratio_of(&o), gap_of(&o));
+            let known = curves.iter().any(|c| {
+                c.kind == kind
+                    && c.points.iter().any(|p| {
+                        ((p.ratio - ro) / RATIO_UNIT).abs() < 0.5
+                            && ((p.gap_m - go) / GAP_UNIT_M).abs() < 0.05
+                    })
+            });
+            if known {
+                continue;
+            }
+            if let Ok(c) = continue_curve(&o, kind, settings) {
+                curves.push(c);
+            }
+        }
+    }
+    Ok(curves)
+}
+
+/// A curve point on the edge of stability: no multiplier but the critical one(s) outside the
+/// unit circle (largest `|λ|` within 1e-6 of 1).
+pub fn on_boundary(p: &CurvePoint) -> bool {
+    p.orbit.max_abs_multiplier() < 1.0 + 1e-6
+}
+
+fn ratio_of(o: &PeriodicOrbit) -> f64 {
+    super::continuation::param_of(&o.section.system, Axis::FreqRatio)
+}
+
+fn gap_of(o: &PeriodicOrbit) -> f64 {
+    super::continuation::param_of(&o.section.system, Axis::GapM)
 }
