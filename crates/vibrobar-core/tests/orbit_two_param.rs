@@ -6,6 +6,7 @@ use vibrobar_core::analysis::grid::Axis;
 use vibrobar_core::analysis::orbit::continuation::*;
 use vibrobar_core::analysis::orbit::two_param::*;
 use vibrobar_core::analysis::orbit::*;
+use vibrobar_core::solver::Solver as _;
 use vibrobar_core::*;
 
 fn paper(gap_m: f64, f: FrictionModel, r: f64) -> System {
@@ -214,4 +215,39 @@ fn bad_input_names_the_flag() {
     let far = orbit_at(&paper(0.07e-3, FrictionModel::None, 1.0));
     let e = continue_curve(&far, CurveKind::Fold, &Curve2Settings::default());
     assert!(e.is_err());
+}
+
+/// The best gap at r = 1 inside the stability interval: no orbit on a fine independent grid of
+/// gaps (Newton from the analytic orbit at each) has a smaller RMS; the solid reference RMS in
+/// closed form is the exact solver's settled RMS.
+#[test]
+fn best_gap_is_the_smallest_rms_and_the_solid_reference_is_the_settled_run() {
+    let sys = paper(0.08e-3, FrictionModel::None, 1.0);
+    let (lo, hi) = (0.05384e-3, 0.09489e-3);
+    let b = best_gap(&sys, lo, hi, 21).unwrap();
+    assert!((lo..=hi).contains(&b.gap_m));
+    assert!((b.margin_m - (b.gap_m - lo).min(hi - b.gap_m)).abs() < 1e-15);
+    for i in 0..=200 {
+        let g = lo + (hi - lo) * i as f64 / 200.0;
+        let o = orbit_at(&paper(g, FrictionModel::None, 1.0));
+        assert!(
+            b.rms_m <= o.rms_m * (1.0 + 1e-9),
+            "{g}: {} < {}",
+            o.rms_m,
+            b.rms_m
+        );
+    }
+    let solid = System::paper_solid(1.0);
+    let rms = linear_rms_m(&solid).unwrap();
+    let init = State::REST;
+    let t = solid.forcing_period_s();
+    let mut obs = vibrobar_core::analysis::case::RmsObserver::new(400.0 * t, 600.0 * t);
+    vibrobar_core::solver::Exact::default()
+        .run(&solid, &init, 600.0 * t, &mut obs)
+        .unwrap();
+    assert!(
+        (obs.rms_m() / rms - 1.0).abs() < 1e-3,
+        "{} vs {rms}",
+        obs.rms_m()
+    );
 }

@@ -8,7 +8,7 @@ use super::{check_value, fmt_coord, SystemArgs};
 use anyhow::{bail, Context};
 use std::path::PathBuf;
 use vibrobar_core::analysis::orbit::two_param::{
-    continue_curve, on_boundary, Curve2Settings, CurveKind,
+    continue_curve, on_boundary, stability_boundary, Curve2Settings, CurveKind,
 };
 use vibrobar_core::analysis::orbit::{orbit_auto, region::symmetric_orbit_at, ExactJacobian};
 use vibrobar_io::csv::{curve2_schema, curve2_values, write_csv};
@@ -232,4 +232,66 @@ pub fn run(a: &Continue2Args) -> anyhow::Result<()> {
     }
     println!("wrote {}", a.out.display());
     Ok(())
+}
+
+/// Colour of a boundary curve by kind.
+fn kind_colour(k: CurveKind) -> plotters::style::RGBColor {
+    use plotters::style::RGBColor;
+    match k {
+        CurveKind::Torus => RGBColor(230, 40, 40),
+        CurveKind::Fold => RGBColor(255, 150, 20),
+        CurveKind::BranchPoint => RGBColor(240, 80, 240),
+        CurveKind::PeriodDoubling => RGBColor(40, 200, 240),
+        CurveKind::Grazing => RGBColor(255, 255, 255),
+    }
+}
+
+/// The stability boundary of the symmetric orbit of `base` over `ratios` × `gaps_m` (the
+/// two-parameter curves, [`stability_boundary`] seeded at the ends, the middle and r = 1 when
+/// inside), and the overlay curves (gap in mm): only the parts on the edge of stability, the
+/// codimension-two points on it marked.
+pub fn boundary_overlay(
+    base: &vibrobar_core::System,
+    ratios: (f64, f64),
+    gaps_m: &[f64],
+) -> anyhow::Result<(
+    Vec<vibrobar_report::figures::HeatCurve>,
+    Vec<vibrobar_core::analysis::orbit::two_param::Curve>,
+)> {
+    let mut seeds = vec![ratios.0, 0.5 * (ratios.0 + ratios.1), ratios.1];
+    if ratios.0 < 1.0 && 1.0 < ratios.1 {
+        seeds.insert(1, 1.0);
+    }
+    let (glo, ghi) = (gaps_m[0], gaps_m[gaps_m.len() - 1]);
+    let settings = Curve2Settings {
+        ratios,
+        gaps_m: (glo, ghi),
+        ..Default::default()
+    };
+    let curves = stability_boundary(base, &seeds, gaps_m, &settings)?;
+    let overlay = curves
+        .iter()
+        .map(|c| vibrobar_report::figures::HeatCurve {
+            label: format!("edge of stability: {}", c.kind.as_str()),
+            colour: kind_colour(c.kind),
+            points: c
+                .points
+                .iter()
+                .map(|p| {
+                    if on_boundary(p) {
+                        (p.ratio, p.gap_m * 1e3)
+                    } else {
+                        (f64::NAN, f64::NAN)
+                    }
+                })
+                .collect(),
+            marks: c
+                .points
+                .iter()
+                .filter(|p| p.event.is_some() && p.orbit.max_abs_multiplier() < 1.0 + 1e-3)
+                .map(|p| (p.ratio, p.gap_m * 1e3))
+                .collect(),
+        })
+        .collect();
+    Ok((overlay, curves))
 }

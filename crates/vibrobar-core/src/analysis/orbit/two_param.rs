@@ -1044,11 +1044,23 @@ pub fn stability_boundary(
                 continue;
             };
             let (ro, go) = (ratio_of(&o), gap_of(&o));
+            // Already on a curve of its kind: the curve's gap at this ratio (linear between the
+            // two points around it) within 0.2 gap units.
             let known = curves.iter().any(|c| {
                 c.kind == kind
-                    && c.points.iter().any(|p| {
-                        ((p.ratio - ro) / RATIO_UNIT).abs() < 0.5
-                            && ((p.gap_m - go) / GAP_UNIT_M).abs() < 0.05
+                    && c.points.windows(2).any(|w| {
+                        let (p, q) = (&w[0], &w[1]);
+                        let (a, b) = (p.ratio.min(q.ratio), p.ratio.max(q.ratio));
+                        if !(a..=b).contains(&ro) {
+                            return false;
+                        }
+                        let f = if b > a {
+                            (ro - p.ratio) / (q.ratio - p.ratio)
+                        } else {
+                            0.0
+                        };
+                        let g = p.gap_m + f * (q.gap_m - p.gap_m);
+                        ((g - go) / GAP_UNIT_M).abs() < 0.2
                     })
             });
             if known {
@@ -1074,4 +1086,86 @@ fn ratio_of(o: &PeriodicOrbit) -> f64 {
 
 fn gap_of(o: &PeriodicOrbit) -> f64 {
     super::continuation::param_of(&o.section.system, Axis::GapM)
+}
+
+/// The best gap of the symmetric orbit at one ratio inside its stability interval.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BestGap {
+    /// The gap with the smallest orbit RMS in `[lo, hi]`, m.
+    pub gap_m: f64,
+    /// The orbit's RMS there, m.
+    pub rms_m: f64,
+    /// Distance to the nearer end of the interval, m.
+    pub margin_m: f64,
+    /// Whether the nearer end is the lower one.
+    pub nearer_lower: bool,
+}
+
+/// The gap in `[lo_m, hi_m]` (a stability interval of the symmetric orbit of `sys`, its gap
+/// ignored) where the stable symmetric orbit's RMS is smallest: the RMS at `samples` evenly
+/// spaced gaps (Newton from the analytic orbit; a sample without a stable one is skipped), then golden-section search between the best sample's
+/// neighbours (to 1e-12 m). `None` when no sample has a symmetric orbit.
+pub fn best_gap(sys: &System, lo_m: f64, hi_m: f64, samples: usize) -> Option<BestGap> {
+    let rms = |g: f64| -> Option<f64> {
+        let mut s = *sys;
+        Axis::GapM.apply(&mut s, g).ok()?;
+        // The stable orbit only (another symmetric orbit may coexist, e.g. near a fold).
+        super::region::symmetric_orbit_at(&s, &super::ExactJacobian)
+            .filter(|o| o.stable())
+            .map(|o| o.rms_m)
+    };
+    let n = samples.max(3);
+    let gs: Vec<f64> = (0..n)
+        .map(|i| lo_m + (hi_m - lo_m) * i as f64 / (n - 1) as f64)
+        .collect();
+    let vals: Vec<Option<f64>> = gs.iter().map(|&g| rms(g)).collect();
+    let (ib, _) = vals
+        .iter()
+        .enumerate()
+        .filter_map(|(i, v)| v.map(|v| (i, v)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let (mut a, mut b) = (gs[ib.saturating_sub(1)], gs[(ib + 1).min(n - 1)]);
+    let f = |g: f64| rms(g).unwrap_or(f64::INFINITY);
+    let phi = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut x1, mut x2) = (b - phi * (b - a), a + phi * (b - a));
+    let (mut f1, mut f2) = (f(x1), f(x2));
+    while b - a > 1e-12 {
+        if f1 <= f2 {
+            b = x2;
+            (x2, f2) = (x1, f1);
+            x1 = b - phi * (b - a);
+            f1 = f(x1);
+        } else {
+            a = x1;
+            (x1, f1) = (x2, f2);
+            x2 = a + phi * (b - a);
+            f2 = f(x2);
+        }
+    }
+    let (mut g, mut r) = if f1 <= f2 { (x1, f1) } else { (x2, f2) };
+    // The golden search stays within the sample's bracket; keep the sample if it is better.
+    let rb = vals[ib].unwrap_or(f64::INFINITY);
+    if rb < r {
+        (g, r) = (gs[ib], rb);
+    }
+    if !r.is_finite() {
+        return None;
+    }
+    let (dl, dh) = (g - lo_m, hi_m - g);
+    Some(BestGap {
+        gap_m: g,
+        rms_m: r,
+        margin_m: dl.min(dh),
+        nearer_lower: dl <= dh,
+    })
+}
+
+/// The steady-state RMS `F₀/(√2·√((K − MΩ²)² + (CΩ)²))` of a lumped bar without a ball (the
+/// solid reference of the design maps), at the forcing of `sys`.
+pub fn linear_rms_m(sys: &System) -> Option<f64> {
+    let b = sys.lumped_bar()?;
+    let w = sys.omega_rad_s();
+    let c = 2.0 * b.damping_ratio * (b.stiffness_n_per_m * b.mass_kg).sqrt();
+    let d = (b.stiffness_n_per_m - b.mass_kg * w * w).hypot(c * w);
+    Some(sys.forcing.amplitude_n / (std::f64::consts::SQRT_2 * d))
 }
