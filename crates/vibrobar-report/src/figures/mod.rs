@@ -326,7 +326,9 @@ fn draw_heat<DB: DrawingBackend>(
         let mut pieces: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
         for p in &c.points {
             if p.0.is_finite() && p.1.is_finite() && inside(p) {
-                pieces.last_mut().map(|v| v.push(*p));
+                if let Some(v) = pieces.last_mut() {
+                    v.push(*p);
+                }
             } else if pieces.last().is_some_and(|v| !v.is_empty()) {
                 pieces.push(Vec::new());
             }
