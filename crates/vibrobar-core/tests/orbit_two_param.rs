@@ -47,7 +47,7 @@ fn settings() -> Curve2Settings {
     }
 }
 
-fn nearest<'a>(c: &'a Curve, ratio: f64) -> &'a CurvePoint {
+fn nearest(c: &Curve, ratio: f64) -> &CurvePoint {
     c.points
         .iter()
         .min_by(|a, b| (a.ratio - ratio).abs().total_cmp(&(b.ratio - ratio).abs()))
