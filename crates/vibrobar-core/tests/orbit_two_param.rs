@@ -251,3 +251,72 @@ fn best_gap_is_the_smallest_rms_and_the_solid_reference_is_the_settled_run() {
         obs.rms_m()
     );
 }
+
+/// The period-doubling curve of the asymmetric orbit (below the branch point at r = 1, as in
+/// `orbit_continuation.rs`), on the full map: it passes through the one-parameter period
+/// doubling at another ratio, and `det(J + I)` vanishes along it.
+#[test]
+fn period_doubling_curve_passes_through_the_one_parameter_detection() {
+    let f = FrictionModel::None;
+    let settled = |g: f64, r: f64| {
+        let (sec, x0) = starting_guess(
+            &paper(g, f, r),
+            1,
+            &Start::Settled {
+                init: State::REST,
+                settle_s: 0.4,
+            },
+        )
+        .unwrap();
+        find_orbit(&sec, &x0, &ExactJacobian, &NewtonSettings::default()).unwrap()
+    };
+    let pd_at = |r: f64, from: f64, to: f64| -> PeriodicOrbit {
+        let s = ContinuationSettings {
+            switch_branches: false,
+            ..Default::default()
+        };
+        let b =
+            continue_orbit(&settled(from, r), Axis::GapM, from, to, &ExactJacobian, &s).unwrap();
+        b.points
+            .iter()
+            .find(|p| p.event == Some(BranchEvent::PeriodDoubling))
+            .unwrap_or_else(|| panic!("no period doubling at r = {r}: {:?}", b.stop_reasons))
+            .orbit
+            .clone()
+    };
+    let start = pd_at(1.0, 0.052e-3, 0.0495e-3);
+    let s = Curve2Settings {
+        ratios: (0.995, 1.005),
+        ..Default::default()
+    };
+    let c = continue_curve(&start, CurveKind::PeriodDoubling, &s).unwrap();
+    assert!(!c.symmetric);
+    assert!(c.points.len() > 3, "{:?}", c.stop_reasons);
+    for p in &c.points {
+        assert!(p.residual < 1e-9);
+        let tf = test_function(&p.orbit, CurveKind::PeriodDoubling)
+            .unwrap()
+            .unwrap();
+        assert!(tf.abs() < 1e-8, "{tf}");
+        assert!(p
+            .orbit
+            .multipliers
+            .iter()
+            .any(|l| (l.re + 1.0).abs() < 1e-6 && l.im.abs() < 1e-6));
+    }
+    let p = c
+        .points
+        .iter()
+        .filter(|p| (p.ratio - 1.0).abs() > 1e-3)
+        .min_by(|a, b| (a.ratio - 1.003).abs().total_cmp(&(b.ratio - 1.003).abs()))
+        .unwrap();
+    let o = pd_at(p.ratio, p.gap_m + 2e-6, p.gap_m - 2e-6);
+    let g1 = o.section.system.damper.unwrap().gap_m;
+    assert!(
+        (g1 - p.gap_m).abs() < 1e-9,
+        "r = {}: curve {} one-parameter {}",
+        p.ratio,
+        p.gap_m,
+        g1
+    );
+}
