@@ -35,3 +35,23 @@ def test_continuation_finds_the_torus_point():
         vibrobar.continuation(Scenario.paper(), "gap_mm", 0.06, 0.12, ratio=1.0)
     with pytest.raises(ValueError, match="--to"):
         vibrobar.continuation(Scenario.paper(), "gap_m", 1e-4, 1e-4, ratio=1.0)
+
+
+def test_continuation2_follows_the_torus_curve():
+    t = vibrobar.continuation2(
+        Scenario.paper(friction="none"), "torus", 1.0, 0.09489e-3, ratios=(0.98, 1.03)
+    )
+    assert list(t) == [
+        "ratio", "gap_mm", "kind", "rms_m", "max_abs_multiplier", "on_boundary",
+        "test_function", "residual", "impacts_per_period", "event",
+    ]
+    assert t.rows > 10
+    assert abs(t["ratio"][0] - 0.98) < 1e-12 and abs(t["ratio"][-1] - 1.03) < 1e-12
+    assert max(abs(v) for v in t["test_function"]) < 1e-9
+    # At r = 1.03 the orbit-stability table's torus end, 0.08811 mm.
+    assert abs(t["gap_mm"][-1] - 0.08811) < 1e-5
+    assert t.to_csv().startswith("ratio,gap_mm,kind,")
+    with pytest.raises(ValueError, match="--kind"):
+        vibrobar.continuation2(Scenario.paper(), "hopf", 1.0, 0.09489e-3)
+    with pytest.raises(ValueError, match="--ratios"):
+        vibrobar.continuation2(Scenario.paper(), "torus", 1.0, 0.09489e-3, ratios=(1.0, 1.0))

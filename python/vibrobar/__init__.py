@@ -44,6 +44,7 @@ __all__ = [
     "lyapunov_spectrum",
     "orbit",
     "continuation",
+    "continuation2",
     "ensemble",
     "lobes",
     "width_diagram",
@@ -597,6 +598,46 @@ def continuation(
         start,
         int(max_points),
         bool(switch_branches),
+    )
+    return Table(cols, csv)
+
+
+def continuation2(
+    scenario: Optional[Scenario] = None,
+    kind: str = "torus",
+    ratio: float = 1.0,
+    gap_m: float = 0.09489e-3,
+    *,
+    ratios: tuple[float, float] = (0.95, 1.05),
+    gaps_m: tuple[float, float] = (5e-6, 1e-3),
+    period: int = 1,
+    max_points: int = 400,
+    **overrides,
+) -> Table:
+    """Two-parameter continuation in (ratio, gap) of a ``kind`` point (``"fold"``,
+    ``"period-doubling"``, ``"torus"``, ``"branch-point"``, ``"grazing"``) of a periodic orbit,
+    from the point (``ratio``, ``gap_m``) (e.g. one :func:`continuation` located), within
+    ``ratios`` × ``gaps_m``, like ``vibrobar continue2``.
+
+    Returns:
+        Table: ``ratio``, ``gap_mm``, ``kind``, ``rms_m``, ``max_abs_multiplier``,
+        ``on_boundary``, ``test_function``, ``residual``, ``impacts_per_period``, ``event`` (the
+        CSV's columns; ``to_csv()`` its text).
+    """
+    sc = _scenario(scenario, overrides)
+    if isinstance(period, bool) or not isinstance(period, (int, _np.integer)):
+        raise TypeError(f"period must be an int, got {period!r}")
+    if not 1 <= int(period) <= 64:
+        raise ValueError(f"period = {period} is outside the allowed range [1, 64] forcing cycles")
+    cols, csv = _vibrobar.continuation2(
+        sc,
+        kind,
+        _number("ratio", ratio, False),
+        _number("gap_m", gap_m, False),
+        (_number("ratios", ratios[0], False), _number("ratios", ratios[1], False)),
+        (_number("gaps_m", gaps_m[0], False), _number("gaps_m", gaps_m[1], False)),
+        int(period),
+        int(max_points),
     )
     return Table(cols, csv)
 

@@ -121,6 +121,18 @@ def continuation(
     switch_branches: bool = True,
     **overrides: Any,
 ) -> Table: ...
+def continuation2(
+    scenario: Optional[Scenario] = None,
+    kind: str = "torus",
+    ratio: float = 1.0,
+    gap_m: float = 0.09489e-3,
+    *,
+    ratios: tuple[float, float] = (0.95, 1.05),
+    gaps_m: tuple[float, float] = (5e-6, 1e-3),
+    period: int = 1,
+    max_points: int = 400,
+    **overrides: Any,
+) -> Table: ...
 def lyapunov(
     scenario: Optional[Scenario] = None,
     ratio: Optional[float] = None,

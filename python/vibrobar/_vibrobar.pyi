@@ -96,6 +96,16 @@ def continuation(
     max_points: int = 2000,
     switch_branches: bool = True,
 ) -> tuple[dict[str, Any], str]: ...
+def continuation2(
+    scenario: Scenario,
+    kind: str,
+    ratio: float,
+    gap_m: float,
+    ratios: tuple[float, float] = (0.95, 1.05),
+    gaps_m: tuple[float, float] = (5e-6, 1e-3),
+    period: int = 1,
+    max_points: int = 400,
+) -> tuple[dict[str, Any], str]: ...
 def lyapunov(
     scenario: Scenario,
     ratio: Optional[float] = None,

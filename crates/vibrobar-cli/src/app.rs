@@ -135,6 +135,9 @@ pub enum Command {
     /// Pseudo-arclength continuation of a periodic orbit in one parameter, with folds, period
     /// doublings, torus and branch points, grazing and stick onset (CSV and figure).
     Continue(crate::commands::orbit::ContinueArgs),
+    /// Two-parameter continuation in (ratio, gap) of a fold, period-doubling, torus, branch-point
+    /// or grazing point of a periodic orbit, with codimension-two points (CSV and figure).
+    Continue2(crate::commands::continue2::Continue2Args),
     /// Write the generated Markdown document with the stability region of the symmetric
     /// two-impact orbit over ratio × gap (frictionless and Coulomb), its ends and their types.
     OrbitStability(crate::commands::orbit_docs::OrbitStabilityArgs),
@@ -192,6 +195,7 @@ impl Command {
             Command::Lyapunov(_) => "lyapunov",
             Command::Orbit(_) => "orbit",
             Command::Continue(_) => "continue",
+            Command::Continue2(_) => "continue2",
             Command::OrbitStability(_) => "orbit-stability",
             Command::Ensemble(_) => "ensemble",
             Command::BenchMap(_) => "bench-map",
@@ -228,6 +232,7 @@ impl Command {
             Command::Lyapunov(a) => (one(&a.point.system.scenario), None),
             Command::Orbit(a) => (one(&a.point.system.scenario), Some(a.out.as_path())),
             Command::Continue(a) => (one(&a.system.scenario), Some(a.out.as_path())),
+            Command::Continue2(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::OrbitStability(a) => (vec![], Some(a.out.as_path())),
             Command::Ensemble(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::BenchMap(a) => (one(&a.scenario), None),
@@ -325,6 +330,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Lyapunov(a) => explore::run_lyapunov(&a),
         Command::Orbit(a) => orbit::run_orbit(&a),
         Command::Continue(a) => orbit::run_continue(&a),
+        Command::Continue2(a) => crate::commands::continue2::run(&a),
         Command::OrbitStability(a) => crate::commands::orbit_docs::run(&a),
         Command::Ensemble(a) => explore::run_ensemble_cmd(&a),
         Command::BenchMap(a) => map::run_bench(&a),

@@ -50,6 +50,15 @@ fn commands_writing(out: &str) -> Vec<Vec<String>> {
             "continue", "--ratio", "1", "--param", "gap-mm", "--from", "0.08", "--to", "0.081",
         ]),
         v(&[
+            "continue2",
+            "--from-point",
+            "ratio=1,gap-mm=0.09489",
+            "--kind",
+            "torus",
+            "--ratios",
+            "0.99:1.01",
+        ]),
+        v(&[
             "placement",
             "--positions-mm",
             "100:100:1",

@@ -136,3 +136,74 @@ fn bad_input_names_the_flag_and_its_range() {
     );
     assert!(!dir.path().join("x.json").exists());
 }
+
+/// `vibrobar continue2`: the contract CSV, the figure, the curve through the one-parameter
+/// detection at r = 1, and the errors naming the flag.
+#[test]
+fn continue2_writes_the_curve_and_refuses_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("c.csv");
+    let o = out.to_str().unwrap();
+    let base = [
+        "continue2",
+        "--preset",
+        "paper",
+        "--friction",
+        "none",
+        "--from-point",
+        "ratio=1,gap-mm=0.0949",
+        "--kind",
+        "torus",
+        "--ratios",
+        "0.98:1.03",
+        "--out",
+        o,
+    ];
+    vibrobar_ok(&base);
+    let text = std::fs::read_to_string(&out).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "ratio,gap_mm,kind,rms_m,max_abs_multiplier,on_boundary,test_function,residual,impacts_per_period,event"
+    );
+    let rows: Vec<Vec<String>> = lines
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    assert!(rows.len() > 10);
+    let num = |r: &Vec<String>, i: usize| r[i].parse::<f64>().unwrap();
+    assert!((num(&rows[0], 0) - 0.98).abs() < 1e-12);
+    assert!((num(rows.last().unwrap(), 0) - 1.03).abs() < 1e-12);
+    for r in &rows {
+        assert_eq!(r[2], "torus");
+        assert!(num(r, 6).abs() < 1e-9 && num(r, 7) < 1e-9, "{r:?}");
+    }
+    // At r = 1 the curve passes the one-parameter torus point of the orbit-stability table
+    // (0.09489 mm) and is the edge of stability there.
+    let at1 = rows
+        .iter()
+        .find(|r| (num(r, 0) - 1.0).abs() < 1e-12)
+        .unwrap();
+    assert!((num(at1, 1) - 0.09489).abs() < 1e-5, "{at1:?}");
+    assert_eq!(at1[5], "true");
+    assert!(dir.path().join("c.png").exists() && dir.path().join("c.svg").exists());
+    let with = |flag: &str, value: &str| -> Vec<String> {
+        let mut v: Vec<String> = base.iter().map(|s| s.to_string()).collect();
+        let i = v.iter().position(|a| a == flag).unwrap();
+        v[i + 1] = value.into();
+        v
+    };
+    for (flag, value, want) in [
+        ("--kind", "hopf", "--kind"),
+        ("--ratios", "1.02:1.02", "--ratios"),
+        ("--ratios", "1.05:0.95", "--ratios"),
+        ("--from-point", "ratio=1", "--from-point"),
+        ("--from-point", "ratio=1,gap-mm=-0.1", "--from-point gap-mm"),
+    ] {
+        let args = with(flag, value);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        assert_fails_with(&vibrobar(&args), &[want]);
+    }
+    let mut args: Vec<&str> = base.to_vec();
+    args.extend(["--gaps-mm", "0.2:0.1"]);
+    assert_fails_with(&vibrobar(&args), &["--gaps-mm"]);
+}

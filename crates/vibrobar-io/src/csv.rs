@@ -789,6 +789,54 @@ pub fn continuation_values(
     ]
 }
 
+/// Columns of a two-parameter curve (`continue2`):
+/// `ratio,gap_mm,kind,rms_m,max_abs_multiplier,on_boundary,test_function,residual,
+/// impacts_per_period,event`. `kind` is the curve's (`fold`, `period-doubling`, `torus`,
+/// `branch-point`, `grazing`), `on_boundary` `true` where no other multiplier is outside the unit
+/// circle (the point is on the edge of stability), `test_function` the augmented system's test
+/// value (≈ 0), `residual` the orbit's `max |P(x) − x|` in scaled units, `event` empty or a
+/// codimension-two point (`meets-fold`, `meets-branch-point`, `meets-period-doubling`,
+/// `meets-torus`, `meets-grazing`, `strong-resonance`).
+pub fn curve2_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("ratio", Format::Plain),
+            col("gap_mm", Format::Plain),
+            col("kind", Format::Text),
+            col("rms_m", Format::Sci),
+            col("max_abs_multiplier", Format::Plain),
+            col("on_boundary", Format::Text),
+            col("test_function", Format::Sci),
+            col("residual", Format::Sci),
+            col("impacts_per_period", Format::Count),
+            opt("event", Format::Text),
+        ],
+    }
+}
+
+/// One row of [`curve2_schema`].
+pub fn curve2_values(
+    kind: vibrobar_core::analysis::orbit::two_param::CurveKind,
+    p: &vibrobar_core::analysis::orbit::two_param::CurvePoint,
+) -> Vec<Value> {
+    let edge = vibrobar_core::analysis::orbit::two_param::on_boundary(p);
+    vec![
+        Value::F(p.ratio),
+        Value::F(p.gap_m * 1e3),
+        Value::S(kind.as_str().into()),
+        Value::F(p.orbit.rms_m),
+        Value::F(p.orbit.max_abs_multiplier()),
+        Value::S(if edge { "true" } else { "false" }.into()),
+        Value::F(p.test),
+        Value::F(p.residual),
+        Value::U(p.orbit.impacts_per_period as u64),
+        match p.event {
+            Some(e) => Value::S(e.as_str().into()),
+            None => Value::Empty,
+        },
+    ]
+}
+
 /// One row of an ensemble CSV (`ensemble`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnsembleCsvRow {

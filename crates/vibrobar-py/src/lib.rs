@@ -1621,6 +1621,80 @@ fn continuation<'py>(
     Ok((d, csv))
 }
 
+/// Two-parameter curve in (ratio, gap) of a `kind` point ("fold", "period-doubling", "torus",
+/// "branch-point", "grazing") through the point (`ratio`, `gap_m`), within `ratios` × `gaps_m`
+/// (SI): the `continue2` CSV's columns and its text.
+#[pyfunction]
+#[pyo3(signature = (scenario, kind, ratio, gap_m, ratios = (0.95, 1.05), gaps_m = (5e-6, 1e-3), period = 1, max_points = 400))]
+#[allow(clippy::too_many_arguments)]
+fn continuation2<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    kind: &str,
+    ratio: f64,
+    gap_m: f64,
+    ratios: (f64, f64),
+    gaps_m: (f64, f64),
+    period: u32,
+    max_points: usize,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    use vibrobar_core::analysis::orbit::two_param::*;
+    let sc = &scenario.inner;
+    let kind = CurveKind::parse(kind).map_err(PyValueError::new_err)?;
+    let settings = Curve2Settings {
+        ratios,
+        gaps_m,
+        max_points,
+        ..Default::default()
+    };
+    check_settings(&settings).map_err(input_error)?;
+    let (_, _, sys) = point_system(sc, Some(ratio), Some(gap_m))?;
+    let c = detached(py, None, |_| {
+        let sym = vibrobar_core::analysis::orbit::region::symmetric_orbit_at(
+            &sys,
+            &vibrobar_core::analysis::orbit::ExactJacobian,
+        );
+        let o = match (period, sym) {
+            (1, Some(o)) => o,
+            _ => start_orbit(sc, &sys, period, "auto", None, None)?,
+        };
+        continue_curve(&o, kind, &settings).map_err(run_error)
+    })?;
+    let schema = iocsv::curve2_schema();
+    let mut csv = schema.header();
+    csv.push('\n');
+    for p in &c.points {
+        csv.push_str(&schema.format(&iocsv::curve2_values(kind, p)));
+        csv.push('\n');
+    }
+    let d = PyDict::new(py);
+    let pts = || c.points.iter();
+    set_column(&d, "ratio", pts().map(|p| p.ratio))?;
+    set_column(&d, "gap_mm", pts().map(|p| p.gap_m * 1e3))?;
+    d.set_item("kind", vec![kind.as_str(); c.points.len()])?;
+    set_column(&d, "rms_m", pts().map(|p| p.orbit.rms_m))?;
+    set_column(
+        &d,
+        "max_abs_multiplier",
+        pts().map(|p| p.orbit.max_abs_multiplier()),
+    )?;
+    set_column(&d, "on_boundary", pts().map(on_boundary))?;
+    set_column(&d, "test_function", pts().map(|p| p.test))?;
+    set_column(&d, "residual", pts().map(|p| p.residual))?;
+    set_column(
+        &d,
+        "impacts_per_period",
+        pts().map(|p| p.orbit.impacts_per_period as u64),
+    )?;
+    let ev: Vec<&str> = c
+        .points
+        .iter()
+        .map(|p| p.event.map_or("", |e| e.as_str()))
+        .collect();
+    d.set_item("event", ev)?;
+    Ok((d, csv))
+}
+
 // ---------------------------------------------------------------------------------------------
 // bifurcation and ensembles (chunked: their core functions take no cancel flag)
 
@@ -1973,6 +2047,7 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(lyapunov_spectrum, m)?)?;
     m.add_function(wrap_pyfunction!(orbit, m)?)?;
     m.add_function(wrap_pyfunction!(continuation, m)?)?;
+    m.add_function(wrap_pyfunction!(continuation2, m)?)?;
     m.add_function(wrap_pyfunction!(bifurcation_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble, m)?)?;
     m.add_function(wrap_pyfunction!(lobes, m)?)?;

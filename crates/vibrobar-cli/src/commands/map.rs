@@ -67,6 +67,10 @@ pub struct MapArgs {
     /// Continue an interrupted run from FILE.journal.
     #[arg(long)]
     pub resume: bool,
+    /// Draw the stability boundary of the symmetric two-impact orbit (two-parameter curves:
+    /// torus, fold, branch point) over the reduction figure (lumped bar, restitution law).
+    #[arg(long)]
+    pub stability_overlay: bool,
     /// Output CSV.
     #[arg(long)]
     pub out: PathBuf,
@@ -90,6 +94,9 @@ pub struct MapJob {
 
 /// Build and check the job from the flags (no shard, no output).
 pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
+    if args.stability_overlay {
+        overlay_system(args)?;
+    }
     let sc = args.system.scenario()?;
     let settings = sc.settings();
     let base = sc.base()?;
@@ -294,6 +301,50 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
     );
     if shard.is_none() {
         postprocess(&args.out)?;
+        if args.stability_overlay {
+            stability_overlay(args)?;
+        }
+    }
+    Ok(())
+}
+
+/// The map's base system at its first grid point, checked for periodic orbits (the error names
+/// `--stability-overlay`).
+fn overlay_system(args: &MapArgs) -> anyhow::Result<(vibrobar_core::System, Vec<f64>, Vec<f64>)> {
+    let ratios = parse_range("--ratios", &args.ratios, |x| x > 0.0, "(0, ∞)")?;
+    let gaps_mm = parse_range("--gaps-mm", &args.gaps_mm, |x| x > 0.0, "(0, ∞) mm")?;
+    let sys = super::explore::PointArgs {
+        system: args.system.clone(),
+        ratio: ratios[0],
+        gap_mm: gaps_mm[0],
+    }
+    .system()?;
+    vibrobar_core::analysis::orbit::Section::new(sys, 0.0, 1)
+        .map_err(|e| anyhow::anyhow!("--stability-overlay: {e}"))?;
+    Ok((sys, ratios, gaps_mm))
+}
+
+/// Redraw the map's figures with the stability boundary over the reduction map.
+fn stability_overlay(args: &MapArgs) -> anyhow::Result<()> {
+    let (sys, ratios, gaps_mm) = overlay_system(args)?;
+    if ratios.len() < 2 || gaps_mm.len() < 2 {
+        anyhow::bail!("--stability-overlay needs at least two ratios and two gaps");
+    }
+    let gaps_m: Vec<f64> = gaps_mm.iter().map(|g| g * 1e-3).collect();
+    let (overlay, curves) =
+        super::continue2::boundary_overlay(&sys, (ratios[0], ratios[ratios.len() - 1]), &gaps_m)?;
+    let t = read_map_csv(&args.out)?;
+    let o = optimum(&t.rows);
+    vibrobar_report::figures::map::draw_map_figures_with(&args.out, &t, &o, &overlay)?;
+    if curves.is_empty() {
+        println!("stability overlay: no stable symmetric orbit in the map's range");
+    }
+    for c in &curves {
+        println!(
+            "stability overlay: {} curve, {} points",
+            c.kind.as_str(),
+            c.points.len()
+        );
     }
     Ok(())
 }

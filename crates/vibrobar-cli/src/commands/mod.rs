@@ -6,6 +6,7 @@ pub mod bench;
 pub mod contact_convergence;
 pub mod contact_laws;
 pub mod contact_test;
+pub mod continue2;
 pub mod design;
 pub mod explore;
 pub mod lobe_design;

@@ -211,9 +211,138 @@ pub fn run(a: &OrbitStabilityArgs) -> anyhow::Result<()> {
             }
         }
         writeln!(md)?;
+        // The boundary as two-parameter curves, seeded by the one-parameter detections.
+        let gaps_m: Vec<f64> = gaps_mm.iter().map(|g| g * 1e-3).collect();
+        let (overlay, curves) = super::continue2::boundary_overlay(
+            &base,
+            (ratios[0], ratios[ratios.len() - 1]),
+            &gaps_m,
+        )?;
+        writeln!(
+            md,
+            "**Boundary curves** (two-parameter continuation in (ratio, gap) of the points above, \
+             `vibrobar continue2`; drawn on the figure where they are the edge of stability):\n"
+        )?;
+        for c in &curves {
+            let edge: Vec<&vibrobar_core::analysis::orbit::two_param::CurvePoint> = c
+                .points
+                .iter()
+                .filter(|p| vibrobar_core::analysis::orbit::two_param::on_boundary(p))
+                .collect();
+            let span = match (edge.first(), edge.last()) {
+                (Some(a), Some(b)) => format!(
+                    "the edge of stability for ratios {:.4} – {:.4}",
+                    a.ratio.min(b.ratio),
+                    a.ratio.max(b.ratio)
+                ),
+                _ => "nowhere the edge of stability".into(),
+            };
+            let pts: Vec<String> = c
+                .points
+                .iter()
+                .filter_map(|p| {
+                    p.event.map(|e| {
+                        format!(
+                            "{} at ({:.6}, {:.6} mm)",
+                            e.as_str(),
+                            p.ratio,
+                            p.gap_m * 1e3
+                        )
+                    })
+                })
+                .collect();
+            writeln!(
+                md,
+                "- `{}` curve, {} points, {span}; codimension-two points: {}; ends: {}.",
+                c.kind.as_str(),
+                c.points.len(),
+                if pts.is_empty() {
+                    "none".to_string()
+                } else {
+                    pts.join(", ")
+                },
+                c.stop_reasons.join("; ")
+            )?;
+        }
+        writeln!(md)?;
+        for c in &curves {
+            for p in c.points.iter().filter(|p| {
+                p.event == Some(vibrobar_core::analysis::orbit::two_param::Codim2::MeetsFold)
+                    && c.kind == vibrobar_core::analysis::orbit::two_param::CurveKind::Torus
+            }) {
+                summary.push(format!(
+                    "- **{}**: the upper edge of stability changes from `fold` to `torus` at the fold–torus (zero–Hopf) point r = {:.5}, gap = {:.5} mm, where the two curves cross.",
+                    m.title,
+                    p.ratio,
+                    p.gap_m * 1e3
+                ));
+            }
+        }
+        // The design rule: the best gap at each ratio inside the stable interval.
+        writeln!(
+            md,
+            "**Design rule** — at each ratio, the gap in the stable interval with the smallest RMS \
+             of the symmetric orbit (21 samples, then golden section), its reduction against the \
+             solid bar's steady state (closed form, the map's reference) and its distance from the \
+             nearer edge of stability:\n"
+        )?;
+        writeln!(
+            md,
+            "| ratio Ω/ωn | best gap (mm) | orbit RMS (µm) | reduction | distance from the edge (mm) | % of the gap | nearer edge |"
+        )?;
+        writeln!(md, "|---|---|---|---|---|---|---|")?;
+        let bests: Vec<Option<vibrobar_core::analysis::orbit::two_param::BestGap>> =
+            with_threads(a.threads, || {
+                (0..ratios.len())
+                    .into_par_iter()
+                    .map(|i| {
+                        let (_, iv) = intervals[i].as_ref()?;
+                        let mut s = base;
+                        Axis::FreqRatio.apply(&mut s, ratios[i]).ok()?;
+                        vibrobar_core::analysis::orbit::two_param::best_gap(
+                            &s,
+                            iv.lo.gap_m,
+                            iv.hi.gap_m,
+                            21,
+                        )
+                    })
+                    .collect()
+            })?;
+        for (i, r) in ratios.iter().enumerate() {
+            let (Some((_, iv)), Some(b)) = (&intervals[i], &bests[i]) else {
+                continue;
+            };
+            let solid =
+                vibrobar_core::analysis::orbit::two_param::linear_rms_m(&System::paper_solid(*r))
+                    .unwrap_or(f64::NAN);
+            let edge = if b.nearer_lower { &iv.lo } else { &iv.hi };
+            if (r - 1.0).abs() < 1e-9 {
+                summary.push(format!(
+                    "- **{}**, design rule at r = 1: best gap {:.5} mm ({:.1} % reduction), {:.5} mm from the `{}` edge.",
+                    m.title,
+                    b.gap_m * 1e3,
+                    100.0 * (1.0 - b.rms_m / solid),
+                    b.margin_m * 1e3,
+                    ev(&edge.event)
+                ));
+            }
+            writeln!(
+                md,
+                "| {} | {:.5} | {:.4} | {:.1} % | {:.5} | {:.0} % | {} ({}) |",
+                fmt_coord(*r),
+                b.gap_m * 1e3,
+                b.rms_m * 1e6,
+                100.0 * (1.0 - b.rms_m / solid),
+                b.margin_m * 1e3,
+                100.0 * b.margin_m / b.gap_m,
+                if b.nearer_lower { "lower" } else { "upper" },
+                ev(&edge.event)
+            )?;
+        }
+        writeln!(md)?;
         let title = format!("Symmetric orbit: largest |Floquet multiplier|, {}", m.name);
         vibrobar_io::atomic::ensure_parent(&stem.join(m.name))?;
-        vibrobar_report::figures::heat_files(
+        vibrobar_report::figures::heat_files_with_curves(
             &stem.join(m.name),
             &vibrobar_report::figures::Heat {
                 title: &title,
@@ -233,6 +362,7 @@ pub fn run(a: &OrbitStabilityArgs) -> anyhow::Result<()> {
                 )],
                 vlines: vec![],
             },
+            &overlay,
         )?;
     }
     let mut head = String::new();
@@ -243,7 +373,10 @@ pub fn run(a: &OrbitStabilityArgs) -> anyhow::Result<()> {
     writeln!(
         head,
         "\nComputed in {:.1} s. Reproduce with `vibrobar continue --preset paper --friction none \
-         --ratio 1 --param gap-mm --from 0.07 --to 0.12 --out b.csv` (and `--to 0.03`).\n",
+         --ratio 1 --param gap-mm --from 0.07 --to 0.12 --out b.csv` (and `--to 0.03`); a boundary \
+         curve with `vibrobar continue2 --preset paper --friction none --from-point \
+         ratio=1,gap-mm=0.09489 --kind torus --ratios 0.95:1.05 --out c.csv`; the boundary over a \
+         design map with `vibrobar map ... --stability-overlay`.\n",
         t0.elapsed().as_secs_f64()
     )?;
     // The summary goes after the introduction.

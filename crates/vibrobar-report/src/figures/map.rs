@@ -18,6 +18,17 @@ fn sorted_unique(mut v: Vec<f64>) -> Vec<f64> {
 /// Draw `STEM.reduction.{png,svg}` and `STEM.impacts.{png,svg}` beside `map_csv`
 /// (STEM = the CSV path without `.csv`).
 pub fn draw_map_figures(map_csv: &Path, t: &MapTable, o: &Optimum) -> anyhow::Result<Vec<PathBuf>> {
+    draw_map_figures_with(map_csv, t, o, &[])
+}
+
+/// [`draw_map_figures`] with `curves` (e.g. the stability boundary of the symmetric orbit, gap
+/// in mm) drawn over the reduction map.
+pub fn draw_map_figures_with(
+    map_csv: &Path,
+    t: &MapTable,
+    o: &Optimum,
+    curves: &[super::HeatCurve],
+) -> anyhow::Result<Vec<PathBuf>> {
     let stem = map_csv.with_extension("");
     let xs = sorted_unique(t.rows.iter().map(|r| r.ratio).collect());
     let ys = sorted_unique(t.rows.iter().map(|r| r.gap_m * 1e3).collect());
@@ -104,7 +115,7 @@ pub fn draw_map_figures(map_csv: &Path, t: &MapTable, o: &Optimum) -> anyhow::Re
         }
         Err(_) => base,
     };
-    let mut files = heat_files(
+    let mut files = super::heat_files_with_curves(
         &super::with_ext(&stem, "reduction"),
         &Heat {
             title: &title,
@@ -126,6 +137,7 @@ pub fn draw_map_figures(map_csv: &Path, t: &MapTable, o: &Optimum) -> anyhow::Re
             hlines,
             vlines: Vec::new(),
         },
+        curves,
     )?;
     let (lo, hi) = finite(&ipc);
     let levels = if hi - lo <= 8.0 {

@@ -196,7 +196,24 @@ pub struct Heat<'a> {
     pub vlines: Vec<(f64, String, RGBColor)>,
 }
 
-fn draw_heat<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, h: &Heat) -> anyhow::Result<()> {
+/// A curve drawn over a heat map (e.g. a stability boundary from two-parameter continuation).
+#[derive(Debug, Clone)]
+pub struct HeatCurve {
+    /// Legend label (only the first curve of each label is put in the legend).
+    pub label: String,
+    /// Colour.
+    pub colour: RGBColor,
+    /// Points `(x, y)` in order; a `NaN` breaks the line.
+    pub points: Vec<(f64, f64)>,
+    /// Points marked with a square (codimension-two points), with no legend.
+    pub marks: Vec<(f64, f64)>,
+}
+
+fn draw_heat<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    h: &Heat,
+    curves: &[HeatCurve],
+) -> anyhow::Result<()> {
     init_font();
     root.fill(&WHITE).map_err(err)?;
     let (w, _) = root.dim_in_pixel();
@@ -301,7 +318,48 @@ fn draw_heat<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, h: &Heat) -> any
                     + Circle::new((0, 0), 5, BLACK.stroke_width(1))
             });
     }
-    if h.markers.is_some() || !h.hlines.is_empty() || !h.vlines.is_empty() {
+    let (x0, x1, y0, y1) = (xe[0], xe[xe.len() - 1], ye[0], ye[ye.len() - 1]);
+    let inside = |p: &(f64, f64)| p.0 >= x0 && p.0 <= x1 && p.1 >= y0 && p.1 <= y1;
+    let mut labelled: Vec<&str> = Vec::new();
+    for c in curves {
+        let col = c.colour;
+        // Pieces between NaNs and outside the plot.
+        let mut pieces: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+        for p in &c.points {
+            if p.0.is_finite() && p.1.is_finite() && inside(p) {
+                if let Some(v) = pieces.last_mut() {
+                    v.push(*p);
+                }
+            } else if pieces.last().is_some_and(|v| !v.is_empty()) {
+                pieces.push(Vec::new());
+            }
+        }
+        let pieces: Vec<Vec<(f64, f64)>> = pieces.into_iter().filter(|v| v.len() > 1).collect();
+        if pieces.is_empty() {
+            continue;
+        }
+        let series = chart
+            .draw_series(
+                pieces
+                    .into_iter()
+                    .map(|v| PathElement::new(v, col.stroke_width(3))),
+            )
+            .map_err(err)?;
+        if !labelled.contains(&c.label.as_str()) {
+            labelled.push(c.label.as_str());
+            series.label(c.label.as_str()).legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(3))
+            });
+        }
+        chart
+            .draw_series(c.marks.iter().filter(|p| inside(p)).map(|&p| {
+                EmptyElement::at(p)
+                    + Rectangle::new([(-5, -5), (5, 5)], WHITE.filled())
+                    + Rectangle::new([(-5, -5), (5, 5)], BLACK.stroke_width(2))
+            }))
+            .map_err(err)?;
+    }
+    if h.markers.is_some() || !h.hlines.is_empty() || !h.vlines.is_empty() || !labelled.is_empty() {
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperRight)
@@ -349,7 +407,16 @@ fn draw_heat<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, h: &Heat) -> any
 
 /// Write a heat map as `stem.png` and `stem.svg`; returns both paths.
 pub fn heat_files(stem: &Path, h: &Heat) -> anyhow::Result<Vec<PathBuf>> {
-    png_and_svg!(stem, (1000, 700), |root| draw_heat(&root, h))
+    heat_files_with_curves(stem, h, &[])
+}
+
+/// [`heat_files`] with curves drawn over the map (and in its legend).
+pub fn heat_files_with_curves(
+    stem: &Path,
+    h: &Heat,
+    curves: &[HeatCurve],
+) -> anyhow::Result<Vec<PathBuf>> {
+    png_and_svg!(stem, (1000, 700), |root| draw_heat(&root, h, curves))
 }
 
 /// `stem` + `.ext` (keeps dots in the stem).

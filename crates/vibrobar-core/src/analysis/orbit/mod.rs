@@ -25,6 +25,7 @@
 pub mod continuation;
 pub mod region;
 pub mod symmetric;
+pub mod two_param;
 
 use crate::analysis::case::RmsObserver;
 use crate::analysis::lyapunov::StateScales;

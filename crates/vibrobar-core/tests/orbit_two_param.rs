@@ -1,0 +1,322 @@
+//! Two-parameter curves (`analysis::orbit::two_param`) against independent computations: the
+//! one-parameter continuation's located points at the curve's ratios, Newton at fixed (ratio,
+//! gap) on each side of a curve point, the test function at the curve's orbits, and the same
+//! codimension-two point reached along two different curves.
+use vibrobar_core::analysis::grid::Axis;
+use vibrobar_core::analysis::orbit::continuation::*;
+use vibrobar_core::analysis::orbit::two_param::*;
+use vibrobar_core::analysis::orbit::*;
+use vibrobar_core::solver::Solver as _;
+use vibrobar_core::*;
+
+fn paper(gap_m: f64, f: FrictionModel, r: f64) -> System {
+    System::paper_damped(gap_m, f, r)
+}
+
+fn orbit_at(sys: &System) -> PeriodicOrbit {
+    let (sec, x0) = starting_guess(sys, 1, &Start::Symmetric(0)).unwrap();
+    find_orbit(&sec, &x0, &ExactJacobian, &NewtonSettings::default()).unwrap()
+}
+
+/// The one-parameter continuation in the gap at `ratio` from the stable symmetric orbit at
+/// `seed_m` toward `to_m`: the located point of `event`.
+fn one_param(
+    f: FrictionModel,
+    ratio: f64,
+    seed_m: f64,
+    to_m: f64,
+    event: BranchEvent,
+) -> PeriodicOrbit {
+    let start = orbit_at(&paper(seed_m, f, ratio));
+    assert!(start.stable());
+    let s = ContinuationSettings {
+        switch_branches: false,
+        ..Default::default()
+    };
+    let b = continue_orbit(&start, Axis::GapM, seed_m, to_m, &ExactJacobian, &s).unwrap();
+    let hits: Vec<&BranchPoint> = b.points.iter().filter(|p| p.event == Some(event)).collect();
+    // The first one met from the stable seed: the end of the stability interval.
+    assert!(!hits.is_empty(), "{:?} {:?}", event, b.stop_reasons);
+    hits[0].orbit.clone()
+}
+
+fn settings() -> Curve2Settings {
+    Curve2Settings {
+        ratios: (0.97, 1.04),
+        ..Default::default()
+    }
+}
+
+fn nearest(c: &Curve, ratio: f64) -> &CurvePoint {
+    c.points
+        .iter()
+        .min_by(|a, b| (a.ratio - ratio).abs().total_cmp(&(b.ratio - ratio).abs()))
+        .unwrap()
+}
+
+/// The torus (upper) and branch-point (lower) curves of the symmetric orbit, started from the
+/// one-parameter detections at r = 1, pass through the one-parameter detections at other ratios.
+fn curves_through_detections(f: FrictionModel) {
+    let t = std::time::Instant::now();
+    let torus0 = one_param(f, 1.0, 0.07e-3, 0.12e-3, BranchEvent::Torus);
+    let torus = continue_curve(&torus0, CurveKind::Torus, &settings()).unwrap();
+    let bp0 = one_param(f, 1.0, 0.07e-3, 0.03e-3, BranchEvent::BranchPoint);
+    let bp = continue_curve(&bp0, CurveKind::BranchPoint, &settings()).unwrap();
+    eprintln!(
+        "two curves and their starts: {:.2} s",
+        t.elapsed().as_secs_f64()
+    );
+    assert!(torus.symmetric && bp.symmetric);
+    assert!(torus.points.len() > 20 && bp.points.len() > 20);
+    // The branch-point curve spans the whole box; the torus curve reaches r = 1.04.
+    assert!(
+        (bp.points[0].ratio - 0.97).abs() < 1e-12,
+        "{:?}",
+        bp.stop_reasons
+    );
+    assert!((bp.points.last().unwrap().ratio - 1.04).abs() < 1e-12);
+    assert!((torus.points.last().unwrap().ratio - 1.04).abs() < 1e-12);
+    for target in [0.99, 1.013, 1.035] {
+        for (curve, to_m, ev) in [
+            (&torus, 0.14e-3, BranchEvent::Torus),
+            (&bp, 0.015e-3, BranchEvent::BranchPoint),
+        ] {
+            let p = nearest(curve, target);
+            let o = one_param(f, p.ratio, 0.075e-3, to_m, ev);
+            let g1 = o.section.system.damper.unwrap().gap_m;
+            assert!(
+                (g1 - p.gap_m).abs() < 1e-9,
+                "{:?} at r = {}: curve {} mm, one-parameter {} mm",
+                ev,
+                p.ratio,
+                p.gap_m * 1e3,
+                g1 * 1e3
+            );
+        }
+    }
+    // At a curve point: a true orbit, the test function zero, and stability changes across it
+    // (Newton at fixed gaps 1e-8 m on each side, from the analytic orbit).
+    for (curve, kind) in [(&torus, CurveKind::Torus), (&bp, CurveKind::BranchPoint)] {
+        for p in curve.points.iter().step_by(7) {
+            assert!(p.residual < 1e-9, "{}", p.residual);
+            assert!(p.orbit.physicality.confined && p.orbit.impacts_per_period == 2);
+            let tf = test_function(&p.orbit, kind).unwrap().unwrap();
+            assert!(tf.abs() < 1e-8, "{kind:?} test {tf}");
+            let sc = scales(&p.orbit.section.system);
+            let again = p.orbit.section.flow(&to_vector(&p.orbit.state)).unwrap();
+            let b = to_vector(&p.orbit.state);
+            for i in 0..4 {
+                assert!(((again[i] - b[i]) / sc[i]).abs() < 1e-9);
+            }
+            if p.ratio > 0.985 {
+                // Newton from the curve's orbit at the shifted gap.
+                let side = |dg: f64| {
+                    let sec =
+                        Section::new(paper(p.gap_m + dg, f, p.ratio), p.orbit.section.t0_s, 1)
+                            .unwrap();
+                    let x = to_vector(&p.orbit.state);
+                    find_orbit(&sec, &x, &ExactJacobian, &NewtonSettings::default()).unwrap()
+                };
+                let (lo, hi) = (side(-1e-8), side(1e-8));
+                // Stable inside the region: below the torus curve, above the branch-point curve.
+                let (inside, outside) = if kind == CurveKind::Torus {
+                    (lo, hi)
+                } else {
+                    (hi, lo)
+                };
+                assert!(
+                    inside.stable() && !outside.stable(),
+                    "{kind:?} at r = {} gap {} mm",
+                    p.ratio,
+                    p.gap_m * 1e3
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn frictionless_curves_pass_through_the_one_parameter_detections() {
+    curves_through_detections(FrictionModel::None);
+}
+
+#[test]
+fn coulomb_curves_pass_through_the_one_parameter_detections() {
+    curves_through_detections(FrictionModel::Coulomb);
+}
+
+/// The fold curve of the symmetric orbit (the upper stability end below r ≈ 0.98) and the torus
+/// curve meet at one zero–Hopf point (multipliers +1 and a pair on the unit circle), found
+/// independently along each.
+#[test]
+fn fold_and_torus_curves_meet_at_the_same_codimension_two_point() {
+    let f = FrictionModel::None;
+    let fold0 = one_param(f, 0.96, 0.085e-3, 0.12e-3, BranchEvent::Fold);
+    let s = Curve2Settings {
+        ratios: (0.95, 1.0),
+        ..Default::default()
+    };
+    let fold = continue_curve(&fold0, CurveKind::Fold, &s).unwrap();
+    let torus0 = one_param(f, 1.0, 0.07e-3, 0.12e-3, BranchEvent::Torus);
+    let torus = continue_curve(&torus0, CurveKind::Torus, &s).unwrap();
+    let on = |c: &Curve, e: Codim2| -> Vec<(f64, f64)> {
+        c.points
+            .iter()
+            .filter(|p| p.event == Some(e))
+            .map(|p| (p.ratio, p.gap_m))
+            .collect()
+    };
+    let a = on(&fold, Codim2::MeetsTorus);
+    let b = on(&torus, Codim2::MeetsFold);
+    assert_eq!((a.len(), b.len()), (1, 1), "{a:?} {b:?}");
+    assert!((a[0].0 - b[0].0).abs() < 1e-8, "{a:?} {b:?}");
+    assert!((a[0].1 - b[0].1).abs() < 1e-11, "{a:?} {b:?}");
+    assert!((0.975..0.985).contains(&a[0].0));
+    // Further on, the fold curve passes a 1:1 resonance (two multipliers +1 of the half map).
+    let res = on(&fold, Codim2::StrongResonance);
+    assert!(!res.is_empty(), "{:?}", fold.stop_reasons);
+    assert!(res.iter().all(|r| r.0 > a[0].0));
+    // Every fold-curve point: a multiplier +1 of the half map (the test function), a true orbit.
+    for p in &fold.points {
+        // The full period's residual: the half map's 1e-9, amplified by multipliers up to ~9.
+        assert!(p.residual < 1e-7, "{}", p.residual);
+        assert!(
+            test_function(&p.orbit, CurveKind::Fold)
+                .unwrap()
+                .unwrap()
+                .abs()
+                < 1e-8
+        );
+    }
+}
+
+#[test]
+fn bad_input_names_the_flag() {
+    let e = CurveKind::parse("hopf").unwrap_err();
+    assert!(e.contains("--kind"), "{e}");
+    let o = orbit_at(&paper(0.0949e-3, FrictionModel::None, 1.0));
+    for (ratios, gaps_m, flag) in [
+        ((1.0, 1.0), (1e-6, 1e-3), "--ratios"),
+        ((1.02, 0.98), (1e-6, 1e-3), "--ratios"),
+        ((0.95, f64::NAN), (1e-6, 1e-3), "--ratios"),
+        ((0.95, 1.05), (2e-4, 1e-4), "--gaps-mm"),
+    ] {
+        let s = Curve2Settings {
+            ratios,
+            gaps_m,
+            ..Default::default()
+        };
+        let e = continue_curve(&o, CurveKind::Torus, &s)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(flag), "{e}");
+    }
+    // No torus point near a point far from one: an error, not a curve.
+    let far = orbit_at(&paper(0.07e-3, FrictionModel::None, 1.0));
+    let e = continue_curve(&far, CurveKind::Fold, &Curve2Settings::default());
+    assert!(e.is_err());
+}
+
+/// The best gap at r = 1 inside the stability interval: no orbit on a fine independent grid of
+/// gaps (Newton from the analytic orbit at each) has a smaller RMS; the solid reference RMS in
+/// closed form is the exact solver's settled RMS.
+#[test]
+fn best_gap_is_the_smallest_rms_and_the_solid_reference_is_the_settled_run() {
+    let sys = paper(0.08e-3, FrictionModel::None, 1.0);
+    let (lo, hi) = (0.05384e-3, 0.09489e-3);
+    let b = best_gap(&sys, lo, hi, 21).unwrap();
+    assert!((lo..=hi).contains(&b.gap_m));
+    assert!((b.margin_m - (b.gap_m - lo).min(hi - b.gap_m)).abs() < 1e-15);
+    for i in 0..=200 {
+        let g = lo + (hi - lo) * i as f64 / 200.0;
+        let o = orbit_at(&paper(g, FrictionModel::None, 1.0));
+        assert!(
+            b.rms_m <= o.rms_m * (1.0 + 1e-9),
+            "{g}: {} < {}",
+            o.rms_m,
+            b.rms_m
+        );
+    }
+    let solid = System::paper_solid(1.0);
+    let rms = linear_rms_m(&solid).unwrap();
+    let init = State::REST;
+    let t = solid.forcing_period_s();
+    let mut obs = vibrobar_core::analysis::case::RmsObserver::new(400.0 * t, 600.0 * t);
+    vibrobar_core::solver::Exact::default()
+        .run(&solid, &init, 600.0 * t, &mut obs)
+        .unwrap();
+    assert!(
+        (obs.rms_m() / rms - 1.0).abs() < 1e-3,
+        "{} vs {rms}",
+        obs.rms_m()
+    );
+}
+
+/// The period-doubling curve of the asymmetric orbit (below the branch point at r = 1, as in
+/// `orbit_continuation.rs`), on the full map: it passes through the one-parameter period
+/// doubling at another ratio, and `det(J + I)` vanishes along it.
+#[test]
+fn period_doubling_curve_passes_through_the_one_parameter_detection() {
+    let f = FrictionModel::None;
+    let settled = |g: f64, r: f64| {
+        let (sec, x0) = starting_guess(
+            &paper(g, f, r),
+            1,
+            &Start::Settled {
+                init: State::REST,
+                settle_s: 0.4,
+            },
+        )
+        .unwrap();
+        find_orbit(&sec, &x0, &ExactJacobian, &NewtonSettings::default()).unwrap()
+    };
+    let pd_at = |r: f64, from: f64, to: f64| -> PeriodicOrbit {
+        let s = ContinuationSettings {
+            switch_branches: false,
+            ..Default::default()
+        };
+        let b =
+            continue_orbit(&settled(from, r), Axis::GapM, from, to, &ExactJacobian, &s).unwrap();
+        b.points
+            .iter()
+            .find(|p| p.event == Some(BranchEvent::PeriodDoubling))
+            .unwrap_or_else(|| panic!("no period doubling at r = {r}: {:?}", b.stop_reasons))
+            .orbit
+            .clone()
+    };
+    let start = pd_at(1.0, 0.052e-3, 0.0495e-3);
+    let s = Curve2Settings {
+        ratios: (0.995, 1.005),
+        ..Default::default()
+    };
+    let c = continue_curve(&start, CurveKind::PeriodDoubling, &s).unwrap();
+    assert!(!c.symmetric);
+    assert!(c.points.len() > 3, "{:?}", c.stop_reasons);
+    for p in &c.points {
+        assert!(p.residual < 1e-9);
+        let tf = test_function(&p.orbit, CurveKind::PeriodDoubling)
+            .unwrap()
+            .unwrap();
+        assert!(tf.abs() < 1e-8, "{tf}");
+        assert!(p
+            .orbit
+            .multipliers
+            .iter()
+            .any(|l| (l.re + 1.0).abs() < 1e-6 && l.im.abs() < 1e-6));
+    }
+    let p = c
+        .points
+        .iter()
+        .filter(|p| (p.ratio - 1.0).abs() > 1e-3)
+        .min_by(|a, b| (a.ratio - 1.003).abs().total_cmp(&(b.ratio - 1.003).abs()))
+        .unwrap();
+    let o = pd_at(p.ratio, p.gap_m + 2e-6, p.gap_m - 2e-6);
+    let g1 = o.section.system.damper.unwrap().gap_m;
+    assert!(
+        (g1 - p.gap_m).abs() < 1e-9,
+        "r = {}: curve {} one-parameter {}",
+        p.ratio,
+        p.gap_m,
+        g1
+    );
+}
