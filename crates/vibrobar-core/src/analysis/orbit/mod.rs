@@ -41,9 +41,6 @@ pub use crate::limits::MAX_ORBIT_PERIOD;
 /// Why an orbit needs a lumped bar.
 pub const ORBIT_LUMPED_ONLY: &str = "periodic orbits are computed on the lumped bar only: a modal bar's state has 2N + 2 dimensions and its stroboscopic map is not implemented yet";
 
-/// Why an orbit needs the restitution law.
-pub const ORBIT_RESTITUTION_ONLY: &str = "periodic orbits need the instantaneous restitution law (contact.law = restitution): the hertz contact phase has no variational equations here";
-
 /// The stroboscopic map of one system: state at `t0_s`, period `periods` forcing cycles.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Section {
@@ -61,8 +58,8 @@ pub fn to_vector(s: &State) -> [f64; 4] {
 }
 
 impl Section {
-    /// A section of `sys` at `t0_s` with period `periods`, checked: a lumped bar with a ball and
-    /// the restitution law, `1 ≤ periods ≤` [`MAX_ORBIT_PERIOD`], a finite `t0_s`.
+    /// A section of `sys` at `t0_s` with period `periods`, checked: a lumped bar with a ball
+    /// (either contact law), `1 ≤ periods ≤` [`MAX_ORBIT_PERIOD`], a finite `t0_s`.
     pub fn new(system: System, t0_s: f64, periods: u32) -> Result<Section, SimError> {
         check_system(&system)?;
         check_period(periods)?;
@@ -122,13 +119,12 @@ fn check_system(sys: &System) -> Result<(), SimError> {
     if sys.lumped_bar().is_none() {
         return Err(SimError::Unsupported(ORBIT_LUMPED_ONLY));
     }
-    let Some(d) = sys.damper else {
+    // Either contact law: the hertz law's compliant phases have their variational equations
+    // (crate::analysis::variational, "Hertz contact phases").
+    if sys.damper.is_none() {
         return Err(SimError::Unsupported(
             "periodic orbits of the damped bar need a ball (a damper section)",
         ));
-    };
-    if d.contact.law != crate::params::ContactLaw::Restitution {
-        return Err(SimError::Unsupported(ORBIT_RESTITUTION_ONLY));
     }
     Ok(())
 }
@@ -309,7 +305,8 @@ pub fn event_letter(kind: &EventKind) -> char {
 /// How physical an orbit is (module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Physicality {
-    /// Largest `|w| − l_g` along the orbit (≤ 0: never beyond a wall).
+    /// Largest `|w| − l_g` along the orbit (≤ 0: never beyond a wall; under the hertz law the
+    /// largest compression `δ` of a contact).
     pub max_penetration_m: f64,
     /// Smallest `l_g − |w|` at an interior turning point of `|w|` in a free flight (how close an
     /// impact is to appearing; infinite when no flight turns).
@@ -317,7 +314,9 @@ pub struct Physicality {
     /// Slowest relative impact speed `|ẇ−|` (infinite without impacts): near 0 an impact is
     /// about to disappear.
     pub min_impact_speed_m_s: f64,
-    /// `max_penetration_m ≤` [`crate::solver::exact::CONFINEMENT_TOL_M`].
+    /// `max_penetration_m ≤` [`crate::solver::exact::CONFINEMENT_TOL_M`]; under the hertz law
+    /// every excursion past `l_g` is a compliant contact phase of the solver (`δ ≥ 0` is the
+    /// contact's compression), so it holds by construction.
     pub confined: bool,
 }
 
@@ -558,6 +557,10 @@ pub fn describe(
     iterations: usize,
 ) -> Result<PeriodicOrbit, SimError> {
     let lg = sec.system.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
+    let hertz = sec
+        .system
+        .damper
+        .is_some_and(|d| d.contact.law == crate::params::ContactLaw::Hertz);
     let t_end = sec.t0_s + sec.period_s();
     let mut rms = RmsObserver::new(sec.t0_s, t_end);
     let mut rec = OrbitRecorder {
@@ -607,7 +610,7 @@ pub fn describe(
             max_penetration_m: summary.max_penetration_m,
             grazing_margin_m: rec.margin_m,
             min_impact_speed_m_s: rec.min_speed,
-            confined: summary.max_penetration_m <= crate::solver::exact::CONFINEMENT_TOL_M,
+            confined: hertz || summary.max_penetration_m <= crate::solver::exact::CONFINEMENT_TOL_M,
         },
     })
 }
