@@ -310,3 +310,106 @@ fn lyapunov_sum_is_the_trace_plus_the_approach_memory() {
         }
     }
 }
+
+/// The paper's point (frictionless, 0.08 mm, r = 1) with both moduli scaled by `s`
+/// (`K_h ∝ E*`).
+fn stiffened(s: f64) -> System {
+    let mut sys = hertz(0.08e-3, FrictionModel::None, 1.0, None);
+    let c = &mut sys.damper.as_mut().unwrap().contact;
+    c.ball_modulus_pa *= s;
+    c.wall_modulus_pa *= s;
+    sys
+}
+
+/// As the contact stiffens (contact time `∝ K_h^{−2/5}`) the hertz orbit and its multipliers
+/// tend to the restitution law's (the same target `e` at every speed). Newton from the
+/// analytic symmetric orbit with the exact Jacobian (4 iterations at `K_h × 1`), and the largest
+/// multiplier against that of central differences of the map (measured ~4e-7 apart).
+#[test]
+fn stiffer_contacts_approach_the_restitution_orbit() {
+    use vibrobar_core::analysis::orbit::*;
+    let mut rest = stiffened(1.0);
+    rest.damper.as_mut().unwrap().contact.law = ContactLaw::Restitution;
+    let newton = NewtonSettings::default();
+    let (sec, x0) = starting_guess(&rest, 1, &Start::Symmetric(0)).unwrap();
+    let o_rest = find_orbit(&sec, &x0, &ExactJacobian, &newton).unwrap();
+    let sc = scales(&rest);
+    let mods = |o: &PeriodicOrbit| {
+        let mut m: Vec<f64> = o.multipliers.iter().map(|l| l.norm()).collect();
+        m.sort_by(|a, b| b.total_cmp(a));
+        m
+    };
+    let m_rest = mods(&o_rest);
+    let mut last = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
+    for s in [1.0, 1e2, 1e4] {
+        let sys = stiffened(s);
+        let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(0)).unwrap();
+        let o = find_orbit(&sec, &x0, &ExactJacobian, &newton).unwrap();
+        assert_eq!(o.impacts_per_period, 2);
+        assert!(o.physicality.confined && o.residual <= 1e-9, "{o:?}");
+        // The multipliers from the variational Jacobian against central differences.
+        let (_, fd) = FiniteDifference::default()
+            .map_and_jacobian(&sec, &vibrobar_core::analysis::orbit::to_vector(&o.state))
+            .unwrap();
+        let fd_max = multipliers_of(&fd)
+            .iter()
+            .map(|l| l.norm())
+            .fold(0.0, f64::max);
+        assert!(
+            (fd_max - o.max_abs_multiplier()).abs() < 1e-4,
+            "s {s}: {fd_max} vs {}",
+            o.max_abs_multiplier()
+        );
+        // The orbit at the same section phase as the restitution one.
+        let p = Section::new(sys, o_rest.section.t0_s, 1).unwrap();
+        let xr = to_vector(&o_rest.state);
+        let x = find_orbit(&p, &xr, &ExactJacobian, &newton).unwrap();
+        let dx = (0..4)
+            .map(|i| ((to_vector(&x.state)[i] - xr[i]) / sc[i]).abs())
+            .fold(0.0, f64::max);
+        let m = mods(&x);
+        let dm = (0..4).map(|i| (m[i] - m_rest[i]).abs()).fold(0.0, f64::max);
+        let drms = (x.rms_m / o_rest.rms_m - 1.0).abs();
+        eprintln!(
+            "K_h × {s:e}: max compression {:.3e} m, state {dx:.3e}, RMS {drms:.3e}, \
+             |multipliers| {dm:.3e} ({m:?} vs {m_rest:?})",
+            x.physicality.max_penetration_m
+        );
+        // Each 100× in K_h divides the contact time by 100^{2/5} = 6.3: measured state
+        // 2.39 → 0.370 → 0.058 (scaled), RMS 7.5 % → 2.6 % → 0.43 %, |multipliers| 0.118 →
+        // 7.7e-3 → 1.1e-3.
+        assert!(
+            dx < 0.25 * last.0 && drms < 0.5 * last.1 && dm < 0.25 * last.2,
+            "s {s}: {dx} {drms} {dm} after {last:?}"
+        );
+        last = (dx, drms, dm);
+    }
+    assert!(last.1 < 0.01 && last.2 < 2e-3, "{last:?}");
+}
+
+/// Each contact's tangent map tends to the restitution law's saltation (determinant `e²`) as
+/// the contact stiffens: the exponents' sum tends to `−C/M + 2 ln(e) × contacts per second`
+/// (shared VALIDATION.md), reached by the trace and the approach memory together. Measured
+/// (relative gap, K_h × 1, 10, 1e2, 1e3, 1e4, 1e6): 2.1e-3, 4.3e-3, 2.2e-3, 9.8e-4, 4.0e-4,
+/// 6.5e-5: not monotone below ×10, then like the contact time, `K_h^{−2/5}` (6.2× per 100×).
+#[test]
+fn stiff_contacts_recover_the_restitution_volume_identity() {
+    let mut last = f64::INFINITY;
+    for s in [1e2, 1e4, 1e6] {
+        let sys = stiffened(s);
+        let p = SpectrumParams::periods(&sys, 0.3, 100.0);
+        let sp = lyapunov_spectrum(&sys, &State::REST, &Exact::default(), &p).unwrap();
+        let bar = sys.lumped_bar().unwrap();
+        let e = sys.damper.unwrap().restitution;
+        let want = -bar.damping_n_s_per_m() / bar.mass_kg + 2.0 * e.ln() * sp.impacts_per_s;
+        let rel = (sp.sum_per_s - want).abs() / want.abs();
+        eprintln!(
+            "K_h × {s:e}: sum {:.6e}, restitution identity {want:.6e}, rel {rel:.2e} \
+             (memory {:.4e})",
+            sp.sum_per_s, sp.approach_memory_per_s
+        );
+        assert!(rel < 0.3 * last, "K_h × {s}: {rel} after {last}");
+        last = rel;
+    }
+    assert!(last < 1e-4, "{last}");
+}

@@ -619,8 +619,8 @@ pub fn describe(
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Start {
     /// The analytic symmetric orbit ([`symmetric_orbits`]) with this index (in the order of
-    /// their impact phase); a quarter period after its `+` impact. With friction, that of the
-    /// same system without it.
+    /// their impact phase); a quarter period after its `+` impact. With friction or the hertz
+    /// law, that of the same system without friction under the restitution law.
     Symmetric(usize),
     /// A run from `init` over `settle_s`; the section is put in the middle of the longest
     /// event-free stretch of the last `k` periods.
@@ -630,6 +630,17 @@ pub enum Start {
         /// Simulated time before the section.
         settle_s: f64,
     },
+}
+
+/// `sys` without friction and with the restitution law: the model of the analytic symmetric
+/// orbit, whose orbit is the starting guess for `sys`.
+fn analytic_model(sys: &System) -> System {
+    let mut m = *sys;
+    if let Some(d) = m.damper.as_mut() {
+        d.friction = crate::params::FrictionModel::None;
+        d.contact.law = crate::params::ContactLaw::Restitution;
+    }
+    m
 }
 
 /// A section and a starting state for `sys` with period `periods`, from `start`. The section
@@ -644,13 +655,9 @@ pub fn starting_guess(
     let t = sys.forcing_period_s();
     let (t_sec, state) = match *start {
         Start::Symmetric(i) => {
-            // With friction the frictionless orbit is the guess (Newton then finds the orbit
-            // with friction, when it is near).
-            let mut frictionless = *sys;
-            if let Some(d) = frictionless.damper.as_mut() {
-                d.friction = crate::params::FrictionModel::None;
-            }
-            let os = symmetric_orbits(&frictionless)?;
+            // With friction or the hertz law the frictionless restitution-law orbit is the
+            // guess (Newton then finds the orbit of `sys`, when it is near).
+            let os = symmetric_orbits(&analytic_model(sys))?;
             let Some(o) = os.get(i) else {
                 return Err(ParamError::OutOfRange {
                     field: "symmetric orbit index (--branch)",
@@ -727,12 +734,8 @@ pub fn orbit_auto(
     check_system(sys)?;
     check_period(periods)?;
     let newton = NewtonSettings::default();
-    let mut frictionless = *sys;
-    if let Some(d) = frictionless.damper.as_mut() {
-        d.friction = crate::params::FrictionModel::None;
-    }
     let n = if periods % 2 == 1 {
-        symmetric_orbits(&frictionless).map_or(0, |v| v.len())
+        symmetric_orbits(&analytic_model(sys)).map_or(0, |v| v.len())
     } else {
         0
     };
