@@ -413,3 +413,29 @@ fn stiff_contacts_recover_the_restitution_volume_identity() {
     }
     assert!(last < 1e-4, "{last}");
 }
+
+/// The parameter column is not built through compliant phases: a clear refusal (the
+/// continuation takes central differences of the map instead: `map_param_derivative` is
+/// `None` there).
+#[test]
+fn the_parameter_column_is_refused_under_hertz() {
+    use vibrobar_core::analysis::orbit::continuation::map_param_derivative;
+    use vibrobar_core::analysis::orbit::Section;
+    use vibrobar_core::analysis::variational::{flow_with_param_derivative, Param};
+    let sys = hertz(0.08e-3, FrictionModel::None, 1.0, None);
+    let x = settled_free(&sys, 0.3);
+    let e = flow_with_param_derivative(
+        &Exact::default(),
+        &sys,
+        &x,
+        x.t_s + 1e-3,
+        Param::GapM,
+        &mut (),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("central differences"), "{e}");
+    let sec = Section::new(sys, x.t_s, 1).unwrap();
+    let v = vibrobar_core::analysis::orbit::to_vector(&x);
+    let axis = vibrobar_core::analysis::grid::Axis::GapM;
+    assert!(map_param_derivative(&sec, axis, &v).unwrap().is_none());
+}

@@ -254,7 +254,7 @@ impl TangentSink for QrSink {
     }
 }
 
-/// The Lyapunov spectrum of `sys` (lumped bar, restitution law) started from `init`, with the
+/// The Lyapunov spectrum of `sys` (lumped bar, either contact law) started from `init`, with the
 /// exact solver `solver`.
 pub fn lyapunov_spectrum(
     sys: &System,

@@ -692,7 +692,7 @@ fn mat_vec(m: &Mat4, d: &[f64; 4]) -> [f64; 4] {
 }
 
 impl<T: TangentSink> Variational<T> {
-    /// The layer for `sys` (lumped bar with a damper under the restitution law).
+    /// The layer for `sys` (lumped bar with a damper, either contact law).
     pub fn new(sys: &System, sink: T) -> Result<Self, SimError> {
         sys.validate()?;
         let bar = sys
