@@ -694,8 +694,12 @@ def lyapunov_spectrum(
     Returns:
         dict: ``exponents_per_s`` (four, 1/s; ``None`` is −∞: a direction removed by stick or
         wall contact), ``std_error_per_s``, ``collapsed``, ``sum_per_s``, ``impacts_per_s``,
-        ``duration_s``, ``blocks``, ``chatter_limits``, ``grazing``. Without friction and with
-        nothing collapsed, ``sum_per_s`` equals −C/M + 2 ln(e) × ``impacts_per_s``.
+        ``duration_s``, ``blocks``, ``chatter_limits``, ``grazing``, ``compliant_contacts`` and
+        ``approach_memory_per_s`` (the ``hertz`` law's contacts, and the part of the sum that is
+        the law's memory of the approach speed; 0 under the restitution law). Without friction
+        and with nothing collapsed, ``sum_per_s`` equals −C/M + 2 ln(e) × ``impacts_per_s``
+        (under ``hertz``: the trace average plus ``approach_memory_per_s``; the restitution
+        identity in the stiff limit).
     """
     sc = _scenario(scenario, overrides)
     if isinstance(blocks, bool) or not isinstance(blocks, int) or blocks < 2:

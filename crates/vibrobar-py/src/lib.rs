@@ -1431,6 +1431,9 @@ fn lyapunov_spectrum<'py>(
     d.set_item("blocks", blocks)?;
     d.set_item("chatter_limits", r.events.chatter_limits)?;
     d.set_item("grazing", r.events.grazing)?;
+    // Hertz law: the part of the sum that is the law's memory of the approach speed.
+    d.set_item("approach_memory_per_s", r.approach_memory_per_s)?;
+    d.set_item("compliant_contacts", r.events.compliant_contacts)?;
     Ok(d)
 }
 

@@ -475,7 +475,11 @@ fn run_spectrum(a: &LyapunovArgs) -> anyhow::Result<()> {
         scales: None,
     };
     let r = lyapunov_spectrum(&sys, &spec.base.init, solver.as_ref(), &p)?;
-    // The frictionless bar's phase-volume identity: Σλ = −C/M + 2 ln(e) × impacts per second.
+    // The frictionless bar's phase-volume identity: Σλ = −C/M + 2 ln(e) × impacts per second
+    // (under the hertz law only in the stiff limit: Σλ is the trace plus the approach memory).
+    let hertz = sys
+        .damper
+        .is_some_and(|d| d.contact.law == vibrobar_core::ContactLaw::Hertz);
     let identity = match (sys.lumped_bar(), sys.damper) {
         (Some(bar), Some(d))
             if sys.friction_level_n() == 0.0 || d.friction == FrictionModel::None =>
@@ -494,6 +498,7 @@ fn run_spectrum(a: &LyapunovArgs) -> anyhow::Result<()> {
             "collapsed": r.collapsed,
             "sum_per_s": r.sum_per_s,
             "volume_identity_per_s": identity,
+            "approach_memory_per_s": hertz.then_some(r.approach_memory_per_s),
             "impacts_per_s": r.impacts_per_s,
             "duration_s": r.duration_s,
             "blocks": p.blocks,
@@ -506,6 +511,7 @@ fn run_spectrum(a: &LyapunovArgs) -> anyhow::Result<()> {
                 "chatter_limits": ev.chatter_limits,
                 "releases": ev.releases,
                 "grazing": ev.grazing,
+                "compliant_contacts": ev.compliant_contacts,
             },
             "parameters": a.point.to_params()?,
         });
@@ -527,6 +533,13 @@ fn run_spectrum(a: &LyapunovArgs) -> anyhow::Result<()> {
             r.collapsed
         );
         match identity {
+            Some(id) if hertz && r.collapsed == 0 => println!(
+                "Σλ = {:.6} 1/s = trace average {:.6} + approach memory {:.6} (hertz law); the restitution identity −C/M + 2 ln(e) × contacts/s = {:.6} 1/s holds in the stiff limit",
+                r.sum_per_s,
+                r.sum_per_s - r.approach_memory_per_s,
+                r.approach_memory_per_s,
+                id
+            ),
             Some(id) if r.collapsed == 0 => println!(
                 "Σλ = {:.6} 1/s; frictionless identity −C/M + 2 ln(e) × impacts/s = {:.6} 1/s",
                 r.sum_per_s, id

@@ -218,6 +218,9 @@ pub fn run_orbit(a: &OrbitArgs) -> anyhow::Result<()> {
         settle_s: settle,
         jacobian: o.jacobian_source.into(),
     };
+    let hertz = sys
+        .damper
+        .is_some_and(|d| d.contact.law == vibrobar_core::ContactLaw::Hertz);
     let mut j = orbit_json(&o)?;
     j["parameters"] = serde_json::to_value(&params)?;
     write_json(&a.out, &j).with_context(|| format!("writing {}", a.out.display()))?;
@@ -230,7 +233,7 @@ pub fn run_orbit(a: &OrbitArgs) -> anyhow::Result<()> {
         .map(|l| format!("{:.4}{:+.4}i", l.re, l.im))
         .collect();
     println!(
-        "period-{} orbit ({}): RMS {:.4e} m, {} impacts per period, events {:?}, multipliers [{}] (max |λ| = {:.6}): {}; |w| ≤ l_g {}",
+        "period-{} orbit ({}): RMS {:.4e} m, {} impacts per period, events {:?}, multipliers [{}] (max |λ| = {:.6}): {}; {}",
         o.section.periods,
         params.start,
         o.rms_m,
@@ -239,7 +242,14 @@ pub fn run_orbit(a: &OrbitArgs) -> anyhow::Result<()> {
         mults.join(", "),
         o.max_abs_multiplier(),
         if o.stable() { "stable" } else { "unstable" },
-        if o.physicality.confined { "holds" } else { "VIOLATED" },
+        match (o.physicality.confined, hertz) {
+            (true, false) => "|w| ≤ l_g holds".to_string(),
+            (true, true) => format!(
+                "hertz contacts: largest compression {:.3e} m",
+                o.physicality.max_penetration_m
+            ),
+            (false, _) => "|w| ≤ l_g VIOLATED".to_string(),
+        },
     );
     println!("wrote {}", a.out.display());
     Ok(())

@@ -24,7 +24,14 @@
 //! * The tangent maps of [`STEPS_PER_QR`] steps are multiplied before each
 //!   re-orthonormalisation (the exponents do not depend on how often it happens, as long as
 //!   no column leaves the range of `f64`).
-//! * Lumped bar, restitution law only (the variational layer's scope).
+//! * **Hertz law.** A compliant contact phase removes no dimension; its tangent map (one step,
+//!   [`super::variational`]) has `det = exp(∫ tr A dt) · (1 + cᵀW⁻¹ζ)` (friction events aside):
+//!   `Σ λᵢ` is the time average of the trace (`−C/M`, plus `−P_δ̇ (1/M + 1/m_d)` in contact)
+//!   plus [`SpectrumResult::approach_memory_per_s`]. A block that ends inside a contact hands
+//!   its state to the next block's run, which restarts the contact at `δ = 0` (the state is
+//!   put back on the wall, as for the restitution law's rounding): a perturbation of the
+//!   trajectory of the size of one compression, at most once per block.
+//! * Lumped bar (the variational layer's scope).
 
 use super::lyapunov::StateScales;
 use super::variational::{mat_mul, EventCounts, Mat4, Step, TangentSink, Variational, IDENTITY};
@@ -78,6 +85,10 @@ pub struct SpectrumResult {
     pub impacts_per_s: f64,
     /// Events the variational flow went through.
     pub events: EventCounts,
+    /// Under the hertz law, the part of `sum_per_s` that is the law's memory of the approach
+    /// speed (`Σ ln|1 + cᵀW⁻¹ζ|` per second, [`super::variational`] "Hertz contact phases"): the
+    /// rest is the time average of the trace of the vector field's Jacobian. 0 otherwise.
+    pub approach_memory_per_s: f64,
     /// The window, s.
     pub duration_s: f64,
 }
@@ -100,6 +111,8 @@ struct QrSink {
     deficit: usize,
     /// `e = 0`: every impact is plastic.
     plastic_law: bool,
+    /// `hertz` law: a contact segment is a compliant phase (no dimension removed).
+    compliant: bool,
 }
 
 /// Tangent maps multiplied together between two re-orthonormalisations. Fewer QRs are cheaper,
@@ -110,7 +123,7 @@ struct QrSink {
 pub const STEPS_PER_QR: usize = 2;
 
 impl QrSink {
-    fn new(sc: &StateScales, restitution: f64) -> QrSink {
+    fn new(sc: &StateScales, restitution: f64, compliant: bool) -> QrSink {
         let t = [
             [1.0 / sc.u_m, 0.0, 0.0, 0.0],
             [0.0, 1.0 / sc.du_m_s, 0.0, 0.0],
@@ -133,7 +146,8 @@ impl QrSink {
             product: IDENTITY,
             steps: 0,
             deficit: 0,
-            plastic_law: restitution == 0.0,
+            plastic_law: restitution == 0.0 && !compliant,
+            compliant,
         }
     }
 
@@ -228,7 +242,7 @@ impl TangentSink for QrSink {
             Step::Segment {
                 mode: Mode::Contact(_),
                 ..
-            } => 2,
+            } if !self.compliant => 2,
             _ => 0,
         };
         self.deficit = self.deficit.max(removes);
@@ -240,7 +254,7 @@ impl TangentSink for QrSink {
     }
 }
 
-/// The Lyapunov spectrum of `sys` (lumped bar, restitution law) started from `init`, with the
+/// The Lyapunov spectrum of `sys` (lumped bar, either contact law) started from `init`, with the
 /// exact solver `solver`.
 pub fn lyapunov_spectrum(
     sys: &System,
@@ -270,7 +284,10 @@ pub fn lyapunov_spectrum(
     }
     // Refuses what the variational layer cannot do before any run.
     let e = sys.damper.map_or(1.0, |d| d.restitution);
-    let mut var = Variational::new(sys, QrSink::new(&sc, e))?;
+    let compliant = sys
+        .damper
+        .is_some_and(|d| d.contact.law == crate::params::ContactLaw::Hertz);
+    let mut var = Variational::new(sys, QrSink::new(&sc, e, compliant))?;
     // The public state carries `v = u + w` rounded: a ball on a wall may read an ulp outside it,
     // which the next run's check refuses. Put it back on the wall (as `max_lyapunov` does).
     let lg = sys.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
@@ -291,6 +308,9 @@ pub fn lyapunov_spectrum(
         var.sink.logs = [0.0; 4];
         x = onto_wall(solver.run(sys, &x, t_end, &mut var)?.final_state);
         var.finish();
+        if let Some(e) = var.failure.take() {
+            return Err(e);
+        }
         var.sink.flush();
         let dt = t_end - (t0 + (b - 1) as f64 * block);
         block_rates.push(var.sink.logs.map(|l| l / dt));
@@ -326,6 +346,7 @@ pub fn lyapunov_spectrum(
         sum_per_s: sum,
         impacts_per_s: var.sink.impacts as f64 / p.duration_s,
         events: var.counts,
+        approach_memory_per_s: var.approach_memory_log / p.duration_s,
         duration_s: p.duration_s,
     })
 }

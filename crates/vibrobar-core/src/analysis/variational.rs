@@ -107,9 +107,76 @@
 //!   map's end `t₀ + 2πk/Ω` adds `end_field · (−kT/r)`
 //!   (`orbit::continuation::map_param_derivative`).
 //!
+//! # Hertz contact phases (`contact.law = "hertz"`)
+//!
+//! The compliant phase of `solver/exact/hertz.rs` has, with penetration `δ = s w − l_g`
+//! (`s = ±1` the wall), the contact coordinates `y = (u, u̇, δ, δ̇)`
+//! (`y = T x + const`, `T⁻¹ = [[1,0,0,0],[0,1,0,0],[1,0,s,0],[0,1,0,s]]`) and the field
+//!
+//! `M ü = F(t) − C u̇ − K u + s P − F_b`, `m_d v̈ = −s P + F_b`, `δ̈ = s (v̈ − ü)`,
+//! `P = K_h δ^{3/2} (1 + D δ̇/δ̇₀)`,
+//!
+//! `F_b` the sliding friction with `σ = sgn ẇ` (0 when stuck), `δ̇₀` the approach speed at the
+//! touch (or the floor `10⁻³ l_g max(Ω, ω_d)` when slower). Stuck (Coulomb, inside the contact):
+//! the pair moves as one body at fixed `δ`.
+//!
+//! **Contact onset and release: `S = I`.** Both happen at `δ = 0`, where `P = 0` on both
+//! sides: the elastic part is `δ^{3/2}`, and the damping part `K_h D δ^{3/2} δ̇/δ̇₀` is
+//! weighted by the same `δ^{3/2}`, so it vanishes at `δ = 0` whatever `δ̇` is (a
+//! Kelvin–Voigt or Hunt–Crossley law with a bare `c δ̇` term would jump by `c δ̇` there and give
+//! `S ≠ I`). The friction force is the same on both sides (`σ = s` pressed in at the onset,
+//! `σ = −s` leaving at the release, in flight and in contact alike). So `f⁺ = f⁻`, and
+//! `S = I + (f⁺ − f⁻)∇hᵀ/rate = I` with `h = w − s l_g`, rate `ẇ ≠ 0`. (The release is built
+//! with the general formula, so a friction force that differed would enter.) The contact is
+//! ended by `δ = 0`, which is where the force returns to 0 (`1 + D δ̇/δ̇₀ ≥ 1 − eD > 0` on
+//! the way out, `crate::damper::contact`).
+//!
+//! **The memory of the approach speed.** `δ̇₀` is fixed at the touch from the state there, so
+//! inside the phase the field depends on the touch state as well as on the current one. The
+//! perturbed trajectory touches at `t* + δt*`, `δt* = −δw/ẇ⁻`, with
+//! `δδ̇₀ = s (δẇ − ẅ⁻ δw/ẇ⁻)` =: `cᵀ δx` (0 where the floor holds `δ̇₀`). The layer carries
+//! `Z = [W | ζ]` (4×5), `W = ∂y/∂x(touch)` from `W = T` and `ζ = ∂y/∂δ̇₀` from 0, through
+//!
+//! `Z' = A(t) Z + [0 | b(t)]`, `A = ∂f/∂y`, `b = ∂f/∂δ̇₀`,
+//!
+//! with `P_δ = (3/2) K_h δ^{1/2}(1 + D δ̇/δ̇₀)`, `P_δ̇ = K_h δ^{3/2} D/δ̇₀`,
+//! `P_δ̇₀ = −K_h δ^{3/2} D δ̇/δ̇₀²`: rows `ü`: `(−K/M, −C/M, s P_δ/M, s P_δ̇/M)`,
+//! `δ̈`: `(s K/M, s C/M, −P_δ (1/M + 1/m_d), −P_δ̇ (1/M + 1/m_d))`, and
+//! `b = (0, s P_δ̇₀/M, 0, −P_δ̇₀ (1/M + 1/m_d))`. The phase's tangent map (touch to release, or
+//! to the end of the run) is `T⁻¹ (W + ζ cᵀ)`, handed to the sink as one
+//! `Step::Segment { mode: Contact }` at the release. Its determinant is not Liouville's alone:
+//! `det = exp(∫ tr A dt) · Π det S_friction · (1 + cᵀ W⁻¹ ζ)`, `tr A = −C/M − P_δ̇ (1/M + 1/m_d)`;
+//! the last factor (the memory) is summed in [`Variational::approach_memory_log`].
+//!
+//! **Along the phase** the flow is Dormand–Prince's, not a closed form. `Z` is integrated as a
+//! separate linear ODE along each accepted step's dense output (the observer reads
+//! [`Segment::state_at`]; the solver is not touched, its results stay bit-identical), by an
+//! adaptive Dormand–Prince 5(4) with its own error control, relative tolerance
+//! [`HERTZ_TANGENT_RTOL`] (= the phase's `CONTACT_RTOL`, 1e-9) on every entry, absolute
+//! `1e-9 · scaleᵢ/scaleⱼ` (`(l_g, v, δ_max, v)`). The dense output is 4th-order; tightening the
+//! tangent tolerance to 1e-12 moves the Jacobian by ~2e-8 relative (measured, 0.08 mm, r = 1).
+//! What limits a comparison with finite differences is the solver: its end state at
+//! `CONTACT_RTOL = 1e-9` is not differentiable to better than ~1e-5 relative (its step-size
+//! sequence moves with the start state); with the phase run at 1e-12 central differences
+//! agree with this Jacobian to 2e-8 (frictionless) and 6e-7 (as published, friction switches
+//! inside contacts) (measured; `tests/variational_hertz.rs` runs at the shipped tolerance).
+//!
+//! **Friction inside a contact** (the phase restarts at each): where `δ̇` crosses 0 the
+//! sliding force reverses (`h = δ̇`, rate `δ̈⁻`, `f⁺ − f⁻ = ΔF_b (0, −1/M, 0, s(1/M + 1/m_d))`)
+//! or Coulomb sticks (`f⁺` the stuck field: `S` zeroes `δδ̇`, a direction removed for good,
+//! marked to the sink by an identity `Step::Event { kind: Stick }` after the phase); unstick at
+//! `h = f_l ∓ (m_d ü_pair + s K_h δ^{3/2})` (the solver's test), where Coulomb's `f⁺ = f⁻`.
+//! Each is the usual `S = I + (f⁺ − f⁻)∇hᵀ/(∇h·f⁻ + ∂h/∂t)` on `Z` (`h` does not hold `δ̇₀`).
+//!
+//! **Limits.** A touch at `ẇ = 0` (a pressed ball starting a resting contact) is counted as
+//! grazing (a perturbation can lift the ball off). A run that ends inside a contact has the
+//! partial map; a run started from such a state restarts the contact at `δ = 0` (the solver
+//! puts the ball back on the wall), so Poincaré sections should be in free flight. The
+//! parameter column ([`flow_with_param_derivative`]) is not built for this law: callers take
+//! central differences of the map (the continuation does).
+//!
 //! # Not covered
 //!
-//! * The Hertz contact law (compliant contact phases): [`Variational::new`] refuses it.
 //! * The N-mode bar (`ModalExact`): refused; the same construction with the 2N×2N modal `Φ`
 //!   and the contact row `w = v − Σ φₙ qₙ` is the way to add it.
 //! * Parameter derivatives other than [`Param`]'s (mass ratio, forcing amplitude).
@@ -118,10 +185,14 @@
 //! discontinuities", Chaos, Solitons & Fractals 5 (1995) 1671–1681; R. I. Leine and
 //! H. Nijmeijer, *Dynamics and Bifurcations of Non-Smooth Mechanical Systems*, Springer 2004.
 
+use crate::damper::contact::Hertz;
 use crate::damper::friction::sliding_friction_on_ball_n;
 use crate::error::SimError;
 use crate::params::{ContactLaw, FrictionModel, State, System};
-use crate::solver::{Event, EventKind, Mode, Observer, RunSummary, Segment, Solver};
+use crate::solver::dopri5::Dopri5;
+use crate::solver::{
+    CompliantContact, Event, EventKind, Mode, Observer, RunSummary, Segment, Solver,
+};
 
 /// A 4×4 matrix, row-major, on `(u, u̇, v, v̇)`.
 pub type Mat4 = [[f64; 4]; 4];
@@ -140,8 +211,8 @@ pub fn require_exact(solver: &dyn Solver) -> Result<(), SimError> {
     }
 }
 
-/// Why the variational layer refuses the Hertz law.
-pub const VARIATIONAL_NO_HERTZ: &str = "the variational flow (Jacobian, Lyapunov spectrum) covers the instantaneous restitution law; the saltation of a Hertz contact phase is not implemented";
+/// Why the variational layer refuses a parameter derivative under the Hertz law.
+pub const VARIATIONAL_NO_HERTZ_PARAM: &str = "the parameter column of the variational flow covers the instantaneous restitution law; under the hertz law take central differences of the map (orbit::continuation::map_param_derivative_fd)";
 /// Why the variational layer refuses a bar without a ball.
 pub const VARIATIONAL_NEEDS_BALL: &str =
     "the variational flow needs a damper (a solid bar is linear: its Jacobian is the bar's closed form)";
@@ -255,6 +326,10 @@ pub struct EventCounts {
     /// Events without a saltation matrix (impact with `ẇ⁻ = 0`, or a vanishing crossing rate):
     /// the map is not differentiable there.
     pub grazing: u64,
+    /// Compliant (`hertz`) contact phases entered (their releases are counted in `impacts`,
+    /// the solver reports each as an impact; friction switches, sticks and unsticks inside
+    /// them in those fields).
+    pub compliant_contacts: u64,
 }
 
 /// The ball's phase: mode and friction sign of a free flight.
@@ -269,6 +344,8 @@ struct Phase {
 struct Pending {
     ev: Event,
     before: Phase,
+    /// The end of a compliant contact phase (the solver's `Impact` at the release).
+    release: bool,
 }
 
 /// Constants of the lumped system.
@@ -286,6 +363,10 @@ struct Lumped {
     om: f64,
     /// `∂Ω/∂ratio = ω₁`.
     om1: f64,
+    /// The compliant law, `None` under the restitution law.
+    hertz: Option<Hertz>,
+    /// Half gap `l_g`.
+    lg: f64,
 }
 
 impl Lumped {
@@ -298,6 +379,10 @@ impl Lumped {
     /// Friction force on the ball in a free flight with sign `σ`.
     fn fb(&self, sigma: f64) -> f64 {
         sliding_friction_on_ball_n(self.model, self.fl, sigma)
+    }
+    /// The free-flight friction sign `σ` whose sliding force is `fb` (`F_b = s F sgn σ`).
+    fn sigma_of_fb(&self, fb: f64) -> f64 {
+        crate::damper::friction::sign_factor(self.model) * crate::damper::friction::sgn0(fb)
     }
     fn mu_ratio(&self) -> f64 {
         self.md / (self.m + self.md)
@@ -431,6 +516,108 @@ impl Lumped {
     }
 }
 
+impl Lumped {
+    /// Contact coordinates `y = (u, u̇, δ, δ̇)` of a public state at wall `sw`:
+    /// `δ = sw·w − l_g`, `δ̇ = sw·ẇ`.
+    fn hz_y(&self, sw: f64, x: &State) -> [f64; 4] {
+        [x.u_m, x.du_m_s, sw * x.w_m() - self.lg, sw * x.dw_m_s()]
+    }
+
+    /// The compliant phase's vector field in contact coordinates (`hertz.rs`):
+    /// `M ü = F(t) − C u̇ − K u + sw P − F_b`, `m_d v̈ = −sw P + F_b`, `δ̈ = sw (v̈ − ü)`; stuck:
+    /// the pair moves as one body at fixed `δ`.
+    fn hz_field(&self, c: &CompliantContact, t: f64, y: &[f64; 4]) -> [f64; 4] {
+        let free = self.force(t) - self.c * y[1] - self.k * y[0];
+        if c.stuck {
+            return [y[1], free / (self.m + self.md), 0.0, 0.0];
+        }
+        let sw = c.wall_sign;
+        let p = c.law.force_n(y[2], y[3], c.reference_speed_m_s);
+        let fb = c.ball_friction_n;
+        let ddu = (free + sw * p - fb) / self.m;
+        let ddv = (-sw * p + fb) / self.md;
+        [y[1], ddu, y[3], sw * (ddv - ddu)]
+    }
+
+    /// The phase's vector field in public coordinates `(u̇, ü, v̇, v̈)` at `x`.
+    fn hz_field_public(&self, c: &CompliantContact, t: f64, x: &State) -> [f64; 4] {
+        let sw = c.wall_sign;
+        let f = self.hz_field(c, t, &self.hz_y(sw, x));
+        [f[0], f[1], f[0] + sw * f[2], f[1] + sw * f[3]]
+    }
+
+    /// `A = ∂f/∂y` of [`Lumped::hz_field`] and `b = ∂f/∂δ̇₀` (the law's reference speed).
+    /// With `P = K_h δ^{3/2}(1 + D δ̇/δ̇₀)`: `P_δ = (3/2) K_h δ^{1/2}(1 + D δ̇/δ̇₀)`,
+    /// `P_δ̇ = K_h δ^{3/2} D/δ̇₀`, `P_δ̇₀ = −K_h δ^{3/2} D δ̇/δ̇₀²` (all 0 at `δ ≤ 0`).
+    fn hz_jac(&self, c: &CompliantContact, y: &[f64; 4]) -> (Mat4, [f64; 4]) {
+        if c.stuck {
+            let mt = self.m + self.md;
+            return (
+                [
+                    [0.0, 1.0, 0.0, 0.0],
+                    [-self.k / mt, -self.c / mt, 0.0, 0.0],
+                    [0.0, 0.0, 0.0, 0.0],
+                    [0.0, 0.0, 0.0, 0.0],
+                ],
+                [0.0; 4],
+            );
+        }
+        let sw = c.wall_sign;
+        let d = y[2].max(0.0);
+        let sq = d.sqrt();
+        let kh = c.law.stiffness_n_m32;
+        let v0 = c.reference_speed_m_s;
+        let damp = c.law.damping;
+        let fac = 1.0 + damp * y[3] / v0;
+        let p_d = 1.5 * kh * sq * fac;
+        let p_dd = kh * d * sq * damp / v0;
+        let p_v0 = -kh * d * sq * damp * y[3] / (v0 * v0);
+        let (m, md) = (self.m, self.md);
+        let inv = 1.0 / m + 1.0 / md;
+        (
+            [
+                [0.0, 1.0, 0.0, 0.0],
+                [-self.k / m, -self.c / m, sw * p_d / m, sw * p_dd / m],
+                [0.0, 0.0, 0.0, 1.0],
+                [sw * self.k / m, sw * self.c / m, -p_d * inv, -p_dd * inv],
+            ],
+            [0.0, sw * p_v0 / m, 0.0, -p_v0 * inv],
+        )
+    }
+}
+
+/// Relative tolerance of the tangent integration along a compliant contact phase (that of the
+/// phase itself, [`crate::analysis::contact_test::CONTACT_RTOL`]).
+pub const HERTZ_TANGENT_RTOL: f64 = crate::analysis::contact_test::CONTACT_RTOL;
+
+/// Most tangent-integrator steps (accepted or rejected) per step of a contact phase: the
+/// tangent shares the phase's smoothness, so it takes one to a few; the bound only stops a
+/// runaway.
+pub const HERTZ_TANGENT_MAX_SUBSTEPS: u32 = 10_000;
+
+/// A compliant contact phase in progress: its tangent map from the public state at the touch.
+#[derive(Debug, Clone, Copy)]
+struct HzPhase {
+    t0: f64,
+    t_last: f64,
+    sw: f64,
+    /// `∂y/∂x(touch)` (contact coordinates from public ones) and `∂y/∂δ̇₀`, as one 4×5 block
+    /// row-major (`z[5i + j]`, `j = 4` the `δ̇₀` column).
+    z: [f64; 20],
+    /// `∂δ̇₀/∂x(touch)`.
+    c: [f64; 4],
+    /// The constants of the last step seen (a change marks a friction event).
+    last: CompliantContact,
+    /// Tangent step size to try next.
+    h: f64,
+    /// `Mode::Contact(wall)`.
+    mode: Mode,
+    /// A stick happened in this phase (a direction is removed for good).
+    stuck_seen: bool,
+    /// Row scales `(l_g, v, δ, v)` of the tolerance.
+    scale: [f64; 4],
+}
+
 /// `S = G + (f⁺ − G f⁻) ∇hᵀ / rate`, `rate = ∇h·f⁻ + ∂h/∂t`. Returns `None` when the rate
 /// vanishes (grazing).
 fn saltation(
@@ -471,6 +658,16 @@ pub struct Variational<T: TangentSink> {
     param: Option<Param>,
     /// `∂x/∂p` on `(u, u̇, v, v̇)` at the current time (zero at the start).
     dxdp: [f64; 4],
+    /// The compliant contact phase in progress (`hertz` law).
+    hz: Option<HzPhase>,
+    /// The phase a run ended in, when it ended inside a compliant contact (for the end field).
+    open_contact: Option<CompliantContact>,
+    /// What stopped the tangent integration of a compliant phase (an observer cannot return an
+    /// error; [`flow_with_jacobian`] and the spectrum report it after the run).
+    pub failure: Option<SimError>,
+    /// `Σ ln|det(W + ζcᵀ)/det W|` over the compliant phases closed so far: the phase-volume
+    /// change of the law's memory of the approach speed (module docs, "Hertz contact phases").
+    pub approach_memory_log: f64,
 }
 
 /// A parameter whose derivative `∂x(t_end)/∂p` the layer can carry (see "Parameter
@@ -495,7 +692,7 @@ fn mat_vec(m: &Mat4, d: &[f64; 4]) -> [f64; 4] {
 }
 
 impl<T: TangentSink> Variational<T> {
-    /// The layer for `sys` (lumped bar with a damper under the restitution law).
+    /// The layer for `sys` (lumped bar with a damper, either contact law).
     pub fn new(sys: &System, sink: T) -> Result<Self, SimError> {
         sys.validate()?;
         let bar = sys
@@ -504,9 +701,7 @@ impl<T: TangentSink> Variational<T> {
         let d = sys
             .damper
             .ok_or(SimError::Unsupported(VARIATIONAL_NEEDS_BALL))?;
-        if d.contact.law == ContactLaw::Hertz {
-            return Err(SimError::Unsupported(VARIATIONAL_NO_HERTZ));
-        }
+        let hertz = (d.contact.law == ContactLaw::Hertz).then(|| Hertz::of_damper(&d));
         Ok(Variational {
             sys: Lumped {
                 m: bar.mass_kg,
@@ -520,6 +715,8 @@ impl<T: TangentSink> Variational<T> {
                 f0: sys.forcing.amplitude_n,
                 om: sys.omega_rad_s(),
                 om1: sys.omega1_rad_s(),
+                hertz,
+                lg: d.half_gap_m(),
             },
             sink,
             counts: EventCounts::default(),
@@ -527,10 +724,16 @@ impl<T: TangentSink> Variational<T> {
             pending: None,
             param: None,
             dxdp: [0.0; 4],
+            hz: None,
+            open_contact: None,
+            failure: None,
+            approach_memory_log: 0.0,
         })
     }
 
-    /// Also carry the column `∂x/∂p` of parameter `p` (from zero at the start).
+    /// Also carry the column `∂x/∂p` of parameter `p` (from zero at the start). Restitution
+    /// law only: under the `hertz` law the column is not built ([`flow_with_param_derivative`]
+    /// refuses it).
     pub fn with_param(mut self, p: Param) -> Self {
         self.param = Some(p);
         self
@@ -584,10 +787,266 @@ impl<T: TangentSink> Variational<T> {
     /// Apply what is still pending (an event at the very end of the run). Call once after the
     /// run; [`flow_with_jacobian`] does.
     pub fn finish(&mut self) {
+        self.open_contact = None;
         if let Some(p) = self.pending.take() {
             let after = self.default_after(&p.ev);
             self.resolve(p, after, false);
         }
+        if let Some(ph) = self.hz {
+            self.open_contact = self.hz_close(ph.t_last);
+        }
+    }
+
+    /// Start, continue or (at a friction event) switch the compliant phase with step `seg`
+    /// (constants `info`), then carry its tangent over the step.
+    fn hz_segment(&mut self, seg: &dyn Segment, info: &CompliantContact) {
+        let sys = self.sys;
+        let (t0, t1) = (seg.t_start_s(), seg.t_end_s());
+        let x0 = seg.state_at(t0);
+        let sw = info.wall_sign;
+        // At `δ = 0` the contact force vanishes: the phase's field is free flight with the
+        // phase's friction force.
+        let free_like = Phase {
+            mode: Mode::Free,
+            sigma: sys.sigma_of_fb(info.ball_friction_n),
+        };
+        if let Some(p) = self.pending.take() {
+            self.resolve(p, free_like, false);
+        }
+        if self.hz.is_some_and(|ph| ph.mode != seg.mode()) {
+            self.hz_close(t0);
+        }
+        let mut ph = match self.hz {
+            Some(ph) => ph,
+            None => {
+                self.counts.compliant_contacts += 1;
+                let before = self
+                    .cur
+                    .filter(|p| p.mode == Mode::Free)
+                    .unwrap_or(free_like);
+                // δ̇₀ = sw·ẇ(t*) at the perturbed touch time t* + δt*, δt* = −δw/ẇ:
+                // δδ̇₀ = sw (δẇ − ẅ⁻ δw/ẇ⁻), δw = δv − δu. Zero when the floor holds δ̇₀.
+                let dw = x0.dw_m_s();
+                let mut c = [0.0; 4];
+                if dw == 0.0 {
+                    // A touch at rest: not differentiable (a perturbation lifts the ball off).
+                    self.counts.grazing += 1;
+                } else if info.approach_m_s >= info.reference_speed_m_s {
+                    let f = sys.field(before, &x0, t0);
+                    let r = (f[3] - f[1]) / dw;
+                    c = [sw * r, -sw, -sw * r, sw];
+                }
+                let meff = sys.m * sys.md / (sys.m + sys.md);
+                let v0 = info.reference_speed_m_s;
+                let vs = v0.max(sys.lg * sys.om);
+                let ds = info.law.with_damping(0.0).max_penetration_m(meff, v0);
+                let mut z = [0.0; 20];
+                // W = T: (u, u̇, v, v̇) → (u, u̇, δ, δ̇); the onset's saltation is I.
+                z[0] = 1.0;
+                z[6] = 1.0;
+                z[10] = -sw;
+                z[12] = sw;
+                z[16] = -sw;
+                z[18] = sw;
+                HzPhase {
+                    t0,
+                    t_last: t0,
+                    sw,
+                    mode: seg.mode(),
+                    z,
+                    c,
+                    last: *info,
+                    h: t1 - t0,
+                    stuck_seen: false,
+                    scale: [sys.lg, vs, ds, vs],
+                }
+            }
+        };
+        // The same step constants are the same bits: a change is a friction event.
+        if info.stuck != ph.last.stuck
+            || info.ball_friction_n.to_bits() != ph.last.ball_friction_n.to_bits()
+        {
+            self.hz_friction_event(&mut ph, info, t0, &x0);
+        }
+        ph.last = *info;
+        if t1 > t0 {
+            if let Err(e) = Self::hz_advance(&sys, &mut ph, seg, info, t0, t1) {
+                self.failure.get_or_insert(e);
+            }
+        }
+        ph.t_last = t1;
+        self.hz = Some(ph);
+        self.cur = Some(Phase {
+            mode: seg.mode(),
+            sigma: free_like.sigma,
+        });
+    }
+
+    /// The saltation of a friction event inside a compliant phase (the step constants change
+    /// from `ph.last` to `info` at `t`): `S = I + (f⁺ − f⁻) ∇hᵀ / (∇h·f⁻ + ∂h/∂t)` in contact
+    /// coordinates, on the whole block (`∂h/∂δ̇₀ = 0`: the `δ̇₀` column just follows).
+    fn hz_friction_event(&mut self, ph: &mut HzPhase, info: &CompliantContact, t: f64, x: &State) {
+        let sys = self.sys;
+        let y = sys.hz_y(ph.sw, x);
+        let fm = sys.hz_field(&ph.last, t, &y);
+        let fp = sys.hz_field(info, t, &y);
+        let (grad, rate) = if ph.last.stuck {
+            // Unstick: h = f_l ∓ needed, needed = m_d ü_pair + sw K_h δ^{3/2} (hertz.rs).
+            self.counts.unsticks += 1;
+            let r = sys.md / (sys.m + sys.md);
+            let kh = ph.last.law.stiffness_n_m32;
+            let g = [
+                -sys.k * r,
+                -sys.c * r,
+                ph.sw * 1.5 * kh * y[2].max(0.0).sqrt(),
+                0.0,
+            ];
+            let rate = (0..4).map(|i| g[i] * fm[i]).sum::<f64>() + r * sys.dforce_dt(t);
+            (g, rate)
+        } else {
+            // ẇ = 0: h = δ̇.
+            if info.stuck {
+                self.counts.sticks += 1;
+                ph.stuck_seen = true;
+            } else {
+                self.counts.friction_switches += 1;
+            }
+            ([0.0, 0.0, 0.0, 1.0], fm[3])
+        };
+        if rate == 0.0 || !rate.is_finite() {
+            self.counts.grazing += 1;
+            return;
+        }
+        for j in 0..5 {
+            let gz: f64 = (0..4).map(|k| grad[k] * ph.z[5 * k + j]).sum();
+            for i in 0..4 {
+                ph.z[5 * i + j] += (fp[i] - fm[i]) * gz / rate;
+            }
+        }
+    }
+
+    /// Integrate the phase's variational equation `Z' = A(t) Z + [0 | b(t)]` over `[a, b]`
+    /// along the step's dense output (module docs): adaptive Dormand–Prince 5(4) with relative
+    /// tolerance [`HERTZ_TANGENT_RTOL`] on every entry.
+    fn hz_advance(
+        sys: &Lumped,
+        ph: &mut HzPhase,
+        seg: &dyn Segment,
+        info: &CompliantContact,
+        a: f64,
+        b: f64,
+    ) -> Result<(), SimError> {
+        let sw = ph.sw;
+        // Entry (i, j) maps a perturbation of size `col_j` to one of size `scale_i`.
+        let col = [
+            ph.scale[0],
+            ph.scale[1],
+            ph.scale[0],
+            ph.scale[1],
+            ph.scale[1],
+        ];
+        let mut atol = [0.0; 20];
+        for i in 0..4 {
+            for j in 0..5 {
+                atol[5 * i + j] = HERTZ_TANGENT_RTOL * ph.scale[i] / col[j];
+            }
+        }
+        let ig = Dopri5::<20>::new(HERTZ_TANGENT_RTOL, atol);
+        let mut f = |t: f64, z: &[f64; 20]| {
+            let y = sys.hz_y(sw, &seg.state_at(t));
+            let (am, bv) = sys.hz_jac(info, &y);
+            let mut dz = [0.0; 20];
+            for i in 0..4 {
+                for j in 0..5 {
+                    let mut acc = if j == 4 { bv[i] } else { 0.0 };
+                    for k in 0..4 {
+                        acc += am[i][k] * z[5 * k + j];
+                    }
+                    dz[5 * i + j] = acc;
+                }
+            }
+            dz
+        };
+        let (mut t, mut h) = (a, ph.h.min(b - a));
+        let mut z = ph.z;
+        let mut f0 = f(t, &z);
+        let mut tries = 0u32;
+        loop {
+            tries += 1;
+            if tries > HERTZ_TANGENT_MAX_SUBSTEPS {
+                return Err(SimError::ContactStepLimit {
+                    t_s: a,
+                    steps: HERTZ_TANGENT_MAX_SUBSTEPS as u64,
+                });
+            }
+            let last = t + h >= b;
+            let hh = if last { b - t } else { h };
+            let at = ig.attempt(&mut f, t, &z, &f0, hh);
+            if at.err > 1.0 {
+                h = Dopri5::<20>::next_h(hh, at.err);
+                if h <= 4.0 * f64::EPSILON * t.abs().max(1e-300) || !h.is_finite() {
+                    return Err(SimError::NonFinite { t_s: t });
+                }
+                continue;
+            }
+            z = at.step.y1;
+            f0 = at.f1;
+            h = Dopri5::<20>::next_h(hh, at.err);
+            if last {
+                break;
+            }
+            t += hh;
+        }
+        ph.z = z;
+        ph.h = h;
+        Ok(())
+    }
+
+    /// Close the compliant phase at `t_end`: hand its tangent map
+    /// `T⁻¹ (W + ζ cᵀ)` (public coordinates at the touch → public at `t_end`) to the sink.
+    /// Returns the last step's constants.
+    fn hz_close(&mut self, t_end: f64) -> Option<CompliantContact> {
+        let ph = self.hz.take()?;
+        let mut w = [[0.0; 4]; 4];
+        let mut wm = [[0.0; 4]; 4];
+        for i in 0..4 {
+            for j in 0..4 {
+                w[i][j] = ph.z[5 * i + j];
+                wm[i][j] = w[i][j] + ph.z[5 * i + 4] * ph.c[j];
+            }
+        }
+        let (dw, dm) = (det4(&w), det4(&wm));
+        if dw != 0.0 && dm != 0.0 && (dm / dw).is_finite() {
+            self.approach_memory_log += (dm / dw).abs().ln();
+        }
+        let sw = ph.sw;
+        let t_inv = [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0, 0.0],
+            [1.0, 0.0, sw, 0.0],
+            [0.0, 1.0, 0.0, sw],
+        ];
+        self.sink.apply(
+            &mat_mul(&t_inv, &wm),
+            Step::Segment {
+                t0_s: ph.t0,
+                t1_s: t_end,
+                mode: ph.mode,
+            },
+        );
+        if ph.stuck_seen {
+            // The stick's saltation is inside the map above; this marks the direction it
+            // removed (the spectrum's structural count).
+            self.sink.apply(
+                &IDENTITY,
+                Step::Event {
+                    t_s: t_end,
+                    kind: EventKind::Stick,
+                    plastic: false,
+                },
+            );
+        }
+        Some(ph.last)
     }
 
     /// The phase after event `ev` when no segment follows to say it.
@@ -643,6 +1102,35 @@ impl<T: TangentSink> Variational<T> {
 
     /// Build and apply the saltation of `p` with the phase `after` that follows it.
     fn resolve(&mut self, p: Pending, after: Phase, followed_by_contact: bool) {
+        if p.release {
+            // The end of a compliant phase (`δ = 0`, `P = 0`): h = w − sw·l_g, G = I; the
+            // fields on both sides are free flight, with the friction of each side.
+            self.counts.impacts += 1;
+            let ev = &p.ev;
+            let fm = self.sys.field(p.before, &ev.before, ev.t_s);
+            let fp = self.sys.field(after, &ev.after, ev.t_s);
+            let salt = saltation(
+                &IDENTITY,
+                &fm,
+                &fp,
+                &[-1.0, 0.0, 1.0, 0.0],
+                ev.before.dw_m_s(),
+            );
+            let m = salt.unwrap_or_else(|| {
+                self.counts.grazing += 1;
+                IDENTITY
+            });
+            self.sink.apply(
+                &m,
+                Step::Event {
+                    t_s: ev.t_s,
+                    kind: ev.kind,
+                    plastic: false,
+                },
+            );
+            self.cur = Some(after);
+            return;
+        }
         let s = &self.sys;
         let ev = &p.ev;
         let t = ev.t_s;
@@ -767,6 +1255,14 @@ impl<T: TangentSink> Variational<T> {
 
 impl<T: TangentSink> Observer for Variational<T> {
     fn segment(&mut self, seg: &dyn Segment) {
+        if let Some(info) = seg.compliant_contact() {
+            self.hz_segment(seg, &info);
+            return;
+        }
+        if self.hz.is_some() {
+            // A phase ends with the solver's release event; close it if it did not.
+            self.hz_close(seg.t_start_s());
+        }
         let (t0, t1) = (seg.t_start_s(), seg.t_end_s());
         let mode = seg.mode();
         // The friction sign matters only with a friction force.
@@ -805,6 +1301,23 @@ impl<T: TangentSink> Observer for Variational<T> {
     }
 
     fn event(&mut self, ev: &Event) {
+        if self.hz.is_some() {
+            let last = self.hz_close(ev.t_s);
+            if let (EventKind::Impact { .. }, Some(c)) = (ev.kind, last) {
+                // The release (the solver reports the end of contact as the impact).
+                let before = Phase {
+                    mode: Mode::Free,
+                    sigma: self.sys.sigma_of_fb(c.ball_friction_n),
+                };
+                self.cur = Some(before);
+                self.pending = Some(Pending {
+                    ev: *ev,
+                    before,
+                    release: true,
+                });
+                return;
+            }
+        }
         if let Some(p) = self.pending.take() {
             // Two events at one instant (no segment between): the second's kind says what
             // phase the first led to.
@@ -816,7 +1329,11 @@ impl<T: TangentSink> Observer for Variational<T> {
             Some(c) => c,
             None => Self::phase_before(ev, None),
         };
-        self.pending = Some(Pending { ev: *ev, before });
+        self.pending = Some(Pending {
+            ev: *ev,
+            before,
+            release: false,
+        });
     }
 }
 
@@ -872,6 +1389,9 @@ fn flow_tangent(
 ) -> Result<(FlowJacobian, [f64; 4]), SimError> {
     require_exact(solver)?;
     let mut var = Variational::new(sys, JacobianSink::default())?;
+    if param.is_some() && var.sys.hertz.is_some() {
+        return Err(SimError::Unsupported(VARIATIONAL_NO_HERTZ_PARAM));
+    }
     var.param = param;
     let summary = {
         let v: &mut dyn Observer = &mut var;
@@ -883,16 +1403,23 @@ fn flow_tangent(
         )?
     };
     var.finish();
+    if let Some(e) = var.failure.take() {
+        return Err(e);
+    }
     let jacobian = var.sink.jacobian;
     let end_phase = var.cur.unwrap_or(Phase {
         mode: Mode::Free,
         sigma: crate::damper::friction::sgn0(summary.final_state.dw_m_s()),
     });
+    let end_field = match var.open_contact {
+        Some(c) => var.sys.hz_field_public(&c, t_end_s, &summary.final_state),
+        None => var.sys.field(end_phase, &summary.final_state, t_end_s),
+    };
     Ok((
         FlowJacobian {
             state: summary.final_state,
             jacobian,
-            end_field: var.sys.field(end_phase, &summary.final_state, t_end_s),
+            end_field,
             events: var.counts,
             summary,
         },

@@ -155,6 +155,31 @@ pub trait Segment {
     fn cutting_work_j(&self, _a_s: f64, _b_s: f64) -> f64 {
         0.0
     }
+    /// The compliant (`hertz`) contact phase this segment is a step of; `None` for every other
+    /// segment. What the variational layer needs to linearise the phase's vector field.
+    fn compliant_contact(&self) -> Option<CompliantContact> {
+        None
+    }
+}
+
+/// The constants of one step of a compliant contact phase ([`exact::hertz`]): the law, the
+/// wall, the reference speed fixed at the touch and the friction state. The penetration and its
+/// rate are `δ = s·w − l_g`, `δ̇ = s·ẇ` of [`Segment::state_at`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CompliantContact {
+    /// `s = ±1`, the wall.
+    pub wall_sign: f64,
+    /// `s·ẇ` at the touch (≥ 0).
+    pub approach_m_s: f64,
+    /// The law's `δ̇₀`: the approach speed, or the floor [`exact::hertz::APPROACH_FLOOR_REL`]
+    /// `· l_g · max(Ω, ω_d)` when the approach is slower.
+    pub reference_speed_m_s: f64,
+    /// Sliding friction force on the ball during this step (0 when stuck or frictionless).
+    pub ball_friction_n: f64,
+    /// The ball is stuck to the wall by friction (`δ̇ = 0`, `δ` fixed).
+    pub stuck: bool,
+    /// The law.
+    pub law: crate::damper::contact::Hertz,
 }
 
 /// Sees a run as it is computed. Every method defaults to a no-op.

@@ -746,7 +746,8 @@ pub fn exact_param(axis: Axis) -> Option<Param> {
 
 /// `∂P(x)/∂p` of the stroboscopic map at fixed `x = (u, u̇, w, ẇ)`, per SI unit of `axis`,
 /// from one run of the variational layer; `None` where it carries no such parameter
-/// ([`exact_param`]).
+/// ([`exact_param`]) and under the hertz law (the column is not built through compliant
+/// contact phases): the continuation then takes central differences of the map.
 pub fn map_param_derivative(
     sec: &Section,
     axis: Axis,
@@ -755,6 +756,15 @@ pub fn map_param_derivative(
     let Some(p) = exact_param(axis) else {
         return Ok(None);
     };
+    if sec
+        .system
+        .damper
+        .is_some_and(|d| d.contact.law == crate::params::ContactLaw::Hertz)
+    {
+        // The parameter column is not built through compliant contact phases: the caller
+        // takes central differences of the map.
+        return Ok(None);
+    }
     let (fj, mut d) = flow_with_param_derivative(
         &Exact::default(),
         &sec.system,

@@ -42,9 +42,6 @@ pub use crate::limits::MAX_ORBIT_PERIOD;
 /// Why an orbit needs a lumped bar.
 pub const ORBIT_LUMPED_ONLY: &str = "periodic orbits are computed on the lumped bar only: a modal bar's state has 2N + 2 dimensions and its stroboscopic map is not implemented yet";
 
-/// Why an orbit needs the restitution law.
-pub const ORBIT_RESTITUTION_ONLY: &str = "periodic orbits need the instantaneous restitution law (contact.law = restitution): the hertz contact phase has no variational equations here";
-
 /// The stroboscopic map of one system: state at `t0_s`, period `periods` forcing cycles.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Section {
@@ -62,8 +59,8 @@ pub fn to_vector(s: &State) -> [f64; 4] {
 }
 
 impl Section {
-    /// A section of `sys` at `t0_s` with period `periods`, checked: a lumped bar with a ball and
-    /// the restitution law, `1 ≤ periods ≤` [`MAX_ORBIT_PERIOD`], a finite `t0_s`.
+    /// A section of `sys` at `t0_s` with period `periods`, checked: a lumped bar with a ball
+    /// (either contact law), `1 ≤ periods ≤` [`MAX_ORBIT_PERIOD`], a finite `t0_s`.
     pub fn new(system: System, t0_s: f64, periods: u32) -> Result<Section, SimError> {
         check_system(&system)?;
         check_period(periods)?;
@@ -123,13 +120,12 @@ fn check_system(sys: &System) -> Result<(), SimError> {
     if sys.lumped_bar().is_none() {
         return Err(SimError::Unsupported(ORBIT_LUMPED_ONLY));
     }
-    let Some(d) = sys.damper else {
+    // Either contact law: the hertz law's compliant phases have their variational equations
+    // (crate::analysis::variational, "Hertz contact phases").
+    if sys.damper.is_none() {
         return Err(SimError::Unsupported(
             "periodic orbits of the damped bar need a ball (a damper section)",
         ));
-    };
-    if d.contact.law != crate::params::ContactLaw::Restitution {
-        return Err(SimError::Unsupported(ORBIT_RESTITUTION_ONLY));
     }
     Ok(())
 }
@@ -310,7 +306,8 @@ pub fn event_letter(kind: &EventKind) -> char {
 /// How physical an orbit is (module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Physicality {
-    /// Largest `|w| − l_g` along the orbit (≤ 0: never beyond a wall).
+    /// Largest `|w| − l_g` along the orbit (≤ 0: never beyond a wall; under the hertz law the
+    /// largest compression `δ` of a contact).
     pub max_penetration_m: f64,
     /// Smallest `l_g − |w|` at an interior turning point of `|w|` in a free flight (how close an
     /// impact is to appearing; infinite when no flight turns).
@@ -318,7 +315,9 @@ pub struct Physicality {
     /// Slowest relative impact speed `|ẇ−|` (infinite without impacts): near 0 an impact is
     /// about to disappear.
     pub min_impact_speed_m_s: f64,
-    /// `max_penetration_m ≤` [`crate::solver::exact::CONFINEMENT_TOL_M`].
+    /// `max_penetration_m ≤` [`crate::solver::exact::CONFINEMENT_TOL_M`]; under the hertz law
+    /// every excursion past `l_g` is a compliant contact phase of the solver (`δ ≥ 0` is the
+    /// contact's compression), so it holds by construction.
     pub confined: bool,
 }
 
@@ -559,6 +558,10 @@ pub fn describe(
     iterations: usize,
 ) -> Result<PeriodicOrbit, SimError> {
     let lg = sec.system.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
+    let hertz = sec
+        .system
+        .damper
+        .is_some_and(|d| d.contact.law == crate::params::ContactLaw::Hertz);
     let t_end = sec.t0_s + sec.period_s();
     let mut rms = RmsObserver::new(sec.t0_s, t_end);
     let mut rec = OrbitRecorder {
@@ -608,7 +611,7 @@ pub fn describe(
             max_penetration_m: summary.max_penetration_m,
             grazing_margin_m: rec.margin_m,
             min_impact_speed_m_s: rec.min_speed,
-            confined: summary.max_penetration_m <= crate::solver::exact::CONFINEMENT_TOL_M,
+            confined: hertz || summary.max_penetration_m <= crate::solver::exact::CONFINEMENT_TOL_M,
         },
     })
 }
@@ -617,8 +620,8 @@ pub fn describe(
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Start {
     /// The analytic symmetric orbit ([`symmetric_orbits`]) with this index (in the order of
-    /// their impact phase); a quarter period after its `+` impact. With friction, that of the
-    /// same system without it.
+    /// their impact phase); a quarter period after its `+` impact. With friction or the hertz
+    /// law, that of the same system without friction under the restitution law.
     Symmetric(usize),
     /// A run from `init` over `settle_s`; the section is put in the middle of the longest
     /// event-free stretch of the last `k` periods.
@@ -628,6 +631,17 @@ pub enum Start {
         /// Simulated time before the section.
         settle_s: f64,
     },
+}
+
+/// `sys` without friction and with the restitution law: the model of the analytic symmetric
+/// orbit, whose orbit is the starting guess for `sys`.
+fn analytic_model(sys: &System) -> System {
+    let mut m = *sys;
+    if let Some(d) = m.damper.as_mut() {
+        d.friction = crate::params::FrictionModel::None;
+        d.contact.law = crate::params::ContactLaw::Restitution;
+    }
+    m
 }
 
 /// A section and a starting state for `sys` with period `periods`, from `start`. The section
@@ -642,13 +656,9 @@ pub fn starting_guess(
     let t = sys.forcing_period_s();
     let (t_sec, state) = match *start {
         Start::Symmetric(i) => {
-            // With friction the frictionless orbit is the guess (Newton then finds the orbit
-            // with friction, when it is near).
-            let mut frictionless = *sys;
-            if let Some(d) = frictionless.damper.as_mut() {
-                d.friction = crate::params::FrictionModel::None;
-            }
-            let os = symmetric_orbits(&frictionless)?;
+            // With friction or the hertz law the frictionless restitution-law orbit is the
+            // guess (Newton then finds the orbit of `sys`, when it is near).
+            let os = symmetric_orbits(&analytic_model(sys))?;
             let Some(o) = os.get(i) else {
                 return Err(ParamError::OutOfRange {
                     field: "symmetric orbit index (--branch)",
@@ -725,12 +735,8 @@ pub fn orbit_auto(
     check_system(sys)?;
     check_period(periods)?;
     let newton = NewtonSettings::default();
-    let mut frictionless = *sys;
-    if let Some(d) = frictionless.damper.as_mut() {
-        d.friction = crate::params::FrictionModel::None;
-    }
     let n = if periods % 2 == 1 {
-        symmetric_orbits(&frictionless).map_or(0, |v| v.len())
+        symmetric_orbits(&analytic_model(sys)).map_or(0, |v| v.len())
     } else {
         0
     };

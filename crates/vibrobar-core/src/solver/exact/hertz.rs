@@ -28,7 +28,7 @@ use crate::damper::contact::Hertz;
 use crate::damper::friction::can_stick;
 use crate::error::SimError;
 use crate::solver::dopri5::{DenseStep, Dopri5};
-use crate::solver::{EventKind, Mode, Segment, SegmentIntegrals};
+use crate::solver::{CompliantContact, EventKind, Mode, Segment, SegmentIntegrals};
 
 /// Below this approach speed (as a fraction of `l_g·ω`) the damping's reference speed `δ̇₀` is
 /// held at the floor: a ball arriving at (nearly) zero speed and pressed on the wall would
@@ -55,6 +55,10 @@ pub struct HertzSegment {
     om: f64,
     fb: f64,
     law: Hertz,
+    /// `sw·ẇ` at the touch and the law's reference speed `δ̇₀ = max(approach, floor)`.
+    approach: f64,
+    v0: f64,
+    stuck: bool,
 }
 
 impl HertzSegment {
@@ -134,6 +138,16 @@ impl Segment for HertzSegment {
         let y = self.y_at(t_s);
         crate::model::lumped_mechanical_energy_j(self.m, self.k, Some(self.md), &s)
             + self.law.elastic_energy_j(y[2])
+    }
+    fn compliant_contact(&self) -> Option<CompliantContact> {
+        Some(CompliantContact {
+            wall_sign: self.sw,
+            approach_m_s: self.approach,
+            reference_speed_m_s: self.v0,
+            ball_friction_n: self.fb,
+            stuck: self.stuck,
+            law: self.law,
+        })
     }
 }
 
@@ -234,6 +248,9 @@ pub(super) fn contact(
             om: cs.om,
             fb,
             law: *law,
+            approach,
+            v0,
+            stuck,
         };
         let end = run_phase(&ig, &mut f, t, y, h, t_end_s, events, |st, th| {
             let seg = seg_of(*st, th);
