@@ -23,6 +23,7 @@ pub mod regime;
 pub mod sweep;
 pub mod time_domain;
 pub mod variational;
+pub mod variational_modal;
 
 pub use batch::{par_map_with_progress, Batch, BatchError, Runner, SweepBase};
 pub use case::{run_case, ImpactCounter, RmsObserver, RunResult, Sampler};
