@@ -23,6 +23,7 @@
 //! `|w|` (how close a new impact is: the grazing margin) and the slowest impact.
 
 pub mod continuation;
+pub mod modal;
 pub mod region;
 pub mod symmetric;
 
@@ -494,12 +495,12 @@ fn no_convergence(iterations: usize, residual: f64, tolerance: f64) -> SimError 
 }
 
 /// Records the events of one period and the free-flight turning points of `|w|`.
-struct OrbitRecorder {
-    t0_s: f64,
-    lg: f64,
-    events: Vec<OrbitEvent>,
-    margin_m: f64,
-    min_speed: f64,
+pub(super) struct OrbitRecorder {
+    pub(super) t0_s: f64,
+    pub(super) lg: f64,
+    pub(super) events: Vec<OrbitEvent>,
+    pub(super) margin_m: f64,
+    pub(super) min_speed: f64,
 }
 
 impl Observer for OrbitRecorder {
