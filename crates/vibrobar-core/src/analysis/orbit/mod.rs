@@ -24,6 +24,7 @@
 
 pub mod continuation;
 pub mod modal;
+pub mod modal_continuation;
 pub mod region;
 pub mod symmetric;
 
