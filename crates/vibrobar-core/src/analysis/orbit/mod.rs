@@ -41,7 +41,7 @@ pub use symmetric::{symmetric_orbits, SymmetricOrbit};
 pub use crate::limits::MAX_ORBIT_PERIOD;
 
 /// Why an orbit needs a lumped bar.
-pub const ORBIT_LUMPED_ONLY: &str = "periodic orbits are computed on the lumped bar only: a modal bar's state has 2N + 2 dimensions and its stroboscopic map is not implemented yet";
+pub const ORBIT_LUMPED_ONLY: &str = "this orbit code is the lumped bar's (a 4-dimensional state): a modal bar's orbits (2N + 2 dimensions) are computed by analysis::orbit::modal";
 
 /// Why an orbit needs the restitution law.
 pub const ORBIT_RESTITUTION_ONLY: &str = "periodic orbits need the instantaneous restitution law (contact.law = restitution): the hertz contact phase has no variational equations here";
