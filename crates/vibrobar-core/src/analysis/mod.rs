@@ -15,6 +15,7 @@ pub mod grid;
 pub mod lobes;
 pub mod lyapunov;
 pub mod lyapunov_spectrum;
+pub mod lyapunov_spectrum_modal;
 pub mod map;
 pub mod orbit;
 pub mod placement;
