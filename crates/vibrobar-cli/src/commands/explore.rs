@@ -14,8 +14,8 @@ use vibrobar_core::analysis::lyapunov_spectrum::{lyapunov_spectrum, SpectrumPara
 use vibrobar_core::analysis::map::{Axis, Grid, GridAxis, GridPoint, MapSpec};
 use vibrobar_core::analysis::poincare::{bifurcation, BifurcationSpec, Stroboscope};
 use vibrobar_core::analysis::regime::Tolerances;
+use vibrobar_core::params::BarModel;
 use vibrobar_core::params::System;
-use vibrobar_core::params::{BarModel, FrictionModel};
 use vibrobar_core::solver::modal_run_by_name;
 use vibrobar_core::structure::{ModalState, ModalSystem};
 use vibrobar_io::csv::{
@@ -488,20 +488,10 @@ fn run_spectrum(a: &LyapunovArgs) -> anyhow::Result<()> {
     };
     // The frictionless bar's phase-volume identity: Σλ = −C/M + 2 ln(e) × impacts per second
     // (−Σₙ cₙ/mₙ on a modal bar).
-    let contraction = match &sys.bar {
-        BarModel::Lumped(bar) => bar.damping_n_s_per_m() / bar.mass_kg,
-        BarModel::Modal(_) => {
-            vibrobar_core::analysis::lyapunov_spectrum_modal::modal_volume_contraction_per_s(
-                &ModalSystem::from_system(&sys)?,
-            )
-        }
-    };
-    let identity = match sys.damper {
-        Some(d) if sys.friction_level_n() == 0.0 || d.friction == FrictionModel::None => {
-            Some(-contraction + 2.0 * d.restitution.ln() * r.impacts_per_s)
-        }
-        _ => None,
-    };
+    let identity = vibrobar_core::analysis::lyapunov_spectrum_modal::volume_identity_per_s(
+        &sys,
+        r.impacts_per_s,
+    )?;
     if a.json {
         let ev = r.events;
         let j = serde_json::json!({

@@ -311,3 +311,57 @@ pub fn run_continue_modal(a: &ContinueArgs) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// `vibrobar bench`: the median wall time of one Newton solve of the 4-mode paper beam's
+/// two-impact orbit (0.1 mm, r = 1, frictionless, exact modal Jacobian, from the same settled
+/// start) and of a 50-point branch of it in the cavity position, over 5 repetitions.
+pub fn bench_row() -> anyhow::Result<()> {
+    use vibrobar_core::analysis::orbit::modal::{find_modal_orbit, modal_starting_guess};
+    use vibrobar_core::analysis::orbit::NewtonSettings;
+    use vibrobar_core::params::{Damper, Forcing, FrictionModel, STANDARD_GRAVITY_M_S2};
+    use vibrobar_core::structure::{Beam, Structure};
+    let beam = Beam {
+        modes: Some(4),
+        ..Beam::default()
+    };
+    let sys = ModalSystem {
+        model: Structure::Beam(beam.clone()).modal_model()?,
+        damper: Some(Damper::paper(0.1e-3, FrictionModel::None)),
+        forcing: Forcing::paper(1.0),
+        gravity_m_s2: STANDARD_GRAVITY_M_S2,
+    };
+    let (sec, x0) = modal_starting_guess(&sys, 1, &ModalState::REST, 0.5)?;
+    let fam = ModalFamily {
+        base: sys.clone(),
+        beam: Some(beam.clone()),
+        param: ModalParam::CavityPositionM,
+    };
+    let settings = ContinuationSettings {
+        max_points: 50,
+        switch_branches: false,
+        ..Default::default()
+    };
+    let (mut tn, mut tc) = (Vec::new(), Vec::new());
+    let (mut iters, mut n) = (0, 0);
+    for _ in 0..5 {
+        let t = std::time::Instant::now();
+        let o = find_modal_orbit(&sec, &x0, &NewtonSettings::default())?;
+        tn.push(t.elapsed().as_secs_f64());
+        iters = o.iterations;
+        let p0 = beam.cavity_position_m;
+        let t = std::time::Instant::now();
+        let b = continue_modal_orbit(&o, &fam, p0, p0 - 20e-3, &settings)?;
+        tc.push(t.elapsed().as_secs_f64());
+        n = b.points.len();
+    }
+    let med = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    println!(
+        "  exact  periodic orbit of the 4-mode beam (r = 1, 0.1 mm, frictionless): Newton ({iters} iterations from a settled run) median {:.2} ms; a {n}-point branch in the cavity position median {:.1} ms over 5",
+        med(&mut tn) * 1e3,
+        med(&mut tc) * 1e3
+    );
+    Ok(())
+}

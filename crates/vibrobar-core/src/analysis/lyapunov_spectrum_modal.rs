@@ -130,3 +130,28 @@ pub fn lyapunov_spectrum_modal(
         duration_s: p.duration_s,
     })
 }
+
+/// The phase-volume identity of the frictionless bar for a spectrum with `impacts_per_s`:
+/// `−C/M + 2 ln(e) × impacts/s` on the lumped bar, `−Σₙ cₙ/mₙ + 2 ln(e) × impacts/s` on a
+/// modal bar (module docs); `None` with friction or without a ball. It is the sum of the
+/// exponents when nothing collapsed.
+pub fn volume_identity_per_s(
+    sys: &crate::params::System,
+    impacts_per_s: f64,
+) -> Result<Option<f64>, SimError> {
+    let Some(d) = sys.damper else {
+        return Ok(None);
+    };
+    if sys.friction_level_n() != 0.0 && d.friction != crate::params::FrictionModel::None {
+        return Ok(None);
+    }
+    let contraction = match &sys.bar {
+        crate::params::BarModel::Lumped(bar) => bar.damping_n_s_per_m() / bar.mass_kg,
+        crate::params::BarModel::Modal(_) => {
+            modal_volume_contraction_per_s(&ModalSystem::from_system(sys)?)
+        }
+    };
+    Ok(Some(
+        -contraction + 2.0 * d.restitution.ln() * impacts_per_s,
+    ))
+}
