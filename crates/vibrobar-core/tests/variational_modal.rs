@@ -175,6 +175,7 @@ fn window(sys: &ModalSystem, t_settle: f64, periods: f64) -> (ModalState, f64) {
 }
 
 /// Determinant by LU with partial pivoting.
+#[allow(clippy::needless_range_loop)]
 fn det(a: &[Vec<f64>]) -> f64 {
     let mut m = a.to_vec();
     let n = m.len();

@@ -68,6 +68,9 @@
 //! The Hertz law (refused: [`super::variational::VARIATIONAL_NO_HERTZ`]); parameter columns
 //! (the orbit layer takes parameter derivatives by central differences of the map).
 
+// Index loops read as the linear algebra they are.
+#![allow(clippy::needless_range_loop)]
+
 use super::variational::{EventCounts, VARIATIONAL_NEEDS_BALL, VARIATIONAL_NO_HERTZ};
 use crate::damper::friction::{sgn0, sliding_friction_on_ball_n};
 use crate::damper::impact::modal_inverse_effective_mass_per_kg;

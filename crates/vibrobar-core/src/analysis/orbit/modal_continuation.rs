@@ -41,6 +41,9 @@ use crate::solver::exact::modal::ModalExact;
 use crate::structure::{Beam, ModalSystem, Structure};
 use nalgebra::{DMatrix, DVector};
 
+/// `F(y)`, the extended Jacobian, `DP`.
+type Eval = (DVector<f64>, DMatrix<f64>, DMatrix<f64>);
+
 /// Central-difference step of the parameter column, in units of the interval (`p̃`).
 pub const PARAM_STEP: f64 = 1e-6;
 
@@ -177,11 +180,7 @@ impl Cont<'_> {
     }
 
     /// `F(y)`, the `D × (D+1)` Jacobian in the top rows of a square matrix, and `DP`.
-    fn eval(
-        &self,
-        t0: f64,
-        y: &DVector<f64>,
-    ) -> Result<(DVector<f64>, DMatrix<f64>, DMatrix<f64>), SimError> {
+    fn eval(&self, t0: f64, y: &DVector<f64>) -> Result<Eval, SimError> {
         let d = self.d;
         let sec = self.section(t0, y[d])?;
         let x = sec.clamp(&self.x_of(y));
@@ -220,12 +219,7 @@ impl Cont<'_> {
         (n.is_finite() && n > 0.0).then(|| t / n)
     }
 
-    fn correct(
-        &self,
-        t0: f64,
-        y_pred: &DVector<f64>,
-        t: &DVector<f64>,
-    ) -> Result<(DVector<f64>, DMatrix<f64>, DMatrix<f64>), SimError> {
+    fn correct(&self, t0: f64, y_pred: &DVector<f64>, t: &DVector<f64>) -> Result<Eval, SimError> {
         let d = self.d;
         let mut y = y_pred.clone();
         let tol = self.settings.newton.tolerance;
@@ -336,7 +330,7 @@ impl Cont<'_> {
 fn check_interval(from: f64, to: f64) -> Result<(), ParamError> {
     crate::params::finite("--from", from)?;
     crate::params::finite("--to", to)?;
-    if to == from {
+    if (to - from).abs() <= 0.0 {
         return Err(ParamError::OutOfRange {
             field: "--to",
             value: to,
