@@ -66,3 +66,30 @@ def test_hertz_orbit_and_spectrum():
     r = vibrobar.lyapunov_spectrum(sc, ratio=1.0, gap_m=0.08e-3)
     assert r["collapsed"] == 0 and r["compliant_contacts"] > 100
     assert r["approach_memory_per_s"] > 100 and r["sum_per_s"] < 0
+def test_orbit_and_continuation_of_a_beam():
+    # The paper's beam with three modes at 0.1 mm: the two-impact orbit from a settled run
+    # (unstable: a real multiplier ≈ 7), its 2N + 2 multipliers and modal state; followed in the
+    # cavity position.
+    b = Scenario.paper_beam(friction="none", modes=3)
+    o = vibrobar.orbit(b, ratio=1.0, gap_m=0.1e-3)
+    assert o["modes"] == 3 and len(o["multipliers"]) == 8 and len(o["state"]["q_m"]) == 3
+    assert o["impacts_per_period"] == 2 and not o["stable"] and o["confined"]
+    assert o["residual"] <= 1e-9
+    t = vibrobar.continuation(
+        b, "cavity_position_m", 0.137, 0.130, ratio=1.0, gap_m=0.1e-3, max_points=20
+    )
+    assert t.rows >= 5 and abs(t["param"][0] - 0.137) < 1e-12
+    assert all(0.130 - 1e-12 <= p <= 0.137 + 1e-12 for p in t["param"])
+    with pytest.raises(ValueError, match="settled"):
+        vibrobar.orbit(b, ratio=1.0, gap_m=0.1e-3, start="symmetric")
+
+
+def test_lyapunov_spectrum_of_a_beam_meets_the_modal_identity():
+    import math
+
+    b = Scenario.paper_beam(friction="none", modes=3, solver="exact", duration_s=0.4)
+    r = vibrobar.lyapunov_spectrum(b, ratio=1.0, gap_m=0.08e-3)
+    # 2N + 2 exponents whose sum is −Σcₙ/mₙ + 2 ln(e) × impacts/s.
+    assert len(r["exponents_per_s"]) == 8 and r["collapsed"] == 0
+    assert r["impacts_per_s"] > 100
+    assert math.isclose(r["sum_per_s"], r["volume_identity_per_s"], rel_tol=1e-9)

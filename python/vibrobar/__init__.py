@@ -537,6 +537,9 @@ def orbit(
         period: forcing cycles per orbit, in [1, 64].
         start: ``"auto"`` (the analytic symmetric orbit when one exists, else a settled run),
             ``"symmetric"`` (orbit number ``branch``) or ``"settled"`` (a run over ``settle_s``).
+            On an N-mode bar (``[beam]``, ``[[modes]]``) the start is a settled run (``"auto"``
+            or ``"settled"``), the Jacobian the modal variational flow, and the result also has
+            ``modes`` and the modal state (``state["q_m"]``, ``state["dq_m_s"]``).
 
     Returns:
         dict: ``rms_m``, ``impacts_per_period``, ``period``, ``multipliers`` (list of
@@ -574,8 +577,9 @@ def continuation(
     **overrides,
 ) -> Table:
     """Pseudo-arclength continuation of a periodic orbit in ``param`` (``"ratio"``,
-    ``"gap_m"``, ``"friction_force_n"``, ``"restitution"``; SI values) from ``from_`` to
-    ``to``, like ``vibrobar continue``.
+    ``"gap_m"``, ``"friction_force_n"``, ``"restitution"``, and ``"cavity_position_m"`` on a
+    ``[beam]``; SI values) from ``from_`` to ``to``, like ``vibrobar continue``. On an N-mode
+    bar the branch is not switched at period doublings.
 
     Returns:
         Table: ``param``, ``rms_m``, ``max_abs_multiplier``, ``stable``,
@@ -684,7 +688,7 @@ def lyapunov_spectrum(
     **overrides,
 ) -> dict:
     """Every Lyapunov exponent at one point, by QR of the variational flow with saltation
-    matrices at the events (lumped bar, ``solver="exact"``, restitution law).
+    matrices at the events (lumped or N-mode bar, ``solver="exact"``, restitution law).
 
     Args:
         transient_s: discarded time in s (default: the part before the RMS window); the
@@ -692,14 +696,15 @@ def lyapunov_spectrum(
         blocks: blocks of the window for the standard errors (≥ 2).
 
     Returns:
-        dict: ``exponents_per_s`` (four, 1/s; ``None`` is −∞: a direction removed by stick or
-        wall contact), ``std_error_per_s``, ``collapsed``, ``sum_per_s``, ``impacts_per_s``,
-        ``duration_s``, ``blocks``, ``chatter_limits``, ``grazing``, ``compliant_contacts`` and
-        ``approach_memory_per_s`` (the ``hertz`` law's contacts, and the part of the sum that is
-        the law's memory of the approach speed; 0 under the restitution law). Without friction
-        and with nothing collapsed, ``sum_per_s`` equals −C/M + 2 ln(e) × ``impacts_per_s``
-        (under ``hertz``: the trace average plus ``approach_memory_per_s``; the restitution
-        identity in the stiff limit).
+        dict: ``exponents_per_s`` (four, or 2N + 2 on an N-mode bar, 1/s; ``None`` is −∞: a
+        direction removed by stick or wall contact), ``std_error_per_s``, ``collapsed``,
+        ``sum_per_s``, ``impacts_per_s``, ``duration_s``, ``blocks``, ``chatter_limits``,
+        ``grazing``, ``compliant_contacts`` and ``approach_memory_per_s`` (the ``hertz`` law's
+        contacts, and the part of the sum that is the law's memory of the approach speed; 0 under
+        the restitution law), ``volume_identity_per_s`` (without friction: −C/M, or −Σcₙ/mₙ on an
+        N-mode bar, + 2 ln(e) × ``impacts_per_s``; ``None`` with friction). With nothing
+        collapsed, ``sum_per_s`` equals it (under ``hertz``: the trace average plus
+        ``approach_memory_per_s``; the restitution identity in the stiff limit).
     """
     sc = _scenario(scenario, overrides)
     if isinstance(blocks, bool) or not isinstance(blocks, int) or blocks < 2:

@@ -207,6 +207,41 @@ fn lyapunov_spectrum_json_and_text() {
     assert_fails_with(&vibrobar(&rk), &["--spectrum needs --solver exact"]);
 }
 
+/// `lyapunov --spectrum` on the paper's beam (`[beam]`, N modes): 2N + 2 exponents whose sum
+/// is the frictionless modal identity −Σcₙ/mₙ + 2 ln(e) × impacts/s.
+#[test]
+fn lyapunov_spectrum_of_a_beam() {
+    let beam = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenarios/paper_beam.toml"
+    );
+    let o = vibrobar(&[
+        "lyapunov",
+        "--scenario",
+        beam,
+        "--friction",
+        "none",
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "0.08",
+        "--duration",
+        "0.5",
+        "--spectrum",
+        "--json",
+    ]);
+    assert_ok(&o);
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let l = j["exponents_per_s"].as_array().unwrap();
+    assert!(l.len() >= 6 && l.len() % 2 == 0, "{l:?}");
+    let (sum, id) = (
+        j["sum_per_s"].as_f64().unwrap(),
+        j["volume_identity_per_s"].as_f64().unwrap(),
+    );
+    assert!((sum - id).abs() < 1e-9 * id.abs(), "{sum} vs {id}");
+    assert!(j["events"]["impacts"].as_u64().unwrap() > 100);
+}
+
 #[test]
 fn ensemble_counts_members_and_is_reproducible() {
     let d = tempfile::tempdir().unwrap();

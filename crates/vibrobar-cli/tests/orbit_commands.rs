@@ -284,3 +284,114 @@ fn hertz_orbit_continuation_and_spectrum() {
         "{j}"
     );
 }
+
+/// The paper's 3-mode beam (`scenarios/paper_beam.toml`) and a 3-mode `[[modes]]` table:
+/// `orbit` writes the contract keys with a modal state and a (2N+2)² monodromy; `continue`
+/// follows the orbit in the cavity position (a `[beam]` only).
+#[test]
+fn modal_bars_have_orbits_and_branches_in_the_cavity_position() {
+    let dir = tempfile::tempdir().unwrap();
+    let beam = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenarios/paper_beam.toml"
+    );
+    let out = dir.path().join("o.json");
+    let o = out.to_str().unwrap();
+    let base = ["--scenario", beam, "--friction", "none", "--ratio", "1"];
+    let mut a = vec!["orbit"];
+    a.extend(base);
+    a.extend(["--gap-mm", "0.1", "--out", o]);
+    vibrobar_ok(&a);
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let n = j["modes"].as_u64().unwrap() as usize;
+    assert!(n >= 2, "{j}");
+    assert_eq!(j["state"]["q_m"].as_array().unwrap().len(), n);
+    assert_eq!(j["multipliers"].as_array().unwrap().len(), 2 * n + 2);
+    assert_eq!(j["monodromy"].as_array().unwrap().len(), 2 * n + 2);
+    assert_eq!(j["impacts_per_period"], 2);
+    assert!(j["rms_m"].as_f64().unwrap() > 0.0);
+    assert!(j["residual"].as_f64().unwrap() <= 1e-9);
+    assert_eq!(j["physical"]["confined"], true);
+    assert!(j["stable"].is_boolean());
+    let csv = dir.path().join("b.csv");
+    let c = csv.to_str().unwrap();
+    let mut a = vec!["continue"];
+    a.extend(base);
+    a.extend([
+        "--gap-mm",
+        "0.1",
+        "--param",
+        "cavity-position-mm",
+        "--from",
+        "137",
+        "--to",
+        "130",
+        "--max-points",
+        "40",
+        "--out",
+        c,
+    ]);
+    vibrobar_ok(&a);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert!(rows.len() >= 10);
+    let first: f64 = rows[0][0].parse().unwrap();
+    assert!((first - 137.0).abs() < 1e-9);
+    let last: f64 = rows.last().unwrap()[0].parse().unwrap();
+    assert!((130.0..137.0).contains(&last), "{last}");
+    assert!(dir.path().join("b.png").exists() && dir.path().join("b.csv.meta.json").exists());
+    // The cavity position needs a [beam]; the analytic start is the lumped bar's.
+    let modes = dir.path().join("m.toml");
+    let table = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenarios/measured_modes.toml"
+    ))
+    .unwrap();
+    std::fs::write(&modes, &table[..table.find("\n[cutting]").unwrap()]).unwrap();
+    let m = modes.to_str().unwrap();
+    let mut a = vec![
+        "continue",
+        "--scenario",
+        m,
+        "--friction",
+        "none",
+        "--ratio",
+        "1",
+    ];
+    a.extend([
+        "--gap-mm",
+        "0.1",
+        "--param",
+        "cavity-position-mm",
+        "--from",
+        "130",
+    ]);
+    a.extend(["--to", "120", "--out", c]);
+    assert_fails_with(&vibrobar(&a), &["cavity-position-mm", "[beam]"]);
+    let mut a = vec!["orbit"];
+    a.extend(base);
+    a.extend(["--gap-mm", "0.1", "--start", "symmetric", "--out", o]);
+    assert_fails_with(&vibrobar(&a), &["--start symmetric", "settled"]);
+    // The [[modes]] table's two-impact orbit at 0.06 mm (unstable, λ₁ ≈ 7.2).
+    let mut a = vec![
+        "orbit",
+        "--scenario",
+        m,
+        "--friction",
+        "none",
+        "--ratio",
+        "1",
+    ];
+    a.extend(["--gap-mm", "0.06", "--out", o]);
+    vibrobar_ok(&a);
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(j["modes"], 3);
+    assert_eq!(j["impacts_per_period"], 2);
+    assert_eq!(j["stable"], false);
+}

@@ -775,15 +775,53 @@ pub fn continuation_values(
     p: &vibrobar_core::analysis::orbit::continuation::BranchPoint,
     scale: f64,
 ) -> Vec<Value> {
+    continuation_row(
+        p.param * scale,
+        p.orbit.rms_m,
+        p.orbit.max_abs_multiplier(),
+        p.orbit.stable(),
+        p.orbit.impacts_per_period,
+        p.orbit.section.periods,
+        p.event.map(|e| e.as_str()),
+    )
+}
+
+/// One row of [`continuation_schema`] from a modal bar's branch point (`scale` as in
+/// [`continuation_values`]).
+pub fn modal_continuation_values(
+    p: &vibrobar_core::analysis::orbit::modal_continuation::ModalBranchPoint,
+    scale: f64,
+) -> Vec<Value> {
+    continuation_row(
+        p.param * scale,
+        p.orbit.rms_m,
+        p.orbit.max_abs_multiplier(),
+        p.orbit.stable(),
+        p.orbit.impacts_per_period,
+        p.orbit.section.periods,
+        p.event.map(|e| e.as_str()),
+    )
+}
+
+/// The fields of one [`continuation_schema`] row, in its column order.
+fn continuation_row(
+    param: f64,
+    rms_m: f64,
+    max_abs_multiplier: f64,
+    stable: bool,
+    impacts_per_period: u32,
+    period: u32,
+    event: Option<&str>,
+) -> Vec<Value> {
     vec![
-        Value::F(p.param * scale),
-        Value::F(p.orbit.rms_m),
-        Value::F(p.orbit.max_abs_multiplier()),
-        Value::S(if p.orbit.stable() { "true" } else { "false" }.into()),
-        Value::U(p.orbit.impacts_per_period as u64),
-        Value::U(p.orbit.section.periods as u64),
-        match p.event {
-            Some(e) => Value::S(e.as_str().into()),
+        Value::F(param),
+        Value::F(rms_m),
+        Value::F(max_abs_multiplier),
+        Value::S(if stable { "true" } else { "false" }.into()),
+        Value::U(impacts_per_period as u64),
+        Value::U(period as u64),
+        match event {
+            Some(e) => Value::S(e.into()),
             None => Value::Empty,
         },
     ]

@@ -1417,8 +1417,17 @@ fn lyapunov_spectrum<'py>(
         scales: None,
     };
     let init = spec.base.init;
-    let r = detached(py, None, |_| {
-        core_spectrum(&sys, &init, solver.as_ref(), &p).map_err(run_error)
+    let r = detached(py, None, |_| match &sys.bar {
+        BarModel::Lumped(_) => core_spectrum(&sys, &init, solver.as_ref(), &p).map_err(run_error),
+        // An N-mode bar: 2N + 2 exponents of the modal variational flow.
+        BarModel::Modal(model) => {
+            let init = ModalState::from_public(model, &init).map_err(input_error)?;
+            let ms = ModalSystem::from_system(&sys).map_err(input_error)?;
+            vibrobar_core::analysis::lyapunov_spectrum_modal::lyapunov_spectrum_modal(
+                &ms, &init, &p,
+            )
+            .map_err(run_error)
+        }
     })?;
     let d = PyDict::new(py);
     // −∞ (a direction removed by stick or wall contact) is None.
@@ -1434,6 +1443,14 @@ fn lyapunov_spectrum<'py>(
     // Hertz law: the part of the sum that is the law's memory of the approach speed.
     d.set_item("approach_memory_per_s", r.approach_memory_per_s)?;
     d.set_item("compliant_contacts", r.events.compliant_contacts)?;
+    d.set_item(
+        "volume_identity_per_s",
+        vibrobar_core::analysis::lyapunov_spectrum_modal::volume_identity_per_s(
+            &sys,
+            r.impacts_per_s,
+        )
+        .map_err(run_error)?,
+    )?;
     Ok(d)
 }
 
@@ -1527,11 +1544,80 @@ fn orbit<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let sc = &scenario.inner;
     let (_, _, sys) = point_system(sc, ratio, gap_m)?;
+    if sys.lumped_bar().is_none() {
+        let ms = ModalSystem::from_system(&sys).map_err(input_error)?;
+        let o = detached(py, None, |_| {
+            start_modal_orbit(sc, &ms, period, start, branch, settle_s)
+        })?;
+        return modal_orbit_dict(py, &o);
+    }
     let start = start.to_string();
     let o = detached(py, None, |_| {
         start_orbit(sc, &sys, period, &start, branch, settle_s)
     })?;
     orbit_dict(py, &o)
+}
+
+/// The starting orbit of an N-mode bar: Newton from a settled run (`start` "auto" or
+/// "settled"; the analytic symmetric orbit is the lumped bar's).
+fn start_modal_orbit(
+    sc: &Scenario,
+    ms: &ModalSystem,
+    period: u32,
+    start: &str,
+    branch: Option<usize>,
+    settle_s: Option<f64>,
+) -> PyResult<vibrobar_core::analysis::orbit::modal::ModalPeriodicOrbit> {
+    vibrobar_core::analysis::orbit::check_period(period).map_err(input_error)?;
+    if !matches!(start, "auto" | "settled") || branch.is_some() {
+        return Err(PyValueError::new_err(format!(
+            "start = {start:?}, branch = {branch:?}: on an N-mode bar an orbit starts from a settled run (start = \"auto\" or \"settled\", no branch); the analytic symmetric orbit is the lumped bar's"
+        )));
+    }
+    let settle = transient(sc, settle_s)?;
+    let settle = if settle > 0.0 {
+        settle
+    } else {
+        sc.settings().duration_s
+    };
+    let init = ModalState::from_public(&ms.model, &map_spec(sc)?.base.init).map_err(input_error)?;
+    vibrobar_core::analysis::orbit::modal::modal_orbit_settled(ms, period, &init, settle)
+        .map_err(run_error)
+}
+
+fn modal_orbit_dict<'py>(
+    py: Python<'py>,
+    o: &vibrobar_core::analysis::orbit::modal::ModalPeriodicOrbit,
+) -> PyResult<Bound<'py, PyDict>> {
+    use vibrobar_core::structure::Point;
+    let d = PyDict::new(py);
+    let sys = &o.section.system;
+    let n = sys.n_modes();
+    d.set_item("rms_m", o.rms_m)?;
+    d.set_item("impacts_per_period", o.impacts_per_period)?;
+    d.set_item("period", o.section.periods)?;
+    let mult: Vec<(f64, f64)> = o.multipliers.iter().map(|l| (l.re, l.im)).collect();
+    d.set_item("multipliers", mult)?;
+    d.set_item("max_abs_multiplier", o.max_abs_multiplier())?;
+    d.set_item("stable", o.stable())?;
+    d.set_item("event_sequence", &o.sequence)?;
+    d.set_item("modes", n)?;
+    let s = &o.state;
+    let st = [
+        ("t_s", s.t_s),
+        ("u_m", s.u_at(&sys.model, Point::Response)),
+        ("du_m_s", s.du_at(&sys.model, Point::Response)),
+        ("w_m", s.w_m(&sys.model)),
+        ("dw_m_s", s.dw_m_s(&sys.model)),
+    ]
+    .into_py_dict(py)?;
+    st.set_item("q_m", s.q_m[..n].to_vec())?;
+    st.set_item("dq_m_s", s.dq_m_s[..n].to_vec())?;
+    d.set_item("state", st)?;
+    d.set_item("confined", o.physicality.confined)?;
+    d.set_item("max_penetration_m", o.physicality.max_penetration_m)?;
+    d.set_item("residual", o.residual)?;
+    Ok(d)
 }
 
 /// Continuation of the orbit at `param = from_` to `to` ("ratio", "gap_m", "friction_force_n",
@@ -1554,6 +1640,11 @@ fn continuation<'py>(
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use vibrobar_core::analysis::orbit::continuation::*;
     let sc = &scenario.inner;
+    if sc.beam.is_some() || sc.modes.is_some() {
+        return continuation_modal(
+            py, sc, param, from_, to, ratio, gap_m, period, start, max_points,
+        );
+    }
     let axis = match param {
         "ratio" => Axis::FreqRatio,
         "gap_m" => Axis::GapM,
@@ -1597,6 +1688,102 @@ fn continuation<'py>(
     csv.push('\n');
     for p in &b.points {
         csv.push_str(&schema.format(&iocsv::continuation_values(p, 1.0)));
+        csv.push('\n');
+    }
+    let d = PyDict::new(py);
+    let pts = || b.points.iter();
+    set_column(&d, "param", pts().map(|p| p.param))?;
+    set_column(&d, "rms_m", pts().map(|p| p.orbit.rms_m))?;
+    set_column(
+        &d,
+        "max_abs_multiplier",
+        pts().map(|p| p.orbit.max_abs_multiplier()),
+    )?;
+    set_column(&d, "stable", pts().map(|p| p.orbit.stable()))?;
+    set_column(
+        &d,
+        "impacts_per_period",
+        pts().map(|p| p.orbit.impacts_per_period as u64),
+    )?;
+    set_column(&d, "period", pts().map(|p| p.orbit.section.periods as u64))?;
+    let ev: Vec<&str> = b
+        .points
+        .iter()
+        .map(|p| p.event.map_or("", |e| e.as_str()))
+        .collect();
+    d.set_item("event", ev)?;
+    Ok((d, csv))
+}
+
+/// [`continuation`] on an N-mode bar (`param` also "cavity_position_m" on a `[beam]`; no branch
+/// switching).
+#[allow(clippy::too_many_arguments)]
+fn continuation_modal<'py>(
+    py: Python<'py>,
+    sc: &Scenario,
+    param: &str,
+    from_: f64,
+    to: f64,
+    ratio: Option<f64>,
+    gap_m: Option<f64>,
+    period: u32,
+    start: &str,
+    max_points: usize,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    use vibrobar_core::analysis::orbit::continuation::ContinuationSettings;
+    use vibrobar_core::analysis::orbit::modal_continuation::*;
+    let mp = match param {
+        "ratio" => ModalParam::Axis(Axis::FreqRatio),
+        "gap_m" => ModalParam::Axis(Axis::GapM),
+        "friction_force_n" => ModalParam::Axis(Axis::FrictionForceN),
+        "restitution" => ModalParam::Axis(Axis::Restitution),
+        "cavity_position_m" if sc.modes.is_none() => ModalParam::CavityPositionM,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "param must be one of \"ratio\", \"gap_m\", \"friction_force_n\", \"restitution\", \"cavity_position_m\" (a [beam] only), got {param:?}"
+            )))
+        }
+    };
+    for (name, v) in [("from_", from_), ("to", to)] {
+        if !v.is_finite() {
+            return Err(PyValueError::new_err(format!("{name} = {v} is not finite")));
+        }
+    }
+    if from_ == to {
+        return Err(PyValueError::new_err(format!(
+            "--to = from_ = {to}: the interval is empty; give two different ends"
+        )));
+    }
+    let (ratio, gap_m) = match mp {
+        ModalParam::Axis(Axis::FreqRatio) => (Some(from_), gap_m),
+        ModalParam::Axis(Axis::GapM) => (ratio, Some(from_)),
+        _ => (ratio, gap_m),
+    };
+    let (_, _, sys) = point_system(sc, ratio, gap_m)?;
+    let mut fam = ModalFamily {
+        base: ModalSystem::from_system(&sys).map_err(input_error)?,
+        beam: sc.beam.clone().filter(|_| sc.modes.is_none()),
+        param: mp,
+    };
+    fam.system_at(to).map_err(run_error)?;
+    fam.base = fam.system_at(from_).map_err(run_error)?;
+    if let (ModalParam::CavityPositionM, Some(b)) = (mp, fam.beam.as_mut()) {
+        b.cavity_position_m = from_;
+    }
+    let settings = ContinuationSettings {
+        max_points,
+        switch_branches: false,
+        ..Default::default()
+    };
+    let b = detached(py, None, |_| {
+        let o = start_modal_orbit(sc, &fam.base, period, start, None, None)?;
+        continue_modal_orbit(&o, &fam, from_, to, &settings).map_err(run_error)
+    })?;
+    let schema = iocsv::continuation_schema();
+    let mut csv = schema.header();
+    csv.push('\n');
+    for p in &b.points {
+        csv.push_str(&schema.format(&iocsv::modal_continuation_values(p, 1.0)));
         csv.push('\n');
     }
     let d = PyDict::new(py);

@@ -14,8 +14,8 @@ use vibrobar_core::analysis::lyapunov_spectrum::{lyapunov_spectrum, SpectrumPara
 use vibrobar_core::analysis::map::{Axis, Grid, GridAxis, GridPoint, MapSpec};
 use vibrobar_core::analysis::poincare::{bifurcation, BifurcationSpec, Stroboscope};
 use vibrobar_core::analysis::regime::Tolerances;
+use vibrobar_core::params::BarModel;
 use vibrobar_core::params::System;
-use vibrobar_core::params::{BarModel, FrictionModel};
 use vibrobar_core::solver::modal_run_by_name;
 use vibrobar_core::structure::{ModalState, ModalSystem};
 use vibrobar_io::csv::{
@@ -391,9 +391,9 @@ pub struct LyapunovArgs {
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
-    /// All four exponents by QR of the variational flow with saltation matrices (lumped bar,
-    /// exact solver, restitution law) over the window after the transient, instead of the
-    /// largest by two trajectories (--periods and --d0 do not apply).
+    /// All exponents (4 on the lumped bar, 2N + 2 on an N-mode bar) by QR of the variational
+    /// flow with saltation matrices (exact solver, restitution law) over the window after the
+    /// transient, instead of the largest by two trajectories (--periods and --d0 do not apply).
     #[arg(long)]
     pub spectrum: bool,
 }
@@ -474,22 +474,28 @@ fn run_spectrum(a: &LyapunovArgs) -> anyhow::Result<()> {
         blocks: 10,
         scales: None,
     };
-    let r = lyapunov_spectrum(&sys, &spec.base.init, solver.as_ref(), &p)?;
+    let r = match &sys.bar {
+        BarModel::Lumped(_) => lyapunov_spectrum(&sys, &spec.base.init, solver.as_ref(), &p)?,
+        // 2N + 2 exponents of the modal state (the modal variational flow).
+        BarModel::Modal(model) => {
+            let init = ModalState::from_public(model, &spec.base.init)?;
+            vibrobar_core::analysis::lyapunov_spectrum_modal::lyapunov_spectrum_modal(
+                &ModalSystem::from_system(&sys)?,
+                &init,
+                &p,
+            )?
+        }
+    };
     // The frictionless bar's phase-volume identity: Σλ = −C/M + 2 ln(e) × impacts per second
-    // (under the hertz law only in the stiff limit: Σλ is the trace plus the approach memory).
+    // (−Σₙ cₙ/mₙ on a modal bar; under the hertz law only in the stiff limit: Σλ is the trace
+    // plus the approach memory).
     let hertz = sys
         .damper
         .is_some_and(|d| d.contact.law == vibrobar_core::ContactLaw::Hertz);
-    let identity = match (sys.lumped_bar(), sys.damper) {
-        (Some(bar), Some(d))
-            if sys.friction_level_n() == 0.0 || d.friction == FrictionModel::None =>
-        {
-            Some(
-                -bar.damping_n_s_per_m() / bar.mass_kg + 2.0 * d.restitution.ln() * r.impacts_per_s,
-            )
-        }
-        _ => None,
-    };
+    let identity = vibrobar_core::analysis::lyapunov_spectrum_modal::volume_identity_per_s(
+        &sys,
+        r.impacts_per_s,
+    )?;
     if a.json {
         let ev = r.events;
         let j = serde_json::json!({
@@ -541,7 +547,7 @@ fn run_spectrum(a: &LyapunovArgs) -> anyhow::Result<()> {
                 id
             ),
             Some(id) if r.collapsed == 0 => println!(
-                "Σλ = {:.6} 1/s; frictionless identity −C/M + 2 ln(e) × impacts/s = {:.6} 1/s",
+                "Σλ = {:.6} 1/s; frictionless identity −C/M (−Σcₙ/mₙ) + 2 ln(e) × impacts/s = {:.6} 1/s",
                 r.sum_per_s, id
             ),
             _ => println!("Σλ (finite exponents) = {:.6} 1/s", r.sum_per_s),

@@ -74,7 +74,7 @@ pub struct OrbitStartArgs {
     pub jacobian: JacobianArg,
 }
 
-fn period_of(a: &OrbitStartArgs) -> anyhow::Result<u32> {
+pub(crate) fn period_of(a: &OrbitStartArgs) -> anyhow::Result<u32> {
     check_value(
         "--period",
         a.period as f64,
@@ -84,7 +84,7 @@ fn period_of(a: &OrbitStartArgs) -> anyhow::Result<u32> {
     Ok(a.period as u32)
 }
 
-fn exact_only(s: &SystemArgs) -> anyhow::Result<()> {
+pub(crate) fn exact_only(s: &SystemArgs) -> anyhow::Result<()> {
     let name = s.solver_name()?;
     if name != "exact" {
         bail!("--solver {name}: periodic orbits use the exact solver (the stroboscopic map and its Jacobian are exact); leave --solver out or give --solver exact");
@@ -156,7 +156,7 @@ pub struct OrbitArgs {
     pub out: PathBuf,
 }
 
-fn event_json(e: &vibrobar_core::analysis::orbit::OrbitEvent) -> serde_json::Value {
+pub(crate) fn event_json(e: &vibrobar_core::analysis::orbit::OrbitEvent) -> serde_json::Value {
     let wall = |w: Wall| if w == Wall::Plus { "plus" } else { "minus" };
     let (kind, wall, dw) = match e.kind {
         EventKind::Impact {
@@ -209,6 +209,9 @@ pub fn orbit_json(o: &PeriodicOrbit) -> anyhow::Result<serde_json::Value> {
 pub fn run_orbit(a: &OrbitArgs) -> anyhow::Result<()> {
     exact_only(&a.point.system)?;
     let sys = a.point.system()?;
+    if sys.lumped_bar().is_none() {
+        return super::orbit_modal::run_orbit_modal(a, &sys);
+    }
     let (o, start, branch, settle) = start_orbit(&sys, &a.point.system, &a.start)?;
     let params = OrbitParams {
         point: a.point.to_params()?,
@@ -299,7 +302,7 @@ fn axis_of(name: &str) -> anyhow::Result<(Axis, f64)> {
     }
     let names: Vec<&str> = CONTINUATION_PARAMS.iter().map(|(n, _)| *n).collect();
     let why = if name == "cavity-position-mm" {
-        " (the cavity position needs the N-mode bar, whose orbits are not implemented yet)"
+        " (the cavity position is a parameter of the N-mode bar: give a scenario with a [beam])"
     } else {
         ""
     };
@@ -312,6 +315,9 @@ fn axis_of(name: &str) -> anyhow::Result<(Axis, f64)> {
 /// `vibrobar continue`.
 pub fn run_continue(a: &ContinueArgs) -> anyhow::Result<()> {
     exact_only(&a.system)?;
+    if super::orbit_modal::is_modal(&a.system)? {
+        return super::orbit_modal::run_continue_modal(a);
+    }
     let (axis, scale) = axis_of(&a.param)?;
     check_value("--from", a.from, |_| true, "finite")?;
     check_value("--to", a.to, |_| true, "finite")?;

@@ -16,6 +16,7 @@ pub mod lobe_design;
 pub mod lobes;
 pub mod lyapunov;
 pub mod lyapunov_spectrum;
+pub mod lyapunov_spectrum_modal;
 pub mod map;
 pub mod orbit;
 pub mod placement;
@@ -24,6 +25,7 @@ pub mod regime;
 pub mod sweep;
 pub mod time_domain;
 pub mod variational;
+pub mod variational_modal;
 
 pub use batch::{par_map_with_progress, Batch, BatchError, Runner, SweepBase};
 pub use case::{run_case, ImpactCounter, RmsObserver, RunResult, Sampler};

@@ -177,8 +177,9 @@
 //!
 //! # Not covered
 //!
-//! * The N-mode bar (`ModalExact`): refused; the same construction with the 2N×2N modal `Φ`
-//!   and the contact row `w = v − Σ φₙ qₙ` is the way to add it.
+//! * The N-mode bar (`ModalExact`): refused here; [`super::variational_modal`] is the same
+//!   construction with the modal transition matrices and the contact row `w = v − Σ φₙ qₙ`
+//!   (restitution law only).
 //! * Parameter derivatives other than [`Param`]'s (mass ratio, forcing amplitude).
 //!
 //! References: P. C. Müller, "Calculation of Lyapunov exponents for dynamic systems with
@@ -198,7 +199,7 @@ use crate::solver::{
 pub type Mat4 = [[f64; 4]; 4];
 
 /// Why the variational layer refuses a modal bar.
-pub const VARIATIONAL_LUMPED_ONLY: &str = "the variational flow (Jacobian, Lyapunov spectrum) is built for the lumped bar; the N-mode bar's 2N+2-dimensional tangent map is not implemented";
+pub const VARIATIONAL_LUMPED_ONLY: &str = "this variational layer is the lumped bar's (4×4 tangent maps); the N-mode bar's 2N+2-dimensional tangent map is analysis::variational_modal";
 /// Why the variational layer refuses a solver other than `exact`.
 pub const VARIATIONAL_EXACT_ONLY: &str = "the variational flow (Jacobian, Lyapunov spectrum) needs the exact solver: its saltation matrices need the event times and states the exact solver resolves (a fixed-step solver puts events on its grid)";
 

@@ -172,7 +172,7 @@ struct Pt {
 /// Stability class of an orbit: (real > 1, real < −1, complex outside), the cyclic event
 /// sequence, and how many stick/contact phases it has.
 #[derive(Debug, Clone, PartialEq, Eq)]
-struct Class {
+pub(super) struct Class {
     pos: usize,
     neg: usize,
     cplx: usize,
@@ -181,8 +181,14 @@ struct Class {
 }
 
 fn class_of(o: &PeriodicOrbit) -> Class {
+    class_from(&o.multipliers, &o.sequence)
+}
+
+/// [`class_of`] from the multipliers and the event sequence (shared with the modal bar's
+/// continuation).
+pub(super) fn class_from(multipliers: &[num_complex::Complex64], sequence: &str) -> Class {
     let (mut pos, mut neg, mut cplx) = (0, 0, 0);
-    for l in &o.multipliers {
+    for l in multipliers {
         if l.norm() > 1.0 {
             if l.im.abs() > 1e-9 * l.norm() {
                 cplx += 1;
@@ -197,8 +203,8 @@ fn class_of(o: &PeriodicOrbit) -> Class {
         pos,
         neg,
         cplx,
-        seq: cyclic_canonical(&o.sequence),
-        sticky: o.sequence.chars().filter(|c| "scur".contains(*c)).count(),
+        seq: cyclic_canonical(sequence),
+        sticky: sequence.chars().filter(|c| "scur".contains(*c)).count(),
     }
 }
 
@@ -218,7 +224,7 @@ fn cyclic_canonical(s: &str) -> String {
 
 /// The event between two classes (`None` if none), with the tangents' parameter components for
 /// telling a fold from a branch point.
-fn event_between(a: &Class, b: &Class, tp_a: f64, tp_b: f64) -> Option<BranchEvent> {
+pub(super) fn event_between(a: &Class, b: &Class, tp_a: f64, tp_b: f64) -> Option<BranchEvent> {
     if a.sticky != b.sticky {
         return Some(BranchEvent::StickOnset);
     }

@@ -23,6 +23,8 @@
 //! `|w|` (how close a new impact is: the grazing margin) and the slowest impact.
 
 pub mod continuation;
+pub mod modal;
+pub mod modal_continuation;
 pub mod region;
 pub mod symmetric;
 pub mod two_param;
@@ -40,7 +42,7 @@ pub use symmetric::{symmetric_orbits, SymmetricOrbit};
 pub use crate::limits::MAX_ORBIT_PERIOD;
 
 /// Why an orbit needs a lumped bar.
-pub const ORBIT_LUMPED_ONLY: &str = "periodic orbits are computed on the lumped bar only: a modal bar's state has 2N + 2 dimensions and its stroboscopic map is not implemented yet";
+pub const ORBIT_LUMPED_ONLY: &str = "this orbit code is the lumped bar's (a 4-dimensional state): a modal bar's orbits (2N + 2 dimensions) are computed by analysis::orbit::modal";
 
 /// The stroboscopic map of one system: state at `t0_s`, period `periods` forcing cycles.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -494,12 +496,12 @@ fn no_convergence(iterations: usize, residual: f64, tolerance: f64) -> SimError 
 }
 
 /// Records the events of one period and the free-flight turning points of `|w|`.
-struct OrbitRecorder {
-    t0_s: f64,
-    lg: f64,
-    events: Vec<OrbitEvent>,
-    margin_m: f64,
-    min_speed: f64,
+pub(super) struct OrbitRecorder {
+    pub(super) t0_s: f64,
+    pub(super) lg: f64,
+    pub(super) events: Vec<OrbitEvent>,
+    pub(super) margin_m: f64,
+    pub(super) min_speed: f64,
 }
 
 impl Observer for OrbitRecorder {

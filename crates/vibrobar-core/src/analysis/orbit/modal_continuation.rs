@@ -1,0 +1,482 @@
+//! Pseudo-arclength continuation of a periodic orbit of the N-mode bar in one parameter: the
+//! frequency ratio, the gap, the friction force, the restitution, or the **cavity position** on a
+//! `[beam]` (the ball moves along the bar: every mode's shape at the cavity changes).
+//!
+//! The scheme is the lumped bar's ([`super::continuation`]): unknowns `y = (ξ, p̃)` (the state
+//! `(q, q̇, w, ẇ)` scaled as in [`super::modal`], the parameter mapped so that the interval is
+//! `[0, 1]`), `F(y) = (P(x; p) − x)/s`, Keller's arclength condition, step control (grown after
+//! an easy correction, halved after a failed one or a turn of the tangent by more than 0.3 rad),
+//! the section moved when an event comes within 2 % of the period of it, and the same events
+//! (`fold`, `period-doubling`, `torus`, `branch-point` from the multipliers, `grazing` and
+//! `stick-onset` from the event sequence; [`BranchEvent`]), reported on the first point past them.
+//!
+//! **Jacobian.** The state block is exact (the variational flow of
+//! [`crate::analysis::variational_modal`]). The parameter column is a central difference of the
+//! map, `∂P/∂p̃ ≈ (P(x; p̃ + δ) − P(x; p̃ − δ))/2δ` with `δ` = [`PARAM_STEP`] of the interval (two
+//! runs per corrector iteration): truncation `O(δ²)` times the map's third derivative in `p̃`,
+//! rounding ~1e-12/δ of the scale; its accuracy is tested through the implicit-function
+//! derivative `dx/dp = −(DP − I)⁻¹ ∂P/∂p` against orbits recomputed by Newton at nearby cavity
+//! positions (`tests/orbit_modal.rs`), and against the lumped layer's exact parameter columns on
+//! one unit mode.
+//!
+//! **Not done here** (the lumped bar's continuation has them): bisection to locate an event
+//! between two points, branch switching at period doublings, the jump across a grazing point
+//! at fixed parameter.
+//!
+//! **Cavity position.** The modal model is rebuilt from the `[beam]` at every evaluation
+//! (`Structure::Beam(..).modal_model()`: the analytic Euler–Bernoulli modes are cheap; a beam
+//! with a section loss or a tip mass is a finite-element model, about 100× slower). With the
+//! ratio given as `Ω/ω₁`, `Ω` follows `ω₁` if the position changes it (a section loss at the
+//! cavity); on a uniform beam it does not.
+
+use super::continuation::{class_from, event_between, BranchEvent, ContinuationSettings};
+use super::modal::{
+    describe_modal, find_modal_orbit, lstsq, scaled_minus_identity, ModalPeriodicOrbit,
+    ModalSection,
+};
+use super::NewtonSettings;
+use crate::analysis::grid::Axis;
+use crate::error::{ParamError, SimError};
+use crate::solver::exact::modal::ModalExact;
+use crate::structure::{Beam, ModalSystem, Structure};
+use nalgebra::{DMatrix, DVector};
+
+/// `F(y)`, the extended Jacobian, `DP`.
+type Eval = (DVector<f64>, DMatrix<f64>, DMatrix<f64>);
+
+/// Central-difference step of the parameter column, in units of the interval (`p̃`).
+pub const PARAM_STEP: f64 = 1e-6;
+
+/// A parameter of a modal bar's branch.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ModalParam {
+    /// One of the lumped bar's axes (ratio, gap, friction force, restitution), SI.
+    Axis(Axis),
+    /// The cavity centre's distance from the clamp, m (a `[beam]` only).
+    CavityPositionM,
+}
+
+impl ModalParam {
+    /// The name in output files and flags (`--param`): `ratio`, `gap-mm`, `friction-force-n`,
+    /// `restitution`, `cavity-position-mm`.
+    pub fn flag(&self) -> &'static str {
+        match self {
+            ModalParam::Axis(a) => super::continuation::CONTINUATION_PARAMS
+                .iter()
+                .find(|(_, b)| b == a)
+                .map_or(a.as_str(), |(n, _)| n),
+            ModalParam::CavityPositionM => "cavity-position-mm",
+        }
+    }
+}
+
+/// The systems along a branch: the base system and, for the cavity position, its beam.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModalFamily {
+    /// The system at the start.
+    pub base: ModalSystem,
+    /// The beam the modal model comes from (needed for [`ModalParam::CavityPositionM`]).
+    pub beam: Option<Beam>,
+    /// The parameter followed.
+    pub param: ModalParam,
+}
+
+/// Why the cavity position needs a beam.
+pub const CAVITY_NEEDS_BEAM: &str = "the cavity position (--param cavity-position-mm) is a parameter of a [beam]: its modes are recomputed at every position; measured [[modes]] give the shapes at one cavity only";
+
+impl ModalFamily {
+    /// The system at parameter `value` (SI), validated.
+    pub fn system_at(&self, value: f64) -> Result<ModalSystem, SimError> {
+        let sys = match self.param {
+            ModalParam::Axis(a) => {
+                let mut s = self.base.to_system();
+                a.apply(&mut s, value)?;
+                ModalSystem::from_system(&s)?
+            }
+            ModalParam::CavityPositionM => {
+                let beam = self
+                    .beam
+                    .as_ref()
+                    .ok_or(SimError::Unsupported(CAVITY_NEEDS_BEAM))?;
+                let b = Beam {
+                    cavity_position_m: value,
+                    ..beam.clone()
+                };
+                ModalSystem {
+                    model: Structure::Beam(b).modal_model()?,
+                    ..self.base.clone()
+                }
+            }
+        };
+        sys.validate()?;
+        Ok(sys)
+    }
+
+    /// The parameter's value in the base system (SI).
+    pub fn value_of_base(&self) -> Result<f64, SimError> {
+        Ok(match self.param {
+            ModalParam::Axis(a) => super::continuation::param_of(&self.base.to_system(), a),
+            ModalParam::CavityPositionM => {
+                self.beam
+                    .as_ref()
+                    .ok_or(SimError::Unsupported(CAVITY_NEEDS_BEAM))?
+                    .cavity_position_m
+            }
+        })
+    }
+}
+
+/// One point of a modal branch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModalBranchPoint {
+    /// Parameter value (SI).
+    pub param: f64,
+    /// The orbit.
+    pub orbit: ModalPeriodicOrbit,
+    /// The event between the previous point and this one.
+    pub event: Option<BranchEvent>,
+}
+
+/// A computed modal branch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModalBranch {
+    /// The parameter followed.
+    pub param: ModalParam,
+    /// Points in continuation order.
+    pub points: Vec<ModalBranchPoint>,
+    /// Why the branch ended.
+    pub stop_reason: String,
+}
+
+struct Cont<'a> {
+    fam: &'a ModalFamily,
+    from: f64,
+    to: f64,
+    sc: Vec<f64>,
+    d: usize,
+    periods: u32,
+    settings: ContinuationSettings,
+}
+
+#[derive(Clone)]
+struct Pt {
+    y: DVector<f64>,
+    sec: ModalSection,
+    orbit: ModalPeriodicOrbit,
+    tangent: DVector<f64>,
+}
+
+impl Cont<'_> {
+    fn param(&self, pt: f64) -> f64 {
+        self.from + pt * (self.to - self.from)
+    }
+
+    fn section(&self, t0: f64, pt: f64) -> Result<ModalSection, SimError> {
+        ModalSection::new(self.fam.system_at(self.param(pt))?, t0, self.periods)
+    }
+
+    fn x_of(&self, y: &DVector<f64>) -> Vec<f64> {
+        (0..self.d).map(|i| y[i] * self.sc[i]).collect()
+    }
+
+    /// `F(y)`, the `D × (D+1)` Jacobian in the top rows of a square matrix, and `DP`.
+    fn eval(&self, t0: f64, y: &DVector<f64>) -> Result<Eval, SimError> {
+        let d = self.d;
+        let sec = self.section(t0, y[d])?;
+        let x = sec.clamp(&self.x_of(y));
+        let (px, dp) = sec.map_and_jacobian(&x)?;
+        let f = DVector::from_fn(d + 1, |i, _| {
+            if i < d {
+                (px[i] - x[i]) / self.sc[i]
+            } else {
+                0.0
+            }
+        });
+        let a = scaled_minus_identity(&dp, &self.sc);
+        let mut j = DMatrix::zeros(d + 1, d + 1);
+        j.view_mut((0, 0), (d, d)).copy_from(&a);
+        let h = PARAM_STEP;
+        let (pa, pb) = (
+            self.section(t0, y[d] + h)?.flow(&x)?,
+            self.section(t0, y[d] - h)?.flow(&x)?,
+        );
+        for i in 0..d {
+            j[(i, d)] = (pa[i] - pb[i]) / (2.0 * h * self.sc[i]);
+        }
+        Ok((f, j, dp))
+    }
+
+    fn tangent(&self, j: &DMatrix<f64>, prev: &DVector<f64>) -> Option<DVector<f64>> {
+        let d = self.d;
+        let mut m = j.clone();
+        for k in 0..=d {
+            m[(d, k)] = prev[k];
+        }
+        let mut rhs = DVector::zeros(d + 1);
+        rhs[d] = 1.0;
+        let t = lstsq(&m, &rhs)?;
+        let n = t.norm();
+        (n.is_finite() && n > 0.0).then(|| t / n)
+    }
+
+    fn correct(&self, t0: f64, y_pred: &DVector<f64>, t: &DVector<f64>) -> Result<Eval, SimError> {
+        let d = self.d;
+        let mut y = y_pred.clone();
+        let tol = self.settings.newton.tolerance;
+        let mut last = f64::INFINITY;
+        for it in 0..=self.settings.newton.max_iterations {
+            let (f, mut j, dp) = self.eval(t0, &y)?;
+            let r = f.amax();
+            if r <= tol && it > 0 {
+                return Ok((y, j, dp));
+            }
+            if it == self.settings.newton.max_iterations || r.is_nan() || r >= 10.0 * last.max(tol)
+            {
+                return Err(SimError::NoConvergence {
+                    what: "the continuation corrector (modal bar)",
+                    iterations: it,
+                    residual: r,
+                    tolerance: tol,
+                });
+            }
+            last = r;
+            let mut rhs = -f;
+            for k in 0..=d {
+                j[(d, k)] = t[k];
+            }
+            rhs[d] = -t.dot(&(&y - y_pred));
+            let step = lstsq(&j, &rhs).ok_or(SimError::NoConvergence {
+                what: "the continuation corrector (modal bar; singular Jacobian)",
+                iterations: it,
+                residual: r,
+                tolerance: tol,
+            })?;
+            y += step;
+            let lg = self
+                .fam
+                .system_at(self.param(y[d]))?
+                .damper
+                .map_or(f64::INFINITY, |dm| dm.half_gap_m());
+            let iw = d - 2;
+            y[iw] = y[iw].clamp(-lg / self.sc[iw], lg / self.sc[iw]);
+        }
+        unreachable!("the loop returns")
+    }
+
+    fn point(
+        &self,
+        t0: f64,
+        y: DVector<f64>,
+        j: &DMatrix<f64>,
+        dp: DMatrix<f64>,
+        prev_t: &DVector<f64>,
+    ) -> Result<Pt, SimError> {
+        let d = self.d;
+        let sec = self.section(t0, y[d])?;
+        let x = sec.clamp(&self.x_of(&y));
+        let px = sec.flow(&x)?;
+        let residual = (0..d)
+            .map(|i| ((px[i] - x[i]) / self.sc[i]).abs())
+            .fold(0.0, f64::max);
+        let orbit = describe_modal(&sec, &x, dp, residual, 0)?;
+        let tangent = self.tangent(j, prev_t).ok_or(SimError::NoConvergence {
+            what: "the continuation tangent (modal bar; singular extended Jacobian)",
+            iterations: 0,
+            residual: f64::NAN,
+            tolerance: 0.0,
+        })?;
+        Ok(Pt {
+            y,
+            sec,
+            orbit,
+            tangent,
+        })
+    }
+
+    /// Move the section when an event is within 2 % of the period of it.
+    fn rephase(&self, p: Pt) -> Result<Pt, SimError> {
+        let kt = p.sec.period_s();
+        let ev = &p.orbit.events;
+        let near = ev.iter().any(|e| e.dt_s < 0.02 * kt || e.dt_s > 0.98 * kt);
+        if !near || ev.is_empty() {
+            return Ok(p);
+        }
+        let mut times: Vec<f64> = ev.iter().map(|e| e.dt_s).collect();
+        times.push(ev[0].dt_s + kt);
+        let (mut best, mut mid) = (-1.0, 0.5 * kt);
+        for w in times.windows(2) {
+            if w[1] - w[0] > best {
+                best = w[1] - w[0];
+                mid = 0.5 * (w[0] + w[1]);
+            }
+        }
+        let t_new = p.sec.t0_s + mid;
+        let s = ModalExact::default()
+            .run(&p.sec.system, &p.orbit.state, t_new, &mut ())?
+            .final_state;
+        let tt = p.sec.period_s() / p.sec.periods as f64;
+        let t0 = t_new - (t_new / tt).floor() * tt;
+        let x = p.sec.to_vector(&s);
+        let mut y = p.y.clone();
+        for i in 0..self.d {
+            y[i] = x[i] / self.sc[i];
+        }
+        let (_, j, dp) = self.eval(t0, &y)?;
+        self.point(t0, y, &j, dp, &p.tangent)
+    }
+}
+
+/// Check a continuation interval: finite and not empty.
+fn check_interval(from: f64, to: f64) -> Result<(), ParamError> {
+    crate::params::finite("--from", from)?;
+    crate::params::finite("--to", to)?;
+    if (to - from).abs() <= 0.0 {
+        return Err(ParamError::OutOfRange {
+            field: "--to",
+            value: to,
+            allowed: "a value other than --from (the interval is empty)",
+        });
+    }
+    Ok(())
+}
+
+/// Follow the orbit `start` of `fam.base` (a fixed point at the parameter `from`, SI) from
+/// `from` to `to` (module docs).
+pub fn continue_modal_orbit(
+    start: &ModalPeriodicOrbit,
+    fam: &ModalFamily,
+    from: f64,
+    to: f64,
+    settings: &ContinuationSettings,
+) -> Result<ModalBranch, SimError> {
+    check_interval(from, to)?;
+    crate::limits::check_count(
+        "points (--max-points)",
+        settings.max_points,
+        2,
+        super::continuation::MAX_CONTINUATION_POINTS,
+        "",
+    )?;
+    let d = start.section.dim();
+    let c = Cont {
+        fam,
+        from,
+        to,
+        sc: start.section.scales(),
+        d,
+        periods: start.section.periods,
+        settings: *settings,
+    };
+    let x0 = start.vector();
+    let mut y = DVector::zeros(d + 1);
+    for i in 0..d {
+        y[i] = x0[i] / c.sc[i];
+    }
+    y[d] = (fam.value_of_base()? - from) / (to - from);
+    let t0 = start.section.t0_s;
+    let (_, j, dp) = c.eval(t0, &y)?;
+    let mut e = DVector::zeros(d + 1);
+    e[d] = 1.0;
+    let first = c.point(t0, y, &j, dp, &e)?;
+    let mut out = vec![ModalBranchPoint {
+        param: c.param(first.y[d]),
+        orbit: first.orbit.clone(),
+        event: None,
+    }];
+    let mut cur = c.rephase(first)?;
+    let mut h = settings.step_initial;
+    let reason = loop {
+        if out.len() >= settings.max_points {
+            break format!("{} points reached (--max-points)", settings.max_points);
+        }
+        if cur.orbit.impacts_per_period == 0 && cur.orbit.events.is_empty() {
+            break "the orbit has no event left (the ball floats: its position is neutral)".into();
+        }
+        if h < settings.step_min {
+            break format!(
+                "step below {:e} at {} = {} (the corrector fails: a nonsmooth point the branch cannot pass)",
+                settings.step_min,
+                fam.param.flag(),
+                c.param(cur.y[d])
+            );
+        }
+        let end = if cur.tangent[d] > 0.0 { 1.0 } else { 0.0 };
+        let mut hh = h;
+        let mut to_end = false;
+        if cur.tangent[d].abs() > 1e-3 && (end - cur.y[d]) / cur.tangent[d] < hh {
+            hh = (end - cur.y[d]) / cur.tangent[d];
+            to_end = true;
+        }
+        let y_pred = &cur.y + &cur.tangent * hh;
+        let attempt = if to_end {
+            let mut yp = y_pred.clone();
+            yp[d] = end;
+            c.correct(cur.sec.t0_s, &yp, &e)
+        } else {
+            c.correct(cur.sec.t0_s, &y_pred, &cur.tangent)
+        }
+        .and_then(|(y, j, dp)| c.point(cur.sec.t0_s, y, &j, dp, &cur.tangent));
+        let next = match attempt {
+            Ok(p) => p,
+            Err(_) => {
+                h *= 0.5;
+                continue;
+            }
+        };
+        if next.tangent.dot(&cur.tangent) < 0.3f64.cos() && hh > 4.0 * settings.step_min {
+            h = hh * 0.5;
+            continue;
+        }
+        let (ca, cb) = (
+            class_from(&cur.orbit.multipliers, &cur.orbit.sequence),
+            class_from(&next.orbit.multipliers, &next.orbit.sequence),
+        );
+        out.push(ModalBranchPoint {
+            param: c.param(next.y[d]),
+            orbit: next.orbit.clone(),
+            event: event_between(&ca, &cb, cur.tangent[d], next.tangent[d]),
+        });
+        cur = c.rephase(next)?;
+        if to_end {
+            break "end of the interval reached".into();
+        }
+        if cur.y[d] < -0.02 || cur.y[d] > 1.02 {
+            break "the branch left the interval".into();
+        }
+        h = (h * 1.3).min(settings.step_max);
+    };
+    Ok(ModalBranch {
+        param: fam.param,
+        points: out,
+        stop_reason: reason,
+    })
+}
+
+/// `∂P(x)/∂p` (SI parameter) of the modal map at `x` by central differences with step `h`
+/// (SI), on `(q, q̇, w, ẇ)`: the parameter column of [`continue_modal_orbit`] (there with `h`
+/// = [`PARAM_STEP`] of the interval).
+pub fn modal_map_param_derivative_fd(
+    fam: &ModalFamily,
+    sec: &ModalSection,
+    x: &[f64],
+    value: f64,
+    h: f64,
+) -> Result<Vec<f64>, SimError> {
+    let run = |p: f64| -> Result<Vec<f64>, SimError> {
+        ModalSection::new(fam.system_at(p)?, sec.t0_s, sec.periods)?.flow(x)
+    };
+    let (a, b) = (run(value + h)?, run(value - h)?);
+    Ok(a.iter().zip(&b).map(|(a, b)| (a - b) / (2.0 * h)).collect())
+}
+
+/// Newton at the parameter `value` from `x0` at the section time of `sec` (a point of a branch
+/// recomputed independently).
+pub fn modal_orbit_at(
+    fam: &ModalFamily,
+    sec: &ModalSection,
+    x0: &[f64],
+    value: f64,
+) -> Result<ModalPeriodicOrbit, SimError> {
+    let s = ModalSection::new(fam.system_at(value)?, sec.t0_s, sec.periods)?;
+    find_modal_orbit(&s, x0, &NewtonSettings::default())
+}
