@@ -66,7 +66,7 @@ use crate::damper::impact::{impact_energy_loss_j, impact_relative, plastic_limit
 use crate::error::{EventLimitCause, SimError};
 use crate::params::{Bar, BarModel, FrictionModel, State, System};
 use expsum::{integral_product, integral_square, integral_square_to, ExpSum, Trig};
-use roots::{first_root_multi_trig, Cand, Root, Scratch};
+use roots::{first_root_multi_trig, first_step_clears, Cand, Root, Scratch};
 
 /// The exact event-driven solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -476,7 +476,15 @@ impl Segment for ExactSegment {
         self.mode
     }
     fn state_at(&self, t_s: f64) -> State {
-        let mut s = self.at(t_s - self.t0).public();
+        let tau = t_s - self.t0;
+        // A cutting run asks for the state at each piece's end (its surface history), where the
+        // segment already holds the transcendentals (`Trig::new` of the same `τ`, to the bit).
+        let mut s = if self.cut.is_some() && tau.to_bits() == self.end.tau.to_bits() {
+            self.at_t(&self.end)
+        } else {
+            self.at(tau)
+        }
+        .public();
         s.t_s = t_s;
         s
     }
@@ -1355,7 +1363,13 @@ fn joint_search<const N: usize>(
         set.push(CUT, Cand::new(g, cp.order, cp.tol));
     }
     let n = drop_constant_margins(&mut set.cands[..set.n], &mut set.ids[..set.n]);
-    let (root, i, trig) = first_root_multi_trig(&set.cands[..n], 0.0, span, tol_t, scratch);
+    // A cutting run's pieces are short: most are cleared by the search's first step alone,
+    // which gives the full search's answer without its set-up (see `first_step_clears`).
+    let (root, i, trig) = if cs.cut.is_some() && first_step_clears(&set.cands[..n], span, tol_t) {
+        (Root::None, 0, None)
+    } else {
+        first_root_multi_trig(&set.cands[..n], 0.0, span, tol_t, scratch)
+    };
     let (best, which) = match root {
         Root::At(t) => (t, set.ids[i]),
         Root::None => (span, 0),
