@@ -1377,6 +1377,7 @@ fn joint_search<const N: usize>(
     };
     let end = match trig {
         Some(tr) if tr.tau.to_bits() == best.to_bits() => tr,
+        _ if cs.cut.is_some() => cutting::end_trig(best, u.om, u.al, u.wd),
         _ => Trig::new(best, u.om, u.al, u.wd),
     };
     Ok((best, which, end))
