@@ -1356,20 +1356,23 @@ fn joint_search<const N: usize>(
     tol_t: f64,
     u: &ExpSum,
 ) -> Result<(f64, u8, Trig), SimError> {
-    if let Some(cp) = &cs.cut {
+    let n = if let Some(cp) = &cs.cut {
         // The chip function, positive while the mode holds: `h` in the cut, `−h` out of it.
         let h = cp.chip(u);
         let g = if cp.in_cut { h } else { h.affine(-1.0, 0.0) };
         set.push(CUT, Cand::new(g, cp.order, cp.tol));
-    }
-    let n = drop_constant_margins(&mut set.cands[..set.n], &mut set.ids[..set.n]);
-    // A cutting run's pieces are short: most are cleared by the search's first step alone,
-    // which gives the full search's answer without its set-up (see `first_step_clears`).
-    let (root, i, trig) = if cs.cut.is_some() && first_step_clears(&set.cands[..n], span, tol_t) {
-        (Root::None, 0, None)
+        let n = drop_constant_margins(&mut set.cands[..set.n], &mut set.ids[..set.n]);
+        // A cutting run's pieces are short: most are cleared by the search's first step alone,
+        // which is the full search's own answer (`Root::None`; see `first_step_clears`), and
+        // most end at the regular piece length, whose transcendentals are cached.
+        if first_step_clears(&set.cands[..n], span, tol_t) {
+            return Ok((span, 0, cutting::end_trig(span, u.om, u.al, u.wd)));
+        }
+        n
     } else {
-        first_root_multi_trig(&set.cands[..n], 0.0, span, tol_t, scratch)
+        drop_constant_margins(&mut set.cands[..set.n], &mut set.ids[..set.n])
     };
+    let (root, i, trig) = first_root_multi_trig(&set.cands[..n], 0.0, span, tol_t, scratch);
     let (best, which) = match root {
         Root::At(t) => (t, set.ids[i]),
         Root::None => (span, 0),
@@ -1377,7 +1380,6 @@ fn joint_search<const N: usize>(
     };
     let end = match trig {
         Some(tr) if tr.tau.to_bits() == best.to_bits() => tr,
-        _ if cs.cut.is_some() => cutting::end_trig(best, u.om, u.al, u.wd),
         _ => Trig::new(best, u.om, u.al, u.wd),
     };
     Ok((best, which, end))

@@ -287,14 +287,15 @@ pub fn first_root_multi_trig(
 }
 
 /// Whether [`first_root_multi_trig`] on `[0, t_max]` would return [`Root::None`] in its first
-/// iteration, decided from that iteration's own proof alone: each function's departure bracket
-/// (order > 0) or its quadratic step with the amplitude bound at `τ = 0` (where the
-/// transcendentals are free) reaches `t_max`. The full search takes a step at least as long
+/// iteration, decided from that iteration's own proof alone: each function's quadratic step
+/// with the amplitude bound at `τ = 0` (where the transcendentals are free) reaches `t_max`
+/// (a function departing from a zero, order > 0, gives `false`). The full search takes a step at least as long
 /// from the same numbers (the longer of several proofs), so `true` means exactly its answer,
 /// `(Root::None, 0, None)`, and the proof that no function reaches zero on the interval; on
 /// `false` the caller runs the full search. For short intervals (the pieces of a cutting run,
 /// ~1/32 of a period) this is most searches, at a fraction of the full iteration's cost (no
 /// envelope, no cubic horizon).
+#[inline(never)]
 pub fn first_step_clears(cands: &[Cand], t_max: f64, tol_t: f64) -> bool {
     let Some(first) = cands.first() else {
         return true;
@@ -304,28 +305,24 @@ pub fn first_step_clears(cands: &[Cand], t_max: f64, tol_t: f64) -> bool {
     let trig = Trig::new(0.0, om, al, wd);
     let decay = 1.0 + trig.em1;
     for c in cands {
+        // A function departing from a zero (right after an event) is left to the full search,
+        // whose departure bracket stays inlined there (the harmonic run's hot path).
+        if c.order > 0 {
+            return false;
+        }
         // The same bounds, to the bit, as the full search's set-up.
         let rh = (c.g.a * c.g.a + c.g.b * c.g.b).sqrt() * (1.0 + 1e-12);
         let rd = (c.g.p * c.g.p + c.g.q * c.g.q).sqrt() * (1.0 + 1e-12);
-        let h = if c.order > 0 {
-            // (A bracket that underflows to 0 is evaluated by the full search.)
-            match departure_step(&c.g, c.order, 0.0, rh, rd) {
-                Some(h) if h > 0.0 => h,
-                _ => return false,
-            }
-        } else {
-            let [f, f1]: [f64; 2] = c.g.derivs_t(&trig);
-            if f <= c.tol && f1 <= 0.0 {
-                return false;
-            }
-            let bconst = 2.0 * c.g.c2.abs() * (1.0 + 1e-12) + om * om * rh;
-            let h = quad_step(f.max(0.0), f1, bconst + wn2 * rd * decay);
-            // The full search stops at a step below the time resolution while approaching.
-            if f1 < 0.0 && h <= tol_t {
-                return false;
-            }
-            h
-        };
+        let [f, f1]: [f64; 2] = c.g.derivs_t(&trig);
+        if f <= c.tol && f1 <= 0.0 {
+            return false;
+        }
+        let bconst = 2.0 * c.g.c2.abs() * (1.0 + 1e-12) + om * om * rh;
+        let h = quad_step(f.max(0.0), f1, bconst + wn2 * rd * decay);
+        // The full search stops at a step below the time resolution while approaching.
+        if f1 < 0.0 && h <= tol_t {
+            return false;
+        }
         if !(h >= t_max) {
             return false;
         }
