@@ -323,7 +323,8 @@ pub fn first_step_clears(cands: &[Cand], t_max: f64, tol_t: f64) -> bool {
         if f1 < 0.0 && h <= tol_t {
             return false;
         }
-        if !(h >= t_max) {
+        // Short of the end, or NaN (incomparable): not cleared.
+        if h.partial_cmp(&t_max).is_none_or(|o| o.is_lt()) {
             return false;
         }
     }
