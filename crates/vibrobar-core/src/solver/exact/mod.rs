@@ -67,7 +67,7 @@ use crate::damper::impact::{impact_energy_loss_j, impact_relative, plastic_limit
 use crate::error::{EventLimitCause, SimError};
 use crate::params::{Bar, BarModel, FrictionModel, State, System};
 use expsum::{integral_product, integral_square, integral_square_to, ExpSum, Trig};
-use roots::{first_root_multi_trig, Cand, Root, Scratch};
+use roots::{first_root_multi_trig, first_step_clears, Cand, Root, Scratch};
 
 /// The exact event-driven solver.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -477,7 +477,15 @@ impl Segment for ExactSegment {
         self.mode
     }
     fn state_at(&self, t_s: f64) -> State {
-        let mut s = self.at(t_s - self.t0).public();
+        let tau = t_s - self.t0;
+        // A cutting run asks for the state at each piece's end (its surface history), where the
+        // segment already holds the transcendentals (`Trig::new` of the same `τ`, to the bit).
+        let mut s = if self.cut.is_some() && tau.to_bits() == self.end.tau.to_bits() {
+            self.at_t(&self.end)
+        } else {
+            self.at(tau)
+        }
+        .public();
         s.t_s = t_s;
         s
     }
@@ -1349,13 +1357,22 @@ fn joint_search<const N: usize>(
     tol_t: f64,
     u: &ExpSum,
 ) -> Result<(f64, u8, Trig), SimError> {
-    if let Some(cp) = &cs.cut {
+    let n = if let Some(cp) = &cs.cut {
         // The chip function, positive while the mode holds: `h` in the cut, `−h` out of it.
         let h = cp.chip(u);
         let g = if cp.in_cut { h } else { h.affine(-1.0, 0.0) };
         set.push(CUT, Cand::new(g, cp.order, cp.tol));
-    }
-    let n = drop_constant_margins(&mut set.cands[..set.n], &mut set.ids[..set.n]);
+        let n = drop_constant_margins(&mut set.cands[..set.n], &mut set.ids[..set.n]);
+        // A cutting run's pieces are short: most are cleared by the search's first step alone,
+        // which is the full search's own answer (`Root::None`; see `first_step_clears`), and
+        // most end at the regular piece length, whose transcendentals are cached.
+        if first_step_clears(&set.cands[..n], span, tol_t) {
+            return Ok((span, 0, cutting::end_trig(span, u.om, u.al, u.wd)));
+        }
+        n
+    } else {
+        drop_constant_margins(&mut set.cands[..set.n], &mut set.ids[..set.n])
+    };
     let (root, i, trig) = first_root_multi_trig(&set.cands[..n], 0.0, span, tol_t, scratch);
     let (best, which) = match root {
         Root::At(t) => (t, set.ids[i]),
