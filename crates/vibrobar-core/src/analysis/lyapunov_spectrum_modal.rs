@@ -128,6 +128,8 @@ pub fn lyapunov_spectrum_modal(
         impacts_per_s: impacts as f64 / p.duration_s,
         events: var.counts,
         duration_s: p.duration_s,
+        // Restitution law only (the hertz law is refused): no approach-speed memory.
+        approach_memory_per_s: 0.0,
     })
 }
 

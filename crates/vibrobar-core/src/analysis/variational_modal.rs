@@ -65,13 +65,16 @@
 //!
 //! # Not covered
 //!
-//! The Hertz law (refused: [`super::variational::VARIATIONAL_NO_HERTZ`]); parameter columns
+//! The Hertz law (refused: [`VARIATIONAL_MODAL_NO_HERTZ`]); parameter columns
 //! (the orbit layer takes parameter derivatives by central differences of the map).
 
 // Index loops read as the linear algebra they are.
 #![allow(clippy::needless_range_loop)]
 
-use super::variational::{EventCounts, VARIATIONAL_NEEDS_BALL, VARIATIONAL_NO_HERTZ};
+use super::variational::{EventCounts, VARIATIONAL_NEEDS_BALL};
+
+/// Why the modal variational layer refuses the Hertz law.
+pub const VARIATIONAL_MODAL_NO_HERTZ: &str = "the N-mode bar's variational flow covers the instantaneous restitution law; the hertz law's tangent maps through compliant contact phases are the lumped bar's only so far";
 use crate::damper::friction::{sgn0, sliding_friction_on_ball_n};
 use crate::damper::impact::modal_inverse_effective_mass_per_kg;
 use crate::error::SimError;
@@ -124,7 +127,7 @@ impl Cs {
             .damper
             .ok_or(SimError::Unsupported(VARIATIONAL_NEEDS_BALL))?;
         if d.contact.law == ContactLaw::Hertz {
-            return Err(SimError::Unsupported(VARIATIONAL_NO_HERTZ));
+            return Err(SimError::Unsupported(VARIATIONAL_MODAL_NO_HERTZ));
         }
         let modes = sys.model.modes();
         let n = modes.len();

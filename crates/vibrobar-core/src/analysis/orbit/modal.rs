@@ -47,7 +47,8 @@ pub struct ModalSection {
 }
 
 /// Why an orbit needs the restitution law (shared with the lumped bar's message).
-pub use super::ORBIT_RESTITUTION_ONLY;
+/// Why orbits of the N-mode bar refuse the Hertz law.
+pub const ORBIT_RESTITUTION_ONLY: &str = "periodic orbits of the N-mode bar are computed with the instantaneous restitution law only; the hertz law's orbits are the lumped bar's only so far";
 
 fn check_modal_system(sys: &ModalSystem) -> Result<(), SimError> {
     sys.validate()?;

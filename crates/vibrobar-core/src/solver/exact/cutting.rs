@@ -307,15 +307,7 @@ impl History {
         u0: f64,
         du0: f64,
     ) -> History {
-        let mut h = History {
-            k: VecDeque::with_capacity(cap),
-            cap,
-            full: false,
-            bp: VecDeque::with_capacity(cap),
-            in_cut,
-            tau,
-            shift,
-        };
+        let mut h = History::new(cap, in_cut, tau, shift);
         let (s_r, ds_r) = if in_cut {
             (u0, du0)
         } else {
