@@ -671,12 +671,18 @@ fn three_quarter_with_a_ball_out_of_reach_is_the_bar_alone() {
         };
         let (d32, amp, left) = diff(32);
         let (d128, _, _) = diff(128);
+        // Through loss of contact (the 1.5 b_lim case) the remainder fit's error on the piece
+        // next to the chip's zero is not monotone in the piece count once the history's slope at
+        // cut events is right: measured 5.1e-8, 8.7e-8, 2.8e-8, 1.8e-9 m at 32, 64, 128, 256
+        // pieces per period (the DP5 path it is compared with is at the RK4 reference's level,
+        // tests/cutting_event_slope.rs). Its fall is checked from 32 to 256.
+        let d_fine = if f > 1.2 { diff(256).0 } else { d128 };
         println!(
             "three-quarter {f} b_lim, ball out of reach vs bar alone: max |Δu| {d32:.3e} m at 32, \
              {d128:.3e} m at 128 pieces per period, of {amp:.3e} m; left the cut {left}"
         );
         assert!(d128 < bound * amp, "{d128} {amp}");
-        assert!(d128 * fall < d32, "{d32} {d128}");
+        assert!(d_fine * fall < d32, "{d32} {d128} {d_fine}");
     }
 }
 
