@@ -274,6 +274,28 @@ impl History {
             / h
     }
 
+    /// The surface's kink at a cut event at `t` (the knot there): its velocity from the right
+    /// is the new side's, the bar's `u̇` entering the cut, the carried surface's leaving it.
+    fn cut_event_slope(&mut self, t: f64, du: f64) {
+        let ds = if self.in_cut {
+            du
+        } else {
+            let x = t - self.tau;
+            let i = self.k.partition_point(|k| k.t <= x);
+            // At or just after a knot: its right side; else the Hermite's slope.
+            if i > 0 && self.k[i - 1].t.to_bits() == x.to_bits() {
+                self.k[i - 1].ds_r
+            } else {
+                self.slope_left(x)
+            }
+        };
+        if let Some(last) = self.k.back_mut() {
+            if last.t.to_bits() == t.to_bits() {
+                last.ds_r = ds;
+            }
+        }
+    }
+
     /// The quadratic `d0 + d1 τ + d2 τ²` through the surface at the window `[a, b]`'s ends and
     /// middle (`τ = x − a`).
     fn quadratic(&self, a: f64, b: f64) -> [f64; 3] {
@@ -1031,7 +1053,8 @@ impl ExactCutting {
                             sys,
                             cut,
                             hist: &hist,
-                            tau,
+                            win: (a, win_end.max(a)),
+                            after_event: order == 1,
                         };
                         let mut y = [s.u, s.du];
                         let (t1, ev) = super::cutting_nonlinear::step(
@@ -1095,6 +1118,7 @@ impl ExactCutting {
                     cut_events += 1;
                     h.in_cut = in_cut;
                     h.breakpoint(s.t);
+                    h.cut_event_slope(s.t, s.du);
                     if cut_events > self.exact.max_events {
                         return Err(SimError::TooManyEvents {
                             limit: self.exact.max_events,
