@@ -380,6 +380,15 @@ impl History {
         (self.eval(x, false) + self.shift, self.slope_left(x))
     }
 
+    /// The surface's kink at a cut event at `t` for a caller that keeps its own cut flag
+    /// (the modal path): [`History::cut_event_slope`] with the side after the event.
+    pub(super) fn cut_event_slope_after(&mut self, t: f64, in_cut_after: bool, du: f64) {
+        let keep = self.in_cut;
+        self.in_cut = in_cut_after;
+        self.cut_event_slope(t, du);
+        self.in_cut = keep;
+    }
+
     /// Queue the breakpoint source `t`.
     pub(super) fn add_breakpoint(&mut self, t: f64) {
         self.breakpoint(t);

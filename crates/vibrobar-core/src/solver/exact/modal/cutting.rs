@@ -1334,6 +1334,8 @@ impl ModalCutting {
                         in_cut = !in_cut;
                         chip_order = 1;
                         run.hist.add_breakpoint(s.t);
+                        let du = run.cs.dot(&run.cs.phi_f, &s.dq);
+                        run.hist.cut_event_slope_after(s.t, in_cut, du);
                         book.count(s.t, t0, tau)?;
                         if let Md::Free { sigma, .. } = mode {
                             mode = Md::Free {
