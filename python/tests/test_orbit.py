@@ -93,3 +93,25 @@ def test_lyapunov_spectrum_of_a_beam_meets_the_modal_identity():
     assert len(r["exponents_per_s"]) == 8 and r["collapsed"] == 0
     assert r["impacts_per_s"] > 100
     assert math.isclose(r["sum_per_s"], r["volume_identity_per_s"], rel_tol=1e-9)
+
+
+ONE_UNIT_MODE = """[[modes]]
+frequency_hz = 602.2026447166344
+damping_ratio = 0.01
+modal_mass_kg = 0.644
+shape_cavity = 1.0
+"""
+
+
+def test_continuation_of_an_n_mode_bar_switches_at_the_period_doubling():
+    # The lumped bar as one [[modes]] table: its asymmetric orbit's period doubling (0.050342
+    # mm, the lumped bar's) is located and the period-2 branch followed unless switch_branches
+    # is False.
+    sc = Scenario.from_toml_str(ONE_UNIT_MODE, friction="none")
+    args = (sc, "gap_m", 0.052e-3, 0.0495e-3)
+    t = vibrobar.continuation(*args, ratio=1.0, start="settled")
+    pd = [p for p, e in zip(t["param"], t["event"]) if e == "period-doubling"]
+    assert len(pd) == 1 and abs(pd[0] - 0.0503415494e-3) < 1e-12
+    assert sum(1 for k in t["period"] if k == 2) >= 3
+    u = vibrobar.continuation(*args, ratio=1.0, start="settled", switch_branches=False)
+    assert all(k == 1 for k in u["period"])

@@ -578,8 +578,9 @@ def continuation(
 ) -> Table:
     """Pseudo-arclength continuation of a periodic orbit in ``param`` (``"ratio"``,
     ``"gap_m"``, ``"friction_force_n"``, ``"restitution"``, and ``"cavity_position_m"`` on a
-    ``[beam]``; SI values) from ``from_`` to ``to``, like ``vibrobar continue``. On an N-mode
-    bar the branch is not switched at period doublings.
+    ``[beam]``; SI values) from ``from_`` to ``to``, like ``vibrobar continue``; with
+    ``switch_branches`` (lumped and N-mode bars) the period-2k branch from each period
+    doubling follows the main branch (its rows have ``period`` 2k).
 
     Returns:
         Table: ``param``, ``rms_m``, ``max_abs_multiplier``, ``stable``,

@@ -395,3 +395,61 @@ fn modal_bars_have_orbits_and_branches_in_the_cavity_position() {
     assert_eq!(j["impacts_per_period"], 2);
     assert_eq!(j["stable"], false);
 }
+
+/// The lumped bar as one `[[modes]]` table (`f = √(K/M)/2π`, `M`, `ζ`, shape 1).
+const ONE_UNIT_MODE: &str = "[[modes]]\nfrequency_hz = 602.2026447166344\ndamping_ratio = 0.01\nmodal_mass_kg = 0.644\nshape_cavity = 1.0\n";
+
+/// `continue` on an N-mode bar switches to the period-2 branch at the period doubling of the
+/// asymmetric orbit (0.050342 mm, the lumped bar's) unless `--no-switch`.
+#[test]
+fn modal_continue_switches_at_the_period_doubling_unless_no_switch() {
+    let dir = tempfile::tempdir().unwrap();
+    let sc = dir.path().join("one.toml");
+    std::fs::write(&sc, ONE_UNIT_MODE).unwrap();
+    let csv = dir.path().join("b.csv");
+    let rows = |extra: &[&str]| -> Vec<(f64, u32, String)> {
+        let mut a = vec![
+            "continue",
+            "--scenario",
+            sc.to_str().unwrap(),
+            "--friction",
+            "none",
+            "--ratio",
+            "1",
+            "--param",
+            "gap-mm",
+            "--from",
+            "0.052",
+            "--to",
+            "0.0495",
+            "--start",
+            "settled",
+            "--out",
+            csv.to_str().unwrap(),
+        ];
+        a.extend(extra);
+        let out = String::from_utf8_lossy(&vibrobar_ok(&a).stdout).into_owned();
+        assert!(
+            out.contains("period-doubling at gap-mm = 0.05034154"),
+            "{out}"
+        );
+        std::fs::read_to_string(&csv)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| {
+                let c: Vec<&str> = l.split(',').collect();
+                (c[0].parse().unwrap(), c[5].parse().unwrap(), c[6].into())
+            })
+            .collect()
+    };
+    let sw = rows(&[]);
+    let two: Vec<_> = sw.iter().filter(|r| r.1 == 2).collect();
+    assert!(two.len() >= 3, "{sw:?}");
+    assert!(two.iter().all(|r| (r.0 - 0.05034).abs() < 0.01));
+    let pd: Vec<_> = sw.iter().filter(|r| r.2 == "period-doubling").collect();
+    assert_eq!(pd.len(), 1);
+    assert!((pd[0].0 - 0.0503415494).abs() < 1e-9, "{pd:?}");
+    let plain = rows(&["--no-switch"]);
+    assert!(plain.iter().all(|r| r.1 == 1) && plain.len() == sw.len() - two.len());
+}

@@ -1642,7 +1642,17 @@ fn continuation<'py>(
     let sc = &scenario.inner;
     if sc.beam.is_some() || sc.modes.is_some() {
         return continuation_modal(
-            py, sc, param, from_, to, ratio, gap_m, period, start, max_points,
+            py,
+            sc,
+            param,
+            from_,
+            to,
+            ratio,
+            gap_m,
+            period,
+            start,
+            max_points,
+            switch_branches,
         );
     }
     let axis = match param {
@@ -1715,8 +1725,7 @@ fn continuation<'py>(
     Ok((d, csv))
 }
 
-/// [`continuation`] on an N-mode bar (`param` also "cavity_position_m" on a `[beam]`; no branch
-/// switching).
+/// [`continuation`] on an N-mode bar (`param` also "cavity_position_m" on a `[beam]`).
 #[allow(clippy::too_many_arguments)]
 fn continuation_modal<'py>(
     py: Python<'py>,
@@ -1729,6 +1738,7 @@ fn continuation_modal<'py>(
     period: u32,
     start: &str,
     max_points: usize,
+    switch_branches: bool,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use vibrobar_core::analysis::orbit::continuation::ContinuationSettings;
     use vibrobar_core::analysis::orbit::modal_continuation::*;
@@ -1772,7 +1782,7 @@ fn continuation_modal<'py>(
     }
     let settings = ContinuationSettings {
         max_points,
-        switch_branches: false,
+        switch_branches,
         ..Default::default()
     };
     let b = detached(py, None, |_| {

@@ -221,7 +221,7 @@ pub fn run_continue_modal(a: &ContinueArgs) -> anyhow::Result<()> {
     let (o, settle) = start_modal(&fam.base, &a.system, &a.start)?;
     let settings = ContinuationSettings {
         max_points: a.max_points,
-        switch_branches: false,
+        switch_branches: !a.no_switch,
         ..Default::default()
     };
     let t = std::time::Instant::now();
@@ -244,8 +244,7 @@ pub fn run_continue_modal(a: &ContinueArgs) -> anyhow::Result<()> {
         from: a.from,
         to: a.to,
         max_points: a.max_points,
-        // The modal continuation does not switch branches (module docs of the core).
-        switch_branches: false,
+        switch_branches: !a.no_switch,
     };
     let schema = continuation_schema();
     let inv = 1.0 / scale;
@@ -265,7 +264,7 @@ pub fn run_continue_modal(a: &ContinueArgs) -> anyhow::Result<()> {
             x: p.param * inv,
             y: p.orbit.rms_m * 1e6,
             stable: p.orbit.stable(),
-            branch: 0,
+            branch: p.branch,
             event: p.event.map(|e| e.as_str()),
         })
         .collect();
@@ -294,16 +293,17 @@ pub fn run_continue_modal(a: &ContinueArgs) -> anyhow::Result<()> {
     );
     for p in b.points.iter().filter(|p| p.event.is_some()) {
         println!(
-            "  {} at {} = {} (max |λ| = {:.6})",
+            "  {} at {} = {} (period {}, max |λ| = {:.6})",
             p.event.map_or("", |e| e.as_str()),
             a.param,
             fmt_coord(p.param * inv),
+            p.orbit.section.periods,
             p.orbit.max_abs_multiplier()
         );
     }
-    println!("  branch ended: {}", b.stop_reason);
-    if !a.no_switch {
-        println!("  (branch switching at period doublings is not done on an N-mode bar)");
+    println!("  branch 0 ended: {}", b.stop_reason);
+    for (i, r) in b.switched.iter().enumerate() {
+        println!("  branch {} ended: {r}", i + 1);
     }
     println!("wrote {}", a.out.display());
     for f in files {

@@ -687,23 +687,41 @@ fn step(c: &Cont, cur: &Pt, h: f64, pin: Option<f64>) -> Result<Pt, SimError> {
 
 /// Bisect the step between `cur` (class `ca`) and `next` for the first point of the new class.
 fn locate(c: &Cont, cur: &Pt, h: f64, ca: &Class) -> Option<Pt> {
+    bisect_step(
+        h,
+        ca,
+        |mid| step(c, cur, mid, None).ok(),
+        |p| class_of(&p.orbit),
+    )
+}
+
+/// The bisection of an event between a point of class `ca` (step 0) and the step `h` past it
+/// (shared with the modal bar's continuation): `step(s)` corrects the point at arclength `s`
+/// (`None` if it fails, which ends the search); the first point found of another class, to
+/// 1e-9 of the step.
+pub(super) fn bisect_step<P>(
+    h: f64,
+    ca: &Class,
+    mut step: impl FnMut(f64) -> Option<P>,
+    class: impl Fn(&P) -> Class,
+) -> Option<P> {
     let (mut lo, mut hi) = (0.0, h);
-    let mut best: Option<Pt> = None;
+    let mut best: Option<P> = None;
     for _ in 0..30 {
         if hi - lo < 1e-9 * h.max(1e-12) {
             break;
         }
         let mid = 0.5 * (lo + hi);
-        match step(c, cur, mid, None) {
-            Ok(p) => {
-                if class_of(&p.orbit) == *ca {
+        match step(mid) {
+            Some(p) => {
+                if class(&p) == *ca {
                     lo = mid;
                 } else {
                     hi = mid;
                     best = Some(p);
                 }
             }
-            Err(_) => break,
+            None => break,
         }
     }
     best

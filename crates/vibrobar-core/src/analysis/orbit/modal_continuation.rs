@@ -8,7 +8,11 @@
 //! an easy correction, halved after a failed one or a turn of the tangent by more than 0.3 rad),
 //! the section moved when an event comes within 2 % of the period of it, and the same events
 //! (`fold`, `period-doubling`, `torus`, `branch-point` from the multipliers, `grazing` and
-//! `stick-onset` from the event sequence; [`BranchEvent`]), reported on the first point past them.
+//! `stick-onset` from the event sequence; [`BranchEvent`]), each located by the lumped bar's
+//! bisection of the step that brackets it (`continuation::bisect_step`, to 1e-9 of the step),
+//! and, with `switch_branches`, the switch to the period-2k branch at each period doubling of
+//! the main branch (Newton on the period-2k map from the orbit displaced along the eigenvector
+//! of the multiplier closest to −1, as on the lumped bar).
 //!
 //! **Jacobian.** The state block is exact (the variational flow of
 //! [`crate::analysis::variational_modal`]). The parameter column is a central difference of the
@@ -19,9 +23,8 @@
 //! positions (`tests/orbit_modal.rs`), and against the lumped layer's exact parameter columns on
 //! one unit mode.
 //!
-//! **Not done here** (the lumped bar's continuation has them): bisection to locate an event
-//! between two points, branch switching at period doublings, the jump across a grazing point
-//! at fixed parameter.
+//! **Not done here** (the lumped bar's continuation has it): the jump across a grazing point at
+//! fixed parameter.
 //!
 //! **Cavity position.** The modal model is rebuilt from the `[beam]` at every evaluation
 //! (`Structure::Beam(..).modal_model()`: the analytic Euler–Bernoulli modes are cheap; a beam
@@ -29,7 +32,9 @@
 //! ratio given as `Ω/ω₁`, `Ω` follows `ω₁` if the position changes it (a section loss at the
 //! cavity); on a uniform beam it does not.
 
-use super::continuation::{class_from, event_between, BranchEvent, ContinuationSettings};
+use super::continuation::{
+    bisect_step, class_from, event_between, BranchEvent, Class, ContinuationSettings,
+};
 use super::modal::{
     describe_modal, find_modal_orbit, lstsq, scaled_minus_identity, ModalPeriodicOrbit,
     ModalSection,
@@ -135,6 +140,8 @@ pub struct ModalBranchPoint {
     pub orbit: ModalPeriodicOrbit,
     /// The event between the previous point and this one.
     pub event: Option<BranchEvent>,
+    /// 0 for the main branch, 1, 2, … for branches switched to at period doublings.
+    pub branch: usize,
 }
 
 /// A computed modal branch.
@@ -144,8 +151,10 @@ pub struct ModalBranch {
     pub param: ModalParam,
     /// Points in continuation order.
     pub points: Vec<ModalBranchPoint>,
-    /// Why the branch ended.
+    /// Why the main branch ended.
     pub stop_reason: String,
+    /// Why each branch switched to at a period doubling ended (branch 1, 2, …).
+    pub switched: Vec<String>,
 }
 
 struct Cont<'a> {
@@ -341,7 +350,8 @@ fn check_interval(from: f64, to: f64) -> Result<(), ParamError> {
 }
 
 /// Follow the orbit `start` of `fam.base` (a fixed point at the parameter `from`, SI) from
-/// `from` to `to` (module docs).
+/// `from` to `to` (module docs); with `settings.switch_branches`, the period-doubled branch
+/// from each period doubling of the main branch too (points with `branch` 1, 2, …).
 pub fn continue_modal_orbit(
     start: &ModalPeriodicOrbit,
     fam: &ModalFamily,
@@ -357,37 +367,78 @@ pub fn continue_modal_orbit(
         super::continuation::MAX_CONTINUATION_POINTS,
         "",
     )?;
-    let d = start.section.dim();
     let c = Cont {
         fam,
         from,
         to,
         sc: start.section.scales(),
-        d,
+        d: start.section.dim(),
         periods: start.section.periods,
         settings: *settings,
     };
+    let mut out = Vec::new();
+    let reason = follow(&c, start, fam.value_of_base()?, 0, &mut out)?;
+    let mut switched = Vec::new();
+    if settings.switch_branches {
+        let pds: Vec<ModalBranchPoint> = out
+            .iter()
+            .filter(|p| p.event == Some(BranchEvent::PeriodDoubling))
+            .cloned()
+            .collect();
+        for pd in pds {
+            let k = switched.len() + 1;
+            if let Some(r) = switch_at_doubling(&c, &pd, k, &mut out)? {
+                switched.push(r);
+            }
+        }
+    }
+    Ok(ModalBranch {
+        param: fam.param,
+        points: out,
+        stop_reason: reason,
+        switched,
+    })
+}
+
+/// Follow one branch from `start` (at the parameter `p0`, SI), appending its points (numbered
+/// `branch`); why it ended.
+fn follow(
+    c: &Cont,
+    start: &ModalPeriodicOrbit,
+    p0: f64,
+    branch: usize,
+    out: &mut Vec<ModalBranchPoint>,
+) -> Result<String, SimError> {
+    let d = c.d;
+    let settings = &c.settings;
     let x0 = start.vector();
     let mut y = DVector::zeros(d + 1);
     for i in 0..d {
         y[i] = x0[i] / c.sc[i];
     }
-    y[d] = (fam.value_of_base()? - from) / (to - from);
+    y[d] = (p0 - c.from) / (c.to - c.from);
     let t0 = start.section.t0_s;
     let (_, j, dp) = c.eval(t0, &y)?;
     let mut e = DVector::zeros(d + 1);
     e[d] = 1.0;
     let first = c.point(t0, y, &j, dp, &e)?;
-    let mut out = vec![ModalBranchPoint {
+    let n0 = out.len();
+    out.push(ModalBranchPoint {
         param: c.param(first.y[d]),
         orbit: first.orbit.clone(),
         event: None,
-    }];
+        branch,
+    });
+    let max_points = if branch == 0 {
+        settings.max_points
+    } else {
+        (settings.max_points / 2).max(2)
+    };
     let mut cur = c.rephase(first)?;
     let mut h = settings.step_initial;
     let reason = loop {
-        if out.len() >= settings.max_points {
-            break format!("{} points reached (--max-points)", settings.max_points);
+        if out.len() - n0 >= max_points {
+            break format!("{max_points} points reached (--max-points)");
         }
         if cur.orbit.impacts_per_period == 0 && cur.orbit.events.is_empty() {
             break "the orbit has no event left (the ball floats: its position is neutral)".into();
@@ -396,7 +447,7 @@ pub fn continue_modal_orbit(
             break format!(
                 "step below {:e} at {} = {} (the corrector fails: a nonsmooth point the branch cannot pass)",
                 settings.step_min,
-                fam.param.flag(),
+                c.fam.param.flag(),
                 c.param(cur.y[d])
             );
         }
@@ -407,16 +458,7 @@ pub fn continue_modal_orbit(
             hh = (end - cur.y[d]) / cur.tangent[d];
             to_end = true;
         }
-        let y_pred = &cur.y + &cur.tangent * hh;
-        let attempt = if to_end {
-            let mut yp = y_pred.clone();
-            yp[d] = end;
-            c.correct(cur.sec.t0_s, &yp, &e)
-        } else {
-            c.correct(cur.sec.t0_s, &y_pred, &cur.tangent)
-        }
-        .and_then(|(y, j, dp)| c.point(cur.sec.t0_s, y, &j, dp, &cur.tangent));
-        let next = match attempt {
+        let next = match step(c, &cur, hh, to_end.then_some(end)) {
             Ok(p) => p,
             Err(_) => {
                 h *= 0.5;
@@ -427,14 +469,39 @@ pub fn continue_modal_orbit(
             h = hh * 0.5;
             continue;
         }
-        let (ca, cb) = (
-            class_from(&cur.orbit.multipliers, &cur.orbit.sequence),
-            class_from(&next.orbit.multipliers, &next.orbit.sequence),
-        );
+        let (ca, cb) = (class_of(&cur.orbit), class_of(&next.orbit));
+        let ev = event_between(&ca, &cb, cur.tangent[d], next.tangent[d]);
+        // As on the lumped bar: the event's row is the located first point past it, and the
+        // branch goes on from the full step's point.
+        let mut next_event = ev;
+        if let (Some(e), true) = (ev, settings.locate) {
+            let located = bisect_step(
+                hh,
+                &ca,
+                |mid| step(c, &cur, mid, None).ok(),
+                |p| class_of(&p.orbit),
+            );
+            if let Some(l) = located {
+                let cl = class_of(&l.orbit);
+                let e = event_between(&ca, &cl, cur.tangent[d], next.tangent[d]).unwrap_or(e);
+                if (&l.y - &next.y).amax() > 1e-12 {
+                    out.push(ModalBranchPoint {
+                        param: c.param(l.y[d]),
+                        orbit: l.orbit,
+                        event: Some(e),
+                        branch,
+                    });
+                    next_event = None;
+                } else {
+                    next_event = Some(e);
+                }
+            }
+        }
         out.push(ModalBranchPoint {
             param: c.param(next.y[d]),
             orbit: next.orbit.clone(),
-            event: event_between(&ca, &cb, cur.tangent[d], next.tangent[d]),
+            event: next_event,
+            branch,
         });
         cur = c.rephase(next)?;
         if to_end {
@@ -445,11 +512,105 @@ pub fn continue_modal_orbit(
         }
         h = (h * 1.3).min(settings.step_max);
     };
-    Ok(ModalBranch {
-        param: fam.param,
-        points: out,
-        stop_reason: reason,
-    })
+    Ok(reason)
+}
+
+fn class_of(o: &ModalPeriodicOrbit) -> Class {
+    class_from(&o.multipliers, &o.sequence)
+}
+
+/// One predictor–corrector step of length `h` from `cur`; `pin` fixes `p̃` (the interval's end).
+fn step(c: &Cont, cur: &Pt, h: f64, pin: Option<f64>) -> Result<Pt, SimError> {
+    let d = c.d;
+    let t0 = cur.sec.t0_s;
+    let y_pred = &cur.y + &cur.tangent * h;
+    let (y, j, dp) = match pin {
+        None => c.correct(t0, &y_pred, &cur.tangent)?,
+        Some(p) => {
+            let mut e = DVector::zeros(d + 1);
+            e[d] = 1.0;
+            let mut yp = y_pred;
+            yp[d] = p;
+            c.correct(t0, &yp, &e)?
+        }
+    };
+    c.point(t0, y, &j, dp, &cur.tangent)
+}
+
+/// The lumped bar's switch (`continuation::switch_at_doubling`) on the modal bar: Newton for a
+/// period-2k orbit next to the period doubling `pd`, from its orbit displaced along the
+/// eigenvector of the multiplier closest to −1, on each side; the first genuine one (not the
+/// period-k orbit seen twice) is followed to the interval's end on its side.
+fn switch_at_doubling(
+    c: &Cont,
+    pd: &ModalBranchPoint,
+    branch: usize,
+    out: &mut Vec<ModalBranchPoint>,
+) -> Result<Option<String>, SimError> {
+    let o = &pd.orbit;
+    let dd = c.d;
+    // The smallest singular vector of S⁻¹DPS + I (scaled coordinates).
+    let mut a = scaled_minus_identity(&o.jacobian, &c.sc);
+    for i in 0..dd {
+        a[(i, i)] += 2.0;
+    }
+    let svd = a.svd(false, true);
+    let Some(vt) = svd.v_t else {
+        return Ok(None);
+    };
+    let (imin, _) = svd.singular_values.argmin();
+    let pt = (pd.param - c.from) / (c.to - c.from);
+    let x = o.vector();
+    for side in [1.0, -1.0] {
+        for (dp, eps) in [(2e-3, 0.05), (5e-3, 0.1), (1e-3, 0.02)] {
+            let q = pt + side * dp;
+            let Ok(sys) = c.fam.system_at(c.param(q)) else {
+                continue;
+            };
+            let Ok(sec) = ModalSection::new(sys, o.section.t0_s, 2 * c.periods) else {
+                continue;
+            };
+            let guess: Vec<f64> = (0..dd)
+                .map(|k| x[k] + eps * vt[(imin, k)] * c.sc[k])
+                .collect();
+            let Ok(orb) = find_modal_orbit(&sec, &guess, &NewtonSettings::default()) else {
+                continue;
+            };
+            let half = ModalSection {
+                periods: c.periods,
+                ..sec.clone()
+            };
+            let xs = orb.vector();
+            let Ok(ph) = half.flow(&xs) else { continue };
+            let dist = (0..dd)
+                .map(|k| ((ph[k] - xs[k]) / c.sc[k]).abs())
+                .fold(0.0, f64::max);
+            if dist < 1e-5 {
+                continue;
+            }
+            let sub = Cont {
+                from: c.param(q),
+                to: if side > 0.0 { c.to } else { c.from },
+                periods: 2 * c.periods,
+                settings: ContinuationSettings {
+                    switch_branches: false,
+                    ..c.settings
+                },
+                sc: c.sc.clone(),
+                ..*c
+            };
+            if (sub.to - sub.from).abs() <= 0.0 {
+                continue;
+            }
+            let r = follow(&sub, &orb, sub.from, branch, out)?;
+            return Ok(Some(format!(
+                "period-{} branch from the period doubling at {}: {r}",
+                2 * c.periods,
+                pd.param
+            )));
+        }
+    }
+    Ok(None)
 }
 
 /// `∂P(x)/∂p` (SI parameter) of the modal map at `x` by central differences with step `h`
