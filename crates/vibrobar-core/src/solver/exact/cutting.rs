@@ -274,6 +274,34 @@ impl History {
             / h
     }
 
+    /// The surface's knot at `t` out of the cut: the one a revolution back, advanced by the
+    /// feed. A segment end at a breakpoint `t_k + T` lands within rounding of the knot at `t_k`
+    /// (`(t_k + T) − T` need not be `t_k`'s bits): there both of its sides (the slope jumps at
+    /// a cut event or an impact), not one picked by the rounding; else the Hermite's.
+    fn out_of_cut_knot(&self, t: f64) -> Knot {
+        let x = t - self.tau;
+        let near = 4.0 * f64::EPSILON * t.abs();
+        let i = self.k.partition_point(|k| k.t < x - near);
+        if let Some(k) = self.k.get(i).filter(|k| k.t <= x + near) {
+            return Knot {
+                t,
+                s_l: k.s_l + self.shift,
+                ds_l: k.ds_l,
+                s_r: k.s_r + self.shift,
+                ds_r: k.ds_r,
+            };
+        }
+        let s = self.eval(x, false) + self.shift;
+        let ds = self.slope_left(x);
+        Knot {
+            t,
+            s_l: s,
+            ds_l: ds,
+            s_r: s,
+            ds_r: ds,
+        }
+    }
+
     /// The surface's kink at a cut event at `t` (the knot there): its velocity from the right
     /// is the new side's, the bar's `u̇` entering the cut, the carried surface's leaving it.
     fn cut_event_slope(&mut self, t: f64, du: f64) {
@@ -374,10 +402,10 @@ impl History {
         }
     }
 
-    /// The surface at `t` out of the cut: the one a revolution back, advanced by the feed.
-    pub(super) fn surface_out_of_cut(&self, t: f64) -> (f64, f64) {
-        let x = t - self.tau;
-        (self.eval(x, false) + self.shift, self.slope_left(x))
+    /// Store the surface at `t` out of the cut ([`History::out_of_cut_knot`]).
+    pub(super) fn record_out_of_cut(&mut self, t: f64) {
+        let kn = self.out_of_cut_knot(t);
+        self.push(kn);
     }
 
     /// The surface's kink at a cut event at `t` for a caller that keeps its own cut flag
@@ -438,19 +466,18 @@ impl Observer for Recorder<'_, '_> {
         let mut h = self.hist.borrow_mut();
         // `in_cut` is the piece's (the driver sets it before each step of the event loop; a
         // cut event ends the step).
-        let (s, ds) = if h.in_cut {
-            (st.u_m, st.du_m_s)
+        if h.in_cut {
+            h.push(Knot {
+                t: t1,
+                s_l: st.u_m,
+                ds_l: st.du_m_s,
+                s_r: st.u_m,
+                ds_r: st.du_m_s,
+            });
         } else {
-            let x = t1 - h.tau;
-            (h.eval(x, false) + h.shift, h.slope_left(x))
-        };
-        h.push(Knot {
-            t: t1,
-            s_l: s,
-            ds_l: ds,
-            s_r: s,
-            ds_r: ds,
-        });
+            let kn = h.out_of_cut_knot(t1);
+            h.push(kn);
+        }
     }
 
     fn event(&mut self, ev: &Event) {

@@ -1054,12 +1054,12 @@ impl Run<'_> {
         book.check_state(cs, &next)?;
         *s = next;
         // The surface knot at the segment end.
-        let (sv, ds) = if in_cut {
-            (cs.dot(&cs.phi_f, &s.q), cs.dot(&cs.phi_f, &s.dq))
+        if in_cut {
+            let (sv, ds) = (cs.dot(&cs.phi_f, &s.q), cs.dot(&cs.phi_f, &s.dq));
+            self.hist.record(s.t, sv, ds);
         } else {
-            self.hist.surface_out_of_cut(s.t)
-        };
-        self.hist.record(s.t, sv, ds);
+            self.hist.record_out_of_cut(s.t);
+        }
         Ok(end)
     }
 
