@@ -59,7 +59,11 @@ use super::super::cutting::{History, DEFAULT_STEPS_PER_PERIOD, GL8, MAX_EVENT_KN
 use super::super::expsum_n::{ExpSumN, Term, MAX_TERMS};
 use super::super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::super::CONFINEMENT_TOL_M;
-use super::ModalExact;
+use super::{after_wall_free, free_departing, wall_of, Md, ModalExact};
+
+/// The ball modes and their helpers are the modal solver's ([`super`]); its `HertzTouch` never
+/// occurs here because a modal cutting run refuses `[contact] law = hertz` before it starts.
+const HERTZ_REFUSED: &str = "a modal cutting run refuses the hertz law before it starts";
 use crate::damper::friction::{can_stick, holding_capacity_n, sgn0, sliding_friction_on_ball_n};
 use crate::damper::impact::{modal_impact, modal_inverse_effective_mass_per_kg};
 use crate::error::{EventLimitCause, SimError};
@@ -68,7 +72,7 @@ use crate::limits::MAX_BEAM_MODES;
 use crate::params::{CavityMotion, FrictionModel, State};
 use crate::solver::modal_rk4::ModalRunSummary;
 use crate::solver::{
-    CutSample, Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Wall,
+    CutSample, Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals,
 };
 use crate::structure::{ModalState, ModalSystem, Point};
 use nalgebra::DMatrix;
@@ -195,45 +199,6 @@ impl St {
             v_m: self.w + cs.dot(&cs.phi_d, &self.q),
             dv_m_s: self.dw + cs.dot(&cs.phi_d, &self.dq),
         }
-    }
-}
-
-/// The ball's mode, with the departure orders of the free-flight event functions.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Md {
-    Free {
-        sigma: f64,
-        k_plus: usize,
-        k_minus: usize,
-        k_sw: usize,
-    },
-    Stick,
-    Contact(Wall),
-}
-
-fn wall_of(s: f64) -> Wall {
-    if s > 0.0 {
-        Wall::Plus
-    } else {
-        Wall::Minus
-    }
-}
-
-fn free_departing(sigma: f64, wall: Option<Wall>) -> Md {
-    Md::Free {
-        sigma,
-        k_plus: if wall == Some(Wall::Plus) { 2 } else { 0 },
-        k_minus: if wall == Some(Wall::Minus) { 2 } else { 0 },
-        k_sw: 1,
-    }
-}
-
-fn after_wall_free(sw: f64, dw: f64) -> Md {
-    Md::Free {
-        sigma: sgn0(dw),
-        k_plus: if sw > 0.0 { 1 } else { 0 },
-        k_minus: if sw < 0.0 { 1 } else { 0 },
-        k_sw: 0,
     }
 }
 
@@ -1001,9 +966,10 @@ impl Run<'_> {
                                 hold,
                             );
                         }
-                        Md::Free { .. } => unreachable!(),
+                        Md::Free { .. } | Md::HertzTouch(_) => unreachable!(),
                     }
                 }
+                Md::HertzTouch(_) => unreachable!("{HERTZ_REFUSED}"),
             }
         }
         let span = t_stop - s.t;
@@ -1030,6 +996,7 @@ impl Run<'_> {
                 Md::Free { .. } => Mode::Free,
                 Md::Stick => Mode::Stick,
                 Md::Contact(w) => Mode::Contact(w),
+                Md::HertzTouch(_) => unreachable!("{HERTZ_REFUSED}"),
             }
         };
         let seg = CutSegment {
