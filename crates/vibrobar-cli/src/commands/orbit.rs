@@ -20,6 +20,7 @@ use vibrobar_core::System;
 use vibrobar_io::csv::{continuation_schema, continuation_values, write_csv, write_json};
 use vibrobar_io::params::{ContinuationParams, OrbitParams, PointParams};
 use vibrobar_io::Metadata;
+use vibrobar_report::figures::branch::BranchDot;
 
 /// Where Newton starts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -312,13 +313,12 @@ fn axis_of(name: &str) -> anyhow::Result<(Axis, f64)> {
     )
 }
 
-/// `vibrobar continue`.
-pub fn run_continue(a: &ContinueArgs) -> anyhow::Result<()> {
-    exact_only(&a.system)?;
-    if super::orbit_modal::is_modal(&a.system)? {
-        return super::orbit_modal::run_continue_modal(a);
-    }
-    let (axis, scale) = axis_of(&a.param)?;
+/// The fixed (ratio, gap in mm) of a continuation in `followed` (`None`: neither), after the
+/// interval and point-count checks every `continue` makes.
+pub(crate) fn continued_point(
+    a: &ContinueArgs,
+    followed: Option<Axis>,
+) -> anyhow::Result<(f64, f64)> {
     check_value("--from", a.from, |_| true, "finite")?;
     check_value("--to", a.to, |_| true, "finite")?;
     if a.from == a.to {
@@ -334,34 +334,36 @@ pub fn run_continue(a: &ContinueArgs) -> anyhow::Result<()> {
         MAX_CONTINUATION_POINTS,
         "",
     )?;
-    let (ratio, gap_mm) = match axis {
-        Axis::FreqRatio => {
+    let ratio = || a.ratio.context("--ratio is required unless --param ratio");
+    let gap = || {
+        a.gap_mm
+            .context("--gap-mm is required unless --param gap-mm")
+    };
+    Ok(match followed {
+        Some(Axis::FreqRatio) => {
             if a.ratio.is_some() {
                 bail!("--ratio is the followed parameter: give its interval as --from, --to");
             }
-            (
-                a.from,
-                a.gap_mm
-                    .context("--gap-mm is required unless --param gap-mm")?,
-            )
+            (a.from, gap()?)
         }
-        Axis::GapM => {
+        Some(Axis::GapM) => {
             if a.gap_mm.is_some() {
                 bail!("--gap-mm is the followed parameter: give its interval as --from, --to");
             }
-            (
-                a.ratio
-                    .context("--ratio is required unless --param ratio")?,
-                a.from,
-            )
+            (ratio()?, a.from)
         }
-        _ => (
-            a.ratio
-                .context("--ratio is required unless --param ratio")?,
-            a.gap_mm
-                .context("--gap-mm is required unless --param gap-mm")?,
-        ),
-    };
+        _ => (ratio()?, gap()?),
+    })
+}
+
+/// `vibrobar continue`.
+pub fn run_continue(a: &ContinueArgs) -> anyhow::Result<()> {
+    exact_only(&a.system)?;
+    if super::orbit_modal::is_modal(&a.system)? {
+        return super::orbit_modal::run_continue_modal(a);
+    }
+    let (axis, scale) = axis_of(&a.param)?;
+    let (ratio, gap_mm) = continued_point(a, Some(axis))?;
     let point = PointArgs {
         system: a.system.clone(),
         ratio,
@@ -405,26 +407,25 @@ pub fn run_continue(a: &ContinueArgs) -> anyhow::Result<()> {
         max_points: a.max_points,
         switch_branches: !a.no_switch,
     };
-    let schema = continuation_schema();
     let inv = 1.0 / scale;
-    write_csv(
-        &a.out,
-        &schema,
-        b.points.iter().map(|p| continuation_values(p, inv)),
-    )
-    .with_context(|| format!("writing {}", a.out.display()))?;
-    Metadata::new("continuation", &schema.header(), &params, None)
-        .write_beside(&a.out)
-        .with_context(|| format!("metadata beside {}", a.out.display()))?;
-    let dots: Vec<vibrobar_report::figures::branch::BranchDot> = b
+    let rows: Vec<_> = b
         .points
         .iter()
-        .map(|p| vibrobar_report::figures::branch::BranchDot {
-            x: p.param * inv,
-            y: p.orbit.rms_m * 1e6,
-            stable: p.orbit.stable(),
-            branch: p.branch,
-            event: p.event.map(|e| e.as_str()),
+        .map(|p| continuation_values(p, inv))
+        .collect();
+    let marks: Vec<_> = b
+        .points
+        .iter()
+        .map(|p| BranchMark {
+            dot: BranchDot {
+                x: p.param * inv,
+                y: p.orbit.rms_m * 1e6,
+                stable: p.orbit.stable(),
+                branch: p.branch,
+                event: p.event.map(|e| e.as_str()),
+            },
+            period: p.orbit.section.periods,
+            max_abs_multiplier: p.orbit.max_abs_multiplier(),
         })
         .collect();
     let title = format!(
@@ -436,15 +437,7 @@ pub fn run_continue(a: &ContinueArgs) -> anyhow::Result<()> {
             _ => format!(", r = {}, gap = {} mm", fmt_coord(ratio), fmt_coord(gap_mm)),
         }
     );
-    let files = vibrobar_report::figures::branch::branch_files(
-        &a.out.with_extension(""),
-        &vibrobar_report::figures::branch::BranchFigure {
-            title: &title,
-            x_label: &a.param,
-            points: &dots,
-        },
-    )?;
-    println!(
+    let summary = format!(
         "{} points in {:.3} s; starting orbit: {} ({} impacts per period, {})",
         b.points.len(),
         wall,
@@ -452,18 +445,60 @@ pub fn run_continue(a: &ContinueArgs) -> anyhow::Result<()> {
         o.impacts_per_period,
         if o.stable() { "stable" } else { "unstable" }
     );
-    for p in b.points.iter().filter(|p| p.event.is_some()) {
+    let ends: Vec<String> = b
+        .stop_reasons
+        .iter()
+        .enumerate()
+        .map(|(i, r)| format!("branch {i} ended: {r}"))
+        .collect();
+    write_branch(a, &params, &rows, &marks, &title, &summary, &ends)
+}
+
+/// One point of a followed branch as `continue` draws and reports it.
+pub(crate) struct BranchMark {
+    pub dot: BranchDot,
+    pub period: u32,
+    pub max_abs_multiplier: f64,
+}
+
+/// The files of `continue` (CSV, metadata, figure) and its report, shared by the lumped and the
+/// N-mode bar: `rows` are the CSV rows of `continuation_schema`.
+pub(crate) fn write_branch(
+    a: &ContinueArgs,
+    params: &ContinuationParams,
+    rows: &[Vec<vibrobar_io::csv::Value>],
+    marks: &[BranchMark],
+    title: &str,
+    summary: &str,
+    ends: &[String],
+) -> anyhow::Result<()> {
+    let schema = continuation_schema();
+    write_csv(&a.out, &schema, rows).with_context(|| format!("writing {}", a.out.display()))?;
+    Metadata::new("continuation", &schema.header(), params, None)
+        .write_beside(&a.out)
+        .with_context(|| format!("metadata beside {}", a.out.display()))?;
+    let dots: Vec<BranchDot> = marks.iter().map(|m| m.dot).collect();
+    let files = vibrobar_report::figures::branch::branch_files(
+        &a.out.with_extension(""),
+        &vibrobar_report::figures::branch::BranchFigure {
+            title,
+            x_label: &a.param,
+            points: &dots,
+        },
+    )?;
+    println!("{summary}");
+    for m in marks.iter().filter(|m| m.dot.event.is_some()) {
         println!(
             "  {} at {} = {} (period {}, max |λ| = {:.6})",
-            p.event.map_or("", |e| e.as_str()),
+            m.dot.event.unwrap_or(""),
             a.param,
-            fmt_coord(p.param * inv),
-            p.orbit.section.periods,
-            p.orbit.max_abs_multiplier()
+            fmt_coord(m.dot.x),
+            m.period,
+            m.max_abs_multiplier
         );
     }
-    for (i, r) in b.stop_reasons.iter().enumerate() {
-        println!("  branch {i} ended: {r}");
+    for e in ends {
+        println!("  {e}");
     }
     println!("wrote {}", a.out.display());
     for f in files {

@@ -1,22 +1,24 @@
 //! `vibrobar orbit` and `vibrobar continue` on an N-mode bar (`[beam]`, `[[modes]]`): the core
 //! is `vibrobar_core::analysis::orbit::modal` and `::modal_continuation`. The output files have
 //! the lumped commands' keys and columns; the state is modal.
-use super::orbit::{event_json, period_of, ContinueArgs, JacobianArg, OrbitArgs, StartArg};
+use super::orbit::{
+    continued_point, event_json, period_of, write_branch, BranchMark, ContinueArgs, JacobianArg,
+    OrbitArgs, StartArg,
+};
 use super::{check_value, fmt_coord, SystemArgs};
 use anyhow::{bail, Context};
 use vibrobar_core::analysis::grid::Axis;
-use vibrobar_core::analysis::orbit::continuation::{
-    ContinuationSettings, CONTINUATION_PARAMS, MAX_CONTINUATION_POINTS,
-};
+use vibrobar_core::analysis::orbit::continuation::{ContinuationSettings, CONTINUATION_PARAMS};
 use vibrobar_core::analysis::orbit::modal::{modal_orbit_settled, ModalPeriodicOrbit};
 use vibrobar_core::analysis::orbit::modal_continuation::{
     continue_modal_orbit, ModalFamily, ModalParam,
 };
 use vibrobar_core::structure::{ModalState, ModalSystem, Point};
 use vibrobar_core::System;
-use vibrobar_io::csv::{continuation_schema, modal_continuation_values, write_csv, write_json};
+use vibrobar_io::csv::{modal_continuation_values, write_json};
 use vibrobar_io::params::{ContinuationParams, OrbitParams, PointParams};
 use vibrobar_io::Metadata;
+use vibrobar_report::figures::branch::BranchDot;
 
 /// The scenario describes an N-mode bar.
 pub fn is_modal(s: &SystemArgs) -> anyhow::Result<bool> {
@@ -153,49 +155,11 @@ fn modal_param_of(name: &str) -> anyhow::Result<(ModalParam, f64)> {
 /// `vibrobar continue` on an N-mode bar.
 pub fn run_continue_modal(a: &ContinueArgs) -> anyhow::Result<()> {
     let (param, scale) = modal_param_of(&a.param)?;
-    check_value("--from", a.from, |_| true, "finite")?;
-    check_value("--to", a.to, |_| true, "finite")?;
-    if a.from == a.to {
-        bail!(
-            "--to = --from = {}: the interval is empty; give two different ends",
-            fmt_coord(a.from)
-        );
-    }
-    vibrobar_core::limits::check_count(
-        "--max-points",
-        a.max_points,
-        2,
-        MAX_CONTINUATION_POINTS,
-        "",
-    )?;
-    let (ratio, gap_mm) = match param {
-        ModalParam::Axis(Axis::FreqRatio) => {
-            if a.ratio.is_some() {
-                bail!("--ratio is the followed parameter: give its interval as --from, --to");
-            }
-            (
-                a.from,
-                a.gap_mm
-                    .context("--gap-mm is required unless --param gap-mm")?,
-            )
-        }
-        ModalParam::Axis(Axis::GapM) => {
-            if a.gap_mm.is_some() {
-                bail!("--gap-mm is the followed parameter: give its interval as --from, --to");
-            }
-            (
-                a.ratio
-                    .context("--ratio is required unless --param ratio")?,
-                a.from,
-            )
-        }
-        _ => (
-            a.ratio
-                .context("--ratio is required unless --param ratio")?,
-            a.gap_mm
-                .context("--gap-mm is required unless --param gap-mm")?,
-        ),
+    let followed = match param {
+        ModalParam::Axis(ax) => Some(ax),
+        ModalParam::CavityPositionM => None,
     };
+    let (ratio, gap_mm) = continued_point(a, followed)?;
     let point = super::explore::PointArgs {
         system: a.system.clone(),
         ratio,
@@ -246,26 +210,25 @@ pub fn run_continue_modal(a: &ContinueArgs) -> anyhow::Result<()> {
         max_points: a.max_points,
         switch_branches: !a.no_switch,
     };
-    let schema = continuation_schema();
     let inv = 1.0 / scale;
-    write_csv(
-        &a.out,
-        &schema,
-        b.points.iter().map(|p| modal_continuation_values(p, inv)),
-    )
-    .with_context(|| format!("writing {}", a.out.display()))?;
-    Metadata::new("continuation", &schema.header(), &params, None)
-        .write_beside(&a.out)
-        .with_context(|| format!("metadata beside {}", a.out.display()))?;
-    let dots: Vec<vibrobar_report::figures::branch::BranchDot> = b
+    let rows: Vec<_> = b
         .points
         .iter()
-        .map(|p| vibrobar_report::figures::branch::BranchDot {
-            x: p.param * inv,
-            y: p.orbit.rms_m * 1e6,
-            stable: p.orbit.stable(),
-            branch: p.branch,
-            event: p.event.map(|e| e.as_str()),
+        .map(|p| modal_continuation_values(p, inv))
+        .collect();
+    let marks: Vec<_> = b
+        .points
+        .iter()
+        .map(|p| BranchMark {
+            dot: BranchDot {
+                x: p.param * inv,
+                y: p.orbit.rms_m * 1e6,
+                stable: p.orbit.stable(),
+                branch: p.branch,
+                event: p.event.map(|e| e.as_str()),
+            },
+            period: p.orbit.section.periods,
+            max_abs_multiplier: p.orbit.max_abs_multiplier(),
         })
         .collect();
     let title = format!(
@@ -275,15 +238,7 @@ pub fn run_continue_modal(a: &ContinueArgs) -> anyhow::Result<()> {
         fmt_coord(ratio),
         fmt_coord(gap_mm)
     );
-    let files = vibrobar_report::figures::branch::branch_files(
-        &a.out.with_extension(""),
-        &vibrobar_report::figures::branch::BranchFigure {
-            title: &title,
-            x_label: &a.param,
-            points: &dots,
-        },
-    )?;
-    println!(
+    let summary = format!(
         "{} points in {:.3} s ({}-mode bar); starting orbit: settled ({} impacts per period, {})",
         b.points.len(),
         wall,
@@ -291,25 +246,14 @@ pub fn run_continue_modal(a: &ContinueArgs) -> anyhow::Result<()> {
         o.impacts_per_period,
         if o.stable() { "stable" } else { "unstable" }
     );
-    for p in b.points.iter().filter(|p| p.event.is_some()) {
-        println!(
-            "  {} at {} = {} (period {}, max |λ| = {:.6})",
-            p.event.map_or("", |e| e.as_str()),
-            a.param,
-            fmt_coord(p.param * inv),
-            p.orbit.section.periods,
-            p.orbit.max_abs_multiplier()
-        );
-    }
-    println!("  branch 0 ended: {}", b.stop_reason);
-    for (i, r) in b.switched.iter().enumerate() {
-        println!("  branch {} ended: {r}", i + 1);
-    }
-    println!("wrote {}", a.out.display());
-    for f in files {
-        println!("wrote {}", f.display());
-    }
-    Ok(())
+    let mut ends = vec![format!("branch 0 ended: {}", b.stop_reason)];
+    ends.extend(
+        b.switched
+            .iter()
+            .enumerate()
+            .map(|(i, r)| format!("branch {} ended: {r}", i + 1)),
+    );
+    write_branch(a, &params, &rows, &marks, &title, &summary, &ends)
 }
 
 /// `vibrobar bench`: the median wall time of one Newton solve of the 4-mode paper beam's
