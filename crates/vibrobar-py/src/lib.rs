@@ -1639,186 +1639,139 @@ fn continuation<'py>(
     switch_branches: bool,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use vibrobar_core::analysis::orbit::continuation::*;
+    use vibrobar_core::analysis::orbit::modal_continuation::{
+        continue_modal_orbit, ModalFamily, ModalParam,
+    };
     let sc = &scenario.inner;
-    if sc.beam.is_some() || sc.modes.is_some() {
-        return continuation_modal(
-            py,
-            sc,
-            param,
-            from_,
-            to,
-            ratio,
-            gap_m,
-            period,
-            start,
-            max_points,
-            switch_branches,
-        );
-    }
+    let modal = sc.beam.is_some() || sc.modes.is_some();
     let axis = match param {
-        "ratio" => Axis::FreqRatio,
-        "gap_m" => Axis::GapM,
-        "friction_force_n" => Axis::FrictionForceN,
-        "restitution" => Axis::Restitution,
-        _ => {
-            return Err(PyValueError::new_err(format!(
-                "param must be one of \"ratio\", \"gap_m\", \"friction_force_n\", \"restitution\", got {param:?}"
-            )))
-        }
-    };
-    check_interval(axis, from_, to).map_err(input_error)?;
-    let (ratio, gap_m) = match axis {
-        Axis::FreqRatio => (Some(from_), gap_m),
-        Axis::GapM => (ratio, Some(from_)),
-        _ => (ratio, gap_m),
-    };
-    let (_, _, mut sys) = point_system(sc, ratio, gap_m)?;
-    axis.apply(&mut sys, from_).map_err(input_error)?;
-    sys.validate().map_err(input_error)?;
-    let start = start.to_string();
-    let settings = ContinuationSettings {
-        max_points,
-        switch_branches,
-        ..Default::default()
-    };
-    let b = detached(py, None, |_| {
-        let o = start_orbit(sc, &sys, period, &start, None, None)?;
-        continue_orbit(
-            &o,
-            axis,
-            from_,
-            to,
-            &vibrobar_core::analysis::orbit::ExactJacobian,
-            &settings,
-        )
-        .map_err(run_error)
-    })?;
-    let schema = iocsv::continuation_schema();
-    let mut csv = schema.header();
-    csv.push('\n');
-    for p in &b.points {
-        csv.push_str(&schema.format(&iocsv::continuation_values(p, 1.0)));
-        csv.push('\n');
-    }
-    let d = PyDict::new(py);
-    let pts = || b.points.iter();
-    set_column(&d, "param", pts().map(|p| p.param))?;
-    set_column(&d, "rms_m", pts().map(|p| p.orbit.rms_m))?;
-    set_column(
-        &d,
-        "max_abs_multiplier",
-        pts().map(|p| p.orbit.max_abs_multiplier()),
-    )?;
-    set_column(&d, "stable", pts().map(|p| p.orbit.stable()))?;
-    set_column(
-        &d,
-        "impacts_per_period",
-        pts().map(|p| p.orbit.impacts_per_period as u64),
-    )?;
-    set_column(&d, "period", pts().map(|p| p.orbit.section.periods as u64))?;
-    let ev: Vec<&str> = b
-        .points
-        .iter()
-        .map(|p| p.event.map_or("", |e| e.as_str()))
-        .collect();
-    d.set_item("event", ev)?;
-    Ok((d, csv))
-}
-
-/// [`continuation`] on an N-mode bar (`param` also "cavity_position_m" on a `[beam]`).
-#[allow(clippy::too_many_arguments)]
-fn continuation_modal<'py>(
-    py: Python<'py>,
-    sc: &Scenario,
-    param: &str,
-    from_: f64,
-    to: f64,
-    ratio: Option<f64>,
-    gap_m: Option<f64>,
-    period: u32,
-    start: &str,
-    max_points: usize,
-    switch_branches: bool,
-) -> PyResult<(Bound<'py, PyDict>, String)> {
-    use vibrobar_core::analysis::orbit::continuation::ContinuationSettings;
-    use vibrobar_core::analysis::orbit::modal_continuation::*;
-    let mp = match param {
-        "ratio" => ModalParam::Axis(Axis::FreqRatio),
-        "gap_m" => ModalParam::Axis(Axis::GapM),
-        "friction_force_n" => ModalParam::Axis(Axis::FrictionForceN),
-        "restitution" => ModalParam::Axis(Axis::Restitution),
-        "cavity_position_m" if sc.modes.is_none() => ModalParam::CavityPositionM,
+        "ratio" => Some(Axis::FreqRatio),
+        "gap_m" => Some(Axis::GapM),
+        "friction_force_n" => Some(Axis::FrictionForceN),
+        "restitution" => Some(Axis::Restitution),
+        "cavity_position_m" if sc.beam.is_some() && sc.modes.is_none() => None,
         _ => {
             return Err(PyValueError::new_err(format!(
                 "param must be one of \"ratio\", \"gap_m\", \"friction_force_n\", \"restitution\", \"cavity_position_m\" (a [beam] only), got {param:?}"
             )))
         }
     };
-    for (name, v) in [("from_", from_), ("to", to)] {
-        if !v.is_finite() {
-            return Err(PyValueError::new_err(format!("{name} = {v} is not finite")));
-        }
-    }
-    if from_ == to {
-        return Err(PyValueError::new_err(format!(
-            "--to = from_ = {to}: the interval is empty; give two different ends"
-        )));
-    }
-    let (ratio, gap_m) = match mp {
-        ModalParam::Axis(Axis::FreqRatio) => (Some(from_), gap_m),
-        ModalParam::Axis(Axis::GapM) => (ratio, Some(from_)),
+    check_interval(axis.unwrap_or(Axis::GapM), from_, to).map_err(input_error)?;
+    let (ratio, gap_m) = match axis {
+        Some(Axis::FreqRatio) => (Some(from_), gap_m),
+        Some(Axis::GapM) => (ratio, Some(from_)),
         _ => (ratio, gap_m),
     };
-    let (_, _, sys) = point_system(sc, ratio, gap_m)?;
-    let mut fam = ModalFamily {
-        base: ModalSystem::from_system(&sys).map_err(input_error)?,
-        beam: sc.beam.clone().filter(|_| sc.modes.is_none()),
-        param: mp,
-    };
-    fam.system_at(to).map_err(run_error)?;
-    fam.base = fam.system_at(from_).map_err(run_error)?;
-    if let (ModalParam::CavityPositionM, Some(b)) = (mp, fam.beam.as_mut()) {
-        b.cavity_position_m = from_;
-    }
+    let (_, _, mut sys) = point_system(sc, ratio, gap_m)?;
     let settings = ContinuationSettings {
         max_points,
         switch_branches,
         ..Default::default()
     };
-    let b = detached(py, None, |_| {
-        let o = start_modal_orbit(sc, &fam.base, period, start, None, None)?;
-        continue_modal_orbit(&o, &fam, from_, to, &settings).map_err(run_error)
-    })?;
+    // One row per point: the CSV values and the dict's columns.
+    let rows: Vec<(Vec<Value>, BranchColumns)> = if modal {
+        let mp = axis.map_or(ModalParam::CavityPositionM, ModalParam::Axis);
+        let mut fam = ModalFamily {
+            base: ModalSystem::from_system(&sys).map_err(input_error)?,
+            beam: sc.beam.clone().filter(|_| sc.modes.is_none()),
+            param: mp,
+        };
+        fam.system_at(to).map_err(run_error)?;
+        fam.base = fam.system_at(from_).map_err(run_error)?;
+        if let (ModalParam::CavityPositionM, Some(b)) = (mp, fam.beam.as_mut()) {
+            b.cavity_position_m = from_;
+        }
+        let b = detached(py, None, |_| {
+            let o = start_modal_orbit(sc, &fam.base, period, start, None, None)?;
+            continue_modal_orbit(&o, &fam, from_, to, &settings).map_err(run_error)
+        })?;
+        b.points
+            .iter()
+            .map(|p| {
+                let o = &p.orbit;
+                let c = BranchColumns {
+                    param: p.param,
+                    rms_m: o.rms_m,
+                    max_abs_multiplier: o.max_abs_multiplier(),
+                    stable: o.stable(),
+                    impacts_per_period: o.impacts_per_period as u64,
+                    period: o.section.periods as u64,
+                    event: p.event.map_or("", |e| e.as_str()),
+                };
+                (iocsv::modal_continuation_values(p, 1.0), c)
+            })
+            .collect()
+    } else {
+        let axis = axis.ok_or_else(|| {
+            PyValueError::new_err("param \"cavity_position_m\" needs a scenario with a [beam]")
+        })?;
+        axis.apply(&mut sys, from_).map_err(input_error)?;
+        sys.validate().map_err(input_error)?;
+        let b = detached(py, None, |_| {
+            let o = start_orbit(sc, &sys, period, start, None, None)?;
+            continue_orbit(
+                &o,
+                axis,
+                from_,
+                to,
+                &vibrobar_core::analysis::orbit::ExactJacobian,
+                &settings,
+            )
+            .map_err(run_error)
+        })?;
+        b.points
+            .iter()
+            .map(|p| {
+                let o = &p.orbit;
+                let c = BranchColumns {
+                    param: p.param,
+                    rms_m: o.rms_m,
+                    max_abs_multiplier: o.max_abs_multiplier(),
+                    stable: o.stable(),
+                    impacts_per_period: o.impacts_per_period as u64,
+                    period: o.section.periods as u64,
+                    event: p.event.map_or("", |e| e.as_str()),
+                };
+                (iocsv::continuation_values(p, 1.0), c)
+            })
+            .collect()
+    };
     let schema = iocsv::continuation_schema();
     let mut csv = schema.header();
     csv.push('\n');
-    for p in &b.points {
-        csv.push_str(&schema.format(&iocsv::modal_continuation_values(p, 1.0)));
+    for (v, _) in &rows {
+        csv.push_str(&schema.format(v));
         csv.push('\n');
     }
     let d = PyDict::new(py);
-    let pts = || b.points.iter();
+    let pts = || rows.iter().map(|(_, c)| c);
     set_column(&d, "param", pts().map(|p| p.param))?;
-    set_column(&d, "rms_m", pts().map(|p| p.orbit.rms_m))?;
+    set_column(&d, "rms_m", pts().map(|p| p.rms_m))?;
     set_column(
         &d,
         "max_abs_multiplier",
-        pts().map(|p| p.orbit.max_abs_multiplier()),
+        pts().map(|p| p.max_abs_multiplier),
     )?;
-    set_column(&d, "stable", pts().map(|p| p.orbit.stable()))?;
+    set_column(&d, "stable", pts().map(|p| p.stable))?;
     set_column(
         &d,
         "impacts_per_period",
-        pts().map(|p| p.orbit.impacts_per_period as u64),
+        pts().map(|p| p.impacts_per_period),
     )?;
-    set_column(&d, "period", pts().map(|p| p.orbit.section.periods as u64))?;
-    let ev: Vec<&str> = b
-        .points
-        .iter()
-        .map(|p| p.event.map_or("", |e| e.as_str()))
-        .collect();
-    d.set_item("event", ev)?;
+    set_column(&d, "period", pts().map(|p| p.period))?;
+    d.set_item("event", pts().map(|p| p.event).collect::<Vec<_>>())?;
     Ok((d, csv))
+}
+
+/// The dict columns of one continuation point (lumped or N-mode).
+struct BranchColumns {
+    param: f64,
+    rms_m: f64,
+    max_abs_multiplier: f64,
+    stable: bool,
+    impacts_per_period: u64,
+    period: u64,
+    event: &'static str,
 }
 
 /// Two-parameter curve in (ratio, gap) of a `kind` point ("fold", "period-doubling", "torus",
