@@ -72,7 +72,8 @@
 //! surface quadratic, piece by piece (it stops at every piece end and breakpoint and resumes), the
 //! tool leaving or re-entering the cut located on its dense output and stored as every cut event
 //! is; its accuracy is the contact phase's (rtol 1e-9) on top of the pieces'. A modal bar goes to
-//! [`super::modal::cutting`] (the linear law, the restitution contact law; [`Solver::run`]
+//! [`super::modal::cutting`] (both force laws, the three-quarter law by the same remainder fit,
+//! [`fit_remainder`], with or without a ball; the restitution contact law; [`Solver::run`]
 //! only).
 
 use super::{
