@@ -72,8 +72,9 @@
 //! surface quadratic, piece by piece (it stops at every piece end and breakpoint and resumes), the
 //! tool leaving or re-entering the cut located on its dense output and stored as every cut event
 //! is; its accuracy is the contact phase's (rtol 1e-9) on top of the pieces'. A modal bar goes to
-//! [`super::modal::cutting`] (the linear law, the restitution contact law; [`Solver::run`]
-//! only).
+//! [`super::modal::cutting`] (both force laws, the three-quarter law by the same remainder fit,
+//! [`fit_remainder`], with or without a ball; the restitution contact law; kept and continued
+//! as here, [`CutContinuation`] carrying the modal state).
 
 use super::{
     advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, Tail, CUT,
@@ -449,6 +450,54 @@ impl History {
     pub(super) fn is_full(&self) -> bool {
         self.full
     }
+
+    /// The history a run continued from `c` starts with (its knots and breakpoints, a ring of
+    /// at least `cap`), `t0` (the continued run's start, where the cut changes) a breakpoint.
+    /// `None` when `c`'s delay or surface advance is not `tau`'s and `shift`'s.
+    pub(super) fn resumed(
+        c: &CutContinuation,
+        cap: usize,
+        tau: f64,
+        shift: f64,
+        t0: f64,
+    ) -> Option<History> {
+        if c.tau.to_bits() != tau.to_bits() || c.shift.to_bits() != shift.to_bits() {
+            return None;
+        }
+        let cap = cap.max(c.knots.len().max(c.bp.len()) + MAX_EVENT_KNOTS);
+        let mut h = History::new(cap, c.in_cut, tau, shift);
+        h.k.extend(c.knots.iter().copied());
+        h.bp.extend(c.bp.iter().copied());
+        h.breakpoint(t0);
+        Some(h)
+    }
+
+    /// Where a modal run ended, to continue it: this history, the public and the modal state,
+    /// whether the tool cuts.
+    pub(super) fn into_continuation(
+        self,
+        state: State,
+        modal: crate::structure::ModalState,
+        in_cut: bool,
+    ) -> CutContinuation {
+        CutContinuation {
+            state,
+            tau: self.tau,
+            shift: self.shift,
+            knots: self.k,
+            bp: self.bp,
+            in_cut,
+            contact: None,
+            modal: Some(modal),
+        }
+    }
+}
+
+impl CutContinuation {
+    /// The modal state at the end of a run on a modal bar.
+    pub(super) fn modal_state(&self) -> Option<&crate::structure::ModalState> {
+        self.modal.as_ref()
+    }
 }
 
 /// The observer between the event loop and the caller's: stores the surface history at every
@@ -749,13 +798,11 @@ fn remainder_fit(
         cut.force_on_bar_n(h) - cp.kfb * h
     };
     let r0 = rem(0.0, s.u);
-    let mut r = [r0, 0.0, 0.0];
     let scale = REMAINDER_TOL * (cp.kfb * cp.h0).abs();
-    let mut len = t_stop - s.t;
-    for _ in 0..REMAINDER_MAX_ITERATIONS {
+    fit_remainder(r0, scale, t_stop - s.t, |r, len| {
         let mut c = *cs;
         if let Some(p) = c.cut.as_mut() {
-            p.r = Some(r);
+            p.r = Some(*r);
         }
         let mut probe = Probe {
             nodes: [s.t, s.t + 0.5 * len, s.t + len],
@@ -773,9 +820,27 @@ fn remainder_fit(
         };
         let mut st = *s;
         advance(&c, mode, &mut st, t_stop, &mut dry, search)?;
-        let end = st.t - s.t;
         let [_, um, u1] = probe.u;
-        let (rm, r1) = (rem(0.5 * len, um), rem(len, u1));
+        Ok((st.t - s.t, rem(0.5 * len, um), rem(len, u1)))
+    })
+}
+
+/// The fixed-point iteration of the three-quarter law's remainder fit over one piece, shared
+/// by the lumped bar ([`remainder_fit`]) and the modal bar ([`super::modal::cutting`]): from
+/// `R` constant at its start value `r0`, `dry(fit, len)` runs the piece with `fit` (a dry run:
+/// no events counted, no observer) and returns the length it reached and `R` at `len/2` and
+/// `len` along it; the next fit is the quadratic through `r0` and those values. It stops when
+/// the fit moves by at most `scale` at the nodes and the piece's end settles, or after
+/// [`REMAINDER_MAX_ITERATIONS`] dry runs (keeping the last fit).
+pub(super) fn fit_remainder(
+    r0: f64,
+    scale: f64,
+    mut len: f64,
+    mut dry: impl FnMut(&[f64; 3], f64) -> Result<(f64, f64, f64), SimError>,
+) -> Result<[f64; 3], SimError> {
+    let mut r = [r0, 0.0, 0.0];
+    for _ in 0..REMAINDER_MAX_ITERATIONS {
+        let (end, rm, r1) = dry(&r, len)?;
         let mut next = [r0, 0.0, 0.0];
         if len > 0.0 {
             next[2] = 2.0 * (r1 - 2.0 * rm + r0) / (len * len);
@@ -797,6 +862,11 @@ fn remainder_fit(
     Ok(r)
 }
 
+/// The error of a continued run whose cut changes the surface history's delay or advance.
+pub(super) const CONTINUE_MISMATCH: &str =
+    "continuing a cutting run: [cutting] spindle_rpm, feed_m and chip_direction_factor must be \
+     the continued run's (its surface history's delay and advance)";
+
 /// Where a cutting run ended: its final state, the machined surface over the last revolution
 /// and the pending breakpoints, so that a run can go on from it with another cut (e.g. another
 /// width: chatter grown at one width, then the width lowered).
@@ -810,6 +880,8 @@ pub struct CutContinuation {
     shift: f64,
     /// A `hertz` contact phase under way at the end (its integrator state and wall).
     contact: Option<(super::cutting_hertz::Phase, crate::solver::Wall)>,
+    /// The modal state at the end of a run on a modal bar (`None` on the lumped bar).
+    modal: Option<crate::structure::ModalState>,
 }
 
 impl CutContinuation {
@@ -833,7 +905,25 @@ impl ExactCutting {
         t_end_s: f64,
         obs: &mut dyn Observer,
     ) -> Result<(RunSummary, CutContinuation), SimError> {
+        if let BarModel::Modal(model) = &sys.bar {
+            let msys = crate::structure::ModalSystem::from_system(sys)?;
+            let minit = crate::structure::ModalState::from_public(model, init)?;
+            let (r, c) = self.modal().run_keeping(&msys, &minit, t_end_s, obs)?;
+            return Ok((r.summary, c));
+        }
         self.drive(sys, init, None, t_end_s, obs)
+    }
+
+    /// The modal cutting solver with this solver's settings.
+    fn modal(&self) -> super::modal::cutting::ModalCutting {
+        super::modal::cutting::ModalCutting {
+            exact: super::modal::ModalExact {
+                max_events: self.exact.max_events,
+                check_invariants: self.exact.check_invariants,
+            },
+            cutting: self.cutting,
+            steps_per_period: self.steps_per_period,
+        }
     }
 
     /// Go on from `from` (the end of an earlier run of the same system) up to `t_end_s` with
@@ -848,7 +938,18 @@ impl ExactCutting {
         t_end_s: f64,
         obs: &mut dyn Observer,
     ) -> Result<(RunSummary, CutContinuation), SimError> {
-        self.drive(sys, &from.state, Some(from), t_end_s, obs)
+        match (&sys.bar, from.modal.is_some()) {
+            (BarModel::Lumped(_), false) => self.drive(sys, &from.state, Some(from), t_end_s, obs),
+            (BarModel::Modal(_), true) => {
+                let msys = crate::structure::ModalSystem::from_system(sys)?;
+                let (r, c) = self.modal().continue_run(&msys, from, t_end_s, obs)?;
+                Ok((r.summary, c))
+            }
+            _ => Err(SimError::Unsupported(
+                "continuing a cutting run: the bar ([bar], or [beam]/[[modes]]) must be the \
+                 continued run's",
+            )),
+        }
     }
 
     fn drive(
@@ -860,14 +961,15 @@ impl ExactCutting {
         obs: &mut dyn Observer,
     ) -> Result<(RunSummary, CutContinuation), SimError> {
         let cut = &self.cutting;
-        let bar =
-            match &sys.bar {
-                BarModel::Lumped(b) => *b,
-                BarModel::Modal(_) => return Err(SimError::Unsupported(
-                    "[cutting] on a modal bar ([beam], [[modes]]) runs through Solver::run only; \
-                     keeping and continuing a cutting run is the lumped [bar]'s only so far",
-                )),
-            };
+        let bar = match &sys.bar {
+            BarModel::Lumped(b) => *b,
+            BarModel::Modal(_) => {
+                return Err(SimError::Unsupported(
+                    "[cutting] on a modal bar ([beam], [[modes]]) runs through \
+                     solver::exact::modal::cutting",
+                ))
+            }
+        };
         cut.validate()?;
         let nonlinear = cut.force_law == CuttingForceLaw::ThreeQuarter;
         crate::limits::check(
@@ -945,11 +1047,7 @@ impl ExactCutting {
         let mut cap = cap;
         if let Some(c) = from {
             if c.tau.to_bits() != tau.to_bits() || c.shift.to_bits() != shift.to_bits() {
-                return Err(SimError::Unsupported(
-                    "continuing a cutting run: [cutting] spindle_rpm, feed_m and \
-                     chip_direction_factor must be the continued run's (its surface history's \
-                     delay and advance)",
-                ));
+                return Err(SimError::Unsupported(CONTINUE_MISMATCH));
             }
             in_cut0 = c.in_cut;
             cap = cap.max(c.knots.len().max(c.bp.len()) + MAX_EVENT_KNOTS);
@@ -1186,6 +1284,7 @@ impl ExactCutting {
                 (Md::HertzTouch(wall), Some(p)) => Some((p, wall)),
                 _ => None,
             },
+            modal: None,
         };
         Ok((summary, end))
     }
