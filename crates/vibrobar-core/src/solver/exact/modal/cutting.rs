@@ -49,8 +49,11 @@
 //! `tests/modal_cutting.rs`, `modal_cutting_convergence_order`). A one-mode `[[modes]]` table is
 //! the lumped cutting run (to 1e-9 relative, test `one_mode_table_is_the_lumped_cutting_run`).
 //!
-//! Scope: the linear force law and the restitution contact law; the three-quarter law and the
-//! `hertz` contact on a modal bar are refused with an error that names the field.
+//! Under `[contact] law = "hertz"` a wall touch starts the compliant contact phase of
+//! [`cutting_hertz`] (DP5 on the modes and the ball with the cut's force, piece by piece).
+//!
+//! Scope: the linear force law; the three-quarter law on a modal bar is refused with an error
+//! that names the field.
 
 // The loops run over parallel per-mode and per-pair arrays (shapes, eigenpairs, coefficients).
 #![allow(clippy::needless_range_loop)]
@@ -61,9 +64,13 @@ use super::super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::super::CONFINEMENT_TOL_M;
 use super::{after_wall_free, free_departing, wall_of, Md, ModalExact};
 
-/// The ball modes and their helpers are the modal solver's ([`super`]); its `HertzTouch` never
-/// occurs here because a modal cutting run refuses `[contact] law = hertz` before it starts.
-const HERTZ_REFUSED: &str = "a modal cutting run refuses the hertz law before it starts";
+/// The ball modes and their helpers are the modal solver's ([`super`]); a `HertzTouch` runs as
+/// the contact phase of [`cutting_hertz`], never as a closed-form segment.
+const HERTZ_REFUSED: &str =
+    "a hertz contact phase runs in cutting_hertz, not as a closed-form segment";
+
+#[path = "cutting_hertz.rs"]
+mod cutting_hertz;
 use crate::damper::friction::{can_stick, holding_capacity_n, sgn0, sliding_friction_on_ball_n};
 use crate::damper::impact::{modal_impact, modal_inverse_effective_mass_per_kg};
 use crate::error::{EventLimitCause, SimError};
@@ -145,6 +152,8 @@ struct Consts {
     tol_t: f64,
     chatter_h: f64,
     chatter_t: f64,
+    /// The compliant law, when `contact.law = hertz` (wall touches start a contact phase).
+    hertz: Option<crate::damper::contact::Hertz>,
 }
 
 impl Consts {
@@ -764,6 +773,9 @@ struct Run<'h> {
 
 const CHIP: u8 = 10;
 
+const HISTORY_FULL: &str = "a cutting run had more events within one spindle revolution than \
+                            its surface history holds (solver::exact::cutting::MAX_EVENT_KNOTS)";
+
 /// How a segment ended.
 enum End {
     /// At its planned end.
@@ -1120,15 +1132,7 @@ impl ModalCutting {
             .map(|(m, q)| m.shape_cavity * q)
             .sum();
         start.v_m += u_d_eq;
-        crate::solver::validate_modal_run(
-            sys,
-            &start,
-            t_end_s,
-            Some(
-                "[cutting] on a modal bar runs with the restitution contact law only; \
-                 [contact] law = hertz with a cut is not supported yet",
-            ),
-        )?;
+        crate::solver::validate_modal_run(sys, &start, t_end_s, None)?;
         let modes = sys.model.modes();
         let n = modes.len();
         let (md, lg, e, model) = match &sys.damper {
@@ -1180,6 +1184,10 @@ impl ModalCutting {
             tol_t: 0.0,
             chatter_h: 1e-10 * lg,
             chatter_t: 1e-9 * 2.0 * std::f64::consts::PI / om,
+            hertz: sys
+                .damper
+                .filter(|d| d.contact.law == crate::params::ContactLaw::Hertz)
+                .map(|d| crate::damper::contact::Hertz::of_damper(&d)),
         };
         for (i, mode) in modes.iter().enumerate() {
             let (m, k) = (mode.modal_mass_kg, mode.modal_stiffness_n_per_m());
@@ -1258,6 +1266,8 @@ impl ModalCutting {
         };
         let mut chip_order = 0;
         let mut win_prev: Option<(u64, f64)> = None;
+        // A `hertz` contact phase carried over a piece end or a cut event.
+        let mut phase: Option<cutting_hertz::Phase> = None;
         while s.t < t_end_s {
             let (step_end, win_end) = {
                 let h = &mut *run.hist;
@@ -1276,14 +1286,41 @@ impl ModalCutting {
                     _ => s.t - tau,
                 };
                 let d = run.hist.window_quadratic(a, win_end.max(a));
+                if let (Md::HertzTouch(wall), Some(law)) = (mode, run.cs.hertz) {
+                    // A compliant contact phase over this piece ([`cutting_hertz`]).
+                    let pe = cutting_hertz::contact_piece(
+                        &mut run,
+                        &law,
+                        cut,
+                        wall.sign(),
+                        &mut phase,
+                        &mut s,
+                        step_end,
+                        in_cut,
+                        d,
+                        chip_order,
+                        &mut book,
+                    )?;
+                    mode = pe.mode;
+                    if run.hist.is_full() {
+                        return Err(SimError::Unsupported(HISTORY_FULL));
+                    }
+                    chip_order = 0;
+                    if pe.cut_event {
+                        in_cut = !in_cut;
+                        chip_order = 1;
+                        run.hist.add_breakpoint(s.t);
+                        let du = run.cs.dot(&run.cs.phi_f, &s.dq);
+                        run.hist.cut_event_slope_after(s.t, in_cut, du);
+                        book.count(s.t, t0, tau)?;
+                    }
+                    continue;
+                }
                 let end = run.segment(
                     mode, !has_ball, in_cut, d, chip_order, &mut s, step_end, &mut book,
                 )?;
                 if run.hist.is_full() {
-                    return Err(SimError::Unsupported(
-                        "a cutting run had more events within one spindle revolution than its \
-                         surface history holds (solver::exact::cutting::MAX_EVENT_KNOTS)",
-                    ));
+                    return Err(SimError::Unsupported(HISTORY_FULL));
                 }
                 chip_order = 0;
                 match end {
@@ -1386,6 +1423,10 @@ fn contact_test(run: &Run, sw: f64, s: &St, in_cut: bool, d0: f64) -> Md {
     let ddu_pair = run.a_b(s, in_cut, d0) / (cs.md * cs.kappa);
     let hold = holding_capacity_n(cs.model, cs.fl);
     if sw * cs.md * ddu_pair <= hold {
+        if cs.hertz.is_some() {
+            // Pressed on the wall: a resting compliant contact.
+            return Md::HertzTouch(wall_of(sw));
+        }
         Md::Contact(wall_of(sw))
     } else {
         free_departing(-sw, Some(wall_of(sw)))
@@ -1453,6 +1494,10 @@ fn impact(
     s.w = sw * cs.lg;
     let dw = if sw * s.dw > 0.0 { s.dw } else { 0.0 };
     s.dw = dw;
+    if cs.hertz.is_some() {
+        // A touch: the compliant contact phase follows ([`cutting_hertz`]).
+        return Ok(Md::HertzTouch(wall_of(sw)));
+    }
     let before = *s;
     let mut dv = dw + cs.dot(&cs.phi_d, &s.dq);
     let law = modal_impact(
@@ -1596,6 +1641,7 @@ mod tests {
             tol_t: 0.0,
             chatter_h: 0.0,
             chatter_t: 0.0,
+            hertz: None,
         };
         c.m[0] = 1.0;
         c.k[0] = 1.0;
