@@ -722,8 +722,10 @@ fn modal_cutting_bad_input_names_the_field() {
     if let Some(d) = hz.damper.as_mut() {
         d.contact.law = ContactLaw::Hertz;
     }
-    let m = msg(ExactCutting::new(cut(1e-4, 5000.0)), &hz);
-    assert!(m.contains("hertz") && m.contains("[contact]"), "{m}");
+    // The hertz law runs with a cut (tests/modal_cutting_hertz.rs).
+    assert!(ExactCutting::new(cut(1e-4, 5000.0))
+        .run(&hz, &State::default(), 0.01, &mut ())
+        .is_ok());
     // The continuation of a cutting run is the lumped bar's only.
     let e = ExactCutting::new(cut(1e-4, 5000.0))
         .run_keeping(&s, &State::default(), 0.01, &mut ())

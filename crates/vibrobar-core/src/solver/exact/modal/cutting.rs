@@ -71,6 +71,7 @@ const HERTZ_REFUSED: &str =
 
 #[path = "cutting_hertz.rs"]
 mod cutting_hertz;
+use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::friction::{can_stick, holding_capacity_n, sgn0, sliding_friction_on_ball_n};
 use crate::damper::impact::{modal_impact, modal_inverse_effective_mass_per_kg};
 use crate::error::{EventLimitCause, SimError};
@@ -154,6 +155,8 @@ struct Consts {
     chatter_t: f64,
     /// The compliant law, when `contact.law = hertz` (wall touches start a contact phase).
     hertz: Option<crate::damper::contact::Hertz>,
+    /// The contact phase's DP5 relative tolerance.
+    contact_rtol: f64,
 }
 
 impl Consts {
@@ -1104,6 +1107,27 @@ impl ModalCutting {
         t_end_s: f64,
         obs: &mut dyn Observer,
     ) -> Result<ModalRunSummary, SimError> {
+        self.run_with_contact_rtol(sys, init, t_end_s, CONTACT_RTOL, obs)
+    }
+
+    /// [`ModalCutting::run`] with the `hertz` contact phase's DP5 relative tolerance `rtol`
+    /// (in [1e-13, 1e-3]) in place of [`CONTACT_RTOL`]: for measuring the run's convergence
+    /// with it.
+    pub fn run_with_contact_rtol(
+        &self,
+        sys: &ModalSystem,
+        init: &ModalState,
+        t_end_s: f64,
+        rtol: f64,
+        obs: &mut dyn Observer,
+    ) -> Result<ModalRunSummary, SimError> {
+        crate::limits::check(
+            "contact phase relative tolerance (rtol)",
+            rtol,
+            1e-13,
+            1e-3,
+            "",
+        )?;
         let cut = &self.cutting;
         cut.validate()?;
         if cut.force_law != CuttingForceLaw::Linear {
@@ -1188,6 +1212,7 @@ impl ModalCutting {
                 .damper
                 .filter(|d| d.contact.law == crate::params::ContactLaw::Hertz)
                 .map(|d| crate::damper::contact::Hertz::of_damper(&d)),
+            contact_rtol: rtol,
         };
         for (i, mode) in modes.iter().enumerate() {
             let (m, k) = (mode.modal_mass_kg, mode.modal_stiffness_n_per_m());
@@ -1642,6 +1667,7 @@ mod tests {
             chatter_h: 0.0,
             chatter_t: 0.0,
             hertz: None,
+            contact_rtol: 0.0,
         };
         c.m[0] = 1.0;
         c.k[0] = 1.0;

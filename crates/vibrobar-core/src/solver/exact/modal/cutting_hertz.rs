@@ -3,7 +3,7 @@
 //! point, run piece by piece as the lumped bar's ([`crate::solver::exact::cutting_hertz`]).
 //!
 //! During the contact the state `[q₁…q_N, q̇₁…q̇_N, δ, δ̇, W_c]` is integrated by [`Dopri5`]
-//! (relative tolerance [`CONTACT_RTOL`], the scales of the modal phase) with
+//! (relative tolerance `CONTACT_RTOL`, or the run's own for a convergence study, the scales of the modal phase) with
 //!
 //! `mₙq̈ₙ + cₙq̇ₙ + kₙqₙ = φₙ(x_f)(F(t) + F_cut) + φₙ(x_d)(s P − F_ball)`,  `m_d v̈ = −s P + F_ball`,
 //!
@@ -27,7 +27,6 @@
 use super::super::hertz::{PhaseBar, NY, Y};
 use super::super::{wall_of, Md};
 use super::{energy_j, Book, Consts, Run, St, GL8, NM};
-use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
 use crate::damper::friction::can_stick;
 use crate::error::SimError;
@@ -303,18 +302,19 @@ pub(super) fn contact_piece(
         });
     }
     let v0 = ph.v0;
+    let rtol = cs.contact_rtol;
     let d_scale = law.with_damping(0.0).max_penetration_m(meff, v0);
     let v_scale = v0.max(cs.lg * cs.om);
     let mut atol = [0.0; NY];
     for i in 0..n {
-        atol[i] = CONTACT_RTOL * cs.lg;
-        atol[n + i] = CONTACT_RTOL * v_scale;
+        atol[i] = rtol * cs.lg;
+        atol[n + i] = rtol * v_scale;
     }
-    atol[id] = CONTACT_RTOL * d_scale;
-    atol[idd] = CONTACT_RTOL * v_scale;
-    atol[iw] = CONTACT_RTOL * 0.5 * meff * v_scale * v_scale;
+    atol[id] = rtol * d_scale;
+    atol[idd] = rtol * v_scale;
+    atol[iw] = rtol * 0.5 * meff * v_scale * v_scale;
     let ig = Dopri5::<NY> {
-        rtol: CONTACT_RTOL,
+        rtol,
         atol,
         len: 2 * n + 3,
     };
