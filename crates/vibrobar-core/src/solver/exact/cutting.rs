@@ -72,8 +72,7 @@
 //! surface quadratic, piece by piece (it stops at every piece end and breakpoint and resumes), the
 //! tool leaving or re-entering the cut located on its dense output and stored as every cut event
 //! is; its accuracy is the contact phase's (rtol 1e-9) on top of the pieces'. A modal bar goes to
-//! [`super::modal::cutting`] (the linear law, the restitution contact law; [`Solver::run`]
-//! only).
+//! [`super::modal::cutting`] (the linear law, both contact laws; [`Solver::run`] only).
 
 use super::{
     advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, Tail, CUT,
