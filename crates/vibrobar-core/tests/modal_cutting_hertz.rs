@@ -15,7 +15,7 @@ use vibrobar_core::params::{
 use vibrobar_core::solver::exact::cutting::ExactCutting;
 use vibrobar_core::solver::exact::modal::cutting::ModalCutting;
 use vibrobar_core::solver::{Event, EventKind, Fanout, Mode, Observer, Segment, Solver};
-use vibrobar_core::structure::{Beam, ModalModel, ModalState, ModalSystem, Point, Structure};
+use vibrobar_core::structure::{Beam, ModalState, ModalSystem, Point, Structure};
 
 const F_HZ: f64 = 600.0;
 const K: f64 = 2.2e6;
