@@ -157,3 +157,22 @@ def test_modal_cutting_run_is_the_cli_run(cli, tmp_path, text):
     e = r.energy
     scale = sum(abs(e[k]) for k in ["viscous_loss_j", "impact_loss_j", "cutting_work_j"])
     assert abs(e["residual_j"]) < 1e-9 * scale
+
+
+def test_beam_cutting_run_with_the_hertz_law_is_the_cli_run(cli, tmp_path):
+    """A cutting run on a [beam] with the compliant contact law ([contact] law = "hertz"; issue
+    #13): accepted, the same numbers as `vibrobar run` bit for bit, the ball inside a wall at some
+    samples (the compliant contact), the tool leaving the cut."""
+    text = BEAM_CUT.replace("[cutting]", '[contact]\nlaw = "hertz"\n\n[cutting]')
+    path = tmp_path / "cut.toml"
+    path.write_text(text)
+    out = tmp_path / "run.npy"
+    cli("run", "--scenario", path, "--sample-every", "1", "--out", out)
+    h = np.load(out)
+    r = vibrobar.run(vibrobar.Scenario.from_toml_str(text), sample_every=1)
+    assert list(r.history.keys()) == COLS
+    for j, c in enumerate(COLS):
+        assert np.array_equal(h[:, j], np.asarray(r.history[c], dtype=float)), c
+    assert r.impacts > 0
+    assert set(np.unique(r.in_cut)) == {0, 1}
+    assert np.max(np.abs(np.asarray(r.history["w_m"], dtype=float))) > 1e-5

@@ -52,3 +52,88 @@ fn run_takes_a_cut_with_the_hertz_contact_law() {
         "{meta}"
     );
 }
+
+/// A `[beam]` (modal bar) with the hertz law and a cut: the section is accepted by `run`,
+/// `lobes --time-domain`, `width-diagram` and `lobe-design` (issue #13: the modal cutting run's
+/// contact phase), `run` writing the cutting columns with the ball inside a wall at some samples.
+const BEAM_HERTZ: &str = "[beam]\nmodes = 2\n[damper]\ngap_m = 2e-5\nball_mass_kg = 0.01\n\
+                          [contact]\nlaw = \"hertz\"\n\
+                          [cutting]\ncoefficient_n_m2 = 2e9\nwidth_m = 5e-4\nfeed_m = 1e-4\n\
+                          spindle_rpm = 20000\n[initial]\nu_m = 1.5e-4\n\
+                          [time_domain]\nsettle_revs = 10\njudge_revs = 20\nmonotonic_checks = 0\n\
+                          [run]\nduration_s = 0.02\ndt_s = 1e-5\n";
+
+#[test]
+fn a_beam_with_the_hertz_law_takes_a_cut_in_every_cutting_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fs::write(d.join("b.toml"), BEAM_HERTZ).unwrap();
+    let o = vibrobar_in(d, &["run", "--scenario", "b.toml", "--out", "h.csv"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = fs::read_to_string(d.join("h.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let ncol = text.lines().next().unwrap().split(',').count();
+    let w = text
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|c| c == "w_m")
+        .unwrap();
+    let in_cut = ncol - 2;
+    assert!(rows.len() > 150);
+    assert!(rows.iter().any(|r| r[in_cut] == 0.0) && rows.iter().any(|r| r[in_cut] == 1.0));
+    assert!(rows.iter().all(|r| r.iter().all(|x| x.is_finite())));
+    let deepest = rows
+        .iter()
+        .map(|r| r[w].abs() - 1e-5)
+        .fold(f64::MIN, f64::max);
+    assert!(deepest > 1e-9 && deepest < 1e-5, "{deepest}");
+    for a in [
+        &[
+            "lobes",
+            "--time-domain",
+            "--scenario",
+            "b.toml",
+            "--rpm",
+            "20000:20000:1",
+            "--no-figure",
+            "--out",
+            "t.csv",
+        ][..],
+        &[
+            "width-diagram",
+            "--scenario",
+            "b.toml",
+            "--rpm",
+            "20000",
+            "--widths-mm",
+            "0.5:0.5:0.1",
+            "--no-figure",
+            "--out",
+            "w.csv",
+        ][..],
+        &[
+            "lobe-design",
+            "--scenario",
+            "b.toml",
+            "--rpm",
+            "20000:20000:1",
+            "--gaps-mm",
+            "0.02:0.02:0.1",
+            "--ball-masses-g",
+            "10:10:1",
+            "--no-figure",
+            "--out",
+            "l.csv",
+        ][..],
+    ] {
+        let o = vibrobar_in(d, a);
+        assert!(o.status.success(), "{}: {}", a[0], stderr(&o));
+        assert!(d.join(a[a.len() - 1]).exists(), "{}", a[0]);
+    }
+}

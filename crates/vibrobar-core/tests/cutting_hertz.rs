@@ -1,7 +1,7 @@
 //! The compliant (`hertz`) contact law on a cutting run of the lumped bar (issue #13): against an
 //! independent fixed-step RK4 of bar + ball + Hertz contact + cut with its own history of the
 //! delay, the stiff-contact limit (the restitution law's run), the energy books, the penetration,
-//! the tool leaving the cut inside a contact phase, friction, and the modal bar's refusal.
+//! the tool leaving the cut inside a contact phase, friction, and the modal bar's run.
 
 use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
 use vibrobar_core::damper::contact::Hertz;
@@ -544,19 +544,24 @@ fn energy_books_close_with_the_cutting_work_and_penetration_is_bounded() {
     assert!((1.0..1.25).contains(&ratio), "{ratio}");
 }
 
-/// The modal bar stays refused on a cutting run, with the hertz law too, with an error that
-/// says so (not a run of another model).
+/// The modal bar ([`System::modal_model`] of this bar) runs a cutting run with the hertz law
+/// too (issue #13: the contact phase of `modal::cutting_hertz`, tested in
+/// `tests/modal_cutting_hertz.rs`) and keeps its contacts: the same run as the lumped bar's.
 #[test]
-fn a_modal_bar_with_the_hertz_law_and_a_cut_is_refused() {
-    let mut s = sys(ball(FrictionModel::None, None, hertz(1.0)));
-    s.bar = BarModel::Modal(s.modal_model());
+fn a_modal_bar_with_the_hertz_law_and_a_cut_runs() {
+    let s = sys(ball(FrictionModel::None, None, hertz(1.0)));
+    let mut m = s;
+    m.bar = BarModel::Modal(s.modal_model());
     let c = cut(CuttingForceLaw::Linear, 0.5);
-    match ExactCutting::new(c).run(&s, &kick(0.1), 1e-3, &mut ()) {
-        Err(vibrobar_core::SimError::Unsupported(m)) => {
-            assert!(m.contains("modal") || m.contains("hertz"), "{m}")
-        }
-        other => panic!("{other:?}"),
-    }
+    let (mut a, mut b) = (Contacts::default(), Contacts::default());
+    ExactCutting::new(c)
+        .run(&s, &kick(1.5), 5e-3, &mut a)
+        .unwrap();
+    ExactCutting::new(c)
+        .run(&m, &kick(1.5), 5e-3, &mut b)
+        .unwrap();
+    assert!(a.n >= 5, "{}", a.n);
+    assert_eq!(a.n, b.n);
 }
 
 /// A run stopped inside a contact phase and continued ([`ExactCutting::continue_run`]) goes on

@@ -421,13 +421,15 @@ fn render(
         d,
         "The N-mode beam under both laws, and whether each converges with the number of modes: \
          `docs/contact-convergence.md` (`vibrobar contact-convergence`).\n\nOn a cutting run \
-         (`[cutting]`, issue #13) the `hertz` law works on the lumped bar as on a harmonic run: \
-         the contact phase carries the cutting force (the delayed surface of the current piece), \
+         (`[cutting]`, issue #13) the `hertz` law works on every bar (lumped, `[beam]`, \
+         `[[modes]]`) as on a harmonic run: the contact phase carries the cutting force (the delayed surface of the current piece), \
          stops at every piece end and breakpoint of the delay stepping, and locates the tool \
          leaving or re-entering the cut on its dense output. A stiffer contact with the same \
          restitution approaches the restitution law's cutting run, the difference falling as \
          K_h^(-2/5), like the penetration and the contact time (test \
-         `a_stiff_contact_approaches_the_restitution_run`).\n\nTotal wall time \
+         `a_stiff_contact_approaches_the_restitution_run`); a one-mode `[[modes]]` table is \
+         the lumped run, contact for contact (test \
+         `one_mode_table_is_the_lumped_cutting_hertz_run`).\n\nTotal wall time \
          {wall_s:.1} s."
     )?;
     Ok(d)

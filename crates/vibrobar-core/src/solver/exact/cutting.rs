@@ -73,8 +73,9 @@
 //! tool leaving or re-entering the cut located on its dense output and stored as every cut event
 //! is; its accuracy is the contact phase's (rtol 1e-9) on top of the pieces'. A modal bar goes to
 //! [`super::modal::cutting`] (both force laws, the three-quarter law by the same remainder fit,
-//! [`fit_remainder`], with or without a ball; the restitution contact law; kept and continued
-//! as here, [`CutContinuation`] carrying the modal state).
+//! [`fit_remainder`], with or without a ball; both contact laws, `hertz` through
+//! [`super::modal::cutting_hertz`]; kept and continued as here, [`CutContinuation`] carrying the
+//! modal state).
 
 use super::{
     advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, Tail, CUT,

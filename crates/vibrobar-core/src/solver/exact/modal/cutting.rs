@@ -61,14 +61,17 @@
 //! of reach through loss of contact); on the 4-mode paper beam the order is 3.99 in the cut and
 //! 1.98 through loss of contact (where `R ∝ h^{3/4}` has an unbounded slope).
 //!
+//! Under `[contact] law = "hertz"` a wall touch starts the compliant contact phase of
+//! [`cutting_hertz`] (DP5 on the modes and the ball with the cut's force, piece by piece).
+//!
 //! A run can be kept and continued ([`ModalCutting::run_keeping`], [`ModalCutting::continue_run`],
 //! the same [`CutContinuation`] as the lumped bar's with the modal state): the history and the
 //! state carry over, the ball's mode is found again from the state (a continued run is the
 //! uninterrupted one to 1e-17 m without a ball, 7e-11 m of 3e-4 m with 2767 impacts; test
 //! `a_continued_modal_run_is_the_uninterrupted_run`).
 //!
-//! Scope: both force laws and the restitution contact law; the `hertz` contact on a modal bar
-//! is refused with an error that names the field.
+//! Scope: both force laws, both contact laws; continuing a run under the `hertz` law (which may
+//! end inside a contact phase) is the lumped bar's only, refused here with an error that says so.
 
 // The loops run over parallel per-mode and per-pair arrays (shapes, eigenpairs, coefficients).
 #![allow(clippy::needless_range_loop)]
@@ -82,9 +85,14 @@ use super::super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::super::CONFINEMENT_TOL_M;
 use super::{after_wall_free, free_departing, wall_of, Md, ModalExact};
 
-/// The ball modes and their helpers are the modal solver's ([`super`]); its `HertzTouch` never
-/// occurs here because a modal cutting run refuses `[contact] law = hertz` before it starts.
-const HERTZ_REFUSED: &str = "a modal cutting run refuses the hertz law before it starts";
+/// The ball modes and their helpers are the modal solver's ([`super`]); a `HertzTouch` runs as
+/// the contact phase of [`cutting_hertz`], never as a closed-form segment.
+const HERTZ_REFUSED: &str =
+    "a hertz contact phase runs in cutting_hertz, not as a closed-form segment";
+
+#[path = "cutting_hertz.rs"]
+mod cutting_hertz;
+use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::friction::{can_stick, holding_capacity_n, sgn0, sliding_friction_on_ball_n};
 use crate::damper::impact::{modal_impact, modal_inverse_effective_mass_per_kg};
 use crate::error::{EventLimitCause, SimError};
@@ -170,6 +178,10 @@ struct Consts {
     /// per segment, [`remainder_fit`]); `cut` gives its force `c_force F(h)`.
     nonlinear: bool,
     cut: Cutting,
+    /// The compliant law, when `contact.law = hertz` (wall touches start a contact phase).
+    hertz: Option<crate::damper::contact::Hertz>,
+    /// The contact phase's DP5 relative tolerance.
+    contact_rtol: f64,
 }
 
 impl Consts {
@@ -820,6 +832,9 @@ struct Run<'h> {
 
 const CHIP: u8 = 10;
 
+const HISTORY_FULL: &str = "a cutting run had more events within one spindle revolution than \
+                            its surface history holds (solver::exact::cutting::MAX_EVENT_KNOTS)";
+
 /// How a segment ended.
 enum End {
     /// At its planned end.
@@ -1157,7 +1172,28 @@ impl ModalCutting {
         t_end_s: f64,
         obs: &mut dyn Observer,
     ) -> Result<ModalRunSummary, SimError> {
-        self.drive(sys, init, None, t_end_s, obs).map(|r| r.0)
+        self.run_with_contact_rtol(sys, init, t_end_s, CONTACT_RTOL, obs)
+    }
+
+    /// [`ModalCutting::run`] with the `hertz` contact phase's DP5 relative tolerance `rtol`
+    /// (in [1e-13, 1e-3]) in place of [`CONTACT_RTOL`]: for measuring the run's convergence
+    /// with it.
+    pub fn run_with_contact_rtol(
+        &self,
+        sys: &ModalSystem,
+        init: &ModalState,
+        t_end_s: f64,
+        rtol: f64,
+        obs: &mut dyn Observer,
+    ) -> Result<ModalRunSummary, SimError> {
+        crate::limits::check(
+            "contact phase relative tolerance (rtol)",
+            rtol,
+            1e-13,
+            1e-3,
+            "",
+        )?;
+        self.drive(sys, init, None, t_end_s, rtol, obs).map(|r| r.0)
     }
 
     /// [`ModalCutting::run`], also returning where the run ended, to continue it.
@@ -1168,14 +1204,15 @@ impl ModalCutting {
         t_end_s: f64,
         obs: &mut dyn Observer,
     ) -> Result<(ModalRunSummary, CutContinuation), SimError> {
-        self.drive(sys, init, None, t_end_s, obs)
+        self.drive(sys, init, None, t_end_s, CONTACT_RTOL, obs)
     }
 
     /// Go on from `from` (the end of an earlier run of the same modal bar) up to `t_end_s` with
     /// this solver's cut, as [`crate::solver::exact::cutting::ExactCutting::continue_run`] does
     /// on the lumped bar: the state and the surface history are the earlier run's, the force law
     /// and width this cut's; the delay and the surface's advance must be the earlier run's. The
-    /// ball's mode is found again from the state, as at a start.
+    /// ball's mode is found again from the state, as at a start. Refused under the `hertz`
+    /// contact law (a run may end inside a contact phase, which is not carried over here).
     pub fn continue_run(
         &self,
         sys: &ModalSystem,
@@ -1189,7 +1226,17 @@ impl ModalCutting {
                  continued run's",
             ));
         };
-        self.drive(sys, init, Some(from), t_end_s, obs)
+        if sys
+            .damper
+            .is_some_and(|d| d.contact.law == crate::params::ContactLaw::Hertz)
+        {
+            return Err(SimError::Unsupported(
+                "continuing a cutting run on a modal bar ([beam], [[modes]]) under [contact] \
+                 law = hertz is not supported (a run may end inside a contact phase); the \
+                 lumped [bar] continues it",
+            ));
+        }
+        self.drive(sys, init, Some(from), t_end_s, CONTACT_RTOL, obs)
     }
 
     fn drive(
@@ -1198,6 +1245,7 @@ impl ModalCutting {
         init: &ModalState,
         from: Option<&CutContinuation>,
         t_end_s: f64,
+        rtol: f64,
         obs: &mut dyn Observer,
     ) -> Result<(ModalRunSummary, CutContinuation), SimError> {
         let cut = &self.cutting;
@@ -1226,15 +1274,7 @@ impl ModalCutting {
                 .sum();
             start.v_m += u_d_eq;
         }
-        crate::solver::validate_modal_run(
-            sys,
-            &start,
-            t_end_s,
-            Some(
-                "[cutting] on a modal bar runs with the restitution contact law only; \
-                 [contact] law = hertz with a cut is not supported yet",
-            ),
-        )?;
+        crate::solver::validate_modal_run(sys, &start, t_end_s, None)?;
         let modes = sys.model.modes();
         let n = modes.len();
         let (md, lg, e, model) = match &sys.damper {
@@ -1288,6 +1328,11 @@ impl ModalCutting {
             chatter_t: 1e-9 * 2.0 * std::f64::consts::PI / om,
             nonlinear: cut.force_law == CuttingForceLaw::ThreeQuarter,
             cut: *cut,
+            hertz: sys
+                .damper
+                .filter(|d| d.contact.law == crate::params::ContactLaw::Hertz)
+                .map(|d| crate::damper::contact::Hertz::of_damper(&d)),
+            contact_rtol: rtol,
         };
         for (i, mode) in modes.iter().enumerate() {
             let (m, k) = (mode.modal_mass_kg, mode.modal_stiffness_n_per_m());
@@ -1378,6 +1423,8 @@ impl ModalCutting {
         };
         let mut chip_order = 0;
         let mut win_prev: Option<(u64, f64)> = None;
+        // A `hertz` contact phase carried over a piece end or a cut event.
+        let mut phase: Option<cutting_hertz::Phase> = None;
         while s.t < t_end_s {
             let (step_end, win_end) = {
                 let h = &mut *run.hist;
@@ -1397,6 +1444,36 @@ impl ModalCutting {
                 };
                 let d = run.hist.window_quadratic(a, win_end.max(a));
                 run.r = None;
+                if let (Md::HertzTouch(wall), Some(law)) = (mode, run.cs.hertz) {
+                    // A compliant contact phase over this piece ([`cutting_hertz`]).
+                    let pe = cutting_hertz::contact_piece(
+                        &mut run,
+                        &law,
+                        cut,
+                        wall.sign(),
+                        &mut phase,
+                        &mut s,
+                        step_end,
+                        in_cut,
+                        d,
+                        chip_order,
+                        &mut book,
+                    )?;
+                    mode = pe.mode;
+                    if run.hist.is_full() {
+                        return Err(SimError::Unsupported(HISTORY_FULL));
+                    }
+                    chip_order = 0;
+                    if pe.cut_event {
+                        in_cut = !in_cut;
+                        chip_order = 1;
+                        run.hist.add_breakpoint(s.t);
+                        let du = run.cs.dot(&run.cs.phi_f, &s.dq);
+                        run.hist.cut_event_slope_after(s.t, in_cut, du);
+                        book.count(s.t, t0, tau)?;
+                    }
+                    continue;
+                }
                 if run.cs.nonlinear && in_cut {
                     let r = remainder_fit(
                         &mut run, mode, !has_ball, d, chip_order, &s, step_end, &book,
@@ -1407,10 +1484,7 @@ impl ModalCutting {
                     mode, !has_ball, in_cut, d, chip_order, &mut s, step_end, &mut book,
                 )?;
                 if run.hist.is_full() {
-                    return Err(SimError::Unsupported(
-                        "a cutting run had more events within one spindle revolution than its \
-                         surface history holds (solver::exact::cutting::MAX_EVENT_KNOTS)",
-                    ));
+                    return Err(SimError::Unsupported(HISTORY_FULL));
                 }
                 chip_order = 0;
                 match end {
@@ -1560,6 +1634,10 @@ fn contact_test(run: &Run, sw: f64, s: &St, in_cut: bool, d0: f64) -> Md {
     let ddu_pair = run.a_b(s, in_cut, d0) / (cs.md * cs.kappa);
     let hold = holding_capacity_n(cs.model, cs.fl);
     if sw * cs.md * ddu_pair <= hold {
+        if cs.hertz.is_some() {
+            // Pressed on the wall: a resting compliant contact.
+            return Md::HertzTouch(wall_of(sw));
+        }
         Md::Contact(wall_of(sw))
     } else {
         free_departing(-sw, Some(wall_of(sw)))
@@ -1627,6 +1705,10 @@ fn impact(
     s.w = sw * cs.lg;
     let dw = if sw * s.dw > 0.0 { s.dw } else { 0.0 };
     s.dw = dw;
+    if cs.hertz.is_some() {
+        // A touch: the compliant contact phase follows ([`cutting_hertz`]).
+        return Ok(Md::HertzTouch(wall_of(sw)));
+    }
     let before = *s;
     let mut dv = dw + cs.dot(&cs.phi_d, &s.dq);
     let law = modal_impact(
@@ -1787,6 +1869,8 @@ mod tests {
                 chip_direction_factor: 1.0,
                 force_law: CuttingForceLaw::Linear,
             },
+            hertz: None,
+            contact_rtol: 0.0,
         };
         c.m[0] = 1.0;
         c.k[0] = 1.0;

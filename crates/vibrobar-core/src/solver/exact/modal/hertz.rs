@@ -32,8 +32,88 @@ use crate::solver::exact::hertz_phase::{run_phase, Event, MAX_CONTACT_STEPS};
 use crate::solver::{EventKind, Mode, Segment, SegmentIntegrals};
 
 /// Capacity of the phase's state: `N` displacements, `N` velocities, `δ`, `δ̇`, `W_c`.
-const NY: usize = 2 * NM + 3;
-type Y = [f64; NY];
+pub(super) const NY: usize = 2 * NM + 3;
+pub(super) type Y = [f64; NY];
+
+/// The bar's side of a contact phase: the modes and the ball coupled at the cavity. Its
+/// right-hand side is this phase's and the cutting run's ([`super::cutting`]'s phase), which
+/// passes the force at the force point with the cut's included.
+#[derive(Clone, Copy)]
+pub(super) struct PhaseBar<'a> {
+    pub(super) n: usize,
+    pub(super) m: &'a [f64; NM],
+    pub(super) c: &'a [f64; NM],
+    pub(super) k: &'a [f64; NM],
+    pub(super) phi_f: &'a [f64; NM],
+    pub(super) phi_d: &'a [f64; NM],
+    pub(super) md: f64,
+    /// `1/m_d + Σφₙ(x_d)²/mₙ`.
+    pub(super) kappa: f64,
+}
+
+impl PhaseBar<'_> {
+    /// `a_b = Σφₙ(x_d)q̈ₙ` without the ball's force, under `force` at the force point.
+    pub(super) fn a_b(&self, force: f64, y: &Y) -> f64 {
+        let n = self.n;
+        let mut a = 0.0;
+        for i in 0..n {
+            a += self.phi_d[i] * (self.phi_f[i] * force - self.c[i] * y[n + i] - self.k[i] * y[i])
+                / self.m[i];
+        }
+        a
+    }
+
+    /// The pair's acceleration at the cavity while the ball is held.
+    pub(super) fn pair_acc(&self, force: f64, y: &Y) -> f64 {
+        self.a_b(force, y) / (self.md * self.kappa)
+    }
+
+    /// Friction the ball needs to move with the bar: `F_ball = m_d ü_pair + sw·P(δ, 0)`.
+    pub(super) fn needed(&self, law: &Hertz, sw: f64, force: f64, y: &Y) -> f64 {
+        self.md * self.pair_acc(force, y) + sw * law.elastic_force_n(y[2 * self.n])
+    }
+
+    /// `ẏ` at wall `sw`: stuck (the ball held, `δ` frozen) or sliding with the friction `fb` on
+    /// the ball; `v0` the damping's reference speed.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn rhs(
+        &self,
+        law: &Hertz,
+        v0: f64,
+        sw: f64,
+        stuck: bool,
+        fb: f64,
+        force: f64,
+        y: &Y,
+    ) -> Y {
+        let n = self.n;
+        let (id, idd, iw) = (2 * n, 2 * n + 1, 2 * n + 2);
+        let mut out = [0.0; NY];
+        // The force on the bar at the cavity: held, `−m_d ü_pair`; else `sw·P − F_ball`.
+        let (on_bar, p, pd) = if stuck {
+            (-self.md * self.pair_acc(force, y), 0.0, 0.0)
+        } else {
+            let (p, pd) = law.forces_n(y[id], y[idd], v0);
+            (sw * p - fb, p, pd)
+        };
+        let mut ddud = 0.0;
+        for i in 0..n {
+            let a = (self.phi_f[i] * force - self.c[i] * y[n + i] - self.k[i] * y[i]
+                + self.phi_d[i] * on_bar)
+                / self.m[i];
+            out[i] = y[n + i];
+            out[n + i] = a;
+            ddud += self.phi_d[i] * a;
+        }
+        if !stuck {
+            let ddv = (-sw * p + fb) / self.md;
+            out[id] = y[idd];
+            out[idd] = sw * (ddv - ddud);
+            out[iw] = pd * y[idd];
+        }
+        out
+    }
+}
 
 /// One accepted step of a contact phase, as a segment.
 struct ContactSegment<'a> {
@@ -186,24 +266,22 @@ pub(super) fn contact(
     let mut max_pen = 0.0_f64;
     let mut sigma = if cs.frictional() { sw } else { 0.0 };
     let mut stuck = false;
-    // `a_b = Σφₙ(x_d)q̈ₙ` without the ball's force, and the pair's acceleration at the cavity.
-    let a_b = |t: f64, y: &Y| {
-        let f = cs.force_at(t);
-        let mut a = 0.0;
-        for i in 0..n {
-            a += cs.phi_d[i] * (cs.phi_f[i] * f - cs.c[i] * y[n + i] - cs.k[i] * y[i]) / cs.m[i];
-        }
-        a
+    let bar = PhaseBar {
+        n,
+        m: &cs.m,
+        c: &cs.c,
+        k: &cs.k,
+        phi_f: &cs.phi_f,
+        phi_d: &cs.phi_d,
+        md: cs.md,
+        kappa: cs.kappa,
     };
-    let pair_acc = |t: f64, y: &Y| a_b(t, y) / (cs.md * cs.kappa);
-    // Friction the ball needs to move with the bar: F_ball = m_d ü_pair + sw·P(δ, 0).
-    let needed = |t: f64, y: &Y| cs.md * pair_acc(t, y) + sw * law.elastic_force_n(y[id]);
+    let needed = |t: f64, y: &Y| bar.needed(&law, sw, cs.force_at(t), y);
     loop {
         let fb = if stuck { 0.0 } else { cs.fb(sigma) };
         // The last `(t, F(t))`: the 6th and 7th stages of a step are both at `t + h`.
         let mut last = (f64::NAN, 0.0);
         let mut f = |t: f64, y: &Y| {
-            let mut out = [0.0; NY];
             let force = if t.to_bits() == last.0.to_bits() {
                 last.1
             } else {
@@ -211,29 +289,7 @@ pub(super) fn contact(
                 last = (t, v);
                 v
             };
-            // The force on the bar at the cavity: held, `−m_d ü_pair`; else `sw·P − F_ball`.
-            let (on_bar, p, pd) = if stuck {
-                (-cs.md * pair_acc(t, y), 0.0, 0.0)
-            } else {
-                let (p, pd) = law.forces_n(y[id], y[idd], v0);
-                (sw * p - fb, p, pd)
-            };
-            let mut ddud = 0.0;
-            for i in 0..n {
-                let a = (cs.phi_f[i] * force - cs.c[i] * y[n + i] - cs.k[i] * y[i]
-                    + cs.phi_d[i] * on_bar)
-                    / cs.m[i];
-                out[i] = y[n + i];
-                out[n + i] = a;
-                ddud += cs.phi_d[i] * a;
-            }
-            if !stuck {
-                let ddv = (-sw * p + fb) / cs.md;
-                out[id] = y[idd];
-                out[idd] = sw * (ddv - ddud);
-                out[iw] = pd * y[idd];
-            }
-            out
+            bar.rhs(&law, v0, sw, stuck, fb, force, y)
         };
         // Events: 0 release (δ < 0); sliding with friction: 1 δ̇ crosses 0 (the sign of ẇ);
         // stuck: 1, 2 the friction needed leaves [−f, f].
