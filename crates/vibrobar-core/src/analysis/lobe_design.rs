@@ -346,34 +346,54 @@ impl DesignRow {
     }
 }
 
+/// The damped bar's large-disturbance search of design `d` at every speed of `solid`'s band,
+/// in order (the widths behind its score; [`DesignRow::from_searches`] scores them).
+pub fn design_searches(
+    spec: &LobeDesignSpec,
+    d: &DesignPoint,
+    solid: &SolidReference,
+) -> Result<Vec<Search>, SimError> {
+    let p = spec.problem(d)?;
+    let lin = linear_at(&p, &solid.rpms)?;
+    solid
+        .rpms
+        .iter()
+        .zip(&lin)
+        .map(|(&n, l)| td_lobe_search(&p, n, l, DAMPED_LARGE))
+        .collect()
+}
+
+impl DesignRow {
+    /// The row of design `d` from its searches (one per speed of `solid`'s band, in order).
+    pub fn from_searches(d: &DesignPoint, solid: &SolidReference, searches: &[Search]) -> Self {
+        let widths: Vec<f64> = searches.iter().map(|s| s.width_m).collect();
+        let mut row = DesignRow {
+            point: *d,
+            damped: BandScore::of(&solid.rpms, &widths),
+            solid: solid.score,
+            event_limit_runs: 0,
+            non_monotonic: 0,
+            capped: 0,
+            runs: 0,
+        };
+        for s in searches {
+            row.event_limit_runs += s.event_limit_runs;
+            row.non_monotonic += u32::from(s.non_monotonic);
+            row.capped += u32::from(s.capped);
+            row.runs += s.runs;
+        }
+        row
+    }
+}
+
 /// Score design `d` over the band of `solid` (its speeds, one search per speed, in order).
 pub fn score_design(
     spec: &LobeDesignSpec,
     d: &DesignPoint,
     solid: &SolidReference,
 ) -> Result<DesignRow, SimError> {
-    let p = spec.problem(d)?;
-    let lin = linear_at(&p, &solid.rpms)?;
-    let mut widths = Vec::with_capacity(solid.rpms.len());
-    let mut row = DesignRow {
-        point: *d,
-        damped: solid.score,
-        solid: solid.score,
-        event_limit_runs: 0,
-        non_monotonic: 0,
-        capped: 0,
-        runs: 0,
-    };
-    for (i, &n) in solid.rpms.iter().enumerate() {
-        let s = td_lobe_search(&p, n, &lin[i], DAMPED_LARGE)?;
-        widths.push(s.width_m);
-        row.event_limit_runs += s.event_limit_runs;
-        row.non_monotonic += u32::from(s.non_monotonic);
-        row.capped += u32::from(s.capped);
-        row.runs += s.runs;
-    }
-    row.damped = BandScore::of(&solid.rpms, &widths);
-    Ok(row)
+    let searches = design_searches(spec, d, solid)?;
+    Ok(DesignRow::from_searches(d, solid, &searches))
 }
 
 /// The whole study: the solid reference once, then every design of `grid` (in parallel on
