@@ -127,11 +127,20 @@ dt_s = 1e-5
 """
 
 
-@pytest.mark.parametrize("text", [MODES_CUT, BEAM_CUT], ids=["modes", "beam"])
+def three_quarter(text):
+    """The scenario with the three-quarter force law."""
+    return text.replace("spindle_rpm = 20000", 'spindle_rpm = 20000\nforce_law = "three-quarter"')
+
+
+@pytest.mark.parametrize(
+    "text",
+    [MODES_CUT, BEAM_CUT, three_quarter(MODES_CUT), three_quarter(BEAM_CUT)],
+    ids=["modes", "beam", "modes-three-quarter", "beam-three-quarter"],
+)
 def test_modal_cutting_run_is_the_cli_run(cli, tmp_path, text):
-    """A cutting run on a modal bar ([[modes]], [beam]; issue #13): the same numbers as
-    `vibrobar run`, bit for bit, with the cutting columns; the tool leaves the cut, the ball
-    hits the walls and the books close with the cutting work."""
+    """A cutting run on a modal bar ([[modes]], [beam]; issue #13), with both force laws: the
+    same numbers as `vibrobar run`, bit for bit, with the cutting columns; the tool leaves the
+    cut, the ball hits the walls and the books close with the cutting work."""
     path = tmp_path / "cut.toml"
     path.write_text(text)
     out = tmp_path / "run.npy"

@@ -72,7 +72,8 @@
 //! surface quadratic, piece by piece (it stops at every piece end and breakpoint and resumes), the
 //! tool leaving or re-entering the cut located on its dense output and stored as every cut event
 //! is; its accuracy is the contact phase's (rtol 1e-9) on top of the pieces'. A modal bar goes to
-//! [`super::modal::cutting`] (the linear law, the restitution contact law; [`Solver::run`]
+//! [`super::modal::cutting`] (both force laws, the three-quarter law by the same remainder fit,
+//! [`fit_remainder`], with or without a ball; the restitution contact law; [`Solver::run`]
 //! only).
 
 use super::{
@@ -749,13 +750,11 @@ fn remainder_fit(
         cut.force_on_bar_n(h) - cp.kfb * h
     };
     let r0 = rem(0.0, s.u);
-    let mut r = [r0, 0.0, 0.0];
     let scale = REMAINDER_TOL * (cp.kfb * cp.h0).abs();
-    let mut len = t_stop - s.t;
-    for _ in 0..REMAINDER_MAX_ITERATIONS {
+    fit_remainder(r0, scale, t_stop - s.t, |r, len| {
         let mut c = *cs;
         if let Some(p) = c.cut.as_mut() {
-            p.r = Some(r);
+            p.r = Some(*r);
         }
         let mut probe = Probe {
             nodes: [s.t, s.t + 0.5 * len, s.t + len],
@@ -773,9 +772,27 @@ fn remainder_fit(
         };
         let mut st = *s;
         advance(&c, mode, &mut st, t_stop, &mut dry, search)?;
-        let end = st.t - s.t;
         let [_, um, u1] = probe.u;
-        let (rm, r1) = (rem(0.5 * len, um), rem(len, u1));
+        Ok((st.t - s.t, rem(0.5 * len, um), rem(len, u1)))
+    })
+}
+
+/// The fixed-point iteration of the three-quarter law's remainder fit over one piece, shared
+/// by the lumped bar ([`remainder_fit`]) and the modal bar ([`super::modal::cutting`]): from
+/// `R` constant at its start value `r0`, `dry(fit, len)` runs the piece with `fit` (a dry run:
+/// no events counted, no observer) and returns the length it reached and `R` at `len/2` and
+/// `len` along it; the next fit is the quadratic through `r0` and those values. It stops when
+/// the fit moves by at most `scale` at the nodes and the piece's end settles, or after
+/// [`REMAINDER_MAX_ITERATIONS`] dry runs (keeping the last fit).
+pub(super) fn fit_remainder(
+    r0: f64,
+    scale: f64,
+    mut len: f64,
+    mut dry: impl FnMut(&[f64; 3], f64) -> Result<(f64, f64, f64), SimError>,
+) -> Result<[f64; 3], SimError> {
+    let mut r = [r0, 0.0, 0.0];
+    for _ in 0..REMAINDER_MAX_ITERATIONS {
+        let (end, rm, r1) = dry(&r, len)?;
         let mut next = [r0, 0.0, 0.0];
         if len > 0.0 {
             next[2] = 2.0 * (r1 - 2.0 * rm + r0) / (len * len);
