@@ -19,8 +19,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vibrobar_core::analysis::batch::Runner;
 use vibrobar_core::analysis::lobe_design::{
-    design_searches, optimum, solid_reference, DesignAxis, DesignGrid, DesignRow, LobeDesignSpec,
-    SolidReference,
+    chaos_spread, design_searches, optimum, solid_reference, DesignAxis, DesignGrid, DesignRow,
+    LobeDesignSpec, SolidReference, SPREAD_REL, SPREAD_SEEDS,
 };
 use vibrobar_core::analysis::map::{self, Axis, Grid, GridAxis, MapSpec};
 use vibrobar_core::analysis::placement::{self, PlacementGrid, PlacementSpec, PointFailed};
@@ -221,13 +221,13 @@ struct Study {
 }
 
 /// What [`design_study`] computes: the scenario, the spec, the grid, the solid reference and
-/// every design's searches (one per speed).
+/// every design's searches (one per speed) and row (with its chaos spread).
 type Computed = (
     Scenario,
     LobeDesignSpec,
     DesignGrid,
     SolidReference,
-    Vec<Vec<Search>>,
+    Vec<(Vec<Search>, DesignRow)>,
 );
 
 #[allow(clippy::too_many_arguments)]
@@ -264,9 +264,12 @@ fn design_study(
     let points = grid.points();
     let bar = Progress::new(&format!("cutting-deeper: {name} designs"), points.len(), 0);
     let cb = bar.callback();
-    let searches = runner
-        .with_progress(&cb)
-        .each(&points, |d| design_searches(&spec, d, &solid));
+    let searches = runner.with_progress(&cb).each(&points, |d| {
+        let searches = design_searches(&spec, d, &solid)?;
+        let mut row = DesignRow::from_searches(d, &solid, &searches);
+        chaos_spread(&spec, &mut row)?;
+        Ok::<_, vibrobar_core::SimError>((searches, row))
+    });
     bar.finish();
     let searches = searches.map_err(|e| anyhow::anyhow!("{name} designs: {e}"))?;
     Ok((sc, spec, grid, solid, searches))
@@ -529,18 +532,13 @@ fn finish_study(
     spec: LobeDesignSpec,
     grid: DesignGrid,
     solid: SolidReference,
-    searches: Vec<Vec<Search>>,
+    computed: Vec<(Vec<Search>, DesignRow)>,
     forced_mean_reduction_pct: Vec<f64>,
     forced_best: usize,
     dir: &Path,
     t: Instant,
 ) -> Result<Study> {
-    let rows: Vec<DesignRow> = grid
-        .points()
-        .iter()
-        .zip(&searches)
-        .map(|(d, s)| DesignRow::from_searches(d, &solid, s))
-        .collect();
+    let (searches, rows): (Vec<Vec<Search>>, Vec<DesignRow>) = computed.into_iter().unzip();
     let axis = grid.axis();
     let schema = lobe_design_schema(axis);
     let csv = dir.join(format!("{name}-design.csv"));
@@ -759,13 +757,24 @@ fn study_section(d: &mut String, s: &Study, doc: &Path) -> Result<()> {
     };
     writeln!(
         d,
-        "| gap (mm) | {second} | worst (µm) | at (rpm) | mean (µm) | worst gain | mean gain | forced mean reduction (%) | non-monotonic |"
+        "| gap (mm) | {second} | worst (µm) | at (rpm) | mean (µm) | worst gain | mean gain | forced mean reduction (%) | non-monotonic | regime at the worst case | spread if chaotic (µm) |"
     )?;
-    writeln!(d, "|---|---|---|---|---|---|---|---|---|")?;
+    writeln!(d, "|---|---|---|---|---|---|---|---|---|---|---|")?;
     for (i, r) in s.rows.iter().enumerate() {
+        let regime = r
+            .worst_regime
+            .map_or("—".into(), |g| g.as_str().into_owned());
+        let spread = r.spread.map_or("—".into(), |w| {
+            format!(
+                "{}–{} (mean {})",
+                um(w.min_width_m),
+                um(w.max_width_m),
+                um(w.mean_width_m)
+            )
+        });
         writeln!(
             d,
-            "| {} | {} | {} | {} | {} | {} | {} | {:.1} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {:.1} | {} | `{regime}` | {spread} |",
             fmt_coord(r.point.gap_m * 1e3),
             fmt_coord(r.point.value * 1e3),
             um(r.damped.worst_width_m),
@@ -908,7 +917,10 @@ fn render(
         d,
         "- **Score.** The worst-case acceptable width over the band of speeds (and the mean), as \
          `vibrobar lobe-design`; a finer band can only lower a worst case. The gains are damped \
-         over solid.",
+         over solid. Where the damped run at a design's worst case is `chaotic`, its width at \
+         that speed is searched again over {SPREAD_SEEDS} seeded perturbations of the \
+         disturbance's amplitude (±{} %): the spread column.",
+        SPREAD_REL * 100.0
     )?;
     writeln!(
         d,
