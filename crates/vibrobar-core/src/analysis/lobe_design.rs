@@ -434,7 +434,7 @@ pub fn score_design(
 /// and set `spread`, as the maps report chaotic points. Nothing without an acceptable width.
 pub fn chaos_spread(spec: &LobeDesignSpec, row: &mut DesignRow) -> Result<(), SimError> {
     let (w, n) = (row.damped.worst_width_m, row.damped.worst_rpm);
-    if !(w > 0.0) {
+    if w.is_nan() || w <= 0.0 {
         return Ok(());
     }
     let p = spec.problem(&row.point)?;
