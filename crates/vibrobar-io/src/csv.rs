@@ -1195,10 +1195,6 @@ pub fn td_lobes_schema() -> Schema {
             col("non_monotonic", Format::Count),
             col("capped", Format::Count),
             col("runs", Format::Count),
-            opt("worst_regime", Format::Text),
-            opt("spread_min_width_m", Format::Sci),
-            opt("spread_mean_width_m", Format::Sci),
-            opt("spread_max_width_m", Format::Sci),
         ],
     }
 }
