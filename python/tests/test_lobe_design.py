@@ -44,6 +44,13 @@ def test_lobe_design_is_the_cli_study(cli, tmp_path):
     t = vibrobar.lobe_design(vibrobar.Scenario.from_toml_str(SC), [5000.0, 7000.0],
                              [5e-5, 2e-4], ball_masses_kg=[0.01, 0.03])
     assert t.to_csv() == out.read_text()
+    # The regime at each worst case, and the chaotic spread columns (issue #14).
+    lines = t.to_csv().splitlines()
+    assert lines[0].endswith(
+        ",worst_regime,spread_min_width_m,spread_mean_width_m,spread_max_width_m")
+    for line in lines[1:]:
+        f = line.split(",")
+        assert f[14] != "" and (f[15] != "") == (f[14] == "chaotic")
     best = int(np.argmax(t["worst_width_m"]))
     optimum = (tmp_path / "d.optimum.csv").read_text().splitlines()[1]
     assert t.to_csv().splitlines()[1 + best] == optimum

@@ -882,8 +882,11 @@ def lobe_design(
         Table: one row per design (gap outer): ``gap_m``, ``ball_mass_kg`` or ``position_m``,
         ``worst_width_m``, ``worst_rpm``, ``mean_width_m``, ``solid_worst_width_m``,
         ``solid_worst_rpm``, ``solid_mean_width_m``, ``worst_gain``, ``mean_gain``,
-        ``event_limit_runs``, ``non_monotonic``, ``capped``, ``runs``. The optimum is the row
-        with the largest ``worst_width_m`` (ties: larger mean, then earlier row).
+        ``event_limit_runs``, ``non_monotonic``, ``capped``, ``runs``, ``worst_regime`` (the
+        damped run's at the worst case) and, where it is ``chaotic``, ``spread_min_width_m``,
+        ``spread_mean_width_m``, ``spread_max_width_m`` (the worst speed's width over seeded
+        perturbations of the disturbance; empty otherwise). The optimum is the row with the
+        largest ``worst_width_m`` (ties: larger mean, then earlier row).
     """
     sc = _scenario(scenario, overrides)
     cb, close = _progress(progress, "lobe-design")

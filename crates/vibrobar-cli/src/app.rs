@@ -155,6 +155,10 @@ pub enum Command {
     /// Write the generated Markdown document comparing the paper's lumped bar with the N-mode
     /// beam at the paper's geometry, with the convergence study in the number of modes.
     LumpedVsBeam(crate::commands::lumped_vs_beam::LumpedVsBeamArgs),
+    /// Write the generated Markdown document on what the ball damper buys against chatter at
+    /// the paper's bar (issue #14): lobe design of the tip-referred lumped bar and of the beam,
+    /// against the solid bar and the forced-response optimum.
+    CuttingDeeper(crate::commands::cutting_deeper::CuttingDeeperArgs),
     /// Single-impact laboratory of the hertz contact law: one impact on a rigid fixed wall per
     /// approach speed (contact time, restitution, peak force and penetration), as CSV.
     ContactTest(crate::commands::contact_test::ContactTestArgs),
@@ -202,6 +206,7 @@ impl Command {
             Command::Modes(_) => "modes",
             Command::Placement(_) => "placement",
             Command::LumpedVsBeam(_) => "lumped-vs-beam",
+            Command::CuttingDeeper(_) => "cutting-deeper",
             Command::ContactTest(_) => "contact-test",
             Command::ContactLaws(_) => "contact-laws",
             Command::ContactConvergence(_) => "contact-convergence",
@@ -239,6 +244,7 @@ impl Command {
             Command::Modes(a) => (one(&a.scenario), Some(a.out.as_path())),
             Command::Placement(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::LumpedVsBeam(a) => (vec![], Some(a.out.as_path())),
+            Command::CuttingDeeper(a) => (vec![], Some(a.out.as_path())),
             Command::ContactTest(a) => (one(&a.scenario), Some(a.out.as_path())),
             Command::ContactLaws(a) => (vec![], Some(a.out.as_path())),
             Command::ContactConvergence(a) => (vec![], Some(a.out.as_path())),
@@ -338,6 +344,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Modes(a) => modes::modes(&a),
         Command::Placement(a) => placement::run(&a),
         Command::LumpedVsBeam(a) => lumped_vs_beam::run(&a),
+        Command::CuttingDeeper(a) => crate::commands::cutting_deeper::run(&a),
         Command::ContactTest(a) => contact_test::run(&a),
         Command::Lobes(a) => lobes::run(&a),
         Command::WidthDiagram(a) => crate::commands::time_domain::width_diagram(&a),

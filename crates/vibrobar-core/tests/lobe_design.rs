@@ -133,6 +133,8 @@ fn optimum_breaks_ties_by_the_mean_then_the_index() {
         non_monotonic: 0,
         capped: 0,
         runs: 0,
+        worst_regime: None,
+        spread: None,
     };
     let rows = [
         row(0, 1.0, 2.0),
@@ -199,4 +201,104 @@ fn bad_input_names_the_flag() {
         .unwrap_err()
         .to_string();
     assert!(m.contains("--positions-mm") && m.contains("[beam]"), "{m}");
+}
+
+/// Issue #14, validation: "for chaotic points, report the spread of the acceptable width over
+/// seeded perturbations of the disturbance". Every row's `worst_regime` is that of a direct
+/// judge of the damped bar at its worst width and speed from the large disturbance; a row has a
+/// spread exactly when that run is chaotic, and the spread is `width_spread` at that speed with
+/// the study's seeds and perturbation (on this grid every worst case decays: no spread;
+/// the chaotic branch is `a_chaotic_worst_case_gets_the_spread_of_width_spread`).
+#[test]
+fn chaotic_worst_cases_carry_the_seeded_spread() {
+    let spec = spec();
+    let grid = DesignGrid::new(
+        DesignAxis::BallMass,
+        vec![5e-5, 1e-4, 1.5e-4],
+        vec![0.01, 0.026, 0.04],
+    )
+    .unwrap();
+    let (_, rows) = lobe_design(&spec, &grid, &RPMS, &Runner::default()).unwrap();
+    for r in &rows {
+        let p = spec.problem(&r.point).unwrap();
+        let n = r.damped.worst_rpm;
+        let lin = linear_at(&p, &[n]).unwrap()[0];
+        let j = p
+            .judge(
+                BarKind::Damped,
+                Disturbance::Large,
+                r.damped.worst_width_m,
+                n,
+                lin.omega_damped_rad_s,
+            )
+            .unwrap();
+        println!(
+            "gap {:.2} mm, ball {:.0} g: worst {:.4e} at {n}: {:?}, spread {:?}",
+            r.point.gap_m * 1e3,
+            r.point.value * 1e3,
+            r.damped.worst_width_m,
+            j.regime,
+            r.spread
+        );
+        assert_eq!(r.worst_regime, Some(j.regime));
+        assert_eq!(r.spread.is_some(), j.regime == RevRegime::Chaotic);
+        if let Some(s) = r.spread {
+            let (lo, mean, hi) = width_spread(&p, n, &lin, 3, SPREAD_SEEDS, SPREAD_REL).unwrap();
+            assert_eq!(
+                (s.min_width_m, s.mean_width_m, s.max_width_m),
+                (lo, mean, hi)
+            );
+            assert!(lo > 0.0 && lo <= mean && mean <= hi, "{s:?}");
+        }
+    }
+}
+
+/// The chaotic branch: a row whose worst case is a chaotic run (gap 0.1 mm, 26 g, 0.31 mm at
+/// 5000 rpm from the large disturbance: the ball rattles irregularly, found by `width-diagram`)
+/// gets the regime and exactly `width_spread` of its design at that speed; a decaying one
+/// (0.06 mm) gets its regime and no spread; no acceptable width, nothing.
+#[test]
+fn a_chaotic_worst_case_gets_the_spread_of_width_spread() {
+    let spec = spec();
+    let d = DesignPoint {
+        index: 0,
+        gap_m: 1e-4,
+        value: 0.026,
+    };
+    let score = |w: f64| BandScore {
+        worst_width_m: w,
+        worst_rpm: 5000.0,
+        mean_width_m: w,
+    };
+    let row = |w: f64| DesignRow {
+        point: d,
+        damped: score(w),
+        solid: score(w),
+        event_limit_runs: 0,
+        non_monotonic: 0,
+        capped: 0,
+        runs: 0,
+        worst_regime: None,
+        spread: None,
+    };
+    let mut r = row(3.1e-4);
+    chaos_spread(&spec, &mut r).unwrap();
+    assert_eq!(r.worst_regime, Some(RevRegime::Chaotic));
+    let p = spec.problem(&d).unwrap();
+    let lin = linear_at(&p, &[5000.0]).unwrap()[0];
+    let (lo, mean, hi) = width_spread(&p, 5000.0, &lin, 3, SPREAD_SEEDS, SPREAD_REL).unwrap();
+    let s = r.spread.expect("a chaotic worst case has a spread");
+    println!("chaotic worst case: spread {s:?}");
+    assert_eq!(
+        (s.min_width_m, s.mean_width_m, s.max_width_m),
+        (lo, mean, hi)
+    );
+    assert!(lo > 0.0 && lo <= mean && mean <= hi);
+    let mut r = row(6e-5);
+    chaos_spread(&spec, &mut r).unwrap();
+    assert_eq!(r.worst_regime, Some(RevRegime::Decaying));
+    assert_eq!(r.spread, None);
+    let mut r = row(0.0);
+    chaos_spread(&spec, &mut r).unwrap();
+    assert_eq!((r.worst_regime, r.spread), (None, None));
 }

@@ -1256,7 +1256,9 @@ pub const LOBE_DESIGN_KIND: &str = "lobe-design";
 /// the damped bar's worst case (at `worst_rpm`) and mean, the solid bar's over the same band,
 /// and their ratios (`worst_gain`, `mean_gain`; empty when the solid bar has no acceptable
 /// width). The counts are the damped searches': runs at the event limit, speeds flagged
-/// non-monotonic or capped, runs made.
+/// non-monotonic or capped, runs made. `worst_regime` is the damped run's at the worst case;
+/// where it is `chaotic`, the spread columns give the worst speed's width over seeded
+/// perturbations of the disturbance (min, mean, max; empty otherwise).
 pub fn lobe_design_schema(axis: vibrobar_core::analysis::lobe_design::DesignAxis) -> Schema {
     Schema {
         columns: vec![
@@ -1274,6 +1276,10 @@ pub fn lobe_design_schema(axis: vibrobar_core::analysis::lobe_design::DesignAxis
             col("non_monotonic", Format::Count),
             col("capped", Format::Count),
             col("runs", Format::Count),
+            opt("worst_regime", Format::Text),
+            opt("spread_min_width_m", Format::Sci),
+            opt("spread_mean_width_m", Format::Sci),
+            opt("spread_max_width_m", Format::Sci),
         ],
     }
 }
@@ -1301,6 +1307,11 @@ pub fn lobe_design_values(r: &vibrobar_core::analysis::lobe_design::DesignRow) -
         Value::U(u64::from(r.non_monotonic)),
         Value::U(u64::from(r.capped)),
         Value::U(u64::from(r.runs)),
+        r.worst_regime
+            .map_or(Value::Empty, |g| Value::S(g.as_str().into_owned())),
+        r.spread.map_or(Value::Empty, |s| Value::F(s.min_width_m)),
+        r.spread.map_or(Value::Empty, |s| Value::F(s.mean_width_m)),
+        r.spread.map_or(Value::Empty, |s| Value::F(s.max_width_m)),
     ]
 }
 
@@ -1321,7 +1332,8 @@ pub fn read_lobe_design_csv(
     vibrobar_core::analysis::lobe_design::DesignAxis,
     Vec<vibrobar_core::analysis::lobe_design::DesignRow>,
 )> {
-    use vibrobar_core::analysis::lobe_design::{BandScore, DesignPoint, DesignRow};
+    use vibrobar_core::analysis::lobe_design::{BandScore, DesignPoint, DesignRow, WidthSpread};
+    use vibrobar_core::analysis::time_domain::RevRegime;
     let text = std::fs::read_to_string(path).map_err(IoError::os(path))?;
     let header = text.lines().next().unwrap_or("");
     let axis = lobe_design_axis(header).ok_or_else(|| IoError::Corrupt {
@@ -1355,6 +1367,18 @@ pub fn read_lobe_design_csv(
                 non_monotonic: count(&v[11]),
                 capped: count(&v[12]),
                 runs: count(&v[13]),
+                worst_regime: match &v[14] {
+                    Value::S(t) => RevRegime::parse(t),
+                    _ => None,
+                },
+                spread: match (&v[15], &v[16], &v[17]) {
+                    (Value::F(lo), Value::F(mean), Value::F(hi)) => Some(WidthSpread {
+                        min_width_m: *lo,
+                        mean_width_m: *mean,
+                        max_width_m: *hi,
+                    }),
+                    _ => None,
+                },
             })
             .collect(),
     ))
@@ -1372,7 +1396,8 @@ mod lobe_design_tests {
             lobe_design_schema(DesignAxis::BallMass).header(),
             "gap_m,ball_mass_kg,worst_width_m,worst_rpm,mean_width_m,solid_worst_width_m,\
              solid_worst_rpm,solid_mean_width_m,worst_gain,mean_gain,event_limit_runs,\
-             non_monotonic,capped,runs"
+             non_monotonic,capped,runs,worst_regime,spread_min_width_m,spread_mean_width_m,\
+             spread_max_width_m"
         );
         for a in DesignAxis::ALL {
             let s = lobe_design_schema(a);

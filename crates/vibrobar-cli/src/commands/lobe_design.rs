@@ -67,7 +67,8 @@ pub struct LobeDesignArgs {
     pub no_figure: bool,
     /// Output CSV: gap_m,ball_mass_kg (or position_m),worst_width_m,worst_rpm,mean_width_m,
     /// solid_worst_width_m,solid_worst_rpm,solid_mean_width_m,worst_gain,mean_gain,
-    /// event_limit_runs,non_monotonic,capped,runs.
+    /// event_limit_runs,non_monotonic,capped,runs,worst_regime,spread_min_width_m,
+    /// spread_mean_width_m,spread_max_width_m.
     #[arg(long, value_name = "FILE.csv")]
     pub out: PathBuf,
 }

@@ -7,6 +7,7 @@ pub mod contact_convergence;
 pub mod contact_laws;
 pub mod contact_test;
 pub mod continue2;
+pub mod cutting_deeper;
 pub mod design;
 pub mod explore;
 pub mod lobe_design;

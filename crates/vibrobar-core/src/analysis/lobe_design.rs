@@ -24,7 +24,10 @@
 use super::batch::{BatchError, Runner};
 use super::placement::PlacementSpec;
 use super::regime::Tolerances;
-use super::time_domain::{linear_at, td_lobe_search, CutProblem, LinearAt, Search};
+use super::time_domain::{
+    linear_at, td_lobe_search, width_spread, BarKind, CutProblem, Disturbance, LinearAt, RevRegime,
+    Search,
+};
 use crate::error::{ParamError, SimError};
 use crate::params::{BarModel, RunSettings};
 use crate::structure::Beam;
@@ -34,6 +37,13 @@ use crate::structure::Beam;
 const DAMPED_LARGE: usize = 3;
 /// Index of the solid bar's large-disturbance search.
 const SOLID_LARGE: usize = 1;
+
+/// Seeded perturbations of the disturbance behind the spread of a chaotic worst case
+/// ([`chaos_spread`]; seeds `1..=SPREAD_SEEDS`).
+pub const SPREAD_SEEDS: u64 = 4;
+/// Relative perturbation of the disturbance's amplitude for the spread: a uniform factor in
+/// `[1 − SPREAD_REL, 1 + SPREAD_REL]` per seed.
+pub const SPREAD_REL: f64 = 0.2;
 
 /// The second design variable beside the gap.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -330,6 +340,24 @@ pub struct DesignRow {
     pub capped: u32,
     /// Runs made by the damped searches.
     pub runs: u32,
+    /// Regime of the damped run at the worst case (its worst width and speed, from the large
+    /// disturbance); `None` without an acceptable width or before [`chaos_spread`].
+    pub worst_regime: Option<RevRegime>,
+    /// Where that run is chaotic: the worst speed's width over seeded perturbations of the
+    /// disturbance ([`chaos_spread`]).
+    pub spread: Option<WidthSpread>,
+}
+
+/// The acceptable width over seeded perturbations of the disturbance
+/// ([`super::time_domain::width_spread`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WidthSpread {
+    /// Smallest width, m.
+    pub min_width_m: f64,
+    /// Mean width, m.
+    pub mean_width_m: f64,
+    /// Largest width, m.
+    pub max_width_m: f64,
 }
 
 impl DesignRow {
@@ -346,34 +374,88 @@ impl DesignRow {
     }
 }
 
+/// The damped bar's large-disturbance search of design `d` at every speed of `solid`'s band,
+/// in order (the widths behind its score; [`DesignRow::from_searches`] scores them).
+pub fn design_searches(
+    spec: &LobeDesignSpec,
+    d: &DesignPoint,
+    solid: &SolidReference,
+) -> Result<Vec<Search>, SimError> {
+    let p = spec.problem(d)?;
+    let lin = linear_at(&p, &solid.rpms)?;
+    solid
+        .rpms
+        .iter()
+        .zip(&lin)
+        .map(|(&n, l)| td_lobe_search(&p, n, l, DAMPED_LARGE))
+        .collect()
+}
+
+impl DesignRow {
+    /// The row of design `d` from its searches (one per speed of `solid`'s band, in order).
+    pub fn from_searches(d: &DesignPoint, solid: &SolidReference, searches: &[Search]) -> Self {
+        let widths: Vec<f64> = searches.iter().map(|s| s.width_m).collect();
+        let mut row = DesignRow {
+            point: *d,
+            damped: BandScore::of(&solid.rpms, &widths),
+            solid: solid.score,
+            event_limit_runs: 0,
+            non_monotonic: 0,
+            capped: 0,
+            runs: 0,
+            worst_regime: None,
+            spread: None,
+        };
+        for s in searches {
+            row.event_limit_runs += s.event_limit_runs;
+            row.non_monotonic += u32::from(s.non_monotonic);
+            row.capped += u32::from(s.capped);
+            row.runs += s.runs;
+        }
+        row
+    }
+}
+
 /// Score design `d` over the band of `solid` (its speeds, one search per speed, in order).
 pub fn score_design(
     spec: &LobeDesignSpec,
     d: &DesignPoint,
     solid: &SolidReference,
 ) -> Result<DesignRow, SimError> {
-    let p = spec.problem(d)?;
-    let lin = linear_at(&p, &solid.rpms)?;
-    let mut widths = Vec::with_capacity(solid.rpms.len());
-    let mut row = DesignRow {
-        point: *d,
-        damped: solid.score,
-        solid: solid.score,
-        event_limit_runs: 0,
-        non_monotonic: 0,
-        capped: 0,
-        runs: 0,
-    };
-    for (i, &n) in solid.rpms.iter().enumerate() {
-        let s = td_lobe_search(&p, n, &lin[i], DAMPED_LARGE)?;
-        widths.push(s.width_m);
-        row.event_limit_runs += s.event_limit_runs;
-        row.non_monotonic += u32::from(s.non_monotonic);
-        row.capped += u32::from(s.capped);
-        row.runs += s.runs;
-    }
-    row.damped = BandScore::of(&solid.rpms, &widths);
+    let searches = design_searches(spec, d, solid)?;
+    let mut row = DesignRow::from_searches(d, solid, &searches);
+    chaos_spread(spec, &mut row)?;
     Ok(row)
+}
+
+/// Judge the damped run at `row`'s worst case (its worst width at its worst speed, from the
+/// large disturbance) and set `worst_regime`; where it is chaotic, search the width at that
+/// speed again over [`SPREAD_SEEDS`] seeded perturbations of the disturbance (±[`SPREAD_REL`])
+/// and set `spread`, as the maps report chaotic points. Nothing without an acceptable width.
+pub fn chaos_spread(spec: &LobeDesignSpec, row: &mut DesignRow) -> Result<(), SimError> {
+    let (w, n) = (row.damped.worst_width_m, row.damped.worst_rpm);
+    if w.is_nan() || w <= 0.0 {
+        return Ok(());
+    }
+    let p = spec.problem(&row.point)?;
+    let lin = linear_at(&p, &[n])?[0];
+    let j = p.judge(
+        BarKind::Damped,
+        Disturbance::Large,
+        w,
+        n,
+        lin.omega_damped_rad_s,
+    )?;
+    row.worst_regime = Some(j.regime);
+    if j.regime == RevRegime::Chaotic {
+        let (lo, mean, hi) = width_spread(&p, n, &lin, DAMPED_LARGE, SPREAD_SEEDS, SPREAD_REL)?;
+        row.spread = Some(WidthSpread {
+            min_width_m: lo,
+            mean_width_m: mean,
+            max_width_m: hi,
+        });
+    }
+    Ok(())
 }
 
 /// The whole study: the solid reference once, then every design of `grid` (in parallel on

@@ -328,6 +328,20 @@ impl RevRegime {
             RevRegime::EventLimit => "event-limit".into(),
         }
     }
+
+    /// Parse [`RevRegime::as_str`].
+    pub fn parse(s: &str) -> Option<RevRegime> {
+        Some(match s {
+            "decaying" => RevRegime::Decaying,
+            "periodic" => RevRegime::Periodic { revs: 1 },
+            "quasi-periodic" => RevRegime::QuasiPeriodic,
+            "chaotic" => RevRegime::Chaotic,
+            "event-limit" => RevRegime::EventLimit,
+            _ => RevRegime::Periodic {
+                revs: s.strip_prefix("periodic-")?.parse().ok()?,
+            },
+        })
+    }
 }
 
 /// Largest period tried by [`classify_revolutions`], revolutions.
