@@ -38,19 +38,24 @@ fn main() {
             gravity_m_s2: sys.gravity_m_s2,
         }
     };
+    let (mut events, mut steps) = (0, 0);
     for _ in 0..reps {
         if n == 0 {
             let r = Exact::default()
                 .run(&sys, &State::REST, 2.0, &mut ())
                 .unwrap();
+            events = r.events;
             std::hint::black_box(r);
         } else {
-            let r = ModalExact::default()
-                .run(&msys, &ModalState::REST, 2.0, &mut ())
+            let (r, st) = ModalExact::default()
+                .run_counted(&msys, &ModalState::REST, 2.0, &mut ())
                 .unwrap();
+            events = r.summary.events;
+            steps = st;
             std::hint::black_box(r);
         }
     }
+    println!("{events} events, {steps} search steps");
 }
 
 /// The bench's beam-row path (`vibrobar bench`, issue #8 §8): `solver_case` of the placement
