@@ -52,7 +52,12 @@
 //! 4-mode beam 3.1–3.3× without friction, 4.9× (as published) and 4.8–5.2× (coulomb); 8 modes
 //! 4.5×, 25×, 24×. With friction the `ẇ = 0` search resolves every mode an impact excites, and
 //! there are more friction switches (3 300–3 700 events against 2 700 on the lumped bar, 12 300
-//! on 8 modes): see [`super::roots_n`].
+//! on 8 modes): see [`super::roots_n`]. Instructions (callgrind, `examples/modal_exact_profile.rs`,
+//! after the sixth speed round of issue #8 §8, which changed no result): lumped 14.5 M none /
+//! 16.0 M as published / 16.1 M coulomb; one unit mode 19.4 M / 21.7 M; 4 modes 30.3 M (2.1×)
+//! / 64.0 M (4.0×, was 68.8 M) / 64.8 M (4.0×, was 69.6 M); 8 modes 50.5 M / 390.1 M (24×).
+//! The 3× budget of issue #8 for the as-published and coulomb beam is not met: see
+//! [`super::roots_n`].
 
 use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
 use super::expsum::{integral_square, ExpSum, Trig};
