@@ -117,6 +117,38 @@ fn half_angle(x_half: f64) -> (f64, f64) {
     (2.0 * s2 * c2, -2.0 * s2 * s2)
 }
 
+// The constants of [`sin_cos`] (and its vector kernel): the parts of π/2 (fdlibm's pio2_1,
+// pio2_2 of 33 bits each and pio2_2t), the round-to-nearest shift 1.5·2⁵², and fdlibm's kernel
+// coefficients as published (the decimal strings round to its bits).
+const PIO2_1: f64 = f64::from_bits(0x3FF9_21FB_5440_0000);
+const PIO2_2: f64 = f64::from_bits(0x3DD0_B461_1A60_0000);
+const PIO2_2T: f64 = f64::from_bits(0x3BA3_198A_2E03_7073);
+const SHIFT: f64 = 6_755_399_441_055_744.0;
+#[allow(clippy::excessive_precision)]
+const S1: f64 = -1.666_666_666_666_663_243_48e-1;
+#[allow(clippy::excessive_precision)]
+const S2: f64 = 8.333_333_333_322_489_461_24e-3;
+#[allow(clippy::excessive_precision)]
+const S3: f64 = -1.984_126_982_985_794_931_34e-4;
+#[allow(clippy::excessive_precision)]
+const S4: f64 = 2.755_731_370_707_006_767_89e-6;
+#[allow(clippy::excessive_precision)]
+const S5: f64 = -2.505_076_025_340_686_341_95e-8;
+#[allow(clippy::excessive_precision)]
+const S6: f64 = 1.589_690_995_211_550_102_21e-10;
+#[allow(clippy::excessive_precision)]
+const C1: f64 = 4.166_666_666_666_660_190_37e-2;
+#[allow(clippy::excessive_precision)]
+const C2: f64 = -1.388_888_888_887_410_957_49e-3;
+#[allow(clippy::excessive_precision)]
+const C3: f64 = 2.480_158_728_947_672_941_78e-5;
+#[allow(clippy::excessive_precision)]
+const C4: f64 = -2.755_731_435_139_066_330_35e-7;
+#[allow(clippy::excessive_precision)]
+const C5: f64 = 2.087_572_321_298_174_827_90e-9;
+#[allow(clippy::excessive_precision)]
+const C6: f64 = -1.135_964_755_778_819_482_65e-11;
+
 /// `(sin x, cos x)`: the searches evaluate one pair per term and step, the hot spot of the
 /// solver, so this is fdlibm's algorithm inlined (libm's `sincos` costs several times more):
 /// reduction by `π/2` in two Cody–Waite rounds with `π/2` in three parts of 33 bits (exact
@@ -125,20 +157,13 @@ fn half_angle(x_half: f64) -> (f64, f64) {
 /// At `n = 0` (`|x| ≤ π/4`) the reduction is exact, so `sin x` keeps its relative accuracy for
 /// small `x`. Beyond `|x| = 5e5` (never reached by a search: `|x| ≤ max(Ω, ω_N)·τ/2`) libm.
 #[inline]
-// (fdlibm's kernel coefficients as published: the decimal strings round to its bits.)
-#[allow(clippy::excessive_precision)]
 pub fn sin_cos(x: f64) -> (f64, f64) {
-    // The parts of π/2: fdlibm's pio2_1, pio2_2 (33 bits each) and pio2_2t.
-    const PIO2_1: f64 = f64::from_bits(0x3FF9_21FB_5440_0000);
-    const PIO2_2: f64 = f64::from_bits(0x3DD0_B461_1A60_0000);
-    const PIO2_2T: f64 = f64::from_bits(0x3BA3_198A_2E03_7073);
     // (|x| ≤ 5e5, and not NaN.)
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(x.abs() <= 5e5) {
         return x.sin_cos();
     }
     // Round to nearest by the 1.5·2⁵² shift (no libcall for `round` on baseline x86-64).
-    const SHIFT: f64 = 6_755_399_441_055_744.0;
     let n = (x * std::f64::consts::FRAC_2_PI + SHIFT) - SHIFT;
     let (y, quadrant) = if n == 0.0 {
         (x, 0)
@@ -150,18 +175,9 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
         (r - w2, (n as i64 & 3) as u8)
     };
     let z = y * y;
-    let sr = 8.333_333_333_322_489_461_24e-3
-        + z * (-1.984_126_982_985_794_931_34e-4
-            + z * (2.755_731_370_707_006_767_89e-6
-                + z * (-2.505_076_025_340_686_341_95e-8 + z * 1.589_690_995_211_550_102_21e-10)));
-    let sn = y + z * y * (-1.666_666_666_666_663_243_48e-1 + z * sr);
-    let cr = z
-        * (4.166_666_666_666_660_190_37e-2
-            + z * (-1.388_888_888_887_410_957_49e-3
-                + z * (2.480_158_728_947_672_941_78e-5
-                    + z * (-2.755_731_435_139_066_330_35e-7
-                        + z * (2.087_572_321_298_174_827_90e-9
-                            + z * -1.135_964_755_778_819_482_65e-11)))));
+    let sr = S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)));
+    let sn = y + z * y * (S1 + z * sr);
+    let cr = z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6)))));
     let hz = 0.5 * z;
     let w = 1.0 - hz;
     let cs = w + (((1.0 - w) - hz) + z * cr);
@@ -178,6 +194,121 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
         f64::from_bits(s0.to_bits() ^ s_sign),
         f64::from_bits(c0.to_bits() ^ c_sign),
     )
+}
+
+/// Lanes of the vector kernel of [`TrigN`]'s half angles.
+#[cfg(target_arch = "x86_64")]
+const LANES: usize = 4;
+
+/// [`half_angle`] of four arguments in the lanes of an AVX2 vector: [`sin_cos`]'s operations
+/// in the same order, so the same bits (tested), with the reduction done for every argument
+/// (at `n = 0` it gives `y = x` exactly: `x − 0·p₁ = x`, the corrections are `±0`) and the
+/// quadrant `n mod 4` read from the last mantissa bits of `x·2/π + 1.5·2⁵²`. Where an argument
+/// is beyond `sin_cos`'s own range (`|x| > 5e5`, or NaN) the scalar [`half_angle`] does all
+/// four.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn half_angles_avx2(xh: &[f64; LANES]) -> ([f64; LANES], [f64; LANES]) {
+    use std::arch::x86_64::*;
+    let (mut s, mut cm1) = ([0.0; LANES], [0.0; LANES]);
+    let x = _mm256_loadu_pd(xh.as_ptr());
+    // (Macros, not closures: a closure would not inherit the target feature, and each
+    // intrinsic would become a call.)
+    macro_rules! k {
+        ($v:expr) => {
+            _mm256_set1_pd($v)
+        };
+    }
+    macro_rules! mul {
+        ($a:expr, $b:expr $(,)?) => {
+            _mm256_mul_pd($a, $b)
+        };
+    }
+    macro_rules! add {
+        ($a:expr, $b:expr $(,)?) => {
+            _mm256_add_pd($a, $b)
+        };
+    }
+    macro_rules! sub {
+        ($a:expr, $b:expr $(,)?) => {
+            _mm256_sub_pd($a, $b)
+        };
+    }
+    let abs = _mm256_andnot_pd(k!(-0.0), x);
+    if _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(abs, k!(5e5))) != 0b1111 {
+        for i in 0..LANES {
+            (s[i], cm1[i]) = half_angle(xh[i]);
+        }
+        return (s, cm1);
+    }
+    let shifted = add!(mul!(x, k!(std::f64::consts::FRAC_2_PI)), k!(SHIFT));
+    let n = sub!(shifted, k!(SHIFT));
+    let t = sub!(x, mul!(n, k!(PIO2_1)));
+    let w = mul!(n, k!(PIO2_2));
+    let r = sub!(t, w);
+    let w2 = sub!(mul!(n, k!(PIO2_2T)), sub!(sub!(t, r), w));
+    let y = sub!(r, w2);
+    let z = mul!(y, y);
+    let sr = add!(
+        k!(S2),
+        mul!(
+            z,
+            add!(
+                k!(S3),
+                mul!(z, add!(k!(S4), mul!(z, add!(k!(S5), mul!(z, k!(S6)),),),),),
+            ),
+        ),
+    );
+    let sn = add!(y, mul!(mul!(z, y), add!(k!(S1), mul!(z, sr)),),);
+    let cr = mul!(
+        z,
+        add!(
+            k!(C1),
+            mul!(
+                z,
+                add!(
+                    k!(C2),
+                    mul!(
+                        z,
+                        add!(
+                            k!(C3),
+                            mul!(z, add!(k!(C4), mul!(z, add!(k!(C5), mul!(z, k!(C6)),),),),),
+                        ),
+                    ),
+                ),
+            ),
+        ),
+    );
+    let hz = mul!(k!(0.5), z);
+    let wc = sub!(k!(1.0), hz);
+    let cs = add!(wc, add!(sub!(sub!(k!(1.0), wc), hz), mul!(z, cr)));
+    // The quadrant by swap and sign flips, as `sin_cos`.
+    let q = _mm256_and_si256(_mm256_castpd_si256(shifted), _mm256_set1_epi64x(3));
+    let one = _mm256_set1_epi64x(1);
+    let two = _mm256_set1_epi64x(2);
+    let odd = _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(q, one), one));
+    let s0 = _mm256_blendv_pd(sn, cs, odd);
+    let c0 = _mm256_blendv_pd(cs, sn, odd);
+    let s_sign = _mm256_slli_epi64::<62>(_mm256_and_si256(q, two));
+    let c_sign = _mm256_slli_epi64::<62>(_mm256_and_si256(_mm256_add_epi64(q, one), two));
+    let s2 = _mm256_xor_pd(s0, _mm256_castsi256_pd(s_sign));
+    let c2 = _mm256_xor_pd(c0, _mm256_castsi256_pd(c_sign));
+    // `half_angle`: (2·s₂·c₂, −2·s₂·s₂), left to right.
+    _mm256_storeu_pd(s.as_mut_ptr(), mul!(mul!(k!(2.0), s2), c2));
+    _mm256_storeu_pd(cm1.as_mut_ptr(), mul!(mul!(k!(-2.0), s2), s2));
+    (s, cm1)
+}
+
+/// Whether the vector kernel runs with AVX2 (checked once by the standard library, then a
+/// load): 4 lanes, against SSE2's two on the baseline target where gathering the arguments
+/// costs what the lanes save (measured, `roots_n` docs).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn avx2() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
 }
 
 impl TrigN {
@@ -219,12 +350,73 @@ impl TrigN {
             }
             return;
         }
+        // (One term alone is cheaper in the scalar kernel: one unit mode +2 % with the vector
+        // one, measured.)
+        #[cfg(target_arch = "x86_64")]
+        if g.n >= 2 && avx2() {
+            // SAFETY: AVX2 is present (checked just above).
+            unsafe { self.fill_avx2(tau, g) };
+            return;
+        }
         let (sh, chm1) = half_angle((0.5 * g.om) * tau);
         self.sh = sh;
         self.chm1 = chm1;
         self.ch = 1.0 + chm1;
         for i in 0..g.n {
             self.k[i] = self.term(tau, &g.t[i]);
+        }
+    }
+
+    /// [`TrigN::fill_lanes`] compiled for AVX2 (four lanes).
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn fill_avx2(&mut self, tau: f64, g: &ExpSumN) {
+        self.fill_lanes(tau, g);
+    }
+
+    /// The harmonic and every term of `g` at `τ`, the terms' half angles [`LANES`] at a time in
+    /// the vector kernel (the harmonic's by the scalar one): the same bits as [`TrigN::term`]
+    /// and the harmonic of the scalar [`TrigN::fill`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn fill_lanes(&mut self, tau: f64, g: &ExpSumN) {
+        let (sh, chm1) = half_angle((0.5 * g.om) * tau);
+        self.sh = sh;
+        self.chm1 = chm1;
+        self.ch = 1.0 + chm1;
+        let n = g.n;
+        let mut j0 = 0;
+        while j0 < n {
+            let len = LANES.min(n - j0);
+            let mut xh = [0.0; LANES];
+            for (x, t) in xh.iter_mut().zip(&g.t[j0..j0 + len]) {
+                *x = (0.5 * t.wd) * tau;
+            }
+            // SAFETY: only called from `fill_avx2`, i.e. with AVX2.
+            let (s, cm1) = unsafe { half_angles_avx2(&xh) };
+            for l in 0..len {
+                let t = &g.t[j0 + l];
+                let em1 = (-t.al * tau).exp_m1();
+                self.k[j0 + l] = if t.wd == 0.0 {
+                    TermTrig {
+                        em1,
+                        cd: 1.0,
+                        sd: 0.0,
+                        cdm1: 0.0,
+                    }
+                } else {
+                    TermTrig {
+                        em1,
+                        cd: 1.0 + cm1[l],
+                        sd: s[l],
+                        cdm1: cm1[l],
+                    }
+                };
+            }
+            j0 += LANES;
         }
     }
 
@@ -585,10 +777,21 @@ pub fn integral_square_n(x: &ExpSumN, a: f64, b: f64) -> f64 {
     if b - a <= 0.0 {
         return 0.0;
     }
-    let mut eb = [C(0.0, 0.0); MAX_TERMS + 1];
-    exps_at(x, b, &mut eb);
-    square_n(x, a, b, &eb)
+    if x.n < SMALL {
+        let mut eb = [C(0.0, 0.0); SMALL];
+        exps_at(x, b, &mut eb);
+        square_n(x, a, b, &eb)
+    } else {
+        let mut eb = [C(0.0, 0.0); MAX_TERMS + 1];
+        exps_at(x, b, &mut eb);
+        square_n(x, a, b, &eb)
+    }
 }
+
+/// Capacity of the small buffers of [`square_n`] (the harmonic and up to 7 terms): a run calls
+/// it once per segment, and zeroing buffers of the full capacity ([`MAX_TERMS`]` + 1` complex
+/// numbers, three of them) cost ~5 % of the 4-mode beam's ∫u² (measured).
+const SMALL: usize = 8;
 
 /// [`integral_square_n`] up to `b = end.tau`, with `e^{λb}` from the transcendentals `end`
 /// already computed there for the basis of `x` (a segment's end, [`TrigN::fill`]): no `exp` or
@@ -600,23 +803,37 @@ pub fn integral_square_n_to(x: &ExpSumN, a: f64, end: &TrigN) -> f64 {
         return 0.0;
     }
     debug_assert_eq!(end.n, x.n);
-    let mut eb = [C(0.0, 0.0); MAX_TERMS + 1];
+    if x.n < SMALL {
+        let mut eb = [C(0.0, 0.0); SMALL];
+        exps_from(x, end, &mut eb);
+        square_n(x, a, b, &eb)
+    } else {
+        let mut eb = [C(0.0, 0.0); MAX_TERMS + 1];
+        exps_from(x, end, &mut eb);
+        square_n(x, a, b, &eb)
+    }
+}
+
+/// `e^{λₖb}` of the phasor basis of `x` from the transcendentals `end` at `b`.
+#[inline]
+fn exps_from(x: &ExpSumN, end: &TrigN, eb: &mut [C]) {
     eb[0] = C(end.ch, end.sh);
     for (o, k) in eb[1..=x.n].iter_mut().zip(&end.k[..x.n]) {
         let e = 1.0 + k.em1;
         *o = C(e * k.cd, e * k.sd);
     }
-    square_n(x, a, b, &eb)
 }
 
 /// The integral of the square from `e^{λb}` (`eb`, the phasor basis of `x`).
-fn square_n(x: &ExpSumN, a: f64, b: f64, eb: &[C; MAX_TERMS + 1]) -> f64 {
+/// (`M`: the buffers' capacity, at least `x.n + 1`.)
+#[inline]
+fn square_n<const M: usize>(x: &ExpSumN, a: f64, b: f64, eb: &[C; M]) -> f64 {
     let h = b - a;
     debug_assert!(x.c1 == 0.0 && x.c2 == 0.0);
     let n = x.n + 1;
-    let mut cx = [C(0.0, 0.0); MAX_TERMS + 1];
-    let mut lam = [C(0.0, 0.0); MAX_TERMS + 1];
-    let mut ea = [C(0.0, 0.0); MAX_TERMS + 1];
+    let mut cx = [C(0.0, 0.0); M];
+    let mut lam = [C(0.0, 0.0); M];
+    let mut ea = [C(0.0, 0.0); M];
     phasors(x, &mut cx, &mut lam);
     exps_at(x, a, &mut ea);
     let from0 = a == 0.0;
@@ -730,6 +947,96 @@ mod tests {
         let inc = f.increment(0.0, tau);
         let want = f.deriv().f0 * tau + 0.5 * f.deriv().deriv().f0 * tau * tau;
         assert!((inc - want).abs() <= 1e-12 * want.abs(), "{inc} {want}");
+    }
+
+    /// The AVX2 kernel of the half angles gives the scalar [`half_angle`]'s bits (the solver's
+    /// results must not depend on whether the CPU has AVX2): on arguments of every quadrant and
+    /// sign, at multiples of π/2, ±0, tiny ones, beyond the kernel's range (5e5) and NaN; and
+    /// the fills (the AVX2 ones) against the scalar formulas. Only where the CPU has AVX2 (else
+    /// the solver never runs the kernel; the test says so).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn vector_half_angles_are_bit_identical_to_the_scalar_ones() {
+        if !avx2() {
+            eprintln!("no AVX2 on this CPU: the scalar fill runs, nothing to compare");
+            return;
+        }
+        let mut args = vec![0.0, -0.0, 1e-300, -1e-20, 5e5, -5e5, 6e5, 1e9, f64::NAN];
+        for k in -40..40 {
+            for d in [-1e-12, 0.0, 3e-16, 0.4] {
+                args.push(k as f64 * std::f64::consts::FRAC_PI_4 + d);
+            }
+        }
+        let mut x: u64 = 0x2545_f491_4f6c_dd1d;
+        for _ in 0..4000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let u = (x >> 11) as f64 / (1u64 << 53) as f64;
+            args.push((2.0 * u - 1.0) * 10f64.powf(-6.0 + 12.0 * ((x & 0xff) as f64 / 255.0)));
+        }
+        let same = |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+        for chunk in args.chunks(LANES) {
+            let mut xh = [0.0; LANES];
+            xh[..chunk.len()].copy_from_slice(chunk);
+            // SAFETY: AVX2 present (checked above).
+            let (s, c) = unsafe { half_angles_avx2(&xh) };
+            for (i, &a) in chunk.iter().enumerate() {
+                let (s1, c1) = half_angle(a);
+                assert!(
+                    same(s[i], s1) && same(c[i], c1),
+                    "{a:e}: {:e} {:e} vs {s1:e} {c1:e}",
+                    s[i],
+                    c[i]
+                );
+            }
+        }
+        // The fill itself (the AVX2 one where the CPU has it) against the scalar formulas, on
+        // a basis with a real exponential (ω_d = 0) and terms in and out of the kernel's range.
+        let mut g = sample();
+        g.n = 5;
+        g.t[4] = Term {
+            al: 2.0,
+            wd: 3e6,
+            p: 1.0,
+            q: 0.5,
+        };
+        for &tau in &[1e-9, 0.013, 0.37, 2.5, -0.2] {
+            let mut tr = TrigN::empty();
+            tr.fill(tau, &g);
+            let mut part = TrigN::empty();
+            part.fill_some(tau, &g, &[3, 0, 4], true);
+            let (sh, chm1) = half_angle((0.5 * g.om) * tau);
+            assert!(
+                same(tr.sh, sh) && same(tr.chm1, chm1) && same(part.sh, sh),
+                "{tau}"
+            );
+            for i in 0..g.n {
+                let t = &g.t[i];
+                let (sd, cdm1) = if t.wd == 0.0 {
+                    (0.0, 0.0)
+                } else {
+                    half_angle((0.5 * t.wd) * tau)
+                };
+                let em1 = (-t.al * tau).exp_m1();
+                let k = tr.k[i];
+                assert!(
+                    same(k.sd, sd) && same(k.cdm1, cdm1) && same(k.em1, em1),
+                    "{tau} {i}"
+                );
+                assert!(
+                    same(k.cd, if t.wd == 0.0 { 1.0 } else { 1.0 + cdm1 }),
+                    "{tau} {i}"
+                );
+                if [3, 0, 4].contains(&i) {
+                    let p = part.k[i];
+                    assert!(
+                        same(p.sd, sd) && same(p.cdm1, cdm1) && same(p.em1, em1),
+                        "{tau} {i}"
+                    );
+                }
+            }
+        }
     }
 
     /// The inlined `sin_cos` against libm: within 2 ulp of the larger of the two values' size

@@ -52,7 +52,12 @@
 //! 4-mode beam 3.1–3.3× without friction, 4.9× (as published) and 4.8–5.2× (coulomb); 8 modes
 //! 4.5×, 25×, 24×. With friction the `ẇ = 0` search resolves every mode an impact excites, and
 //! there are more friction switches (3 300–3 700 events against 2 700 on the lumped bar, 12 300
-//! on 8 modes): see [`super::roots_n`].
+//! on 8 modes): see [`super::roots_n`]. Instructions (callgrind, `examples/modal_exact_profile.rs`,
+//! after the sixth speed round of issue #8 §8, which changed no result): lumped 14.5 M none /
+//! 16.0 M as published / 16.1 M coulomb; one unit mode 19.4 M / 21.7 M; 4 modes 30.3 M (2.1×)
+//! / 64.0 M (4.0×, was 68.8 M) / 64.8 M (4.0×, was 69.6 M); 8 modes 50.5 M / 390.1 M (24×).
+//! The 3× budget of issue #8 for the as-published and coulomb beam is not met: see
+//! [`super::roots_n`].
 
 use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
 use super::expsum::{integral_square, ExpSum, Trig};
@@ -696,6 +701,30 @@ impl Book<'_> {
         before: &St,
         after: &St,
     ) -> Result<(), SimError> {
+        let impact = matches!(kind, EventKind::Impact { .. });
+        let modal = (impact && self.obs.wants_modal()).then(|| before.modal(cs));
+        self.event_from(
+            cs,
+            kind,
+            before.public(cs),
+            modal.as_ref(),
+            after,
+            after.public(cs),
+        )
+    }
+
+    /// [`Book::event`] from what the observers see of the states: the public state before and
+    /// after the event (`after_pub` is `after.public(cs)`) and, if they want it, the modal state
+    /// before it.
+    fn event_from(
+        &mut self,
+        cs: &Consts,
+        kind: EventKind,
+        before: State,
+        before_modal: Option<&ModalState>,
+        after: &St,
+        after_pub: State,
+    ) -> Result<(), SimError> {
         self.summary.events += 1;
         if let EventKind::Impact { .. } = kind {
             self.summary.impacts += 1;
@@ -707,12 +736,11 @@ impl Book<'_> {
         self.obs.event(&Event {
             t_s: after.t,
             kind,
-            before: before.public(cs),
-            after: after.public(cs),
+            before,
+            after: after_pub,
         });
-        if let (EventKind::Impact { energy_loss_j, .. }, true) = (kind, self.obs.wants_modal()) {
-            self.obs
-                .modal_impact(&before.modal(cs), &after.modal(cs), energy_loss_j)
+        if let (EventKind::Impact { energy_loss_j, .. }, Some(b)) = (kind, before_modal) {
+            self.obs.modal_impact(b, &after.modal(cs), energy_loss_j)
         }
         Ok(())
     }
@@ -1224,8 +1252,11 @@ fn impact(
     s.w = sw * cs.lg;
     let dw = if sw * s.dw > 0.0 { s.dw } else { 0.0 };
     s.dw = dw;
-    // `s` becomes the state after the impact in place (one 0.5 KB copy per impact, not three).
-    let before = *s;
+    // `s` becomes the state after the impact in place. What the observers see of the state
+    // before it is taken first (a copy of the whole 0.5 KB state per impact was ~5 % of a
+    // 4-mode beam run's time, measured with perf; the modal state only if they ask for it).
+    let before_pub = s.public(cs);
+    let before_modal = book.obs.wants_modal().then(|| s.modal(cs));
     let mut dv = dw + cs.dot(&cs.phi_d, &s.dq);
     let n = cs.n;
     let law = modal_impact(
@@ -1239,15 +1270,21 @@ fn impact(
     );
     // The law's ẇ+ = −e ẇ− exactly (the ball velocity follows from it).
     s.dw = -cs.e * dw;
-    book.event(
+    // (Formed here, where the new `ẇ` is still in a register: read back from memory in
+    // `event_from`, with `w` as one 16-byte load over two 8-byte stores, it stalled the store
+    // forwarding, ~4 % of a 4-mode beam run's time, measured with perf.)
+    let after_pub = s.public(cs);
+    book.event_from(
         cs,
         EventKind::Impact {
             wall: wall_of(sw),
             dw_m_s: dw,
             energy_loss_j: law.energy_loss_j,
         },
-        &before,
+        before_pub,
+        before_modal.as_ref(),
         s,
+        after_pub,
     )?;
     if s.dw == 0.0 {
         return contact_test(cs, sw, s);

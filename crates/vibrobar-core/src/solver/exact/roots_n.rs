@@ -177,6 +177,31 @@
 //! budget's gap. What remains
 //! is as the third round says: the as-published beam needs its events found at about half
 //! the cost (or a proof that resolves a burst of switches jointly), not a cheaper constant.
+//!
+//! **Sixth round (issue #8 §8), measured, the same bits** (callgrind, `()` observer, and the
+//! bench's own path `examples/modal_exact_profile.rs N LAW 1 case` with the RMS and regime
+//! observers; perf for the time). Kept, none changing a result: a full [`TrigN::fill`] takes
+//! its terms' half angles four at a time in AVX2 lanes behind runtime detection (the scalar
+//! kernel's operations in its order, no FMA; ~790 → ~570 instructions per fill on 4 modes);
+//! `∫u²` with buffers sized for the terms in use (zeroing full-capacity buffers per segment);
+//! an impact hands the observers its states as formed, not a 0.5 KB copy read back (perf:
+//! the copy, and a store-forwarding stall on reading the fresh `ẇ`, ~5 % of the time).
+//! Instructions, before → after, `()` observer (the same events and steps): 4 modes none
+//! 31.5 → 30.3 M, as published 68.8 → 64.0 M (4.3× → 4.0× the lumped 16.0 M), coulomb
+//! 69.6 → 64.8 M (4.3× → 4.0×); one unit mode 19.5 → 19.4 M / 21.9 → 21.7 M; 8 modes
+//! 53.0 → 50.5 M / 430.7 → 390.1 M; the bench path (lumped 19.3 / 19.5 M): 4 modes as
+//! published 85.9 → 80.3 M (4.4× → 4.2×), coulomb 86.2 → 80.5 M. CPU time of the bench path
+//! (user time of 100–200 runs, a machine at load 8–10): 4.4× → 4.05× the lumped run, both
+//! laws. With the slow-beat envelope on a split (branch `bspeed`, which moves the beam
+//! goldens and is not merged): 55.3 M (3.5×) / 57.0 M (3.5×), the bench path 71.2 M
+//! (3.7×) / 72.7 M (3.7×), CPU time 3.4×. Tried and not kept: the cheap step's partial
+//! fill in the lanes (1–3 terms: +0.1 %); one lane for a single term (+2 % on one unit
+//! mode); fat LTO with one codegen unit (no change). (The bench's wall clock on this shared
+//! machine ranged 1.2–10.7× between runs of the same binary: no measure.) Where the time goes now (perf, bench path, 4 modes as
+//! published): `eval` 24 %, the fills 20 %, the cheap step 11 %, `∫u²` 10 % (its pairs'
+//! `φ₁` series and divisions, the observer's share), the search's own bookkeeping 7 %,
+//! `exp_m1` 6 %, the envelope's bounds 4 %: the 3× budget (about 58 M on the bench path)
+//! still needs a quarter fewer full steps, which only a different step sequence gives.
 
 use super::expsum_n::{ExpSumN, Term, TrigN, MAX_TERMS};
 pub use super::roots::{Root, SEARCH_HORIZON_ITER};
