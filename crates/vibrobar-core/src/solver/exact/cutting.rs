@@ -87,11 +87,21 @@ use crate::solver::{Event, Mode, Observer, RunSummary, Segment, SegmentIntegrals
 use std::cell::{Cell, RefCell};
 use std::collections::VecDeque;
 
+/// The sixth-order path takes the fourth-order pieces where the chip's oscillation about the
+/// feed exceeds this fraction of the feed (the tool may leave or re-enter the cut soon).
+pub const NEAR_CUT_BOUNDARY: f64 = 0.5;
+
 /// Events per revolution the surface history holds beyond its regular pieces.
 pub const MAX_EVENT_KNOTS: usize = 1 << 15;
 
 /// Default pieces per period of the fastest motion (the bar in the cut, or the harmonic force).
 pub const DEFAULT_STEPS_PER_PERIOD: u32 = 32;
+
+/// Pieces per period of the sixth-order surface (the linear law on the restitution contact law)
+/// at [`DEFAULT_STEPS_PER_PERIOD`]: that path scales `steps_per_period` by this over
+/// [`DEFAULT_STEPS_PER_PERIOD`] (pieces 3.2× longer for the same setting, more accurate than
+/// the fourth-order paths' at the same setting: see the module doc).
+pub const SIXTH_ORDER_STEPS_PER_PERIOD: u32 = 10;
 
 /// The exact solver on a cutting run: [`Exact`]'s event loop with the delay stepping.
 ///
@@ -108,6 +118,9 @@ pub struct ExactCutting {
     /// Pieces per period of the fastest motion (≥ 4); the delayed surface's quadratic has an
     /// error `O((2π/steps)³)`.
     pub steps_per_period: u32,
+    /// The sixth-order surface (opt-in, off by default; the linear law on the restitution
+    /// contact law only): see the module doc, "Sixth-order surface".
+    pub sixth_order: bool,
 }
 
 impl ExactCutting {
@@ -117,6 +130,7 @@ impl ExactCutting {
             exact: Exact::default(),
             cutting,
             steps_per_period: DEFAULT_STEPS_PER_PERIOD,
+            sixth_order: false,
         }
     }
 
@@ -128,7 +142,8 @@ impl ExactCutting {
 }
 
 /// One knot of the surface history: time, value and velocity from the left and the right
-/// (they differ at an impact, and at a start with an offset).
+/// (they differ at an impact, and at a start with an offset), and the acceleration from either
+/// side where the run knows it ([`History::quintic`]; NaN where not: the cubic Hermite then).
 #[derive(Debug, Clone, Copy)]
 struct Knot {
     t: f64,
@@ -136,6 +151,41 @@ struct Knot {
     ds_l: f64,
     s_r: f64,
     ds_r: f64,
+    dds_l: f64,
+    dds_r: f64,
+}
+
+impl Knot {
+    /// A knot without accelerations (the cubic Hermite's).
+    fn cubic(t: f64, s_l: f64, ds_l: f64, s_r: f64, ds_r: f64) -> Knot {
+        Knot {
+            t,
+            s_l,
+            ds_l,
+            s_r,
+            ds_r,
+            dds_l: f64::NAN,
+            dds_r: f64::NAN,
+        }
+    }
+}
+
+/// The quintic Hermite on `[0, 1]` through `y0, y1` with scaled slopes `d0 = h ẏ0`, `d1 = h ẏ1`
+/// and scaled accelerations `e0 = h² ÿ0`, `e1 = h² ÿ1`: its coefficients `a0 … a5` in `θ`.
+#[inline]
+fn quintic_coeffs(y0: f64, d0: f64, e0: f64, y1: f64, d1: f64, e1: f64) -> [f64; 6] {
+    let a2 = 0.5 * e0;
+    let dv = y1 - y0 - d0 - a2;
+    let dd = d1 - d0 - 2.0 * a2;
+    let de = e1 - 2.0 * a2;
+    [
+        y0,
+        d0,
+        a2,
+        10.0 * dv - 4.0 * dd + 0.5 * de,
+        -15.0 * dv + 7.0 * dd - de,
+        6.0 * dv - 3.0 * dd + 0.5 * de,
+    ]
 }
 
 /// The machined surface over the last revolution, a ring sized once per run.
@@ -153,6 +203,10 @@ pub(super) struct History {
     shift: f64,
     /// The last knot index a lookup found ([`History::locate`]).
     hint: Cell<usize>,
+    /// The sixth-order surface: knots carry accelerations (quintic Hermite between them where
+    /// both sides have one) and a piece's quadratic interpolates at its Gauss points
+    /// ([`History::quadratic`]). Off: the cubic Hermite and the ends-and-middle quadratic.
+    quintic: bool,
 }
 
 impl History {
@@ -162,6 +216,7 @@ impl History {
                 // The same instant again (an event right at a segment end): the right side.
                 last.s_r = kn.s_r;
                 last.ds_r = kn.ds_r;
+                last.dds_r = kn.dds_r;
                 return;
             }
         }
@@ -201,6 +256,7 @@ impl History {
             tau,
             shift,
             hint: Cell::new(0),
+            quintic: false,
         }
     }
 
@@ -246,11 +302,54 @@ impl History {
         let k1 = &self.k[i];
         let h = k1.t - k0.t;
         let th = (x - k0.t) / h;
+        if let Some(a) = self.quintic_between(k0, k1) {
+            return a[0] + th * (a[1] + th * (a[2] + th * (a[3] + th * (a[4] + th * a[5]))));
+        }
         let (t2, t3) = (th * th, th * th * th);
         (2.0 * t3 - 3.0 * t2 + 1.0) * k0.s_r
             + (t3 - 2.0 * t2 + th) * h * k0.ds_r
             + (-2.0 * t3 + 3.0 * t2) * k1.s_l
             + (t3 - t2) * h * k1.ds_l
+    }
+
+    /// The quintic Hermite's coefficients in `θ` between adjacent knots, where the history is
+    /// quintic and both sides carry an acceleration.
+    #[inline]
+    fn quintic_between(&self, k0: &Knot, k1: &Knot) -> Option<[f64; 6]> {
+        if !self.quintic || !k0.dds_r.is_finite() || !k1.dds_l.is_finite() {
+            return None;
+        }
+        let h = k1.t - k0.t;
+        Some(quintic_coeffs(
+            k0.s_r,
+            h * k0.ds_r,
+            h * h * k0.dds_r,
+            k1.s_l,
+            h * k1.ds_l,
+            h * h * k1.dds_l,
+        ))
+    }
+
+    /// The surface's acceleration from the left at `x` (for the knot of a segment out of the
+    /// cut): NaN where the history is not quintic there.
+    fn accel_left(&self, x: f64) -> f64 {
+        let i = self.locate(x, false);
+        let n = self.k.len();
+        if i < n && self.k[i].t.to_bits() == x.to_bits() {
+            return self.k[i].dds_l;
+        }
+        if i == 0 || i == n {
+            return self.k[i.min(n - 1)].dds_r;
+        }
+        let (k0, k1) = (&self.k[i - 1], &self.k[i]);
+        match self.quintic_between(k0, k1) {
+            Some(a) => {
+                let h = k1.t - k0.t;
+                let th = (x - k0.t) / h;
+                (2.0 * a[2] + th * (6.0 * a[3] + th * (12.0 * a[4] + th * 20.0 * a[5]))) / (h * h)
+            }
+            None => f64::NAN,
+        }
     }
 
     /// The surface's velocity from the left at `x` (for the knot of a segment out of the cut).
@@ -266,6 +365,11 @@ impl History {
         let (k0, k1) = (&self.k[i - 1], &self.k[i]);
         let h = k1.t - k0.t;
         let th = (x - k0.t) / h;
+        if let Some(a) = self.quintic_between(k0, k1) {
+            return (a[1]
+                + th * (2.0 * a[2] + th * (3.0 * a[3] + th * (4.0 * a[4] + th * 5.0 * a[5]))))
+                / h;
+        }
         let t2 = th * th;
         ((6.0 * t2 - 6.0 * th) * k0.s_r
             + (3.0 * t2 - 4.0 * th + 1.0) * h * k0.ds_r
@@ -289,37 +393,52 @@ impl History {
                 ds_l: k.ds_l,
                 s_r: k.s_r + self.shift,
                 ds_r: k.ds_r,
+                dds_l: k.dds_l,
+                dds_r: k.dds_r,
             };
         }
         let s = self.eval(x, false) + self.shift;
         let ds = self.slope_left(x);
+        let dds = if self.quintic {
+            self.accel_left(x)
+        } else {
+            f64::NAN
+        };
         Knot {
             t,
             s_l: s,
             ds_l: ds,
             s_r: s,
             ds_r: ds,
+            dds_l: dds,
+            dds_r: dds,
         }
     }
 
     /// The surface's kink at a cut event at `t` (the knot there): its velocity from the right
     /// is the new side's, the bar's `u̇` entering the cut, the carried surface's leaving it.
     fn cut_event_slope(&mut self, t: f64, du: f64) {
-        let ds = if self.in_cut {
-            du
+        // The acceleration from the right: entering the cut the bar's, set by the next
+        // segment's start (Recorder::segment); leaving it the carried surface's.
+        let (ds, dds) = if self.in_cut {
+            (du, f64::NAN)
         } else {
             let x = t - self.tau;
             let i = self.k.partition_point(|k| k.t <= x);
             // At or just after a knot: its right side; else the Hermite's slope.
             if i > 0 && self.k[i - 1].t.to_bits() == x.to_bits() {
-                self.k[i - 1].ds_r
+                (self.k[i - 1].ds_r, self.k[i - 1].dds_r)
             } else {
-                self.slope_left(x)
+                (self.slope_left(x), self.accel_left(x))
             }
         };
+        let quintic = self.quintic;
         if let Some(last) = self.k.back_mut() {
             if last.t.to_bits() == t.to_bits() {
                 last.ds_r = ds;
+                if quintic {
+                    last.dds_r = dds;
+                }
             }
         }
     }
@@ -327,8 +446,17 @@ impl History {
     /// The quadratic `d0 + d1 τ + d2 τ²` through the surface at the window `[a, b]`'s ends and
     /// middle (`τ = x − a`).
     fn quadratic(&self, a: f64, b: f64) -> [f64; 3] {
-        let y0 = self.eval(a, true);
         let len = b - a;
+        if self.quintic && len > 0.0 {
+            return self.gauss_quadratic(a, len);
+        }
+        self.ends_quadratic(a, b)
+    }
+
+    /// The quadratic through the surface at the window `[a, b]`'s ends and middle.
+    fn ends_quadratic(&self, a: f64, b: f64) -> [f64; 3] {
+        let len = b - a;
+        let y0 = self.eval(a, true);
         if len <= 0.0 {
             return [y0, 0.0, 0.0];
         }
@@ -339,6 +467,32 @@ impl History {
         [y0, d1, d2]
     }
 }
+
+impl History {
+    /// The quadratic `d0 + d1 τ + d2 τ²` through the surface at the three Gauss–Legendre points
+    /// of the window `[a, a + len]`: its error is the interpolation error `∝ P₃`, orthogonal to
+    /// every quadratic over the window, so the piece's state error is `O(Δ⁷)` (not `O(Δ⁵)` as
+    /// with the ends and middle) and the run's `O(Δ⁶)` on the quintic history. It does not
+    /// pass through the window's ends: the delayed surface jumps by `O(Δ³)` at a piece
+    /// boundary (the driver checks the chip's sign there).
+    fn gauss_quadratic(&self, a: f64, len: f64) -> [f64; 3] {
+        let g = 0.5 * GAUSS3;
+        let (x0, x1, x2) = ((0.5 - g) * len, 0.5 * len, (0.5 + g) * len);
+        let (f0, f1, f2) = (
+            self.eval(a + x0, true),
+            self.eval(a + x1, true),
+            self.eval(a + x2, true),
+        );
+        // Newton's form about x0, x1, then the monomials in τ.
+        let d01 = (f1 - f0) / (x1 - x0);
+        let d12 = (f2 - f1) / (x2 - x1);
+        let c2 = (d12 - d01) / (x2 - x0);
+        [f0 - x0 * (d01 - c2 * x1), d01 - c2 * (x0 + x1), c2]
+    }
+}
+
+/// `√(3/5)`: the 3-point Gauss–Legendre nodes on `[−1, 1]` are `0, ±√(3/5)`.
+const GAUSS3: f64 = 0.774_596_669_241_483_4;
 
 /// The history's interface for the modal cutting run ([`super::modal::cutting`]), which keeps
 /// its own event loop and records the knots itself (the force point's `u` is not the public
@@ -363,33 +517,15 @@ impl History {
         } else {
             (u_eq + shift, 0.0)
         };
-        h.push(Knot {
-            t: t0 - 2.0 * tau,
-            s_l: u_eq,
-            ds_l: 0.0,
-            s_r: u_eq,
-            ds_r: 0.0,
-        });
-        h.push(Knot {
-            t: t0,
-            s_l: u_eq,
-            ds_l: 0.0,
-            s_r,
-            ds_r,
-        });
+        h.push(Knot::cubic(t0 - 2.0 * tau, u_eq, 0.0, u_eq, 0.0));
+        h.push(Knot::cubic(t0, u_eq, 0.0, s_r, ds_r));
         h.breakpoint(t0);
         h
     }
 
     /// Store the surface `s`, `ṡ` at `t` (both sides).
     pub(super) fn record(&mut self, t: f64, s: f64, ds: f64) {
-        self.push(Knot {
-            t,
-            s_l: s,
-            ds_l: ds,
-            s_r: s,
-            ds_r: ds,
-        });
+        self.push(Knot::cubic(t, s, ds, s, ds));
     }
 
     /// The right side at the newest knot, when it is at `t` (after an event in the cut).
@@ -467,13 +603,21 @@ impl Observer for Recorder<'_, '_> {
         // `in_cut` is the piece's (the driver sets it before each step of the event loop; a
         // cut event ends the step).
         if h.in_cut {
-            h.push(Knot {
-                t: t1,
-                s_l: st.u_m,
-                ds_l: st.du_m_s,
-                s_r: st.u_m,
-                ds_r: st.du_m_s,
-            });
+            let mut kn = Knot::cubic(t1, st.u_m, st.du_m_s, st.u_m, st.du_m_s);
+            if h.quintic {
+                // The bar's acceleration at the piece's end, and at its start where the knot
+                // there still lacks its right side (after an event, entering the cut).
+                let t0 = seg.t_start_s();
+                if let Some(last) = h.k.back_mut() {
+                    if last.t.to_bits() == t0.to_bits() && last.dds_r.is_nan() {
+                        last.dds_r = seg.acceleration_at(t0).unwrap_or(f64::NAN);
+                    }
+                }
+                let a = seg.acceleration_at(t1).unwrap_or(f64::NAN);
+                kn.dds_l = a;
+                kn.dds_r = a;
+            }
+            h.push(kn);
         } else {
             let kn = h.out_of_cut_knot(t1);
             h.push(kn);
@@ -488,6 +632,8 @@ impl Observer for Recorder<'_, '_> {
                 if last.t.to_bits() == ev.t_s.to_bits() {
                     last.s_r = ev.after.u_m;
                     last.ds_r = ev.after.du_m_s;
+                    // The next segment's start sets it (Recorder::segment).
+                    last.dds_r = f64::NAN;
                 }
             }
         }
@@ -870,6 +1016,13 @@ impl ExactCutting {
             };
         cut.validate()?;
         let nonlinear = cut.force_law == CuttingForceLaw::ThreeQuarter;
+        // The sixth-order surface where every segment is a closed form that knows the bar's
+        // acceleration: the linear law on the restitution contact law.
+        let quintic = self.sixth_order
+            && !nonlinear
+            && sys
+                .damper
+                .is_none_or(|d| d.contact.law != crate::ContactLaw::Hertz);
         crate::limits::check(
             "steps_per_period (cutting pieces per fastest period)",
             self.steps_per_period as f64,
@@ -936,8 +1089,17 @@ impl ExactCutting {
             } else {
                 0.0
             });
-        let h_max = (2.0 * std::f64::consts::PI / w_fast / self.steps_per_period as f64).min(tau);
-        let pieces = (tau / h_max).ceil() + 4.0;
+        let pieces_per_period = if quintic {
+            self.steps_per_period as f64 * SIXTH_ORDER_STEPS_PER_PERIOD as f64
+                / DEFAULT_STEPS_PER_PERIOD as f64
+        } else {
+            self.steps_per_period as f64
+        };
+        let h_max = (2.0 * std::f64::consts::PI / w_fast / pieces_per_period).min(tau);
+        // Near the cut's boundary the sixth-order path takes the fourth-order pieces (see the
+        // module doc): the chip there is an event function, and its pointwise error is O(Δ³).
+        let h_near = (2.0 * std::f64::consts::PI / w_fast / self.steps_per_period as f64).min(tau);
+        let pieces = (tau / h_near).ceil() + 4.0;
         let cap = 2 * pieces as usize + MAX_EVENT_KNOTS;
         let mut h0_chip = cut.feed_m - cut.chip_direction_factor * init.u_m;
         let mut in_cut0 = h0_chip > 0.0;
@@ -955,6 +1117,7 @@ impl ExactCutting {
             cap = cap.max(c.knots.len().max(c.bp.len()) + MAX_EVENT_KNOTS);
         }
         let hist = RefCell::new(History::new(cap, in_cut0, tau, shift));
+        hist.borrow_mut().quintic = quintic;
         if let Some(c) = from {
             let mut h = hist.borrow_mut();
             h.k.extend(c.knots.iter().copied());
@@ -966,25 +1129,21 @@ impl ExactCutting {
         } else {
             let mut h = hist.borrow_mut();
             // The smooth surface of the tool at rest at the equilibrium, one revolution back.
-            h.push(Knot {
-                t: t0 - 2.0 * tau,
-                s_l: u_eq,
-                ds_l: 0.0,
-                s_r: u_eq,
-                ds_r: 0.0,
-            });
             let (s_r, ds_r) = if in_cut0 {
                 (start.u_m, start.du_m_s)
             } else {
                 (u_eq + shift, 0.0)
             };
-            h.push(Knot {
-                t: t0,
-                s_l: u_eq,
-                ds_l: 0.0,
-                s_r,
-                ds_r,
-            });
+            let mut k0 = Knot::cubic(t0 - 2.0 * tau, u_eq, 0.0, u_eq, 0.0);
+            let mut k1 = Knot::cubic(t0, u_eq, 0.0, s_r, ds_r);
+            if quintic {
+                // At rest before the start; after it the first segment's (in the cut) or the
+                // smooth surface advanced (out of it).
+                (k0.dds_l, k0.dds_r, k1.dds_l) = (0.0, 0.0, 0.0);
+                k1.dds_r = if in_cut0 { f64::NAN } else { 0.0 };
+            }
+            h.push(k0);
+            h.push(k1);
             // The start is an event of the history (an offset jumps the surface).
             h.breakpoint(t0);
         }
@@ -1050,17 +1209,28 @@ impl ExactCutting {
         // The window start of a piece that begins at the previous piece's end (exact `t_k`).
         let mut win_prev: Option<(u64, f64)> = None;
         while s.t < t_end_s {
-            let (step_end, win_end) = {
+            let (step_end, win_end, near) = {
                 let mut h = hist.borrow_mut();
-                h.trim(s.t - tau - h_max);
+                h.trim(s.t - tau - h_max.max(h_near));
                 while h.bp.front().is_some_and(|&tk| tk + tau <= s.t) {
                     h.bp.pop_front();
                 }
+                // The chip's deviation from the feed, `D = c_chip (s(t − T) − u)`, as an
+                // oscillation at the fastest frequency: its amplitude `√(D² + (Ḋ/ω)²)` against
+                // the feed says whether the chip can reach 0 soon.
+                let near = quintic && {
+                    let x = s.t - tau;
+                    let c = cut.chip_direction_factor;
+                    let dd = c * (h.eval(x, true) - s.u);
+                    let ddot = c * (h.slope_left(x) - s.du) / w_fast;
+                    dd.hypot(ddot) > NEAR_CUT_BOUNDARY * cut.feed_m
+                };
+                let len = if quintic && !near { h_max } else { h_near };
                 match h.bp.front() {
-                    Some(&tk) if tk + tau < (s.t + h_max).min(t_end_s) => (tk + tau, tk),
+                    Some(&tk) if tk + tau < (s.t + len).min(t_end_s) => (tk + tau, tk, near),
                     _ => {
-                        let e = (s.t + h_max).min(t_end_s);
-                        (e, e - tau)
+                        let e = (s.t + len).min(t_end_s);
+                        (e, e - tau, near)
                     }
                 }
             };
@@ -1069,11 +1239,24 @@ impl ExactCutting {
                     Some((bits, x)) if bits == s.t.to_bits() => x,
                     _ => s.t - tau,
                 };
-                let d = hist.borrow().quadratic(a, win_end.max(a));
+                let d = if near {
+                    hist.borrow().ends_quadratic(a, win_end.max(a))
+                } else {
+                    hist.borrow().quadratic(a, win_end.max(a))
+                };
                 let cs = consts(in_cut, d, order);
                 book.cut_event = false;
                 hist.borrow_mut().in_cut = in_cut;
-                if nonlinear && !has_ball {
+                let chip0 = cut.feed_m + cut.chip_direction_factor * (d[0] - s.u);
+                if quintic
+                    && !near
+                    && order == 0
+                    && ((in_cut && chip0 < 0.0) || (!in_cut && chip0 > 0.0))
+                {
+                    // The Gauss quadratic jumps by O(Δ³) at a piece boundary: where that moves
+                    // the chip across zero, the cut event is here (not after a negative chip).
+                    book.cut_event = true;
+                } else if nonlinear && !has_ball {
                     // The three-quarter law: one DP5 step ([`super::cutting_nonlinear`]). The
                     // mode follows the chip's sign at a step start (a crossing at a step end).
                     let x = s.t - tau;
@@ -1259,13 +1442,7 @@ mod tests {
         let mut h = History::new(64, true, 1.0, 0.0);
         for i in 0..40 {
             let t = 0.1 * i as f64;
-            h.push(Knot {
-                t,
-                s_l: t,
-                ds_l: 1.0,
-                s_r: t,
-                ds_r: 1.0,
-            });
+            h.push(Knot::cubic(t, t, 1.0, t, 1.0));
         }
         let mut checked = 0;
         for round in 0..3 {
