@@ -1225,6 +1225,12 @@ impl ExactCutting {
         let mut cut_events: u64 = 0;
         // The window start of a piece that begins at the previous piece's end (exact `t_k`).
         let mut win_prev: Option<(u64, f64)> = None;
+        let window_start = |win_prev: Option<(u64, f64)>, t: f64| match win_prev {
+            Some((bits, x)) if bits == t.to_bits() => x,
+            _ => t - tau,
+        };
+        // The quadratic of the piece starting at this time, fitted already.
+        let mut fitted: Option<(u64, [f64; 3])> = None;
         while s.t < t_end_s {
             let (step_end, win_end, near, at_breakpoint) = {
                 let mut h = hist.borrow_mut();
@@ -1232,36 +1238,44 @@ impl ExactCutting {
                 while h.bp.front().is_some_and(|&(tk, _)| tk + tau <= s.t) {
                     h.bp.pop_front();
                 }
-                // The chip's deviation from the feed, `D = c_chip (s(t − T) − u)`, as an
-                // oscillation at the fastest frequency: its amplitude `√(D² + (Ḋ/ω)²)` against
-                // the feed says whether the chip can reach 0 soon.
-                let near = quintic && {
-                    let x = s.t - tau;
-                    let c = cut.chip_direction_factor;
-                    let dd = c * (h.eval(x, true) - s.u);
-                    let ddot = c * (h.slope_left(x) - s.du) / w_fast;
-                    dd.hypot(ddot) > NEAR_CUT_BOUNDARY * cut.feed_m
-                };
-                let len = if quintic && !near { h_max } else { h_near };
-                match h.bp.front() {
+                let step = |len: f64| match h.bp.front() {
                     Some(&(tk, order)) if tk + tau < (s.t + len).min(t_end_s) => {
-                        (tk + tau, tk, near, Some(order))
+                        (tk + tau, tk, Some(order))
                     }
                     _ => {
                         let e = (s.t + len).min(t_end_s);
-                        (e, e - tau, near, None)
+                        (e, e - tau, None)
                     }
+                };
+                let (mut end, mut win, mut bp) = step(if quintic { h_max } else { h_near });
+                // The chip's deviation from the feed, `D = c_chip (s(t − T) − u)`, as an
+                // oscillation at the fastest frequency: its amplitude `√(D² + (Ḋ/ω)²)` against
+                // the feed says whether the chip can reach 0 soon (from the long piece's
+                // quadratic, kept for the piece when it is not).
+                let near = quintic && {
+                    let a = window_start(win_prev, s.t);
+                    let d = h.quadratic(a, win.max(a));
+                    let c = cut.chip_direction_factor;
+                    let dd = c * (d[0] - s.u);
+                    let ddot = c * (d[1] - s.du) / w_fast;
+                    let near = dd.hypot(ddot) > NEAR_CUT_BOUNDARY * cut.feed_m;
+                    if !near {
+                        fitted = Some((s.t.to_bits(), d));
+                    }
+                    near
+                };
+                if near {
+                    (end, win, bp) = step(h_near);
                 }
+                (end, win, near, bp)
             };
             while s.t < step_end {
-                let a = match win_prev {
-                    Some((bits, x)) if bits == s.t.to_bits() => x,
-                    _ => s.t - tau,
-                };
-                let d = if near {
-                    hist.borrow().ends_quadratic(a, win_end.max(a))
-                } else {
-                    hist.borrow().quadratic(a, win_end.max(a))
+                let a = window_start(win_prev, s.t);
+                let d = match fitted.take() {
+                    // The long piece's quadratic from the test above (same window).
+                    Some((bits, d)) if bits == s.t.to_bits() => d,
+                    _ if near => hist.borrow().ends_quadratic(a, win_end.max(a)),
+                    _ => hist.borrow().quadratic(a, win_end.max(a)),
                 };
                 let cs = consts(in_cut, d, order);
                 book.cut_event = false;

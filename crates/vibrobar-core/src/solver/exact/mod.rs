@@ -496,7 +496,7 @@ impl Segment for ExactSegment {
         } else {
             Trig::new(tau, self.u.om, self.u.al, self.u.wd)
         };
-        Some(self.u.derivs_t::<3>(&trig)[2])
+        Some(self.u.second_derivative_t(&trig))
     }
     fn mechanical_energy_j(&self, t_s: f64) -> f64 {
         let (m, k, md) = self.energy;
