@@ -10,8 +10,9 @@
 //! ([`ExactCutting::steps_per_period`]) that end at every breakpoint `t_k + T` of an event time
 //! `t_k` (impacts, stick, release, chatter limits, the tool leaving or re-entering the cut, the
 //! start). Over a piece the delayed surface `s(t − T)` is the quadratic through three values of
-//! the stored history (cubic Hermite pieces on its knots: values and one-sided velocities,
-//! exact at the knots); the breakpoints guarantee that no piece reaches across a stored event.
+//! the stored history (Hermite pieces on its knots: values and one-sided velocities, and on the
+//! sixth-order surface accelerations, exact at the knots); the breakpoints guarantee that no
+//! piece reaches across a stored event.
 //! With the linear law each piece is then a linear ODE with polynomial forcing, solved in closed
 //! form by the same segment code as every other lumped run ([`super::Consts::bar_sum`]): in the
 //! cut the stiffness gains `c_force K_f b c_chip`, out of it the bar is free. Its event
@@ -20,25 +21,60 @@
 //! no-missed-root argument unchanged. So no impact and no cut event is missed, `|w| ≤ l_g`
 //! holds as in every exact run, and the event limit applies (cut events counted against it).
 //!
-//! Accuracy. The only approximation is the quadratic for the delayed surface through a piece's
-//! ends and middle. Its pointwise error is `O(Δ³)` in the piece length `Δ`, but that error,
-//! `∝ x(x − Δ/2)(x − Δ)`, averages to zero over the piece, and the run converges as `Δ⁴`:
-//! measured order 3.95 over 8–64 pieces per period (test `cutting_convergence_order`); at the
-//! default 32 pieces per period the error in `u` is ~2e-11 m against 1e-6 m of motion. The
-//! energy books close with the cutting work as an entry of their own
-//! ([`Segment::cutting_work_j`]; the integrals by Gauss–Legendre quadrature on the short pieces).
+//! Accuracy. The only approximation is the quadratic for the delayed surface over a piece, and
+//! the history it is fitted to. Two surfaces:
 //!
-//! Cost. A run is ~20 000 pieces per simulated second on the paper's bar, so the per-piece work
-//! is the run's cost. Each piece's event search is first tried by its first step alone
+//! - Fourth order (the three-quarter law, `hertz` contact, the modal bar, and
+//!   [`ExactCutting::sixth_order`] `= false`): the history is a cubic Hermite on its knots
+//!   (values and one-sided velocities), the quadratic goes through the piece's ends and middle.
+//!   Its pointwise error is `O(Δ³)` in the piece length `Δ`, but that error,
+//!   `∝ x(x − Δ/2)(x − Δ)`, averages to zero over the piece, and the run converges as `Δ⁴`:
+//!   measured order 3.95 over 8–64 pieces per period (test `cutting_convergence_order`); at 32
+//!   pieces per period the error in `u` is ~1.8e-11 m against 1e-6 m of motion.
+//! - Sixth order (the default of the linear law on the restitution contact law): the knots also
+//!   carry the bar's acceleration from either side ([`Segment::acceleration_at`], the closed
+//!   form's; out of the cut the carried surface's), the history between them is the quintic
+//!   Hermite (`O(Δ⁶)`), and the quadratic interpolates the history at the piece's three Gauss
+//!   points: its error `∝ P₃(x)` is orthogonal to every quadratic over the piece, so a piece's
+//!   state error is `O(Δ⁷)` and the run's `O(Δ⁶)`. Measured (test
+//!   `sixth_order_surface_convergence_order`, the same run): order 5.95, 4.1e-12 m at its
+//!   default of 10 pieces per period ([`SIXTH_ORDER_STEPS_PER_PERIOD`]: `steps_per_period`
+//!   scaled by 10/32), below the fourth-order surface's 1.8e-11 m at 32. With impacts (the
+//!   bench's run, test `pieces_per_period_error_on_the_speed_run`): 1.6e-10 m at the default
+//!   against 2.4e-10 m. Three things keep the order: (1) the knot's acceleration from the right
+//!   comes from the segment that starts there (it jumps at an impact, entering the cut, and a
+//!   revolution after a jump of the surface); (2) a break of the surface at `t_k` is queued as a
+//!   breakpoint again at `t_k + T` when the tool is out of the cut there (the surface carries
+//!   it as it is) and, for a jump (the start), in the cut too (the bar turns it into a jump of
+//!   `ü`, which a piece across `t_k + 2T` would carry as an `O(Δ³)` error; without this the
+//!   order through loss of contact fell to ~3); (3) near the cut's boundary, where the chip's
+//!   oscillation about the feed exceeds [`NEAR_CUT_BOUNDARY`] of it, the pieces are the
+//!   fourth-order length with the ends-and-middle quadratic: the chip is an event function
+//!   there, and the Gauss quadratic's pointwise error (`O(Δ³)`, it does not pass through the
+//!   piece's ends, so the delayed surface jumps by that much at a piece boundary) on a long
+//!   piece would move the tool's leaving and re-entering the cut. Where that jump still moves
+//!   the chip's sign at a piece start, the cut event is put there. Through loss of contact
+//!   (test `loss_of_contact_converges_with_the_history_order`): 5.8e-10 m at the default
+//!   setting against the fourth-order surface's 9.2e-9 m, order 3.73 over the settings 32–256
+//!   (the fourth-order 3.73).
+//!
+//! The energy books close with the cutting work as an entry of their own
+//! ([`Segment::cutting_work_j`]; the integrals by Gauss–Legendre quadrature on the pieces).
+//!
+//! Cost. A run is ~20 000 pieces per simulated second on the paper's bar at 32 pieces per
+//! period (~7 000 at the sixth order's 10), so the per-piece work is the run's cost. Each
+//! piece's event search is first tried by its first step alone
 //! ([`super::roots::first_step_clears`]: the amplitude-bound step at the piece start, where
 //! the transcendentals are free); on most pieces that step already covers the piece, which is
 //! the full search's own answer, and only the rest run the full search. The transcendentals of
 //! the regular piece length (its Gauss nodes for the RMS and the books, its end) are cached
 //! for the last two sets of constants (in and out of the cut), and the history's knots are found
 //! from the last lookup. All of this gives the same numbers, to the bit, as computing afresh.
-//! Measured (`vibrobar bench`, callgrind): 267M → 151M instructions for the bench's 2 s run,
-//! ~9× the harmonic run of the same bar (16.5M); the rest is the event loop's own per-segment
-//! work, spread over many small items.
+//! Measured (`vibrobar bench`, callgrind, example `cutting_speed`): 267M → 150M instructions
+//! for the bench's 2 s run on the fourth-order surface, 9.1× the harmonic run of the same bar
+//! (16.5M); 80M (4.85×) on the sixth-order surface's fewer pieces. The rest is the event loop's
+//! own per-segment work, spread over many small items (a third of the pieces are cut short by
+//! an impact or a breakpoint and miss the transcendentals' caches).
 //!
 //! Memory: the history holds one revolution plus a margin of knots in a ring sized once per run
 //! ([`MAX_EVENT_KNOTS`] events per revolution beyond the pieces); beyond it the run stops with an
@@ -122,11 +158,13 @@ pub struct ExactCutting {
     pub exact: Exact,
     /// The cut.
     pub cutting: Cutting,
-    /// Pieces per period of the fastest motion (≥ 4); the delayed surface's quadratic has an
-    /// error `O((2π/steps)³)`.
+    /// Pieces per period of the fastest motion (≥ 4) on the fourth-order surface; the
+    /// sixth-order surface takes [`SIXTH_ORDER_STEPS_PER_PERIOD`]/[`DEFAULT_STEPS_PER_PERIOD`]
+    /// of them away from the cut's boundary (see the module doc).
     pub steps_per_period: u32,
-    /// The sixth-order surface (opt-in, off by default; the linear law on the restitution
-    /// contact law only): see the module doc, "Sixth-order surface".
+    /// The sixth-order surface (on by default; it applies to the linear law on the restitution
+    /// contact law of a lumped bar, the other runs keep the fourth-order one): see the module
+    /// doc, "Accuracy".
     pub sixth_order: bool,
 }
 
