@@ -167,10 +167,14 @@ fn run(c: &Cutting, init: &State, steps: u32, t_end: f64, dt: f64) -> Vec<f64> {
 /// The linear law through loss of contact (1.5 b_lim, the bar started 2 h0 out of the cut; 29
 /// cut events in 20 ms, ten revolutions): the closed-form pieces against the independent RK4
 /// (τ/32000, agreeing with its τ/8000 run to 6.2e-9 m) and against themselves at 1024 pieces
-/// per period. Measured: 3.0e-9 m at 32 pieces per period against the RK4 (its own error; 5.1e-6
-/// m with the old side's slope at the events), and the order in the pieces per period against
-/// the 1024 run over 32..256: 3.73 (errors 9.2e-9 to 3.8e-12 m; 2.6 with the old slope, errors
-/// 5.1e-6 to 4.7e-8 m). Sampled 40 times per revolution.
+/// per period. Measured on the fourth-order surface: 3.0e-9 m at 32 pieces per period against
+/// the RK4 (its own error; 5.1e-6 m with the old side's slope at the events), and the order in
+/// the pieces per period against the 1024 run over 32..256: 3.73 (errors 9.2e-9 to 3.8e-12 m;
+/// 2.6 with the old slope, errors 5.1e-6 to 4.7e-8 m). On the default sixth-order surface (the
+/// settings 32..256): 6.2e-9 m against the RK4 (the RK4's own error, 6.2e-9 m, is the limit
+/// there), order 3.73 against the setting 1024 (errors 5.8e-10 to 1.8e-13 m: through loss of
+/// contact the pieces near the cut's boundary are the fourth-order ones). Sampled 40 times per
+/// revolution.
 #[test]
 fn loss_of_contact_converges_with_the_history_order() {
     let c = cut(CuttingForceLaw::Linear, 1.5);

@@ -155,6 +155,12 @@ pub trait Segment {
     fn cutting_work_j(&self, _a_s: f64, _b_s: f64) -> f64 {
         0.0
     }
+    /// The bar's acceleration `ü` at `t` in `[t_start, t_end]` where the segment holds it in
+    /// closed form (the lumped bar's exact segments); `None` elsewhere. The cutting run's
+    /// surface history stores it at its knots (a quintic Hermite between them).
+    fn acceleration_at(&self, _t_s: f64) -> Option<f64> {
+        None
+    }
     /// The compliant (`hertz`) contact phase this segment is a step of; `None` for every other
     /// segment. What the variational layer needs to linearise the phase's vector field.
     fn compliant_contact(&self) -> Option<CompliantContact> {

@@ -10,8 +10,9 @@
 //! ([`ExactCutting::steps_per_period`]) that end at every breakpoint `t_k + T` of an event time
 //! `t_k` (impacts, stick, release, chatter limits, the tool leaving or re-entering the cut, the
 //! start). Over a piece the delayed surface `s(t − T)` is the quadratic through three values of
-//! the stored history (cubic Hermite pieces on its knots: values and one-sided velocities,
-//! exact at the knots); the breakpoints guarantee that no piece reaches across a stored event.
+//! the stored history (Hermite pieces on its knots: values and one-sided velocities, and on the
+//! sixth-order surface accelerations, exact at the knots); the breakpoints guarantee that no
+//! piece reaches across a stored event.
 //! With the linear law each piece is then a linear ODE with polynomial forcing, solved in closed
 //! form by the same segment code as every other lumped run ([`super::Consts::bar_sum`]): in the
 //! cut the stiffness gains `c_force K_f b c_chip`, out of it the bar is free. Its event
@@ -20,25 +21,60 @@
 //! no-missed-root argument unchanged. So no impact and no cut event is missed, `|w| ≤ l_g`
 //! holds as in every exact run, and the event limit applies (cut events counted against it).
 //!
-//! Accuracy. The only approximation is the quadratic for the delayed surface through a piece's
-//! ends and middle. Its pointwise error is `O(Δ³)` in the piece length `Δ`, but that error,
-//! `∝ x(x − Δ/2)(x − Δ)`, averages to zero over the piece, and the run converges as `Δ⁴`:
-//! measured order 3.95 over 8–64 pieces per period (test `cutting_convergence_order`); at the
-//! default 32 pieces per period the error in `u` is ~2e-11 m against 1e-6 m of motion. The
-//! energy books close with the cutting work as an entry of their own
-//! ([`Segment::cutting_work_j`]; the integrals by Gauss–Legendre quadrature on the short pieces).
+//! Accuracy. The only approximation is the quadratic for the delayed surface over a piece, and
+//! the history it is fitted to. Two surfaces:
 //!
-//! Cost. A run is ~20 000 pieces per simulated second on the paper's bar, so the per-piece work
-//! is the run's cost. Each piece's event search is first tried by its first step alone
+//! - Fourth order (the three-quarter law, `hertz` contact, the modal bar, and
+//!   [`ExactCutting::sixth_order`] `= false`): the history is a cubic Hermite on its knots
+//!   (values and one-sided velocities), the quadratic goes through the piece's ends and middle.
+//!   Its pointwise error is `O(Δ³)` in the piece length `Δ`, but that error,
+//!   `∝ x(x − Δ/2)(x − Δ)`, averages to zero over the piece, and the run converges as `Δ⁴`:
+//!   measured order 3.95 over 8–64 pieces per period (test `cutting_convergence_order`); at 32
+//!   pieces per period the error in `u` is ~1.8e-11 m against 1e-6 m of motion.
+//! - Sixth order (the default of the linear law on the restitution contact law): the knots also
+//!   carry the bar's acceleration from either side ([`Segment::acceleration_at`], the closed
+//!   form's; out of the cut the carried surface's), the history between them is the quintic
+//!   Hermite (`O(Δ⁶)`), and the quadratic interpolates the history at the piece's three Gauss
+//!   points: its error `∝ P₃(x)` is orthogonal to every quadratic over the piece, so a piece's
+//!   state error is `O(Δ⁷)` and the run's `O(Δ⁶)`. Measured (test
+//!   `sixth_order_surface_convergence_order`, the same run): order 5.95, 4.1e-12 m at its
+//!   default of 10 pieces per period ([`SIXTH_ORDER_STEPS_PER_PERIOD`]: `steps_per_period`
+//!   scaled by 10/32), below the fourth-order surface's 1.8e-11 m at 32. With impacts (the
+//!   bench's run, test `pieces_per_period_error_on_the_speed_run`): 1.6e-10 m at the default
+//!   against 2.4e-10 m. Three things keep the order: (1) the knot's acceleration from the right
+//!   comes from the segment that starts there (it jumps at an impact, entering the cut, and a
+//!   revolution after a jump of the surface); (2) a break of the surface at `t_k` is queued as a
+//!   breakpoint again at `t_k + T` when the tool is out of the cut there (the surface carries
+//!   it as it is) and, for a jump (the start), in the cut too (the bar turns it into a jump of
+//!   `ü`, which a piece across `t_k + 2T` would carry as an `O(Δ³)` error; without this the
+//!   order through loss of contact fell to ~3); (3) near the cut's boundary, where the chip's
+//!   oscillation about the feed exceeds [`NEAR_CUT_BOUNDARY`] of it, the pieces are the
+//!   fourth-order length with the ends-and-middle quadratic: the chip is an event function
+//!   there, and the Gauss quadratic's pointwise error (`O(Δ³)`, it does not pass through the
+//!   piece's ends, so the delayed surface jumps by that much at a piece boundary) on a long
+//!   piece would move the tool's leaving and re-entering the cut. Where that jump still moves
+//!   the chip's sign at a piece start, the cut event is put there. Through loss of contact
+//!   (test `loss_of_contact_converges_with_the_history_order`): 5.8e-10 m at the default
+//!   setting against the fourth-order surface's 9.2e-9 m, order 3.73 over the settings 32–256
+//!   (the fourth-order 3.73).
+//!
+//! The energy books close with the cutting work as an entry of their own
+//! ([`Segment::cutting_work_j`]; the integrals by Gauss–Legendre quadrature on the pieces).
+//!
+//! Cost. A run is ~20 000 pieces per simulated second on the paper's bar at 32 pieces per
+//! period (~7 000 at the sixth order's 10), so the per-piece work is the run's cost. Each
+//! piece's event search is first tried by its first step alone
 //! ([`super::roots::first_step_clears`]: the amplitude-bound step at the piece start, where
 //! the transcendentals are free); on most pieces that step already covers the piece, which is
 //! the full search's own answer, and only the rest run the full search. The transcendentals of
 //! the regular piece length (its Gauss nodes for the RMS and the books, its end) are cached
 //! for the last two sets of constants (in and out of the cut), and the history's knots are found
 //! from the last lookup. All of this gives the same numbers, to the bit, as computing afresh.
-//! Measured (`vibrobar bench`, callgrind): 267M → 151M instructions for the bench's 2 s run,
-//! ~9× the harmonic run of the same bar (16.5M); the rest is the event loop's own per-segment
-//! work, spread over many small items.
+//! Measured (`vibrobar bench`, callgrind, example `cutting_speed`): 267M → 150M instructions
+//! for the bench's 2 s run on the fourth-order surface, 9.1× the harmonic run of the same bar
+//! (16.5M); 80M (4.85×) on the sixth-order surface's fewer pieces. The rest is the event loop's
+//! own per-segment work, spread over many small items (a third of the pieces are cut short by
+//! an impact or a breakpoint and miss the transcendentals' caches).
 //!
 //! Memory: the history holds one revolution plus a margin of knots in a ring sized once per run
 //! ([`MAX_EVENT_KNOTS`] events per revolution beyond the pieces); beyond it the run stops with an
@@ -89,11 +125,28 @@ use crate::solver::{Event, Mode, Observer, RunSummary, Segment, SegmentIntegrals
 use std::cell::{Cell, RefCell};
 use std::collections::VecDeque;
 
+/// The sixth-order path takes the fourth-order pieces where the chip's oscillation about the
+/// feed exceeds this fraction of the feed (the tool may leave or re-enter the cut soon).
+pub const NEAR_CUT_BOUNDARY: f64 = 0.5;
+
 /// Events per revolution the surface history holds beyond its regular pieces.
 pub const MAX_EVENT_KNOTS: usize = 1 << 15;
 
 /// Default pieces per period of the fastest motion (the bar in the cut, or the harmonic force).
 pub const DEFAULT_STEPS_PER_PERIOD: u32 = 32;
+
+/// A breakpoint source where the surface jumps (a start, a continued run).
+const BREAK_JUMP: u8 = 0;
+/// A breakpoint source where the surface's slope (or a higher derivative) jumps: an event.
+const BREAK_KINK: u8 = 1;
+/// A breakpoint source where the surface's acceleration jumps (a jump `T` earlier, in the cut).
+const BREAK_ACCEL: u8 = 2;
+
+/// Pieces per period of the sixth-order surface (the linear law on the restitution contact law)
+/// at [`DEFAULT_STEPS_PER_PERIOD`]: that path scales `steps_per_period` by this over
+/// [`DEFAULT_STEPS_PER_PERIOD`] (pieces 3.2× longer for the same setting, more accurate than
+/// the fourth-order paths' at the same setting: see the module doc).
+pub const SIXTH_ORDER_STEPS_PER_PERIOD: u32 = 10;
 
 /// The exact solver on a cutting run: [`Exact`]'s event loop with the delay stepping.
 ///
@@ -107,9 +160,14 @@ pub struct ExactCutting {
     pub exact: Exact,
     /// The cut.
     pub cutting: Cutting,
-    /// Pieces per period of the fastest motion (≥ 4); the delayed surface's quadratic has an
-    /// error `O((2π/steps)³)`.
+    /// Pieces per period of the fastest motion (≥ 4) on the fourth-order surface; the
+    /// sixth-order surface takes [`SIXTH_ORDER_STEPS_PER_PERIOD`]/[`DEFAULT_STEPS_PER_PERIOD`]
+    /// of them away from the cut's boundary (see the module doc).
     pub steps_per_period: u32,
+    /// The sixth-order surface (on by default; it applies to the linear law on the restitution
+    /// contact law of a lumped bar, the other runs keep the fourth-order one): see the module
+    /// doc, "Accuracy".
+    pub sixth_order: bool,
 }
 
 impl ExactCutting {
@@ -119,6 +177,7 @@ impl ExactCutting {
             exact: Exact::default(),
             cutting,
             steps_per_period: DEFAULT_STEPS_PER_PERIOD,
+            sixth_order: true,
         }
     }
 
@@ -130,7 +189,8 @@ impl ExactCutting {
 }
 
 /// One knot of the surface history: time, value and velocity from the left and the right
-/// (they differ at an impact, and at a start with an offset).
+/// (they differ at an impact, and at a start with an offset), and the acceleration from either
+/// side where the run knows it ([`History::quintic`]; NaN where not: the cubic Hermite then).
 #[derive(Debug, Clone, Copy)]
 struct Knot {
     t: f64,
@@ -138,6 +198,41 @@ struct Knot {
     ds_l: f64,
     s_r: f64,
     ds_r: f64,
+    dds_l: f64,
+    dds_r: f64,
+}
+
+impl Knot {
+    /// A knot without accelerations (the cubic Hermite's).
+    fn cubic(t: f64, s_l: f64, ds_l: f64, s_r: f64, ds_r: f64) -> Knot {
+        Knot {
+            t,
+            s_l,
+            ds_l,
+            s_r,
+            ds_r,
+            dds_l: f64::NAN,
+            dds_r: f64::NAN,
+        }
+    }
+}
+
+/// The quintic Hermite on `[0, 1]` through `y0, y1` with scaled slopes `d0 = h ẏ0`, `d1 = h ẏ1`
+/// and scaled accelerations `e0 = h² ÿ0`, `e1 = h² ÿ1`: its coefficients `a0 … a5` in `θ`.
+#[inline]
+fn quintic_coeffs(y0: f64, d0: f64, e0: f64, y1: f64, d1: f64, e1: f64) -> [f64; 6] {
+    let a2 = 0.5 * e0;
+    let dv = y1 - y0 - d0 - a2;
+    let dd = d1 - d0 - 2.0 * a2;
+    let de = e1 - 2.0 * a2;
+    [
+        y0,
+        d0,
+        a2,
+        10.0 * dv - 4.0 * dd + 0.5 * de,
+        -15.0 * dv + 7.0 * dd - de,
+        6.0 * dv - 3.0 * dd + 0.5 * de,
+    ]
 }
 
 /// The machined surface over the last revolution, a ring sized once per run.
@@ -147,7 +242,7 @@ pub(super) struct History {
     /// Overflow of the ring or of the breakpoint queue, reported after the observer call.
     full: bool,
     /// Breakpoint sources `t_k` (the breakpoints are `t_k + T`), in time order.
-    bp: VecDeque<f64>,
+    bp: VecDeque<(f64, u8)>,
     /// The last segment was in the cut (the surface is renewed there).
     in_cut: bool,
     /// `T`, and the surface's advance `h0/c_chip` per revolution out of the cut.
@@ -155,6 +250,10 @@ pub(super) struct History {
     shift: f64,
     /// The last knot index a lookup found ([`History::locate`]).
     hint: Cell<usize>,
+    /// The sixth-order surface: knots carry accelerations (quintic Hermite between them where
+    /// both sides have one) and a piece's quadratic interpolates at its Gauss points
+    /// ([`History::quadratic`]). Off: the cubic Hermite and the ends-and-middle quadratic.
+    quintic: bool,
 }
 
 impl History {
@@ -164,6 +263,7 @@ impl History {
                 // The same instant again (an event right at a segment end): the right side.
                 last.s_r = kn.s_r;
                 last.ds_r = kn.ds_r;
+                last.dds_r = kn.dds_r;
                 return;
             }
         }
@@ -175,14 +275,21 @@ impl History {
     }
 
     fn breakpoint(&mut self, t: f64) {
-        if self.bp.back().is_some_and(|&b| b >= t) {
+        self.queue_breakpoint(t, BREAK_KINK);
+    }
+
+    /// Queue the breakpoint source `t` where the surface breaks in its derivative of order
+    /// `order` ([`BREAK_JUMP`], [`BREAK_KINK`], [`BREAK_ACCEL`]; the sixth-order path queues a
+    /// breakpoint `t_k + T` again: see [`ExactCutting::drive`]).
+    fn queue_breakpoint(&mut self, t: f64, order: u8) {
+        if self.bp.back().is_some_and(|&b| b.0 >= t) {
             return;
         }
         if self.bp.len() == self.cap {
             self.full = true;
             return;
         }
-        self.bp.push_back(t);
+        self.bp.push_back((t, order));
     }
 
     /// Drop knots no window can reach any more (keep one at or before `t`).
@@ -203,6 +310,7 @@ impl History {
             tau,
             shift,
             hint: Cell::new(0),
+            quintic: false,
         }
     }
 
@@ -248,11 +356,54 @@ impl History {
         let k1 = &self.k[i];
         let h = k1.t - k0.t;
         let th = (x - k0.t) / h;
+        if let Some(a) = self.quintic_between(k0, k1) {
+            return a[0] + th * (a[1] + th * (a[2] + th * (a[3] + th * (a[4] + th * a[5]))));
+        }
         let (t2, t3) = (th * th, th * th * th);
         (2.0 * t3 - 3.0 * t2 + 1.0) * k0.s_r
             + (t3 - 2.0 * t2 + th) * h * k0.ds_r
             + (-2.0 * t3 + 3.0 * t2) * k1.s_l
             + (t3 - t2) * h * k1.ds_l
+    }
+
+    /// The quintic Hermite's coefficients in `θ` between adjacent knots, where the history is
+    /// quintic and both sides carry an acceleration.
+    #[inline]
+    fn quintic_between(&self, k0: &Knot, k1: &Knot) -> Option<[f64; 6]> {
+        if !self.quintic || !k0.dds_r.is_finite() || !k1.dds_l.is_finite() {
+            return None;
+        }
+        let h = k1.t - k0.t;
+        Some(quintic_coeffs(
+            k0.s_r,
+            h * k0.ds_r,
+            h * h * k0.dds_r,
+            k1.s_l,
+            h * k1.ds_l,
+            h * h * k1.dds_l,
+        ))
+    }
+
+    /// The surface's acceleration from the left at `x` (for the knot of a segment out of the
+    /// cut): NaN where the history is not quintic there.
+    fn accel_left(&self, x: f64) -> f64 {
+        let i = self.locate(x, false);
+        let n = self.k.len();
+        if i < n && self.k[i].t.to_bits() == x.to_bits() {
+            return self.k[i].dds_l;
+        }
+        if i == 0 || i == n {
+            return self.k[i.min(n - 1)].dds_r;
+        }
+        let (k0, k1) = (&self.k[i - 1], &self.k[i]);
+        match self.quintic_between(k0, k1) {
+            Some(a) => {
+                let h = k1.t - k0.t;
+                let th = (x - k0.t) / h;
+                (2.0 * a[2] + th * (6.0 * a[3] + th * (12.0 * a[4] + th * 20.0 * a[5]))) / (h * h)
+            }
+            None => f64::NAN,
+        }
     }
 
     /// The surface's velocity from the left at `x` (for the knot of a segment out of the cut).
@@ -268,6 +419,11 @@ impl History {
         let (k0, k1) = (&self.k[i - 1], &self.k[i]);
         let h = k1.t - k0.t;
         let th = (x - k0.t) / h;
+        if let Some(a) = self.quintic_between(k0, k1) {
+            return (a[1]
+                + th * (2.0 * a[2] + th * (3.0 * a[3] + th * (4.0 * a[4] + th * 5.0 * a[5]))))
+                / h;
+        }
         let t2 = th * th;
         ((6.0 * t2 - 6.0 * th) * k0.s_r
             + (3.0 * t2 - 4.0 * th + 1.0) * h * k0.ds_r
@@ -291,37 +447,52 @@ impl History {
                 ds_l: k.ds_l,
                 s_r: k.s_r + self.shift,
                 ds_r: k.ds_r,
+                dds_l: k.dds_l,
+                dds_r: k.dds_r,
             };
         }
         let s = self.eval(x, false) + self.shift;
         let ds = self.slope_left(x);
+        let dds = if self.quintic {
+            self.accel_left(x)
+        } else {
+            f64::NAN
+        };
         Knot {
             t,
             s_l: s,
             ds_l: ds,
             s_r: s,
             ds_r: ds,
+            dds_l: dds,
+            dds_r: dds,
         }
     }
 
     /// The surface's kink at a cut event at `t` (the knot there): its velocity from the right
     /// is the new side's, the bar's `u̇` entering the cut, the carried surface's leaving it.
     fn cut_event_slope(&mut self, t: f64, du: f64) {
-        let ds = if self.in_cut {
-            du
+        // The acceleration from the right: entering the cut the bar's, set by the next
+        // segment's start (Recorder::segment); leaving it the carried surface's.
+        let (ds, dds) = if self.in_cut {
+            (du, f64::NAN)
         } else {
             let x = t - self.tau;
             let i = self.k.partition_point(|k| k.t <= x);
             // At or just after a knot: its right side; else the Hermite's slope.
             if i > 0 && self.k[i - 1].t.to_bits() == x.to_bits() {
-                self.k[i - 1].ds_r
+                (self.k[i - 1].ds_r, self.k[i - 1].dds_r)
             } else {
-                self.slope_left(x)
+                (self.slope_left(x), self.accel_left(x))
             }
         };
+        let quintic = self.quintic;
         if let Some(last) = self.k.back_mut() {
             if last.t.to_bits() == t.to_bits() {
                 last.ds_r = ds;
+                if quintic {
+                    last.dds_r = dds;
+                }
             }
         }
     }
@@ -329,8 +500,17 @@ impl History {
     /// The quadratic `d0 + d1 τ + d2 τ²` through the surface at the window `[a, b]`'s ends and
     /// middle (`τ = x − a`).
     fn quadratic(&self, a: f64, b: f64) -> [f64; 3] {
-        let y0 = self.eval(a, true);
         let len = b - a;
+        if self.quintic && len > 0.0 {
+            return self.gauss_quadratic(a, len);
+        }
+        self.ends_quadratic(a, b)
+    }
+
+    /// The quadratic through the surface at the window `[a, b]`'s ends and middle.
+    fn ends_quadratic(&self, a: f64, b: f64) -> [f64; 3] {
+        let len = b - a;
+        let y0 = self.eval(a, true);
         if len <= 0.0 {
             return [y0, 0.0, 0.0];
         }
@@ -341,6 +521,32 @@ impl History {
         [y0, d1, d2]
     }
 }
+
+impl History {
+    /// The quadratic `d0 + d1 τ + d2 τ²` through the surface at the three Gauss–Legendre points
+    /// of the window `[a, a + len]`: its error is the interpolation error `∝ P₃`, orthogonal to
+    /// every quadratic over the window, so the piece's state error is `O(Δ⁷)` (not `O(Δ⁵)` as
+    /// with the ends and middle) and the run's `O(Δ⁶)` on the quintic history. It does not
+    /// pass through the window's ends: the delayed surface jumps by `O(Δ³)` at a piece
+    /// boundary (the driver checks the chip's sign there).
+    fn gauss_quadratic(&self, a: f64, len: f64) -> [f64; 3] {
+        let g = 0.5 * GAUSS3;
+        let (x0, x1, x2) = ((0.5 - g) * len, 0.5 * len, (0.5 + g) * len);
+        let (f0, f1, f2) = (
+            self.eval(a + x0, true),
+            self.eval(a + x1, true),
+            self.eval(a + x2, true),
+        );
+        // Newton's form about x0, x1, then the monomials in τ.
+        let d01 = (f1 - f0) / (x1 - x0);
+        let d12 = (f2 - f1) / (x2 - x1);
+        let c2 = (d12 - d01) / (x2 - x0);
+        [f0 - x0 * (d01 - c2 * x1), d01 - c2 * (x0 + x1), c2]
+    }
+}
+
+/// `√(3/5)`: the 3-point Gauss–Legendre nodes on `[−1, 1]` are `0, ±√(3/5)`.
+const GAUSS3: f64 = 0.774_596_669_241_483_4;
 
 /// The history's interface for the modal cutting run ([`super::modal::cutting`]), which keeps
 /// its own event loop and records the knots itself (the force point's `u` is not the public
@@ -365,33 +571,15 @@ impl History {
         } else {
             (u_eq + shift, 0.0)
         };
-        h.push(Knot {
-            t: t0 - 2.0 * tau,
-            s_l: u_eq,
-            ds_l: 0.0,
-            s_r: u_eq,
-            ds_r: 0.0,
-        });
-        h.push(Knot {
-            t: t0,
-            s_l: u_eq,
-            ds_l: 0.0,
-            s_r,
-            ds_r,
-        });
+        h.push(Knot::cubic(t0 - 2.0 * tau, u_eq, 0.0, u_eq, 0.0));
+        h.push(Knot::cubic(t0, u_eq, 0.0, s_r, ds_r));
         h.breakpoint(t0);
         h
     }
 
     /// Store the surface `s`, `ṡ` at `t` (both sides).
     pub(super) fn record(&mut self, t: f64, s: f64, ds: f64) {
-        self.push(Knot {
-            t,
-            s_l: s,
-            ds_l: ds,
-            s_r: s,
-            ds_r: ds,
-        });
+        self.push(Knot::cubic(t, s, ds, s, ds));
     }
 
     /// The right side at the newest knot, when it is at `t` (after an event in the cut).
@@ -427,14 +615,14 @@ impl History {
     /// Drop the knots before `t` (one kept) and the breakpoints already passed at `t`.
     pub(super) fn forget_before(&mut self, t_knots: f64, t: f64) {
         self.trim(t_knots);
-        while self.bp.front().is_some_and(|&tk| tk + self.tau <= t) {
+        while self.bp.front().is_some_and(|&(tk, _)| tk + self.tau <= t) {
             self.bp.pop_front();
         }
     }
 
     /// The next breakpoint source.
     pub(super) fn first_breakpoint(&self) -> Option<f64> {
-        self.bp.front().copied()
+        self.bp.front().map(|b| b.0)
     }
 
     /// The quadratic through the surface over the window `[a, b]` ([`History::quadratic`]).
@@ -517,13 +705,22 @@ impl Observer for Recorder<'_, '_> {
         // `in_cut` is the piece's (the driver sets it before each step of the event loop; a
         // cut event ends the step).
         if h.in_cut {
-            h.push(Knot {
-                t: t1,
-                s_l: st.u_m,
-                ds_l: st.du_m_s,
-                s_r: st.u_m,
-                ds_r: st.du_m_s,
-            });
+            let mut kn = Knot::cubic(t1, st.u_m, st.du_m_s, st.u_m, st.du_m_s);
+            if h.quintic {
+                // The bar's acceleration at the piece's end, and at its start: the knot there
+                // takes its right side from this segment (it jumps after an event, entering the
+                // cut, and where the delayed surface jumps a revolution after one).
+                let t0 = seg.t_start_s();
+                if let Some(last) = h.k.back_mut() {
+                    if last.t.to_bits() == t0.to_bits() {
+                        last.dds_r = seg.acceleration_at(t0).unwrap_or(f64::NAN);
+                    }
+                }
+                let a = seg.acceleration_at(t1).unwrap_or(f64::NAN);
+                kn.dds_l = a;
+                kn.dds_r = a;
+            }
+            h.push(kn);
         } else {
             let kn = h.out_of_cut_knot(t1);
             h.push(kn);
@@ -538,6 +735,8 @@ impl Observer for Recorder<'_, '_> {
                 if last.t.to_bits() == ev.t_s.to_bits() {
                     last.s_r = ev.after.u_m;
                     last.ds_r = ev.after.du_m_s;
+                    // The next segment's start sets it (Recorder::segment).
+                    last.dds_r = f64::NAN;
                 }
             }
         }
@@ -557,8 +756,10 @@ pub(super) const GL8: [(f64, f64); 8] = [
     (0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
 ];
 
-/// `∫_a^b f` by 8-point Gauss–Legendre on pieces of at most 1/2 rad of the fastest term
-/// (error far below rounding for these smooth sums); `f` gets the transcendentals at the node.
+/// `∫_a^b f` by 8-point Gauss–Legendre on pieces of at most 1 rad of the fastest term (its
+/// error on `e^{iθ}` over 1 rad is ~1e-22 relative, far below rounding; the sixth-order
+/// surface's regular pieces, 2π/10 rad, are one interval); `f` gets the transcendentals at
+/// the node.
 fn quad<const N: usize>(
     seg: &ExactSegment,
     a: f64,
@@ -571,7 +772,7 @@ fn quad<const N: usize>(
     }
     let u = &seg.u;
     let rate = u.om.max(u.wd).max(u.al);
-    let n = ((b - a) * rate / 0.5).ceil().clamp(1.0, 1e6) as usize;
+    let n = ((b - a) * rate).ceil().clamp(1.0, 1e6) as usize;
     let h = (b - a) / n as f64;
     if n == 1 {
         // One interval (a piece): its nodes' transcendentals, as below, from the cache.
@@ -875,7 +1076,7 @@ pub(super) const CONTINUE_MISMATCH: &str =
 pub struct CutContinuation {
     state: State,
     knots: VecDeque<Knot>,
-    bp: VecDeque<f64>,
+    bp: VecDeque<(f64, u8)>,
     in_cut: bool,
     tau: f64,
     shift: f64,
@@ -973,6 +1174,13 @@ impl ExactCutting {
         };
         cut.validate()?;
         let nonlinear = cut.force_law == CuttingForceLaw::ThreeQuarter;
+        // The sixth-order surface where every segment is a closed form that knows the bar's
+        // acceleration: the linear law on the restitution contact law.
+        let quintic = self.sixth_order
+            && !nonlinear
+            && sys
+                .damper
+                .is_none_or(|d| d.contact.law != crate::ContactLaw::Hertz);
         crate::limits::check(
             "steps_per_period (cutting pieces per fastest period)",
             self.steps_per_period as f64,
@@ -1039,8 +1247,17 @@ impl ExactCutting {
             } else {
                 0.0
             });
-        let h_max = (2.0 * std::f64::consts::PI / w_fast / self.steps_per_period as f64).min(tau);
-        let pieces = (tau / h_max).ceil() + 4.0;
+        let pieces_per_period = if quintic {
+            self.steps_per_period as f64 * SIXTH_ORDER_STEPS_PER_PERIOD as f64
+                / DEFAULT_STEPS_PER_PERIOD as f64
+        } else {
+            self.steps_per_period as f64
+        };
+        let h_max = (2.0 * std::f64::consts::PI / w_fast / pieces_per_period).min(tau);
+        // Near the cut's boundary the sixth-order path takes the fourth-order pieces (see the
+        // module doc): the chip there is an event function, and its pointwise error is O(Δ³).
+        let h_near = (2.0 * std::f64::consts::PI / w_fast / self.steps_per_period as f64).min(tau);
+        let pieces = (tau / h_near).ceil() + 4.0;
         let cap = 2 * pieces as usize + MAX_EVENT_KNOTS;
         let mut h0_chip = cut.feed_m - cut.chip_direction_factor * init.u_m;
         let mut in_cut0 = h0_chip > 0.0;
@@ -1054,6 +1271,7 @@ impl ExactCutting {
             cap = cap.max(c.knots.len().max(c.bp.len()) + MAX_EVENT_KNOTS);
         }
         let hist = RefCell::new(History::new(cap, in_cut0, tau, shift));
+        hist.borrow_mut().quintic = quintic;
         if let Some(c) = from {
             let mut h = hist.borrow_mut();
             h.k.extend(c.knots.iter().copied());
@@ -1061,31 +1279,27 @@ impl ExactCutting {
             // The chip at the start, from the continued surface.
             h0_chip = cut.feed_m + cut.chip_direction_factor * (h.eval(t0 - tau, true) - start.u_m);
             // The cut changes here: a breakpoint of the history.
-            h.breakpoint(t0);
+            h.queue_breakpoint(t0, BREAK_JUMP);
         } else {
             let mut h = hist.borrow_mut();
             // The smooth surface of the tool at rest at the equilibrium, one revolution back.
-            h.push(Knot {
-                t: t0 - 2.0 * tau,
-                s_l: u_eq,
-                ds_l: 0.0,
-                s_r: u_eq,
-                ds_r: 0.0,
-            });
             let (s_r, ds_r) = if in_cut0 {
                 (start.u_m, start.du_m_s)
             } else {
                 (u_eq + shift, 0.0)
             };
-            h.push(Knot {
-                t: t0,
-                s_l: u_eq,
-                ds_l: 0.0,
-                s_r,
-                ds_r,
-            });
+            let mut k0 = Knot::cubic(t0 - 2.0 * tau, u_eq, 0.0, u_eq, 0.0);
+            let mut k1 = Knot::cubic(t0, u_eq, 0.0, s_r, ds_r);
+            if quintic {
+                // At rest before the start; after it the first segment's (in the cut) or the
+                // smooth surface advanced (out of it).
+                (k0.dds_l, k0.dds_r, k1.dds_l) = (0.0, 0.0, 0.0);
+                k1.dds_r = if in_cut0 { f64::NAN } else { 0.0 };
+            }
+            h.push(k0);
+            h.push(k1);
             // The start is an event of the history (an offset jumps the surface).
-            h.breakpoint(t0);
+            h.queue_breakpoint(t0, BREAK_JUMP);
         }
         let mut rec = Recorder {
             inner: obs,
@@ -1148,31 +1362,71 @@ impl ExactCutting {
         let mut cut_events: u64 = 0;
         // The window start of a piece that begins at the previous piece's end (exact `t_k`).
         let mut win_prev: Option<(u64, f64)> = None;
+        let window_start = |win_prev: Option<(u64, f64)>, t: f64| match win_prev {
+            Some((bits, x)) if bits == t.to_bits() => x,
+            _ => t - tau,
+        };
+        // The quadratic of the piece starting at this time, fitted already.
+        let mut fitted: Option<(u64, [f64; 3])> = None;
         while s.t < t_end_s {
-            let (step_end, win_end) = {
+            let (step_end, win_end, near, at_breakpoint) = {
                 let mut h = hist.borrow_mut();
-                h.trim(s.t - tau - h_max);
-                while h.bp.front().is_some_and(|&tk| tk + tau <= s.t) {
+                h.trim(s.t - tau - h_max.max(h_near));
+                while h.bp.front().is_some_and(|&(tk, _)| tk + tau <= s.t) {
                     h.bp.pop_front();
                 }
-                match h.bp.front() {
-                    Some(&tk) if tk + tau < (s.t + h_max).min(t_end_s) => (tk + tau, tk),
-                    _ => {
-                        let e = (s.t + h_max).min(t_end_s);
-                        (e, e - tau)
+                let step = |len: f64| match h.bp.front() {
+                    Some(&(tk, order)) if tk + tau < (s.t + len).min(t_end_s) => {
+                        (tk + tau, tk, Some(order))
                     }
+                    _ => {
+                        let e = (s.t + len).min(t_end_s);
+                        (e, e - tau, None)
+                    }
+                };
+                let (mut end, mut win, mut bp) = step(if quintic { h_max } else { h_near });
+                // The chip's deviation from the feed, `D = c_chip (s(t − T) − u)`, as an
+                // oscillation at the fastest frequency: its amplitude `√(D² + (Ḋ/ω)²)` against
+                // the feed says whether the chip can reach 0 soon (from the long piece's
+                // quadratic, kept for the piece when it is not).
+                let near = quintic && {
+                    let a = window_start(win_prev, s.t);
+                    let d = h.quadratic(a, win.max(a));
+                    let c = cut.chip_direction_factor;
+                    let dd = c * (d[0] - s.u);
+                    let ddot = c * (d[1] - s.du) / w_fast;
+                    let near = dd.hypot(ddot) > NEAR_CUT_BOUNDARY * cut.feed_m;
+                    if !near {
+                        fitted = Some((s.t.to_bits(), d));
+                    }
+                    near
+                };
+                if near {
+                    (end, win, bp) = step(h_near);
                 }
+                (end, win, near, bp)
             };
             while s.t < step_end {
-                let a = match win_prev {
-                    Some((bits, x)) if bits == s.t.to_bits() => x,
-                    _ => s.t - tau,
+                let a = window_start(win_prev, s.t);
+                let d = match fitted.take() {
+                    // The long piece's quadratic from the test above (same window).
+                    Some((bits, d)) if bits == s.t.to_bits() => d,
+                    _ if near => hist.borrow().ends_quadratic(a, win_end.max(a)),
+                    _ => hist.borrow().quadratic(a, win_end.max(a)),
                 };
-                let d = hist.borrow().quadratic(a, win_end.max(a));
                 let cs = consts(in_cut, d, order);
                 book.cut_event = false;
                 hist.borrow_mut().in_cut = in_cut;
-                if nonlinear && !has_ball {
+                let chip0 = cut.feed_m + cut.chip_direction_factor * (d[0] - s.u);
+                if quintic
+                    && !near
+                    && order == 0
+                    && ((in_cut && chip0 < 0.0) || (!in_cut && chip0 > 0.0))
+                {
+                    // The Gauss quadratic jumps by O(Δ³) at a piece boundary: where that moves
+                    // the chip across zero, the cut event is here (not after a negative chip).
+                    book.cut_event = true;
+                } else if nonlinear && !has_ball {
                     // The three-quarter law: one DP5 step ([`super::cutting_nonlinear`]). The
                     // mode follows the chip's sign at a step start (a crossing at a step end).
                     let x = s.t - tau;
@@ -1268,6 +1522,19 @@ impl ExactCutting {
                     order = 0;
                 }
             }
+            if let (true, Some(order)) = (quintic, at_breakpoint) {
+                // The surface's break at `t_k` reaches `t_k + T` and from there `t_k + 2T`: out
+                // of the cut as it was (the surface carried), in the cut two derivatives
+                // smoother (through the bar). A jump becomes a jump in `ü`, which a piece
+                // across `t_k + 2T` would carry as an O(Δ³) error of its delayed surface
+                // (measured: the order through loss of contact fell to ~3 without it); a
+                // kink becomes a jump in `u⃛`, O(Δ⁴) once per event, left as it is.
+                if !in_cut {
+                    hist.borrow_mut().queue_breakpoint(s.t, order);
+                } else if order == BREAK_JUMP {
+                    hist.borrow_mut().queue_breakpoint(s.t, BREAK_ACCEL);
+                }
+            }
             win_prev = Some((s.t.to_bits(), win_end));
         }
         book.summary.final_state = s.public();
@@ -1359,13 +1626,7 @@ mod tests {
         let mut h = History::new(64, true, 1.0, 0.0);
         for i in 0..40 {
             let t = 0.1 * i as f64;
-            h.push(Knot {
-                t,
-                s_l: t,
-                ds_l: 1.0,
-                s_r: t,
-                ds_r: 1.0,
-            });
+            h.push(Knot::cubic(t, t, 1.0, t, 1.0));
         }
         let mut checked = 0;
         for round in 0..3 {

@@ -226,6 +226,20 @@ impl ExpSum {
         at(b) - at(a)
     }
 
+    /// The second derivative from precomputed transcendentals (`derivs_t::<3>`'s last, to the
+    /// bit, without the value and the first derivative).
+    #[inline]
+    pub fn second_derivative_t(&self, t: &Trig) -> f64 {
+        let e = 1.0 + t.em1;
+        let (mut a, mut b, mut p, mut q) = (self.a, self.b, self.p, self.q);
+        for _ in 0..2 {
+            let (na, nb) = (self.om * b, -self.om * a);
+            let (np, nq) = (-self.al * p + self.wd * q, -self.al * q - self.wd * p);
+            (a, b, p, q) = (na, nb, np, nq);
+        }
+        2.0 * self.c2 + a * t.ch + b * t.sh + e * (p * t.cd + q * t.sd)
+    }
+
     /// Value at `τ`.
     pub fn value(&self, tau: f64) -> f64 {
         self.value_t(&Trig::new(tau, self.om, self.al, self.wd))

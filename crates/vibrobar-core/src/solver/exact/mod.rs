@@ -489,6 +489,15 @@ impl Segment for ExactSegment {
         s.t_s = t_s;
         s
     }
+    fn acceleration_at(&self, t_s: f64) -> Option<f64> {
+        let tau = t_s - self.t0;
+        let trig = if tau.to_bits() == self.end.tau.to_bits() {
+            self.end
+        } else {
+            Trig::new(tau, self.u.om, self.u.al, self.u.wd)
+        };
+        Some(self.u.second_derivative_t(&trig))
+    }
     fn mechanical_energy_j(&self, t_s: f64) -> f64 {
         let (m, k, md) = self.energy;
         crate::model::lumped_mechanical_energy_j(m, k, md, &self.state_at(t_s))
