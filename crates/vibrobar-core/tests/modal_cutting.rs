@@ -3,7 +3,6 @@
 //! independent RK4 of the modal DDE with an impacting ball; energy books; convergence order;
 //! bad input.
 
-use num_complex::Complex64 as C;
 use vibrobar_core::analysis::energy::EnergyAudit;
 use vibrobar_core::excitation::{one_mode_limit_width_m, Cutting, CuttingForceLaw};
 use vibrobar_core::params::{
@@ -14,6 +13,9 @@ use vibrobar_core::solver::exact::modal::cutting::ModalCutting;
 use vibrobar_core::solver::{Event, EventKind, Fanout, Observer, Segment, Solver};
 use vibrobar_core::structure::{ModalState, ModalSystem, Mode, Structure};
 
+#[path = "common/linear_dde.rs"]
+mod linear_dde;
+use linear_dde::{b_lim_n, growth, root_n};
 const KF: f64 = 2e9;
 const H0: f64 = 1e-4;
 
@@ -210,130 +212,6 @@ fn one_mode_table_is_the_lumped_cutting_run() {
         }
         assert!(b.max_abs_w <= 2e-5 + 1e-12);
     }
-}
-
-/// The receptance at the tip `Σ 1/(mₙs² + cₙs + kₙ)` and its derivative.
-fn receptance(modes: &[Mode], s: C) -> (C, C) {
-    let (mut g, mut dg) = (C::new(0.0, 0.0), C::new(0.0, 0.0));
-    for m in modes {
-        let k = m.modal_mass_kg * m.omega_rad_s * m.omega_rad_s;
-        let c = 2.0 * m.damping_ratio * (k * m.modal_mass_kg).sqrt();
-        let d = s * s * m.modal_mass_kg + s * c + k;
-        let phi2 = m.shape_force * m.shape_force;
-        g += phi2 / d;
-        dg -= phi2 * (s * 2.0 * m.modal_mass_kg + c) / (d * d);
-    }
-    (g, dg)
-}
-
-/// The N-mode stability limit at `rpm`, independently of the library: on each lobe the chatter
-/// frequency solves `ωT = 3π + 2 arg G(iω) + 2πj` (a grid for the crossings, then bisection),
-/// `b = −1/(2 K_f Re G)`, the minimum over the lobes. Returns `(b_lim, ω_c)`.
-fn b_lim_n(modes: &[Mode], rpm: f64) -> (f64, f64) {
-    let tau = 60.0 / rpm;
-    let w_hi = 1.5 * modes.iter().map(|m| m.omega_rad_s).fold(0.0, f64::max);
-    let w_lo = 0.5 * modes[0].omega_rad_s;
-    let r = |w: f64| {
-        let g = receptance(modes, C::new(0.0, w)).0;
-        (
-            (w * tau - 3.0 * std::f64::consts::PI - 2.0 * g.arg()) / (2.0 * std::f64::consts::PI),
-            g,
-        )
-    };
-    let n = 200_000;
-    let mut best = (f64::INFINITY, 0.0);
-    let mut prev = (w_lo, r(w_lo));
-    for i in 1..=n {
-        let w = w_lo + (w_hi - w_lo) * i as f64 / n as f64;
-        let cur = r(w);
-        if cur.0.floor() != prev.1 .0.floor() && cur.1.re < 0.0 && prev.1 .1.re < 0.0 {
-            let j = cur.0.floor().max(prev.1 .0.floor());
-            let (mut lo, mut hi) = (prev.0, w);
-            let up = cur.0 > prev.1 .0;
-            for _ in 0..100 {
-                let mid = 0.5 * (lo + hi);
-                if (r(mid).0 >= j) == up {
-                    hi = mid
-                } else {
-                    lo = mid
-                }
-            }
-            let wm = 0.5 * (lo + hi);
-            let g = r(wm).1;
-            let b = -1.0 / (2.0 * KF * g.re);
-            if b < best.0 {
-                best = (b, wm);
-            }
-        }
-        prev = (w, cur);
-    }
-    best
-}
-
-/// Newton on `f(s) = 1 + k_c(1 − e^{−sT})G(s) = 0` from `s`; `None` if it does not converge.
-fn newton_root(modes: &[Mode], kc: f64, tau: f64, mut s: C) -> Option<C> {
-    for _ in 0..100 {
-        let (g, dg) = receptance(modes, s);
-        let e = (-s * tau).exp();
-        let f = 1.0 + kc * (1.0 - e) * g;
-        let df = kc * (tau * e * g + (1.0 - e) * dg);
-        let ds = f / df;
-        s -= ds;
-        if !s.re.is_finite() || !s.im.is_finite() {
-            return None;
-        }
-        if ds.norm() < 1e-13 * s.norm() {
-            return Some(s);
-        }
-    }
-    None
-}
-
-/// The rightmost characteristic root of the N-mode DDE with `Im s` in the modes' band: Newton
-/// from `iω_c` and from a grid of starting points `−0.01ω + iω` over `[0.3ω₁, 1.5ω_N]`, the
-/// largest real part among the converged roots.
-fn root_n(modes: &[Mode], b: f64, rpm: f64, w_c: f64) -> C {
-    let tau = 60.0 / rpm;
-    let kc = KF * b;
-    let w_hi = 1.5 * modes.iter().map(|m| m.omega_rad_s).fold(0.0, f64::max);
-    let w_lo = 0.3 * modes[0].omega_rad_s;
-    let mut best = newton_root(modes, kc, tau, C::new(0.0, w_c)).expect("root near ω_c");
-    let n = 3000;
-    for i in 0..=n {
-        let w = w_lo + (w_hi - w_lo) * i as f64 / n as f64;
-        if let Some(r) = newton_root(modes, kc, tau, C::new(-0.01 * w, w)) {
-            if r.im > 0.0 && r.re > best.re {
-                best = r;
-            }
-        }
-    }
-    best
-}
-
-/// Growth rate of the envelope of `|u − u_eq|`: least squares of ln(peak) over `[t_a, t_b]`.
-fn growth(s: &Sampler, u_eq: f64, t_a: f64, t_b: f64) -> f64 {
-    let x: Vec<f64> = s.u.iter().map(|u| (u - u_eq).abs()).collect();
-    let mut pts = vec![];
-    for i in 1..x.len() - 1 {
-        if x[i] > x[i - 1] && x[i] >= x[i + 1] && s.t[i] >= t_a && s.t[i] <= t_b {
-            let (a, b, c) = (x[i - 1], x[i], x[i + 1]);
-            let den = a - 2.0 * b + c;
-            let peak = if den != 0.0 {
-                b - 0.125 * (a - c).powi(2) / den
-            } else {
-                b
-            };
-            pts.push((s.t[i], peak.ln()));
-        }
-    }
-    let n = pts.len() as f64;
-    let (mt, my) = pts
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / n, a.1 + p.1 / n));
-    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
-        (a.0 + (p.0 - mt) * (p.1 - my), a.1 + (p.0 - mt).powi(2))
-    });
-    sxy / sxx
 }
 
 /// Issue #13 validation on N modes: no ball, linear law, the tool never leaving the cut. At 0.9
