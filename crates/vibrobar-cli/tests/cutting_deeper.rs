@@ -9,8 +9,9 @@ use std::fs;
 use vibrobar_core::analysis::batch::Runner;
 use vibrobar_core::analysis::lobe_design::LobeDesignSpec;
 use vibrobar_core::analysis::lobe_design::{lobe_design, optimum, DesignAxis, DesignGrid};
+use vibrobar_core::analysis::time_domain::td_lobes;
 use vibrobar_core::structure::Beam;
-use vibrobar_io::csv::{lobe_design_schema, lobe_design_values};
+use vibrobar_io::csv::{lobe_design_schema, lobe_design_values, td_lobes_schema, td_lobes_values};
 use vibrobar_scenario::Scenario;
 
 const TINY: [&str; 26] = [
@@ -89,6 +90,12 @@ fn tiny_document_has_its_parts_and_the_cores_numbers() {
         "ISCAR",
         "![worst-case width over the lumped designs](cd/lumped-design.png)",
         "![worst-case width over the beam designs](cd/beam-design.png)",
+        "**The bistable band** of the best design",
+        "![time-domain lobes of the best lumped design from both disturbances](cd/lumped-bistable.png)",
+        "![time-domain lobes of the best beam design from both disturbances](cd/beam-bistable.png)",
+        "](cd/lumped-width-diagram.png)",
+        "**How firm the best design's widths are.**",
+        "the gain that holds whichever sample the disturbance draws",
     ] {
         assert!(doc.contains(h), "missing {h:?}\n{doc}");
     }
@@ -103,6 +110,11 @@ fn tiny_document_has_its_parts_and_the_cores_numbers() {
         "lumped-design.png",
         "beam-design.csv",
         "beam-design.svg",
+        "lumped-bistable.csv",
+        "lumped-bistable.png",
+        "lumped-width-diagram.csv",
+        "lumped-width-diagram.svg",
+        "beam-bistable.csv",
     ] {
         assert!(dir.join(f).is_file(), "missing {f}");
     }
@@ -141,6 +153,41 @@ fn tiny_document_has_its_parts_and_the_cores_numbers() {
         rows
     );
     assert!(doc.contains(&format!(": worst {best} µm")), "{best}\n{doc}");
+    // The bistable band: the core's time-domain lobes of the best design, both disturbances.
+    let spec = LobeDesignSpec {
+        base: sc.cut_problem().unwrap(),
+        beam: None,
+        axis: DesignAxis::BallMass,
+    };
+    let grid = DesignGrid::new(DesignAxis::BallMass, vec![0.05e-3, 0.1e-3], vec![26e-3]).unwrap();
+    let rpms = [9000.0, 10000.0];
+    let (_, rows) = lobe_design(&spec, &grid, &rpms, &Runner::default()).unwrap();
+    let p = spec.problem(&optimum(&rows).unwrap().point).unwrap();
+    let td = td_lobes(&p, &rpms, &Runner::default()).unwrap();
+    let mut text = format!("{}\n", td_lobes_schema().header());
+    for r in &td {
+        text += &td_lobes_schema().format(&td_lobes_values(r));
+        text += "\n";
+    }
+    assert_eq!(
+        fs::read_to_string(dir.join("lumped-bistable.csv")).unwrap(),
+        text
+    );
+    for r in &td {
+        let band = (r.searches[0].width_m - r.searches[1].width_m).max(0.0);
+        let row = format!(
+            "| {} | {:.2} | {:.2} | {:.2} | {:.2} |",
+            r.spindle_rpm,
+            r.linear.b_lim_solid_m * 1e6,
+            r.searches[0].width_m * 1e6,
+            r.searches[1].width_m * 1e6,
+            band * 1e6
+        );
+        assert!(doc.contains(&row), "missing {row:?}\n{doc}");
+    }
+    // The width diagram: 21 widths × 2 disturbances × 2 bars.
+    let diagram = fs::read_to_string(dir.join("lumped-width-diagram.csv")).unwrap();
+    assert_eq!(diagram.lines().count(), 1 + 21 * 4);
     let beam = fs::read_to_string(dir.join("beam.toml")).unwrap();
     let want = core_rows(
         &beam,
