@@ -1051,4 +1051,196 @@ mod tests {
         // The envelope is what makes these searches short (else the test tests nothing).
         assert!(4 * steps_env < 3 * steps_ref, "{steps_env} {steps_ref}");
     }
+
+    /// Bursts of close roots (module docs, where the as-published beam spends its time): a slow
+    /// part whose minimum is near zero and fast, lightly damped ringing terms of an amplitude
+    /// comparable to its dip, so that the ringing crosses zero again and again; the slow part's
+    /// minimum set just below, at or just above zero (crossings, near touches, near misses),
+    /// also with a harmonic at resonance with a slow term (the slow beat). Every search, from
+    /// the start and from a departure at a known zero, is checked against a brute-force
+    /// reference: dense sampling, then bisection of the first sign change. The search's root
+    /// is never past the reference's, nothing before it is negative on the dense grid, and at
+    /// the root the function is within 1e-9 of the scale of zero (a near touch may stop there);
+    /// no search may miss a root where the dense grid sees a negative value.
+    #[test]
+    fn bursts_of_close_roots_match_dense_sampling_and_bisection() {
+        let mut x: u64 = 0x2545_f491_4f6c_dd1d;
+        let mut rnd = move || {
+            x = x
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut roots, mut nones, mut departures, mut earlier) = (0, 0, 0, 0);
+        let mut steps = 0u64;
+        for case in 0..600 {
+            let om = 1.0;
+            let mut g = ExpSumN::zero(om);
+            // Slow part: a parabola with its minimum inside [0, t_max], a harmonic, and (every
+            // other case) a slow term beating against the harmonic.
+            let t_max = 20.0;
+            let tm = t_max * (0.2 + 0.6 * rnd());
+            let c2 = 0.01 + 0.02 * rnd();
+            g.c2 = c2;
+            g.c1 = -2.0 * c2 * tm;
+            g.a = 0.1 * (2.0 * rnd() - 1.0);
+            g.b = 0.1 * (2.0 * rnd() - 1.0);
+            let mut n = 0;
+            if case % 2 == 0 {
+                let wd = om * (1.0 + 0.02 * (2.0 * rnd() - 1.0));
+                let c = 1.0 + 0.05 * (2.0 * rnd() - 1.0);
+                g.t[0] = Term {
+                    al: 0.02 * rnd(),
+                    wd,
+                    p: -c * g.a,
+                    q: -c * g.b * om / wd,
+                };
+                n = 1;
+            }
+            // Fast ringing: 1 to 3 terms, the fastest at 20–200 rad/s, amplitudes of the order
+            // of the dip the parabola makes within a few of their periods of its minimum.
+            let n_fast = 1 + (case / 2) % 3;
+            let amp = 0.02 * (0.2 + rnd());
+            for j in 0..n_fast {
+                let wd = (20.0 + 180.0 * rnd()) / (1.0 + 2.0 * j as f64);
+                let ph = std::f64::consts::TAU * rnd();
+                let a = amp * (0.3 + 0.7 * rnd()) / (1.0 + j as f64);
+                g.t[n] = Term {
+                    al: 0.05 * rnd(),
+                    wd,
+                    p: a * ph.cos(),
+                    q: a * ph.sin(),
+                };
+                n += 1;
+            }
+            g.n = n;
+            let n_scan = 100_000;
+            let grid = |i: usize| t_max * i as f64 / n_scan as f64;
+            g.f0 = 0.0;
+            g.k0 = 0.0;
+            let mut lo = f64::INFINITY;
+            for i in 0..=n_scan {
+                lo = lo.min(g.value(grid(i)));
+            }
+            let dip =
+                [-1e-2, -1e-4, -1e-7, -1e-10, 1e-10, 1e-7, 1e-4][(case / 6) % 7] * (0.5 + rnd());
+            g.f0 = -lo + dip;
+            if g.f0 <= 1e-3 {
+                continue;
+            }
+            // A search from the start, and (every third case) one departing from a zero: the
+            // function shifted so that it vanishes at `t0` with `g' > 0` there.
+            let mut t0 = 0.0;
+            let mut order = 0;
+            if case % 3 == 0 {
+                // The first upward crossing of the reference after the first root, if any.
+                let mut i0 = None;
+                let mut below = false;
+                for i in 0..=n_scan {
+                    let v = g.value(grid(i));
+                    if v < 0.0 {
+                        below = true;
+                    } else if below {
+                        i0 = Some(i);
+                        break;
+                    }
+                }
+                if let Some(i) = i0 {
+                    let (mut a, mut b) = (grid(i - 1), grid(i));
+                    for _ in 0..200 {
+                        let m = 0.5 * (a + b);
+                        if g.value(m) < 0.0 {
+                            a = m;
+                        } else {
+                            b = m;
+                        }
+                    }
+                    // The search departs from `b` with order 1 (`g(b)` is zero to rounding,
+                    // `g' > 0`), as after a friction switch.
+                    t0 = b;
+                    order = 1;
+                    departures += 1;
+                }
+            }
+            let cands = [CandN {
+                g,
+                order,
+                tol: 1e-15,
+            }];
+            let mut s = ScratchN::default();
+            let (r, _) = first_root_n(&cands, t0, t_max, 1e-15, &mut s);
+            steps += s.steps;
+            // The reference: the first dense sample below zero after the start's own zero
+            // (departures skip the first 1e-9), bisected.
+            let i_start = ((t0 + 1e-9) / t_max * n_scan as f64).ceil() as usize;
+            let mut reference = None;
+            for i in i_start.max(1)..=n_scan {
+                if g.value(grid(i)) < 0.0 {
+                    let (mut a, mut b) = (grid(i - 1).max(t0 + 1e-9), grid(i));
+                    for _ in 0..200 {
+                        let m = 0.5 * (a + b);
+                        if g.value(m) < 0.0 {
+                            b = m;
+                        } else {
+                            a = m;
+                        }
+                    }
+                    reference = Some(a);
+                    break;
+                }
+            }
+            let scale = g.f0.abs() + 1.0;
+            match (r, reference) {
+                (Root::At(t), reference) => {
+                    assert!(t >= t0, "case {case}: root {t} before the start {t0}");
+                    if let Some(rf) = reference {
+                        // Past it only within the function's tolerance and rounding (the
+                        // stop rule `g ≤ tol`, and the reference's own rounding), where a
+                        // near touch's crossing is flat.
+                        let v = g.value(t);
+                        assert!(
+                            t <= rf + 1e-12 || v.abs() <= 1e-15 + 4.0 * f64::EPSILON * scale,
+                            "case {case}: root {t} past the reference's {rf}, g = {v:e} \
+                             (dip {dip:e})"
+                        );
+                        if t < rf - 1e-9 {
+                            earlier += 1;
+                        }
+                    }
+                    // Nothing negative before it on the dense grid.
+                    for i in i_start..n_scan {
+                        let ti = grid(i);
+                        if ti >= t {
+                            break;
+                        }
+                        assert!(
+                            g.value(ti) > -1e-12 * scale,
+                            "case {case}: g({ti}) < 0 before the root {t}"
+                        );
+                    }
+                    // A zero (or a touch to the tolerance) at the root.
+                    let v = g.value(t);
+                    assert!(
+                        v.abs() <= 1e-9 * scale,
+                        "case {case}: g({t}) = {v:e} at the root (dip {dip:e})"
+                    );
+                    roots += 1;
+                }
+                (Root::None, None) => nones += 1,
+                (Root::None, Some(rf)) => {
+                    let v = g.value(rf);
+                    panic!("case {case}: missed the reference root {rf} (g = {v:e}, dip {dip:e})");
+                }
+                (Root::Horizon(t), _) => panic!("case {case}: horizon at {t}"),
+            }
+        }
+        eprintln!(
+            "bursts: {roots} roots ({earlier} before the dense reference), {nones} none, \
+             {departures} departures, {steps} steps"
+        );
+        assert!(
+            roots > 200 && nones > 50 && departures > 50,
+            "{roots} {nones} {departures}"
+        );
+    }
 }
