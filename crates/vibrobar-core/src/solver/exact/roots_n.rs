@@ -366,25 +366,6 @@ fn quad_step(f: f64, f1: f64, b: f64) -> f64 {
     }
 }
 
-/// Smallest positive root of `f + f1 h − b h²/2` for `b` of either sign (`f ≥ 0`), infinite if
-/// none: with `b < 0` (a convex lower bound) the smaller root of the upward parabola, where
-/// `quad_step` with `b` clamped to zero would give only the Newton step `f/|f1|`.
-#[inline]
-fn quad_step_signed(f: f64, f1: f64, b: f64) -> f64 {
-    if b >= 0.0 {
-        quad_step(f, f1, b)
-    } else if f1 < 0.0 {
-        let disc = f1 * f1 + 2.0 * b * f;
-        if disc >= 0.0 {
-            2.0 * f / (-f1 + disc.sqrt())
-        } else {
-            f64::INFINITY
-        }
-    } else {
-        f64::INFINITY
-    }
-}
-
 const MARGIN: f64 = 1.0 + 1e-12;
 
 /// Largest share of a function's largest amplitude the cheap step's fast set may carry (module
@@ -724,15 +705,7 @@ fn cheap_eval(c: &CandN, i: usize, s: &ScratchN, tau: f64, prev: f64) -> Result<
             b3 = b3.min(b3e);
         }
         let b_eff = b3 * big_h / 3.0 - f2_lo;
-        if b_eff >= 0.0 {
-            hi = hi.max(quad_step(lo, f1, b_eff).min(big_h));
-        } else {
-            // A convex lower bound (as in `eval`): also the polynomial's rounding off.
-            let lo_c = lo - eps_n * ((tau * (g.c1 + tau * g.c2)).abs() + pre.rh);
-            if lo_c > 0.0 {
-                hi = hi.max(quad_step_signed(lo_c, f1, b_eff).min(big_h));
-            }
-        }
+        hi = hi.max(quad_step(lo, f1, b_eff.max(0.0)).min(big_h));
     }
     Ok(hi.max(prev))
 }
@@ -817,16 +790,6 @@ fn eval(
     let eps_n = 8.0 * f64::EPSILON * (n as f64 + 1.0);
     let (mut fs, mut f1s, mut bs, mut rf) = (f, f1, b_full, 0.0);
     let mag = f + rsum;
-    // The slow beat on each split while its term is slow (module docs): the pair's amplitudes
-    // `pair2` replaced by `|Z₂(τ)|` plus the drift `dr·H` over the split's horizon
-    // `H = 8h` (`h` the split's amplitude step); the step so proven is capped at `H`.
-    let mut envs = s.env.map(|env| {
-        let k = env.k;
-        let wn2 = s.wn2[k];
-        let pair2 = (env.om2 * pre.rh + wn2 * s.r[k]) * MARGIN;
-        let (z2, _) = env.z23(g, tr);
-        (k, pair2, z2, wn2 * s.r[k] * env.rate)
-    });
     for &k in &s.order[..n] {
         fs -= s.v[k];
         f1s -= s.v1[k];
@@ -837,20 +800,7 @@ fn eval(
             break;
         }
         let bb = bs.max(0.0) + eps_n * b_full;
-        let hs = quad_step(lo, f1s, bb);
-        hi = hi.max(hs);
-        if let Some((ke, pair2, z2, dr)) = envs {
-            if ke == k {
-                // The envelope's term is set aside from here on: no pair left in `bs`.
-                envs = None;
-            } else if hs.is_finite() {
-                let big_hs = 8.0 * hs;
-                let be = bs - pair2
-                    + (z2 + dr * big_hs) * MARGIN
-                    + (eps_n + 8.0 * f64::EPSILON) * b_full;
-                hi = hi.max(quad_step(lo, f1s, be.max(0.0)).min(big_hs));
-            }
-        }
+        hi = hi.max(quad_step(lo, f1s, bb));
     }
     // The cubic proof within a horizon H (the lumped search's): with B₃ ≥ |g'''|,
     // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6)h² for h ≤ H; H a little beyond the zero of the local
@@ -875,16 +825,7 @@ fn eval(
         }
         c_up = 0.5 * (f2 + eps_n * b_full) + b3 * big_h / 6.0;
         let b_eff = b3 * big_h / 3.0 - f2_lo;
-        if b_eff >= 0.0 {
-            hi = hi.max(quad_step(f, f1, b_eff).min(big_h));
-        } else {
-            // A convex lower bound: its smaller root, from the value less its rounding (near
-            // a double root the discriminant is all rounding).
-            let lo = f - eps_n * (mag + g.f0.abs() + (tau * (g.c1 + tau * g.c2)).abs() + pre.rh);
-            if lo > 0.0 {
-                hi = hi.max(quad_step_signed(lo, f1, b_eff).min(big_h));
-            }
-        }
+        hi = hi.max(quad_step(f, f1, b_eff.max(0.0)).min(big_h));
     }
     let hi = hi.max(prev);
     let mut bracketed = false;
