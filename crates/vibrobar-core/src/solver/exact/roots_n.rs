@@ -202,6 +202,40 @@
 //! `φ₁` series and divisions, the observer's share), the search's own bookkeeping 7 %,
 //! `exp_m1` 6 %, the envelope's bounds 4 %: the 3× budget (about 58 M on the bench path)
 //! still needs a quarter fewer full steps, which only a different step sequence gives.
+//!
+//! **Seventh round (issue #8 §8), measured, no result-moving change kept** (callgrind, `()`
+//! observer and the bench path as above; per event, since a changed step sequence moves the
+//! chaotic 2 s runs' event counts by several %). A trace of every search (4 modes as published):
+//! the 1 260 searches ending at a friction switch take 6.1 full evaluations each (mostly 3–4; 231
+//! take 10 or more, the ringing hovering just above a near-zero slow part), after a departure
+//! step that proves about a third of the way to the next switch (1–5/ω_N away); each of the 2 301
+//! impact searches takes about 13.6 evaluations (5.7 cheap, 2.2 full of the wall, 5.6 full of `ẇ`
+//! while it nearly touches zero). In units of `1/ω_N` the full evaluations of a switch land at
+//! e.g. 2.7 → 0.7 → 0.1 → 4e-3 → 7e-6 → bracketed: *quadratic*, because where the cubic proof's
+//! bound is convex (`g''/2 > B₃H/6`) clamping `b_eff` at zero leaves Newton's step `g/|g'|`,
+//! which from the convex side lands short every time. So a Newton candidate with a monotonicity
+//! proof after it (the brief's first idea) has nothing left to gain: with the convex bound's own
+//! root the tail is 0.9 → 0.07 → bracketed (two evaluations), and any candidate must still be
+//! bracketed to the time resolution by two-sided bounds, which needs a point within ~5e-4/ω_N of
+//! the zero. Tried (commit 7952390, reverted by the next, so the code stays recoverable): (1) the
+//! slow-beat envelope on every split of the full evaluation while its term is slow (`|Z₂(τ)|`
+//! plus its drift over the split's horizon `8h`, the step capped there: `bspeed`'s idea); (2) the
+//! convex cubic step, from the value less its rounding (without that margin an exact double root
+//! is stepped over: the parabola test). (2) alone, measured before that margin, about −2.5 % (as
+//! published) and −4 % (coulomb) per event; (1) takes the impact searches' full `ẇ` evaluations
+//! from 5.6 to 2.7 and the switches' from 6.1 to 5.3; both: as published 64.0 M / 3 561 events →
+//! 53.7 M / 3 449 (18.0k → 15.6k per event, 4.0× → 3.35× the lumped run), coulomb 64.8 M / 3 593
+//! → 55.6 M / 3 509 (18.0k → 15.9k, 3.45×), none 30.3 → 30.4 M (the same 2 304 events), one unit
+//! mode +5 % (19.4 → 20.5 M none); the bench path 80.2 → 69.2 M (3.6×) and 80.5 → 71.1 M (3.6×);
+//! CPU time of the bench path (300 runs, five alternating sets, load 3–4) median 3.4× / 3.8×. The
+//! split's horizon at 4, 16 or 32 `h` instead of 8: 15.4k–15.8k per event, within the runs'
+//! spread. Not kept: short of the 3× budget, and both move every modal golden (the `n1_*` cases
+//! too). Kept: a randomized test of the search as it is on bursts of close roots against dense
+//! sampling and bisection (`bursts_of_close_roots_match_dense_sampling_and_bisection`). With both
+//! the per-event cost (15.6k against the lumped run's 5.9k) goes to the full evaluations 22 %,
+//! the fills and `exp_m1` 23 %, the search's own setup and bookkeeping 13 %, the cheap step 12 %:
+//! the budget (about 43 M, 12k per event) needs another fifth off, i.e. fewer full evaluations at
+//! the hovering near-touches and in the impact searches, not a faster switch.
 
 use super::expsum_n::{ExpSumN, Term, TrigN, MAX_TERMS};
 pub use super::roots::{Root, SEARCH_HORIZON_ITER};
