@@ -1097,6 +1097,8 @@ mod tests {
     /// the root the function is within 1e-9 of the scale of zero (a near touch may stop there);
     /// no search may miss a root where the dense grid sees a negative value.
     #[test]
+    // (The grid index also gives the sample's time.)
+    #[allow(clippy::needless_range_loop)]
     fn bursts_of_close_roots_match_dense_sampling_and_bisection() {
         let mut x: u64 = 0x2545_f491_4f6c_dd1d;
         let mut rnd = move || {
