@@ -57,7 +57,9 @@
 //! 16.0 M as published / 16.1 M coulomb; one unit mode 19.4 M / 21.7 M; 4 modes 30.3 M (2.1×)
 //! / 64.0 M (4.0×, was 68.8 M) / 64.8 M (4.0×, was 69.6 M); 8 modes 50.5 M / 390.1 M (24×).
 //! The 3× budget of issue #8 for the as-published and coulomb beam is not met: see
-//! [`super::roots_n`].
+//! [`super::roots_n`]. Its seventh round (longer proofs: the slow beat on every split, the
+//! convex cubic step) reached 3.35× / 3.45× (bench path 3.6×, CPU time 3.4–3.8×) and moved
+//! every golden, so it was not kept (commit 7952390, reverted).
 
 use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
 use super::expsum::{integral_square, ExpSum, Trig};
