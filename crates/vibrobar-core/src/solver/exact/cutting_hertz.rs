@@ -23,7 +23,7 @@
 //! cutting work to the integrator's tolerance, as the harmonic run's Hertz books do.
 
 use super::hertz::APPROACH_FLOOR_REL;
-use super::hertz_phase::{run_phase, Event, MAX_CONTACT_STEPS};
+use super::hertz_phase::{count_steps, run_phase, Event};
 use super::{wall_of, Book, Consts, CutPiece, Md, St};
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
@@ -328,23 +328,10 @@ pub(super) fn contact_piece(
             if th < 1.0 || st.t0 + st.h < t_stop - 1e-9 * st.h {
                 h = st.h;
             }
-        })
-        .map_err(|e| match e {
-            SimError::ContactStepLimit { .. } => SimError::ContactStepLimit {
-                t_s: ph.t_touch,
-                steps: MAX_CONTACT_STEPS,
-            },
-            e => e,
-        })?;
+        });
+        let end = count_steps(end, &mut ph.steps, ph.t_touch)?;
         ph.h = h;
         ph.max_pen = max_pen;
-        ph.steps += end.steps;
-        if ph.steps > MAX_CONTACT_STEPS {
-            return Err(SimError::ContactStepLimit {
-                t_s: ph.t_touch,
-                steps: MAX_CONTACT_STEPS,
-            });
-        }
         ph.t = end.t;
         ph.y = end.y;
         if ph.max_pen > book.summary.max_penetration_m {

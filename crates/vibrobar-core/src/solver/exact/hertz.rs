@@ -19,9 +19,10 @@
 //! integrals come from Gauss–Legendre quadrature of the dense output and whose mechanical energy
 //! includes the elastic energy `(2/5) K_h δ^{5/2}`. The end of the contact is reported as an
 //! [`EventKind::Impact`] with the approach speed and `W_c` as its energy loss, so impact counts
-//! and the energy books keep their meaning. Work is bounded by [`MAX_CONTACT_STEPS`].
+//! and the energy books keep their meaning. Work is bounded by
+//! [`MAX_CONTACT_STEPS`](super::hertz_phase::MAX_CONTACT_STEPS).
 
-use super::hertz_phase::{run_phase, Event, MAX_CONTACT_STEPS};
+use super::hertz_phase::{count_steps, run_phase, Event};
 use super::{wall_of, Book, Consts, Md, St};
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
@@ -261,21 +262,8 @@ pub(super) fn contact(
                 book.obs.segment(&seg);
             }
             h = st.h;
-        })
-        .map_err(|e| match e {
-            SimError::ContactStepLimit { .. } => SimError::ContactStepLimit {
-                t_s: t0,
-                steps: MAX_CONTACT_STEPS,
-            },
-            e => e,
-        })?;
-        steps += end.steps;
-        if steps > MAX_CONTACT_STEPS {
-            return Err(SimError::ContactStepLimit {
-                t_s: t0,
-                steps: MAX_CONTACT_STEPS,
-            });
-        }
+        });
+        let end = count_steps(end, &mut steps, t0)?;
         t = end.t;
         y = end.y;
         match (end.which, stuck) {
