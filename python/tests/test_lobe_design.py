@@ -7,41 +7,14 @@ import pytest
 
 import vibrobar
 
-SC = """
-[bar]
-mass_kg = 0.1548
-stiffness_n_per_m = 2.2e6
-damping_ratio = 0.01
 
-[solid_bar]
-mass_kg = 0.1548
-stiffness_n_per_m = 2.2e6
-damping_ratio = 0.01
-
-[damper]
-gap_m = 1e-4
-ball_mass_kg = 0.026
-
-[cutting]
-coefficient_n_m2 = 2e9
-width_m = 1e-5
-feed_m = 1e-4
-spindle_rpm = 5000
-
-[time_domain]
-settle_revs = 10
-judge_revs = 20
-monotonic_checks = 2
-"""
-
-
-def test_lobe_design_is_the_cli_study(cli, tmp_path):
+def test_lobe_design_is_the_cli_study(cli, tmp_path, time_domain_toml):
     path = tmp_path / "s.toml"
-    path.write_text(SC)
+    path.write_text(time_domain_toml)
     out = tmp_path / "d.csv"
     cli("lobe-design", "--scenario", path, "--rpm", "5000:7000:2000", "--gaps-mm",
         "0.05:0.2:0.15", "--ball-masses-g", "10:30:20", "--no-figure", "--out", out)
-    t = vibrobar.lobe_design(vibrobar.Scenario.from_toml_str(SC), [5000.0, 7000.0],
+    t = vibrobar.lobe_design(vibrobar.Scenario.from_toml_str(time_domain_toml), [5000.0, 7000.0],
                              [5e-5, 2e-4], ball_masses_kg=[0.01, 0.03])
     assert t.to_csv() == out.read_text()
     # The regime at each worst case, and the chaotic spread columns (issue #14).
@@ -56,8 +29,8 @@ def test_lobe_design_is_the_cli_study(cli, tmp_path):
     assert t.to_csv().splitlines()[1 + best] == optimum
 
 
-def test_bad_input_is_named():
-    sc = vibrobar.Scenario.from_toml_str(SC)
+def test_bad_input_is_named(time_domain_toml):
+    sc = vibrobar.Scenario.from_toml_str(time_domain_toml)
     with pytest.raises(ValueError, match="gaps_m"):
         vibrobar.lobe_design(sc, [5000.0], [-1e-4], ball_masses_kg=[0.01])
     with pytest.raises(ValueError, match="ball_masses_kg"):

@@ -3,43 +3,18 @@
 
 use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
 use vibrobar_core::excitation::{Cutting, CuttingForceLaw};
-use vibrobar_core::params::{
-    Bar, BarModel, Damper, Forcing, Frequency, FrictionModel, State, System,
-};
+use vibrobar_core::params::{Bar, BarModel, Damper, FrictionModel, State, System};
 use vibrobar_core::solver::exact::cutting::ExactCutting;
 use vibrobar_core::solver::Fanout;
 use vibrobar_core::solver::{Observer, Segment, Solver};
 
-const F_HZ: f64 = 600.0;
-const K: f64 = 2.2e6;
-const ZETA: f64 = 0.01;
-const KF: f64 = 2e9;
-const H0: f64 = 1e-4;
+#[path = "common/fit.rs"]
+mod fit;
+use fit::{growth, slope};
 
-fn wn() -> f64 {
-    2.0 * std::f64::consts::PI * F_HZ
-}
-
-fn bar() -> Bar {
-    Bar {
-        mass_kg: K / (wn() * wn()),
-        stiffness_n_per_m: K,
-        damping_ratio: ZETA,
-    }
-}
-
-fn sys(damper: Option<Damper>) -> System {
-    System {
-        bar: BarModel::Lumped(bar()),
-        damper,
-        forcing: Forcing {
-            amplitude_n: 0.0,
-            frequency: Frequency::Ratio(1.0),
-            static_force_n: 0.0,
-        },
-        gravity_m_s2: 9.81,
-    }
-}
+#[path = "common/lumped_cut.rs"]
+mod lumped_cut;
+use lumped_cut::{bar, sys, wn, H0, K, KF, ZETA};
 
 fn cut(width_m: f64, rpm: f64) -> Cutting {
     Cutting {
@@ -177,34 +152,6 @@ impl Observer for Sampler {
     }
 }
 
-/// Growth rate of the envelope: least squares of ln(peak |u − u_eq|) over time, peaks in the
-/// window `[t_a, t_b]`.
-fn growth(s: &Sampler, u_eq: f64, t_a: f64, t_b: f64) -> f64 {
-    let x: Vec<f64> = s.u.iter().map(|u| (u - u_eq).abs()).collect();
-    let mut pts = vec![];
-    for i in 1..x.len() - 1 {
-        if x[i] > x[i - 1] && x[i] >= x[i + 1] && s.t[i] >= t_a && s.t[i] <= t_b {
-            // parabolic refinement of the peak height
-            let (a, b, c) = (x[i - 1], x[i], x[i + 1]);
-            let den = a - 2.0 * b + c;
-            let peak = if den != 0.0 {
-                b - 0.125 * (a - c).powi(2) / den
-            } else {
-                b
-            };
-            pts.push((s.t[i], peak.ln()));
-        }
-    }
-    let n = pts.len() as f64;
-    let (mt, my) = pts
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / n, a.1 + p.1 / n));
-    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
-        (a.0 + (p.0 - mt) * (p.1 - my), a.1 + (p.0 - mt).powi(2))
-    });
-    sxy / sxx
-}
-
 fn lobe_minimum_rpm(j: u32) -> f64 {
     // VALIDATION.md: n_j = 60ω/(ε + 2πj), ω = ω_n√(1+2ζ), ε = π + 2 atan√(1+2ζ).
     let q = (1.0 + 2.0 * ZETA).sqrt();
@@ -257,7 +204,7 @@ fn growth_rates_match_the_rightmost_characteristic_root() {
                 "{rpm} {f}: left the cut"
             );
             // Five e-folding times after the first (the other roots' transient).
-            let g = growth(&smp, u_eq, efold, t_end);
+            let g = growth(&smp.t, &smp.u, u_eq, efold, t_end);
             let ratio = g / l.0;
             println!("{rpm:.0} rpm, {f} b_lim = {:.6e} m: root {:.5} 1/s, fit {g:.5} 1/s, ratio {ratio:.6}", f * bl, l.0);
             assert!(
@@ -370,14 +317,7 @@ fn cutting_convergence_order() {
         .iter()
         .map(|&n| ((n as f64).ln(), (end(n) - reference).abs().ln()))
         .collect();
-    let m = pts.len() as f64;
-    let (mx, my) = pts
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / m, a.1 + p.1 / m));
-    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
-        (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2))
-    });
-    let order = -sxy / sxx;
+    let order = -slope(&pts);
     let errs: Vec<f64> = pts.iter().map(|p| p.1.exp()).collect();
     println!("errors in u at 8, 16, 32, 64 pieces per period: {errs:?} m; order {order:.3}");
     assert!((3.5..=4.5).contains(&order), "order {order}: {errs:?}");
@@ -419,14 +359,7 @@ fn sixth_order_surface_convergence_order() {
         .iter()
         .map(|&n| ((n as f64).ln(), (end(n, true) - reference).abs().ln()))
         .collect();
-    let m = pts.len() as f64;
-    let (mx, my) = pts
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / m, a.1 + p.1 / m));
-    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
-        (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2))
-    });
-    let order = -sxy / sxx;
+    let order = -slope(&pts);
     let errs: Vec<f64> = pts.iter().map(|p| p.1.exp()).collect();
     println!(
         "sixth order: errors in u at 5, 10, 20, 40 pieces per period {errs:?} m; order {order:.3}"
@@ -607,7 +540,7 @@ fn three_quarter_law_linearises_to_the_same_root() {
         };
         solver.run(&s0, &kick, t_end, &mut smp).unwrap();
         assert!(!smp.out_of_cut);
-        let g = growth(&smp, u_eq, efold, t_end);
+        let g = growth(&smp.t, &smp.u, u_eq, efold, t_end);
         println!(
             "three-quarter, {rpm:.0} rpm, {f} b_lim: fit {g:.5}, root {:.5}",
             l.0
@@ -635,14 +568,7 @@ fn three_quarter_order(width_m: f64, rpm: f64, init: State, t_end: f64) -> (f64,
         .iter()
         .map(|&n| ((n as f64).ln(), (end(n) - reference).abs().ln()))
         .collect();
-    let m = pts.len() as f64;
-    let (mx, my) = pts
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / m, a.1 + p.1 / m));
-    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
-        (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2))
-    });
-    (-sxy / sxx, pts.iter().map(|p| p.1.exp()).collect())
+    (-slope(&pts), pts.iter().map(|p| p.1.exp()).collect())
 }
 
 /// The three-quarter integrator's convergence in the pieces per period (fixed DP5 steps on the
@@ -763,7 +689,7 @@ fn three_quarter_with_a_far_ball_linearises_to_the_same_root() {
         };
         solver.run(&s, &kick, t_end, &mut smp).unwrap();
         assert!(!smp.out_of_cut);
-        let g = growth(&smp, u_eq, efold, t_end);
+        let g = growth(&smp.t, &smp.u, u_eq, efold, t_end);
         println!(
             "three-quarter with a far ball, {rpm:.0} rpm, {f} b_lim: fit {g:.5}, root {:.5}",
             l.0
@@ -857,14 +783,7 @@ fn three_quarter_with_a_ball_convergence_order() {
         .iter()
         .map(|&n| ((n as f64).ln(), (end(n).0 - reference).abs().ln()))
         .collect();
-    let m = pts.len() as f64;
-    let (mx, my) = pts
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / m, a.1 + p.1 / m));
-    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
-        (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2))
-    });
-    let order = -sxy / sxx;
+    let order = -slope(&pts);
     let errs: Vec<f64> = pts.iter().map(|p| p.1.exp()).collect();
     println!(
         "three-quarter with a ball: {ref_impacts} impacts, errors {errs:?} m, order {order:.3}"
@@ -935,14 +854,7 @@ fn pieces_per_period_error_on_the_speed_run() {
             ((n as f64).ln(), e.ln())
         })
         .collect();
-    let m = pts.len() as f64;
-    let (mx, my) = pts
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / m, a.1 + p.1 / m));
-    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
-        (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2))
-    });
-    let order = -sxy / sxx;
+    let order = -slope(&pts);
     let errs: Vec<f64> = pts.iter().map(|p| p.1.exp()).collect();
     println!(
         "speed run, {} impacts: errors in u at 8, 16, 32, 64 pieces per period {errs:?} m; order {order:.3}",

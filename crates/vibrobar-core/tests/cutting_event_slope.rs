@@ -5,40 +5,17 @@
 //! event: 5.1e-6 m at 32 pieces per period against an independent RK4 on the run below.
 
 use vibrobar_core::excitation::{one_mode_limit_width_m, Cutting, CuttingForceLaw};
-use vibrobar_core::params::{Bar, BarModel, Forcing, Frequency, State, System};
+use vibrobar_core::params::State;
 use vibrobar_core::solver::exact::cutting::ExactCutting;
 use vibrobar_core::solver::{Observer, Segment, Solver};
 
-const F_HZ: f64 = 600.0;
-const K: f64 = 2.2e6;
-const ZETA: f64 = 0.01;
-const KF: f64 = 2e9;
-const H0: f64 = 1e-4;
+#[path = "common/fit.rs"]
+mod fit;
+use fit::slope;
 
-fn wn() -> f64 {
-    2.0 * std::f64::consts::PI * F_HZ
-}
-
-fn bar() -> Bar {
-    Bar {
-        mass_kg: K / (wn() * wn()),
-        stiffness_n_per_m: K,
-        damping_ratio: ZETA,
-    }
-}
-
-fn sys() -> System {
-    System {
-        bar: BarModel::Lumped(bar()),
-        damper: None,
-        forcing: Forcing {
-            amplitude_n: 0.0,
-            frequency: Frequency::Ratio(1.0),
-            static_force_n: 0.0,
-        },
-        gravity_m_s2: 9.81,
-    }
-}
+#[path = "common/lumped_cut.rs"]
+mod lumped_cut;
+use lumped_cut::{bar, sys, H0, K, KF, ZETA};
 
 /// `f` times the one-mode stability limit at 30 000 rpm.
 fn cut(law: CuttingForceLaw, f: f64) -> Cutting {
@@ -160,7 +137,7 @@ fn run(c: &Cutting, init: &State, steps: u32, t_end: f64, dt: f64) -> Vec<f64> {
         next: 0.0,
         u: vec![],
     };
-    solver.run(&sys(), init, t_end, &mut s).unwrap();
+    solver.run(&sys(None), init, t_end, &mut s).unwrap();
     s.u
 }
 
@@ -194,14 +171,7 @@ fn loss_of_contact_converges_with_the_history_order() {
         .iter()
         .map(|&n| ((n as f64).ln(), max_diff(&at(n), &best).ln()))
         .collect();
-    let m = pts.len() as f64;
-    let (mx, my) = pts
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / m, a.1 + p.1 / m));
-    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
-        (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2))
-    });
-    let order = -sxy / sxx;
+    let order = -slope(&pts);
     let errs: Vec<f64> = pts.iter().map(|p| p.1.exp()).collect();
     println!(
         "linear law through loss of contact: rk4 self {ref_self:.2e} m, solver (32) vs rk4 \

@@ -7,33 +7,18 @@ use vibrobar_core::analysis::energy::{EnergyAudit, EnergyBalance};
 use vibrobar_core::damper::contact::Hertz;
 use vibrobar_core::damper::friction::sliding_friction_on_ball_n;
 use vibrobar_core::excitation::{one_mode_limit_width_m, Cutting, CuttingForceLaw};
-use vibrobar_core::params::{
-    Bar, BarModel, Contact, Damper, Forcing, Frequency, FrictionModel, State, System,
-};
+use vibrobar_core::params::{BarModel, Contact, Damper, FrictionModel, State, System};
 use vibrobar_core::solver::exact::cutting::ExactCutting;
 use vibrobar_core::solver::exact::hertz::APPROACH_FLOOR_REL;
 use vibrobar_core::solver::{Event, EventKind, Fanout, Mode, Observer, Segment, Solver};
 
-const F_HZ: f64 = 600.0;
-const K: f64 = 2.2e6;
-const ZETA: f64 = 0.01;
-const KF: f64 = 2e9;
-const H0: f64 = 1e-4;
+#[path = "common/lumped_cut.rs"]
+mod lumped_cut;
+use lumped_cut::{bar, sys, wn, H0, K, KF, ZETA};
+
 const RPM: f64 = 30_000.0;
 const GAP: f64 = 2e-5;
 const MD: f64 = 0.01;
-
-fn wn() -> f64 {
-    2.0 * std::f64::consts::PI * F_HZ
-}
-
-fn bar() -> Bar {
-    Bar {
-        mass_kg: K / (wn() * wn()),
-        stiffness_n_per_m: K,
-        damping_ratio: ZETA,
-    }
-}
 
 fn ball(friction: FrictionModel, friction_force_n: Option<f64>, contact: Contact) -> Damper {
     Damper {
@@ -43,19 +28,6 @@ fn ball(friction: FrictionModel, friction_force_n: Option<f64>, contact: Contact
         friction_force_n,
         contact,
         ..Damper::default()
-    }
-}
-
-fn sys(damper: Damper) -> System {
-    System {
-        bar: BarModel::Lumped(bar()),
-        damper: Some(damper),
-        forcing: Forcing {
-            amplitude_n: 0.0,
-            frequency: Frequency::Ratio(1.0),
-            static_force_n: 0.0,
-        },
-        gravity_m_s2: 9.81,
     }
 }
 
@@ -346,7 +318,7 @@ fn matches_an_independent_fixed_step_rk4() {
             (FrictionModel::None, None),
             (FrictionModel::AsPublished, Some(0.5)),
         ] {
-            let s = sys(ball(friction, f, hertz(1.0)));
+            let s = sys(Some(ball(friction, f, hertz(1.0))));
             let c = cut(law, 1.5);
             let tau = c.delay_s();
             let coarse = reference(&s, &c, &init, t_end, 8_000, 200);
@@ -425,7 +397,7 @@ fn a_stiff_contact_approaches_the_restitution_run() {
     let init = kick(1.5);
     let (t_end, dt) = (4e-3, c.delay_s() / 200.0);
     let (r, nr) = sampled(
-        &sys(ball(FrictionModel::None, None, Contact::default())),
+        &sys(Some(ball(FrictionModel::None, None, Contact::default()))),
         &c,
         &init,
         t_end,
@@ -435,7 +407,7 @@ fn a_stiff_contact_approaches_the_restitution_run() {
     let mut d = vec![];
     for stiff in [1.0, 1e2, 1e4, 1e6] {
         let (h, nh) = sampled(
-            &sys(ball(FrictionModel::None, None, hertz(stiff))),
+            &sys(Some(ball(FrictionModel::None, None, hertz(stiff)))),
             &c,
             &init,
             t_end,
@@ -474,7 +446,7 @@ fn energy_books_close_with_the_cutting_work_and_penetration_is_bounded() {
             (FrictionModel::AsPublished, Some(0.5)),
             (FrictionModel::Coulomb, Some(0.5)),
         ] {
-            let s = sys(ball(friction, f, hertz(1.0)));
+            let s = sys(Some(ball(friction, f, hertz(1.0))));
             let c = cut(law, 1.5);
             let mut solver = ExactCutting::new(c);
             solver.exact.check_invariants = true;
@@ -549,7 +521,7 @@ fn energy_books_close_with_the_cutting_work_and_penetration_is_bounded() {
 /// `tests/modal_cutting_hertz.rs`) and keeps its contacts: the same run as the lumped bar's.
 #[test]
 fn a_modal_bar_with_the_hertz_law_and_a_cut_runs() {
-    let s = sys(ball(FrictionModel::None, None, hertz(1.0)));
+    let s = sys(Some(ball(FrictionModel::None, None, hertz(1.0))));
     let mut m = s;
     m.bar = BarModel::Modal(s.modal_model());
     let c = cut(CuttingForceLaw::Linear, 0.5);
@@ -569,7 +541,7 @@ fn a_modal_bar_with_the_hertz_law_and_a_cut_runs() {
 /// follows the uninterrupted run.
 #[test]
 fn a_run_continued_from_inside_a_contact_is_the_uninterrupted_run() {
-    let s = sys(ball(FrictionModel::None, None, hertz(1.0)));
+    let s = sys(Some(ball(FrictionModel::None, None, hertz(1.0))));
     let c = cut(CuttingForceLaw::Linear, 1.5);
     let solver = ExactCutting::new(c);
     let init = kick(1.5);

@@ -48,34 +48,10 @@ impl Observer for Window {
     }
 }
 
-fn friction_to_ground(r: f64, f: f64) -> (System, f64) {
-    let k = 1e4;
-    let sys = System {
-        bar: Bar {
-            mass_kg: 1.0,
-            stiffness_n_per_m: k,
-            damping_ratio: 0.0,
-        }
-        .into(),
-        damper: Some(Damper {
-            ball_mass_kg: 1e9,
-            friction_force_n: Some(f),
-            ..Damper::paper(100.0, FrictionModel::Coulomb)
-        }),
-        forcing: Forcing {
-            amplitude_n: 1.0,
-            frequency: Frequency::Ratio(r),
-            static_force_n: 0.0,
-        },
-        gravity_m_s2: 9.81,
-    };
-    (sys, 1.0 / k)
-}
-
 #[test]
 fn coulomb_to_ground_matches_den_hartog() {
     for (r, f) in [(0.6, 0.3), (0.8, 0.5), (1.5, 0.3)] {
-        let (sys, static_defl) = friction_to_ground(r, f);
+        let (sys, static_defl) = common::friction_to_ground(r, f);
         let period = sys.forcing_period_s();
         let t_end = 400.0 * period;
         let mut win = Window {

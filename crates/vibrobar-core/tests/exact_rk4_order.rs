@@ -3,6 +3,10 @@
 use vibrobar_core::solver::{Exact, Rk4, Solver};
 use vibrobar_core::*;
 
+#[path = "common/fit.rs"]
+mod fit;
+use fit::log_log_slope;
+
 /// State error in metres (velocity scaled by 1/Ω).
 fn error(sys: &System, t_end: f64, dt: f64, reference: &State) -> (f64, u64) {
     let r = Rk4 { dt_s: dt }
@@ -11,18 +15,6 @@ fn error(sys: &System, t_end: f64, dt: f64, reference: &State) -> (f64, u64) {
     let s = r.final_state;
     let e = (s.u_m - reference.u_m).hypot((s.du_m_s - reference.du_m_s) / sys.omega_rad_s());
     (e, r.impacts)
-}
-
-/// Least-squares slope of log(err) against log(dt).
-fn order(points: &[(f64, f64)]) -> f64 {
-    let n = points.len() as f64;
-    let (mx, my) = points.iter().fold((0.0, 0.0), |(a, b), (x, y)| {
-        (a + x.ln() / n, b + y.ln() / n)
-    });
-    let (sxy, sxx) = points.iter().fold((0.0, 0.0), |(a, b), (x, y)| {
-        (a + (x.ln() - mx) * (y.ln() - my), b + (x.ln() - mx).powi(2))
-    });
-    sxy / sxx
 }
 
 #[test]
@@ -36,7 +28,7 @@ fn rk4_is_fourth_order_without_impacts() {
         .iter()
         .map(|&dt| (dt, error(&sys, t_end, dt, &ex.final_state).0))
         .collect();
-    let p = order(&pts);
+    let p = log_log_slope(&pts);
     eprintln!("rk4 order without impacts: {p:.3} ({pts:?})");
     assert!((p - 4.0).abs() < 0.1, "order {p}");
 }
@@ -56,7 +48,7 @@ fn rk4_is_about_first_order_with_impacts() {
         assert_eq!(imp, ex.impacts, "dt = {dt}");
         pts.push((dt, e));
     }
-    let p = order(&pts);
+    let p = log_log_slope(&pts);
     eprintln!("rk4 order with impacts: {p:.3} ({pts:?})");
     assert!(p > 0.6 && p < 1.6, "order {p}");
 }

@@ -5,38 +5,26 @@
 
 use vibrobar_core::analysis::energy::EnergyAudit;
 use vibrobar_core::excitation::{one_mode_limit_width_m, Cutting, CuttingForceLaw};
-use vibrobar_core::params::{
-    Bar, BarModel, ContactLaw, Damper, Forcing, Frequency, FrictionModel, State, System,
-};
+use vibrobar_core::params::{Bar, BarModel, ContactLaw, Damper, FrictionModel, State, System};
 use vibrobar_core::solver::exact::cutting::ExactCutting;
 use vibrobar_core::solver::exact::modal::cutting::ModalCutting;
-use vibrobar_core::solver::{Event, EventKind, Fanout, Observer, Segment, Solver};
-use vibrobar_core::structure::{ModalState, ModalSystem, Mode, Structure};
+use vibrobar_core::solver::{Fanout, Solver};
+use vibrobar_core::structure::{ModalState, ModalSystem, Mode};
 
 #[path = "common/linear_dde.rs"]
 mod linear_dde;
-use linear_dde::{b_lim_n, growth, root_n};
-const KF: f64 = 2e9;
-const H0: f64 = 1e-4;
+use linear_dde::{b_lim_n, root_n};
+
+#[path = "common/modal_cut.rs"]
+mod modal_cut;
+use modal_cut::{cut_law, modal_system, no_force, Kinds, Sampler, H0, KF};
+
+#[path = "common/fit.rs"]
+mod fit;
+use fit::{growth, slope};
 
 fn cut(width_m: f64, rpm: f64) -> Cutting {
-    Cutting {
-        coefficient_n_m2: KF,
-        width_m,
-        feed_m: H0,
-        spindle_rpm: rpm,
-        force_direction_factor: 1.0,
-        chip_direction_factor: 1.0,
-        force_law: CuttingForceLaw::Linear,
-    }
-}
-
-fn no_force() -> Forcing {
-    Forcing {
-        amplitude_n: 0.0,
-        frequency: Frequency::Ratio(1.0),
-        static_force_n: 0.0,
-    }
+    cut_law(width_m, rpm, CuttingForceLaw::Linear)
 }
 
 /// A measured mode in the tip normalisation.
@@ -60,15 +48,6 @@ fn table3() -> Vec<Mode> {
     ]
 }
 
-fn modal_system(modes: Vec<Mode>, damper: Option<Damper>) -> System {
-    System {
-        bar: BarModel::Modal(Structure::Measured(modes).modal_model().unwrap()),
-        damper,
-        forcing: no_force(),
-        gravity_m_s2: 9.81,
-    }
-}
-
 fn ball(gap_m: f64, friction: FrictionModel, friction_force_n: Option<f64>) -> Damper {
     Damper {
         ball_mass_kg: 0.02,
@@ -76,61 +55,6 @@ fn ball(gap_m: f64, friction: FrictionModel, friction_force_n: Option<f64>) -> D
         friction,
         friction_force_n,
         ..Damper::default()
-    }
-}
-
-/// Samples the public state and the cut on a uniform grid; counts events.
-struct Sampler {
-    dt: f64,
-    next: f64,
-    t: Vec<f64>,
-    u: Vec<f64>,
-    max_abs_w: f64,
-    min_chip: f64,
-    out_of_cut: bool,
-    impacts: u64,
-    events: u64,
-}
-
-impl Sampler {
-    fn new(dt: f64) -> Self {
-        Sampler {
-            dt,
-            next: 0.0,
-            t: vec![],
-            u: vec![],
-            max_abs_w: 0.0,
-            min_chip: f64::INFINITY,
-            out_of_cut: false,
-            impacts: 0,
-            events: 0,
-        }
-    }
-}
-
-impl Observer for Sampler {
-    fn segment(&mut self, seg: &dyn Segment) {
-        let st = seg.state_at(seg.t_end_s());
-        self.max_abs_w = self.max_abs_w.max(st.w_m().abs());
-        while self.next <= seg.t_end_s() {
-            if self.next >= seg.t_start_s() {
-                let st = seg.state_at(self.next);
-                self.t.push(self.next);
-                self.u.push(st.u_m);
-                self.max_abs_w = self.max_abs_w.max(st.w_m().abs());
-                let c = seg.cutting_at(self.next).unwrap();
-                self.min_chip = self.min_chip.min(c.chip_thickness_m);
-                self.out_of_cut |= !c.in_cut;
-            }
-            self.next += self.dt;
-        }
-    }
-    fn event(&mut self, ev: &Event) {
-        self.events += 1;
-        if let EventKind::Impact { .. } = ev.kind {
-            self.impacts += 1;
-        }
-        self.max_abs_w = self.max_abs_w.max(ev.after.w_m().abs());
     }
 }
 
@@ -245,7 +169,7 @@ fn n_mode_growth_rates_match_the_characteristic_root() {
                 !smp.out_of_cut && smp.min_chip > 0.0,
                 "{rpm} {f}: left the cut"
             );
-            let g = growth(&smp, u_eq, efold, t_end);
+            let g = growth(&smp.t, &smp.u, u_eq, efold, t_end);
             let ratio = g / l.re;
             println!(
                 "{rpm:.0} rpm, {f} b_lim = {:.6e} m (ω_c {wc:.1} rad/s): root {:.5} 1/s, fit {g:.5} 1/s, ratio {ratio:.5}",
@@ -317,22 +241,6 @@ fn energy_books_close_on_modal_cutting_runs_with_impacts() {
     }
 }
 
-#[derive(Default)]
-struct Kinds {
-    stick: u64,
-    chatter: u64,
-}
-
-impl Observer for Kinds {
-    fn event(&mut self, ev: &Event) {
-        match ev.kind {
-            EventKind::Stick => self.stick += 1,
-            EventKind::ChatterLimit { .. } => self.chatter += 1,
-            _ => {}
-        }
-    }
-}
-
 /// The convergence of the delay stepping in the pieces per period on the three-mode table (no
 /// ball, 1.1 b_lim, 0.1 s at 9000 rpm): the error of `u` at the end against 1024 pieces per
 /// period, least-squares order over 8–64 pieces in [3.5, 4.5] (the lumped path's Δ⁴).
@@ -361,14 +269,7 @@ fn modal_cutting_convergence_order() {
         .iter()
         .map(|&n| ((n as f64).ln(), (end(n) - reference).abs().ln()))
         .collect();
-    let m = pts.len() as f64;
-    let (mx, my) = pts
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / m, a.1 + p.1 / m));
-    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
-        (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2))
-    });
-    let order = -sxy / sxx;
+    let order = -slope(&pts);
     let errs: Vec<f64> = pts.iter().map(|p| p.1.exp()).collect();
     println!("errors in u at 8, 16, 32, 64 pieces per period: {errs:?} m; order {order:.3}");
     assert!((3.5..=4.5).contains(&order), "order {order}: {errs:?}");

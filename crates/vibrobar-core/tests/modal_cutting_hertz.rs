@@ -10,32 +10,19 @@ use vibrobar_core::damper::contact::Hertz;
 use vibrobar_core::damper::impact::modal_inverse_effective_mass_per_kg;
 use vibrobar_core::excitation::{one_mode_limit_width_m, Cutting, CuttingForceLaw};
 use vibrobar_core::params::{
-    Bar, BarModel, Contact, Damper, Forcing, Frequency, FrictionModel, State, System,
+    BarModel, Contact, Damper, Forcing, Frequency, FrictionModel, State, System,
 };
 use vibrobar_core::solver::exact::cutting::ExactCutting;
 use vibrobar_core::solver::exact::modal::cutting::ModalCutting;
 use vibrobar_core::solver::{Event, EventKind, Fanout, Mode, Observer, Segment, Solver};
 use vibrobar_core::structure::{Beam, ModalState, ModalSystem, Point, Structure};
 
-const F_HZ: f64 = 600.0;
-const K: f64 = 2.2e6;
-const ZETA: f64 = 0.01;
-const KF: f64 = 2e9;
-const H0: f64 = 1e-4;
+#[path = "common/lumped_cut.rs"]
+mod lumped_cut;
+use lumped_cut::{bar, wn, H0, K, KF, ZETA};
+
 const GAP: f64 = 2e-5;
 const MD: f64 = 0.01;
-
-fn wn() -> f64 {
-    2.0 * std::f64::consts::PI * F_HZ
-}
-
-fn bar() -> Bar {
-    Bar {
-        mass_kg: K / (wn() * wn()),
-        stiffness_n_per_m: K,
-        damping_ratio: ZETA,
-    }
-}
 
 fn ball(friction: FrictionModel, friction_force_n: Option<f64>) -> Damper {
     Damper {

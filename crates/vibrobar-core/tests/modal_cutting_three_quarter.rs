@@ -6,51 +6,26 @@
 
 use vibrobar_core::analysis::energy::EnergyAudit;
 use vibrobar_core::excitation::{one_mode_limit_width_m, Cutting, CuttingForceLaw};
-use vibrobar_core::params::{
-    Bar, BarModel, Damper, Forcing, Frequency, FrictionModel, State, System,
-};
+use vibrobar_core::params::{Bar, BarModel, Damper, FrictionModel, State, System};
 use vibrobar_core::solver::exact::cutting::ExactCutting;
 use vibrobar_core::solver::exact::modal::cutting::ModalCutting;
-use vibrobar_core::solver::{Event, EventKind, Fanout, Observer, Segment, Solver};
+use vibrobar_core::solver::{Fanout, Solver};
 use vibrobar_core::structure::{Beam, ModalState, ModalSystem, Mode, Structure};
 
 #[path = "common/linear_dde.rs"]
 mod linear_dde;
-use linear_dde::{b_lim_n, growth, root_n};
-const KF: f64 = 2e9;
-const H0: f64 = 1e-4;
+use linear_dde::{b_lim_n, root_n};
 
-fn cut(width_m: f64, rpm: f64, force_law: CuttingForceLaw) -> Cutting {
-    Cutting {
-        coefficient_n_m2: KF,
-        width_m,
-        feed_m: H0,
-        spindle_rpm: rpm,
-        force_direction_factor: 1.0,
-        chip_direction_factor: 1.0,
-        force_law,
-    }
-}
+#[path = "common/modal_cut.rs"]
+mod modal_cut;
+use modal_cut::{cut_law, modal_system, no_force, Kinds, Sampler, H0, KF};
+
+#[path = "common/fit.rs"]
+mod fit;
+use fit::{growth, slope};
 
 fn three(width_m: f64, rpm: f64) -> Cutting {
-    cut(width_m, rpm, CuttingForceLaw::ThreeQuarter)
-}
-
-fn no_force() -> Forcing {
-    Forcing {
-        amplitude_n: 0.0,
-        frequency: Frequency::Ratio(1.0),
-        static_force_n: 0.0,
-    }
-}
-
-fn modal_system(modes: Vec<Mode>, damper: Option<Damper>) -> System {
-    System {
-        bar: BarModel::Modal(Structure::Measured(modes).modal_model().unwrap()),
-        damper,
-        forcing: no_force(),
-        gravity_m_s2: 9.81,
-    }
+    cut_law(width_m, rpm, CuttingForceLaw::ThreeQuarter)
 }
 
 /// The paper's bar as a 4-mode beam, cavity 38 mm from the free end (the `Beam` default).
@@ -74,65 +49,6 @@ fn beam_modes() -> Vec<Mode> {
     match paper_beam(None).bar {
         BarModel::Modal(m) => m.modes().to_vec(),
         BarModel::Lumped(_) => unreachable!(),
-    }
-}
-
-/// Samples the public state and the cut on a uniform grid; counts events.
-struct Sampler {
-    dt: f64,
-    next: f64,
-    t: Vec<f64>,
-    u: Vec<f64>,
-    max_abs_w: f64,
-    min_chip: f64,
-    out_of_cut: bool,
-    impacts: u64,
-    events: u64,
-    stick: u64,
-}
-
-impl Sampler {
-    fn new(dt: f64) -> Self {
-        Sampler {
-            dt,
-            next: 0.0,
-            t: vec![],
-            u: vec![],
-            max_abs_w: 0.0,
-            min_chip: f64::INFINITY,
-            out_of_cut: false,
-            impacts: 0,
-            events: 0,
-            stick: 0,
-        }
-    }
-}
-
-impl Observer for Sampler {
-    fn segment(&mut self, seg: &dyn Segment) {
-        let st = seg.state_at(seg.t_end_s());
-        self.max_abs_w = self.max_abs_w.max(st.w_m().abs());
-        while self.next <= seg.t_end_s() {
-            if self.next >= seg.t_start_s() {
-                let st = seg.state_at(self.next);
-                self.t.push(self.next);
-                self.u.push(st.u_m);
-                self.max_abs_w = self.max_abs_w.max(st.w_m().abs());
-                let c = seg.cutting_at(self.next).unwrap();
-                self.min_chip = self.min_chip.min(c.chip_thickness_m);
-                self.out_of_cut |= !c.in_cut;
-            }
-            self.next += self.dt;
-        }
-    }
-    fn event(&mut self, ev: &Event) {
-        self.events += 1;
-        match ev.kind {
-            EventKind::Impact { .. } => self.impacts += 1,
-            EventKind::Stick => self.stick += 1,
-            _ => {}
-        }
-        self.max_abs_w = self.max_abs_w.max(ev.after.w_m().abs());
     }
 }
 
@@ -263,7 +179,7 @@ fn three_quarter_on_the_beam_linearises_to_the_linear_root() {
         let mut init = ModalState::REST;
         init.dq_m_s[0] = 1e-5 * H0 * wc / modes[0].shape_force;
         let fit = |law: CuttingForceLaw| -> (f64, Sampler) {
-            let solver = ModalCutting::new(cut(f * bl, rpm, law));
+            let solver = ModalCutting::new(cut_law(f * bl, rpm, law));
             let q_eq = solver.equilibrium_q_m(&msys);
             let u_eq: f64 = modes
                 .iter()
@@ -272,7 +188,7 @@ fn three_quarter_on_the_beam_linearises_to_the_linear_root() {
                 .sum();
             let mut smp = Sampler::new(2.0 * std::f64::consts::PI / wc / 40.0);
             solver.run(&msys, &init, t_end, &mut smp).unwrap();
-            (growth(&smp, u_eq, efold, t_end), smp)
+            (growth(&smp.t, &smp.u, u_eq, efold, t_end), smp)
         };
         let (g3, s3) = fit(CuttingForceLaw::ThreeQuarter);
         let (g1, _) = fit(CuttingForceLaw::Linear);
@@ -323,14 +239,7 @@ fn three_quarter_on_the_beam_convergence_order() {
             .iter()
             .map(|&n| ((n as f64).ln(), (end(n).0 - reference).abs().ln()))
             .collect();
-        let m = pts.len() as f64;
-        let (mx, my) = pts
-            .iter()
-            .fold((0.0, 0.0), |a, p| (a.0 + p.0 / m, a.1 + p.1 / m));
-        let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
-            (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2))
-        });
-        (-sxy / sxx, pts.iter().map(|p| p.1.exp()).collect(), left)
+        (-slope(&pts), pts.iter().map(|p| p.1.exp()).collect(), left)
     };
     // Every mode kicked (the pieces are a fraction of the fastest mode's period: a kick of the
     // first mode alone is resolved to rounding).
@@ -352,22 +261,6 @@ fn three_quarter_on_the_beam_convergence_order() {
     assert!(left);
     assert!((1.5..=2.5).contains(&order), "order {order}: {errs:?}");
     assert!(errs[3] < errs[0], "{errs:?}");
-}
-
-#[derive(Default)]
-struct Kinds {
-    stick: u64,
-    chatter: u64,
-}
-
-impl Observer for Kinds {
-    fn event(&mut self, ev: &Event) {
-        match ev.kind {
-            EventKind::Stick => self.stick += 1,
-            EventKind::ChatterLimit { .. } => self.chatter += 1,
-            _ => {}
-        }
-    }
 }
 
 /// The energy books of three-quarter cutting runs on the 4-mode paper beam with an impacting

@@ -6,6 +6,13 @@ use vibrobar_core::solver::{Event, EventKind, Exact, Observer, Segment, SegmentI
 use vibrobar_core::structure::{Beam, ModalState, ModalSystem, Structure};
 use vibrobar_core::*;
 
+#[path = "common/modal_beam.rs"]
+mod modal_beam;
+use modal_beam::{
+    beam_system, impact_errors, lumped_and_modal, mode_closed_form, one_mode_tip_model,
+    run_differences,
+};
+
 /// Records events, the public state on a time grid, summed integrals and the modal stream.
 #[derive(Default)]
 struct Rec {
@@ -241,22 +248,6 @@ fn one_unit_mode_holds_the_ball_as_the_lumped_exact() {
     assert!(kinds[4] >= 6 && kinds[5] >= 6, "{kinds:?}");
 }
 
-/// The paper's bar (L = 175 mm, D = 25 mm, steel, ζ = 0.01) with `n` modes, cavity 38 mm from
-/// the free end, force and response at the tip.
-fn beam_system(n: usize, damper: Option<Damper>, ratio: f64) -> ModalSystem {
-    ModalSystem {
-        model: Structure::Beam(Beam {
-            modes: Some(n),
-            ..Beam::default()
-        })
-        .modal_model()
-        .unwrap(),
-        damper,
-        forcing: Forcing::paper(ratio),
-        gravity_m_s2: params::STANDARD_GRAVITY_M_S2,
-    }
-}
-
 /// Force 150 mm, response 100 mm from the clamp, cavity at the default place (three points).
 fn three_point_system(n: usize, damper: Option<Damper>) -> ModalSystem {
     let model = Structure::Beam(Beam {
@@ -273,25 +264,6 @@ fn three_point_system(n: usize, damper: Option<Damper>) -> ModalSystem {
         model,
         ..beam_system(n, damper, 1.0)
     }
-}
-
-/// Exact response of one mode `m(q̈ + 2ζωq̇ + ω²q) = φ_f F0 sin Ωt` from rest: `(q, q̇)` at `t`.
-fn mode_closed_form(m: &structure::Mode, f0: f64, omega: f64, t: f64) -> (f64, f64) {
-    let (wn, z, mm) = (m.omega_rad_s, m.damping_ratio, m.modal_mass_kg);
-    let g = num_complex::Complex64::new(wn * wn - omega * omega, 2.0 * z * wn * omega) * mm;
-    let h = 1.0 / g;
-    let a = m.shape_force * f0;
-    let (s, c) = (omega * t).sin_cos();
-    let qp = a * (h.re * s + h.im * c);
-    let dqp = a * omega * (h.re * c - h.im * s);
-    let wd = wn * (1.0 - z * z).sqrt();
-    let c1 = -a * h.im;
-    let c2 = (z * wn * c1 - a * omega * h.re) / wd;
-    let ex = (-z * wn * t).exp();
-    let (sd, cd) = (wd * t).sin_cos();
-    let qh = ex * (c1 * cd + c2 * sd);
-    let dqh = ex * (-z * wn * (c1 * cd + c2 * sd) + wd * (-c1 * sd + c2 * cd));
-    (qp + qh, dqp + dqh)
 }
 
 /// Without a ball the run is one closed-form segment: the sum over the modes of the damped
@@ -421,17 +393,6 @@ fn modal_rk4_converges_to_modal_exact() {
     assert!((b / a - 1.0).abs() < 0.05, "{a} {b}");
 }
 
-fn kinetic_j(sys: &ModalSystem, s: &ModalState) -> f64 {
-    let md = sys.damper.unwrap().ball_mass_kg;
-    sys.model
-        .modes()
-        .iter()
-        .enumerate()
-        .map(|(i, m)| 0.5 * m.modal_mass_kg * s.dq_m_s[i] * s.dq_m_s[i])
-        .sum::<f64>()
-        + 0.5 * md * s.dv_m_s * s.dv_m_s
-}
-
 /// Every impact conserves `mₙq̇ₙ + φₙ(x_d) m_d v̇` per mode, loses `½ m_eff (1 − e²) ẇ−²`, and
 /// leaves with `ẇ+ = −e ẇ−`, to 1e-13 (rounding of the velocities, relative to their size),
 /// and sits exactly on the wall (`|w| = l_g` to rounding of `v − Σφq`).
@@ -448,29 +409,10 @@ fn modal_impacts_conserve_momentum_per_mode_and_lose_the_law_s_energy() {
         let (mut worst_p, mut worst_e, mut worst_w, mut worst_wall) =
             (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         for (b, a, loss) in &rec.impacts {
-            for (i, m) in sys.model.modes().iter().enumerate() {
-                let p = |s: &ModalState| {
-                    (
-                        m.modal_mass_kg * s.dq_m_s[i] + m.shape_cavity * d.ball_mass_kg * s.dv_m_s,
-                        (m.modal_mass_kg * s.dq_m_s[i]).abs()
-                            + (m.shape_cavity * d.ball_mass_kg * s.dv_m_s).abs(),
-                    )
-                };
-                let ((pb, sb), (pa, sa)) = (p(b), p(a));
-                worst_p = worst_p.max((pa - pb).abs() / sb.max(sa));
-            }
-            let (kb, ka) = (kinetic_j(&sys, b), kinetic_j(&sys, a));
-            worst_e = worst_e.max(((kb - ka) - loss).abs() / kb);
-            let (wb, wa) = (b.dw_m_s(&sys.model), a.dw_m_s(&sys.model));
-            let scale = b.dv_m_s.abs()
-                + sys
-                    .model
-                    .modes()
-                    .iter()
-                    .enumerate()
-                    .map(|(i, m)| (m.shape_cavity * b.dq_m_s[i]).abs())
-                    .sum::<f64>();
-            worst_w = worst_w.max((wa + d.restitution * wb).abs() / scale);
+            let (p, e, w) = impact_errors(&sys, b, a, *loss);
+            worst_p = worst_p.max(p);
+            worst_e = worst_e.max(e);
+            worst_w = worst_w.max(w);
             worst_wall = worst_wall.max((b.w_m(&sys.model).abs() - d.half_gap_m()).abs());
         }
         eprintln!(
@@ -845,12 +787,7 @@ fn random_multi_mode_flights_never_cross_a_wall_inside_a_segment() {
 /// must stay within 10× of that.
 #[test]
 fn one_mode_beam_with_the_ball_at_the_tip_is_the_lumped_bar() {
-    let beam = Beam {
-        modes: Some(1),
-        cavity_position_m: Beam::default().length_m,
-        ..Beam::default()
-    };
-    let model = Structure::Beam(beam).modal_model().unwrap();
+    let model = one_mode_tip_model();
     let m1 = model.modes()[0];
     assert!((m1.shape_cavity - 1.0).abs() < 1e-12 && (m1.shape_force - 1.0).abs() < 1e-12);
     for (gap, friction) in [
@@ -861,23 +798,7 @@ fn one_mode_beam_with_the_ball_at_the_tip_is_the_lumped_bar() {
         (0.05e-3, FrictionModel::AsPublished),
         (0.05e-3, FrictionModel::Coulomb),
     ] {
-        let lumped_sys = System {
-            bar: Bar {
-                mass_kg: m1.modal_mass_kg,
-                stiffness_n_per_m: m1.modal_stiffness_n_per_m(),
-                damping_ratio: m1.damping_ratio,
-            }
-            .into(),
-            damper: Some(Damper::paper(gap, friction)),
-            forcing: Forcing::paper(1.0),
-            gravity_m_s2: params::STANDARD_GRAVITY_M_S2,
-        };
-        let msys = ModalSystem {
-            model,
-            damper: lumped_sys.damper,
-            forcing: lumped_sys.forcing,
-            gravity_m_s2: lumped_sys.gravity_m_s2,
-        };
+        let (lumped_sys, msys) = lumped_and_modal(model, Damper::paper(gap, friction));
         let mut lumped = Rec::with_grid(1e-5);
         let rl = Exact::default()
             .run(&lumped_sys, &State::REST, 0.05, &mut lumped)
@@ -889,22 +810,9 @@ fn one_mode_beam_with_the_ball_at_the_tip_is_the_lumped_bar() {
         assert_eq!(rl.impacts, rm.summary.impacts);
         assert!(rl.impacts >= 10, "{}", rl.impacts);
         assert_eq!(lumped.events.len(), modal.events.len());
-        let mut worst = 0.0f64;
-        let fields: [&dyn Fn(&State) -> f64; 4] =
-            [&|s| s.u_m, &|s| s.du_m_s, &|s| s.v_m, &|s| s.dv_m_s];
-        for f in fields {
-            let sc = lumped.grid.iter().map(|s| f(s).abs()).fold(0.0, f64::max);
-            for (a, b) in lumped.grid.iter().zip(&modal.grid) {
-                worst = worst.max((f(a) - f(b)).abs() / sc);
-            }
-        }
         let om = lumped_sys.omega_rad_s();
-        let worst_t = lumped
-            .events
-            .iter()
-            .zip(&modal.events)
-            .map(|(a, b)| (a.t_s - b.t_s).abs() * om)
-            .fold(0.0, f64::max);
+        let (worst, worst_t) =
+            run_differences(&lumped.grid, &modal.grid, &lumped.events, &modal.events, om);
         let early = lumped
             .events
             .iter()

@@ -9,6 +9,10 @@ use vibrobar_core::solver::{Event, EventKind, Exact, Mode, Observer, Segment, So
 use vibrobar_core::structure::{Beam, ModalModel, ModalState, ModalSystem, Structure};
 use vibrobar_core::*;
 
+#[path = "common/modal_beam.rs"]
+mod modal_beam;
+use modal_beam::{lumped_and_modal, one_mode_tip_model, run_differences};
+
 fn hertz(d: Damper) -> Damper {
     Damper {
         contact: Contact::hertz(),
@@ -95,32 +99,10 @@ fn beam_system(n: usize, gap: f64, friction: FrictionModel) -> ModalSystem {
 /// they differ by rounding: `k = mω²`, the effective mass `1/κ`, the shapes `1 ± 1e-15`).
 #[test]
 fn one_mode_beam_with_the_ball_at_the_tip_is_the_lumped_hertz_bar() {
-    let beam = Beam {
-        modes: Some(1),
-        cavity_position_m: Beam::default().length_m,
-        ..Beam::default()
-    };
-    let model = Structure::Beam(beam).modal_model().unwrap();
-    let m1 = model.modes()[0];
+    let model = one_mode_tip_model();
     for friction in FrictionModel::ALL {
         let damper = hertz(Damper::paper(0.1e-3, friction));
-        let lumped_sys = System {
-            bar: Bar {
-                mass_kg: m1.modal_mass_kg,
-                stiffness_n_per_m: m1.modal_stiffness_n_per_m(),
-                damping_ratio: m1.damping_ratio,
-            }
-            .into(),
-            damper: Some(damper),
-            forcing: Forcing::paper(1.0),
-            gravity_m_s2: params::STANDARD_GRAVITY_M_S2,
-        };
-        let msys = ModalSystem {
-            model,
-            damper: Some(damper),
-            forcing: lumped_sys.forcing,
-            gravity_m_s2: lumped_sys.gravity_m_s2,
-        };
+        let (lumped_sys, msys) = lumped_and_modal(model, damper);
         let mut lumped = Rec {
             grid_dt: 1e-5,
             ..Default::default()
@@ -139,22 +121,9 @@ fn one_mode_beam_with_the_ball_at_the_tip_is_the_lumped_hertz_bar() {
         assert!(rl.impacts >= 10, "{}", rl.impacts);
         assert_eq!(lumped.events.len(), modal.events.len());
         assert_eq!(lumped.grid.len(), modal.grid.len());
-        let mut worst = 0.0f64;
-        let fields: [&dyn Fn(&State) -> f64; 4] =
-            [&|s| s.u_m, &|s| s.du_m_s, &|s| s.v_m, &|s| s.dv_m_s];
-        for f in fields {
-            let sc = lumped.grid.iter().map(|s| f(s).abs()).fold(0.0, f64::max);
-            for (a, b) in lumped.grid.iter().zip(&modal.grid) {
-                worst = worst.max((f(a) - f(b)).abs() / sc);
-            }
-        }
         let om = lumped_sys.omega_rad_s();
-        let worst_t = lumped
-            .events
-            .iter()
-            .zip(&modal.events)
-            .map(|(a, b)| (a.t_s - b.t_s).abs() * om)
-            .fold(0.0, f64::max);
+        let (worst, worst_t) =
+            run_differences(&lumped.grid, &modal.grid, &lumped.events, &modal.events, om);
         let contacts = modal
             .segs
             .iter()

@@ -7,6 +7,14 @@ use vibrobar_core::solver::{Event, EventKind, Observer, Rk4, Segment, SegmentInt
 use vibrobar_core::structure::{Beam, ModalState, ModalSystem, Point, Structure};
 use vibrobar_core::*;
 
+#[path = "common/modal_beam.rs"]
+mod modal_beam;
+use modal_beam::{beam_system, impact_errors, mode_closed_form};
+
+#[path = "common/fit.rs"]
+mod fit;
+use fit::log_log_slope;
+
 /// Records the public stream (step-end states, events, summed integrals) and the modal one.
 #[derive(Default)]
 struct Rec {
@@ -41,38 +49,6 @@ impl ModalObserver for Rec {
         self.impacts.push((*before, *after, loss));
         self.last = Some(*after);
     }
-}
-
-/// The paper's bar (L = 175 mm, D = 25 mm, steel, ζ = 0.01) with `n` modes, cavity 38 mm from
-/// the free end, force and response at the tip.
-fn paper_beam(n: usize) -> structure::ModalModel {
-    Structure::Beam(Beam {
-        modes: Some(n),
-        ..Beam::default()
-    })
-    .modal_model()
-    .unwrap()
-}
-
-fn beam_system(n: usize, damper: Option<Damper>, ratio: f64) -> ModalSystem {
-    ModalSystem {
-        model: paper_beam(n),
-        damper,
-        forcing: Forcing::paper(ratio),
-        gravity_m_s2: params::STANDARD_GRAVITY_M_S2,
-    }
-}
-
-/// Least-squares slope of log(err) against log(dt).
-fn order(points: &[(f64, f64)]) -> f64 {
-    let n = points.len() as f64;
-    let (mx, my) = points.iter().fold((0.0, 0.0), |(a, b), (x, y)| {
-        (a + x.ln() / n, b + y.ln() / n)
-    });
-    let (sxy, sxx) = points.iter().fold((0.0, 0.0), |(a, b), (x, y)| {
-        (a + (x.ln() - mx) * (y.ln() - my), b + (x.ln() - mx).powi(2))
-    });
-    sxy / sxx
 }
 
 /// N = 1 from `from_lumped` is the lumped `Rk4`: same steps, same impacts, states within 1e-12
@@ -189,27 +165,6 @@ fn one_unit_mode_reproduces_the_lumped_rk4() {
     eprintln!("N = 1 vs lumped rk4: largest difference {worst:e} of the scale");
 }
 
-/// Exact response of one mode `m(q̈ + 2ζωq̇ + ω²q) = φ_f F0 sin Ωt` from rest: `(q, q̇)` at `t`.
-fn mode_closed_form(m: &structure::Mode, f0: f64, omega: f64, t: f64) -> (f64, f64) {
-    let (wn, z, mm) = (m.omega_rad_s, m.damping_ratio, m.modal_mass_kg);
-    let g = num_complex::Complex64::new(wn * wn - omega * omega, 2.0 * z * wn * omega) * mm;
-    let h = 1.0 / g;
-    let a = m.shape_force * f0;
-    // Particular: q_p = a (Re H sin Ωt + Im H cos Ωt).
-    let (s, c) = (omega * t).sin_cos();
-    let qp = a * (h.re * s + h.im * c);
-    let dqp = a * omega * (h.re * c - h.im * s);
-    // Homogeneous from q(0) = q̇(0) = 0.
-    let wd = wn * (1.0 - z * z).sqrt();
-    let c1 = -a * h.im;
-    let c2 = (z * wn * c1 - a * omega * h.re) / wd;
-    let ex = (-z * wn * t).exp();
-    let (sd, cd) = (wd * t).sin_cos();
-    let qh = ex * (c1 * cd + c2 * sd);
-    let dqh = ex * (-z * wn * (c1 * cd + c2 * sd) + wd * (-c1 * sd + c2 * cd));
-    (qp + qh, dqp + dqh)
-}
-
 /// Without a ball, 4 modes under harmonic forcing converge with order 4 in dt to the sum of the
 /// modes' closed-form responses (transient from rest included).
 #[test]
@@ -232,7 +187,7 @@ fn four_modes_without_ball_converge_with_order_four_to_the_modal_closed_form() {
         let err = (s.u_m - u).hypot((s.du_m_s - du) / omega);
         pts.push((dt, err));
     }
-    let p = order(&pts);
+    let p = log_log_slope(&pts);
     eprintln!("modal rk4 order without ball (4 modes): {p:.3} ({pts:?}); tip u = {u:e} m");
     assert!((p - 4.0).abs() < 0.15, "order {p}");
     assert!(pts[3].1 < 1e-9 * u.abs().max(du.abs() / omega), "{pts:?}");
@@ -276,17 +231,6 @@ fn impacting_beam(friction: FrictionModel) -> ModalSystem {
     beam_system(4, Some(Damper::paper(0.1e-3, friction)), 1.0)
 }
 
-fn kinetic_j(sys: &ModalSystem, s: &ModalState) -> f64 {
-    let md = sys.damper.unwrap().ball_mass_kg;
-    sys.model
-        .modes()
-        .iter()
-        .enumerate()
-        .map(|(i, m)| 0.5 * m.modal_mass_kg * s.dq_m_s[i] * s.dq_m_s[i])
-        .sum::<f64>()
-        + 0.5 * md * s.dv_m_s * s.dv_m_s
-}
-
 /// A point impulse changes each mode's generalised momentum by `φₙ(x_d) P` and the ball's by
 /// `−P`: `mₙ q̇ₙ + φₙ(x_d) m_d v̇` is conserved for every mode; the kinetic energy lost is
 /// `½ m_eff (1 − e²) ẇ−²` and `ẇ+ = −e ẇ−`. Checked to 1e-13 over every impact of 0.2 s.
@@ -294,7 +238,6 @@ fn kinetic_j(sys: &ModalSystem, s: &ModalState) -> f64 {
 fn modal_impacts_conserve_momentum_per_mode_and_lose_the_law_s_energy() {
     for friction in [FrictionModel::None, FrictionModel::AsPublished] {
         let sys = impacting_beam(friction);
-        let d = sys.damper.unwrap();
         let mut rec = Rec::default();
         ModalRk4 { dt_s: 1e-6 }
             .run_modal(&sys, &ModalState::REST, 0.2, &mut rec)
@@ -302,30 +245,10 @@ fn modal_impacts_conserve_momentum_per_mode_and_lose_the_law_s_energy() {
         assert!(rec.impacts.len() >= 200, "{} impacts", rec.impacts.len());
         let (mut worst_p, mut worst_e, mut worst_w) = (0.0f64, 0.0f64, 0.0f64);
         for (b, a, loss) in &rec.impacts {
-            for (i, m) in sys.model.modes().iter().enumerate() {
-                let p = |s: &ModalState| {
-                    (
-                        m.modal_mass_kg * s.dq_m_s[i] + m.shape_cavity * d.ball_mass_kg * s.dv_m_s,
-                        (m.modal_mass_kg * s.dq_m_s[i]).abs()
-                            + (m.shape_cavity * d.ball_mass_kg * s.dv_m_s).abs(),
-                    )
-                };
-                // Rounding is relative to the larger side: an impact can start a quiet mode.
-                let ((pb, sb), (pa, sa)) = (p(b), p(a));
-                worst_p = worst_p.max((pa - pb).abs() / sb.max(sa));
-            }
-            let (kb, ka) = (kinetic_j(&sys, b), kinetic_j(&sys, a));
-            worst_e = worst_e.max(((kb - ka) - loss).abs() / kb);
-            let (wb, wa) = (b.dw_m_s(&sys.model), a.dw_m_s(&sys.model));
-            let scale = b.dv_m_s.abs()
-                + sys
-                    .model
-                    .modes()
-                    .iter()
-                    .enumerate()
-                    .map(|(i, m)| (m.shape_cavity * b.dq_m_s[i]).abs())
-                    .sum::<f64>();
-            worst_w = worst_w.max((wa + d.restitution * wb).abs() / scale);
+            let (p, e, w) = impact_errors(&sys, b, a, *loss);
+            worst_p = worst_p.max(p);
+            worst_e = worst_e.max(e);
+            worst_w = worst_w.max(w);
         }
         eprintln!(
             "{friction}: {} impacts; momentum {worst_p:e}, energy {worst_e:e}, ẇ+ {worst_w:e}",

@@ -2,6 +2,8 @@
 //! the analytic symmetric two-impact orbit (RMS, impact phase and velocity), finite differences
 //! of the exact solver for the monodromy matrix, and the growth of simulated perturbations for
 //! the Floquet multipliers. Bad input: the period's range and a Newton that does not converge.
+mod common;
+
 use vibrobar_core::analysis::orbit::*;
 use vibrobar_core::solver::{EventKind, Wall};
 use vibrobar_core::*;
@@ -236,26 +238,8 @@ fn friction_only_orbit_has_den_hartogs_amplitude() {
         }
     }
     for (r, f) in [(0.6, 0.3), (0.8, 0.5), (1.5, 0.3)] {
-        let k = 1e4;
-        let sys = System {
-            bar: Bar {
-                mass_kg: 1.0,
-                stiffness_n_per_m: k,
-                damping_ratio: 0.0,
-            }
-            .into(),
-            damper: Some(Damper {
-                ball_mass_kg: 1e9,
-                friction_force_n: Some(f),
-                ..Damper::paper(100.0, FrictionModel::Coulomb)
-            }),
-            forcing: Forcing {
-                amplitude_n: 1.0,
-                frequency: Frequency::Ratio(r),
-                static_force_n: 0.0,
-            },
-            gravity_m_s2: 9.81,
-        };
+        let (sys, _) = common::friction_to_ground(r, f);
+        let k = sys.lumped_bar().unwrap().stiffness_n_per_m;
         // A short settling run only: Newton does the rest.
         let start = Start::Settled {
             init: State::REST,

@@ -6,36 +6,12 @@ use vibrobar_core::analysis::batch::Runner;
 use vibrobar_core::analysis::lobes::Lobes;
 use vibrobar_core::analysis::time_domain::*;
 use vibrobar_core::excitation::{Cutting, CuttingForceLaw};
-use vibrobar_core::params::{Bar, BarModel, Damper, Forcing, Frequency, FrictionModel, System};
+use vibrobar_core::params::{Damper, FrictionModel};
 use vibrobar_core::solver::exact::cutting::ExactCutting;
 
-const F_HZ: f64 = 600.0;
-const K: f64 = 2.2e6;
-const ZETA: f64 = 0.01;
-const KF: f64 = 2e9;
-const H0: f64 = 1e-4;
-
-fn bar() -> Bar {
-    let wn = 2.0 * std::f64::consts::PI * F_HZ;
-    Bar {
-        mass_kg: K / (wn * wn),
-        stiffness_n_per_m: K,
-        damping_ratio: ZETA,
-    }
-}
-
-fn sys(damper: Option<Damper>) -> System {
-    System {
-        bar: BarModel::Lumped(bar()),
-        damper,
-        forcing: Forcing {
-            amplitude_n: 0.0,
-            frequency: Frequency::Ratio(1.0),
-            static_force_n: 0.0,
-        },
-        gravity_m_s2: 9.81,
-    }
-}
+#[path = "common/lumped_cut.rs"]
+mod lumped_cut;
+use lumped_cut::{sys, H0, K, KF};
 
 fn cut(law: CuttingForceLaw) -> Cutting {
     Cutting {

@@ -6,21 +6,9 @@ use vibrobar_core::analysis::variational::{flow_with_param_derivative, Param};
 use vibrobar_core::params::{FrictionModel, State, System};
 use vibrobar_core::solver::{Exact, Solver};
 
-/// Scales of `(u, u̇, v, v̇)` for the comparison norm.
-fn scales(sys: &System) -> [f64; 4] {
-    let bar = sys.lumped_bar().unwrap();
-    let su = sys.forcing.amplitude_n / bar.stiffness_n_per_m;
-    let wn = bar.natural_freq_rad_s();
-    [su, wn * su, su, wn * su]
-}
-
-fn end(sys: &System, x: &State, t_end: f64) -> [f64; 4] {
-    let s = Exact::default()
-        .run(sys, x, t_end, &mut ())
-        .unwrap()
-        .final_state;
-    [s.u_m, s.du_m_s, s.v_m, s.dv_m_s]
-}
+#[path = "common/variational_fd.rs"]
+mod variational_fd;
+use variational_fd::{end, scales};
 
 fn value(sys: &System, p: Param) -> f64 {
     let d = sys.damper.unwrap();

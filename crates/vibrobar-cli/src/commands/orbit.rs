@@ -388,25 +388,17 @@ pub fn run_continue(a: &ContinueArgs) -> anyhow::Result<()> {
     let b = continue_orbit(&o, axis, from, to, a.start.jacobian.get(), &settings)?;
     let wall = t.elapsed().as_secs_f64();
     let _ = param_of;
-    let params = ContinuationParams {
-        orbit: OrbitParams {
-            point: PointParams {
-                system: a.system.to_params()?,
-                ratio,
-                gap_m: gap_mm * 1e-3,
-            },
+    let params = continuation_params(
+        a,
+        OrbitParams {
+            point: continued_point_params(a, ratio, gap_mm)?,
             period: o.section.periods,
             start,
             branch,
             settle_s: settle,
             jacobian: o.jacobian_source.into(),
         },
-        param: a.param.clone(),
-        from: a.from,
-        to: a.to,
-        max_points: a.max_points,
-        switch_branches: !a.no_switch,
-    };
+    );
     let inv = 1.0 / scale;
     let rows: Vec<_> = b
         .points
@@ -452,6 +444,32 @@ pub fn run_continue(a: &ContinueArgs) -> anyhow::Result<()> {
         .map(|(i, r)| format!("branch {i} ended: {r}"))
         .collect();
     write_branch(a, &params, &rows, &marks, &title, &summary, &ends)
+}
+
+/// The continued point of `continue` (its system at `ratio`, `gap_mm`) for the metadata.
+pub(crate) fn continued_point_params(
+    a: &ContinueArgs,
+    ratio: f64,
+    gap_mm: f64,
+) -> anyhow::Result<PointParams> {
+    Ok(PointParams {
+        system: a.system.to_params()?,
+        ratio,
+        gap_m: gap_mm * 1e-3,
+    })
+}
+
+/// The metadata of `continue` from the starting `orbit`, shared by the lumped and the N-mode
+/// bar so both record the same fields.
+pub(crate) fn continuation_params(a: &ContinueArgs, orbit: OrbitParams) -> ContinuationParams {
+    ContinuationParams {
+        orbit,
+        param: a.param.clone(),
+        from: a.from,
+        to: a.to,
+        max_points: a.max_points,
+        switch_branches: !a.no_switch,
+    }
 }
 
 /// One point of a followed branch as `continue` draws and reports it.

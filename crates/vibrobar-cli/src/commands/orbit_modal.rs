@@ -2,8 +2,8 @@
 //! is `vibrobar_core::analysis::orbit::modal` and `::modal_continuation`. The output files have
 //! the lumped commands' keys and columns; the state is modal.
 use super::orbit::{
-    continued_point, event_json, period_of, write_branch, BranchMark, ContinueArgs, JacobianArg,
-    OrbitArgs, StartArg,
+    continuation_params, continued_point, continued_point_params, event_json, period_of,
+    write_branch, BranchMark, ContinueArgs, JacobianArg, OrbitArgs, StartArg,
 };
 use super::{check_value, fmt_coord, SystemArgs};
 use anyhow::{bail, Context};
@@ -16,7 +16,7 @@ use vibrobar_core::analysis::orbit::modal_continuation::{
 use vibrobar_core::structure::{ModalState, ModalSystem, Point};
 use vibrobar_core::System;
 use vibrobar_io::csv::{modal_continuation_values, write_json};
-use vibrobar_io::params::{ContinuationParams, OrbitParams, PointParams};
+use vibrobar_io::params::OrbitParams;
 use vibrobar_io::Metadata;
 use vibrobar_report::figures::branch::BranchDot;
 
@@ -191,25 +191,17 @@ pub fn run_continue_modal(a: &ContinueArgs) -> anyhow::Result<()> {
     let t = std::time::Instant::now();
     let b = continue_modal_orbit(&o, &fam, from, to, &settings)?;
     let wall = t.elapsed().as_secs_f64();
-    let params = ContinuationParams {
-        orbit: OrbitParams {
-            point: PointParams {
-                system: a.system.to_params()?,
-                ratio,
-                gap_m: gap_mm * 1e-3,
-            },
+    let params = continuation_params(
+        a,
+        OrbitParams {
+            point: continued_point_params(a, ratio, gap_mm)?,
             period: o.section.periods,
             start: "settled".into(),
             branch: None,
             settle_s: Some(settle),
             jacobian: "variational".into(),
         },
-        param: a.param.clone(),
-        from: a.from,
-        to: a.to,
-        max_points: a.max_points,
-        switch_branches: !a.no_switch,
-    };
+    );
     let inv = 1.0 / scale;
     let rows: Vec<_> = b
         .points

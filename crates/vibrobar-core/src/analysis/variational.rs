@@ -335,9 +335,65 @@ pub struct EventCounts {
 
 /// The ball's phase: mode and friction sign of a free flight.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Phase {
-    mode: Mode,
-    sigma: f64,
+pub(super) struct Phase {
+    pub(super) mode: Mode,
+    pub(super) sigma: f64,
+}
+
+// The phase bookkeeping around events is the same for the lumped and the N-mode bar
+// (variational_modal uses these too), so it is stated once here.
+impl Phase {
+    /// The phase after event `ev` when no segment follows to say it; `cur` is the phase the
+    /// event ended.
+    pub(super) fn default_after(ev: &Event, cur: Option<Phase>) -> Phase {
+        let free = |dw: f64| Phase {
+            mode: Mode::Free,
+            sigma: crate::damper::friction::sgn0(dw),
+        };
+        match ev.kind {
+            EventKind::Impact { wall, .. } if ev.after.dw_m_s() == 0.0 => Phase {
+                mode: Mode::Contact(wall),
+                sigma: 0.0,
+            },
+            EventKind::Impact { .. } => free(ev.after.dw_m_s()),
+            EventKind::FrictionSwitch => Phase {
+                mode: Mode::Free,
+                sigma: -cur.map_or(0.0, |c| c.sigma),
+            },
+            EventKind::Stick => Phase {
+                mode: Mode::Stick,
+                sigma: 0.0,
+            },
+            EventKind::Unstick => free(0.0),
+            EventKind::ChatterLimit { wall, .. } => Phase {
+                mode: Mode::Contact(wall),
+                sigma: 0.0,
+            },
+            EventKind::ContactRelease { wall } => Phase {
+                mode: Mode::Free,
+                sigma: -wall.sign(),
+            },
+        }
+    }
+
+    /// The phase before event `ev` implied by its kind (for an event that follows another at
+    /// once).
+    pub(super) fn before(ev: &Event, last: Option<Phase>) -> Phase {
+        match ev.kind {
+            EventKind::Impact { .. } | EventKind::FrictionSwitch | EventKind::Stick => Phase {
+                mode: Mode::Free,
+                sigma: last.map_or(0.0, |p| p.sigma),
+            },
+            EventKind::Unstick => Phase {
+                mode: Mode::Stick,
+                sigma: 0.0,
+            },
+            EventKind::ChatterLimit { wall, .. } | EventKind::ContactRelease { wall } => Phase {
+                mode: Mode::Contact(wall),
+                sigma: 0.0,
+            },
+        }
+    }
 }
 
 /// An event waiting for the mode that follows it (its `f⁺`).
@@ -790,7 +846,7 @@ impl<T: TangentSink> Variational<T> {
     pub fn finish(&mut self) {
         self.open_contact = None;
         if let Some(p) = self.pending.take() {
-            let after = self.default_after(&p.ev);
+            let after = Phase::default_after(&p.ev, self.cur);
             self.resolve(p, after, false);
         }
         if let Some(ph) = self.hz {
@@ -1050,57 +1106,6 @@ impl<T: TangentSink> Variational<T> {
         Some(ph.last)
     }
 
-    /// The phase after event `ev` when no segment follows to say it.
-    fn default_after(&self, ev: &Event) -> Phase {
-        let free = |dw: f64| Phase {
-            mode: Mode::Free,
-            sigma: crate::damper::friction::sgn0(dw),
-        };
-        match ev.kind {
-            EventKind::Impact { wall, .. } if ev.after.dw_m_s() == 0.0 => Phase {
-                mode: Mode::Contact(wall),
-                sigma: 0.0,
-            },
-            EventKind::Impact { .. } => free(ev.after.dw_m_s()),
-            EventKind::FrictionSwitch => Phase {
-                mode: Mode::Free,
-                sigma: -self.cur.map_or(0.0, |c| c.sigma),
-            },
-            EventKind::Stick => Phase {
-                mode: Mode::Stick,
-                sigma: 0.0,
-            },
-            EventKind::Unstick => free(0.0),
-            EventKind::ChatterLimit { wall, .. } => Phase {
-                mode: Mode::Contact(wall),
-                sigma: 0.0,
-            },
-            EventKind::ContactRelease { wall } => Phase {
-                mode: Mode::Free,
-                sigma: -wall.sign(),
-            },
-        }
-    }
-
-    /// The phase before event `ev` implied by its kind (for an event that follows another at
-    /// once).
-    fn phase_before(ev: &Event, last: Option<Phase>) -> Phase {
-        match ev.kind {
-            EventKind::Impact { .. } | EventKind::FrictionSwitch | EventKind::Stick => Phase {
-                mode: Mode::Free,
-                sigma: last.map_or(0.0, |p| p.sigma),
-            },
-            EventKind::Unstick => Phase {
-                mode: Mode::Stick,
-                sigma: 0.0,
-            },
-            EventKind::ChatterLimit { wall, .. } | EventKind::ContactRelease { wall } => Phase {
-                mode: Mode::Contact(wall),
-                sigma: 0.0,
-            },
-        }
-    }
-
     /// Build and apply the saltation of `p` with the phase `after` that follows it.
     fn resolve(&mut self, p: Pending, after: Phase, followed_by_contact: bool) {
         if p.release {
@@ -1322,13 +1327,13 @@ impl<T: TangentSink> Observer for Variational<T> {
         if let Some(p) = self.pending.take() {
             // Two events at one instant (no segment between): the second's kind says what
             // phase the first led to.
-            let next_before = Self::phase_before(ev, self.cur);
+            let next_before = Phase::before(ev, self.cur);
             let contact = matches!(next_before.mode, Mode::Contact(_));
             self.resolve(p, next_before, contact);
         }
         let before = match self.cur {
             Some(c) => c,
-            None => Self::phase_before(ev, None),
+            None => Phase::before(ev, None),
         };
         self.pending = Some(Pending {
             ev: *ev,

@@ -71,7 +71,7 @@
 // Index loops read as the linear algebra they are.
 #![allow(clippy::needless_range_loop)]
 
-use super::variational::{EventCounts, VARIATIONAL_NEEDS_BALL};
+use super::variational::{EventCounts, Phase, VARIATIONAL_NEEDS_BALL};
 
 /// Why the modal variational layer refuses the Hertz law.
 pub const VARIATIONAL_MODAL_NO_HERTZ: &str = "the N-mode bar's variational flow covers the instantaneous restitution law; the hertz law's tangent maps through compliant contact phases are the lumped bar's only so far";
@@ -112,13 +112,6 @@ struct Cs {
     f0: f64,
     om: f64,
     kappa: f64,
-}
-
-/// The ball's phase: mode and friction sign of a free flight.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Phase {
-    mode: Mode,
-    sigma: f64,
 }
 
 impl Cs {
@@ -432,60 +425,10 @@ impl ModalVariational {
         }
     }
 
-    /// The phase after `ev` when no segment follows to say it.
-    fn default_after(&self, ev: &Event) -> Phase {
-        let free = |dw: f64| Phase {
-            mode: Mode::Free,
-            sigma: sgn0(dw),
-        };
-        match ev.kind {
-            EventKind::Impact { wall, .. } if ev.after.dw_m_s() == 0.0 => Phase {
-                mode: Mode::Contact(wall),
-                sigma: 0.0,
-            },
-            EventKind::Impact { .. } => free(ev.after.dw_m_s()),
-            EventKind::FrictionSwitch => Phase {
-                mode: Mode::Free,
-                sigma: -self.cur.map_or(0.0, |c| c.sigma),
-            },
-            EventKind::Stick => Phase {
-                mode: Mode::Stick,
-                sigma: 0.0,
-            },
-            EventKind::Unstick => free(0.0),
-            EventKind::ChatterLimit { wall, .. } => Phase {
-                mode: Mode::Contact(wall),
-                sigma: 0.0,
-            },
-            EventKind::ContactRelease { wall } => Phase {
-                mode: Mode::Free,
-                sigma: -wall.sign(),
-            },
-        }
-    }
-
-    /// The phase before `ev` implied by its kind (an event right after another).
-    fn phase_before(ev: &Event, last: Option<Phase>) -> Phase {
-        match ev.kind {
-            EventKind::Impact { .. } | EventKind::FrictionSwitch | EventKind::Stick => Phase {
-                mode: Mode::Free,
-                sigma: last.map_or(0.0, |p| p.sigma),
-            },
-            EventKind::Unstick => Phase {
-                mode: Mode::Stick,
-                sigma: 0.0,
-            },
-            EventKind::ChatterLimit { wall, .. } | EventKind::ContactRelease { wall } => Phase {
-                mode: Mode::Contact(wall),
-                sigma: 0.0,
-            },
-        }
-    }
-
     /// Apply what is still pending (an event at the very end of the run).
     pub fn finish(&mut self) {
         if let Some(p) = self.pending.take() {
-            let after = self.default_after(&p.ev);
+            let after = Phase::default_after(&p.ev, self.cur);
             let contact = matches!(after.mode, Mode::Contact(_));
             self.resolve(p, after, contact);
         }
@@ -702,13 +645,13 @@ impl Observer for ModalVariational {
 
     fn event(&mut self, ev: &Event) {
         if let Some(p) = self.pending.take() {
-            let next_before = Self::phase_before(ev, self.cur);
+            let next_before = Phase::before(ev, self.cur);
             let contact = matches!(next_before.mode, Mode::Contact(_));
             self.resolve(p, next_before, contact);
         }
         let before = match self.cur {
             Some(c) => c,
-            None => Self::phase_before(ev, None),
+            None => Phase::before(ev, None),
         };
         self.pending = Some(Pending {
             ev: *ev,

@@ -1,9 +1,8 @@
 //! The linearised N-mode cutting DDE computed independently of the library (the receptance
 //! summed over the modes, the stability limit by lobe crossings, Newton on the characteristic
-//! equation) and the envelope growth of a sampled run: shared by `modal_cutting.rs` and
-//! `modal_cutting_three_quarter.rs`, which include it with `#[path]` and define `KF` and a
-//! `Sampler` with `t` and `u`.
-use super::{Sampler, KF};
+//! equation): shared by `modal_cutting.rs` and `modal_cutting_three_quarter.rs`, which
+//! include it with `#[path]` and have `KF` in scope.
+use super::KF;
 use num_complex::Complex64 as C;
 use vibrobar_core::structure::Mode;
 
@@ -103,30 +102,4 @@ pub fn root_n(modes: &[Mode], b: f64, rpm: f64, w_c: f64) -> C {
         }
     }
     best
-}
-
-/// Growth rate of the envelope of `|u − u_eq|`: least squares of ln(peak) over `[t_a, t_b]`.
-pub fn growth(s: &Sampler, u_eq: f64, t_a: f64, t_b: f64) -> f64 {
-    let x: Vec<f64> = s.u.iter().map(|u| (u - u_eq).abs()).collect();
-    let mut pts = vec![];
-    for i in 1..x.len() - 1 {
-        if x[i] > x[i - 1] && x[i] >= x[i + 1] && s.t[i] >= t_a && s.t[i] <= t_b {
-            let (a, b, c) = (x[i - 1], x[i], x[i + 1]);
-            let den = a - 2.0 * b + c;
-            let peak = if den != 0.0 {
-                b - 0.125 * (a - c).powi(2) / den
-            } else {
-                b
-            };
-            pts.push((s.t[i], peak.ln()));
-        }
-    }
-    let n = pts.len() as f64;
-    let (mt, my) = pts
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + p.0 / n, a.1 + p.1 / n));
-    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
-        (a.0 + (p.0 - mt) * (p.1 - my), a.1 + (p.0 - mt).powi(2))
-    });
-    sxy / sxx
 }

@@ -51,6 +51,33 @@ impl Recorder {
     }
 }
 
+/// Den Hartog's case: a 1 kg bar on 1e4 N/m, undamped, with Coulomb friction `f` to ground (a
+/// 1e9 kg ball in a 100 m gap: it never impacts), forced by 1 N at ratio `r`. Returns the
+/// system and the static deflection `F0/k`.
+pub fn friction_to_ground(r: f64, f: f64) -> (System, f64) {
+    let k = 1e4;
+    let sys = System {
+        bar: Bar {
+            mass_kg: 1.0,
+            stiffness_n_per_m: k,
+            damping_ratio: 0.0,
+        }
+        .into(),
+        damper: Some(Damper {
+            ball_mass_kg: 1e9,
+            friction_force_n: Some(f),
+            ..Damper::paper(100.0, FrictionModel::Coulomb)
+        }),
+        forcing: Forcing {
+            amplitude_n: 1.0,
+            frequency: Frequency::Ratio(r),
+            static_force_n: 0.0,
+        },
+        gravity_m_s2: 9.81,
+    };
+    (sys, 1.0 / k)
+}
+
 /// A bar with a constant load and a vanishing spring: the relative acceleration of a free ball
 /// is constant, `ẅ = −F_s/M`.
 pub fn constant_push(static_force_n: f64, gap_m: f64, restitution: f64) -> System {

@@ -34,7 +34,8 @@
 //! multipliers do not depend on it).
 
 use super::{
-    describe, find_orbit, scales, to_vector, MapJacobian, NewtonSettings, PeriodicOrbit, Section,
+    describe, find_orbit, scales, to_vector, MapJacobian, NewtonSettings, OrbitEvent,
+    PeriodicOrbit, Section,
 };
 use crate::analysis::grid::Axis;
 use crate::analysis::variational::{flow_with_param_derivative, Param};
@@ -386,21 +387,9 @@ impl Cont<'_> {
 
     /// Move the section when an event is within 2 % of the period of it.
     fn rephase(&self, p: Pt) -> Result<Pt, SimError> {
-        let kt = p.sec.period_s();
-        let ev = &p.orbit.events;
-        let near = ev.iter().any(|e| e.dt_s < 0.02 * kt || e.dt_s > 0.98 * kt);
-        if !near || ev.is_empty() {
+        let Some(mid) = rephased_offset(&p.orbit.events, p.sec.period_s()) else {
             return Ok(p);
-        }
-        let mut times: Vec<f64> = ev.iter().map(|e| e.dt_s).collect();
-        times.push(ev[0].dt_s + kt);
-        let (mut best, mut mid) = (-1.0, 0.5 * kt);
-        for w in times.windows(2) {
-            if w[1] - w[0] > best {
-                best = w[1] - w[0];
-                mid = 0.5 * (w[0] + w[1]);
-            }
-        }
+        };
         let t_new = p.sec.t0_s + mid;
         let s = Exact::default()
             .run(&p.sec.system, &p.orbit.state, t_new, &mut ())?
@@ -415,6 +404,21 @@ impl Cont<'_> {
         let (_, j, dp) = self.eval(t0, &y)?;
         self.point(t0, y, &j, dp, &p.tangent)
     }
+}
+
+/// Where to move the section of an orbit whose `events` (times from the section, orbit period
+/// `kt`) come within 2 % of the period of it: the offset of the middle of the longest
+/// event-free stretch; `None` where no event is near. The rule of lumped and modal branches.
+pub(super) fn rephased_offset(events: &[OrbitEvent], kt: f64) -> Option<f64> {
+    let near = events
+        .iter()
+        .any(|e| e.dt_s < 0.02 * kt || e.dt_s > 0.98 * kt);
+    if !near || events.is_empty() {
+        return None;
+    }
+    let mut times: Vec<f64> = events.iter().map(|e| e.dt_s).collect();
+    times.push(events[0].dt_s + kt);
+    Some(super::longest_gap_mid(&times, 0.5 * kt))
 }
 
 /// Follow the orbit `start` (a fixed point at parameter `from`) in `axis` from `from` to `to`

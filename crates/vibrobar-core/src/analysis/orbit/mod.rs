@@ -578,25 +578,8 @@ pub fn describe(
         let mut obs: [&mut dyn Observer; 2] = [&mut rms, &mut rec];
         Exact::default().run(&sec.system, &init, t_end, &mut Fanout(&mut obs))?
     };
-    let rms_m = crate::limits::finite_result(
-        "RMS of the orbit",
-        rms.rms_m(),
-        "an orbit the exact solver could not follow",
-    )?;
     let multipliers = multipliers_of(&jacobian);
-    for l in &multipliers {
-        crate::limits::finite_result(
-            "Floquet multiplier",
-            l.norm(),
-            "a Jacobian across a grazing event",
-        )?;
-    }
-    let impacts = rec
-        .events
-        .iter()
-        .filter(|e| matches!(e.kind, EventKind::Impact { .. }))
-        .count() as u32;
-    let sequence = rec.events.iter().map(|e| event_letter(&e.kind)).collect();
+    let (rms_m, impacts, sequence) = run_facts(rms.rms_m(), &multipliers, &rec.events)?;
     Ok(PeriodicOrbit {
         section: *sec,
         state: init,
@@ -677,31 +660,12 @@ pub fn starting_guess(
             (s.t_s, s)
         }
         Start::Settled { init, settle_s } => {
-            crate::params::positive("settle time (--settle)", settle_s)?;
             let kt = periods as f64 * t;
-            let end = init.t_s + settle_s;
-            let from = end - kt;
-            if from < init.t_s {
-                return Err(ParamError::OutOfRange {
-                    field: "settle time (--settle)",
-                    value: settle_s,
-                    allowed: "[period·T, ∞): at least one orbit period",
-                }
-                .into());
-            }
-            let mut times = EventTimes {
-                from,
-                t: vec![from],
-            };
+            let (from, end) = settle_window(init.t_s, settle_s, kt)?;
+            let mut times = EventTimes::new(from);
             Exact::default().run(sys, &init, end, &mut times)?;
             times.t.push(end);
-            let (mut best, mut mid) = (-1.0, from + 0.5 * kt);
-            for w in times.t.windows(2) {
-                if w[1] - w[0] > best {
-                    best = w[1] - w[0];
-                    mid = 0.5 * (w[0] + w[1]);
-                }
-            }
+            let mid = longest_gap_mid(&times.t, from + 0.5 * kt);
             let s = Exact::default().run(sys, &init, mid, &mut ())?.final_state;
             (mid, s)
         }
@@ -711,9 +675,77 @@ pub fn starting_guess(
     Ok((sec, sec.clamp(to_vector(&state))))
 }
 
+/// The last `kt` seconds `(from, end)` of a settling run of `settle_s` from `t0_s`, checked to
+/// hold one orbit period (shared by the lumped and the modal starting guess).
+fn settle_window(t0_s: f64, settle_s: f64, kt: f64) -> Result<(f64, f64), SimError> {
+    crate::params::positive("settle time (--settle)", settle_s)?;
+    let end = t0_s + settle_s;
+    let from = end - kt;
+    if from < t0_s {
+        return Err(ParamError::OutOfRange {
+            field: "settle time (--settle)",
+            value: settle_s,
+            allowed: "[period·T, ∞): at least one orbit period",
+        }
+        .into());
+    }
+    Ok((from, end))
+}
+
+/// The middle of the longest stretch between consecutive `times` (sorted), `default` if there
+/// is none: where a section lies farthest from events (starting guesses, continuation's moving
+/// section, lumped and modal).
+fn longest_gap_mid(times: &[f64], default: f64) -> f64 {
+    let (mut best, mut mid) = (-1.0, default);
+    for w in times.windows(2) {
+        if w[1] - w[0] > best {
+            best = w[1] - w[0];
+            mid = 0.5 * (w[0] + w[1]);
+        }
+    }
+    mid
+}
+
+/// What an orbit's description takes from its run over one period (lumped and modal alike):
+/// the RMS and the multipliers checked finite, the impacts and the sequence of event letters.
+fn run_facts(
+    rms_m: f64,
+    multipliers: &[Complex64],
+    events: &[OrbitEvent],
+) -> Result<(f64, u32, String), SimError> {
+    let rms_m = crate::limits::finite_result(
+        "RMS of the orbit",
+        rms_m,
+        "an orbit the exact solver could not follow",
+    )?;
+    for l in multipliers {
+        crate::limits::finite_result(
+            "Floquet multiplier",
+            l.norm(),
+            "a Jacobian across a grazing event",
+        )?;
+    }
+    let impacts = events
+        .iter()
+        .filter(|e| matches!(e.kind, EventKind::Impact { .. }))
+        .count() as u32;
+    let sequence = events.iter().map(|e| event_letter(&e.kind)).collect();
+    Ok((rms_m, impacts, sequence))
+}
+
+/// The event times after `from` (starting with `from` itself).
 struct EventTimes {
     from: f64,
     t: Vec<f64>,
+}
+
+impl EventTimes {
+    fn new(from: f64) -> Self {
+        EventTimes {
+            from,
+            t: vec![from],
+        }
+    }
 }
 
 impl Observer for EventTimes {

@@ -21,16 +21,14 @@
 //! On a one-mode bar with the lumped bar's `M`, `K` (every shape 1) the map, its Jacobian and the
 //! orbit are the lumped ones (tested to 1e-9).
 
-use super::{
-    event_letter, NewtonSettings, OrbitEvent, OrbitRecorder, Physicality, STABILITY_MARGIN,
-};
+use super::{run_facts, NewtonSettings, OrbitEvent, OrbitRecorder, Physicality, STABILITY_MARGIN};
 use crate::analysis::case::RmsObserver;
 use crate::analysis::lyapunov::StateScales;
 use crate::analysis::variational_modal::modal_flow_with_jacobian;
 use crate::error::{ParamError, SimError};
 use crate::params::ContactLaw;
 use crate::solver::exact::modal::ModalExact;
-use crate::solver::{Event, EventKind, Fanout, Observer};
+use crate::solver::{Fanout, Observer};
 use crate::structure::{ModalState, ModalSystem, Point};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -216,7 +214,7 @@ pub struct ModalPeriodicOrbit {
     pub impacts_per_period: u32,
     /// The events over one period.
     pub events: Vec<OrbitEvent>,
-    /// The event letters ([`event_letter`]).
+    /// The event letters ([`super::event_letter`]).
     pub sequence: String,
     /// Monodromy matrix on `(q, q̇, w, ẇ)` (SI).
     pub jacobian: DMatrix<f64>,
@@ -372,25 +370,8 @@ pub fn describe_modal(
             .run(&sec.system, &init, t_end, &mut Fanout(&mut obs))?
             .summary
     };
-    let rms_m = crate::limits::finite_result(
-        "RMS of the orbit",
-        rms.rms_m(),
-        "an orbit the exact solver could not follow",
-    )?;
     let multipliers = multipliers_of_d(&jacobian);
-    for l in &multipliers {
-        crate::limits::finite_result(
-            "Floquet multiplier",
-            l.norm(),
-            "a Jacobian across a grazing event",
-        )?;
-    }
-    let impacts = rec
-        .events
-        .iter()
-        .filter(|e| matches!(e.kind, EventKind::Impact { .. }))
-        .count() as u32;
-    let sequence = rec.events.iter().map(|e| event_letter(&e.kind)).collect();
+    let (rms_m, impacts, sequence) = run_facts(rms.rms_m(), &multipliers, &rec.events)?;
     Ok(ModalPeriodicOrbit {
         section: sec.clone(),
         state: init,
@@ -411,19 +392,6 @@ pub fn describe_modal(
     })
 }
 
-struct EventTimes {
-    from: f64,
-    t: Vec<f64>,
-}
-
-impl Observer for EventTimes {
-    fn event(&mut self, ev: &Event) {
-        if ev.t_s > self.from && self.t.len() < 1_000_000 {
-            self.t.push(ev.t_s);
-        }
-    }
-}
-
 /// A section and a starting state for `sys` with period `periods` from a run of `settle_s`
 /// from `init`: the section in the middle of the longest event-free stretch of the last `k`
 /// periods, brought into `[0, T)`.
@@ -435,32 +403,13 @@ pub fn modal_starting_guess(
 ) -> Result<(ModalSection, Vec<f64>), SimError> {
     check_modal_system(sys)?;
     super::check_period(periods)?;
-    crate::params::positive("settle time (--settle)", settle_s)?;
     let t = 2.0 * std::f64::consts::PI / sys.omega_rad_s();
     let kt = periods as f64 * t;
-    let end = init.t_s + settle_s;
-    let from = end - kt;
-    if from < init.t_s {
-        return Err(ParamError::OutOfRange {
-            field: "settle time (--settle)",
-            value: settle_s,
-            allowed: "[period·T, ∞): at least one orbit period",
-        }
-        .into());
-    }
-    let mut times = EventTimes {
-        from,
-        t: vec![from],
-    };
+    let (from, end) = super::settle_window(init.t_s, settle_s, kt)?;
+    let mut times = super::EventTimes::new(from);
     ModalExact::default().run(sys, init, end, &mut times)?;
     times.t.push(end);
-    let (mut best, mut mid) = (-1.0, from + 0.5 * kt);
-    for w in times.t.windows(2) {
-        if w[1] - w[0] > best {
-            best = w[1] - w[0];
-            mid = 0.5 * (w[0] + w[1]);
-        }
-    }
+    let mid = super::longest_gap_mid(&times.t, from + 0.5 * kt);
     let mut s = ModalExact::default()
         .run(sys, init, mid, &mut ())?
         .final_state;

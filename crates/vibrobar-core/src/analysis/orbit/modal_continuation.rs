@@ -33,7 +33,8 @@
 //! cavity); on a uniform beam it does not.
 
 use super::continuation::{
-    bisect_step, class_from, event_between, BranchEvent, Class, ContinuationSettings,
+    bisect_step, class_from, event_between, rephased_offset, BranchEvent, Class,
+    ContinuationSettings,
 };
 use super::modal::{
     describe_modal, find_modal_orbit, lstsq, scaled_minus_identity, ModalPeriodicOrbit,
@@ -304,21 +305,9 @@ impl Cont<'_> {
 
     /// Move the section when an event is within 2 % of the period of it.
     fn rephase(&self, p: Pt) -> Result<Pt, SimError> {
-        let kt = p.sec.period_s();
-        let ev = &p.orbit.events;
-        let near = ev.iter().any(|e| e.dt_s < 0.02 * kt || e.dt_s > 0.98 * kt);
-        if !near || ev.is_empty() {
+        let Some(mid) = rephased_offset(&p.orbit.events, p.sec.period_s()) else {
             return Ok(p);
-        }
-        let mut times: Vec<f64> = ev.iter().map(|e| e.dt_s).collect();
-        times.push(ev[0].dt_s + kt);
-        let (mut best, mut mid) = (-1.0, 0.5 * kt);
-        for w in times.windows(2) {
-            if w[1] - w[0] > best {
-                best = w[1] - w[0];
-                mid = 0.5 * (w[0] + w[1]);
-            }
-        }
+        };
         let t_new = p.sec.t0_s + mid;
         let s = ModalExact::default()
             .run(&p.sec.system, &p.orbit.state, t_new, &mut ())?

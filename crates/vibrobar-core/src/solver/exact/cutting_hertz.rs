@@ -22,8 +22,8 @@
 //! integrals are Gauss–Legendre quadratures of the dense output, so the books close with the
 //! cutting work to the integrator's tolerance, as the harmonic run's Hertz books do.
 
-use super::hertz::APPROACH_FLOOR_REL;
-use super::hertz_phase::{run_phase, Event, MAX_CONTACT_STEPS};
+use super::hertz::{ContactStep, APPROACH_FLOOR_REL};
+use super::hertz_phase::{count_steps, run_phase, Event};
 use super::{wall_of, Book, Consts, CutPiece, Md, St};
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
@@ -84,28 +84,11 @@ impl CutOver {
 /// One accepted step of a contact phase on a cutting run, as a segment.
 #[derive(Debug, Clone, Copy)]
 struct CutHertzSegment {
-    step: DenseStep<5>,
-    th_end: f64,
-    sw: f64,
-    lg: f64,
-    m: f64,
-    /// The bar's own stiffness `K`.
-    k: f64,
-    md: f64,
-    c: f64,
-    fs: f64,
-    f0: f64,
-    om: f64,
-    fb: f64,
-    law: Hertz,
+    base: ContactStep,
     cut: CutOver,
 }
 
 impl CutHertzSegment {
-    fn y_at(&self, t: f64) -> Y {
-        let th = ((t - self.step.t0) / self.step.h).clamp(0.0, self.th_end);
-        self.step.at_theta(th)
-    }
     /// `∫_a^b f` by 8-point Gauss–Legendre over the step's dense output.
     fn quad<const N: usize>(&self, a: f64, b: f64, f: impl Fn(f64, &Y) -> [f64; N]) -> [f64; N] {
         let mut sum = [0.0; N];
@@ -115,7 +98,7 @@ impl CutHertzSegment {
         let (mid, half) = (0.5 * (a + b), 0.5 * (b - a));
         for (x, w) in super::cutting::GL8 {
             let t = mid + half * x;
-            for (s, v) in sum.iter_mut().zip(f(t, &self.y_at(t))) {
+            for (s, v) in sum.iter_mut().zip(f(t, &self.base.y_at(t))) {
                 *s += w * v;
             }
         }
@@ -125,26 +108,16 @@ impl CutHertzSegment {
 
 impl Segment for CutHertzSegment {
     fn t_start_s(&self) -> f64 {
-        self.step.t0
+        self.base.step.t0
     }
     fn t_end_s(&self) -> f64 {
-        self.step.t0 + self.th_end * self.step.h
+        self.base.t_end_s()
     }
     fn mode(&self) -> Mode {
-        Mode::Contact(wall_of(self.sw))
+        self.base.mode()
     }
     fn state_at(&self, t_s: f64) -> crate::params::State {
-        let y = self.y_at(t_s);
-        let w = self.sw * (self.lg + y[2]);
-        let dw = self.sw * y[3];
-        crate::params::State {
-            t_s,
-            u_m: y[0],
-            du_m_s: y[1],
-            v_m: y[0] + w,
-            dv_m_s: y[1] + dw,
-            cavity: None,
-        }
+        self.base.state_at(t_s)
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
         self.quad(a_s, b_s, |_, y| [y[0] * y[0]])[0]
@@ -152,28 +125,25 @@ impl Segment for CutHertzSegment {
     fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals {
         // The forcing work is the harmonic force's only; the cut's is `cutting_work_j`.
         let [u2, fw, vl] = self.quad(a_s, b_s, |t, y| {
-            let f = self.fs + self.f0 * (self.om * t).sin();
+            let f = self.base.fs + self.base.f0 * (self.base.om * t).sin();
             [y[0] * y[0], f * y[1], y[1] * y[1]]
         });
         SegmentIntegrals {
             u2_m2_s: u2,
             forcing_work_j: fw,
-            viscous_loss_j: self.c * vl,
-            friction_work_j: if self.fb == 0.0 {
+            viscous_loss_j: self.base.c * vl,
+            friction_work_j: if self.base.fb == 0.0 {
                 0.0
             } else {
-                self.fb * self.sw * (self.y_at(b_s)[2] - self.y_at(a_s)[2])
+                self.base.fb * self.base.sw * (self.base.y_at(b_s)[2] - self.base.y_at(a_s)[2])
             },
         }
     }
     fn mechanical_energy_j(&self, t_s: f64) -> f64 {
-        let s = self.state_at(t_s);
-        let y = self.y_at(t_s);
-        crate::model::lumped_mechanical_energy_j(self.m, self.k, Some(self.md), &s)
-            + self.law.elastic_energy_j(y[2])
+        self.base.mechanical_energy_j(t_s)
     }
     fn cutting_at(&self, t_s: f64) -> Option<CutSample> {
-        let u = self.y_at(t_s)[0];
+        let u = self.base.y_at(t_s)[0];
         Some(CutSample {
             chip_thickness_m: self.cut.chip(t_s, u),
             in_cut: self.cut.piece.in_cut,
@@ -300,19 +270,7 @@ pub(super) fn contact_piece(
         };
         let chip_ev = events.len() - 1;
         let seg_of = |step: DenseStep<5>, th_end: f64| CutHertzSegment {
-            step,
-            th_end,
-            sw,
-            lg: cs.lg,
-            m: cs.m,
-            k,
-            md: cs.md,
-            c: cs.c,
-            fs: cs.fs,
-            f0: cs.f0,
-            om: cs.om,
-            fb,
-            law: *law,
+            base: ContactStep::new(cs, step, th_end, sw, k, fb, *law),
             cut: over,
         };
         let (mut h, mut max_pen) = (ph.h, ph.max_pen);
@@ -328,23 +286,10 @@ pub(super) fn contact_piece(
             if th < 1.0 || st.t0 + st.h < t_stop - 1e-9 * st.h {
                 h = st.h;
             }
-        })
-        .map_err(|e| match e {
-            SimError::ContactStepLimit { .. } => SimError::ContactStepLimit {
-                t_s: ph.t_touch,
-                steps: MAX_CONTACT_STEPS,
-            },
-            e => e,
-        })?;
+        });
+        let end = count_steps(end, &mut ph.steps, ph.t_touch)?;
         ph.h = h;
         ph.max_pen = max_pen;
-        ph.steps += end.steps;
-        if ph.steps > MAX_CONTACT_STEPS {
-            return Err(SimError::ContactStepLimit {
-                t_s: ph.t_touch,
-                steps: MAX_CONTACT_STEPS,
-            });
-        }
         ph.t = end.t;
         ph.y = end.y;
         if ph.max_pen > book.summary.max_penetration_m {

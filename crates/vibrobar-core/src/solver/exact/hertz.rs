@@ -19,9 +19,10 @@
 //! integrals come from Gauss–Legendre quadrature of the dense output and whose mechanical energy
 //! includes the elastic energy `(2/5) K_h δ^{5/2}`. The end of the contact is reported as an
 //! [`EventKind::Impact`] with the approach speed and `W_c` as its energy loss, so impact counts
-//! and the energy books keep their meaning. Work is bounded by [`MAX_CONTACT_STEPS`].
+//! and the energy books keep their meaning. Work is bounded by
+//! [`MAX_CONTACT_STEPS`](super::hertz_phase::MAX_CONTACT_STEPS).
 
-use super::hertz_phase::{run_phase, Event, MAX_CONTACT_STEPS};
+use super::hertz_phase::{count_steps, run_phase, Event};
 use super::{wall_of, Book, Consts, Md, St};
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
@@ -41,30 +42,93 @@ type Y = [f64; 5];
 /// One accepted step of a contact phase, as a segment.
 #[derive(Debug, Clone, Copy)]
 pub struct HertzSegment {
-    step: DenseStep<5>,
-    /// Fraction of the step inside the phase.
-    th_end: f64,
-    sw: f64,
-    lg: f64,
-    m: f64,
-    k: f64,
-    md: f64,
-    c: f64,
-    fs: f64,
-    f0: f64,
-    om: f64,
-    fb: f64,
-    law: Hertz,
+    base: ContactStep,
     /// `sw·ẇ` at the touch and the law's reference speed `δ̇₀ = max(approach, floor)`.
     approach: f64,
     v0: f64,
     stuck: bool,
 }
 
-impl HertzSegment {
-    fn y_at(&self, t: f64) -> Y {
+/// What the lumped contact segments share, with and without the cut (`cutting_hertz`): one
+/// accepted step (the fraction `th_end` of it inside the phase) at the wall `sw`, the
+/// constants their integrals read, and the state and energy on it.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct ContactStep {
+    pub(super) step: DenseStep<5>,
+    /// Fraction of the step inside the phase.
+    pub(super) th_end: f64,
+    pub(super) sw: f64,
+    pub(super) lg: f64,
+    pub(super) m: f64,
+    /// The bar's own stiffness `K`.
+    pub(super) k: f64,
+    pub(super) md: f64,
+    pub(super) c: f64,
+    pub(super) fs: f64,
+    pub(super) f0: f64,
+    pub(super) om: f64,
+    pub(super) fb: f64,
+    pub(super) law: Hertz,
+}
+
+impl ContactStep {
+    /// The step `step` (the fraction `th_end` inside the phase) at the wall `sw` of a bar with
+    /// `cs`'s constants and spring `k`, the ball's friction `fb`.
+    pub(super) fn new(
+        cs: &Consts,
+        step: DenseStep<5>,
+        th_end: f64,
+        sw: f64,
+        k: f64,
+        fb: f64,
+        law: Hertz,
+    ) -> ContactStep {
+        ContactStep {
+            step,
+            th_end,
+            sw,
+            lg: cs.lg,
+            m: cs.m,
+            k,
+            md: cs.md,
+            c: cs.c,
+            fs: cs.fs,
+            f0: cs.f0,
+            om: cs.om,
+            fb,
+            law,
+        }
+    }
+    pub(super) fn y_at(&self, t: f64) -> Y {
         let th = ((t - self.step.t0) / self.step.h).clamp(0.0, self.th_end);
         self.step.at_theta(th)
+    }
+    pub(super) fn t_end_s(&self) -> f64 {
+        self.step.t0 + self.th_end * self.step.h
+    }
+    pub(super) fn mode(&self) -> Mode {
+        Mode::Contact(wall_of(self.sw))
+    }
+    /// The public state (`w = sw·(l_g + δ)`).
+    pub(super) fn state_at(&self, t_s: f64) -> crate::params::State {
+        let y = self.y_at(t_s);
+        let w = self.sw * (self.lg + y[2]);
+        let dw = self.sw * y[3];
+        crate::params::State {
+            t_s,
+            u_m: y[0],
+            du_m_s: y[1],
+            v_m: y[0] + w,
+            dv_m_s: y[1] + dw,
+            cavity: None,
+        }
+    }
+    /// Bar, ball and the contact's elastic energy.
+    pub(super) fn mechanical_energy_j(&self, t_s: f64) -> f64 {
+        let s = self.state_at(t_s);
+        let y = self.y_at(t_s);
+        crate::model::lumped_mechanical_energy_j(self.m, self.k, Some(self.md), &s)
+            + self.law.elastic_energy_j(y[2])
     }
 }
 
@@ -86,33 +150,23 @@ pub(crate) const GL_W: [f64; 5] = [
 
 impl Segment for HertzSegment {
     fn t_start_s(&self) -> f64 {
-        self.step.t0
+        self.base.step.t0
     }
     fn t_end_s(&self) -> f64 {
-        self.step.t0 + self.th_end * self.step.h
+        self.base.t_end_s()
     }
     fn mode(&self) -> Mode {
-        Mode::Contact(wall_of(self.sw))
+        self.base.mode()
     }
     fn state_at(&self, t_s: f64) -> crate::params::State {
-        let y = self.y_at(t_s);
-        let w = self.sw * (self.lg + y[2]);
-        let dw = self.sw * y[3];
-        crate::params::State {
-            t_s,
-            u_m: y[0],
-            du_m_s: y[1],
-            v_m: y[0] + w,
-            dv_m_s: y[1] + dw,
-            cavity: None,
-        }
+        self.base.state_at(t_s)
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
         // The `u2_m2_s` of `integrals`, term for term (the RMS hot path: no forcing `sin`).
         let (mid, half) = (0.5 * (a_s + b_s), 0.5 * (b_s - a_s));
         let mut u2 = 0.0;
         for (x, wgt) in GL_X.iter().zip(GL_W) {
-            let u = self.y_at(mid + half * x)[0];
+            let u = self.base.y_at(mid + half * x)[0];
             u2 += wgt * half * u * u;
         }
         u2
@@ -122,31 +176,29 @@ impl Segment for HertzSegment {
         let mut out = SegmentIntegrals::default();
         for (x, wgt) in GL_X.iter().zip(GL_W) {
             let t = mid + half * x;
-            let y = self.y_at(t);
-            let f = self.fs + self.f0 * (self.om * t).sin();
+            let y = self.base.y_at(t);
+            let f = self.base.fs + self.base.f0 * (self.base.om * t).sin();
             out.u2_m2_s += wgt * half * y[0] * y[0];
             out.forcing_work_j += wgt * half * f * y[1];
-            out.viscous_loss_j += wgt * half * self.c * y[1] * y[1];
+            out.viscous_loss_j += wgt * half * self.base.c * y[1] * y[1];
         }
-        if self.fb != 0.0 {
-            out.friction_work_j = self.fb * self.sw * (self.y_at(b_s)[2] - self.y_at(a_s)[2]);
+        if self.base.fb != 0.0 {
+            out.friction_work_j =
+                self.base.fb * self.base.sw * (self.base.y_at(b_s)[2] - self.base.y_at(a_s)[2]);
         }
         out
     }
     fn mechanical_energy_j(&self, t_s: f64) -> f64 {
-        let s = self.state_at(t_s);
-        let y = self.y_at(t_s);
-        crate::model::lumped_mechanical_energy_j(self.m, self.k, Some(self.md), &s)
-            + self.law.elastic_energy_j(y[2])
+        self.base.mechanical_energy_j(t_s)
     }
     fn compliant_contact(&self) -> Option<CompliantContact> {
         Some(CompliantContact {
-            wall_sign: self.sw,
+            wall_sign: self.base.sw,
             approach_m_s: self.approach,
             reference_speed_m_s: self.v0,
-            ball_friction_n: self.fb,
+            ball_friction_n: self.base.fb,
             stuck: self.stuck,
-            law: self.law,
+            law: self.base.law,
         })
     }
 }
@@ -235,19 +287,7 @@ pub(super) fn contact(
             &slide_ev[..1]
         };
         let seg_of = |step: DenseStep<5>, th_end: f64| HertzSegment {
-            step,
-            th_end,
-            sw,
-            lg: cs.lg,
-            m: cs.m,
-            k: cs.k,
-            md: cs.md,
-            c: cs.c,
-            fs: cs.fs,
-            f0: cs.f0,
-            om: cs.om,
-            fb,
-            law: *law,
+            base: ContactStep::new(cs, step, th_end, sw, cs.k, fb, *law),
             approach,
             v0,
             stuck,
@@ -261,21 +301,8 @@ pub(super) fn contact(
                 book.obs.segment(&seg);
             }
             h = st.h;
-        })
-        .map_err(|e| match e {
-            SimError::ContactStepLimit { .. } => SimError::ContactStepLimit {
-                t_s: t0,
-                steps: MAX_CONTACT_STEPS,
-            },
-            e => e,
-        })?;
-        steps += end.steps;
-        if steps > MAX_CONTACT_STEPS {
-            return Err(SimError::ContactStepLimit {
-                t_s: t0,
-                steps: MAX_CONTACT_STEPS,
-            });
-        }
+        });
+        let end = count_steps(end, &mut steps, t0)?;
         t = end.t;
         y = end.y;
         match (end.which, stuck) {

@@ -46,6 +46,29 @@ pub struct PhaseEnd<const N: usize> {
     pub steps: u64,
 }
 
+/// One [`run_phase`] call of a phase that restarts (friction switches, stick, cut pieces):
+/// its steps added to the phase's `total`, and the step limit, of the call or of the whole
+/// phase, reported at the phase's touch `t_touch_s` (one rule for every compliant solver).
+pub fn count_steps<const N: usize>(
+    end: Result<PhaseEnd<N>, SimError>,
+    total: &mut u64,
+    t_touch_s: f64,
+) -> Result<PhaseEnd<N>, SimError> {
+    let limit = || SimError::ContactStepLimit {
+        t_s: t_touch_s,
+        steps: MAX_CONTACT_STEPS,
+    };
+    let end = end.map_err(|e| match e {
+        SimError::ContactStepLimit { .. } => limit(),
+        e => e,
+    })?;
+    *total += end.steps;
+    if *total > MAX_CONTACT_STEPS {
+        return Err(limit());
+    }
+    Ok(end)
+}
+
 /// Integrate `y' = f(t, y)` from `(t0, y0)` with first step `h0` until the first event: event
 /// `k` is `events[k](t, y)` falling below 0 (each is `≥ 0` at the start), or until `t_end`. Every accepted step is passed to `on_step` with the fraction `θ_end ∈ (0, 1]` of it
 /// that belongs to the phase. No allocation.

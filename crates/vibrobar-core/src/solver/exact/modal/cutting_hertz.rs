@@ -33,7 +33,7 @@ use crate::error::SimError;
 use crate::excitation::Cutting;
 use crate::solver::dopri5::{DenseStep, Dopri5};
 use crate::solver::exact::hertz::APPROACH_FLOOR_REL;
-use crate::solver::exact::hertz_phase::{run_phase, Event, MAX_CONTACT_STEPS};
+use crate::solver::exact::hertz_phase::{count_steps, run_phase, Event};
 use crate::solver::{CutSample, EventKind, Mode, Segment, SegmentIntegrals};
 
 /// A contact phase interrupted at a piece end or a cut event, to resume on the next piece.
@@ -387,23 +387,10 @@ pub(super) fn contact_piece(
             if th < 1.0 || st.t0 + st.h < t_stop - 1e-9 * st.h {
                 h = st.h;
             }
-        })
-        .map_err(|e| match e {
-            SimError::ContactStepLimit { .. } => SimError::ContactStepLimit {
-                t_s: ph.t_touch,
-                steps: MAX_CONTACT_STEPS,
-            },
-            e => e,
-        })?;
+        });
+        let end = count_steps(end, &mut ph.steps, ph.t_touch)?;
         ph.h = h;
         ph.max_pen = max_pen;
-        ph.steps += end.steps;
-        if ph.steps > MAX_CONTACT_STEPS {
-            return Err(SimError::ContactStepLimit {
-                t_s: ph.t_touch,
-                steps: MAX_CONTACT_STEPS,
-            });
-        }
         ph.t = end.t;
         ph.y = end.y;
         if ph.max_pen > book.summary.max_penetration_m {

@@ -28,7 +28,7 @@ use crate::error::SimError;
 use crate::limits::MAX_BEAM_MODES;
 use crate::solver::dopri5::{DenseStep, Dopri5};
 use crate::solver::exact::hertz::{APPROACH_FLOOR_REL, GL_W, GL_X};
-use crate::solver::exact::hertz_phase::{run_phase, Event, MAX_CONTACT_STEPS};
+use crate::solver::exact::hertz_phase::{count_steps, run_phase, Event};
 use crate::solver::{EventKind, Mode, Segment, SegmentIntegrals};
 
 /// Capacity of the phase's state: `N` displacements, `N` velocities, `δ`, `δ̇`, `W_c`.
@@ -331,21 +331,8 @@ pub(super) fn contact(
                 }
             }
             h = st.h;
-        })
-        .map_err(|e| match e {
-            SimError::ContactStepLimit { .. } => SimError::ContactStepLimit {
-                t_s: t0,
-                steps: MAX_CONTACT_STEPS,
-            },
-            e => e,
-        })?;
-        steps += end.steps;
-        if steps > MAX_CONTACT_STEPS {
-            return Err(SimError::ContactStepLimit {
-                t_s: t0,
-                steps: MAX_CONTACT_STEPS,
-            });
-        }
+        });
+        let end = count_steps(end, &mut steps, t0)?;
         t = end.t;
         y = end.y;
         match (end.which, stuck) {
