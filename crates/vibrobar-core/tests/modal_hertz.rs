@@ -79,17 +79,7 @@ impl Rec {
 }
 
 fn beam_system(n: usize, gap: f64, friction: FrictionModel) -> ModalSystem {
-    ModalSystem {
-        model: Structure::Beam(Beam {
-            modes: Some(n),
-            ..Beam::default()
-        })
-        .modal_model()
-        .unwrap(),
-        damper: Some(hertz(Damper::paper(gap, friction))),
-        forcing: Forcing::paper(1.0),
-        gravity_m_s2: params::STANDARD_GRAVITY_M_S2,
-    }
+    modal_beam::beam_system(n, Some(hertz(Damper::paper(gap, friction))), 1.0)
 }
 
 /// Issue #9 on the beam: a one-mode beam with the ball at the tip (tip-normalised modal mass and

@@ -3,22 +3,15 @@
 //! against the growth of simulated perturbations, bad input.
 use vibrobar_core::analysis::orbit::modal::*;
 use vibrobar_core::analysis::orbit::*;
-use vibrobar_core::params::{self, Damper, Forcing};
+use vibrobar_core::params::Damper;
 use vibrobar_core::structure::{Beam, MeasuredMode, ModalState, ModalSystem, Structure};
 use vibrobar_core::*;
 
+#[path = "common/modal_beam.rs"]
+mod modal_beam;
+
 fn beam(n: usize, gap_m: f64, ratio: f64) -> ModalSystem {
-    ModalSystem {
-        model: Structure::Beam(Beam {
-            modes: Some(n),
-            ..Beam::default()
-        })
-        .modal_model()
-        .unwrap(),
-        damper: Some(Damper::paper(gap_m, FrictionModel::None)),
-        forcing: Forcing::paper(ratio),
-        gravity_m_s2: params::STANDARD_GRAVITY_M_S2,
-    }
+    modal_beam::beam_system(n, Some(Damper::paper(gap_m, FrictionModel::None)), ratio)
 }
 
 /// The lumped bar's one unit mode as a `[[modes]]` table (`frequency_hz = √(K/M)/2π`, `ζ`,

@@ -4,11 +4,13 @@
 
 use vibrobar_core::analysis::variational::flow_with_jacobian;
 use vibrobar_core::analysis::variational_modal::{modal_flow_with_jacobian, ModalFlowJacobian};
-use vibrobar_core::params::Forcing;
-use vibrobar_core::params::{self, Damper, FrictionModel, State, System};
+use vibrobar_core::params::{Damper, FrictionModel, State, System};
 use vibrobar_core::solver::exact::modal::ModalExact;
 use vibrobar_core::solver::{Exact, Solver};
-use vibrobar_core::structure::{Beam, ModalState, ModalSystem, Structure};
+use vibrobar_core::structure::{ModalState, ModalSystem};
+
+#[path = "common/modal_beam.rs"]
+mod modal_beam;
 
 /// The paper's bar with `n` modes, the paper's damper at `gap_m` with `friction`, ratio 1.
 fn beam(
@@ -21,17 +23,7 @@ fn beam(
     let mut d = Damper::paper(gap_m, friction);
     d.friction_force_n = f_n.or(d.friction_force_n);
     d.restitution = e.unwrap_or(d.restitution);
-    ModalSystem {
-        model: Structure::Beam(Beam {
-            modes: Some(n),
-            ..Beam::default()
-        })
-        .modal_model()
-        .unwrap(),
-        damper: Some(d),
-        forcing: Forcing::paper(1.0),
-        gravity_m_s2: params::STANDARD_GRAVITY_M_S2,
-    }
+    modal_beam::beam_system(n, Some(d), 1.0)
 }
 
 /// Scales of `(q, q̇, v, v̇)`: each mode's static response to the force amplitude (`φ_fn F₀/kₙ`)

@@ -1,6 +1,7 @@
 //! The paper's beam as a modal system and independent references on it (a mode's closed-form
 //! forced response, the kinetic energy of bar and ball): shared by `modal_exact.rs`,
-//! `modal_rk4.rs` and `modal_hertz.rs`, which include it with `#[path]` (each uses a part).
+//! `modal_rk4.rs`, `modal_hertz.rs`, `orbit_modal.rs` and `variational_modal.rs`, which include
+//! it with `#[path]` (each uses a part).
 #![allow(dead_code)]
 
 use vibrobar_core::solver::Event;
