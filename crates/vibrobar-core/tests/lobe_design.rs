@@ -6,29 +6,14 @@ use vibrobar_core::analysis::batch::Runner;
 use vibrobar_core::analysis::lobe_design::*;
 use vibrobar_core::analysis::time_domain::*;
 use vibrobar_core::excitation::{Cutting, CuttingForceLaw};
-use vibrobar_core::params::{Bar, BarModel, Damper, Forcing, Frequency, FrictionModel, System};
+use vibrobar_core::params::{Damper, FrictionModel};
 use vibrobar_core::solver::exact::cutting::ExactCutting;
 
-/// One mode, 600 Hz, k = 2.2 MN/m, ζ = 0.01 (the cutting tests' bar), both as the damped and
-/// the solid bar, so a ball out of reach leaves the two the same bar.
-fn sys(damper: Option<Damper>) -> System {
-    let k = 2.2e6;
-    let wn = 2.0 * std::f64::consts::PI * 600.0;
-    System {
-        bar: BarModel::Lumped(Bar {
-            mass_kg: k / (wn * wn),
-            stiffness_n_per_m: k,
-            damping_ratio: 0.01,
-        }),
-        damper,
-        forcing: Forcing {
-            amplitude_n: 0.0,
-            frequency: Frequency::Ratio(1.0),
-            static_force_n: 0.0,
-        },
-        gravity_m_s2: 9.81,
-    }
-}
+#[path = "common/lumped_cut.rs"]
+mod lumped_cut;
+// One mode, 600 Hz, k = 2.2 MN/m, ζ = 0.01 (the cutting tests' bar), both as the damped and
+// the solid bar, so a ball out of reach leaves the two the same bar.
+use lumped_cut::sys;
 
 fn spec() -> LobeDesignSpec {
     let cut = Cutting {

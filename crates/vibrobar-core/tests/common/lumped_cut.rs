@@ -1,6 +1,6 @@
 //! The lumped bar of the cutting tests (600 Hz, 2.2e6 N/m, ζ = 0.01) without harmonic forcing,
 //! and the cut's coefficient and feed: one definition for `cutting.rs`, `cutting_event_slope.rs`,
-//! `cutting_hertz.rs`, `modal_cutting_hertz.rs` and `time_domain.rs`, which include it with
+//! `cutting_hertz.rs`, `modal_cutting_hertz.rs`, `time_domain.rs` and `lobe_design.rs`, which include it with
 //! `#[path]`.
 #![allow(dead_code)]
 
