@@ -20,7 +20,7 @@ use std::time::Instant;
 use vibrobar_core::analysis::batch::Runner;
 use vibrobar_core::analysis::lobe_design::{
     chaos_spread, design_searches, optimum, solid_reference, DesignAxis, DesignGrid, DesignRow,
-    LobeDesignSpec, SolidReference, SPREAD_REL, SPREAD_SEEDS,
+    LobeDesignSpec, SolidReference, DAMPED_LARGE, SOLID_LARGE, SPREAD_REL, SPREAD_SEEDS,
 };
 use vibrobar_core::analysis::map::{self, Axis, Grid, GridAxis, MapSpec};
 use vibrobar_core::analysis::placement::{self, PlacementGrid, PlacementSpec, PointFailed};
@@ -241,10 +241,6 @@ struct Bistable {
     /// Speed, the rows, the CSV and the figure.
     diagram: Option<(f64, Vec<DiagramRow>, PathBuf, PathBuf)>,
 }
-
-/// Indices of the large-disturbance searches in `time_domain::SEARCH_ORDER`.
-const SOLID_LARGE: usize = 1;
-const DAMPED_LARGE: usize = 3;
 
 /// Widths of the width diagram: `DIAGRAM_POINTS` evenly over `[0.5, 1.5]·b_lim_solid`, the
 /// solid bar's linear boundary at that speed in the middle.

@@ -34,9 +34,9 @@ use crate::structure::Beam;
 
 /// Index of the damped bar's large-disturbance search in
 /// [`super::time_domain::SEARCH_ORDER`].
-const DAMPED_LARGE: usize = 3;
+pub const DAMPED_LARGE: usize = 3;
 /// Index of the solid bar's large-disturbance search.
-const SOLID_LARGE: usize = 1;
+pub const SOLID_LARGE: usize = 1;
 
 /// Seeded perturbations of the disturbance behind the spread of a chaotic worst case
 /// ([`chaos_spread`]; seeds `1..=SPREAD_SEEDS`).
