@@ -61,6 +61,8 @@
 //! convex cubic step) reached 3.35× / 3.45× (bench path 3.6×, CPU time 3.4–3.8×) and moved
 //! every golden, so it was not kept (commit 7952390, reverted).
 
+use std::cell::RefCell;
+
 use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
 use super::expsum::{integral_square, ExpSum, Trig};
 use super::expsum_n::{
@@ -349,6 +351,7 @@ struct Work {
     ids: [u8; MAX_CANDS],
     search: ScratchN,
     end: TrigN,
+    probe: RefCell<TrigN>,
     tmp: ExpSumN,
 }
 
@@ -373,6 +376,7 @@ impl Work {
             ids: [0; MAX_CANDS],
             search: ScratchN::default(),
             end: TrigN::empty(),
+            probe: RefCell::new(TrigN::empty()),
             tmp: z,
         })
     }
@@ -403,6 +407,9 @@ pub struct ModalExactSegment<'a> {
     cs: &'a Consts,
     m: SegMotion<'a>,
     end: &'a TrigN,
+    /// A run-long buffer for the transcendentals at an observer's sample time: a fresh
+    /// `TrigN` would zero its full capacity (2 KB) for every sample.
+    probe: &'a RefCell<TrigN>,
 }
 
 impl ModalExactSegment<'_> {
@@ -470,7 +477,9 @@ impl ModalExactSegment<'_> {
         let mut s = if tau.to_bits() == self.end.tau.to_bits() {
             self.at_t(self.end)
         } else {
-            self.at_t(&TrigN::new(tau, self.basis()))
+            let mut tr = self.probe.borrow_mut();
+            tr.fill(tau, self.basis());
+            self.at_t(&tr)
         };
         s.t = t_s;
         s
@@ -1085,6 +1094,7 @@ fn free_flight(
         cs,
         m: SegMotion::Free(&work.mo),
         end: &work.end,
+        probe: &work.probe,
     };
     // (`s` is the end state from here on: the event maps work on it in place.)
     *s = book.close(&seg, s);
@@ -1422,6 +1432,7 @@ fn pair_motion(
         cs,
         m: SegMotion::Pair(&pm),
         end: &work.end,
+        probe: &work.probe,
     };
     let mut next = book.close(&seg, s);
     next.dw = 0.0;
@@ -1483,6 +1494,7 @@ fn chatter_limit(
         cs,
         m: SegMotion::Pair(&pm),
         end: &work.end,
+        probe: &work.probe,
     };
     let mut next = book.close(&seg, &after);
     next.dw = 0.0;
@@ -1560,6 +1572,7 @@ mod tests {
                     cs: &cs,
                     m: SegMotion::Free(&work.mo),
                     end: &work.end,
+                    probe: &work.probe,
                 }
             } else {
                 pm = build_pair(&cs, held_modes.segment(s.t, &s.q, &s.dq), s.t, s.w);
@@ -1571,6 +1584,7 @@ mod tests {
                     cs: &cs,
                     m: SegMotion::Pair(&pm),
                     end: &work.end,
+                    probe: &work.probe,
                 }
             };
             let want = if friction == FrictionModel::Coulomb {
