@@ -347,6 +347,11 @@ pub struct ScratchN {
     /// Searches without the envelope (the reference of the tests).
     #[cfg(test)]
     env_off: bool,
+    /// The basis the per-basis part was set up for (only its frequencies are read), and with
+    /// or without the envelope.
+    basis: ExpSumN,
+    #[cfg(test)]
+    env_off_of_basis: bool,
 }
 
 impl Default for ScratchN {
@@ -379,6 +384,10 @@ impl Default for ScratchN {
             env_slow: false,
             #[cfg(test)]
             env_off: false,
+            // (No basis: `n = 0` with `Ω = NaN` never equals a search's.)
+            basis: ExpSumN::zero(f64::NAN),
+            #[cfg(test)]
+            env_off_of_basis: false,
         }
     }
 }
@@ -400,6 +409,36 @@ fn quad_step(f: f64, f1: f64, b: f64) -> f64 {
     }
 }
 
+/// Smallest positive root of `f + f1 h − b h²/2` for `b` of either sign (`f ≥ 0`), infinite if
+/// none: with `b < 0` (a convex lower bound) the smaller root of the upward parabola, where
+/// `quad_step` with `b` clamped to zero would give only the Newton step `f/|f1|`.
+#[inline]
+fn quad_step_signed(f: f64, f1: f64, b: f64) -> f64 {
+    if b >= 0.0 {
+        quad_step(f, f1, b)
+    } else if f1 < 0.0 {
+        let disc = f1 * f1 + 2.0 * b * f;
+        if disc >= 0.0 {
+            2.0 * f / (-f1 + disc.sqrt())
+        } else {
+            f64::INFINITY
+        }
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// `max(hi, min(quad_step(f, f1, b), cap))`, without the square root where it cannot win:
+/// the bound `f + f1 h − b h²/2` (`f ≥ 0`, `b ≥ 0`) is positive exactly before its root, so
+/// where it is not positive at `hi` the root does not reach beyond `hi`.
+#[inline]
+fn improve(hi: f64, f: f64, f1: f64, b: f64, cap: f64) -> f64 {
+    if cap <= hi || f + hi * (f1 - 0.5 * b * hi) <= 0.0 {
+        return hi;
+    }
+    hi.max(quad_step(f, f1, b).min(cap))
+}
+
 const MARGIN: f64 = 1.0 + 1e-12;
 
 /// Largest share of a function's largest amplitude the cheap step's fast set may carry (module
@@ -408,16 +447,23 @@ const FAST_FRACTION: f64 = 0.1;
 
 /// Departure step of `g` with a zero of order `order` at `t0` (the rule of [`super::roots`]):
 /// `g > 0` is proven on `(t0, t0 + h₁)`; returns `h₁/2`, or `None` if not confirmed.
-fn departure_step(g: &ExpSumN, order: usize, pre: &Pre, tr: &TrigN) -> Option<f64> {
+fn departure_step(g: &ExpSumN, order: usize, pre: &Pre, s: &ScratchN) -> Option<f64> {
     const FACT: [f64; 6] = [1.0, 1.0, 2.0, 6.0, 24.0, 120.0];
+    let tr = &s.trig;
     let d: [f64; 5] = g.derivs_t(tr);
     let k = order.min(3);
     let a = d[k].max(0.0) / FACT[k];
     let b = d[k + 1] / FACT[k + 1];
-    let n = (k + 2) as i32;
-    let mut bound = g.om.powi(n) * pre.rh;
-    for (t, (r, kk)) in g.t[..g.n].iter().zip(pre.rd.iter().zip(&tr.k[..g.n])) {
-        bound += t.wn2().sqrt().powi(n) * r * (1.0 + kk.em1);
+    // `x^(k+2)` from `x²` and `x³` (k + 2 is 3, 4 or 5).
+    let pow = |x2: f64, x3: f64| match k {
+        1 => x3,
+        2 => x2 * x2,
+        _ => x2 * x3,
+    };
+    let om2 = g.om * g.om;
+    let mut bound = pow(om2, om2 * g.om) * pre.rh;
+    for kk in 0..g.n {
+        bound += pow(s.wn2[kk], s.wn3[kk]) * pre.rd[kk] * (1.0 + tr.k[kk].em1);
     }
     let c = bound * MARGIN / FACT[k + 2];
     let h1 = if c > 0.0 {
@@ -433,6 +479,55 @@ fn departure_step(g: &ExpSumN, order: usize, pre: &Pre, tr: &TrigN) -> Option<f6
         None
     } else {
         Some(0.5 * h1)
+    }
+}
+
+/// The per-basis part of a search (module docs): the terms by decreasing `|λ|` (the order in
+/// which they are moved to the fast set), their `|λ|²` and `|λ|³`, and the envelope's term
+/// (the one nearest to the harmonic, the smallest beat rate); `s.basis` records the basis.
+fn basis_setup(g: &ExpSumN, s: &mut ScratchN) {
+    let nt = g.n;
+    for k in 0..nt {
+        s.wn2[k] = g.t[k].wn2();
+        s.wn3[k] = s.wn2[k] * s.wn2[k].sqrt();
+        s.order[k] = k;
+    }
+    for i in 1..nt {
+        let mut j = i;
+        while j > 0 && s.wn2[s.order[j - 1]] < s.wn2[s.order[j]] {
+            s.order.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+    s.env = None;
+    #[cfg(test)]
+    let env_on = !s.env_off;
+    #[cfg(not(test))]
+    let env_on = true;
+    if env_on && g.om > 0.0 {
+        let om = g.om;
+        let mut best = f64::INFINITY;
+        for (k, t) in g.t[..nt].iter().enumerate() {
+            let rate = t.al + (t.wd - om).abs();
+            if t.wd > 0.0 && rate < best {
+                best = rate;
+                let (al, wd) = (t.al, t.wd);
+                let (l2r, l2i) = (al * al - wd * wd, -2.0 * al * wd);
+                s.env = Some(EnvN {
+                    k,
+                    om2: om * om,
+                    om3: om * om * om,
+                    l2: (l2r, l2i),
+                    l3: (-al * l2r - wd * l2i, wd * l2r - al * l2i),
+                    rate: rate * MARGIN,
+                });
+            }
+        }
+    }
+    s.basis.set_affine(g, 0.0, 0.0);
+    #[cfg(test)]
+    {
+        s.env_off_of_basis = s.env_off;
     }
 }
 
@@ -452,44 +547,15 @@ pub fn first_root_n(
         return (Root::None, 0);
     };
     let nt = first.g.n;
-    // Terms by decreasing |λ|: the order in which they are moved to the fast set.
-    for k in 0..nt {
-        s.wn2[k] = first.g.t[k].wn2();
-        s.wn3[k] = s.wn2[k] * s.wn2[k].sqrt();
-        s.order[k] = k;
-    }
-    for i in 1..nt {
-        let mut j = i;
-        while j > 0 && s.wn2[s.order[j - 1]] < s.wn2[s.order[j]] {
-            s.order.swap(j - 1, j);
-            j -= 1;
-        }
-    }
-    // The term nearest to the harmonic (smallest beat rate) for the envelope.
-    s.env = None;
+    // What depends on the basis alone (the order of the terms, their |λ|ⁿ, the envelope's
+    // term) is kept from the previous search when the basis is the same (a run has one or
+    // two bases).
     #[cfg(test)]
-    let env_on = !s.env_off;
+    let same = s.basis.same_basis(&first.g) && s.env_off_of_basis == s.env_off;
     #[cfg(not(test))]
-    let env_on = true;
-    if env_on && first.g.om > 0.0 {
-        let om = first.g.om;
-        let mut best = f64::INFINITY;
-        for (k, t) in first.g.t[..nt].iter().enumerate() {
-            let rate = t.al + (t.wd - om).abs();
-            if t.wd > 0.0 && rate < best {
-                best = rate;
-                let (al, wd) = (t.al, t.wd);
-                let (l2r, l2i) = (al * al - wd * wd, -2.0 * al * wd);
-                s.env = Some(EnvN {
-                    k,
-                    om2: om * om,
-                    om3: om * om * om,
-                    l2: (l2r, l2i),
-                    l3: (-al * l2r - wd * l2i, wd * l2r - al * l2i),
-                    rate: rate * MARGIN,
-                });
-            }
-        }
+    let same = s.basis.same_basis(&first.g);
+    if !same {
+        basis_setup(&first.g, s);
     }
     s.trig.fill(t0, &first.g);
     s.trig_full = true;
@@ -511,12 +577,14 @@ pub fn first_root_n(
     // least one term stays slow).
     let mut n_fast = 0;
     let mut cum = [0.0f64; MAX_CANDS];
+    let mut cap = [0.0f64; MAX_CANDS];
+    for (c, pre) in cap.iter_mut().zip(&s.pre).take(n_c) {
+        *c = FAST_FRACTION * pre.rd[..nt].iter().fold(pre.rh, |a, &b| a.max(b));
+    }
     'grow: for j in 0..nt.saturating_sub(1) {
         let k = s.order[j];
         for (i, ci) in cum.iter_mut().enumerate().take(n_c) {
-            let pre = &s.pre[i];
-            let big = pre.rd[..nt].iter().fold(pre.rh, |a, &b| a.max(b));
-            if *ci + pre.rd[k] > FAST_FRACTION * big {
+            if *ci + s.pre[i].rd[k] > cap[i] {
                 break 'grow;
             }
         }
@@ -541,7 +609,7 @@ pub fn first_root_n(
         pre.rf0 = rf0 * MARGIN;
         let mut free_until = t0;
         if c.order > 0 {
-            match departure_step(g, c.order, pre, &s.trig) {
+            match departure_step(g, c.order, &s.pre[i], s) {
                 Some(h) => free_until = t0 + h,
                 None => return (Root::At(t0), i),
             }
@@ -734,12 +802,20 @@ fn cheap_eval(c: &CandN, i: usize, s: &ScratchN, tau: f64, prev: f64) -> Result<
     if big_h.is_finite() && big_h > h2 {
         let mut b3 = (pre.b3const + b3dec) * MARGIN;
         if let Some(env) = s.env.filter(|_| s.env_slow) {
-            let (be, b3e) = env_bounds(&env, g, tr, pre, b, b3, big_h);
-            hi = hi.max(quad_step(lo, f1, be).min(big_h));
+            let (be, b3e) = env_bounds(&env, env.z23(g, tr), s, tr, pre, b, b3, big_h);
+            hi = improve(hi, lo, f1, be, big_h);
             b3 = b3.min(b3e);
         }
         let b_eff = b3 * big_h / 3.0 - f2_lo;
-        hi = hi.max(quad_step(lo, f1, b_eff.max(0.0)).min(big_h));
+        if b_eff >= 0.0 {
+            hi = improve(hi, lo, f1, b_eff, big_h);
+        } else {
+            // A convex lower bound (as in `eval`): also the polynomial's rounding off.
+            let lo_c = lo - eps_n * ((tau * (g.c1 + tau * g.c2)).abs() + pre.rh);
+            if lo_c > 0.0 {
+                hi = hi.max(quad_step_signed(lo_c, f1, b_eff).min(big_h));
+            }
+        }
     }
     Ok(hi.max(prev))
 }
@@ -750,9 +826,11 @@ fn cheap_eval(c: &CandN, i: usize, s: &ScratchN, tau: f64, prev: f64) -> Result<
 /// that pair's amplitudes `Ω²|Ĥ| + |λₖ|²|D̂ₖ|e^{−αₖτ}` (resp. third powers), which are taken off
 /// with a rounding margin of `8ε` times the bound.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn env_bounds(
     env: &EnvN,
-    g: &ExpSumN,
+    (z2, z3): (f64, f64),
+    s: &ScratchN,
     tr: &TrigN,
     pre: &Pre,
     b: f64,
@@ -761,14 +839,12 @@ fn env_bounds(
 ) -> (f64, f64) {
     let k = env.k;
     let rk = pre.rd[k] * (1.0 + tr.k[k].em1);
-    let wn2 = g.t[k].wn2();
-    let wn = wn2.sqrt();
+    let (wn2, wn3) = (s.wn2[k], s.wn3[k]);
     let pair2 = (env.om2 * pre.rh + wn2 * rk) * MARGIN;
-    let pair3 = (env.om3 * pre.rh + wn2 * wn * rk) * MARGIN;
-    let (z2, z3) = env.z23(g, tr);
+    let pair3 = (env.om3 * pre.rh + wn3 * rk) * MARGIN;
     let drift = rk * env.rate * big_h;
     let be = b - pair2 + (z2 + wn2 * drift) * MARGIN + 8.0 * f64::EPSILON * b;
-    let b3e = b3 - pair3 + (z3 + wn2 * wn * drift) * MARGIN + 8.0 * f64::EPSILON * b3;
+    let b3e = b3 - pair3 + (z3 + wn3 * drift) * MARGIN + 8.0 * f64::EPSILON * b3;
     (be.max(0.0), b3e.max(0.0))
 }
 
@@ -824,6 +900,16 @@ fn eval(
     let eps_n = 8.0 * f64::EPSILON * (n as f64 + 1.0);
     let (mut fs, mut f1s, mut bs, mut rf) = (f, f1, b_full, 0.0);
     let mag = f + rsum;
+    // The slow beat on each split while its term is slow (module docs): the pair's amplitudes
+    // `pair2` replaced by `|Z₂(τ)|` plus the drift `dr·H` over the split's horizon
+    // `H = 8h` (`h` the split's amplitude step); the step so proven is capped at `H`.
+    let z23 = s.env.map(|env| env.z23(g, tr));
+    let mut envs = s.env.zip(z23).map(|(env, (z2, _))| {
+        let k = env.k;
+        let wn2 = s.wn2[k];
+        let pair2 = (env.om2 * pre.rh + wn2 * s.r[k]) * MARGIN;
+        (k, pair2, z2, wn2 * s.r[k] * env.rate)
+    });
     for &k in &s.order[..n] {
         fs -= s.v[k];
         f1s -= s.v1[k];
@@ -834,7 +920,23 @@ fn eval(
             break;
         }
         let bb = bs.max(0.0) + eps_n * b_full;
-        hi = hi.max(quad_step(lo, f1s, bb));
+        if envs.is_some_and(|e| e.0 == k) {
+            // The envelope's term is set aside from here on: no pair left in `bs`.
+            envs = None;
+        }
+        if let Some((_, pair2, z2, dr)) = envs {
+            let hs = quad_step(lo, f1s, bb);
+            hi = hi.max(hs);
+            if hs.is_finite() {
+                let big_hs = 8.0 * hs;
+                let be = bs - pair2
+                    + (z2 + dr * big_hs) * MARGIN
+                    + (eps_n + 8.0 * f64::EPSILON) * b_full;
+                hi = improve(hi, lo, f1s, be.max(0.0), big_hs);
+            }
+        } else {
+            hi = improve(hi, lo, f1s, bb, f64::INFINITY);
+        }
     }
     // The cubic proof within a horizon H (the lumped search's): with B₃ ≥ |g'''|,
     // g(τ+h) ≥ g + g'h + (g''/2 − B₃H/6)h² for h ≤ H; H a little beyond the zero of the local
@@ -852,14 +954,23 @@ fn eval(
     let mut c_up = f64::INFINITY;
     if big_h.is_finite() && big_h > hi {
         let mut b3 = (pre.b3const + b3dec) * MARGIN;
-        if let Some(env) = s.env {
-            let (be, b3e) = env_bounds(&env, g, tr, pre, b_full, b3, big_h);
-            hi = hi.max(quad_step(f, f1, be).min(big_h));
+        if let (Some(env), Some(z)) = (s.env, z23) {
+            let (be, b3e) = env_bounds(&env, z, s, tr, pre, b_full, b3, big_h);
+            hi = improve(hi, f, f1, be, big_h);
             b3 = b3.min(b3e);
         }
         c_up = 0.5 * (f2 + eps_n * b_full) + b3 * big_h / 6.0;
         let b_eff = b3 * big_h / 3.0 - f2_lo;
-        hi = hi.max(quad_step(f, f1, b_eff.max(0.0)).min(big_h));
+        if b_eff >= 0.0 {
+            hi = improve(hi, f, f1, b_eff, big_h);
+        } else {
+            // A convex lower bound: its smaller root, from the value less its rounding (near
+            // a double root the discriminant is all rounding).
+            let lo = f - eps_n * (mag + g.f0.abs() + (tau * (g.c1 + tau * g.c2)).abs() + pre.rh);
+            if lo > 0.0 {
+                hi = hi.max(quad_step_signed(lo, f1, b_eff).min(big_h));
+            }
+        }
     }
     let hi = hi.max(prev);
     let mut bracketed = false;
