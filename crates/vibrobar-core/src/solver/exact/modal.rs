@@ -64,7 +64,7 @@
 use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
 use super::expsum::{integral_square, ExpSum, Trig};
 use super::expsum_n::{
-    integral_product_n, integral_square_n, integral_square_n_to, ExpSumN, Term, TrigN,
+    integral_product_n, integral_square_n, integral_square_n_to, ExpSumN, SquarePlan, Term, TrigN,
 };
 use super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::CONFINEMENT_TOL_M;
@@ -78,6 +78,7 @@ use crate::solver::{
     Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Wall,
 };
 use crate::structure::{ModalState, ModalSystem, Point};
+use std::cell::RefCell;
 
 pub mod cutting;
 mod hertz;
@@ -350,6 +351,14 @@ struct Work {
     search: ScratchN,
     end: TrigN,
     tmp: ExpSumN,
+    sq: SquarePlans,
+}
+
+/// The plans of `∫u²` for the run's two bases: free flight and the ball held (the constrained
+/// modes). Rebuilt where a basis changes; a segment's `integral_u2` (behind `&self`) uses them.
+struct SquarePlans {
+    free: RefCell<SquarePlan>,
+    held: RefCell<SquarePlan>,
 }
 
 impl Work {
@@ -374,6 +383,10 @@ impl Work {
             search: ScratchN::default(),
             end: TrigN::empty(),
             tmp: z,
+            sq: SquarePlans {
+                free: RefCell::new(SquarePlan::new()),
+                held: RefCell::new(SquarePlan::new()),
+            },
         })
     }
 }
@@ -403,6 +416,7 @@ pub struct ModalExactSegment<'a> {
     cs: &'a Consts,
     m: SegMotion<'a>,
     end: &'a TrigN,
+    sq: &'a SquarePlans,
 }
 
 impl ModalExactSegment<'_> {
@@ -516,14 +530,19 @@ impl Segment for ModalExactSegment<'_> {
         ModalExactSegment::mechanical_energy_j(self, t_s)
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
-        let ur = match self.m {
-            SegMotion::Free(mo) => &mo.ur,
-            SegMotion::Pair(pm) => &pm.ur,
+        let (ur, plan) = match self.m {
+            SegMotion::Free(mo) => (&mo.ur, &self.sq.free),
+            SegMotion::Pair(pm) => (&pm.ur, &self.sq.held),
         };
         // Up to the segment's end (its relative end `end.tau`, which `t1 − t0` equals to its
-        // rounding), with the transcendentals already computed there.
+        // rounding), with the transcendentals already computed there; from its start (the
+        // usual case) by the plan of its basis.
         if b_s.to_bits() == self.t1.to_bits() && self.end.n == ur.n {
-            return integral_square_n_to(ur, a_s - self.t0, self.end);
+            let a = a_s - self.t0;
+            if a == 0.0 {
+                return plan.borrow_mut().integral_square_to(ur, self.end);
+            }
+            return integral_square_n_to(ur, a, self.end);
         }
         integral_square_n(ur, a_s - self.t0, b_s - self.t0)
     }
@@ -1085,6 +1104,7 @@ fn free_flight(
         cs,
         m: SegMotion::Free(&work.mo),
         end: &work.end,
+        sq: &work.sq,
     };
     // (`s` is the end state from here on: the event maps work on it in place.)
     *s = book.close(&seg, s);
@@ -1422,6 +1442,7 @@ fn pair_motion(
         cs,
         m: SegMotion::Pair(&pm),
         end: &work.end,
+        sq: &work.sq,
     };
     let mut next = book.close(&seg, s);
     next.dw = 0.0;
@@ -1483,6 +1504,7 @@ fn chatter_limit(
         cs,
         m: SegMotion::Pair(&pm),
         end: &work.end,
+        sq: &work.sq,
     };
     let mut next = book.close(&seg, &after);
     next.dw = 0.0;
@@ -1560,6 +1582,7 @@ mod tests {
                     cs: &cs,
                     m: SegMotion::Free(&work.mo),
                     end: &work.end,
+                    sq: &work.sq,
                 }
             } else {
                 pm = build_pair(&cs, held_modes.segment(s.t, &s.q, &s.dq), s.t, s.w);
@@ -1571,6 +1594,7 @@ mod tests {
                     cs: &cs,
                     m: SegMotion::Pair(&pm),
                     end: &work.end,
+                    sq: &work.sq,
                 }
             };
             let want = if friction == FrictionModel::Coulomb {
