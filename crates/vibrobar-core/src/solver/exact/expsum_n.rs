@@ -10,7 +10,7 @@
 //! buffers kept for the run (`set_*` methods, [`TrigN::fill`]) and touch only the `n` terms in
 //! use.
 
-use super::expsum::{phi1, C};
+use super::expsum::{phi1, small_sin_cm1, C};
 use crate::limits::MAX_BEAM_MODES;
 
 /// Capacity of the decaying terms: two per mode (the constrained motion's real exponentials).
@@ -884,7 +884,8 @@ struct SlowPair {
     conj: bool,
     /// `Im ν`.
     nu_im: f64,
-    /// `1/ν` (`None` where it is not finite: `∫e^{ντ} = h` to within `|νh|` ≤ 1e-300).
+    /// `1/ν` (`None` where it is not finite, `|ν|` 0 or below 1e-308: `∫e^{ντ} = h` to within
+    /// `|νh|`).
     inv: Option<C>,
     /// The pair's weight: 1 for `j < k` (both orders), ½ for `j = k`.
     w: f64,
@@ -900,16 +901,15 @@ struct PhasorRate {
     qs: f64,
 }
 
-/// Per phasor, values of one call: `g = c e^{λh}`, `d = c(e^{λh} − 1)` and the coefficient
-/// `c` (real and imaginary parts paired as the pair loop reads them), and `e^{−αh} − 1`.
+/// Per phasor, values of one call (`c` its coefficient, `d = c(e^{λh} − 1)`, `g = c + d`),
+/// paired as the two lanes of the pair loop read them: as the pair's `k` side `p = (gᵣ, dᵣ)`,
+/// `m = (gᵢ, dᵢ)`, as its `j` side `a = (dᵣ, cᵣ)`, `b = (dᵢ, cᵢ)`; and `e^{−αh} − 1`.
 #[derive(Debug, Clone, Copy, Default)]
 struct PhasorEnd {
-    gr: f64,
-    dr: f64,
-    gi: f64,
-    di: f64,
-    cr: f64,
-    ci: f64,
+    p: [f64; 2],
+    m: [f64; 2],
+    a: [f64; 2],
+    b: [f64; 2],
     em1: f64,
 }
 
@@ -937,9 +937,9 @@ pub struct SquarePlan {
     /// (`∫e^{λτ} = h`).
     undamped: Vec<usize>,
     still: Vec<usize>,
-    /// Per unordered pair `j ≤ k`, row by row: `Rᵣ + Sᵣ`, `Sᵢ − Rᵢ`, `Sᵣ − Rᵣ`, `−(Rᵢ + Sᵢ)`,
-    /// each twice (for the two lanes of the row sums), with `R = w/(λⱼ + λₖ)`,
-    /// `S = w/(λⱼ + λ̄ₖ)` (0 for a slow exponent and `S` for `j = k`).
+    /// Per unordered pair `j ≤ k`, row by row, the weights `w₀ = Rᵣ + Sᵣ`, `w₁ = Sᵢ − Rᵢ`,
+    /// `w₂ = Sᵣ − Rᵣ`, `w₃ = −(Rᵢ + Sᵢ)`, each twice (one per lane of the pair loop), with
+    /// `R = w/(λⱼ + λₖ)`, `S = w/(λⱼ + λ̄ₖ)` (0 for a slow exponent and `S` for `j = k`).
     pairs: Vec<[f64; 8]>,
     slow: Vec<SlowPair>,
     /// Scratch of one call, one per phasor.
@@ -1055,12 +1055,10 @@ impl SquarePlan {
         let mut one = |o: &mut PhasorEnd, r: &PhasorRate, c: C, q: C, em1: f64| {
             let d = c.mul(q);
             *o = PhasorEnd {
-                gr: c.0 + d.0,
-                dr: d.0,
-                gi: c.1 + d.1,
-                di: d.1,
-                cr: c.0,
-                ci: c.1,
+                p: [c.0 + d.0, d.0],
+                m: [c.1 + d.1, d.1],
+                a: [d.0, c.0],
+                b: [d.1, c.1],
                 em1,
             };
             lin += d.0 * r.il.0 - d.1 * r.il.1;
@@ -1085,35 +1083,40 @@ impl SquarePlan {
         }
         let ends = &self.ends[..n];
         for &i in &self.undamped {
-            diag += (ends[i].cr * ends[i].cr + ends[i].ci * ends[i].ci) * h;
+            diag += (ends[i].a[1] * ends[i].a[1] + ends[i].b[1] * ends[i].b[1]) * h;
         }
         for &i in &self.still {
-            lin += ends[i].cr * h;
+            lin += ends[i].a[1] * h;
         }
-        // The pairs row by row: `Σₖ` of each pair's value is `dⱼᵣ tₐ + dⱼᵢ t_b + cⱼᵣ t_e + cⱼᵢ t_f`
-        // with the row sums of the `k` side's values times the pair's weights.
-        let mut pairs = 0.0;
+        // The pairs: each one's `Re(N₁R + N₂S)` is the sum over the two lanes of
+        // `a (p w₀ + m w₁) + b (m w₂ + p w₃)` with its `j` side `a, b` and `k` side `p, m`.
+        let mut acc = [0.0; 2];
         let mut rest = &self.pairs[..];
         for (j, pj) in ends.iter().enumerate() {
             let (row, tail) = rest.split_at(n - j);
             rest = tail;
-            let (mut ta, mut te, mut tb, mut tf) = (0.0, 0.0, 0.0, 0.0);
             for (u, pk) in row.iter().zip(&ends[j..]) {
-                ta += pk.gr * u[0] + pk.gi * u[2];
-                te += pk.dr * u[1] + pk.di * u[3];
-                tb += pk.gi * u[4] + pk.gr * u[6];
-                tf += pk.di * u[5] + pk.dr * u[7];
+                for l in 0..2 {
+                    acc[l] += pj.a[l] * (pk.p[l] * u[l] + pk.m[l] * u[2 + l])
+                        + pj.b[l] * (pk.m[l] * u[4 + l] + pk.p[l] * u[6 + l]);
+                }
             }
-            pairs += pj.dr * ta + pj.di * tb + pj.cr * te + pj.ci * tf;
         }
+        let mut pairs = acc[0] + acc[1];
         for s in &self.slow {
             let (pj, pk) = (&ends[s.j], &ends[s.k]);
-            let ck = C(pk.cr, if s.conj { -pk.ci } else { pk.ci });
-            let cc = C(pj.cr, pj.ci).mul(ck);
+            let ck = C(pk.a[1], if s.conj { -pk.b[1] } else { pk.b[1] });
+            let cc = C(pj.a[1], pj.b[1]).mul(ck);
             let int = match s.inv {
                 Some(inv) => {
                     let em = pj.em1 + pk.em1 + pj.em1 * pk.em1;
-                    let (sn, cm1) = half_angle(0.5 * (s.nu_im * h));
+                    // (Near resonance the angle is mostly small: its series is cheaper.)
+                    let y = s.nu_im * h;
+                    let (sn, cm1) = if y.abs() <= 0.125 {
+                        small_sin_cm1(y)
+                    } else {
+                        half_angle(0.5 * y)
+                    };
                     C(em * (1.0 + cm1) + cm1, (1.0 + em) * sn).mul(inv)
                 }
                 None => C(h, 0.0),
@@ -1681,7 +1684,7 @@ mod tests {
     /// most 1.95 ulps of `∫S²` (where `k0` dominates: the rounding of `k0²h`), the general
     /// form's up to 1077 (near resonance over long segments, from the rounding of the terms'
     /// phases at `b`, divided by the small `|ν|`; the plan's slow pairs do not use them);
-    /// relative to `∫|x|S` where that is at least `0.1 ∫S²`, 1.5e-15 and 5.8e-13; below, on
+    /// relative to `∫|x|S` where that is at least `0.1 ∫S²`, 1.9e-15 and 5.8e-13; below, on
     /// short segments where `|x| ≪ S`, both exceed 1e-14 (up to 2.7e-10 and 1.0e-10: there the
     /// general form's series `φ1 ≈ 1` cancel its pairs' leading terms more exactly).
     #[test]
