@@ -129,7 +129,7 @@ impl Trig {
 /// `(sin x, cos x − 1)` by their Taylor series for `|x| ≤ 1/8` (truncation below `1e-20`
 /// relative), as polynomials in `x²` evaluated in Estrin's form (short dependency chains).
 #[inline]
-fn small_sin_cm1(x: f64) -> (f64, f64) {
+pub(super) fn small_sin_cm1(x: f64) -> (f64, f64) {
     let y = x * x;
     let y2 = y * y;
     // sin x / x = Σ (−y)^k/(2k+1)!, k = 0..5.

@@ -10,7 +10,7 @@
 //! buffers kept for the run (`set_*` methods, [`TrigN::fill`]) and touch only the `n` terms in
 //! use.
 
-use super::expsum::{phi1, C};
+use super::expsum::{phi1, small_sin_cm1, C};
 use crate::limits::MAX_BEAM_MODES;
 
 /// Capacity of the decaying terms: two per mode (the constrained motion's real exponentials).
@@ -978,6 +978,313 @@ fn square_n<const M: usize>(x: &ExpSumN, a: f64, b: f64, eb: &[C; M]) -> f64 {
     sum + 0.5 * pairs
 }
 
+/// A pair exponent `ν` may take the fast path of [`SquarePlan`] when the terms' `|λⱼ| + |λₖ|`
+/// is at most this many times `|ν|`: `e^{νh} − 1` from `Qⱼ + Qₖ + QⱼQₖ` then has a relative
+/// error of about that many ulps for small `νh` (the sum cancels by that factor) and an
+/// absolute one of a few ulps of `|c|²/|ν|` at large `νh`.
+const FAST_RATIO: f64 = 8.0;
+
+/// A pair exponent kept off the fast path (it nearly cancels: a mode near resonance with the
+/// conjugate harmonic, two close modes; or `ν = 0`): its integral is formed per call.
+#[derive(Debug, Clone, Copy)]
+struct SlowPair {
+    j: usize,
+    k: usize,
+    /// `ν = λⱼ + λ̄ₖ` (else `λⱼ + λₖ`).
+    conj: bool,
+    nu: C,
+    /// `Re ν`, `Im ν` split for [`two_prod`].
+    nu_split: [(f64, f64); 2],
+    /// `|ν|² = d + d·ρ` to `O(ε²)` (`None` where `1/|ν|²` is not finite, `|ν|` 0 or below
+    /// 1e-154: `∫e^{ντ} = h` to within `|νh|`).
+    d: Option<(f64, f64)>,
+    /// The pair's weight: 1 for `j < k` (both orders), ½ for `j = k`.
+    w: f64,
+}
+
+/// Per phasor, constants of the basis: `1/λ` (0 where `λ = 0`), `2 Re λ = −2α` (1 where
+/// `α = 0`, where `e^{−2αh} − 1` is 0), and 0 for a real exponential's `q` (it multiplies
+/// sin 0 = 0, as in [`phasors`]), else 1.
+#[derive(Debug, Clone, Copy)]
+struct PhasorRate {
+    il: C,
+    two_re: f64,
+    qs: f64,
+}
+
+/// `a` as `hi + lo` of 26 bits each (Dekker's split: their products are exact).
+#[inline]
+fn split(a: f64) -> (f64, f64) {
+    let c = 134_217_729.0 * a;
+    let hi = c - (c - a);
+    (hi, a - hi)
+}
+
+/// `a·b` as `p + e` exactly, `b` given split (Dekker's product: no FMA on the baseline target,
+/// whose `mul_add` is a software call).
+#[inline]
+fn two_prod(a: f64, b: f64, (bh, bl): (f64, f64)) -> (f64, f64) {
+    let p = a * b;
+    let (ah, al) = split(a);
+    (p, ((ah * bh - p) + ah * bl + al * bh) + al * bl)
+}
+
+/// `a + b` as `s + e` exactly.
+#[inline]
+fn two_sum(a: f64, b: f64) -> (f64, f64) {
+    let s = a + b;
+    let bb = s - a;
+    (s, (a - (s - bb)) + (b - bb))
+}
+
+/// Per phasor, values of one call (`c` its coefficient, `d = c(e^{λh} − 1)`, `g = c + d`),
+/// paired as the two lanes of the pair loop read them: as the pair's `k` side `p = (gᵣ, dᵣ)`,
+/// `m = (gᵢ, dᵢ)`, as its `j` side `a = (dᵣ, cᵣ)`, `b = (dᵢ, cᵢ)`; and `e^{−αh} − 1`.
+#[derive(Debug, Clone, Copy, Default)]
+struct PhasorEnd {
+    p: [f64; 2],
+    m: [f64; 2],
+    a: [f64; 2],
+    b: [f64; 2],
+    em1: f64,
+}
+
+/// [`integral_square_n_to`] from `a = 0` for sums on one basis, with what depends only on the
+/// basis (its `Ω`, `αₖ`, `ω_k`) computed once: a run's free flight (or held motion) keeps its
+/// frequencies, and the solver integrates `u²` once per segment.
+///
+/// Writing `Qⱼ = e^{λⱼh} − 1` (cancellation-free from the end's [`TrigN`]), a pair's
+/// `cⱼcₖ(e^{(λⱼ+λₖ)h} − 1) = dⱼgₖ + cⱼdₖ` (`d = cQ`, `g = c + d`) and its conjugate partner
+/// `cⱼc̄ₖ(e^{(λⱼ+λ̄ₖ)h} − 1) = dⱼḡₖ + cⱼd̄ₖ` share their eight real products, and both are
+/// multiplied by their `1/ν` cached with the pair's weight; the real part of the two comes
+/// out as four sums of products with four cached weights per pair, without a division or a
+/// series (`∫e^{λτ}` likewise). Exponents that nearly cancel are [`SlowPair`]s, but for the
+/// diagonal `λⱼ + λ̄ⱼ = −2αⱼ` (`e^{−2αh} − 1 = em1(2 + em1)`): `e^{νh} − 1` from
+/// `e^{−(αⱼ+αₖ)h} − 1 = em1ⱼ + em1ₖ + em1ⱼem1ₖ` and the half angle of `Im ν·h`, not from the
+/// terms' phases, whose rounding `ε(ωⱼ + ωₖ)h` would be divided by the small `|ν|`.
+///
+/// The terms of one sign in every segment, large and cancelling each other (the diagonal
+/// `|c|²∫e^{−2ατ}`, a resonant pair's free and forced parts), are divided per call rather than
+/// multiplied by a cached reciprocal (the slow pair's `Re(P ν̄)/|ν|²` from exact products and
+/// the remainder of `|ν|²`): a reciprocal rounded once errs the same way in every segment, and
+/// those errors add up over a run (−1.2e-14 of the 4-mode golden runs' `∫u²`, against
+/// ±2.6e-15 for per-segment roundings). The fast pairs' values change sign from segment to
+/// segment with their phases.
+#[derive(Debug, Clone, Default)]
+pub struct SquarePlan {
+    /// The basis it was built for: `Ω` and the terms' `(α, ω_d)` (none before the first).
+    om: f64,
+    key: Vec<(f64, f64)>,
+    built: bool,
+    rates: Vec<PhasorRate>,
+    /// The phasors with `α = 0` (`∫|e^{λτ}|² = h`; the harmonic first) and with `λ = 0`
+    /// (`∫e^{λτ} = h`).
+    undamped: Vec<usize>,
+    still: Vec<usize>,
+    /// Per unordered pair `j ≤ k`, row by row, the weights `w₀ = Rᵣ + Sᵣ`, `w₁ = Sᵢ − Rᵢ`,
+    /// `w₂ = Sᵣ − Rᵣ`, `w₃ = −(Rᵢ + Sᵢ)`, each twice (one per lane of the pair loop), with
+    /// `R = w/(λⱼ + λₖ)`, `S = w/(λⱼ + λ̄ₖ)` (0 for a slow exponent and `S` for `j = k`).
+    pairs: Vec<[f64; 8]>,
+    slow: Vec<SlowPair>,
+    /// Scratch of one call, one per phasor.
+    ends: Vec<PhasorEnd>,
+}
+
+impl SquarePlan {
+    /// An empty plan (built on its first use).
+    pub fn new() -> SquarePlan {
+        SquarePlan::default()
+    }
+
+    /// Whether the plan was built for the basis of `x`.
+    #[inline]
+    fn fits(&self, x: &ExpSumN) -> bool {
+        self.built
+            && self.om.to_bits() == x.om.to_bits()
+            && self.key.len() == x.n
+            && self
+                .key
+                .iter()
+                .zip(&x.t[..x.n])
+                .all(|(k, t)| k.0.to_bits() == t.al.to_bits() && k.1.to_bits() == t.wd.to_bits())
+    }
+
+    /// Rebuild for the basis of `x` (the buffers keep their capacity). Out of line: inlined, its
+    /// stack arrays and registers weigh on every call.
+    #[cold]
+    #[inline(never)]
+    fn build(&mut self, x: &ExpSumN) {
+        let n = x.n + 1;
+        self.om = x.om;
+        self.key.clear();
+        self.key.extend(x.t[..x.n].iter().map(|t| (t.al, t.wd)));
+        let mut lam = [C(0.0, 0.0); MAX_TERMS + 1];
+        let mut unused = [C(0.0, 0.0); MAX_TERMS + 1];
+        phasors(x, &mut unused, &mut lam);
+        let lam = &lam[..n];
+        let abs = |z: C| z.0.hypot(z.1);
+        let inv = |nu: C| Some(C(1.0, 0.0).div(nu)).filter(|r| r.0.is_finite() && r.1.is_finite());
+        self.rates.clear();
+        self.undamped.clear();
+        self.still.clear();
+        for (j, &l) in lam.iter().enumerate() {
+            let il = inv(l).unwrap_or_else(|| {
+                self.still.push(j);
+                C(0.0, 0.0)
+            });
+            let two_re = if l.0 == 0.0 {
+                self.undamped.push(j);
+                1.0
+            } else {
+                2.0 * l.0
+            };
+            let qs = if j > 0 && l.1 == 0.0 { 0.0 } else { 1.0 };
+            self.rates.push(PhasorRate { il, two_re, qs });
+        }
+        self.pairs.clear();
+        self.slow.clear();
+        for j in 0..n {
+            for k in j..n {
+                let w = if j == k { 0.5 } else { 1.0 };
+                let span = abs(lam[j]) + abs(lam[k]);
+                let mut rs = [C(0.0, 0.0); 2];
+                for (conj, r) in [false, true].into_iter().zip(&mut rs) {
+                    if conj && j == k {
+                        continue;
+                    }
+                    let nu = lam[j].add(if conj { lam[k].conj() } else { lam[k] });
+                    match inv(nu) {
+                        Some(i) if FAST_RATIO * abs(nu) >= span => *r = i.scale(w),
+                        _ => {
+                            let nu_split = [split(nu.0), split(nu.1)];
+                            let (a, ae) = two_prod(nu.0, nu.0, nu_split[0]);
+                            let (b, be) = two_prod(nu.1, nu.1, nu_split[1]);
+                            let (d, de) = two_sum(a, b);
+                            let d = Some((d, (de + (ae + be)) / d))
+                                .filter(|&(d, _)| (1.0 / d).is_finite());
+                            self.slow.push(SlowPair {
+                                j,
+                                k,
+                                conj,
+                                nu,
+                                nu_split,
+                                d,
+                                w,
+                            });
+                        }
+                    }
+                }
+                let [r, s] = rs;
+                let u = [r.0 + s.0, s.1 - r.1, s.0 - r.0, -(r.1 + s.1)];
+                self.pairs
+                    .push([u[0], u[0], u[1], u[1], u[2], u[2], u[3], u[3]]);
+            }
+        }
+        self.ends.clear();
+        self.ends.resize(n, PhasorEnd::default());
+        self.built = true;
+    }
+
+    /// `∫_0^b x(τ)² dτ` with `b = end.tau` and the transcendentals `end` computed there for
+    /// the basis of `x` ([`integral_square_n_to`] at `a = 0`); rebuilds the plan first if `x`
+    /// is on another basis.
+    pub fn integral_square_to(&mut self, x: &ExpSumN, end: &TrigN) -> f64 {
+        let h = end.tau;
+        if h <= 0.0 {
+            return 0.0;
+        }
+        debug_assert!(x.c1 == 0.0 && x.c2 == 0.0);
+        debug_assert_eq!(end.n, x.n);
+        if !self.fits(x) {
+            self.build(x);
+        }
+        let n = x.n + 1;
+        let ends = &mut self.ends[..n];
+        // Each phasor's end values, its `∫e^{λτ}` (`Re(d/λ)`) and its diagonal `|c|² ∫e^{−2ατ}`
+        // (`e^{−2αh} − 1 = em1(2 + em1)` over `−2α`).
+        let (mut lin, mut diag) = (0.0, 0.0);
+        let mut one = |o: &mut PhasorEnd, r: &PhasorRate, c: C, q: C, em1: f64| {
+            let d = c.mul(q);
+            *o = PhasorEnd {
+                p: [c.0 + d.0, d.0],
+                m: [c.1 + d.1, d.1],
+                a: [d.0, c.0],
+                b: [d.1, c.1],
+                em1,
+            };
+            lin += d.0 * r.il.0 - d.1 * r.il.1;
+            diag += (c.0 * c.0 + c.1 * c.1) * (em1 * (2.0 + em1)) / r.two_re;
+        };
+        one(
+            &mut ends[0],
+            &self.rates[0],
+            C(x.a, -x.b),
+            C(end.chm1, end.sh),
+            0.0,
+        );
+        let terms = ends[1..].iter_mut().zip(&self.rates[1..]);
+        for (((o, r), t), k) in terms.zip(&x.t[..x.n]).zip(&end.k[..x.n]) {
+            one(
+                o,
+                r,
+                C(t.p, -(r.qs * t.q)),
+                C(k.em1 * k.cd + k.cdm1, (1.0 + k.em1) * k.sd),
+                k.em1,
+            );
+        }
+        let ends = &self.ends[..n];
+        for &i in &self.undamped {
+            diag += (ends[i].a[1] * ends[i].a[1] + ends[i].b[1] * ends[i].b[1]) * h;
+        }
+        for &i in &self.still {
+            lin += ends[i].a[1] * h;
+        }
+        // The pairs: each one's `Re(N₁R + N₂S)` is the sum over the two lanes of
+        // `a (p w₀ + m w₁) + b (m w₂ + p w₃)` with its `j` side `a, b` and `k` side `p, m`.
+        let mut acc = [0.0; 2];
+        let mut rest = &self.pairs[..];
+        for (j, pj) in ends.iter().enumerate() {
+            let (row, tail) = rest.split_at(n - j);
+            rest = tail;
+            for (u, pk) in row.iter().zip(&ends[j..]) {
+                for l in 0..2 {
+                    acc[l] += pj.a[l] * (pk.p[l] * u[l] + pk.m[l] * u[2 + l])
+                        + pj.b[l] * (pk.m[l] * u[4 + l] + pk.p[l] * u[6 + l]);
+                }
+            }
+        }
+        let mut pairs = acc[0] + acc[1];
+        for s in &self.slow {
+            let (pj, pk) = (&ends[s.j], &ends[s.k]);
+            let ck = C(pk.a[1], if s.conj { -pk.b[1] } else { pk.b[1] });
+            let cc = C(pj.a[1], pj.b[1]).mul(ck);
+            let v = match s.d {
+                Some((d, rho)) => {
+                    let em = pj.em1 + pk.em1 + pj.em1 * pk.em1;
+                    // (Near resonance the angle is mostly small: its series is cheaper.)
+                    let y = s.nu.1 * h;
+                    let (sn, cm1) = if y.abs() <= 0.125 {
+                        small_sin_cm1(y)
+                    } else {
+                        half_angle(0.5 * y)
+                    };
+                    // `Re(P/ν) = Re(P ν̄)/|ν|²` with `P = cc(e^{νh} − 1)`, rounded once from the
+                    // exact products and the remainder of `|ν|²`, so that no fixed rounding of
+                    // the basis biases every segment's value alike.
+                    let p = cc.mul(C(em * (1.0 + cm1) + cm1, (1.0 + em) * sn));
+                    let (p1, e1) = two_prod(p.0, s.nu.0, s.nu_split[0]);
+                    let (p2, e2) = two_prod(p.1, s.nu.1, s.nu_split[1]);
+                    let (q, eq) = two_sum(p1, p2);
+                    (q + ((eq + (e1 + e2)) - q * rho)) / d
+                }
+                None => cc.0 * h,
+            };
+            pairs += s.w * v;
+        }
+        x.k0 * x.k0 * h + 2.0 * x.k0 * lin + 0.5 * diag + pairs
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1392,5 +1699,393 @@ mod tests {
             integral_square_n(&g, 0.2, 5.0),
         );
         assert!((x - y).abs() < 1e-13 * x.abs(), "{x} {y}");
+    }
+
+    /// Double-double numbers (`hi + lo`, about 106 bits; Dekker's and Knuth's exact sums and
+    /// products) for a reference integral independent of the rounding of the f64 closed forms.
+    #[derive(Debug, Clone, Copy)]
+    struct Dd(f64, f64);
+
+    impl Dd {
+        fn f(x: f64) -> Dd {
+            Dd(x, 0.0)
+        }
+        fn two_sum(a: f64, b: f64) -> Dd {
+            let s = a + b;
+            let bb = s - a;
+            Dd(s, (a - (s - bb)) + (b - bb))
+        }
+        fn quick(a: f64, b: f64) -> Dd {
+            let s = a + b;
+            Dd(s, b - (s - a))
+        }
+        fn add(self, o: Dd) -> Dd {
+            let s = Dd::two_sum(self.0, o.0);
+            let t = Dd::two_sum(self.1, o.1);
+            let s = Dd::quick(s.0, s.1 + t.0);
+            Dd::quick(s.0, s.1 + t.1)
+        }
+        fn neg(self) -> Dd {
+            Dd(-self.0, -self.1)
+        }
+        fn sub(self, o: Dd) -> Dd {
+            self.add(o.neg())
+        }
+        fn mul(self, o: Dd) -> Dd {
+            let p = self.0 * o.0;
+            let e = self.0.mul_add(o.0, -p);
+            Dd::quick(p, e + (self.0 * o.1 + self.1 * o.0))
+        }
+        fn div(self, o: Dd) -> Dd {
+            let q1 = self.0 / o.0;
+            let r = self.sub(o.mul(Dd::f(q1)));
+            let q2 = r.0 / o.0;
+            let r = r.sub(o.mul(Dd::f(q2)));
+            Dd::quick(q1, q2).add(Dd::f(r.0 / o.0))
+        }
+        /// `e^x − 1`, relatively accurate (`x` ≤ 700): `x = k ln 2 + r`, the series of
+        /// `e^{r/2¹⁰} − 1`, doubled ten times by `e^{2s} − 1 = (e^s − 1)(e^s + 1)`.
+        fn exp_m1(self) -> Dd {
+            if self.0 < -800.0 {
+                return Dd::f(-1.0);
+            }
+            const LN2: Dd = Dd(std::f64::consts::LN_2, 2.319_046_813_846_299_6e-17);
+            let k = (self.0 / LN2.0).round();
+            let r = self.sub(LN2.mul(Dd::f(k)));
+            let s = r.mul(Dd::f(1.0 / 1024.0));
+            let (mut em, mut t) = (Dd::f(0.0), Dd::f(1.0));
+            for i in 1..16 {
+                t = t.mul(s).div(Dd::f(i as f64));
+                em = em.add(t);
+            }
+            for _ in 0..10 {
+                em = em.mul(em.add(Dd::f(2.0)));
+            }
+            if k == 0.0 {
+                return em;
+            }
+            let p = 2f64.powi(k as i32);
+            Dd(em.0 * p, em.1 * p).add(Dd::f(p - 1.0))
+        }
+        /// `(sin x, cos x − 1)`, relatively accurate: reduction by π/2 in three parts (exact
+        /// products for `|x| < 2³⁰`), then the series.
+        fn sin_cm1(self) -> (Dd, Dd) {
+            const P: [f64; 3] = [
+                std::f64::consts::FRAC_PI_2,
+                6.123_233_995_736_766e-17,
+                -1.497_384_904_859_169_8e-33,
+            ];
+            let k = (self.0 / P[0]).round();
+            let mut r = self;
+            for p in P {
+                r = r.sub(Dd::f(k).mul(Dd::f(p)));
+            }
+            let r2 = r.mul(r);
+            let (mut s, mut cm) = (r, Dd::f(0.0));
+            let mut t = r;
+            let mut tc = Dd::f(1.0);
+            for i in 1..20 {
+                let n = 2 * i;
+                tc = tc.mul(r2).div(Dd::f(-((n - 1) * n) as f64));
+                cm = cm.add(tc);
+                t = t.mul(r2).div(Dd::f(-(n * (n + 1)) as f64));
+                s = s.add(t);
+            }
+            let c = cm.add(Dd::f(1.0));
+            match (k as i64).rem_euclid(4) {
+                0 => (s, cm),
+                1 => (c, s.neg().sub(Dd::f(1.0))),
+                2 => (s.neg(), c.neg().sub(Dd::f(1.0))),
+                _ => (c.neg(), s.sub(Dd::f(1.0))),
+            }
+        }
+    }
+
+    /// Complex double-double.
+    #[derive(Debug, Clone, Copy)]
+    struct Cd(Dd, Dd);
+
+    impl Cd {
+        fn of(z: C) -> Cd {
+            Cd(Dd::f(z.0), Dd::f(z.1))
+        }
+        fn add(self, o: Cd) -> Cd {
+            Cd(self.0.add(o.0), self.1.add(o.1))
+        }
+        fn mul(self, o: Cd) -> Cd {
+            Cd(
+                self.0.mul(o.0).sub(self.1.mul(o.1)),
+                self.0.mul(o.1).add(self.1.mul(o.0)),
+            )
+        }
+        fn div(self, o: Cd) -> Cd {
+            let d = o.0.mul(o.0).add(o.1.mul(o.1));
+            Cd(
+                self.0.mul(o.0).add(self.1.mul(o.1)).div(d),
+                self.1.mul(o.0).sub(self.0.mul(o.1)).div(d),
+            )
+        }
+        fn scale(self, s: Dd) -> Cd {
+            Cd(self.0.mul(s), self.1.mul(s))
+        }
+        fn conj(self) -> Cd {
+            Cd(self.0, self.1.neg())
+        }
+        /// `e^z − 1`.
+        fn exp_m1(self) -> Cd {
+            let em = self.0.exp_m1();
+            let (s, cm) = self.1.sin_cm1();
+            Cd(
+                em.mul(cm.add(Dd::f(1.0))).add(cm),
+                em.add(Dd::f(1.0)).mul(s),
+            )
+        }
+    }
+
+    /// `∫_a^b x²` in double-double from the exponential form (`∫_a^b e^{ντ} = e^{νa}(e^{νh} −
+    /// 1)/ν`, `h = b − a` exactly), every product and exponential to ~1e-30.
+    fn square_reference(x: &ExpSumN, a: f64, b: f64) -> f64 {
+        let n = x.n + 1;
+        let mut c = [C(0.0, 0.0); MAX_TERMS + 1];
+        let mut l = [C(0.0, 0.0); MAX_TERMS + 1];
+        phasors(x, &mut c, &mut l);
+        let h = Dd::two_sum(b, -a);
+        let int = |nu: Cd| -> Cd {
+            if nu.0 .0 == 0.0 && nu.1 .0 == 0.0 {
+                return Cd(h, Dd::f(0.0));
+            }
+            let i = nu.scale(h).exp_m1().div(nu);
+            let ea = nu.scale(Dd::f(a)).exp_m1().add(Cd::of(C(1.0, 0.0)));
+            ea.mul(i)
+        };
+        let k0 = Dd::f(x.k0);
+        let mut s = k0.mul(k0).mul(h);
+        for j in 0..n {
+            let v = Cd::of(c[j]).mul(int(Cd::of(l[j])));
+            s = s.add(Dd::f(2.0).mul(k0).mul(v.0));
+        }
+        for j in 0..n {
+            for k in 0..n {
+                let (lj, lk) = (Cd::of(l[j]), Cd::of(l[k]));
+                let (cj, ck) = (Cd::of(c[j]), Cd::of(c[k]));
+                let v1 = cj.mul(ck).mul(int(lj.add(lk)));
+                let v2 = cj.mul(ck.conj()).mul(int(lj.add(lk.conj())));
+                s = s.add(Dd::f(0.5).mul(v1.0.add(v2.0)));
+            }
+        }
+        s.0 + s.1
+    }
+
+    /// `∫_a^b |x|·(|k0| + |Ĥ| + Σ|D̂ₖ|e^{−αₖτ})`, the scale of the rounding of `∫x²`, by the
+    /// trapezoidal rule on a grid graded towards `a` (its fastest decays): good to some
+    /// per cent, which is all a scale needs.
+    fn square_scale(x: &ExpSumN, a: f64, b: f64) -> (f64, f64) {
+        let m = 2000;
+        let mut c = [C(0.0, 0.0); MAX_TERMS + 1];
+        let mut l = [C(0.0, 0.0); MAX_TERMS + 1];
+        phasors(x, &mut c, &mut l);
+        let at = |t: f64| {
+            let mut f = x.k0;
+            let mut s = x.k0.abs();
+            for (c, l) in c[..=x.n].iter().zip(&l[..=x.n]) {
+                let e = (l.0 * t).exp();
+                let (sn, cs) = (l.1 * t).sin_cos();
+                f += e * (c.0 * cs - c.1 * sn);
+                s += e * c.0.hypot(c.1);
+            }
+            (f.abs() * s, s * s)
+        };
+        let (mut sum, mut sum2, mut t0, mut v0) = (0.0, 0.0, a, at(a));
+        for i in 1..=m {
+            let t1 = a + (b - a) * (i as f64 / m as f64).powi(3);
+            let v1 = at(t1);
+            sum += 0.5 * (v0.0 + v1.0) * (t1 - t0);
+            sum2 += 0.5 * (v0.1 + v1.1) * (t1 - t0);
+            (t0, v0) = (t1, v1);
+        }
+        (sum, sum2)
+    }
+
+    /// The plan of `∫x²` against the double-double reference on random sums: 0 to 8 terms,
+    /// frequencies 1 to 1e6 rad/s, damping ratios 0 to 0.5, real exponentials (`ω_d = 0`, the
+    /// held motion's), modes near resonance with the harmonic and near each other (relative
+    /// detuning down to 1e-9, undamped or lightly damped), segments of 1e-9 to 1 s; the general
+    /// closed form (`integral_square_n_to`, the path from `a > 0`) beside it.
+    ///
+    /// The bound is `1e-14 ∫|x|·S + 2ε ∫S²` with `S` the sum of the terms' magnitudes: a sum of
+    /// pair integrals cannot do better than a few ulps of `∫S²` (where `|x| ≪ S` over the whole
+    /// segment, e.g. `b sin Ωτ` over `Ωh ≪ 1`, `∫x²` is that much below its pairs; the general
+    /// form has the same floor). Measured (3000 bases, two sums on each): the plan's error is at
+    /// most 1.95 ulps of `∫S²` (where `k0` dominates: the rounding of `k0²h`), the general
+    /// form's up to 1077 (near resonance over long segments, from the rounding of the terms'
+    /// phases at `b`, divided by the small `|ν|`; the plan's slow pairs do not use them);
+    /// relative to `∫|x|S` where that is at least `0.1 ∫S²`, 1.9e-15 and 5.8e-13; below, on
+    /// short segments where `|x| ≪ S`, both exceed 1e-14 (up to 2.7e-10 and 1.0e-10: there the
+    /// general form's series `φ1 ≈ 1` cancel its pairs' leading terms more exactly).
+    #[test]
+    fn square_plan_matches_a_double_double_reference() {
+        let mut st: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut u = move || {
+            st ^= st << 13;
+            st ^= st >> 7;
+            st ^= st << 17;
+            (st >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let lu = |u: &mut dyn FnMut() -> f64, lo: f64, hi: f64| lo * (hi / lo).powf(u());
+        let signed = |u: &mut dyn FnMut() -> f64| {
+            let v = lu(u, 1e-3, 1.0);
+            if u() < 0.5 {
+                -v
+            } else {
+                v
+            }
+        };
+        let mut plan = SquarePlan::new();
+        // Worst errors in ulps of ∫S² (plan, general form from 0, from a > 0), relative to ∫|x|S
+        // (plan, general form), and so where ∫|x|S ≥ 0.1 ∫S² (plan, general form).
+        let mut worst = [0.0f64; 7];
+        for case in 0..3000 {
+            let om = if u() < 0.1 { 0.0 } else { lu(&mut u, 1.0, 1e6) };
+            let mut g = ExpSumN::zero(om);
+            g.n = (u() * 9.0) as usize;
+            for i in 0..g.n {
+                let detune = |u: &mut dyn FnMut() -> f64, f: f64| {
+                    let s = if u() < 0.5 { -1.0 } else { 1.0 };
+                    f * (1.0 + s * 10f64.powf(-1.0 - 8.0 * u()))
+                };
+                let w = lu(&mut u, 1.0, 1e6);
+                let kind = u();
+                let (al, wd) = if kind < 0.2 {
+                    // A real exponential (rarely a constant).
+                    (if u() < 0.05 { 0.0 } else { w }, 0.0)
+                } else if kind < 0.4 && om > 0.0 {
+                    let al = if u() < 0.3 {
+                        0.0
+                    } else {
+                        om * lu(&mut u, 1e-10, 0.5)
+                    };
+                    (al, detune(&mut u, om))
+                } else if kind < 0.5 && i > 0 && g.t[i - 1].wd > 0.0 {
+                    let prev = g.t[i - 1];
+                    (prev.al * (0.5 + u()), detune(&mut u, prev.wd))
+                } else {
+                    let zeta = if u() < 0.15 { 0.0 } else { 0.5 * u() };
+                    (zeta * w, w)
+                };
+                g.t[i] = Term {
+                    al,
+                    wd,
+                    p: 0.0,
+                    q: 0.0,
+                };
+            }
+            let big = if u() < 0.2 { 1e3 } else { 1.0 };
+            let h = lu(&mut u, 1e-9, 1.0);
+            let a = if u() < 0.15 {
+                lu(&mut u, 1e-9, 1.0)
+            } else {
+                0.0
+            };
+            let b = a + h;
+            // Two sums on each basis: the plan is built, then reused.
+            for _ in 0..2 {
+                g.a = if u() < 0.1 { 0.0 } else { signed(&mut u) };
+                g.b = signed(&mut u);
+                for i in 0..g.n {
+                    g.t[i].p = signed(&mut u);
+                    g.t[i].q = signed(&mut u);
+                }
+                g.k0 = if u() < 0.2 { 0.0 } else { big * signed(&mut u) };
+                g.f0 = g.k0 + g.a + g.t[..g.n].iter().map(|t| t.p).sum::<f64>();
+                let end = TrigN::new(b, &g);
+                let want = square_reference(&g, a, b);
+                let (scale, floor) = square_scale(&g, a, b);
+                let err = |v: f64| (v - want).abs();
+                let general = integral_square_n_to(&g, a, &end);
+                if a > 0.0 {
+                    worst[2] = worst[2].max(err(general) / (f64::EPSILON * floor));
+                    continue;
+                }
+                let got = plan.integral_square_to(&g, &end);
+                assert!(
+                    err(got) <= 1e-14 * scale + 2.0 * f64::EPSILON * floor,
+                    "case {case}: {got:e} vs {want:e} (∫|x|S {scale:e}, ∫S² {floor:e}); Ω {om:e}, \
+                     h {h:e}, k0 {:e}, a {:e}, b {:e}, {:?}",
+                    g.k0,
+                    g.a,
+                    g.b,
+                    &g.t[..g.n]
+                );
+                worst[0] = worst[0].max(err(got) / (f64::EPSILON * floor));
+                worst[1] = worst[1].max(err(general) / (f64::EPSILON * floor));
+                worst[3] = worst[3].max(err(got) / scale);
+                worst[4] = worst[4].max(err(general) / scale);
+                if scale >= 0.1 * floor {
+                    worst[5] = worst[5].max(err(got) / scale);
+                    worst[6] = worst[6].max(err(general) / scale);
+                }
+            }
+        }
+        eprintln!(
+            "worst error in ulps of ∫S²: plan {:.2}, general form {:.1} (from a > 0: {:.1}); \
+             relative to ∫|x|S: plan {:.1e}, general form {:.1e}; where ∫|x|S ≥ 0.1 ∫S²: plan \
+             {:.1e}, general form {:.1e}",
+            worst[0], worst[1], worst[2], worst[3], worst[4], worst[5], worst[6]
+        );
+    }
+
+    /// The plan's rounding errors do not add up over the segments of a run: on the beam's
+    /// kind of basis (a mode at resonance with the harmonic, its free and forced parts large
+    /// and cancelling each other, three higher modes), the signed errors against the
+    /// reference over 1000 segments sum to a fraction of their sizes: −8 % (the general form
+    /// −11 % over 20000); with the diagonal and the resonant pair multiplied by cached
+    /// reciprocals, +62 %.
+    #[test]
+    fn square_plan_errors_do_not_add_up_over_segments() {
+        let mut st: u64 = 0x2545_f491_4f6c_dd1d;
+        let mut u = move || {
+            st ^= st << 13;
+            st ^= st >> 7;
+            st ^= st << 17;
+            (st >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let om = 3784.0;
+        let mut g = ExpSumN::zero(om);
+        g.n = 4;
+        for (i, (ratio, zeta)) in [(1.0, 0.01), (6.27, 0.01), (17.5, 0.012), (34.4, 0.015)]
+            .into_iter()
+            .enumerate()
+        {
+            let wn = om * ratio * if i == 0 { 1.0 + 2e-4 } else { 1.0 };
+            g.t[i] = Term {
+                al: zeta * wn,
+                wd: wn * (1.0 - zeta * zeta).sqrt(),
+                p: 0.0,
+                q: 0.0,
+            };
+        }
+        let mut plan = SquarePlan::new();
+        let (mut signed, mut size) = (0.0, 0.0);
+        for _ in 0..1000 {
+            let ph = std::f64::consts::TAU * u();
+            let (s, c) = ph.sin_cos();
+            g.a = c;
+            g.b = s;
+            // The free part of the resonant mode nearly cancels the forced one.
+            let ph1 = ph + 0.05 * (u() - 0.5);
+            let r1 = 1.0 + 0.05 * (u() - 0.5);
+            g.t[0].p = -r1 * ph1.cos();
+            g.t[0].q = -r1 * ph1.sin();
+            for t in &mut g.t[1..4] {
+                t.p = 0.05 * (u() - 0.5);
+                t.q = 0.05 * (u() - 0.5);
+            }
+            g.k0 = 0.01;
+            let h = 1e-5 * 300f64.powf(u());
+            let e = plan.integral_square_to(&g, &TrigN::new(h, &g)) - square_reference(&g, 0.0, h);
+            signed += e;
+            size += e.abs();
+        }
+        assert!(signed.abs() <= 0.2 * size, "{signed:e} of {size:e}");
     }
 }

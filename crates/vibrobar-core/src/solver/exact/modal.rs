@@ -66,7 +66,7 @@ use std::cell::RefCell;
 use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
 use super::expsum::{integral_square, ExpSum, Trig};
 use super::expsum_n::{
-    integral_product_n, integral_square_n, integral_square_n_to, ExpSumN, Term, TrigN,
+    integral_product_n, integral_square_n, integral_square_n_to, ExpSumN, SquarePlan, Term, TrigN,
 };
 use super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::CONFINEMENT_TOL_M;
@@ -353,6 +353,14 @@ struct Work {
     end: TrigN,
     probe: RefCell<TrigN>,
     tmp: ExpSumN,
+    sq: SquarePlans,
+}
+
+/// The plans of `∫u²` for the run's two bases: free flight and the ball held (the constrained
+/// modes). Rebuilt where a basis changes; a segment's `integral_u2` (behind `&self`) uses them.
+struct SquarePlans {
+    free: RefCell<SquarePlan>,
+    held: RefCell<SquarePlan>,
 }
 
 impl Work {
@@ -378,6 +386,10 @@ impl Work {
             end: TrigN::empty(),
             probe: RefCell::new(TrigN::empty()),
             tmp: z,
+            sq: SquarePlans {
+                free: RefCell::new(SquarePlan::new()),
+                held: RefCell::new(SquarePlan::new()),
+            },
         })
     }
 }
@@ -410,6 +422,7 @@ pub struct ModalExactSegment<'a> {
     /// A run-long buffer for the transcendentals at an observer's sample time: a fresh
     /// `TrigN` would zero its full capacity (2 KB) for every sample.
     probe: &'a RefCell<TrigN>,
+    sq: &'a SquarePlans,
 }
 
 impl ModalExactSegment<'_> {
@@ -525,14 +538,19 @@ impl Segment for ModalExactSegment<'_> {
         ModalExactSegment::mechanical_energy_j(self, t_s)
     }
     fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
-        let ur = match self.m {
-            SegMotion::Free(mo) => &mo.ur,
-            SegMotion::Pair(pm) => &pm.ur,
+        let (ur, plan) = match self.m {
+            SegMotion::Free(mo) => (&mo.ur, &self.sq.free),
+            SegMotion::Pair(pm) => (&pm.ur, &self.sq.held),
         };
         // Up to the segment's end (its relative end `end.tau`, which `t1 − t0` equals to its
-        // rounding), with the transcendentals already computed there.
+        // rounding), with the transcendentals already computed there; from its start (the
+        // usual case) by the plan of its basis.
         if b_s.to_bits() == self.t1.to_bits() && self.end.n == ur.n {
-            return integral_square_n_to(ur, a_s - self.t0, self.end);
+            let a = a_s - self.t0;
+            if a == 0.0 {
+                return plan.borrow_mut().integral_square_to(ur, self.end);
+            }
+            return integral_square_n_to(ur, a, self.end);
         }
         integral_square_n(ur, a_s - self.t0, b_s - self.t0)
     }
@@ -1095,6 +1113,7 @@ fn free_flight(
         m: SegMotion::Free(&work.mo),
         end: &work.end,
         probe: &work.probe,
+        sq: &work.sq,
     };
     // (`s` is the end state from here on: the event maps work on it in place.)
     *s = book.close(&seg, s);
@@ -1433,6 +1452,7 @@ fn pair_motion(
         m: SegMotion::Pair(&pm),
         end: &work.end,
         probe: &work.probe,
+        sq: &work.sq,
     };
     let mut next = book.close(&seg, s);
     next.dw = 0.0;
@@ -1495,6 +1515,7 @@ fn chatter_limit(
         m: SegMotion::Pair(&pm),
         end: &work.end,
         probe: &work.probe,
+        sq: &work.sq,
     };
     let mut next = book.close(&seg, &after);
     next.dw = 0.0;
@@ -1573,6 +1594,7 @@ mod tests {
                     m: SegMotion::Free(&work.mo),
                     end: &work.end,
                     probe: &work.probe,
+                    sq: &work.sq,
                 }
             } else {
                 pm = build_pair(&cs, held_modes.segment(s.t, &s.q, &s.dq), s.t, s.w);
@@ -1585,6 +1607,7 @@ mod tests {
                     m: SegMotion::Pair(&pm),
                     end: &work.end,
                     probe: &work.probe,
+                    sq: &work.sq,
                 }
             };
             let want = if friction == FrictionModel::Coulomb {
