@@ -560,6 +560,14 @@ impl TrigN {
     pub fn fill_some(&mut self, tau: f64, g: &ExpSumN, idx: &[usize], harmonic: bool) {
         self.tau = tau;
         self.n = g.n;
+        // Two or more angles: their half angles (and the terms' decays) in the vector
+        // kernels' lanes, four at a time (the same bits as the scalar kernels).
+        #[cfg(target_arch = "x86_64")]
+        if idx.len() + harmonic as usize >= 2 && avx2() {
+            // SAFETY: AVX2 is present (checked just above).
+            unsafe { self.fill_some_avx2(tau, g, idx, harmonic) };
+            return;
+        }
         if harmonic {
             let (sh, chm1) = half_angle((0.5 * g.om) * tau);
             self.sh = sh;
@@ -568,6 +576,64 @@ impl TrigN {
         }
         for &i in idx {
             self.k[i] = self.term(tau, &g.t[i]);
+        }
+    }
+
+    /// [`TrigN::fill_some`] with the half angles and the decays in AVX2 lanes: the harmonic
+    /// (if asked) and the terms `idx` as one list, [`LANES`] at a time.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn fill_some_avx2(&mut self, tau: f64, g: &ExpSumN, idx: &[usize], harmonic: bool) {
+        // Slot j: the harmonic first if asked (its decay argument 0 is not used), then idx.
+        let h = harmonic as usize;
+        let m = idx.len() + h;
+        let mut j0 = 0;
+        while j0 < m {
+            let len = LANES.min(m - j0);
+            let (mut xh, mut xe) = ([0.0; LANES], [0.0; LANES]);
+            for l in 0..len {
+                let j = j0 + l;
+                if j < h {
+                    xh[l] = (0.5 * g.om) * tau;
+                } else {
+                    let t = &g.t[idx[j - h]];
+                    xh[l] = (0.5 * t.wd) * tau;
+                    xe[l] = -t.al * tau;
+                }
+            }
+            // SAFETY: only called with AVX2.
+            let (sn, cm1) = unsafe { half_angles_avx2(&xh) };
+            // SAFETY: as above.
+            let em1s = unsafe { exp_m1_avx2(&xe) };
+            for l in 0..len {
+                let j = j0 + l;
+                if j < h {
+                    self.sh = sn[l];
+                    self.chm1 = cm1[l];
+                    self.ch = 1.0 + cm1[l];
+                } else {
+                    let i = idx[j - h];
+                    self.k[i] = if g.t[i].wd == 0.0 {
+                        TermTrig {
+                            em1: em1s[l],
+                            cd: 1.0,
+                            sd: 0.0,
+                            cdm1: 0.0,
+                        }
+                    } else {
+                        TermTrig {
+                            em1: em1s[l],
+                            cd: 1.0 + cm1[l],
+                            sd: sn[l],
+                            cdm1: cm1[l],
+                        }
+                    };
+                }
+            }
+            j0 += LANES;
         }
     }
 
