@@ -1479,7 +1479,11 @@ fn pair_motion(
 /// Sum a chatter sequence at wall `sw`: the plastic limit now (the modal impact law at `e = 0`:
 /// only the contact row is equalised), the ball held on the wall for the sequence's duration
 /// `dt`, then the [`EventKind::ChatterLimit`] with the energy the infinitely many impacts
-/// removed, and the contact test.
+/// removed, and the contact test. (Never inlined: its held segment's sums make a stack frame
+/// of ~100 KB, which the inlining caller `impact` probed page by page at every impact, a third
+/// of its time, measured with perf.)
+#[inline(never)]
+#[cold]
 fn chatter_limit(
     cs: &Consts,
     sw: f64,
