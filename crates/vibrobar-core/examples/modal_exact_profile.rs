@@ -95,5 +95,19 @@ fn bench_case(n: usize, law: FrictionModel, reps: usize) {
             rms = run(&sys).unwrap().rms_m;
         }
     }
+    // `EVENTS=1`: the event count of each ratio's run (one more run each, not timed), to
+    // compare costs per event between chaotic runs.
+    if std::env::var("EVENTS").is_ok() {
+        for &r in &ratios {
+            let sys = if n == 0 {
+                System::paper_damped(0.1e-3, law, r)
+            } else {
+                let model = spec.damped_model(spec.beam.cavity_position_m).unwrap();
+                spec.system(&model, Some(spec.ball), r)
+            };
+            let ev = solver.run(&sys, &State::REST, 2.0, &mut ()).unwrap().events;
+            println!("r {r}: {ev} events");
+        }
+    }
     println!("rms {rms:.6e} m");
 }

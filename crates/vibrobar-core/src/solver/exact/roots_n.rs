@@ -974,10 +974,12 @@ fn eval(
     }
     let hi = hi.max(prev);
     let mut bracketed = false;
-    if f1 < 0.0 {
-        if hi <= tol_t {
-            return Err(Root::At(tau));
-        }
+    // (A convex upper bound's zero is beyond Newton's step f/|f1|: short of it by more than the
+    // time resolution, the step cannot end at a bracket; the square roots are skipped.)
+    if f1 < 0.0 && hi <= tol_t {
+        return Err(Root::At(tau));
+    }
+    if f1 < 0.0 && (c_up < 0.0 || hi >= (f / -f1) * (1.0 - 1e-9) - tol_t) {
         let disc = f1 * f1 - 2.0 * b_full * f;
         if disc >= 0.0 {
             let h_up = 2.0 * f / (-f1 + disc.sqrt());
