@@ -222,10 +222,19 @@ fn plastic_impacts_match_finite_differences() {
 #[test]
 fn friction_switches_match_finite_differences() {
     // As published, 1 N: the ball reverses in flight many times a period.
+    // The run is chaotic, so which windows hold switches depends on its last bits: windows
+    // from 0.3 s on, 10 ms apart, each checked, until one holds at least four.
     let sys = beam(4, 0.1e-3, FrictionModel::AsPublished, Some(1.0), None);
-    let (x, t) = window(&sys, 0.3, 2.0);
-    let fj = check("4-mode as-published 1 N", &sys, &x, t);
-    assert!(fj.events.friction_switches >= 4, "{:?}", fj.events);
+    let mut seen = Vec::new();
+    for j in 0..20 {
+        let (x, t) = window(&sys, 0.3 + 0.01 * j as f64, 2.0);
+        let fj = check("4-mode as-published 1 N", &sys, &x, t);
+        if fj.events.friction_switches >= 4 {
+            return;
+        }
+        seen.push(fj.events.friction_switches);
+    }
+    panic!("no window with four switches: {seen:?}");
 }
 
 #[test]

@@ -1532,7 +1532,7 @@ mod tests {
             0.0, -0.0, 1e-300, -1e-300, -1e-20, 1e-9, -0.3465, -0.3466, -0.35,
         ];
         args.extend([
-            -0.6931, -0.6932, -1.0, -5.0, -36.0, -40.0, -300.0, -699.0, -700.0,
+            -0.693, -0.694, -1.0, -5.0, -36.0, -40.0, -300.0, -699.0, -700.0,
         ]);
         args.extend([
             -701.0,
@@ -1568,7 +1568,7 @@ mod tests {
             }
             assert_eq!(v.is_sign_negative(), want.is_sign_negative(), "{a:e}");
             if want.is_infinite() {
-                assert_eq!(v, want, "{a:e}");
+                assert_eq!(v.to_bits(), want.to_bits(), "{a:e}");
                 continue;
             }
             let ulp = f64::EPSILON * want.abs().max(f64::MIN_POSITIVE);

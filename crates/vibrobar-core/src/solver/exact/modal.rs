@@ -66,8 +66,8 @@ use std::cell::RefCell;
 use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
 use super::expsum::{integral_square, ExpSum, Trig};
 use super::expsum_n::{
-    integral_product_n, integral_square_n, integral_square_n_to, sin_cos, ExpSumN, SquarePlan, Term,
-    TrigN,
+    integral_product_n, integral_square_n, integral_square_n_to, sin_cos, ExpSumN, SquarePlan,
+    Term, TrigN,
 };
 use super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::CONFINEMENT_TOL_M;
