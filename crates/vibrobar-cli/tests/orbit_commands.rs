@@ -377,7 +377,10 @@ fn modal_bars_have_orbits_and_branches_in_the_cavity_position() {
     a.extend(base);
     a.extend(["--gap-mm", "0.1", "--start", "symmetric", "--out", o]);
     assert_fails_with(&vibrobar(&a), &["--start symmetric", "settled"]);
-    // The [[modes]] table's two-impact orbit at 0.06 mm (unstable, λ₁ ≈ 7.2).
+    // The [[modes]] table at 0.06 mm: an unstable period-one orbit. (The settled run is
+    // chaotic and passes near several: measured, a two-impact one with λ₁ = 7.2 from 0.35 and
+    // 0.5 s, three-impact ones with λ₁ = 21.4, 13.3, −6.9 from 0.4, 0.45, 0.3 s; which one the
+    // default settling time reaches depends on the run's last bits.)
     let mut a = vec![
         "orbit",
         "--scenario",
@@ -392,7 +395,9 @@ fn modal_bars_have_orbits_and_branches_in_the_cavity_position() {
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     assert_eq!(j["modes"], 3);
-    assert_eq!(j["impacts_per_period"], 2);
+    assert!(j["impacts_per_period"].as_u64().unwrap() >= 2, "{j}");
+    assert!(j["residual"].as_f64().unwrap() <= 1e-9);
+    assert_eq!(j["physical"]["confined"], true);
     assert_eq!(j["stable"], false);
 }
 

@@ -47,19 +47,15 @@
 //! work; the largest penetration over 2 s runs is 7e-19 m. Event times are resolved to
 //! `1e-15/max(Ω, ω_N)` plus the rounding of `t`.
 //!
-//! Cost (`examples/modal_exact_speed.rs`, 2 s at ratio 1, 0.1 mm gap, fastest of 15 against the
-//! lumped `Exact` run back to back; the machine is shared, ±10%): one unit mode 2.0×; the
-//! 4-mode beam 3.1–3.3× without friction, 4.9× (as published) and 4.8–5.2× (coulomb); 8 modes
-//! 4.5×, 25×, 24×. With friction the `ẇ = 0` search resolves every mode an impact excites, and
-//! there are more friction switches (3 300–3 700 events against 2 700 on the lumped bar, 12 300
-//! on 8 modes): see [`super::roots_n`]. Instructions (callgrind, `examples/modal_exact_profile.rs`,
-//! after the sixth speed round of issue #8 §8, which changed no result): lumped 14.5 M none /
-//! 16.0 M as published / 16.1 M coulomb; one unit mode 19.4 M / 21.7 M; 4 modes 30.3 M (2.1×)
-//! / 64.0 M (4.0×, was 68.8 M) / 64.8 M (4.0×, was 69.6 M); 8 modes 50.5 M / 390.1 M (24×).
-//! The 3× budget of issue #8 for the as-published and coulomb beam is not met: see
-//! [`super::roots_n`]. Its seventh round (longer proofs: the slow beat on every split, the
-//! convex cubic step) reached 3.35× / 3.45× (bench path 3.6×, CPU time 3.4–3.8×) and moved
-//! every golden, so it was not kept (commit 7952390, reverted).
+//! Cost (the bench's own path, `vibrobar bench` beam rows and `examples/modal_exact_profile.rs
+//! N LAW 1 case`; 2 s at ratio 1, 0.1 mm gap, against the lumped `Exact` run): the 4-mode beam
+//! 1.8× without friction, 2.8× as published and 2.8× coulomb in instructions (31.4 M, 54.5 M,
+//! 54.4 M against 17.3 M, 19.3 M, 19.5 M), after the eighth speed round of issue #8 §8 (the 3×
+//! budget met; [`super::roots_n`] says what each change gave and what was tried). With friction
+//! the `ẇ = 0` search resolves every mode an impact excites, and there are more friction
+//! switches (3 300–3 700 events against 2 700 on the lumped bar); below resonance (r = 0.98–0.99)
+//! the 4th mode rings across `ẇ = 0` in bursts of thousands of switches and the run costs 8–9×
+//! the lumped one.
 
 use std::cell::RefCell;
 

@@ -236,6 +236,37 @@
 //! the fills and `exp_m1` 23 %, the search's own setup and bookkeeping 13 %, the cheap step 12 %:
 //! the budget (about 43 M, 12k per event) needs another fifth off, i.e. fewer full evaluations at
 //! the hovering near-touches and in the impact searches, not a faster switch.
+//!
+//! **Eighth round (issue #8 §8): the budget met** (callgrind on the bench's own path, and CPU
+//! time of alternating runs; the 2 s runs are chaotic, so costs are also compared per event).
+//! Kept, all measured on the 4-mode beam as published at r = 1, 0.1 mm: the seventh round's
+//! two proofs (above); the terms' decays from the inlined, bit-identical scalar/AVX2 `exp_m1`
+//! ([`super::expsum_n::exp_m1`], libm's `expm1` was 5 % of the time); partial fills in the
+//! vector kernels' lanes; the per-basis part of a search kept while the basis is the same
+//! (`basis_setup`); `|Z₂|`, `|Z₃|` once per evaluation; a split's square root only where it can
+//! win (`improve`); the bracket's square roots only where the step can end at one. Outside
+//! the search: the ∫u² of the RMS from a per-basis plan (`SquarePlan`, 4× fewer instructions),
+//! `chatter_limit` no longer inlined into `impact` (its ~100 KB stack frame was probed page by
+//! page at every impact: a third of `impact`'s time), no 2 KB `TrigN` zeroed per observer sample
+//! and no 0.5 KB state copied per event. Bench path 80.2 M → 54.5 M instructions (the lumped run
+//! 19.3 M: 4.2× → 2.8×), coulomb 80.5 → 54.4 M (2.8×), frictionless 40.8 → 31.4 M (1.8×).
+//! Tried and not kept, measured: (a) a *ladder* of cached step transcendentals composed by angle
+//! addition (`e^{λ(τ+h)} = e^{λτ}e^{λh}` with `h` rounded down to 3 mantissa bits and the
+//! rounding of `τ + h` corrected to first order): 64 % of the steps are Newton-like approaches,
+//! whose quadratic convergence a shortened step breaks, and the rest save less than the steps
+//! they add (no gain in instructions). (b) A hint that skips a function's cheap step after it
+//! failed away from its zero: −3 % to +2 % per event across r = 0.99–1.02. (c) Higher-order
+//! proofs: Taylor bounds of degree 7 (near a zero) and 11 (from a departure) in the scaled step
+//! `u = |λ_N| h`, their first zero certified by Bernstein coefficients (Descartes' rule on the
+//! interval) and bracketed by the upper bound; tested against the function, they cut the steps
+//! by 19 % (25 177 → 20 368), but computing them (1.6k–3.2k instructions per proof) cost as
+//! much time as the steps saved (per event ±1 % to +4 %); not kept.
+//! (d) The envelope's split horizon from the linear step instead of the split's own root: +1.6 %
+//! per event. **At other ratios** the beam's cost is its events: at r = 0.98–0.99 as published
+//! its 4th mode rings across `ẇ = 0` in bursts (8 200–9 500 friction switches in 2 s against
+//! ~1 200 at r = 1 and 75 at r = 1.01; the lumped run has ~2 600 events), so the run costs about
+//! 8–9× the lumped one there (callgrind, bench path: 162 M and 150 M against 18.8 M and 19.1 M) at
+//! about the same cost per event; at r = 1.01, 1.8×.
 
 use super::expsum_n::{ExpSumN, Term, TrigN, MAX_TERMS};
 pub use super::roots::{Root, SEARCH_HORIZON_ITER};
