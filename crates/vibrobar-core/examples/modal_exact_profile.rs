@@ -83,14 +83,17 @@ fn bench_case(n: usize, law: FrictionModel, reps: usize) {
         .unwrap_or_else(|| vec![1.0]);
     let solver = Exact::default();
     let run = solver_case(&solver, spec.settings, spec.tolerances, false);
-    let mut rms = 0.0;
-    for &r in &ratios {
-        let sys = if n == 0 {
+    let system = |r: f64| {
+        if n == 0 {
             System::paper_damped(0.1e-3, law, r)
         } else {
             let model = spec.damped_model(spec.beam.cavity_position_m).unwrap();
             spec.system(&model, Some(spec.ball), r)
-        };
+        }
+    };
+    let mut rms = 0.0;
+    for &r in &ratios {
+        let sys = system(r);
         for _ in 0..reps {
             rms = run(&sys).unwrap().rms_m;
         }
@@ -99,13 +102,10 @@ fn bench_case(n: usize, law: FrictionModel, reps: usize) {
     // compare costs per event between chaotic runs.
     if std::env::var("EVENTS").is_ok() {
         for &r in &ratios {
-            let sys = if n == 0 {
-                System::paper_damped(0.1e-3, law, r)
-            } else {
-                let model = spec.damped_model(spec.beam.cavity_position_m).unwrap();
-                spec.system(&model, Some(spec.ball), r)
-            };
-            let ev = solver.run(&sys, &State::REST, 2.0, &mut ()).unwrap().events;
+            let ev = solver
+                .run(&system(r), &State::REST, 2.0, &mut ())
+                .unwrap()
+                .events;
             println!("r {r}: {ev} events");
         }
     }

@@ -10,7 +10,7 @@
 //! buffers kept for the run (`set_*` methods, [`TrigN::fill`]) and touch only the `n` terms in
 //! use.
 
-use super::expsum::{phi1, small_sin_cm1, C};
+use super::expsum::{phi1, small_sin_cm1, C, INV_FACT};
 use crate::limits::MAX_BEAM_MODES;
 
 /// Capacity of the decaying terms: two per mode (the constrained motion's real exponentials).
@@ -200,20 +200,15 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
 // `k·LN2_HI` is exact for the `|k| ≤ 1010` used) and the Taylor coefficients `1/j!`.
 const LN2_HI: f64 = f64::from_bits(0x3FE6_2E42_FEE0_0000);
 const LN2_LO: f64 = f64::from_bits(0x3DEA_39EF_3579_3C76);
-const EXP_C: [f64; 12] = [
-    1.0 / 2.0,
-    1.0 / 6.0,
-    1.0 / 24.0,
-    1.0 / 120.0,
-    1.0 / 720.0,
-    1.0 / 5_040.0,
-    1.0 / 40_320.0,
-    1.0 / 362_880.0,
-    1.0 / 3_628_800.0,
-    1.0 / 39_916_800.0,
-    1.0 / 479_001_600.0,
-    1.0 / 6_227_020_800.0,
-];
+const EXP_C: [f64; 12] = {
+    let mut c = [0.0; 12];
+    let mut j = 0;
+    while j < 12 {
+        c[j] = INV_FACT[j + 1];
+        j += 1;
+    }
+    c
+};
 
 /// `e^x − 1`, every term's decay at every search step (libm's `expm1` was the largest single
 /// cost of a fill after the angles). `x = k ln 2 + r` with `|r| ≤ ln2/2` (Cody–Waite, exact
