@@ -93,6 +93,29 @@ pub struct TermTrig {
     pub cdm1: f64,
 }
 
+impl TermTrig {
+    /// From the decay and the angle's `(sin, cos − 1)` (the kernels' outputs), for a term of
+    /// frequency `wd`: a real exponential (`wd = 0`) has no angle.
+    #[inline(always)]
+    fn of(em1: f64, (sd, cdm1): (f64, f64), wd: f64) -> TermTrig {
+        if wd == 0.0 {
+            TermTrig {
+                em1,
+                cd: 1.0,
+                sd: 0.0,
+                cdm1: 0.0,
+            }
+        } else {
+            TermTrig {
+                em1,
+                cd: 1.0 + cdm1,
+                sd,
+                cdm1,
+            }
+        }
+    }
+}
+
 /// The transcendentals at one `τ` for the frequencies of a basis, shared by all sums on it.
 #[derive(Debug, Clone, Copy)]
 pub struct TrigN {
@@ -503,23 +526,7 @@ impl TrigN {
             // SAFETY: as above.
             let em1s = unsafe { exp_m1_avx2(&xe) };
             for l in 0..len {
-                let t = &g.t[j0 + l];
-                let em1 = em1s[l];
-                self.k[j0 + l] = if t.wd == 0.0 {
-                    TermTrig {
-                        em1,
-                        cd: 1.0,
-                        sd: 0.0,
-                        cdm1: 0.0,
-                    }
-                } else {
-                    TermTrig {
-                        em1,
-                        cd: 1.0 + cm1[l],
-                        sd: s[l],
-                        cdm1: cm1[l],
-                    }
-                };
+                self.k[j0 + l] = TermTrig::of(em1s[l], (s[l], cm1[l]), g.t[j0 + l].wd);
             }
             j0 += LANES;
         }
@@ -532,21 +539,13 @@ impl TrigN {
     #[inline(always)]
     fn term(&self, tau: f64, t: &Term) -> TermTrig {
         let em1 = exp_m1(-t.al * tau);
-        if t.wd == 0.0 {
-            return TermTrig {
-                em1,
-                cd: 1.0,
-                sd: 0.0,
-                cdm1: 0.0,
-            };
-        }
-        let (sd, cdm1) = half_angle((0.5 * t.wd) * tau);
-        TermTrig {
-            em1,
-            cd: 1.0 + cdm1,
-            sd,
-            cdm1,
-        }
+        // (No angle of a real exponential: its half angle is not computed.)
+        let angle = if t.wd == 0.0 {
+            (0.0, 0.0)
+        } else {
+            half_angle((0.5 * t.wd) * tau)
+        };
+        TermTrig::of(em1, angle, t.wd)
     }
 
     /// Fill the harmonic at `τ` (if `harmonic`) and the terms `idx` of `g` (the others are left
@@ -611,21 +610,7 @@ impl TrigN {
                     self.ch = 1.0 + cm1[l];
                 } else {
                     let i = idx[j - h];
-                    self.k[i] = if g.t[i].wd == 0.0 {
-                        TermTrig {
-                            em1: em1s[l],
-                            cd: 1.0,
-                            sd: 0.0,
-                            cdm1: 0.0,
-                        }
-                    } else {
-                        TermTrig {
-                            em1: em1s[l],
-                            cd: 1.0 + cm1[l],
-                            sd: sn[l],
-                            cdm1: cm1[l],
-                        }
-                    };
+                    self.k[i] = TermTrig::of(em1s[l], (sn[l], cm1[l]), g.t[i].wd);
                 }
             }
             j0 += LANES;
@@ -1131,12 +1116,11 @@ struct PhasorEnd {
 /// those errors add up over a run (−1.2e-14 of the 4-mode golden runs' `∫u²`, against
 /// ±2.6e-15 for per-segment roundings). The fast pairs' values change sign from segment to
 /// segment with their phases.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct SquarePlan {
-    /// The basis it was built for: `Ω` and the terms' `(α, ω_d)` (none before the first).
-    om: f64,
-    key: Vec<(f64, f64)>,
-    built: bool,
+    /// The basis it was built for (only its frequencies are read; `Ω = NaN` before the first
+    /// build, which no sum's basis equals).
+    basis: ExpSumN,
     rates: Vec<PhasorRate>,
     /// The phasors with `α = 0` (`∫|e^{λτ}|² = h`; the harmonic first) and with `λ = 0`
     /// (`∫e^{λτ} = h`).
@@ -1151,23 +1135,24 @@ pub struct SquarePlan {
     ends: Vec<PhasorEnd>,
 }
 
+impl Default for SquarePlan {
+    fn default() -> Self {
+        SquarePlan::new()
+    }
+}
+
 impl SquarePlan {
     /// An empty plan (built on its first use).
     pub fn new() -> SquarePlan {
-        SquarePlan::default()
-    }
-
-    /// Whether the plan was built for the basis of `x`.
-    #[inline]
-    fn fits(&self, x: &ExpSumN) -> bool {
-        self.built
-            && self.om.to_bits() == x.om.to_bits()
-            && self.key.len() == x.n
-            && self
-                .key
-                .iter()
-                .zip(&x.t[..x.n])
-                .all(|(k, t)| k.0.to_bits() == t.al.to_bits() && k.1.to_bits() == t.wd.to_bits())
+        SquarePlan {
+            basis: ExpSumN::zero(f64::NAN),
+            rates: Vec::new(),
+            undamped: Vec::new(),
+            still: Vec::new(),
+            pairs: Vec::new(),
+            slow: Vec::new(),
+            ends: Vec::new(),
+        }
     }
 
     /// Rebuild for the basis of `x` (the buffers keep their capacity). Out of line: inlined, its
@@ -1176,9 +1161,7 @@ impl SquarePlan {
     #[inline(never)]
     fn build(&mut self, x: &ExpSumN) {
         let n = x.n + 1;
-        self.om = x.om;
-        self.key.clear();
-        self.key.extend(x.t[..x.n].iter().map(|t| (t.al, t.wd)));
+        self.basis.set_affine(x, 0.0, 0.0);
         let mut lam = [C(0.0, 0.0); MAX_TERMS + 1];
         let mut unused = [C(0.0, 0.0); MAX_TERMS + 1];
         phasors(x, &mut unused, &mut lam);
@@ -1243,7 +1226,6 @@ impl SquarePlan {
         }
         self.ends.clear();
         self.ends.resize(n, PhasorEnd::default());
-        self.built = true;
     }
 
     /// `∫_0^b x(τ)² dτ` with `b = end.tau` and the transcendentals `end` computed there for
@@ -1256,7 +1238,7 @@ impl SquarePlan {
         }
         debug_assert!(x.c1 == 0.0 && x.c2 == 0.0);
         debug_assert_eq!(end.n, x.n);
-        if !self.fits(x) {
+        if !self.basis.same_basis(x) {
             self.build(x);
         }
         let n = x.n + 1;

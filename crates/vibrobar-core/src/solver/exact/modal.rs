@@ -781,8 +781,6 @@ impl Book<'_> {
         Ok(())
     }
 
-    /// Hand a finished segment to the observers (if not empty) and return the state at its end.
-    /// `start` is the state the segment starts from.
     /// [`Book::close`] of a free-flight segment, its end state written over its start `s`
     /// (unless an observer wants both modal states).
     fn close_free(&mut self, seg: &ModalExactSegment, mo: &FreeMotion, s: &mut St) {
@@ -797,6 +795,8 @@ impl Book<'_> {
         }
     }
 
+    /// Hand a finished segment to the observers (if not empty) and return the state at its end.
+    /// `start` is the state the segment starts from.
     fn close(&mut self, seg: &ModalExactSegment, start: &St) -> St {
         let mut next = seg.at_t(seg.end);
         next.t = seg.t1;

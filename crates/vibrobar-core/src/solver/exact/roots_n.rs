@@ -485,7 +485,8 @@ fn departure_step(g: &ExpSumN, order: usize, pre: &Pre, s: &ScratchN) -> Option<
     let k = order.min(3);
     let a = d[k].max(0.0) / FACT[k];
     let b = d[k + 1] / FACT[k + 1];
-    // `x^(k+2)` from `x²` and `x³` (k + 2 is 3, 4 or 5).
+    // `x^(k+2)` from `x²` and `x³` (a departure has a zero of order k ≥ 1: k + 2 is 3, 4 or 5).
+    debug_assert!((1..=3).contains(&k));
     let pow = |x2: f64, x3: f64| match k {
         1 => x3,
         2 => x2 * x2,
