@@ -22,9 +22,10 @@
 //! integrals are Gauss–Legendre quadratures of the dense output, so the books close with the
 //! cutting work to the integrator's tolerance, as the harmonic run's Hertz books do.
 
+use super::driver::{after_wall_free, wall_of, wall_touch, Cavity, Md};
 use super::hertz::{ContactStep, APPROACH_FLOOR_REL};
 use super::hertz_phase::{count_steps, run_phase, Event};
-use super::{wall_of, Book, Consts, CutPiece, Md, St};
+use super::{Book, Consts, CutPiece, St};
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
 use crate::damper::friction::can_stick;
@@ -356,8 +357,8 @@ pub(super) fn contact_piece(
         *s = before;
         *phase = None;
         if s.dw == 0.0 {
-            return super::wall_touch(cs, sw, s);
+            return Ok(wall_touch(cs, sw, s));
         }
-        return Ok(super::after_wall_free(sw, s.dw));
+        return Ok(after_wall_free(sw, s.dw));
     }
 }

@@ -22,8 +22,9 @@
 //! and the energy books keep their meaning. Work is bounded by
 //! [`MAX_CONTACT_STEPS`](super::hertz_phase::MAX_CONTACT_STEPS).
 
+use super::driver::{after_wall_free, wall_of, wall_touch, Cavity, Md};
 use super::hertz_phase::{count_steps, run_phase, Event};
-use super::{wall_of, Book, Consts, Md, St};
+use super::{Book, Consts, St};
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
 use crate::damper::friction::can_stick;
@@ -355,9 +356,9 @@ pub(super) fn contact(
                 )?;
                 *s = before;
                 if s.dw == 0.0 {
-                    return super::wall_touch(cs, sw, s).map(Some);
+                    return Ok(Some(wall_touch(cs, sw, s)));
                 }
-                return Ok(Some(super::after_wall_free(sw, s.dw)));
+                return Ok(Some(after_wall_free(sw, s.dw)));
             }
             None => {
                 // End of the run inside the contact.

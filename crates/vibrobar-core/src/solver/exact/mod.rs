@@ -20,26 +20,23 @@
 //! The laws are those of [`crate::damper`]: the friction force of a slide, whether and how
 //! strongly friction holds a ball at rest, the impact map and its plastic limit.
 //!
-//! Transitions (each derived from the forces, each tested): impact at `w = ±l_g` (Eqs. 4–5, `w`
-//! set to exactly `±l_g`); `ẇ = 0` in free flight (as-published: the sign reverses, the crossing
-//! is transversal; coulomb: stick if `|a_b| ≤ fκ`, else slide on reversed); unstick when
-//! `|m_d ü_pair|` reaches `f`; wall release when `s·m_d ü_pair` reaches `f_hold` (`f` for coulomb,
-//! 0 otherwise). A start at `ẇ = 0` with `sgn(0) = 0` (as-published) departs the way `ẅ` points
-//! with `F_rf = 0`, i.e. against `a_b`, looking at its derivatives when it vanishes.
+//! The transitions between modes (impact, `ẇ = 0`, stick and unstick, wall contact and
+//! release, the chatter test and its summed limit, the start) are the one event loop's,
+//! [`driver`], written once for every bar: this module is the lumped bar's kernel of it (the
+//! closed forms, the event functions, the impact law `u̇+ = u̇− + μ(1+e)/(1+μ) ẇ−`,
+//! `ẇ+ = −e ẇ−`, the pair `M + m_d` moving as one body while the ball is held). The N-mode bar
+//! is the other kernel ([`modal`]).
 //!
 //! Chatter (`0 < e < 1`, or `e = 1` with coulomb friction): after an impact whose relative
 //! acceleration pushes the ball back to the same wall, the remaining impacts form a geometric
-//! sequence that ends after `Δt = 2|ẇ+|/((1−e)|ẅ|)`. With friction the accelerations away (`a_away`) and back (`a_back`)
-//! differ: the bounces shrink by `q = e√(a_back/a_away)` and
-//! `Δt = (|ẇ+|/a_away)(1 + √(a_away/a_back))/(1 − q)`; if `q ≥ 1` (possible with the
-//! energy-injecting as-published law) there is no accumulation and no jump. `ẅ` is frozen at its
-//! value at the impact, exact to first order in the tiny `Δt`. When the sequence is below
-//! resolution (its first bounce is lower than `1e-10 l_g`, or `Δt < 1e-9` forcing periods) the
-//! solver jumps to its limit: bar and ball take the common momentum-conserving velocity (the
-//! plastic limit), the pair moves as one body over `Δt` (reported as a `Contact` segment), and
-//! at `t + Δt` an [`EventKind::ChatterLimit`] (with `before = after`, the pair state there)
-//! carries the kinetic energy the infinitely many impacts removed; then the wall-contact test
-//! decides between contact and release.
+//! sequence ([`driver`] derives its duration). `ẅ` is frozen at its value at the impact, exact
+//! to first order in the tiny `Δt`. When the sequence is below resolution (its first bounce is
+//! lower than `1e-10 l_g`, or `Δt < 1e-9` forcing periods) the solver jumps to its limit: bar
+//! and ball take the common momentum-conserving velocity (the plastic limit), the pair moves as
+//! one body over `Δt` (reported as a `Contact` segment), and at `t + Δt` an
+//! [`EventKind::ChatterLimit`] (with `before = after`, the pair state there) carries the
+//! kinetic energy the infinitely many impacts removed; then the wall-contact test decides
+//! between contact and release.
 //!
 //! Accuracy: the closed forms are exact up to rounding (`sin`/`cos` of `Ωt` with `t ~ 1 s`
 //! carry ~1e-12 relative phase error); event times are resolved to ~1e-15 s, positions to
@@ -51,6 +48,7 @@ pub mod constrained;
 pub mod cutting;
 mod cutting_hertz;
 mod cutting_nonlinear;
+mod driver;
 pub mod expsum;
 pub mod expsum_n;
 pub mod hertz;
@@ -62,10 +60,10 @@ pub mod roots_n;
 use super::{
     Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Solver, Wall,
 };
-use crate::damper::friction::{can_stick, holding_capacity_n, sgn0, sliding_friction_on_ball_n};
 use crate::damper::impact::{impact_energy_loss_j, impact_relative, plastic_limit};
-use crate::error::{EventLimitCause, SimError};
+use crate::error::SimError;
 use crate::params::{Bar, BarModel, FrictionModel, State, System};
+use driver::{wall_of, BallState, Cavity, Kernel, LimitFacts, Md, Tail, CUT, HORIZON};
 use expsum::{integral_product, integral_square, integral_square_to, ExpSum, Trig};
 use roots::{first_root_multi_trig, first_step_clears, Cand, Root, Scratch};
 
@@ -225,25 +223,10 @@ impl Consts {
         self.tol_t + 4.0 * f64::EPSILON * t.abs()
     }
 
-    fn kappa(&self) -> f64 {
-        1.0 / self.md + 1.0 / self.m
-    }
     /// `a_b = (F − C u̇ − K u)/M`: bar acceleration without the ball force.
     fn a_b(&self, s: &St) -> f64 {
         (s.force - self.c * s.du - self.k_spring * s.u) / self.m
     }
-    /// Friction force on the ball while sliding with sign `σ` (the law of `damper::friction`).
-    fn fb(&self, sigma: f64) -> f64 {
-        sliding_friction_on_ball_n(self.model, self.fl, sigma)
-    }
-    fn frictional(&self) -> bool {
-        self.model != FrictionModel::None && self.fl > 0.0
-    }
-    /// Largest `s·m_d ü_pair` for which the ball stays on wall `s`.
-    fn f_hold(&self) -> f64 {
-        holding_capacity_n(self.model, self.fl)
-    }
-
     /// Bar (or pair, with `mass`) closed form from `(u0, du0)` at `t_seg`, extra constant force
     /// `fc`; and the forcing over the segment (both from one `sin_cos` of the phase).
     fn bar_sum(
@@ -404,23 +387,6 @@ impl St {
     }
 }
 
-/// Internal mode with the departure orders of the event functions at the segment start.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Md {
-    /// Free flight with friction sign `σ` (0: no friction force); orders for wall +, wall −, `σẇ`.
-    Free {
-        sigma: f64,
-        k_plus: usize,
-        k_minus: usize,
-        k_sw: usize,
-    },
-    Stick,
-    Contact(Wall),
-    /// `hertz` law: the ball touches wall `Wall` (`ẇ` into it or 0); a compliant contact phase
-    /// follows ([`hertz::contact`]).
-    HertzTouch(Wall),
-}
-
 /// One closed-form piece of the motion.
 #[derive(Debug, Clone, Copy)]
 pub struct ExactSegment {
@@ -556,18 +522,6 @@ impl Segment for ExactSegment {
     }
 }
 
-fn wall_of(s: f64) -> Wall {
-    if s > 0.0 {
-        Wall::Plus
-    } else {
-        Wall::Minus
-    }
-}
-
-fn sign_or_zero(x: f64) -> f64 {
-    sgn0(x)
-}
-
 /// Run bookkeeping: counters, invariant checks, observer.
 struct Book<'a> {
     obs: &'a mut dyn Observer,
@@ -579,88 +533,6 @@ struct Book<'a> {
     tail: Tail,
     /// Set when a segment ended at a cut event ([`CUT`]); the cutting driver clears it.
     cut_event: bool,
-}
-
-/// How many events before the limit [`Tail`] looks at.
-const TAIL_EVENTS: u64 = 1024;
-
-/// The last events before the event limit, by kind, to name the likely cause.
-#[derive(Debug, Clone, Copy, Default)]
-struct Tail {
-    /// Recording starts after this many events.
-    from: u64,
-    t_first: f64,
-    n: u64,
-    impacts: u64,
-    /// Impacts with `ẇ− = 0` (touches), contact releases and chatter limits: a ball on a wall.
-    on_wall: u64,
-    switches: u64,
-    stick_slip: u64,
-    largest_dw: f64,
-}
-
-impl Tail {
-    fn new(max_events: u64) -> Tail {
-        Tail {
-            from: max_events.saturating_sub(TAIL_EVENTS),
-            ..Default::default()
-        }
-    }
-
-    fn record(&mut self, t: f64, kind: &EventKind) {
-        if self.n == 0 {
-            self.t_first = t;
-        }
-        self.n += 1;
-        match *kind {
-            EventKind::Impact { dw_m_s, .. } => {
-                self.impacts += 1;
-                if dw_m_s == 0.0 {
-                    self.on_wall += 1;
-                }
-                self.largest_dw = self.largest_dw.max(dw_m_s.abs());
-            }
-            EventKind::ContactRelease { .. } | EventKind::ChatterLimit { .. } => self.on_wall += 1,
-            EventKind::FrictionSwitch => self.switches += 1,
-            EventKind::Stick | EventKind::Unstick => self.stick_slip += 1,
-        }
-    }
-
-    /// The error at the limit: the event rate and the likely cause.
-    fn error(&self, cs: &Consts, limit: u64, t: f64) -> SimError {
-        let half = self.n / 2;
-        let elastic = cs.e >= 1.0 && !cs.frictional();
-        // Relative speeds beyond what the bar's motion over the gap gives.
-        let fast = self.largest_dw > 10.0 * cs.lg * cs.om.max(cs.osc[0].wd);
-        let cause = if self.n == 0 {
-            EventLimitCause::Dense
-        } else if self.on_wall > half {
-            EventLimitCause::RestingOnWall
-        } else if self.stick_slip > half {
-            EventLimitCause::StickSlip
-        } else if elastic && self.impacts > half {
-            EventLimitCause::ElasticMicroBouncing {
-                largest_dw_m_s: self.largest_dw,
-            }
-        } else if cs.model == FrictionModel::AsPublished
-            && cs.frictional()
-            && self.impacts + self.switches > half
-            && fast
-        {
-            EventLimitCause::FrictionRunaway {
-                largest_dw_m_s: self.largest_dw,
-            }
-        } else {
-            EventLimitCause::Dense
-        };
-        let periods = (t - self.t_first) * cs.om / (2.0 * std::f64::consts::PI);
-        SimError::TooManyEvents {
-            limit,
-            t_s: t,
-            events_per_period: self.n as f64 / periods,
-            cause,
-        }
-    }
 }
 
 impl Book<'_> {
@@ -690,7 +562,7 @@ impl Book<'_> {
     #[inline(never)]
     fn near_limit(&mut self, cs: &Consts, t: f64, kind: &EventKind) -> Result<(), SimError> {
         if self.summary.events > self.max_events {
-            return Err(self.tail.error(cs, self.max_events, t));
+            return Err(self.tail.error(&cs.limit_facts(), self.max_events, t));
         }
         self.tail.record(t, kind);
         Ok(())
@@ -724,6 +596,17 @@ impl Book<'_> {
 }
 
 impl Consts {
+    /// What names the cause at the event limit.
+    fn limit_facts(&self) -> LimitFacts {
+        LimitFacts {
+            restitution: self.e,
+            frictional: self.frictional(),
+            model: self.model,
+            omega_rad_s: self.om,
+            fast_dw_m_s: 10.0 * self.lg * self.om.max(self.osc[0].wd),
+        }
+    }
+
     /// `M`, `K`, `m_d` of [`ExactSegment::mechanical_energy_j`].
     fn energy_consts(&self) -> (f64, f64, Option<f64>) {
         (
@@ -841,20 +724,173 @@ impl Solver for Exact {
             return solid_bar(&cs, s, t_end_s, &mut book);
         }
         let mut search = Search::default();
-        let mut mode = initial_mode(&cs, &mut s, &mut book)?;
-        while s.t < t_end_s {
-            match advance(&cs, mode, &mut s, t_end_s, &mut book, &mut search)? {
-                Some(m) => mode = m,
-                None => break,
-            }
-        }
+        driver::run(
+            &mut Lumped {
+                cs: &cs,
+                book: &mut book,
+                search: &mut search,
+            },
+            &mut s,
+            t_end_s,
+        )?;
         book.summary.final_state = s.public();
         Ok(book.summary)
     }
 }
 
+/// The lumped bar as a kernel of the one event loop ([`driver`]): its run constants, books and
+/// search buffers.
+struct Lumped<'r, 'o> {
+    cs: &'r Consts,
+    book: &'r mut Book<'o>,
+    search: &'r mut Search,
+}
+
+impl BallState for St {
+    fn t(&self) -> f64 {
+        self.t
+    }
+    fn w(&self) -> f64 {
+        self.w
+    }
+    fn dw(&self) -> f64 {
+        self.dw
+    }
+    fn set_w(&mut self, w: f64) {
+        self.w = w;
+    }
+    fn set_dw(&mut self, dw: f64) {
+        self.dw = dw;
+    }
+}
+
+impl Cavity for Consts {
+    type St = St;
+    fn half_gap_m(&self) -> f64 {
+        self.lg
+    }
+    fn restitution(&self) -> f64 {
+        self.e
+    }
+    fn ball_mass_kg(&self) -> f64 {
+        self.md
+    }
+    fn friction_level_n(&self) -> f64 {
+        self.fl
+    }
+    fn friction_model(&self) -> FrictionModel {
+        self.model
+    }
+    fn kappa(&self) -> f64 {
+        1.0 / self.md + 1.0 / self.m
+    }
+    fn chatter_resolution(&self) -> (f64, f64) {
+        (self.chatter_h, self.chatter_t)
+    }
+    fn compliant(&self) -> bool {
+        self.hertz.is_some()
+    }
+    fn a_b(&self, s: &St) -> f64 {
+        Consts::a_b(self, s)
+    }
+    /// The pair (`M + m_d`) moves as one body: `a_b M/(M + m_d)`.
+    fn held_acceleration(&self, s: &St) -> f64 {
+        Consts::a_b(self, s) * self.m / (self.m + self.md)
+    }
+    fn a_b_rates(&self, s: &St, ab: f64) -> (f64, f64) {
+        let dforce = self.f0 * self.om * (self.om * s.t).cos();
+        let dab = (dforce - self.c * ab - self.k * s.du) / self.m;
+        let ddforce = -self.f0 * self.om * self.om * (self.om * s.t).sin();
+        (dab, (ddforce - self.c * dab - self.k * ab) / self.m)
+    }
+}
+
+impl Kernel for Lumped<'_, '_> {
+    type Cs = Consts;
+    fn cs(&self) -> &Consts {
+        self.cs
+    }
+    fn free_flight(
+        &mut self,
+        sigma: f64,
+        orders: [usize; 3],
+        s: &mut St,
+        t_end_s: f64,
+    ) -> Result<u8, SimError> {
+        free_flight(self.cs, sigma, orders, s, t_end_s, self.book, self.search)
+    }
+    fn held(&mut self, mode: Md, s: &mut St, t_end_s: f64) -> Result<u8, SimError> {
+        pair_motion(self.cs, mode, s, t_end_s, self.book, self.search)
+    }
+    fn impact_law(&mut self, sw: f64, s: &mut St) -> Result<(), SimError> {
+        let cs = self.cs;
+        s.w = sw * cs.lg;
+        // A graze (touch with ẇ ≈ 0 or already leaving by round-off) hits with ẇ− = 0.
+        let dw = if sw * s.dw > 0.0 { s.dw } else { 0.0 };
+        let before = St { dw, ..*s };
+        let (du_plus, dw_plus) = impact_relative(cs.mu, cs.e, s.du, dw);
+        let after = St {
+            du: du_plus,
+            dw: dw_plus,
+            ..*s
+        };
+        self.book.event(
+            cs,
+            s.t,
+            EventKind::Impact {
+                wall: wall_of(sw),
+                dw_m_s: dw,
+                energy_loss_j: impact_energy_loss_j(cs.m, cs.md, cs.e, dw),
+            },
+            &before,
+            &after,
+        )?;
+        *s = after;
+        Ok(())
+    }
+    fn chatter_hold(&mut self, sw: f64, dt: f64, s: &mut St) -> Result<f64, SimError> {
+        let cs = self.cs;
+        let mtot = cs.m + cs.md;
+        let (v, loss) = plastic_limit(cs.m, cs.md, s.du, s.du + s.dw);
+        let (u, force) = cs.bar_sum(mtot, 0.0, s.t, s.u, v)?;
+        let seg = ExactSegment {
+            t0: s.t,
+            t1: s.t + dt,
+            mode: Mode::Contact(wall_of(sw)),
+            u,
+            w: ExpSum::constant(sw * cs.lg, &u),
+            force,
+            c: cs.c,
+            energy: cs.energy_consts(),
+            fb: 0.0,
+            end: Trig::new(dt, u.om, u.al, u.wd),
+            cut: cs.cut.map(|c| c.segment(&u)),
+        };
+        let mut next = close_segment(&seg, self.book);
+        next.dw = 0.0;
+        *s = next;
+        Ok(loss)
+    }
+    fn event(&mut self, kind: EventKind, before: &St, after: &St) -> Result<(), SimError> {
+        self.book.event(self.cs, after.t, kind, before, after)
+    }
+    fn compliant_contact(
+        &mut self,
+        wall: Wall,
+        s: &mut St,
+        t_end_s: f64,
+    ) -> Result<Option<Md>, SimError> {
+        let law = self.cs.hertz.expect("a hertz touch needs the hertz law");
+        hertz::contact(self.cs, &law, wall.sign(), s, t_end_s, self.book)
+    }
+    fn cut_event(&mut self) {
+        self.book.cut_event = true;
+    }
+}
+
 /// One segment of mode `mode` from `s`, at most to `t_end_s`; the next mode, or `None` when
-/// `t_end_s` was reached. The one event loop of the lumped bar, with or without a cut.
+/// `t_end_s` was reached: the one event loop ([`driver::advance`]) on the lumped bar, with or
+/// without a cut.
 fn advance(
     cs: &Consts,
     mode: Md,
@@ -863,19 +899,13 @@ fn advance(
     book: &mut Book,
     search: &mut Search,
 ) -> Result<Option<Md>, SimError> {
-    match mode {
-        Md::Free {
-            sigma,
-            k_plus,
-            k_minus,
-            k_sw,
-        } => free_flight(cs, sigma, [k_plus, k_minus, k_sw], s, t_end_s, book, search),
-        Md::Stick | Md::Contact(_) => pair_motion(cs, mode, s, t_end_s, book, search),
-        Md::HertzTouch(wall) => {
-            let law = cs.hertz.expect("a hertz touch needs the hertz law");
-            hertz::contact(cs, &law, wall.sign(), s, t_end_s, book)
-        }
-    }
+    driver::advance(&mut Lumped { cs, book, search }, mode, s, t_end_s)
+}
+
+/// Mode at the start of a run (or after the state was set from outside).
+fn initial_mode(cs: &Consts, s: &mut St, book: &mut Book) -> Result<Md, SimError> {
+    let search = &mut Search::default();
+    driver::initial_mode(&mut Lumped { cs, book, search }, s)
 }
 
 /// The bar without a ball: one closed-form segment to the end.
@@ -955,8 +985,8 @@ fn close_segment(seg: &ExactSegment, book: &mut Book) -> St {
 }
 
 /// One free-flight segment with friction sign `σ` (0: no friction force) and the departure
-/// orders `[wall +, wall −, ẇ = 0]` of its event functions; returns the next mode, or `None` at
-/// the end of the run. Events: impact at a wall, `ẇ = 0` (friction switch or stick).
+/// orders `[wall +, wall −, ẇ = 0]` of its event functions ([`Kernel::free_flight`]). Events:
+/// impact at a wall, `ẇ = 0` (friction switch or stick).
 fn free_flight(
     cs: &Consts,
     sigma: f64,
@@ -965,7 +995,7 @@ fn free_flight(
     t_end_s: f64,
     book: &mut Book,
     search: &mut Search,
-) -> Result<Option<Md>, SimError> {
+) -> Result<u8, SimError> {
     let span = t_end_s - s.t;
     let tol_t = cs.tol_t_at(s.t);
     let fb = cs.fb(sigma);
@@ -1011,54 +1041,15 @@ fn free_flight(
         end,
         cut: cs.cut.map(|c| c.segment(&u)),
     };
-    let mut next = close_segment(&seg, book);
+    let next = close_segment(&seg, book);
     book.check_state(&next)?;
     *s = next;
-    match which {
-        0 => return Ok(None),
-        // The tool left or re-entered the cut: the same flight goes on with the other force.
-        CUT => {
-            book.cut_event = true;
-            return Ok(Some(Md::Free {
-                sigma,
-                k_plus: 0,
-                k_minus: 0,
-                k_sw: 0,
-            }));
-        }
-        // Same flight on from the proven point, no zero at hand any more.
-        HORIZON => {
-            return Ok(Some(Md::Free {
-                sigma,
-                k_plus: 0,
-                k_minus: 0,
-                k_sw: 0,
-            }))
-        }
-        _ => {}
-    }
-    let mode = match which {
-        1 | 2 => {
-            let sw = if which == 1 { 1.0 } else { -1.0 };
-            if cs.hertz.is_some() {
-                next.w = sw * cs.lg;
-                Md::HertzTouch(wall_of(sw))
-            } else {
-                impact(cs, sw, &mut next, book)?
-            }
-        }
-        _ => {
-            next.dw = 0.0;
-            friction_zero(cs, sigma, &next, book)?
-        }
-    };
-    *s = next;
-    Ok(Some(mode))
+    Ok(which)
 }
 
 /// One segment of the pair moving as one body: stuck together away from the walls (`coulomb`)
-/// or the ball pressed on a wall. Events: unstick when `|m_d ü_pair|` reaches `f`, release when
-/// the force pressing the ball on the wall reaches 0 (`f_hold`).
+/// or the ball pressed on a wall ([`Kernel::held`]). Events: unstick when `|m_d ü_pair|` reaches
+/// `f`, release when the force pressing the ball on the wall reaches 0 (`f_hold`).
 fn pair_motion(
     cs: &Consts,
     mode: Md,
@@ -1066,7 +1057,7 @@ fn pair_motion(
     t_end_s: f64,
     book: &mut Book,
     search: &mut Search,
-) -> Result<Option<Md>, SimError> {
+) -> Result<u8, SimError> {
     let span = t_end_s - s.t;
     let tol_t = cs.tol_t_at(s.t);
     let (u, force) = cs.bar_sum(cs.m + cs.md, 0.0, s.t, s.u, s.du)?;
@@ -1107,252 +1098,8 @@ fn pair_motion(
     next.dw = 0.0;
     book.check_state(&next)?;
     *s = next;
-    match which {
-        0 => return Ok(None),
-        HORIZON => return Ok(Some(mode)),
-        CUT => {
-            book.cut_event = true;
-            return Ok(Some(mode));
-        }
-        _ => {}
-    }
-    let (kind, new_mode) = match (which, mode) {
-        (1, _) => (EventKind::Unstick, free_departing(-1.0, None)),
-        (2, _) => (EventKind::Unstick, free_departing(1.0, None)),
-        (_, Md::Contact(wl)) => (
-            EventKind::ContactRelease { wall: wl },
-            free_departing(-wl.sign(), Some(wl)),
-        ),
-        _ => unreachable!("only contact has a release margin"),
-    };
-    book.event(cs, next.t, kind, &next, &next)?;
-    Ok(Some(new_mode))
+    Ok(which)
 }
-
-/// Free flight leaving `ẇ = 0` in direction `σ` (the switch function departs with order 1),
-/// optionally from a wall it was pressed on (that wall function departs with order 2).
-fn free_departing(sigma: f64, wall: Option<Wall>) -> Md {
-    Md::Free {
-        sigma,
-        k_plus: if wall == Some(Wall::Plus) { 2 } else { 0 },
-        k_minus: if wall == Some(Wall::Minus) { 2 } else { 0 },
-        k_sw: 1,
-    }
-}
-
-/// Mode at the start of a run (or after the state was set from outside).
-fn initial_mode(cs: &Consts, s: &mut St, book: &mut Book) -> Result<Md, SimError> {
-    for sw in [1.0, -1.0] {
-        if sw * s.w >= cs.lg {
-            s.w = sw * cs.lg;
-            if sw * s.dw > 0.0 {
-                if cs.hertz.is_some() {
-                    return Ok(Md::HertzTouch(wall_of(sw)));
-                }
-                return impact(cs, sw, s, book);
-            }
-            if s.dw == 0.0 {
-                return wall_touch(cs, sw, s);
-            }
-            return Ok(after_wall_free(sw, s.dw));
-        }
-    }
-    if s.dw != 0.0 {
-        return Ok(Md::Free {
-            sigma: sign_or_zero(s.dw),
-            k_plus: 0,
-            k_minus: 0,
-            k_sw: 0,
-        });
-    }
-    at_zero_velocity(cs, s)
-}
-
-/// Free flight leaving wall `sw` with `ẇ ≠ 0`.
-fn after_wall_free(sw: f64, dw: f64) -> Md {
-    Md::Free {
-        sigma: sign_or_zero(dw),
-        k_plus: if sw > 0.0 { 1 } else { 0 },
-        k_minus: if sw < 0.0 { 1 } else { 0 },
-        k_sw: 0,
-    }
-}
-
-/// `ẇ = 0` away from the walls, no event history: which way does the ball go?
-fn at_zero_velocity(cs: &Consts, s: &St) -> Result<Md, SimError> {
-    if !cs.frictional() {
-        return Ok(Md::Free {
-            sigma: 0.0,
-            k_plus: 0,
-            k_minus: 0,
-            k_sw: 0,
-        });
-    }
-    let ab = cs.a_b(s);
-    if can_stick(cs.model) {
-        if ab.abs() <= cs.fl * cs.kappa() {
-            return Ok(Md::Stick);
-        }
-        return Ok(free_departing(-sign_or_zero(ab), None));
-    }
-    // as-published, sgn(0) = 0: the ball departs the way ẅ points with F_rf = 0, i.e. −a_b,
-    // looking at higher derivatives of a_b when it vanishes (start from rest).
-    let mut sigma = -sign_or_zero(ab);
-    if sigma == 0.0 {
-        let dforce = cs.f0 * cs.om * (cs.om * s.t).cos();
-        let dab = (dforce - cs.c * ab - cs.k * s.du) / cs.m;
-        sigma = -sign_or_zero(dab);
-        if sigma == 0.0 {
-            let ddforce = -cs.f0 * cs.om * cs.om * (cs.om * s.t).sin();
-            sigma = -sign_or_zero((ddforce - cs.c * dab - cs.k * ab) / cs.m);
-        }
-    }
-    if sigma == 0.0 {
-        return Ok(Md::Free {
-            sigma: 0.0,
-            k_plus: 0,
-            k_minus: 0,
-            k_sw: 0,
-        });
-    }
-    Ok(free_departing(sigma, None))
-}
-
-/// `ẇ` reached 0 in free flight with friction sign `σ`.
-fn friction_zero(cs: &Consts, sigma: f64, s: &St, book: &mut Book) -> Result<Md, SimError> {
-    let ab = cs.a_b(s);
-    if can_stick(cs.model) && ab.abs() <= cs.fl * cs.kappa() {
-        book.event(cs, s.t, EventKind::Stick, s, s)?;
-        return Ok(Md::Stick);
-    }
-    book.event(cs, s.t, EventKind::FrictionSwitch, s, s)?;
-    // as-published: the crossing is transversal, the sign simply reverses. coulomb: not
-    // sticking means |a_b| > fκ, and the ball slides on against a_b, i.e. reversed too.
-    Ok(free_departing(-sigma, None))
-}
-
-/// Ball at wall `sw` with `s.dw` pointing into it: impact, then chatter / contact logic.
-fn impact(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<Md, SimError> {
-    s.w = sw * cs.lg;
-    // A graze (touch with ẇ ≈ 0 or already leaving by round-off) hits with ẇ− = 0.
-    let dw = if sw * s.dw > 0.0 { s.dw } else { 0.0 };
-    let before = St { dw, ..*s };
-    let (du_plus, dw_plus) = impact_relative(cs.mu, cs.e, s.du, dw);
-    let after = St {
-        du: du_plus,
-        dw: dw_plus,
-        ..*s
-    };
-    book.event(
-        cs,
-        s.t,
-        EventKind::Impact {
-            wall: wall_of(sw),
-            dw_m_s: dw,
-            energy_loss_j: impact_energy_loss_j(cs.m, cs.md, cs.e, dw),
-        },
-        &before,
-        &after,
-    )?;
-    *s = after;
-    if s.dw == 0.0 {
-        return contact_test(cs, sw, s);
-    }
-    // Chatter: do the relative accelerations of the flight away (friction sign −s) and back
-    // (sign +s) both push the ball to the same wall, with bounces shrinking by
-    // q = e·√(a_back/a_away) < 1? Then the sequence sums to Δt = (|ẇ+|/a_away)(1 + √(a_away/a_back))/(1 − q),
-    // i.e. 2|ẇ+|/((1 − e) a) without friction. Jump when it is below resolution.
-    let sigma = sign_or_zero(s.dw);
-    let a_b = cs.a_b(s);
-    let ddw_away = cs.fb(sigma) * cs.kappa() - a_b;
-    let ddw_back = cs.fb(-sigma) * cs.kappa() - a_b;
-    // Also at e = 1: coulomb friction alone (a_back < a_away) makes the bounces shrink to a
-    // finite-time accumulation; q < 1 below decides, e = 1 without friction gives q = 1.
-    if sw * ddw_away > 0.0 && sw * ddw_back > 0.0 {
-        let (a1, a2) = (ddw_away.abs(), ddw_back.abs());
-        let q = cs.e * (a2 / a1).sqrt();
-        let apex = 0.5 * s.dw * s.dw / a1;
-        if q < 1.0 {
-            let dt = s.dw.abs() / a1 * (1.0 + (a1 / a2).sqrt()) / (1.0 - q);
-            if apex < cs.chatter_h || dt < cs.chatter_t {
-                return chatter_limit(cs, ChatterJump { sw, dt }, s, book);
-            }
-        }
-    }
-    Ok(after_wall_free(sw, s.dw))
-}
-
-struct ChatterJump {
-    sw: f64,
-    dt: f64,
-}
-
-/// Sum the chatter sequence: plastic limit now, the pair rides the wall for `Δt`, then the
-/// contact test at the accumulation point.
-fn chatter_limit(cs: &Consts, j: ChatterJump, s: &mut St, book: &mut Book) -> Result<Md, SimError> {
-    let mtot = cs.m + cs.md;
-    let (v, loss) = plastic_limit(cs.m, cs.md, s.du, s.du + s.dw);
-    let (u, force) = cs.bar_sum(mtot, 0.0, s.t, s.u, v)?;
-    let seg = ExactSegment {
-        t0: s.t,
-        t1: s.t + j.dt,
-        mode: Mode::Contact(wall_of(j.sw)),
-        u,
-        w: ExpSum::constant(j.sw * cs.lg, &u),
-        force,
-        c: cs.c,
-        energy: cs.energy_consts(),
-        fb: 0.0,
-        end: Trig::new(j.dt, u.om, u.al, u.wd),
-        cut: cs.cut.map(|c| c.segment(&u)),
-    };
-    if seg.t1 > seg.t0 {
-        book.obs.segment(&seg);
-    }
-    let mut next = seg.at_end();
-    next.t = seg.t1;
-    next.dw = 0.0;
-    book.event(
-        cs,
-        next.t,
-        EventKind::ChatterLimit {
-            wall: wall_of(j.sw),
-            energy_loss_j: loss,
-        },
-        &next,
-        &next,
-    )?;
-    *s = next;
-    contact_test(cs, j.sw, s)
-}
-
-/// Ball at wall `sw` with `ẇ = 0`: [`contact_test`], where a pressed ball under the `hertz` law
-/// starts a (resting) compliant contact instead of riding the wall rigidly.
-fn wall_touch(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
-    let md = contact_test(cs, sw, s)?;
-    Ok(match (md, cs.hertz) {
-        (Md::Contact(w), Some(_)) => Md::HertzTouch(w),
-        (m, _) => m,
-    })
-}
-
-/// Ball at wall `sw` with `ẇ = 0`: does it stay pressed on it (`sw·m_d ü_pair ≤ f_hold`)?
-fn contact_test(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
-    let ddu_pair = cs.a_b(s) * cs.m / (cs.m + cs.md);
-    if sw * cs.md * ddu_pair <= cs.f_hold() {
-        Ok(Md::Contact(wall_of(sw)))
-    } else {
-        Ok(free_departing(-sw, Some(wall_of(sw))))
-    }
-}
-
-/// `which` of a search that reached its work bound ([`roots::Root::Horizon`]): the segment ends
-/// at the proven point without an event and the same mode goes on from there.
-const HORIZON: u8 = u8::MAX;
-
-/// `which` of the chip thickness reaching 0: the tool leaves or re-enters the cut
-/// ([`cutting`]); the segment ends there and the same mode goes on with the other force.
-const CUT: u8 = u8::MAX - 1;
 
 /// The segment's joint event search: drop the margins that cannot fall, find the earliest zero
 /// on `[0, span]`, and return `(τ, which, Trig at τ)`; `which = 0` means no event before `span`,
@@ -1418,6 +1165,7 @@ fn drop_constant_margins(cands: &mut [Cand], ids: &mut [u8]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::EventLimitCause;
 
     fn book(obs: &mut dyn Observer, check: bool) -> Book<'_> {
         Book {
@@ -1450,7 +1198,7 @@ mod tests {
         for (i, k) in kinds.iter().enumerate() {
             t.record(i as f64 * 1e-6, k);
         }
-        match t.error(cs, kinds.len() as u64, 1e-3) {
+        match t.error(&cs.limit_facts(), kinds.len() as u64, 1e-3) {
             SimError::TooManyEvents { cause, .. } => cause,
             e => panic!("{e:?}"),
         }

@@ -9,8 +9,8 @@
 //! `Σφₙ(x_r)qₙ` and the force point's velocity; events are the zeros of such sums, found by
 //! [`super::roots_n`] (which cannot miss one: see its argument).
 //!
-//! The event logic is the lumped solver's ([`super::Exact`]), with the bar's quantities read
-//! at the cavity through the contact row: impacts at `w = ±l_g` with the modal impact law
+//! The event logic is the one loop's ([`super::driver`]; this module is the N-mode bar's kernel
+//! of it), with the bar's quantities read at the cavity through the contact row: impacts at `w = ±l_g` with the modal impact law
 //! ([`crate::damper::impact::modal_impact`]; `w` is set to exactly `±l_g`, the ball coordinate
 //! follows), `ẇ = 0` (as-published: the sign reverses; coulomb: stick if `|a_b| ≤ F κ` with
 //! `κ = 1/m_d + Σφₙ(x_d)²/mₙ`, `a_b = Σφₙ(x_d)q̈ₙ` without the ball's force), the chatter test
@@ -60,6 +60,7 @@
 use std::cell::RefCell;
 
 use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
+use super::driver::{self, wall_of, BallState, Cavity, Kernel, LimitFacts, Md, Tail, HORIZON};
 use super::expsum::{integral_square, ExpSum, Trig};
 use super::expsum_n::{
     integral_product_n, integral_square_n, integral_square_n_to, sin_cos, ExpSumN, SquarePlan,
@@ -67,9 +68,8 @@ use super::expsum_n::{
 };
 use super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::CONFINEMENT_TOL_M;
-use crate::damper::friction::{can_stick, sgn0, sliding_friction_on_ball_n};
 use crate::damper::impact::{modal_impact, modal_inverse_effective_mass_per_kg};
-use crate::error::{EventLimitCause, SimError};
+use crate::error::SimError;
 use crate::limits::MAX_BEAM_MODES;
 use crate::params::{CavityMotion, FrictionModel, State};
 use crate::solver::modal_rk4::{ModalObserver, ModalRunSummary, Plain};
@@ -234,14 +234,6 @@ impl Consts {
         self.tol_t + 4.0 * f64::EPSILON * t.abs()
     }
 
-    fn fb(&self, sigma: f64) -> f64 {
-        sliding_friction_on_ball_n(self.model, self.fl, sigma)
-    }
-
-    fn frictional(&self) -> bool {
-        self.model != FrictionModel::None && self.fl > 0.0
-    }
-
     fn dot(&self, row: &[f64; NM], x: &[f64; NM]) -> f64 {
         let mut s = 0.0;
         for i in 0..self.n {
@@ -303,22 +295,6 @@ impl St {
             }),
         }
     }
-}
-
-/// Internal mode with the departure orders of the free-flight event functions.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Md {
-    Free {
-        sigma: f64,
-        k_plus: usize,
-        k_minus: usize,
-        k_sw: usize,
-    },
-    Stick,
-    Contact(Wall),
-    /// `hertz` law: the ball touches the wall (`ẇ` into it or 0); a compliant contact phase
-    /// follows ([`hertz::contact`]).
-    HertzTouch(Wall),
 }
 
 /// The closed-form motion of one free-flight segment (run-long buffer, rewritten per segment
@@ -632,9 +608,6 @@ fn to_expsum(t: &TermSum, out: &mut ExpSumN) {
     out.f0 = f0;
 }
 
-/// How many events before the limit the tail looks at.
-const TAIL_EVENTS: u64 = 1024;
-
 /// Run bookkeeping: counters, invariant checks, observer.
 struct Book<'a> {
     obs: &'a mut dyn ModalObserver,
@@ -642,14 +615,8 @@ struct Book<'a> {
     max_events: u64,
     check: bool,
     lg: f64,
-    tail_from: u64,
-    tail_t0: f64,
-    tail_n: u64,
-    tail_on_wall: u64,
-    tail_stick: u64,
-    tail_impacts: u64,
-    tail_switches: u64,
-    tail_largest_dw: f64,
+    /// What the last events before the event limit did (recorded only near the limit).
+    tail: Tail,
 }
 
 impl Book<'_> {
@@ -677,56 +644,21 @@ impl Book<'_> {
         Ok(())
     }
 
+    /// The last events before the limit: recorded, and the error at the limit.
     #[cold]
     fn near_limit(&mut self, cs: &Consts, t: f64, kind: &EventKind) -> Result<(), SimError> {
         if self.summary.events > self.max_events {
-            let half = self.tail_n / 2;
-            let cause = if self.tail_on_wall > half {
-                EventLimitCause::RestingOnWall
-            } else if self.tail_stick > half {
-                EventLimitCause::StickSlip
-            } else if cs.e >= 1.0 && !cs.frictional() && self.tail_impacts > half {
-                EventLimitCause::ElasticMicroBouncing {
-                    largest_dw_m_s: self.tail_largest_dw,
-                }
-            } else if cs.model == FrictionModel::AsPublished
-                && cs.frictional()
-                && self.tail_impacts + self.tail_switches > half
-                // Relative speeds beyond what the bar's motion over the gap gives (as `Exact`).
-                && self.tail_largest_dw > 10.0 * cs.lg * cs.om.max(cs.osc[0].wd)
-            {
-                EventLimitCause::FrictionRunaway {
-                    largest_dw_m_s: self.tail_largest_dw,
-                }
-            } else {
-                EventLimitCause::Dense
+            let facts = LimitFacts {
+                restitution: cs.e,
+                frictional: cs.frictional(),
+                model: cs.model,
+                omega_rad_s: cs.om,
+                // Relative speeds beyond what the bar's motion over the gap gives.
+                fast_dw_m_s: 10.0 * cs.lg * cs.om.max(cs.osc[0].wd),
             };
-            let periods = (t - self.tail_t0) * cs.om / (2.0 * std::f64::consts::PI);
-            return Err(SimError::TooManyEvents {
-                limit: self.max_events,
-                t_s: t,
-                events_per_period: self.tail_n as f64 / periods,
-                cause,
-            });
+            return Err(self.tail.error(&facts, self.max_events, t));
         }
-        if self.tail_n == 0 {
-            self.tail_t0 = t;
-        }
-        self.tail_n += 1;
-        match *kind {
-            EventKind::Impact { dw_m_s, .. } => {
-                self.tail_impacts += 1;
-                if dw_m_s == 0.0 {
-                    self.tail_on_wall += 1;
-                }
-                self.tail_largest_dw = self.tail_largest_dw.max(dw_m_s.abs());
-            }
-            EventKind::ContactRelease { .. } | EventKind::ChatterLimit { .. } => {
-                self.tail_on_wall += 1
-            }
-            EventKind::Stick | EventKind::Unstick => self.tail_stick += 1,
-            EventKind::FrictionSwitch => self.tail_switches += 1,
-        }
+        self.tail.record(t, kind);
         Ok(())
     }
 
@@ -765,7 +697,7 @@ impl Book<'_> {
         if let EventKind::Impact { .. } = kind {
             self.summary.impacts += 1;
         }
-        if self.summary.events > self.tail_from {
+        if self.summary.events > self.tail.from {
             self.near_limit(cs, after.t, &kind)?;
         }
         self.check_state(after)?;
@@ -871,14 +803,7 @@ impl ModalExact {
             max_events: self.max_events,
             check: self.check_invariants,
             lg: cs.lg,
-            tail_from: self.max_events.saturating_sub(TAIL_EVENTS),
-            tail_t0: 0.0,
-            tail_n: 0,
-            tail_on_wall: 0,
-            tail_stick: 0,
-            tail_impacts: 0,
-            tail_switches: 0,
-            tail_largest_dw: 0.0,
+            tail: Tail::new(self.max_events),
         };
         let mut s = St {
             t: init.t_s,
@@ -890,8 +815,7 @@ impl ModalExact {
         };
         let mut work = Work::new();
         if sys.damper.is_none() {
-            let mut held = Held { sys, cm: None };
-            free_flight(&cs, None, &mut s, t_end_s, &mut book, &mut work, &mut held)?;
+            free_flight(&cs, None, &mut s, t_end_s, &mut book, &mut work)?;
             book.summary.max_penetration_m = f64::NEG_INFINITY;
             book.summary.final_state = s.public(&cs);
             let fin = s.modal(&cs);
@@ -910,35 +834,16 @@ impl ModalExact {
         s.w = init.w_m(&sys.model);
         s.dw = init.dw_m_s(&sys.model);
         let mut held = Held { sys, cm: None };
-        let mut mode = initial_mode(&cs, &mut s, &mut book, &mut held)?;
-        while s.t < t_end_s {
-            let next = match mode {
-                Md::Free {
-                    sigma,
-                    k_plus,
-                    k_minus,
-                    k_sw,
-                } => free_flight(
-                    &cs,
-                    Some((sigma, [k_plus, k_minus, k_sw])),
-                    &mut s,
-                    t_end_s,
-                    &mut book,
-                    &mut work,
-                    &mut held,
-                )?,
-                Md::Stick | Md::Contact(_) => {
-                    pair_motion(&cs, &mut held, mode, &mut s, t_end_s, &mut book, &mut work)?
-                }
-                Md::HertzTouch(wall) => {
-                    hertz::contact(&cs, wall.sign(), &mut s, t_end_s, &mut book)?
-                }
-            };
-            match next {
-                Some(m) => mode = m,
-                None => break,
-            }
-        }
+        driver::run(
+            &mut ModalRun {
+                cs: &cs,
+                book: &mut book,
+                work: &mut work,
+                held: &mut held,
+            },
+            &mut s,
+            t_end_s,
+        )?;
         book.summary.final_state = s.public(&cs);
         Ok((
             ModalRunSummary {
@@ -947,6 +852,126 @@ impl ModalExact {
             },
             work.search.steps,
         ))
+    }
+}
+
+/// The N-mode bar as a kernel of the one event loop ([`driver`]): its run constants, books,
+/// buffers and the constrained modes of the ball held.
+struct ModalRun<'r, 'o, 's> {
+    cs: &'r Consts,
+    book: &'r mut Book<'o>,
+    work: &'r mut Work,
+    held: &'r mut Held<'s>,
+}
+
+impl BallState for St {
+    fn t(&self) -> f64 {
+        self.t
+    }
+    fn w(&self) -> f64 {
+        self.w
+    }
+    fn dw(&self) -> f64 {
+        self.dw
+    }
+    fn set_w(&mut self, w: f64) {
+        self.w = w;
+    }
+    fn set_dw(&mut self, dw: f64) {
+        self.dw = dw;
+    }
+}
+
+impl Cavity for Consts {
+    type St = St;
+    fn half_gap_m(&self) -> f64 {
+        self.lg
+    }
+    fn restitution(&self) -> f64 {
+        self.e
+    }
+    fn ball_mass_kg(&self) -> f64 {
+        self.md
+    }
+    fn friction_level_n(&self) -> f64 {
+        self.fl
+    }
+    fn friction_model(&self) -> FrictionModel {
+        self.model
+    }
+    fn kappa(&self) -> f64 {
+        self.kappa
+    }
+    fn chatter_resolution(&self) -> (f64, f64) {
+        (self.chatter_h, self.chatter_t)
+    }
+    fn compliant(&self) -> bool {
+        self.hertz.is_some()
+    }
+    fn a_b(&self, s: &St) -> f64 {
+        Consts::a_b(self, s)
+    }
+    /// The bar's effective mass at the cavity and the ball move together: `a_b/(m_d κ)`.
+    fn held_acceleration(&self, s: &St) -> f64 {
+        Consts::a_b(self, s) / (self.md * self.kappa)
+    }
+    fn a_b_rates(&self, s: &St, _ab: f64) -> (f64, f64) {
+        let (sn, cn) = (self.om * s.t).sin_cos();
+        let dforce = self.f0 * self.om * cn;
+        let ddforce = -self.f0 * self.om * self.om * sn;
+        let (mut dab, mut ddab) = (0.0, 0.0);
+        for i in 0..self.n {
+            let (m, c, k) = (self.m[i], self.c[i], self.k[i]);
+            let acc = (self.phi_f[i] * s.force - c * s.dq[i] - k * s.q[i]) / m;
+            let jerk = (self.phi_f[i] * dforce - c * acc - k * s.dq[i]) / m;
+            let snap = (self.phi_f[i] * ddforce - c * jerk - k * acc) / m;
+            dab += self.phi_d[i] * jerk;
+            ddab += self.phi_d[i] * snap;
+        }
+        (dab, ddab)
+    }
+}
+
+impl Kernel for ModalRun<'_, '_, '_> {
+    type Cs = Consts;
+    fn cs(&self) -> &Consts {
+        self.cs
+    }
+    fn free_flight(
+        &mut self,
+        sigma: f64,
+        orders: [usize; 3],
+        s: &mut St,
+        t_end_s: f64,
+    ) -> Result<u8, SimError> {
+        free_flight(
+            self.cs,
+            Some((sigma, orders)),
+            s,
+            t_end_s,
+            self.book,
+            self.work,
+        )
+    }
+    fn held(&mut self, mode: Md, s: &mut St, t_end_s: f64) -> Result<u8, SimError> {
+        pair_motion(self.cs, self.held, mode, s, t_end_s, self.book, self.work)
+    }
+    fn impact_law(&mut self, sw: f64, s: &mut St) -> Result<(), SimError> {
+        impact_law(self.cs, sw, s, self.book)
+    }
+    fn chatter_hold(&mut self, sw: f64, dt: f64, s: &mut St) -> Result<f64, SimError> {
+        chatter_hold(self.cs, sw, dt, s, self.book, self.work, self.held)
+    }
+    fn event(&mut self, kind: EventKind, before: &St, after: &St) -> Result<(), SimError> {
+        self.book.event(self.cs, kind, before, after)
+    }
+    fn compliant_contact(
+        &mut self,
+        wall: Wall,
+        s: &mut St,
+        t_end_s: f64,
+    ) -> Result<Option<Md>, SimError> {
+        hertz::contact(self.cs, wall.sign(), s, t_end_s, self.book)
     }
 }
 
@@ -1065,8 +1090,8 @@ fn build_free(cs: &Consts, s: &St, fb: f64, no_ball: bool, mo: &mut FreeMotion) 
 }
 
 /// One free-flight segment with friction sign `σ` and departure orders `[wall +, wall −,
-/// ẇ = 0]` (`None`: the bar without a ball, one segment to the end). Returns the next mode, or
-/// `None` at the end of the run.
+/// ẇ = 0]` (`None`: the bar without a ball, one segment to the end) ([`Kernel::free_flight`]).
+/// Returns which event ended it.
 fn free_flight(
     cs: &Consts,
     flight: Option<(f64, [usize; 3])>,
@@ -1074,8 +1099,7 @@ fn free_flight(
     t_end_s: f64,
     book: &mut Book,
     work: &mut Work,
-    held: &mut Held,
-) -> Result<Option<Md>, SimError> {
+) -> Result<u8, SimError> {
     let span = t_end_s - s.t;
     let tol_t = cs.tol_t_at(s.t);
     let (sigma, [k_plus, k_minus, k_sw]) = flight.unwrap_or((0.0, [0; 3]));
@@ -1144,164 +1168,14 @@ fn free_flight(
         {
             return Err(SimError::NonFinite { t_s: s.t });
         }
-        return Ok(None);
+        return Ok(0);
     }
     book.check_state(s)?;
-    match which {
-        0 => return Ok(None),
-        HORIZON => {
-            return Ok(Some(Md::Free {
-                sigma,
-                k_plus: 0,
-                k_minus: 0,
-                k_sw: 0,
-            }))
-        }
-        _ => {}
-    }
-    let mode = match which {
-        1 | 2 => {
-            let sw = if which == 1 { 1.0 } else { -1.0 };
-            if cs.hertz.is_some() {
-                s.w = sw * cs.lg;
-                Md::HertzTouch(wall_of(sw))
-            } else {
-                impact(cs, sw, s, book, work, held)?
-            }
-        }
-        _ => {
-            s.dw = 0.0;
-            friction_zero(cs, sigma, s, book)?
-        }
-    };
-    Ok(Some(mode))
+    Ok(which)
 }
 
-/// `which` of a search that reached its work bound.
-const HORIZON: u8 = u8::MAX;
-
-fn wall_of(s: f64) -> Wall {
-    if s > 0.0 {
-        Wall::Plus
-    } else {
-        Wall::Minus
-    }
-}
-
-/// Free flight leaving `ẇ = 0` in direction `σ`, optionally from a wall it was pressed on.
-fn free_departing(sigma: f64, wall: Option<Wall>) -> Md {
-    Md::Free {
-        sigma,
-        k_plus: if wall == Some(Wall::Plus) { 2 } else { 0 },
-        k_minus: if wall == Some(Wall::Minus) { 2 } else { 0 },
-        k_sw: 1,
-    }
-}
-
-/// Free flight leaving wall `sw` with `ẇ ≠ 0`.
-fn after_wall_free(sw: f64, dw: f64) -> Md {
-    Md::Free {
-        sigma: sgn0(dw),
-        k_plus: if sw > 0.0 { 1 } else { 0 },
-        k_minus: if sw < 0.0 { 1 } else { 0 },
-        k_sw: 0,
-    }
-}
-
-/// Mode at the start of a run.
-fn initial_mode(cs: &Consts, s: &mut St, book: &mut Book, held: &mut Held) -> Result<Md, SimError> {
-    for sw in [1.0, -1.0] {
-        if sw * s.w >= cs.lg {
-            s.w = sw * cs.lg;
-            if sw * s.dw > 0.0 {
-                if cs.hertz.is_some() {
-                    return Ok(Md::HertzTouch(wall_of(sw)));
-                }
-                let mut work = Work::new();
-                return impact(cs, sw, s, book, &mut work, held);
-            }
-            if s.dw == 0.0 {
-                return hertz::wall_touch(cs, sw, s);
-            }
-            return Ok(after_wall_free(sw, s.dw));
-        }
-    }
-    if s.dw != 0.0 {
-        return Ok(Md::Free {
-            sigma: sgn0(s.dw),
-            k_plus: 0,
-            k_minus: 0,
-            k_sw: 0,
-        });
-    }
-    at_zero_velocity(cs, s)
-}
-
-/// `ẇ = 0` away from the walls, no event history: which way does the ball go?
-fn at_zero_velocity(cs: &Consts, s: &St) -> Result<Md, SimError> {
-    let rest = Md::Free {
-        sigma: 0.0,
-        k_plus: 0,
-        k_minus: 0,
-        k_sw: 0,
-    };
-    if !cs.frictional() {
-        return Ok(rest);
-    }
-    let ab = cs.a_b(s);
-    if can_stick(cs.model) {
-        if ab.abs() <= cs.fl * cs.kappa {
-            return Ok(Md::Stick);
-        }
-        return Ok(free_departing(-sgn0(ab), None));
-    }
-    // as-published, sgn(0) = 0: the ball departs the way ẅ points with F_rf = 0, i.e. −a_b,
-    // looking at the higher derivatives of a_b when it vanishes (start from rest).
-    let mut sigma = -sgn0(ab);
-    if sigma == 0.0 {
-        let (sn, cn) = (cs.om * s.t).sin_cos();
-        let dforce = cs.f0 * cs.om * cn;
-        let ddforce = -cs.f0 * cs.om * cs.om * sn;
-        let (mut dab, mut ddab) = (0.0, 0.0);
-        for i in 0..cs.n {
-            let (m, c, k) = (cs.m[i], cs.c[i], cs.k[i]);
-            let acc = (cs.phi_f[i] * s.force - c * s.dq[i] - k * s.q[i]) / m;
-            let jerk = (cs.phi_f[i] * dforce - c * acc - k * s.dq[i]) / m;
-            let snap = (cs.phi_f[i] * ddforce - c * jerk - k * acc) / m;
-            dab += cs.phi_d[i] * jerk;
-            ddab += cs.phi_d[i] * snap;
-        }
-        sigma = -sgn0(dab);
-        if sigma == 0.0 {
-            sigma = -sgn0(ddab);
-        }
-    }
-    if sigma == 0.0 {
-        return Ok(rest);
-    }
-    Ok(free_departing(sigma, None))
-}
-
-/// `ẇ` reached 0 in free flight with friction sign `σ`.
-fn friction_zero(cs: &Consts, sigma: f64, s: &St, book: &mut Book) -> Result<Md, SimError> {
-    let ab = cs.a_b(s);
-    if can_stick(cs.model) && ab.abs() <= cs.fl * cs.kappa {
-        book.event(cs, EventKind::Stick, s, s)?;
-        return Ok(Md::Stick);
-    }
-    book.event(cs, EventKind::FrictionSwitch, s, s)?;
-    Ok(free_departing(-sigma, None))
-}
-
-/// Ball at wall `sw` with `ẇ` pointing into it: the modal impact, then chatter / contact logic.
-fn impact(
-    cs: &Consts,
-    sw: f64,
-    s: &mut St,
-    book: &mut Book,
-    work: &mut Work,
-    held: &mut Held,
-) -> Result<Md, SimError> {
+/// The modal impact law at wall `sw` ([`Kernel::impact_law`]).
+fn impact_law(cs: &Consts, sw: f64, s: &mut St, book: &mut Book) -> Result<(), SimError> {
     s.w = sw * cs.lg;
     let dw = if sw * s.dw > 0.0 { s.dw } else { 0.0 };
     s.dw = dw;
@@ -1338,41 +1212,7 @@ fn impact(
         before_modal.as_ref(),
         s,
         after_pub,
-    )?;
-    if s.dw == 0.0 {
-        return contact_test(cs, sw, s);
-    }
-    // Chatter: the relative accelerations of the flights away and back both push the ball to
-    // the same wall, bounces shrinking by q = e·√(a_back/a_away) < 1 (see `Exact`).
-    let sigma = sgn0(s.dw);
-    let a_b = cs.a_b(s);
-    let ddw_away = cs.fb(sigma) * cs.kappa - a_b;
-    let ddw_back = cs.fb(-sigma) * cs.kappa - a_b;
-    if sw * ddw_away > 0.0 && sw * ddw_back > 0.0 {
-        let (a1, a2) = (ddw_away.abs(), ddw_back.abs());
-        let q = cs.e * (a2 / a1).sqrt();
-        let apex = 0.5 * s.dw * s.dw / a1;
-        if q < 1.0 {
-            let dt = s.dw.abs() / a1 * (1.0 + (a1 / a2).sqrt()) / (1.0 - q);
-            if apex < cs.chatter_h || dt < cs.chatter_t {
-                return chatter_limit(cs, sw, dt, s, book, work, held);
-            }
-        }
-    }
-    Ok(after_wall_free(sw, s.dw))
-}
-
-/// Ball at wall `sw` with `ẇ = 0`: does it stay pressed on it?
-fn contact_test(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
-    // The pair's acceleration at the cavity when held: a_b/(m_d κ) (the bar's effective mass
-    // at the cavity and the ball move together); pressed while sw·m_d·ü ≤ holding capacity.
-    let ddu_pair = cs.a_b(s) / (cs.md * cs.kappa);
-    let hold = crate::damper::friction::holding_capacity_n(cs.model, cs.fl);
-    if sw * cs.md * ddu_pair <= hold {
-        Ok(Md::Contact(wall_of(sw)))
-    } else {
-        Ok(free_departing(-sw, Some(wall_of(sw))))
-    }
+    )
 }
 
 /// The sums of a held segment from its constrained closed form.
@@ -1407,7 +1247,7 @@ fn build_pair<'a>(cs: &Consts, motion: ConstrainedMotion<'a>, t0: f64, w: f64) -
 
 /// One segment of the ball held at the cavity: stuck (coulomb) away from the walls, or pressed
 /// on a wall. Events: unstick when the holding force `f_c = m_d φ_dᵀq̈` reaches `±F`, release
-/// when `s·f_c` reaches the holding capacity (0 without friction).
+/// when `s·f_c` reaches the holding capacity (0 without friction) ([`Kernel::held`]).
 fn pair_motion(
     cs: &Consts,
     held: &mut Held,
@@ -1416,7 +1256,7 @@ fn pair_motion(
     t_end_s: f64,
     book: &mut Book,
     work: &mut Work,
-) -> Result<Option<Md>, SimError> {
+) -> Result<u8, SimError> {
     let span = t_end_s - s.t;
     let tol_t = cs.tol_t_at(s.t);
     let cm = held.get()?;
@@ -1480,33 +1320,18 @@ fn pair_motion(
     next.dw = 0.0;
     book.check_state(&next)?;
     *s = next;
-    match which {
-        0 => return Ok(None),
-        HORIZON => return Ok(Some(mode)),
-        _ => {}
-    }
-    let (kind, new_mode) = match (which, mode) {
-        (1, _) => (EventKind::Unstick, free_departing(-1.0, None)),
-        (2, _) => (EventKind::Unstick, free_departing(1.0, None)),
-        (_, Md::Contact(wl)) => (
-            EventKind::ContactRelease { wall: wl },
-            free_departing(-wl.sign(), Some(wl)),
-        ),
-        _ => unreachable!("only contact has a release margin"),
-    };
-    book.event(cs, kind, &next, &next)?;
-    Ok(Some(new_mode))
+    Ok(which)
 }
 
-/// Sum a chatter sequence at wall `sw`: the plastic limit now (the modal impact law at `e = 0`:
-/// only the contact row is equalised), the ball held on the wall for the sequence's duration
-/// `dt`, then the [`EventKind::ChatterLimit`] with the energy the infinitely many impacts
-/// removed, and the contact test. (Never inlined: its held segment's sums make a stack frame
-/// of ~100 KB, which the inlining caller `impact` probed page by page at every impact, a third
-/// of its time, measured with perf.)
+/// Hold the ball over a summed chatter sequence at wall `sw` ([`Kernel::chatter_hold`]): the
+/// plastic limit now (the modal impact law at `e = 0`: only the contact row is equalised), the
+/// ball held on the wall for the sequence's duration `dt`; returns the energy the infinitely
+/// many impacts removed. (Never inlined: its held segment's sums make a stack frame of ~100 KB,
+/// which the inlining caller probed page by page at every impact, a third of its time,
+/// measured with perf.)
 #[inline(never)]
 #[cold]
-fn chatter_limit(
+fn chatter_hold(
     cs: &Consts,
     sw: f64,
     dt: f64,
@@ -1514,7 +1339,7 @@ fn chatter_limit(
     book: &mut Book,
     work: &mut Work,
     held: &mut Held,
-) -> Result<Md, SimError> {
+) -> Result<f64, SimError> {
     let n = cs.n;
     let mut after = *s;
     let mut dv = s.dw + cs.dot(&cs.phi_d, &s.dq);
@@ -1546,17 +1371,8 @@ fn chatter_limit(
     let mut next = book.close(&seg, &after);
     next.dw = 0.0;
     next.w = sw * cs.lg;
-    book.event(
-        cs,
-        EventKind::ChatterLimit {
-            wall: wall_of(sw),
-            energy_loss_j: law.energy_loss_j,
-        },
-        &next,
-        &next,
-    )?;
     *s = next;
-    contact_test(cs, sw, s)
+    Ok(law.energy_loss_j)
 }
 
 #[cfg(test)]

@@ -80,10 +80,11 @@ use super::super::cutting::{
     fit_remainder, CutContinuation, History, CONTINUE_MISMATCH, DEFAULT_STEPS_PER_PERIOD, GL8,
     MAX_EVENT_KNOTS, REMAINDER_TOL,
 };
+use super::super::driver::{after_wall_free, free_departing, wall_of, Md};
 use super::super::expsum_n::{ExpSumN, Term, MAX_TERMS};
 use super::super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::super::CONFINEMENT_TOL_M;
-use super::{after_wall_free, free_departing, wall_of, Md, ModalExact};
+use super::ModalExact;
 
 /// The ball modes and their helpers are the modal solver's ([`super`]); a `HertzTouch` runs as
 /// the contact phase of [`cutting_hertz`], never as a closed-form segment.

@@ -25,13 +25,13 @@
 //! the cut), which on one mode is the lumped phase's.
 
 use super::super::hertz::{PhaseBar, NY, Y};
-use super::super::{wall_of, Md};
 use super::{energy_j, Book, Consts, Run, St, GL8, NM};
 use crate::damper::contact::Hertz;
 use crate::damper::friction::can_stick;
 use crate::error::SimError;
 use crate::excitation::Cutting;
 use crate::solver::dopri5::{DenseStep, Dopri5};
+use crate::solver::exact::driver::{after_wall_free, wall_of, Md};
 use crate::solver::exact::hertz::APPROACH_FLOOR_REL;
 use crate::solver::exact::hertz_phase::{count_steps, run_phase, Event};
 use crate::solver::{CutSample, EventKind, Mode, Segment, SegmentIntegrals};
@@ -457,7 +457,7 @@ pub(super) fn contact_piece(
         let mode = if s.dw == 0.0 {
             super::contact_test(run, sw, s, in_cut, d0)
         } else {
-            super::super::after_wall_free(sw, s.dw)
+            after_wall_free(sw, s.dw)
         };
         return Ok(PieceEnd {
             mode,

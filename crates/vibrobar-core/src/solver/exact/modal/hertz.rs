@@ -20,7 +20,8 @@
 //! output, its mechanical energy every mode's plus the ball's plus Hertz's `(2/5)K_h δ^{5/2}`;
 //! the release is an [`EventKind::Impact`] carrying `W_c`, so the books close.
 
-use super::{after_wall_free, contact_test, energy_j, wall_of, Book, Consts, Md, St, NM};
+use super::super::driver::{after_wall_free, wall_of, wall_touch, Cavity, Md};
+use super::{energy_j, Book, Consts, St, NM};
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
 use crate::damper::friction::can_stick;
@@ -210,16 +211,6 @@ impl Segment for ContactSegment<'_> {
     }
 }
 
-/// Ball at wall `sw` with `ẇ = 0`: the rigid contact test, a pressed ball starting a (resting)
-/// compliant contact under the `hertz` law.
-pub(super) fn wall_touch(cs: &Consts, sw: f64, s: &St) -> Result<Md, SimError> {
-    let md = contact_test(cs, sw, s)?;
-    Ok(match (md, cs.hertz) {
-        (Md::Contact(w), Some(_)) => Md::HertzTouch(w),
-        (m, _) => m,
-    })
-}
-
 /// The contact phase at wall `sw` from the touch `s` (`s.w = sw·l_g`, `sw·s.dw ≥ 0`). On return
 /// `s` is the state at the release (`w = sw·l_g`, `ẇ` leaving) or at `t_end_s`; the next mode,
 /// or `None` at the end of the run.
@@ -374,7 +365,7 @@ pub(super) fn contact(
                 )?;
                 *s = at;
                 if s.dw == 0.0 {
-                    wall_touch(cs, sw, s).map(Some)
+                    Ok(Some(wall_touch(cs, sw, s)))
                 } else {
                     Ok(Some(after_wall_free(sw, s.dw)))
                 }
