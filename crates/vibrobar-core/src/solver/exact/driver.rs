@@ -84,7 +84,7 @@ pub(super) fn wall_of(s: f64) -> Wall {
 
 /// Free flight with friction sign `σ` whose event functions all start with order 0 (no zero
 /// at hand).
-fn flight(sigma: f64) -> Md {
+pub(super) fn flight(sigma: f64) -> Md {
     Md::Free {
         sigma,
         k_plus: 0,
@@ -128,6 +128,60 @@ pub(super) trait BallState {
     fn set_dw(&mut self, dw: f64);
 }
 
+/// [`BallState`] for a state type with the fields `t`, `w`, `dw`.
+macro_rules! ball_state {
+    ($st:ty) => {
+        impl $crate::solver::exact::driver::BallState for $st {
+            fn t(&self) -> f64 {
+                self.t
+            }
+            fn w(&self) -> f64 {
+                self.w
+            }
+            fn dw(&self) -> f64 {
+                self.dw
+            }
+            fn set_w(&mut self, w: f64) {
+                self.w = w;
+            }
+            fn set_dw(&mut self, dw: f64) {
+                self.dw = dw;
+            }
+        }
+    };
+}
+pub(super) use ball_state;
+
+/// The [`Cavity`] constants of a run's constants that keep them in the fields `lg`, `e`, `md`,
+/// `fl`, `model`, `chatter_h`, `chatter_t`, `hertz` (inside `impl Cavity for …`), of `self`
+/// or of the field path given (`cavity_constants!(run.cs)`).
+macro_rules! cavity_constants {
+    ($($p:ident).*) => {
+        fn half_gap_m(&self) -> f64 {
+            self$(.$p)*.lg
+        }
+        fn restitution(&self) -> f64 {
+            self$(.$p)*.e
+        }
+        fn ball_mass_kg(&self) -> f64 {
+            self$(.$p)*.md
+        }
+        fn friction_level_n(&self) -> f64 {
+            self$(.$p)*.fl
+        }
+        fn friction_model(&self) -> $crate::params::FrictionModel {
+            self$(.$p)*.model
+        }
+        fn chatter_resolution(&self) -> (f64, f64) {
+            (self$(.$p)*.chatter_h, self$(.$p)*.chatter_t)
+        }
+        fn compliant(&self) -> bool {
+            self$(.$p)*.hertz.is_some()
+        }
+    };
+}
+pub(super) use cavity_constants;
+
 /// What the transitions read of a bar and its cavity: the laws' constants and the kinematics at
 /// the cavity of one state.
 pub(super) trait Cavity {
@@ -169,6 +223,17 @@ pub(super) trait Cavity {
     /// Largest `s·m_d ü_pair` for which the ball stays on wall `s`.
     fn f_hold(&self) -> f64 {
         holding_capacity_n(self.friction_model(), self.friction_level_n())
+    }
+    /// What names the cause at the event limit, with the forcing's `Ω` and the bar's first
+    /// damped frequency `ω_d,1`.
+    fn limit_facts(&self, omega_rad_s: f64, wd1_rad_s: f64) -> LimitFacts {
+        LimitFacts {
+            restitution: self.restitution(),
+            frictional: self.frictional(),
+            model: self.friction_model(),
+            omega_rad_s,
+            fast_dw_m_s: 10.0 * self.half_gap_m() * omega_rad_s.max(wd1_rad_s),
+        }
     }
 }
 
@@ -286,6 +351,11 @@ fn free<K: Kernel>(
             let sw = if which == 1 { 1.0 } else { -1.0 };
             if k.cs().compliant() {
                 s.set_w(sw * k.cs().half_gap_m());
+                // A graze (touch with ẇ ≈ 0 or already leaving by round-off) touches with
+                // ẇ = 0; the contact phase reads only the approach max(sw·ẇ, 0).
+                if sw * s.dw() <= 0.0 {
+                    s.set_dw(0.0);
+                }
                 Ok(Some(Md::HertzTouch(wall_of(sw))))
             } else {
                 impact(k, sw, s).map(Some)

@@ -63,7 +63,7 @@ use super::{
 use crate::damper::impact::{impact_energy_loss_j, impact_relative, plastic_limit};
 use crate::error::SimError;
 use crate::params::{Bar, BarModel, FrictionModel, State, System};
-use driver::{wall_of, BallState, Cavity, Kernel, LimitFacts, Md, Tail, CUT, HORIZON};
+use driver::{wall_of, Cavity, Kernel, Md, Tail, CUT, HORIZON};
 use expsum::{integral_product, integral_square, integral_square_to, ExpSum, Trig};
 use roots::{first_root_multi_trig, first_step_clears, Cand, Root, Scratch};
 
@@ -562,7 +562,9 @@ impl Book<'_> {
     #[inline(never)]
     fn near_limit(&mut self, cs: &Consts, t: f64, kind: &EventKind) -> Result<(), SimError> {
         if self.summary.events > self.max_events {
-            return Err(self.tail.error(&cs.limit_facts(), self.max_events, t));
+            return Err(self
+                .tail
+                .error(&cs.limit_facts(cs.om, cs.osc[0].wd), self.max_events, t));
         }
         self.tail.record(t, kind);
         Ok(())
@@ -596,17 +598,6 @@ impl Book<'_> {
 }
 
 impl Consts {
-    /// What names the cause at the event limit.
-    fn limit_facts(&self) -> LimitFacts {
-        LimitFacts {
-            restitution: self.e,
-            frictional: self.frictional(),
-            model: self.model,
-            omega_rad_s: self.om,
-            fast_dw_m_s: 10.0 * self.lg * self.om.max(self.osc[0].wd),
-        }
-    }
-
     /// `M`, `K`, `m_d` of [`ExactSegment::mechanical_energy_j`].
     fn energy_consts(&self) -> (f64, f64, Option<f64>) {
         (
@@ -746,49 +737,13 @@ struct Lumped<'r, 'o> {
     search: &'r mut Search,
 }
 
-impl BallState for St {
-    fn t(&self) -> f64 {
-        self.t
-    }
-    fn w(&self) -> f64 {
-        self.w
-    }
-    fn dw(&self) -> f64 {
-        self.dw
-    }
-    fn set_w(&mut self, w: f64) {
-        self.w = w;
-    }
-    fn set_dw(&mut self, dw: f64) {
-        self.dw = dw;
-    }
-}
+driver::ball_state!(St);
 
 impl Cavity for Consts {
     type St = St;
-    fn half_gap_m(&self) -> f64 {
-        self.lg
-    }
-    fn restitution(&self) -> f64 {
-        self.e
-    }
-    fn ball_mass_kg(&self) -> f64 {
-        self.md
-    }
-    fn friction_level_n(&self) -> f64 {
-        self.fl
-    }
-    fn friction_model(&self) -> FrictionModel {
-        self.model
-    }
+    driver::cavity_constants!();
     fn kappa(&self) -> f64 {
         1.0 / self.md + 1.0 / self.m
-    }
-    fn chatter_resolution(&self) -> (f64, f64) {
-        (self.chatter_h, self.chatter_t)
-    }
-    fn compliant(&self) -> bool {
-        self.hertz.is_some()
     }
     fn a_b(&self, s: &St) -> f64 {
         Consts::a_b(self, s)
@@ -1198,7 +1153,11 @@ mod tests {
         for (i, k) in kinds.iter().enumerate() {
             t.record(i as f64 * 1e-6, k);
         }
-        match t.error(&cs.limit_facts(), kinds.len() as u64, 1e-3) {
+        match t.error(
+            &cs.limit_facts(cs.om, cs.osc[0].wd),
+            kinds.len() as u64,
+            1e-3,
+        ) {
             SimError::TooManyEvents { cause, .. } => cause,
             e => panic!("{e:?}"),
         }

@@ -60,7 +60,7 @@
 use std::cell::RefCell;
 
 use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
-use super::driver::{self, wall_of, BallState, Cavity, Kernel, LimitFacts, Md, Tail, HORIZON};
+use super::driver::{self, wall_of, Cavity, Kernel, Md, Tail, HORIZON};
 use super::expsum::{integral_square, ExpSum, Trig};
 use super::expsum_n::{
     integral_product_n, integral_square_n, integral_square_n_to, sin_cos, ExpSumN, SquarePlan,
@@ -648,14 +648,7 @@ impl Book<'_> {
     #[cold]
     fn near_limit(&mut self, cs: &Consts, t: f64, kind: &EventKind) -> Result<(), SimError> {
         if self.summary.events > self.max_events {
-            let facts = LimitFacts {
-                restitution: cs.e,
-                frictional: cs.frictional(),
-                model: cs.model,
-                omega_rad_s: cs.om,
-                // Relative speeds beyond what the bar's motion over the gap gives.
-                fast_dw_m_s: 10.0 * cs.lg * cs.om.max(cs.osc[0].wd),
-            };
+            let facts = cs.limit_facts(cs.om, cs.osc[0].wd);
             return Err(self.tail.error(&facts, self.max_events, t));
         }
         self.tail.record(t, kind);
@@ -864,49 +857,13 @@ struct ModalRun<'r, 'o, 's> {
     held: &'r mut Held<'s>,
 }
 
-impl BallState for St {
-    fn t(&self) -> f64 {
-        self.t
-    }
-    fn w(&self) -> f64 {
-        self.w
-    }
-    fn dw(&self) -> f64 {
-        self.dw
-    }
-    fn set_w(&mut self, w: f64) {
-        self.w = w;
-    }
-    fn set_dw(&mut self, dw: f64) {
-        self.dw = dw;
-    }
-}
+driver::ball_state!(St);
 
 impl Cavity for Consts {
     type St = St;
-    fn half_gap_m(&self) -> f64 {
-        self.lg
-    }
-    fn restitution(&self) -> f64 {
-        self.e
-    }
-    fn ball_mass_kg(&self) -> f64 {
-        self.md
-    }
-    fn friction_level_n(&self) -> f64 {
-        self.fl
-    }
-    fn friction_model(&self) -> FrictionModel {
-        self.model
-    }
+    driver::cavity_constants!();
     fn kappa(&self) -> f64 {
         self.kappa
-    }
-    fn chatter_resolution(&self) -> (f64, f64) {
-        (self.chatter_h, self.chatter_t)
-    }
-    fn compliant(&self) -> bool {
-        self.hertz.is_some()
     }
     fn a_b(&self, s: &St) -> f64 {
         Consts::a_b(self, s)

@@ -80,7 +80,7 @@ use super::super::cutting::{
     fit_remainder, CutContinuation, History, CONTINUE_MISMATCH, DEFAULT_STEPS_PER_PERIOD, GL8,
     MAX_EVENT_KNOTS, REMAINDER_TOL,
 };
-use super::super::driver::{after_wall_free, free_departing, wall_of, Md};
+use super::super::driver::{self, flight, wall_of, Cavity, Kernel, Md, CUT, HORIZON};
 use super::super::expsum_n::{ExpSumN, Term, MAX_TERMS};
 use super::super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::super::CONFINEMENT_TOL_M;
@@ -94,7 +94,7 @@ const HERTZ_REFUSED: &str =
 #[path = "cutting_hertz.rs"]
 mod cutting_hertz;
 use crate::analysis::contact_test::CONTACT_RTOL;
-use crate::damper::friction::{can_stick, holding_capacity_n, sgn0, sliding_friction_on_ball_n};
+use crate::damper::friction::{holding_capacity_n, sliding_friction_on_ball_n};
 use crate::damper::impact::{modal_impact, modal_inverse_effective_mass_per_kg};
 use crate::error::{EventLimitCause, SimError};
 use crate::excitation::{Cutting, CuttingForceLaw};
@@ -1413,14 +1413,10 @@ impl ModalCutting {
         let has_ball = run.cs.has_ball;
         let mut mode = if has_ball {
             let d0 = run.hist.window_quadratic(t0 - tau, t0 - tau)[0];
-            initial_mode(&mut run, &mut s, in_cut, d0, &mut book)?
+            let mut k = CutKernel::new(&mut run, &mut book, in_cut, [0.0; 3], 0, d0);
+            driver::initial_mode(&mut k, &mut s)?
         } else {
-            Md::Free {
-                sigma: 0.0,
-                k_plus: 0,
-                k_minus: 0,
-                k_sw: 0,
-            }
+            flight(0.0)
         };
         let mut chip_order = 0;
         let mut win_prev: Option<(u64, f64)> = None;
@@ -1481,45 +1477,26 @@ impl ModalCutting {
                     )?;
                     run.r = Some(r);
                 }
-                let end = run.segment(
-                    mode, !has_ball, in_cut, d, chip_order, &mut s, step_end, &mut book,
-                )?;
+                let mut k = CutKernel::new(&mut run, &mut book, in_cut, d, chip_order, f64::NAN);
+                let next = driver::advance(&mut k, mode, &mut s, step_end)?;
+                let cut_event = k.cut_event;
                 if run.hist.is_full() {
                     return Err(SimError::Unsupported(HISTORY_FULL));
                 }
                 chip_order = 0;
-                match end {
-                    End::Planned | End::Horizon => {
-                        if let Md::Free { sigma, .. } = mode {
-                            mode = Md::Free {
-                                sigma,
-                                k_plus: 0,
-                                k_minus: 0,
-                                k_sw: 0,
-                            };
-                        }
-                    }
-                    End::At(CHIP) => {
-                        in_cut = !in_cut;
-                        chip_order = 1;
-                        run.hist.add_breakpoint(s.t);
-                        let du = run.cs.dot(&run.cs.phi_f, &s.dq);
-                        run.hist.cut_event_slope_after(s.t, in_cut, du);
-                        book.count(s.t, t0, tau)?;
-                        if let Md::Free { sigma, .. } = mode {
-                            mode = Md::Free {
-                                sigma,
-                                k_plus: 0,
-                                k_minus: 0,
-                                k_sw: 0,
-                            };
-                        }
-                    }
-                    End::At(id) => {
-                        let x = s.t - tau;
-                        let d0 = run.hist.value_slope(x).0;
-                        mode = ball_event(&mut run, id, mode, &mut s, in_cut, d0, &mut book)?;
-                    }
+                mode = match (next, mode) {
+                    (Some(m), _) => m,
+                    // At the piece's end the same flight goes on, no zero at hand.
+                    (None, Md::Free { sigma, .. }) => flight(sigma),
+                    (None, m) => m,
+                };
+                if cut_event {
+                    in_cut = !in_cut;
+                    chip_order = 1;
+                    run.hist.add_breakpoint(s.t);
+                    let du = run.cs.dot(&run.cs.phi_f, &s.dq);
+                    run.hist.cut_event_slope_after(s.t, in_cut, du);
+                    book.count(s.t, t0, tau)?;
                 }
             }
             win_prev = Some((s.t.to_bits(), win_end));
@@ -1579,250 +1556,204 @@ fn remainder_fit(
     fit
 }
 
-/// The mode at the start of a run.
-fn initial_mode(
-    run: &mut Run,
-    s: &mut St,
+/// The modal bar in a cut as a kernel of the one event loop ([`driver`]): the run, the piece's
+/// delayed surface and the chip's state. The transitions read `a_b` with the cut's force at the
+/// delayed surface's value `d0` at the state's time.
+///
+/// A start at `ẇ = 0` under the as-published law with `a_b = 0` exactly stays at rest here: the
+/// derivatives of `a_b` would carry the delayed surface's, which the piece does not hold.
+struct CutKernel<'a, 'h, 'o> {
+    run: &'a mut Run<'h>,
+    book: &'a mut Book<'o>,
     in_cut: bool,
+    /// The delayed surface's quadratic over the piece.
+    d: [f64; 3],
+    /// The chip function's departure order at the segment start.
+    chip_order: usize,
+    /// The delayed surface at the current state's time (set where a segment ends at a ball
+    /// event, and after a summed chatter sequence).
     d0: f64,
-    book: &mut Book,
-) -> Result<Md, SimError> {
-    let lg = run.cs.lg;
-    for sw in [1.0, -1.0] {
-        if sw * s.w >= lg {
-            s.w = sw * lg;
-            if sw * s.dw > 0.0 {
-                return impact(run, sw, s, in_cut, d0, book);
-            }
-            if s.dw == 0.0 {
-                return Ok(contact_test(run, sw, s, in_cut, d0));
-            }
-            return Ok(after_wall_free(sw, s.dw));
-        }
-    }
-    if s.dw != 0.0 {
-        return Ok(Md::Free {
-            sigma: sgn0(s.dw),
-            k_plus: 0,
-            k_minus: 0,
-            k_sw: 0,
-        });
-    }
-    let rest = Md::Free {
-        sigma: 0.0,
-        k_plus: 0,
-        k_minus: 0,
-        k_sw: 0,
-    };
-    let cs = &run.cs;
-    if !cs.frictional() {
-        return Ok(rest);
-    }
-    let ab = run.a_b(s, in_cut, d0);
-    if can_stick(cs.model) && ab.abs() <= cs.fl * cs.kappa {
-        return Ok(Md::Stick);
-    }
-    let sigma = -sgn0(ab);
-    if sigma == 0.0 {
-        return Ok(rest);
-    }
-    Ok(free_departing(sigma, None))
+    /// The segment ended where the tool left or re-entered the cut.
+    cut_event: bool,
 }
 
-/// Ball at wall `sw` with `ẇ = 0`: does it stay pressed on it?
-fn contact_test(run: &Run, sw: f64, s: &St, in_cut: bool, d0: f64) -> Md {
-    let cs = &run.cs;
-    let ddu_pair = run.a_b(s, in_cut, d0) / (cs.md * cs.kappa);
-    let hold = holding_capacity_n(cs.model, cs.fl);
-    if sw * cs.md * ddu_pair <= hold {
-        if cs.hertz.is_some() {
-            // Pressed on the wall: a resting compliant contact.
-            return Md::HertzTouch(wall_of(sw));
+impl<'a, 'h, 'o> CutKernel<'a, 'h, 'o> {
+    fn new(
+        run: &'a mut Run<'h>,
+        book: &'a mut Book<'o>,
+        in_cut: bool,
+        d: [f64; 3],
+        chip_order: usize,
+        d0: f64,
+    ) -> Self {
+        CutKernel {
+            run,
+            book,
+            in_cut,
+            d,
+            chip_order,
+            d0,
+            cut_event: false,
         }
-        Md::Contact(wall_of(sw))
-    } else {
-        free_departing(-sw, Some(wall_of(sw)))
     }
-}
 
-/// The ball event `id` of a segment that just ended at `s`.
-fn ball_event(
-    run: &mut Run,
-    id: u8,
-    mode: Md,
-    s: &mut St,
-    in_cut: bool,
-    d0: f64,
-    book: &mut Book,
-) -> Result<Md, SimError> {
-    let cs = &run.cs;
-    let (model, fl, kappa) = (cs.model, cs.fl, cs.kappa);
-    match (id, mode) {
-        (1 | 2, Md::Free { .. }) => {
-            let sw = if id == 1 { 1.0 } else { -1.0 };
-            impact(run, sw, s, in_cut, d0, book)
-        }
-        (3, Md::Free { sigma, .. }) => {
-            s.dw = 0.0;
-            let ab = run.a_b(s, in_cut, d0);
-            let c = *s;
-            if can_stick(model) && ab.abs() <= fl * kappa {
-                run.event(EventKind::Stick, &c, &c, in_cut, book)?;
-                return Ok(Md::Stick);
-            }
-            run.event(EventKind::FrictionSwitch, &c, &c, in_cut, book)?;
-            Ok(free_departing(-sigma, None))
-        }
-        (4, _) => {
-            let c = *s;
-            run.event(EventKind::Unstick, &c, &c, in_cut, book)?;
-            Ok(free_departing(-1.0, None))
-        }
-        (5, _) => {
-            let c = *s;
-            run.event(EventKind::Unstick, &c, &c, in_cut, book)?;
-            Ok(free_departing(1.0, None))
-        }
-        (6, Md::Contact(wl)) => {
-            let c = *s;
-            run.event(EventKind::ContactRelease { wall: wl }, &c, &c, in_cut, book)?;
-            Ok(free_departing(-wl.sign(), Some(wl)))
-        }
-        _ => unreachable!("event function of another mode"),
+    /// One segment in `mode` (the ball held or in flight) and which event ended it, in the
+    /// loop's numbering ([`Kernel::free_flight`], [`Kernel::held`]).
+    fn piece(&mut self, mode: Md, s: &mut St, t_end_s: f64) -> Result<u8, SimError> {
+        let no_ball = !self.run.cs.has_ball;
+        let end = self.run.segment(
+            mode,
+            no_ball,
+            self.in_cut,
+            self.d,
+            self.chip_order,
+            s,
+            t_end_s,
+            self.book,
+        )?;
+        let id = match end {
+            End::Planned => return Ok(0),
+            End::Horizon => return Ok(HORIZON),
+            End::At(CHIP) => return Ok(CUT),
+            End::At(id) => id,
+        };
+        self.d0 = self.run.hist.value_slope(s.t - self.run.tau).0;
+        // Stick's margins are 4 (lags) and 5 (leads), contact's release 6.
+        Ok(if id >= 4 { id - 3 } else { id })
     }
 }
 
-/// Ball at wall `sw` with `ẇ` into it: the modal impact, then the chatter and contact logic.
-fn impact(
-    run: &mut Run,
-    sw: f64,
-    s: &mut St,
-    in_cut: bool,
-    d0: f64,
-    book: &mut Book,
-) -> Result<Md, SimError> {
-    let cs = &run.cs;
-    let n = cs.n;
-    s.w = sw * cs.lg;
-    let dw = if sw * s.dw > 0.0 { s.dw } else { 0.0 };
-    s.dw = dw;
-    if cs.hertz.is_some() {
-        // A touch: the compliant contact phase follows ([`cutting_hertz`]).
-        return Ok(Md::HertzTouch(wall_of(sw)));
+driver::ball_state!(St);
+
+impl Cavity for CutKernel<'_, '_, '_> {
+    type St = St;
+    driver::cavity_constants!(run.cs);
+    fn kappa(&self) -> f64 {
+        self.run.cs.kappa
     }
-    let before = *s;
-    let mut dv = dw + cs.dot(&cs.phi_d, &s.dq);
-    let law = modal_impact(
-        cs.md,
-        cs.e,
-        &cs.phi_d[..n],
-        &cs.m[..n],
-        dw,
-        &mut s.dq[..n],
-        &mut dv,
-    );
-    s.dw = -cs.e * dw;
-    let after = *s;
-    run.event(
-        EventKind::Impact {
-            wall: wall_of(sw),
-            dw_m_s: dw,
-            energy_loss_j: law.energy_loss_j,
-        },
-        &before,
-        &after,
-        in_cut,
-        book,
-    )?;
-    let cs = &run.cs;
-    if s.dw == 0.0 {
-        return Ok(contact_test(run, sw, s, in_cut, d0));
+    fn a_b(&self, s: &St) -> f64 {
+        self.run.a_b(s, self.in_cut, self.d0)
     }
-    let sigma = sgn0(s.dw);
-    let a_b = run.a_b(s, in_cut, d0);
-    let ddw_away = cs.fb(sigma) * cs.kappa - a_b;
-    let ddw_back = cs.fb(-sigma) * cs.kappa - a_b;
-    if sw * ddw_away > 0.0 && sw * ddw_back > 0.0 {
-        let (a1, a2) = (ddw_away.abs(), ddw_back.abs());
-        let q = cs.e * (a2 / a1).sqrt();
-        let apex = 0.5 * s.dw * s.dw / a1;
-        if q < 1.0 {
-            let dt = s.dw.abs() / a1 * (1.0 + (a1 / a2).sqrt()) / (1.0 - q);
-            if apex < cs.chatter_h || dt < cs.chatter_t {
-                return chatter_limit(run, sw, dt, s, in_cut, d0, book);
-            }
-        }
+    fn held_acceleration(&self, s: &St) -> f64 {
+        self.run.a_b(s, self.in_cut, self.d0) / (self.run.cs.md * self.run.cs.kappa)
     }
-    Ok(after_wall_free(sw, s.dw))
+    fn a_b_rates(&self, _s: &St, _ab: f64) -> (f64, f64) {
+        (0.0, 0.0)
+    }
 }
 
-/// Sum a chatter sequence at wall `sw`: the plastic limit now, the ball held on the wall for
-/// the sequence's duration `dt` (on the delayed surface's quadratic through it), then the
-/// [`EventKind::ChatterLimit`] and the contact test.
-fn chatter_limit(
-    run: &mut Run,
-    sw: f64,
-    dt: f64,
-    s: &mut St,
-    in_cut: bool,
-    d0: f64,
-    book: &mut Book,
-) -> Result<Md, SimError> {
-    let cs = &run.cs;
-    let n = cs.n;
-    let mut dv = s.dw + cs.dot(&cs.phi_d, &s.dq);
-    let law = modal_impact(
-        cs.md,
-        0.0,
-        &cs.phi_d[..n],
-        &cs.m[..n],
-        s.dw,
-        &mut s.dq[..n],
-        &mut dv,
-    );
-    s.dw = 0.0;
-    s.w = sw * cs.lg;
-    // The delayed surface over the short hold: its tangent line (a few ns of a revolution).
-    let x = s.t - run.tau;
-    let (sv, ds) = run.hist.value_slope(x);
-    let t_stop = s.t + dt;
-    // The three-quarter law's remainder over the short hold: its value at the start.
-    run.r = if run.cs.nonlinear && in_cut {
-        let h = run.cs.h0 + run.cs.c_chip * (sv - run.cs.dot(&run.cs.phi_f, &s.q));
-        Some([run.cs.remainder(h), 0.0, 0.0])
-    } else {
-        None
-    };
-    let end = run.segment(
-        Md::Contact(wall_of(sw)),
-        false,
-        in_cut,
-        [sv, ds, 0.0],
-        0,
-        s,
-        t_stop,
-        book,
-    )?;
-    s.w = sw * run.cs.lg;
-    s.dw = 0.0;
-    let c = *s;
-    run.event(
-        EventKind::ChatterLimit {
-            wall: wall_of(sw),
-            energy_loss_j: law.energy_loss_j,
-        },
-        &c,
-        &c,
-        in_cut,
-        book,
-    )?;
-    // A chip or release zero inside the summed sequence ends it there; the contact test then
-    // decides with the state reached (the cut's change is found again by the next segment's
-    // search from order 0, within the time resolution).
-    let _ = end;
-    let _ = d0;
-    let d0 = run.hist.value_slope(s.t - run.tau).0;
-    Ok(contact_test(run, sw, s, in_cut, d0))
+impl Kernel for CutKernel<'_, '_, '_> {
+    type Cs = Self;
+    fn cs(&self) -> &Self {
+        self
+    }
+    fn free_flight(
+        &mut self,
+        sigma: f64,
+        [k_plus, k_minus, k_sw]: [usize; 3],
+        s: &mut St,
+        t_end_s: f64,
+    ) -> Result<u8, SimError> {
+        let mode = Md::Free {
+            sigma,
+            k_plus,
+            k_minus,
+            k_sw,
+        };
+        self.piece(mode, s, t_end_s)
+    }
+    fn held(&mut self, mode: Md, s: &mut St, t_end_s: f64) -> Result<u8, SimError> {
+        self.piece(mode, s, t_end_s)
+    }
+    fn impact_law(&mut self, sw: f64, s: &mut St) -> Result<(), SimError> {
+        let cs = &self.run.cs;
+        let n = cs.n;
+        s.w = sw * cs.lg;
+        let dw = if sw * s.dw > 0.0 { s.dw } else { 0.0 };
+        s.dw = dw;
+        let before = *s;
+        let mut dv = dw + cs.dot(&cs.phi_d, &s.dq);
+        let law = modal_impact(
+            cs.md,
+            cs.e,
+            &cs.phi_d[..n],
+            &cs.m[..n],
+            dw,
+            &mut s.dq[..n],
+            &mut dv,
+        );
+        s.dw = -cs.e * dw;
+        let after = *s;
+        self.event(
+            EventKind::Impact {
+                wall: wall_of(sw),
+                dw_m_s: dw,
+                energy_loss_j: law.energy_loss_j,
+            },
+            &before,
+            &after,
+        )
+    }
+    /// The plastic limit now, the ball held on the wall for `dt` on the delayed surface's
+    /// tangent line through it. A chip or release zero inside the summed sequence ends it there;
+    /// the contact test then decides with the state reached (the cut's change is found again by
+    /// the next segment's search from order 0, within the time resolution).
+    fn chatter_hold(&mut self, sw: f64, dt: f64, s: &mut St) -> Result<f64, SimError> {
+        let run = &mut *self.run;
+        let cs = &run.cs;
+        let n = cs.n;
+        let mut dv = s.dw + cs.dot(&cs.phi_d, &s.dq);
+        let law = modal_impact(
+            cs.md,
+            0.0,
+            &cs.phi_d[..n],
+            &cs.m[..n],
+            s.dw,
+            &mut s.dq[..n],
+            &mut dv,
+        );
+        s.dw = 0.0;
+        s.w = sw * cs.lg;
+        // The delayed surface over the short hold: its tangent line (a few ns of a revolution).
+        let (sv, ds) = run.hist.value_slope(s.t - run.tau);
+        let t_stop = s.t + dt;
+        // The three-quarter law's remainder over the short hold: its value at the start.
+        run.r = if cs.nonlinear && self.in_cut {
+            let h = cs.h0 + cs.c_chip * (sv - cs.dot(&cs.phi_f, &s.q));
+            Some([cs.remainder(h), 0.0, 0.0])
+        } else {
+            None
+        };
+        run.segment(
+            Md::Contact(wall_of(sw)),
+            false,
+            self.in_cut,
+            [sv, ds, 0.0],
+            0,
+            s,
+            t_stop,
+            self.book,
+        )?;
+        s.w = sw * run.cs.lg;
+        s.dw = 0.0;
+        self.d0 = run.hist.value_slope(s.t - run.tau).0;
+        Ok(law.energy_loss_j)
+    }
+    fn event(&mut self, kind: EventKind, before: &St, after: &St) -> Result<(), SimError> {
+        self.run.event(kind, before, after, self.in_cut, self.book)
+    }
+    fn compliant_contact(
+        &mut self,
+        _wall: crate::solver::Wall,
+        _s: &mut St,
+        _t_end_s: f64,
+    ) -> Result<Option<Md>, SimError> {
+        // The cutting loop runs a compliant contact piece by piece itself ([`cutting_hertz`]).
+        Err(SimError::Unsupported(HERTZ_REFUSED))
+    }
+    fn cut_event(&mut self) {
+        self.cut_event = true;
+    }
 }
 
 #[cfg(test)]

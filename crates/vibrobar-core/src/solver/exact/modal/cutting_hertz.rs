@@ -31,7 +31,7 @@ use crate::damper::friction::can_stick;
 use crate::error::SimError;
 use crate::excitation::Cutting;
 use crate::solver::dopri5::{DenseStep, Dopri5};
-use crate::solver::exact::driver::{after_wall_free, wall_of, Md};
+use crate::solver::exact::driver::{after_wall_free, wall_of, wall_touch, Md};
 use crate::solver::exact::hertz::APPROACH_FLOOR_REL;
 use crate::solver::exact::hertz_phase::{count_steps, run_phase, Event};
 use crate::solver::{CutSample, EventKind, Mode, Segment, SegmentIntegrals};
@@ -455,7 +455,8 @@ pub(super) fn contact_piece(
         let x = s.t - run.tau;
         let d0 = run.hist.value_slope(x).0;
         let mode = if s.dw == 0.0 {
-            super::contact_test(run, sw, s, in_cut, d0)
+            let k = super::CutKernel::new(run, book, in_cut, d, order, d0);
+            wall_touch(&k, sw, s)
         } else {
             after_wall_free(sw, s.dw)
         };
