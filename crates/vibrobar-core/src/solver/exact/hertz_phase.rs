@@ -1,9 +1,29 @@
-//! The driver of one compliant contact phase: adaptive [`Dopri5`] steps on a fixed-size state,
-//! each accepted step handed on with its dense output, until an event component falls below 0
-//! (located on the dense output), with a bound on the work.
+//! The compliant (`hertz`) contact phase, written once for every bar ([`contact`]), and its
+//! integrator: adaptive [`Dopri5`] steps on a fixed-size state, each accepted step handed on
+//! with its dense output, until an event component falls below 0 (located on the dense
+//! output), with a bound on the work ([`run_phase`]).
+//!
+//! When free flight reaches a wall (`w = s·l_g`), the ball and the bar are coupled by the
+//! contact force `P` of [`crate::damper::contact`] along the contact row: with the penetration
+//! `δ = s·w − l_g ≥ 0`, the bar feels `s P − F_ball` at the cavity and the ball `−s P + F_ball`,
+//! `F_ball` the sliding friction with `σ = sgn ẇ`. Friction keeps acting during the contact,
+//! its sign switching where `ẇ` crosses 0 (located on the dense output, the phase restarts
+//! there); under `coulomb` the ball sticks there while the friction it needs to move with the
+//! bar, `F_ball = m_d ü_pair + s P(δ, 0)`, stays within `F`, and slides again when it leaves
+//! `[−F, F]`. The phase state is the bar's (its [`CompliantBar`]), then `δ`, `δ̇` and
+//! `W_c = ∫ P_damp δ̇ dt` (the contact's dissipation); it ends where `δ` falls below 0 (force and
+//! penetration vanish together). Each accepted step is a segment (`Mode::Contact`) whose
+//! mechanical energy includes the elastic energy `(2/5) K_h δ^{5/2}`; the end of the contact is
+//! reported as an [`EventKind::Impact`] with the approach speed and `W_c` as its energy loss,
+//! so impact counts and the energy books keep their meaning.
 
+use super::driver::{after_wall_free, wall_of, wall_touch, Cavity, Md};
+use super::hertz::APPROACH_FLOOR_REL;
+use crate::damper::contact::Hertz;
+use crate::damper::friction::can_stick;
 use crate::error::SimError;
 use crate::solver::dopri5::{first_sign_change, DenseStep, Dopri5};
+use crate::solver::EventKind;
 
 /// Most integrator steps (accepted or rejected) one contact phase may take. A contact of the
 /// paper's ball takes ~30–60; a ball resting on a wall for a whole bar period a few thousand.
@@ -154,5 +174,211 @@ where
             });
         }
         h = Dopri5::<N>::next_h(hh, a.err);
+    }
+}
+
+/// The bar's side of a compliant contact phase with a phase state of `N` components: its
+/// right-hand side, the friction the ball needs to move with it, and the solver's state of a
+/// phase state.
+pub(super) trait CompliantBar<const N: usize>: Cavity {
+    /// Where `δ`, `δ̇` and `W_c` sit in the phase state.
+    fn slots(&self) -> (usize, usize, usize);
+    /// The scales of the approach floor and the velocity tolerance: `(Ω, max(Ω, ω_d,1))`.
+    fn omegas(&self) -> (f64, f64);
+    /// The effective mass of the contact (the bar's at the cavity against the ball).
+    fn contact_mass_kg(&self) -> f64;
+    /// The integrator with the tolerances of a contact whose penetration and speed scales are
+    /// `d_scale`, `v_scale`.
+    fn integrator(&self, d_scale: f64, v_scale: f64) -> Dopri5<N>;
+    /// The phase state at the touch `s` with the approach speed `approach` (`δ = 0`).
+    fn phase_state(&self, s: &Self::St, approach: f64) -> [f64; N];
+    /// The external force at `t`.
+    fn force_at(&self, t: f64) -> f64;
+    /// `ẏ` at wall `sw`: stuck (the ball held, `δ` frozen) or sliding with the friction `fb` on
+    /// the ball; `v0` the damping's reference speed, `force` the external force.
+    #[allow(clippy::too_many_arguments)]
+    fn rhs(
+        &self,
+        law: &Hertz,
+        v0: f64,
+        sw: f64,
+        stuck: bool,
+        fb: f64,
+        force: f64,
+        y: &[f64; N],
+    ) -> [f64; N];
+    /// The friction the ball needs to move with the bar, `m_d ü_pair + sw·P(δ, 0)`.
+    fn needed(&self, law: &Hertz, sw: f64, force: f64, y: &[f64; N]) -> f64;
+    /// The solver's state of the phase state `y` at `t` (`w = sw·(l_g + δ)`).
+    fn state_of(&self, sw: f64, t: f64, y: &[f64; N]) -> Self::St;
+}
+
+/// The constants of one step of a contact phase, for its segment.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct PhaseStep {
+    /// The wall, `±1`.
+    pub sw: f64,
+    /// Sliding friction on the ball (0 when stuck).
+    pub fb: f64,
+    /// `sw·ẇ` at the touch.
+    pub approach: f64,
+    /// The law's reference speed `δ̇₀`.
+    pub v0: f64,
+    /// The ball is stuck to the wall by friction.
+    pub stuck: bool,
+    /// The law.
+    pub law: Hertz,
+}
+
+/// Where a contact phase reports: its steps as segments, the penetration, the event at its end.
+pub(super) trait PhaseBook<C: Cavity, const N: usize> {
+    /// An accepted step (the fraction `th_end` of it inside the phase).
+    fn step(&mut self, cs: &C, step: &DenseStep<N>, th_end: f64, p: &PhaseStep);
+    /// The largest penetration of the phase.
+    fn penetration(&mut self, pen_m: f64);
+    /// The event at the end of the contact.
+    fn event(&mut self, cs: &C, kind: EventKind, at: &C::St) -> Result<(), SimError>;
+}
+
+/// The contact phase at wall `sw` from the touch `s` (`s.w = sw·l_g`, `sw·s.dw ≥ 0`). On return
+/// `s` is the state at the release (`w = sw·l_g`, `ẇ` leaving) or at `t_end_s`; the next mode,
+/// or `None` at the end of the run.
+pub(super) fn contact<const N: usize, C, B>(
+    cs: &C,
+    law: &Hertz,
+    sw: f64,
+    s: &mut C::St,
+    t_end_s: f64,
+    book: &mut B,
+) -> Result<Option<Md>, SimError>
+where
+    C: CompliantBar<N>,
+    B: PhaseBook<C, N>,
+    C::St: Copy,
+{
+    use super::driver::BallState;
+    let (id, idd, iw) = cs.slots();
+    let t0 = s.t();
+    let approach = (sw * s.dw()).max(0.0);
+    let lg = cs.half_gap_m();
+    let (om, om_max) = cs.omegas();
+    let floor = APPROACH_FLOOR_REL * lg * om_max;
+    let v0 = approach.max(floor);
+    // Scales of the tolerances: the impact's own penetration and speed, the bar's motion.
+    let meff = cs.contact_mass_kg();
+    let d_scale = law.with_damping(0.0).max_penetration_m(meff, v0);
+    let v_scale = v0.max(lg * om);
+    let ig = cs.integrator(d_scale, v_scale);
+    let mut y = cs.phase_state(s, approach);
+    let mut t = t0;
+    let mut h = law.undamped_contact_time_s(meff, v0) / 50.0;
+    let mut steps = 0u64;
+    let mut max_pen = 0.0_f64;
+    // Friction: sliding with σ = sgn ẇ = sw·sgn δ̇ (at the touch δ̇ ≥ 0, pressed in: σ = sw), or
+    // stuck (coulomb, at ẇ = 0 while the friction needed stays within f).
+    let mut sigma = if cs.frictional() { sw } else { 0.0 };
+    let mut stuck = false;
+    let fl = cs.friction_level_n();
+    let needed = |t: f64, y: &[f64; N]| cs.needed(law, sw, cs.force_at(t), y);
+    loop {
+        let fb = if stuck { 0.0 } else { cs.fb(sigma) };
+        // The last `(t, F(t))`: the 6th and 7th stages of a step are both at `t + h`.
+        let mut last = (f64::NAN, 0.0);
+        let mut f = |t: f64, y: &[f64; N]| {
+            let force = if t.to_bits() == last.0.to_bits() {
+                last.1
+            } else {
+                let v = cs.force_at(t);
+                last = (t, v);
+                v
+            };
+            cs.rhs(law, v0, sw, stuck, fb, force, y)
+        };
+        // Events: 0 release (δ < 0); sliding with friction: 1 δ̇ crosses 0 (the sign of ẇ);
+        // stuck: 1, 2 the friction needed leaves [−f, f].
+        let dsign = if sw * sigma >= 0.0 { 1.0 } else { -1.0 };
+        let release = Event::Comp { i: id, sign: 1.0 };
+        let switch = Event::Comp {
+            i: idd,
+            sign: dsign,
+        };
+        let lag = |t: f64, y: &[f64; N]| fl - needed(t, y);
+        let lead = |t: f64, y: &[f64; N]| fl + needed(t, y);
+        let slide_ev: [Event<'_, N>; 2] = [release, switch];
+        let stuck_ev: [Event<'_, N>; 3] = [release, Event::Fn(&lag), Event::Fn(&lead)];
+        let events: &[Event<'_, N>] = if stuck {
+            &stuck_ev
+        } else if cs.frictional() {
+            &slide_ev
+        } else {
+            &slide_ev[..1]
+        };
+        let step = PhaseStep {
+            sw,
+            fb,
+            approach,
+            v0,
+            stuck,
+            law: *law,
+        };
+        let end = run_phase(&ig, &mut f, t, y, h, t_end_s, events, |st, th| {
+            for k in 0..=4 {
+                max_pen = max_pen.max(st.comp(id, th * k as f64 / 4.0));
+            }
+            book.step(cs, st, th, &step);
+            h = st.h;
+        });
+        let end = count_steps(end, &mut steps, t0)?;
+        t = end.t;
+        y = end.y;
+        match (end.which, stuck) {
+            (Some(1), false) => {
+                // ẇ = 0 inside the contact: stick if coulomb can hold the ball, else the
+                // sliding friction reverses.
+                y[idd] = 0.0;
+                if can_stick(cs.friction_model()) && needed(t, &y).abs() <= fl {
+                    stuck = true;
+                } else {
+                    sigma = -sigma;
+                }
+                continue;
+            }
+            (Some(k @ (1 | 2)), true) => {
+                // Friction can no longer hold: slide the way the needed force pulls (F_ball = −f
+                // sgn ẇ = sign of the needed force at the limit, so ẇ against it).
+                stuck = false;
+                sigma = if k == 1 { -1.0 } else { 1.0 };
+                continue;
+            }
+            _ => {}
+        }
+        return match end.which {
+            Some(_) => {
+                // Released: δ = 0 with δ̇ ≤ 0.
+                y[id] = 0.0;
+                book.penetration(max_pen);
+                let at = cs.state_of(sw, t, &y);
+                book.event(
+                    cs,
+                    EventKind::Impact {
+                        wall: wall_of(sw),
+                        dw_m_s: sw * approach,
+                        energy_loss_j: y[iw],
+                    },
+                    &at,
+                )?;
+                *s = at;
+                if s.dw() == 0.0 {
+                    Ok(Some(wall_touch(cs, sw, s)))
+                } else {
+                    Ok(Some(after_wall_free(sw, s.dw())))
+                }
+            }
+            None => {
+                // End of the run inside the contact.
+                *s = cs.state_of(sw, t, &y);
+                Ok(None)
+            }
+        };
     }
 }

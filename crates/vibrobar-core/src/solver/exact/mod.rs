@@ -836,7 +836,7 @@ impl Kernel for Lumped<'_, '_> {
         t_end_s: f64,
     ) -> Result<Option<Md>, SimError> {
         let law = self.cs.hertz.expect("a hertz touch needs the hertz law");
-        hertz::contact(self.cs, &law, wall.sign(), s, t_end_s, self.book)
+        hertz_phase::contact(self.cs, &law, wall.sign(), s, t_end_s, &mut *self.book)
     }
     fn cut_event(&mut self) {
         self.book.cut_event = true;

@@ -139,7 +139,7 @@ struct Consts {
     tol_t: f64,
     chatter_h: f64,
     chatter_t: f64,
-    /// The compliant law, when `contact.law = hertz` (wall touches start [`hertz::contact`]).
+    /// The compliant law, when `contact.law = hertz` (wall touches start a compliant contact phase).
     hertz: Option<crate::damper::contact::Hertz>,
 }
 
@@ -928,7 +928,8 @@ impl Kernel for ModalRun<'_, '_, '_> {
         s: &mut St,
         t_end_s: f64,
     ) -> Result<Option<Md>, SimError> {
-        hertz::contact(self.cs, wall.sign(), s, t_end_s, self.book)
+        let law = self.cs.hertz.expect("a hertz touch needs the hertz law");
+        super::hertz_phase::contact(self.cs, &law, wall.sign(), s, t_end_s, &mut *self.book)
     }
 }
 

@@ -1,5 +1,5 @@
-//! The compliant (`hertz`) contact phase of the N-mode exact solver: the lumped phase
-//! ([`crate::solver::exact::hertz`]) with the bar read at the cavity through the contact row.
+//! The N-mode bar's side of the compliant (`hertz`) contact phase ([`super::super::hertz_phase`],
+//! written once for every bar), the bar read at the cavity through the contact row.
 //!
 //! With penetration `δ = s·w − l_g ≥ 0` (`w = v − Σφₙ(x_d)qₙ`) and the force `P` of
 //! [`crate::damper::contact`],
@@ -13,23 +13,23 @@
 //!
 //! The state `[q₁…q_N, q̇₁…q̇_N, δ, δ̇, W_c]` sits in a fixed-capacity array sized for
 //! [`MAX_BEAM_MODES`] of which [`Dopri5`] integrates the first `2N + 3` (nothing is allocated
-//! per step or contact). The driver, the integrator, its tolerance, the law, the damping's
-//! reference speed floor and the bound on the work are the lumped phase's. Each accepted step
+//! per step or contact). The phase itself (its friction, stick and release logic, the integrator, its tolerance,
+//! the damping's reference speed floor and the bound on the work) is the one of
+//! [`super::super::hertz_phase`], for every bar. Each accepted step
 //! is a `Mode::Contact` segment: its integrals (`∫u(x_r)²`, the forcing work at `x_f`, the modal
 //! viscous loss `Σcₙ∫q̇ₙ²`, the friction work `F_ball Δw`) by 5-point Gauss–Legendre on the dense
 //! output, its mechanical energy every mode's plus the ball's plus Hertz's `(2/5)K_h δ^{5/2}`;
 //! the release is an [`EventKind::Impact`] carrying `W_c`, so the books close.
 
-use super::super::driver::{after_wall_free, wall_of, wall_touch, Cavity, Md};
+use super::super::driver::wall_of;
 use super::{energy_j, Book, Consts, St, NM};
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
-use crate::damper::friction::can_stick;
 use crate::error::SimError;
 use crate::limits::MAX_BEAM_MODES;
 use crate::solver::dopri5::{DenseStep, Dopri5};
-use crate::solver::exact::hertz::{APPROACH_FLOOR_REL, GL_W, GL_X};
-use crate::solver::exact::hertz_phase::{count_steps, run_phase, Event};
+use crate::solver::exact::hertz::{GL_W, GL_X};
+use crate::solver::exact::hertz_phase::{CompliantBar, PhaseBook, PhaseStep};
 use crate::solver::{EventKind, Mode, Segment, SegmentIntegrals};
 
 /// Capacity of the phase's state: `N` displacements, `N` velocities, `δ`, `δ̇`, `W_c`.
@@ -211,170 +211,100 @@ impl Segment for ContactSegment<'_> {
     }
 }
 
-/// The contact phase at wall `sw` from the touch `s` (`s.w = sw·l_g`, `sw·s.dw ≥ 0`). On return
-/// `s` is the state at the release (`w = sw·l_g`, `ẇ` leaving) or at `t_end_s`; the next mode,
-/// or `None` at the end of the run.
-pub(super) fn contact(
-    cs: &Consts,
-    sw: f64,
-    s: &mut St,
-    t_end_s: f64,
-    book: &mut Book,
-) -> Result<Option<Md>, SimError> {
-    let law = cs.hertz.expect("a hertz touch needs the hertz law");
-    let n = cs.n;
-    debug_assert!(n <= MAX_BEAM_MODES);
-    let (id, idd, iw) = (2 * n, 2 * n + 1, 2 * n + 2);
-    let t0 = s.t;
-    let approach = (sw * s.dw).max(0.0);
-    let floor = APPROACH_FLOOR_REL * cs.lg * cs.om.max(cs.osc[0].wd);
-    let v0 = approach.max(floor);
-    // Scales of the tolerances: the impact's own penetration and speed (the bar's effective
-    // mass at the cavity against the ball), the bar's motion.
-    let meff = 1.0 / cs.kappa;
-    let d_scale = law.with_damping(0.0).max_penetration_m(meff, v0);
-    let v_scale = v0.max(cs.lg * cs.om);
-    let mut atol = [0.0; NY];
-    for i in 0..n {
-        atol[i] = CONTACT_RTOL * cs.lg;
-        atol[n + i] = CONTACT_RTOL * v_scale;
-    }
-    atol[id] = CONTACT_RTOL * d_scale;
-    atol[idd] = CONTACT_RTOL * v_scale;
-    atol[iw] = CONTACT_RTOL * 0.5 * meff * v_scale * v_scale;
-    let ig = Dopri5::<NY> {
-        rtol: CONTACT_RTOL,
-        atol,
-        len: 2 * n + 3,
-    };
-    let mut y: Y = [0.0; NY];
-    y[..n].copy_from_slice(&s.q[..n]);
-    y[n..2 * n].copy_from_slice(&s.dq[..n]);
-    y[idd] = approach;
-    let mut t = t0;
-    let mut h = law.undamped_contact_time_s(meff, v0) / 50.0;
-    let mut steps = 0u64;
-    let mut max_pen = 0.0_f64;
-    let mut sigma = if cs.frictional() { sw } else { 0.0 };
-    let mut stuck = false;
-    let bar = PhaseBar {
-        n,
-        m: &cs.m,
-        c: &cs.c,
-        k: &cs.k,
-        phi_f: &cs.phi_f,
-        phi_d: &cs.phi_d,
-        md: cs.md,
-        kappa: cs.kappa,
-    };
-    let needed = |t: f64, y: &Y| bar.needed(&law, sw, cs.force_at(t), y);
-    loop {
-        let fb = if stuck { 0.0 } else { cs.fb(sigma) };
-        // The last `(t, F(t))`: the 6th and 7th stages of a step are both at `t + h`.
-        let mut last = (f64::NAN, 0.0);
-        let mut f = |t: f64, y: &Y| {
-            let force = if t.to_bits() == last.0.to_bits() {
-                last.1
-            } else {
-                let v = cs.force_at(t);
-                last = (t, v);
-                v
-            };
-            bar.rhs(&law, v0, sw, stuck, fb, force, y)
-        };
-        // Events: 0 release (δ < 0); sliding with friction: 1 δ̇ crosses 0 (the sign of ẇ);
-        // stuck: 1, 2 the friction needed leaves [−f, f].
-        let dsign = if sw * sigma >= 0.0 { 1.0 } else { -1.0 };
-        let release = Event::Comp { i: id, sign: 1.0 };
-        let switch = Event::Comp {
-            i: idd,
-            sign: dsign,
-        };
-        let lag = |t: f64, y: &Y| cs.fl - needed(t, y);
-        let lead = |t: f64, y: &Y| cs.fl + needed(t, y);
-        let slide_ev: [Event<'_, NY>; 2] = [release, switch];
-        let stuck_ev: [Event<'_, NY>; 3] = [release, Event::Fn(&lag), Event::Fn(&lead)];
-        let events: &[Event<'_, NY>] = if stuck {
-            &stuck_ev
-        } else if cs.frictional() {
-            &slide_ev
-        } else {
-            &slide_ev[..1]
-        };
-        let end = run_phase(&ig, &mut f, t, y, h, t_end_s, events, |st, th| {
-            for k in 0..=4 {
-                max_pen = max_pen.max(st.comp(id, th * k as f64 / 4.0));
-            }
-            let seg = ContactSegment {
-                step: st,
-                th_end: th,
-                cs,
-                sw,
-                fb,
-                law: &law,
-            };
-            if seg.t_end_s() > seg.t_start_s() {
-                book.obs.segment(&seg);
-                if book.obs.wants_modal() {
-                    let a = st_of(cs, sw, st.t0, &st.y0).0.modal(cs);
-                    let b = seg.st_at(seg.t_end_s()).0.modal(cs);
-                    book.obs.modal_step(&a, &b);
-                }
-            }
-            h = st.h;
-        });
-        let end = count_steps(end, &mut steps, t0)?;
-        t = end.t;
-        y = end.y;
-        match (end.which, stuck) {
-            (Some(1), false) => {
-                // ẇ = 0 inside the contact: stick if coulomb can hold the ball, else the
-                // sliding friction reverses.
-                y[idd] = 0.0;
-                if can_stick(cs.model) && needed(t, &y).abs() <= cs.fl {
-                    stuck = true;
-                } else {
-                    sigma = -sigma;
-                }
-                continue;
-            }
-            (Some(k @ (1 | 2)), true) => {
-                stuck = false;
-                sigma = if k == 1 { -1.0 } else { 1.0 };
-                continue;
-            }
-            _ => {}
+impl Consts {
+    /// The bar's side of a contact phase.
+    fn phase_bar(&self) -> PhaseBar<'_> {
+        PhaseBar {
+            n: self.n,
+            m: &self.m,
+            c: &self.c,
+            k: &self.k,
+            phi_f: &self.phi_f,
+            phi_d: &self.phi_d,
+            md: self.md,
+            kappa: self.kappa,
         }
-        return match end.which {
-            Some(_) => {
-                // Released: δ = 0 with δ̇ ≤ 0.
-                y[id] = 0.0;
-                if max_pen > book.summary.max_penetration_m {
-                    book.summary.max_penetration_m = max_pen;
-                }
-                let (at, _) = st_of(cs, sw, t, &y);
-                book.event(
-                    cs,
-                    EventKind::Impact {
-                        wall: wall_of(sw),
-                        dw_m_s: sw * approach,
-                        energy_loss_j: y[iw],
-                    },
-                    &at,
-                    &at,
-                )?;
-                *s = at;
-                if s.dw == 0.0 {
-                    Ok(Some(wall_touch(cs, sw, s)))
-                } else {
-                    Ok(Some(after_wall_free(sw, s.dw)))
-                }
-            }
-            None => {
-                // End of the run inside the contact.
-                *s = st_of(cs, sw, t, &y).0;
-                Ok(None)
-            }
+    }
+}
+
+impl CompliantBar<NY> for Consts {
+    fn slots(&self) -> (usize, usize, usize) {
+        let n = self.n;
+        (2 * n, 2 * n + 1, 2 * n + 2)
+    }
+    fn omegas(&self) -> (f64, f64) {
+        (self.om, self.om.max(self.osc[0].wd))
+    }
+    /// The bar's effective mass at the cavity against the ball, `1/κ`.
+    fn contact_mass_kg(&self) -> f64 {
+        1.0 / self.kappa
+    }
+    fn integrator(&self, d_scale: f64, v_scale: f64) -> Dopri5<NY> {
+        let n = self.n;
+        debug_assert!(n <= MAX_BEAM_MODES);
+        let (id, idd, iw) = self.slots();
+        let meff = self.contact_mass_kg();
+        let mut atol = [0.0; NY];
+        for i in 0..n {
+            atol[i] = CONTACT_RTOL * self.lg;
+            atol[n + i] = CONTACT_RTOL * v_scale;
+        }
+        atol[id] = CONTACT_RTOL * d_scale;
+        atol[idd] = CONTACT_RTOL * v_scale;
+        atol[iw] = CONTACT_RTOL * 0.5 * meff * v_scale * v_scale;
+        Dopri5::<NY> {
+            rtol: CONTACT_RTOL,
+            atol,
+            len: 2 * n + 3,
+        }
+    }
+    fn phase_state(&self, s: &St, approach: f64) -> Y {
+        let n = self.n;
+        let mut y: Y = [0.0; NY];
+        y[..n].copy_from_slice(&s.q[..n]);
+        y[n..2 * n].copy_from_slice(&s.dq[..n]);
+        y[2 * n + 1] = approach;
+        y
+    }
+    fn force_at(&self, t: f64) -> f64 {
+        Consts::force_at(self, t)
+    }
+    fn rhs(&self, law: &Hertz, v0: f64, sw: f64, stuck: bool, fb: f64, force: f64, y: &Y) -> Y {
+        self.phase_bar().rhs(law, v0, sw, stuck, fb, force, y)
+    }
+    fn needed(&self, law: &Hertz, sw: f64, force: f64, y: &Y) -> f64 {
+        self.phase_bar().needed(law, sw, force, y)
+    }
+    fn state_of(&self, sw: f64, t: f64, y: &Y) -> St {
+        st_of(self, sw, t, y).0
+    }
+}
+
+impl PhaseBook<Consts, NY> for Book<'_> {
+    fn step(&mut self, cs: &Consts, step: &DenseStep<NY>, th_end: f64, p: &PhaseStep) {
+        let seg = ContactSegment {
+            step,
+            th_end,
+            cs,
+            sw: p.sw,
+            fb: p.fb,
+            law: &p.law,
         };
+        if seg.t_end_s() > seg.t_start_s() {
+            self.obs.segment(&seg);
+            if self.obs.wants_modal() {
+                let a = st_of(cs, p.sw, step.t0, &step.y0).0.modal(cs);
+                let b = seg.st_at(seg.t_end_s()).0.modal(cs);
+                self.obs.modal_step(&a, &b);
+            }
+        }
+    }
+    fn penetration(&mut self, pen_m: f64) {
+        if pen_m > self.summary.max_penetration_m {
+            self.summary.max_penetration_m = pen_m;
+        }
+    }
+    fn event(&mut self, cs: &Consts, kind: EventKind, at: &St) -> Result<(), SimError> {
+        Book::event(self, cs, kind, at, at)
     }
 }
