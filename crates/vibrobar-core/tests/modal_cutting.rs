@@ -514,16 +514,14 @@ fn modal_cutting_bad_input_names_the_field() {
     ExactCutting::new(cut(1e-4, 5000.0))
         .run_keeping(&s, &State::default(), 0.01, &mut ())
         .unwrap();
-    // Under hertz a kept run may end inside a contact phase, which a modal continuation does
-    // not carry: continuing it is refused, naming the law.
+    // Under hertz a kept run (which may end inside a contact phase) is continued
+    // (tests/modal_cutting_hertz.rs follows one through a contact).
     let (_, end) = ExactCutting::new(cut(1e-4, 5000.0))
         .run_keeping(&hz, &State::default(), 0.01, &mut ())
         .unwrap();
-    let m = ExactCutting::new(cut(1e-4, 5000.0))
+    ExactCutting::new(cut(1e-4, 5000.0))
         .continue_run(&hz, &end, 0.02, &mut ())
-        .unwrap_err()
-        .to_string();
-    assert!(m.contains("hertz") && m.contains("[contact]"), "{m}");
+        .unwrap();
 }
 
 /// Issue #14 on a modal bar: the time-domain judge runs the modal cutting solver (the start's

@@ -421,3 +421,65 @@ fn converges_with_the_contact_tolerance_on_a_four_mode_beam() {
         .to_string();
     assert!(e.contains("rtol") && e.contains("0.001"), "{e}");
 }
+
+/// A beam's cutting run stopped inside a `hertz` contact phase and continued
+/// ([`ExactCutting::continue_run`]) goes on with the phase where it stopped (the penetration, the
+/// friction state and the contact's dissipation kept), and follows the uninterrupted run: the
+/// same contacts, `u` on a grid within the contact phase's tolerance of its amplitude. Three
+/// friction laws on the 4-mode paper beam at 1.5 b_lim.
+#[test]
+fn a_beam_run_continued_from_inside_a_contact_is_the_uninterrupted_run() {
+    let rpm = 5000.0;
+    for (friction, f) in [
+        (FrictionModel::None, None),
+        (FrictionModel::AsPublished, None),
+        (FrictionModel::Coulomb, Some(0.5)),
+    ] {
+        let s = beam(4, 0.1e-3, friction, f);
+        let c = cut(1.5 * b_lim(&s, rpm), rpm);
+        let mut solver = ExactCutting::new(c);
+        solver.exact.check_invariants = true;
+        let init = State {
+            u_m: 1.5 * H0,
+            v_m: 1.5 * H0,
+            ..State::default()
+        };
+        let t_end = 0.05;
+        // A time inside a contact: the middle of a contact segment after 20 ms.
+        struct Mid(Option<f64>);
+        impl Observer for Mid {
+            fn segment(&mut self, seg: &dyn Segment) {
+                if self.0.is_none()
+                    && seg.t_start_s() > 0.02
+                    && matches!(seg.mode(), Mode::Contact(_))
+                    && seg.t_end_s() > seg.t_start_s()
+                {
+                    self.0 = Some(0.5 * (seg.t_start_s() + seg.t_end_s()));
+                }
+            }
+        }
+        let dt = c.delay_s() / 200.0;
+        let (mut mid, mut whole) = (Mid(None), Watch::new(dt));
+        solver
+            .run(&s, &init, t_end, &mut Fanout(&mut [&mut mid, &mut whole]))
+            .unwrap();
+        let t1 = mid.0.expect("a contact after 20 ms");
+        let mut parts = Watch::new(dt);
+        let (r1, end) = solver.run_keeping(&s, &init, t1, &mut parts).unwrap();
+        let pen = r1.final_state.w_m().abs() - 0.05e-3;
+        assert!(pen > 0.0, "{friction}: not inside a contact at {t1}: {pen}");
+        solver
+            .continue_run(&s, &end, t_end, &mut parts)
+            .unwrap_or_else(|e| panic!("{friction}: {e}"));
+        let amp = whole.u.iter().map(|u| u.abs()).fold(0.0, f64::max);
+        let d = max_diff(&whole.u, &parts.u);
+        println!(
+            "{friction}: stopped at {t1:.5e} s with {pen:.3e} m penetration: max |Δu| {d:.3e} m \
+             of {amp:.3e} m; contacts {} vs {}",
+            parts.releases, whole.releases
+        );
+        assert!(whole.releases >= 5, "{}", whole.releases);
+        assert_eq!(parts.releases, whole.releases, "{friction}");
+        assert!(d < 1e-6 * amp, "{friction}: {d} of {amp}");
+    }
+}

@@ -662,12 +662,13 @@ impl History {
     }
 
     /// Where a modal run ended, to continue it: this history, the public and the modal state,
-    /// whether the tool cuts.
+    /// whether the tool cuts, the contact phase under way.
     pub(super) fn into_continuation(
         self,
         state: State,
         modal: crate::structure::ModalState,
         in_cut: bool,
+        contact: Option<(ModalContactPhase, crate::solver::Wall)>,
     ) -> CutContinuation {
         CutContinuation {
             state,
@@ -677,6 +678,7 @@ impl History {
             bp: self.bp,
             in_cut,
             contact: None,
+            modal_contact: contact,
             modal: Some(modal),
         }
     }
@@ -686,6 +688,11 @@ impl CutContinuation {
     /// The modal state at the end of a run on a modal bar.
     pub(super) fn modal_state(&self) -> Option<&crate::structure::ModalState> {
         self.modal.as_ref()
+    }
+
+    /// The contact phase under way at the end of a run on a modal bar, and its wall.
+    pub(super) fn modal_contact(&self) -> Option<(ModalContactPhase, crate::solver::Wall)> {
+        self.modal_contact
     }
 }
 
@@ -1069,6 +1076,9 @@ pub(super) const CONTINUE_MISMATCH: &str =
     "continuing a cutting run: [cutting] spindle_rpm, feed_m and chip_direction_factor must be \
      the continued run's (its surface history's delay and advance)";
 
+/// An N-mode bar's contact phase under way where a run ended.
+type ModalContactPhase = super::hertz_phase::ContactPhase<{ super::hertz_phase::MODAL_PHASE_LEN }>;
+
 /// Where a cutting run ended: its final state, the machined surface over the last revolution
 /// and the pending breakpoints, so that a run can go on from it with another cut (e.g. another
 /// width: chatter grown at one width, then the width lowered).
@@ -1082,6 +1092,8 @@ pub struct CutContinuation {
     shift: f64,
     /// A `hertz` contact phase under way at the end (its integrator state and wall).
     contact: Option<(super::cutting_hertz::Phase, crate::solver::Wall)>,
+    /// The same on a modal bar.
+    modal_contact: Option<(ModalContactPhase, crate::solver::Wall)>,
     /// The modal state at the end of a run on a modal bar (`None` on the lumped bar).
     modal: Option<crate::structure::ModalState>,
 }
@@ -1552,6 +1564,7 @@ impl ExactCutting {
                 (Md::HertzTouch(wall), Some(p)) => Some((p, wall)),
                 _ => None,
             },
+            modal_contact: None,
             modal: None,
         };
         Ok((summary, end))

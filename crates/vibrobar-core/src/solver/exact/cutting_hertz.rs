@@ -24,7 +24,7 @@
 
 use super::driver::{after_wall_free, wall_of, wall_touch, Cavity, Md};
 use super::hertz::{ContactStep, APPROACH_FLOOR_REL};
-use super::hertz_phase::{count_steps, run_phase, Event};
+use super::hertz_phase::{count_steps, run_phase, ContactPhase, Event};
 use super::{Book, Consts, CutPiece, St};
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
@@ -37,24 +37,7 @@ use crate::solver::{CutSample, EventKind, Mode, Segment, SegmentIntegrals};
 type Y = [f64; 5];
 
 /// A contact phase interrupted at a piece end or a cut event, to resume on the next piece.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Phase {
-    /// The time and state where it stopped (`t` is the driver's `s.t` to the bit).
-    t: f64,
-    y: Y,
-    /// Step size to try next.
-    h: f64,
-    /// The approach speed (reported at the release) and the damping's reference `δ̇₀`.
-    approach: f64,
-    v0: f64,
-    /// Friction state: sliding sign and stuck (coulomb).
-    sigma: f64,
-    stuck: bool,
-    max_pen: f64,
-    steps: u64,
-    /// The touch time (named by the step-limit error).
-    t_touch: f64,
-}
+pub(super) type Phase = ContactPhase<5>;
 
 /// The cut over a segment of a contact phase: chip and force from the piece's quadratic.
 #[derive(Debug, Clone, Copy)]

@@ -177,6 +177,32 @@ where
     }
 }
 
+/// The length of an N-mode bar's phase state at the largest mode count: `N` displacements,
+/// `N` velocities, `δ`, `δ̇`, `W_c`.
+pub(super) const MODAL_PHASE_LEN: usize = 2 * crate::limits::MAX_BEAM_MODES + 3;
+
+/// A contact phase interrupted at a piece end or a cut event of a cutting run (or at the end of
+/// a run kept to be continued), to resume where it stopped.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct ContactPhase<const N: usize> {
+    /// Where it stopped (`t` is the driver's `s.t` to the bit).
+    pub(super) t: f64,
+    /// The phase state there.
+    pub(super) y: [f64; N],
+    /// Step size to try next.
+    pub(super) h: f64,
+    /// The approach speed (reported at the release) and the damping's reference `δ̇₀`.
+    pub(super) approach: f64,
+    pub(super) v0: f64,
+    /// Friction: sliding sign, stuck (coulomb).
+    pub(super) sigma: f64,
+    pub(super) stuck: bool,
+    pub(super) max_pen: f64,
+    pub(super) steps: u64,
+    /// The touch time (named by the step-limit error).
+    pub(super) t_touch: f64,
+}
+
 /// The bar's side of a compliant contact phase with a phase state of `N` components: its
 /// right-hand side, the friction the ball needs to move with it, and the solver's state of a
 /// phase state.

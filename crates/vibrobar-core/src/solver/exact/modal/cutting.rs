@@ -70,8 +70,8 @@
 //! uninterrupted one to 1e-17 m without a ball, 7e-11 m of 3e-4 m with 2767 impacts; test
 //! `a_continued_modal_run_is_the_uninterrupted_run`).
 //!
-//! Scope: both force laws, both contact laws; continuing a run under the `hertz` law (which may
-//! end inside a contact phase) is the lumped bar's only, refused here with an error that says so.
+//! Scope: both force laws, both contact laws; a run kept inside a `hertz` contact phase is
+//! continued with the phase where it stopped, as on the lumped bar.
 
 // The loops run over parallel per-mode and per-pair arrays (shapes, eigenpairs, coefficients).
 #![allow(clippy::needless_range_loop)]
@@ -1212,8 +1212,9 @@ impl ModalCutting {
     /// this solver's cut, as [`crate::solver::exact::cutting::ExactCutting::continue_run`] does
     /// on the lumped bar: the state and the surface history are the earlier run's, the force law
     /// and width this cut's; the delay and the surface's advance must be the earlier run's. The
-    /// ball's mode is found again from the state, as at a start. Refused under the `hertz`
-    /// contact law (a run may end inside a contact phase, which is not carried over here).
+    /// ball's mode is found again from the state, as at a start; a run that ended inside a
+    /// `hertz` contact phase goes on with the phase where it stopped (the penetration and the
+    /// contact's dissipation kept).
     pub fn continue_run(
         &self,
         sys: &ModalSystem,
@@ -1227,16 +1228,6 @@ impl ModalCutting {
                  continued run's",
             ));
         };
-        if sys
-            .damper
-            .is_some_and(|d| d.contact.law == crate::params::ContactLaw::Hertz)
-        {
-            return Err(SimError::Unsupported(
-                "continuing a cutting run on a modal bar ([beam], [[modes]]) under [contact] \
-                 law = hertz is not supported (a run may end inside a contact phase); the \
-                 lumped [bar] continues it",
-            ));
-        }
         self.drive(sys, init, Some(from), t_end_s, CONTACT_RTOL, obs)
     }
 
@@ -1275,7 +1266,25 @@ impl ModalCutting {
                 .sum();
             start.v_m += u_d_eq;
         }
-        crate::solver::validate_modal_run(sys, &start, t_end_s, None)?;
+        // A continued run inside a `hertz` contact starts with the ball in the wall: the state
+        // is checked at the wall, the penetration is the phase's.
+        let resumed = from
+            .and_then(|c| c.modal_contact())
+            .filter(|_| sys.damper.is_some());
+        let checked = match (resumed, &sys.damper) {
+            (Some((_, wall)), Some(d)) => {
+                let u_d: f64 = (sys.model.modes().iter())
+                    .zip(&start.q_m)
+                    .map(|(m, q)| m.shape_cavity * q)
+                    .sum();
+                ModalState {
+                    v_m: u_d + wall.sign() * d.half_gap_m(),
+                    ..start
+                }
+            }
+            _ => start,
+        };
+        crate::solver::validate_modal_run(sys, &checked, t_end_s, None)?;
         let modes = sys.model.modes();
         let n = modes.len();
         let (md, lg, e, model) = match &sys.damper {
@@ -1411,17 +1420,20 @@ impl ModalCutting {
             check: self.exact.check_invariants,
         };
         let has_ball = run.cs.has_ball;
-        let mut mode = if has_ball {
-            let d0 = run.hist.window_quadratic(t0 - tau, t0 - tau)[0];
-            let mut k = CutKernel::new(&mut run, &mut book, in_cut, [0.0; 3], 0, d0);
-            driver::initial_mode(&mut k, &mut s)?
-        } else {
-            flight(0.0)
+        // A `hertz` contact phase carried over a piece end or a cut event (or from the run
+        // continued: it goes on where it stopped).
+        let mut phase: Option<cutting_hertz::Phase> = resumed.map(|r| r.0);
+        let mut mode = match resumed {
+            Some((_, wall)) => Md::HertzTouch(wall),
+            None if has_ball => {
+                let d0 = run.hist.window_quadratic(t0 - tau, t0 - tau)[0];
+                let mut k = CutKernel::new(&mut run, &mut book, in_cut, [0.0; 3], 0, d0);
+                driver::initial_mode(&mut k, &mut s)?
+            }
+            None => flight(0.0),
         };
         let mut chip_order = 0;
         let mut win_prev: Option<(u64, f64)> = None;
-        // A `hertz` contact phase carried over a piece end or a cut event.
-        let mut phase: Option<cutting_hertz::Phase> = None;
         while s.t < t_end_s {
             let (step_end, win_end) = {
                 let h = &mut *run.hist;
@@ -1506,7 +1518,16 @@ impl ModalCutting {
             summary: book.summary,
             final_state: s.modal(&run.cs),
         };
-        let end = hist.into_continuation(summary.summary.final_state, summary.final_state, in_cut);
+        let contact = match (mode, phase) {
+            (Md::HertzTouch(wall), Some(p)) => Some((p, wall)),
+            _ => None,
+        };
+        let end = hist.into_continuation(
+            summary.summary.final_state,
+            summary.final_state,
+            in_cut,
+            contact,
+        );
         Ok((summary, end))
     }
 }

@@ -33,27 +33,11 @@ use crate::excitation::Cutting;
 use crate::solver::dopri5::{DenseStep, Dopri5};
 use crate::solver::exact::driver::{after_wall_free, wall_of, wall_touch, Md};
 use crate::solver::exact::hertz::APPROACH_FLOOR_REL;
-use crate::solver::exact::hertz_phase::{count_steps, run_phase, Event};
+use crate::solver::exact::hertz_phase::{count_steps, run_phase, ContactPhase, Event};
 use crate::solver::{CutSample, EventKind, Mode, Segment, SegmentIntegrals};
 
 /// A contact phase interrupted at a piece end or a cut event, to resume on the next piece.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Phase {
-    /// Where it stopped (`t` is the driver's `s.t` to the bit).
-    t: f64,
-    y: Y,
-    /// Step size to try next.
-    h: f64,
-    /// The approach speed (reported at the release) and the damping's reference `δ̇₀`.
-    approach: f64,
-    v0: f64,
-    /// Friction: sliding sign, stuck (coulomb).
-    sigma: f64,
-    stuck: bool,
-    max_pen: f64,
-    steps: u64,
-    t_touch: f64,
-}
+pub(super) type Phase = ContactPhase<NY>;
 
 /// The cut over a sub-piece: the chip and the force from the piece's quadratic.
 #[derive(Debug, Clone, Copy)]

@@ -33,7 +33,7 @@ use crate::solver::exact::hertz_phase::{CompliantBar, PhaseBook, PhaseStep};
 use crate::solver::{EventKind, Mode, Segment, SegmentIntegrals};
 
 /// Capacity of the phase's state: `N` displacements, `N` velocities, `δ`, `δ̇`, `W_c`.
-pub(super) const NY: usize = 2 * NM + 3;
+pub(super) const NY: usize = crate::solver::exact::hertz_phase::MODAL_PHASE_LEN;
 pub(super) type Y = [f64; NY];
 
 /// The bar's side of a contact phase: the modes and the ball coupled at the cavity. Its
