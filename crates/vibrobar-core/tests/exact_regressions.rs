@@ -1,7 +1,7 @@
 //! Regression tests of the exact solver, each named after the bug it pins (issue #7).
 //!
 //! A3: `exact` failed on ordinary long runs with "event search did not converge". Root causes
-//! (written out in `solver/exact/roots.rs`): (a) a segment without events was one root search
+//! (written out in `solver/exact/lumped/roots.rs`): (a) a segment without events was one root search
 //! over the whole rest of the run, whose number of proven steps grows with the interval, so it
 //! hit the iteration cap after ~1e5 half periods; (b) a (nearly) undamped bar near resonance:
 //! the steady and transient parts of the closed form are each metres and cancel, and the bound

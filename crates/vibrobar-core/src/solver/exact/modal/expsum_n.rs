@@ -10,7 +10,7 @@
 //! buffers kept for the run (`set_*` methods, [`TrigN::fill`]) and touch only the `n` terms in
 //! use.
 
-use super::expsum::{phi1, small_sin_cm1, C, INV_FACT};
+use super::super::expsum::{phi1, small_sin_cm1, C, INV_FACT};
 use crate::limits::MAX_BEAM_MODES;
 
 /// Capacity of the decaying terms: two per mode (the constrained motion's real exponentials).
@@ -1704,7 +1704,7 @@ mod tests {
 
     #[test]
     fn one_term_sums_agree_with_the_lumped_exponential_sum() {
-        use super::super::expsum::{integral_square, ExpSum};
+        use crate::solver::exact::expsum::{integral_square, ExpSum};
         let l = ExpSum {
             f0: 0.3,
             k0: 0.3 - 0.7 - 0.5,

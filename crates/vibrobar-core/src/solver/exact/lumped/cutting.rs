@@ -236,7 +236,7 @@ fn quintic_coeffs(y0: f64, d0: f64, e0: f64, y1: f64, d1: f64, e1: f64) -> [f64;
 }
 
 /// The machined surface over the last revolution, a ring sized once per run.
-pub(super) struct History {
+pub(in crate::solver::exact) struct History {
     k: VecDeque<Knot>,
     cap: usize,
     /// Overflow of the ring or of the breakpoint queue, reported after the observer call.
@@ -300,7 +300,7 @@ impl History {
     }
 
     /// An empty history of `cap` knots (and breakpoints), delay `tau`, advance `shift`.
-    pub(super) fn new(cap: usize, in_cut: bool, tau: f64, shift: f64) -> History {
+    pub(in crate::solver::exact) fn new(cap: usize, in_cut: bool, tau: f64, shift: f64) -> History {
         History {
             k: VecDeque::with_capacity(cap),
             cap,
@@ -338,7 +338,7 @@ impl History {
     }
 
     /// `s(x)`: from the right at a knot (`right`), else from the left; cubic Hermite between.
-    pub(super) fn eval(&self, x: f64, right: bool) -> f64 {
+    pub(in crate::solver::exact) fn eval(&self, x: f64, right: bool) -> f64 {
         let n = self.k.len();
         let i = self.locate(x, right);
         // `i` is the first knot after x (right) or at/after x (left).
@@ -555,7 +555,7 @@ impl History {
     /// The smooth surface of the tool at rest at `u_eq` up to `t0`, its right side at `t0` the
     /// start's (`u0`, `du0` in the cut, else the surface advanced by `shift`); `t0` a breakpoint.
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn smooth(
+    pub(in crate::solver::exact) fn smooth(
         cap: usize,
         tau: f64,
         shift: f64,
@@ -578,12 +578,12 @@ impl History {
     }
 
     /// Store the surface `s`, `ṡ` at `t` (both sides).
-    pub(super) fn record(&mut self, t: f64, s: f64, ds: f64) {
+    pub(in crate::solver::exact) fn record(&mut self, t: f64, s: f64, ds: f64) {
         self.push(Knot::cubic(t, s, ds, s, ds));
     }
 
     /// The right side at the newest knot, when it is at `t` (after an event in the cut).
-    pub(super) fn record_right(&mut self, t: f64, s: f64, ds: f64) {
+    pub(in crate::solver::exact) fn record_right(&mut self, t: f64, s: f64, ds: f64) {
         if let Some(last) = self.k.back_mut() {
             if last.t.to_bits() == t.to_bits() {
                 last.s_r = s;
@@ -593,14 +593,19 @@ impl History {
     }
 
     /// Store the surface at `t` out of the cut ([`History::out_of_cut_knot`]).
-    pub(super) fn record_out_of_cut(&mut self, t: f64) {
+    pub(in crate::solver::exact) fn record_out_of_cut(&mut self, t: f64) {
         let kn = self.out_of_cut_knot(t);
         self.push(kn);
     }
 
     /// The surface's kink at a cut event at `t` for a caller that keeps its own cut flag
     /// (the modal path): [`History::cut_event_slope`] with the side after the event.
-    pub(super) fn cut_event_slope_after(&mut self, t: f64, in_cut_after: bool, du: f64) {
+    pub(in crate::solver::exact) fn cut_event_slope_after(
+        &mut self,
+        t: f64,
+        in_cut_after: bool,
+        du: f64,
+    ) {
         let keep = self.in_cut;
         self.in_cut = in_cut_after;
         self.cut_event_slope(t, du);
@@ -608,12 +613,12 @@ impl History {
     }
 
     /// Queue the breakpoint source `t`.
-    pub(super) fn add_breakpoint(&mut self, t: f64) {
+    pub(in crate::solver::exact) fn add_breakpoint(&mut self, t: f64) {
         self.breakpoint(t);
     }
 
     /// Drop the knots before `t` (one kept) and the breakpoints already passed at `t`.
-    pub(super) fn forget_before(&mut self, t_knots: f64, t: f64) {
+    pub(in crate::solver::exact) fn forget_before(&mut self, t_knots: f64, t: f64) {
         self.trim(t_knots);
         while self.bp.front().is_some_and(|&(tk, _)| tk + self.tau <= t) {
             self.bp.pop_front();
@@ -621,29 +626,29 @@ impl History {
     }
 
     /// The next breakpoint source.
-    pub(super) fn first_breakpoint(&self) -> Option<f64> {
+    pub(in crate::solver::exact) fn first_breakpoint(&self) -> Option<f64> {
         self.bp.front().map(|b| b.0)
     }
 
     /// The quadratic through the surface over the window `[a, b]` ([`History::quadratic`]).
-    pub(super) fn window_quadratic(&self, a: f64, b: f64) -> [f64; 3] {
+    pub(in crate::solver::exact) fn window_quadratic(&self, a: f64, b: f64) -> [f64; 3] {
         self.quadratic(a, b)
     }
 
     /// The surface and its slope at `x`, from the right.
-    pub(super) fn value_slope(&self, x: f64) -> (f64, f64) {
+    pub(in crate::solver::exact) fn value_slope(&self, x: f64) -> (f64, f64) {
         (self.eval(x, true), self.slope_left(x))
     }
 
     /// The ring or the breakpoint queue overflowed.
-    pub(super) fn is_full(&self) -> bool {
+    pub(in crate::solver::exact) fn is_full(&self) -> bool {
         self.full
     }
 
     /// The history a run continued from `c` starts with (its knots and breakpoints, a ring of
     /// at least `cap`), `t0` (the continued run's start, where the cut changes) a breakpoint.
     /// `None` when `c`'s delay or surface advance is not `tau`'s and `shift`'s.
-    pub(super) fn resumed(
+    pub(in crate::solver::exact) fn resumed(
         c: &CutContinuation,
         cap: usize,
         tau: f64,
@@ -663,7 +668,7 @@ impl History {
 
     /// Where a modal run ended, to continue it: this history, the public and the modal state,
     /// whether the tool cuts, the contact phase under way.
-    pub(super) fn into_continuation(
+    pub(in crate::solver::exact) fn into_continuation(
         self,
         state: State,
         modal: crate::structure::ModalState,
@@ -686,12 +691,14 @@ impl History {
 
 impl CutContinuation {
     /// The modal state at the end of a run on a modal bar.
-    pub(super) fn modal_state(&self) -> Option<&crate::structure::ModalState> {
+    pub(in crate::solver::exact) fn modal_state(&self) -> Option<&crate::structure::ModalState> {
         self.modal.as_ref()
     }
 
     /// The contact phase under way at the end of a run on a modal bar, and its wall.
-    pub(super) fn modal_contact(&self) -> Option<(ModalContactPhase, crate::solver::Wall)> {
+    pub(in crate::solver::exact) fn modal_contact(
+        &self,
+    ) -> Option<(ModalContactPhase, crate::solver::Wall)> {
         self.modal_contact
     }
 }
@@ -752,7 +759,7 @@ impl Observer for Recorder<'_, '_> {
 }
 
 /// Gauss–Legendre nodes and weights on `[−1, 1]`, 8 points (exact for degree 15).
-pub(super) const GL8: [(f64, f64); 8] = [
+pub(in crate::solver::exact) const GL8: [(f64, f64); 8] = [
     (-0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
     (-0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
     (-0.525_532_409_916_329, 0.313_706_645_877_887_3),
@@ -836,7 +843,7 @@ thread_local! {
 
 /// `Trig::new(tau, om, al, wd)` (to the bit), cached for the pieces' ends: a regular piece's
 /// local end is its length, the same for most pieces of a run.
-pub(super) fn end_trig(tau: f64, om: f64, al: f64, wd: f64) -> Trig {
+pub(in crate::solver::exact) fn end_trig(tau: f64, om: f64, al: f64, wd: f64) -> Trig {
     let key = [tau, om, al, wd].map(f64::to_bits);
     ENDS.with(|c| {
         let mut c = c.borrow_mut();
@@ -873,7 +880,7 @@ fn with_node_trigs<R>(x: [f64; 5], g: impl FnOnce(&[Trig; 8]) -> R) -> R {
 }
 
 /// `∫ u²` over local `[a, b]` of a cutting segment (the RMS's hot path).
-pub(super) fn integral_u2(seg: &ExactSegment, a: f64, b: f64) -> f64 {
+pub(in crate::solver::exact) fn integral_u2(seg: &ExactSegment, a: f64, b: f64) -> f64 {
     quad(seg, a, b, |tr| [seg.u.value_t(tr).powi(2)])[0]
 }
 
@@ -1041,7 +1048,7 @@ fn remainder_fit(
 /// `len` along it; the next fit is the quadratic through `r0` and those values. It stops when
 /// the fit moves by at most `scale` at the nodes and the piece's end settles, or after
 /// [`REMAINDER_MAX_ITERATIONS`] dry runs (keeping the last fit).
-pub(super) fn fit_remainder(
+pub(in crate::solver::exact) fn fit_remainder(
     r0: f64,
     scale: f64,
     mut len: f64,
@@ -1072,7 +1079,7 @@ pub(super) fn fit_remainder(
 }
 
 /// The error of a continued run whose cut changes the surface history's delay or advance.
-pub(super) const CONTINUE_MISMATCH: &str =
+pub(in crate::solver::exact) const CONTINUE_MISMATCH: &str =
     "continuing a cutting run: [cutting] spindle_rpm, feed_m and chip_direction_factor must be \
      the continued run's (its surface history's delay and advance)";
 
@@ -1226,7 +1233,7 @@ impl ExactCutting {
             },
             _ => start,
         };
-        super::super::validate_run(sys, &checked, t_end_s)?;
+        crate::solver::validate_run(sys, &checked, t_end_s)?;
         let t0 = start.t_s;
         // The two sets of constants: out of the cut the bar's own, in it the stiffness `K + kc`
         // (the damping `C` stays the bar's).

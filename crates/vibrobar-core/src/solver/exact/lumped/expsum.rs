@@ -129,7 +129,7 @@ impl Trig {
 /// `(sin x, cos x − 1)` by their Taylor series for `|x| ≤ 1/8` (truncation below `1e-20`
 /// relative), as polynomials in `x²` evaluated in Estrin's form (short dependency chains).
 #[inline]
-pub(super) fn small_sin_cm1(x: f64) -> (f64, f64) {
+pub(in crate::solver::exact) fn small_sin_cm1(x: f64) -> (f64, f64) {
     let y = x * x;
     let y2 = y * y;
     // sin x / x = Σ (−y)^k/(2k+1)!, k = 0..5.
@@ -437,7 +437,7 @@ pub fn integral_square_to(x: &ExpSum, a: f64, b: f64, end: Option<&Trig>) -> f64
 }
 
 /// `1/(k+1)!`, `k = 0..15` (the φ₁ series here, and `expsum_n`'s `exp_m1`).
-pub(super) const INV_FACT: [f64; 16] = [
+pub(in crate::solver::exact) const INV_FACT: [f64; 16] = [
     1.0,
     1.0 / 2.0,
     1.0 / 6.0,
@@ -459,7 +459,7 @@ pub(super) const INV_FACT: [f64; 16] = [
 /// `(e^z − 1)/z` for `|z| < 1/2` by its series `Σ z^k/(k+1)!`, truncated where the next term
 /// is below `2e-18` (degree 5, 10 or 15 by `|z|`), evaluated as even and odd parts in `z²`
 /// (two independent Horner chains of half the length).
-pub(super) fn phi1(z: C) -> C {
+pub(in crate::solver::exact) fn phi1(z: C) -> C {
     let r2 = z.0 * z.0 + z.1 * z.1;
     // |z|^(n+1)/(n+2)! < 2e-18 for: |z| ≤ 1e-3 → n = 5, ≤ 0.1 → n = 10, < 0.5 → n = 15.
     let n = if r2 <= 1e-6 {
@@ -487,22 +487,25 @@ pub(super) fn phi1(z: C) -> C {
 
 /// Minimal complex number (no dependency needed for five terms).
 #[derive(Debug, Clone, Copy)]
-pub(super) struct C(pub(super) f64, pub(super) f64);
+pub(in crate::solver::exact) struct C(
+    pub(in crate::solver::exact) f64,
+    pub(in crate::solver::exact) f64,
+);
 
 impl C {
-    pub(super) fn add(self, o: C) -> C {
+    pub(in crate::solver::exact) fn add(self, o: C) -> C {
         C(self.0 + o.0, self.1 + o.1)
     }
-    pub(super) fn mul(self, o: C) -> C {
+    pub(in crate::solver::exact) fn mul(self, o: C) -> C {
         C(self.0 * o.0 - self.1 * o.1, self.0 * o.1 + self.1 * o.0)
     }
-    pub(super) fn scale(self, s: f64) -> C {
+    pub(in crate::solver::exact) fn scale(self, s: f64) -> C {
         C(self.0 * s, self.1 * s)
     }
-    pub(super) fn conj(self) -> C {
+    pub(in crate::solver::exact) fn conj(self) -> C {
         C(self.0, -self.1)
     }
-    pub(super) fn div(self, o: C) -> C {
+    pub(in crate::solver::exact) fn div(self, o: C) -> C {
         let d = o.0 * o.0 + o.1 * o.1;
         C(
             (self.0 * o.0 + self.1 * o.1) / d,

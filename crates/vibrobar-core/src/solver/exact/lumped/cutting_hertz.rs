@@ -37,7 +37,7 @@ use crate::solver::{CutSample, EventKind, Mode, Segment, SegmentIntegrals};
 type Y = [f64; 5];
 
 /// A contact phase interrupted at a piece end or a cut event, to resume on the next piece.
-pub(super) type Phase = ContactPhase<5>;
+pub(in crate::solver::exact) type Phase = ContactPhase<5>;
 
 /// The cut over a segment of a contact phase: chip and force from the piece's quadratic.
 #[derive(Debug, Clone, Copy)]
@@ -149,7 +149,7 @@ impl Segment for CutHertzSegment {
 /// after a located cut event (the chip then starts at its zero, on either side by rounding).
 /// Returns the next mode: [`Md::HertzTouch`] while the contact goes on.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn contact_piece(
+pub(in crate::solver::exact) fn contact_piece(
     cs: &Consts,
     law: &Hertz,
     cut: &Cutting,

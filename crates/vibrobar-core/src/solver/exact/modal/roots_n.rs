@@ -268,8 +268,8 @@
 //! 8–9× the lumped one there (callgrind, bench path: 162 M and 150 M against 18.8 M and 19.1 M) at
 //! about the same cost per event; at r = 1.01, 1.8×.
 
+pub use super::super::roots::{Root, SEARCH_HORIZON_ITER};
 use super::expsum_n::{ExpSumN, Term, TrigN, MAX_TERMS};
-pub use super::roots::{Root, SEARCH_HORIZON_ITER};
 
 /// Most event functions of one search (free flight has three, the pair modes one or two).
 pub const MAX_CANDS: usize = 4;

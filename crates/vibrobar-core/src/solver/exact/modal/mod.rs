@@ -59,14 +59,8 @@
 
 use std::cell::RefCell;
 
-use super::constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
 use super::driver::{self, wall_of, Cavity, Kernel, Md, Tail, HORIZON};
 use super::expsum::{integral_square, ExpSum, Trig};
-use super::expsum_n::{
-    integral_product_n, integral_square_n, integral_square_n_to, sin_cos, ExpSumN, SquarePlan,
-    Term, TrigN,
-};
-use super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::CONFINEMENT_TOL_M;
 use crate::damper::impact::{modal_impact, modal_inverse_effective_mass_per_kg};
 use crate::error::SimError;
@@ -77,9 +71,18 @@ use crate::solver::{
     Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Wall,
 };
 use crate::structure::{ModalState, ModalSystem, Point};
+use constrained::{ConstrainedModes, ConstrainedMotion, TermSum};
+use expsum_n::{
+    integral_product_n, integral_square_n, integral_square_n_to, sin_cos, ExpSumN, SquarePlan,
+    Term, TrigN,
+};
+use roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 
+pub mod constrained;
 pub mod cutting;
+pub mod expsum_n;
 mod hertz;
+pub mod roots_n;
 
 const NM: usize = MAX_BEAM_MODES;
 

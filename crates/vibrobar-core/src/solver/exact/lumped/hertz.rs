@@ -41,22 +41,22 @@ pub struct HertzSegment {
 /// accepted step (the fraction `th_end` of it inside the phase) at the wall `sw`, the
 /// constants their integrals read, and the state and energy on it.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct ContactStep {
-    pub(super) step: DenseStep<5>,
+pub(in crate::solver::exact) struct ContactStep {
+    pub(in crate::solver::exact) step: DenseStep<5>,
     /// Fraction of the step inside the phase.
-    pub(super) th_end: f64,
-    pub(super) sw: f64,
-    pub(super) lg: f64,
-    pub(super) m: f64,
+    pub(in crate::solver::exact) th_end: f64,
+    pub(in crate::solver::exact) sw: f64,
+    pub(in crate::solver::exact) lg: f64,
+    pub(in crate::solver::exact) m: f64,
     /// The bar's own stiffness `K`.
-    pub(super) k: f64,
-    pub(super) md: f64,
-    pub(super) c: f64,
-    pub(super) fs: f64,
-    pub(super) f0: f64,
-    pub(super) om: f64,
-    pub(super) fb: f64,
-    pub(super) law: Hertz,
+    pub(in crate::solver::exact) k: f64,
+    pub(in crate::solver::exact) md: f64,
+    pub(in crate::solver::exact) c: f64,
+    pub(in crate::solver::exact) fs: f64,
+    pub(in crate::solver::exact) f0: f64,
+    pub(in crate::solver::exact) om: f64,
+    pub(in crate::solver::exact) fb: f64,
+    pub(in crate::solver::exact) law: Hertz,
 }
 
 impl ContactStep {
@@ -87,18 +87,18 @@ impl ContactStep {
             law,
         }
     }
-    pub(super) fn y_at(&self, t: f64) -> Y {
+    pub(in crate::solver::exact) fn y_at(&self, t: f64) -> Y {
         let th = ((t - self.step.t0) / self.step.h).clamp(0.0, self.th_end);
         self.step.at_theta(th)
     }
-    pub(super) fn t_end_s(&self) -> f64 {
+    pub(in crate::solver::exact) fn t_end_s(&self) -> f64 {
         self.step.t0 + self.th_end * self.step.h
     }
-    pub(super) fn mode(&self) -> Mode {
+    pub(in crate::solver::exact) fn mode(&self) -> Mode {
         Mode::Contact(wall_of(self.sw))
     }
     /// The public state (`w = sw·(l_g + δ)`).
-    pub(super) fn state_at(&self, t_s: f64) -> crate::params::State {
+    pub(in crate::solver::exact) fn state_at(&self, t_s: f64) -> crate::params::State {
         let y = self.y_at(t_s);
         let w = self.sw * (self.lg + y[2]);
         let dw = self.sw * y[3];
@@ -112,7 +112,7 @@ impl ContactStep {
         }
     }
     /// Bar, ball and the contact's elastic energy.
-    pub(super) fn mechanical_energy_j(&self, t_s: f64) -> f64 {
+    pub(in crate::solver::exact) fn mechanical_energy_j(&self, t_s: f64) -> f64 {
         let s = self.state_at(t_s);
         let y = self.y_at(t_s);
         crate::model::lumped_mechanical_energy_j(self.m, self.k, Some(self.md), &s)

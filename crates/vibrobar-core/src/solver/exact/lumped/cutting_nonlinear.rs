@@ -132,7 +132,7 @@ impl Segment for DpSegment<'_> {
 }
 
 /// What the driver of [`super::cutting`] gives one nonlinear piece.
-pub(super) struct Piece<'a> {
+pub(in crate::solver::exact) struct Piece<'a> {
     pub bar: &'a Bar,
     pub sys: &'a System,
     pub cut: &'a Cutting,
@@ -154,7 +154,7 @@ const GRADING: i32 = 4;
 /// Advance the bar state `y = [u, u̇]` from `t` by one DP5 step to `t_stop` (or to the tool
 /// leaving / re-entering the cut before it), hand the step to `obs`; returns the new time and
 /// whether the step ended at a cut event.
-pub(super) fn step(
+pub(in crate::solver::exact) fn step(
     p: &Piece,
     in_cut: bool,
     t0: f64,
