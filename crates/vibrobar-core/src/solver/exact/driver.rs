@@ -39,10 +39,11 @@
 //! * a start at `ẇ = 0` with `sgn(0) = 0` (as published) departs the way `ẅ` points with
 //!   `F_rf = 0`, i.e. against `a_b`, looking at its derivatives when it vanishes.
 
+use super::CONFINEMENT_TOL_M;
 use crate::damper::friction::{can_stick, holding_capacity_n, sgn0, sliding_friction_on_ball_n};
 use crate::error::{EventLimitCause, SimError};
 use crate::params::FrictionModel;
-use crate::solver::{EventKind, Wall};
+use crate::solver::{EventKind, RunSummary, Wall};
 
 /// `which` of a search that reached its work bound: the segment ends at the proven point
 /// without an event and the same mode goes on from there.
@@ -126,11 +127,14 @@ pub(super) trait BallState {
     fn set_w(&mut self, w: f64);
     /// Set `ẇ`.
     fn set_dw(&mut self, dw: f64);
+    /// Every coordinate is finite.
+    fn is_finite(&self) -> bool;
 }
 
-/// [`BallState`] for a state type with the fields `t`, `w`, `dw`.
+/// [`BallState`] for a state type with the fields `t`, `w`, `dw`, finite where `$finite` (an
+/// expression in `$s`, the state) holds.
 macro_rules! ball_state {
-    ($st:ty) => {
+    ($st:ty, |$s:ident| $finite:expr) => {
         impl $crate::solver::exact::driver::BallState for $st {
             fn t(&self) -> f64 {
                 self.t
@@ -146,6 +150,10 @@ macro_rules! ball_state {
             }
             fn set_dw(&mut self, dw: f64) {
                 self.dw = dw;
+            }
+            fn is_finite(&self) -> bool {
+                let $s = self;
+                $finite
             }
         }
     };
@@ -646,5 +654,88 @@ impl Tail {
             events_per_period: self.n as f64 / periods,
             cause,
         }
+    }
+}
+
+/// The books every kernel keeps alike: the run's summary, the event limit and the tail of events
+/// before it, the invariant checks.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Tally {
+    /// Counters, the largest penetration, the final state.
+    pub summary: RunSummary,
+    /// The event limit.
+    pub max_events: u64,
+    /// Check finiteness and confinement at every event and segment end.
+    pub check: bool,
+    /// `l_g`.
+    pub lg: f64,
+    /// What the last events before the event limit did (recorded only near the limit).
+    pub tail: Tail,
+}
+
+impl Tally {
+    /// Books of a run starting with `summary`.
+    pub fn new(summary: RunSummary, max_events: u64, check: bool, lg: f64) -> Tally {
+        Tally {
+            summary,
+            max_events,
+            check,
+            lg,
+            tail: Tail::new(max_events),
+        }
+    }
+
+    /// The penetration of `s` recorded; with the checks on, `s` finite and confined to
+    /// [`CONFINEMENT_TOL_M`].
+    #[inline]
+    pub fn check_state<S: BallState>(&mut self, s: &S) -> Result<(), SimError> {
+        let pen = s.w().abs() - self.lg;
+        if pen > self.summary.max_penetration_m {
+            self.summary.max_penetration_m = pen;
+        }
+        if self.check {
+            if !s.is_finite() {
+                return Err(SimError::NonFinite { t_s: s.t() });
+            }
+            if pen > CONFINEMENT_TOL_M {
+                return Err(SimError::Confinement {
+                    t_s: s.t(),
+                    w_m: s.w(),
+                    half_gap_m: self.lg,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// One more event of `kind` at `t`: counted, and near the limit recorded (the limit's error
+    /// names its likely cause from `facts`).
+    #[inline]
+    pub fn count(
+        &mut self,
+        t: f64,
+        kind: &EventKind,
+        facts: impl FnOnce() -> LimitFacts,
+    ) -> Result<(), SimError> {
+        self.summary.events += 1;
+        if let EventKind::Impact { .. } = kind {
+            self.summary.impacts += 1;
+        }
+        if self.summary.events > self.tail.from {
+            self.near_limit(t, kind, facts())?;
+        }
+        Ok(())
+    }
+
+    /// The last events before the limit: recorded, and the error at the limit (kept out of
+    /// line, it runs for the last [`TAIL_EVENTS`] events of a run at most).
+    #[cold]
+    #[inline(never)]
+    fn near_limit(&mut self, t: f64, kind: &EventKind, facts: LimitFacts) -> Result<(), SimError> {
+        if self.summary.events > self.max_events {
+            return Err(self.tail.error(&facts, self.max_events, t));
+        }
+        self.tail.record(t, kind);
+        Ok(())
     }
 }

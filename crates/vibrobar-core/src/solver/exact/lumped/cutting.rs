@@ -114,13 +114,14 @@
 //! modal state).
 
 use super::{
-    advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, Tail, CUT,
+    advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, CUT,
     HORIZON,
 };
 use super::{joint_search, Consts, EventSet, Osc, Trig};
 use crate::error::{EventLimitCause, SimError};
 use crate::excitation::{Cutting, CuttingForceLaw};
 use crate::params::{BarModel, State, System};
+use crate::solver::exact::driver::Tally;
 use crate::solver::{Event, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Solver};
 use std::cell::{Cell, RefCell};
 use std::collections::VecDeque;
@@ -1027,11 +1028,11 @@ fn remainder_fit(
         };
         let mut dry = Book {
             obs: &mut probe,
-            summary: book.summary,
-            max_events: u64::MAX,
-            check: false,
-            lg: book.lg,
-            tail: book.tail,
+            tally: Tally {
+                max_events: u64::MAX,
+                check: false,
+                ..book.tally
+            },
             cut_event: false,
         };
         let mut st = *s;
@@ -1326,15 +1327,16 @@ impl ExactCutting {
         };
         let mut book = Book {
             obs: &mut rec,
-            summary: RunSummary {
-                final_state: start,
-                max_penetration_m: f64::NEG_INFINITY,
-                ..Default::default()
-            },
-            max_events: self.exact.max_events,
-            check: self.exact.check_invariants,
-            lg: cs_out.lg,
-            tail: Tail::new(self.exact.max_events),
+            tally: Tally::new(
+                RunSummary {
+                    final_state: start,
+                    max_penetration_m: f64::NEG_INFINITY,
+                    ..Default::default()
+                },
+                self.exact.max_events,
+                self.exact.check_invariants,
+                cs_out.lg,
+            ),
             cut_event: false,
         };
         let mut in_cut = in_cut0;
@@ -1556,9 +1558,9 @@ impl ExactCutting {
             }
             win_prev = Some((s.t.to_bits(), win_end));
         }
-        book.summary.final_state = s.public();
-        book.summary.events += cut_events;
-        let summary = book.summary;
+        book.tally.summary.final_state = s.public();
+        book.tally.summary.events += cut_events;
+        let summary = book.tally.summary;
         let h = hist.into_inner();
         let end = CutContinuation {
             state: summary.final_state,

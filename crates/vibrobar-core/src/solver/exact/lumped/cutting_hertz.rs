@@ -276,8 +276,8 @@ pub(in crate::solver::exact) fn contact_piece(
         ph.max_pen = max_pen;
         ph.t = end.t;
         ph.y = end.y;
-        if ph.max_pen > book.summary.max_penetration_m {
-            book.summary.max_penetration_m = ph.max_pen;
+        if ph.max_pen > book.tally.summary.max_penetration_m {
+            book.tally.summary.max_penetration_m = ph.max_pen;
         }
         let y = end.y;
         let here = St {

@@ -260,8 +260,8 @@ impl PhaseBook<Consts, 5> for Book<'_> {
         }
     }
     fn penetration(&mut self, pen_m: f64) {
-        if pen_m > self.summary.max_penetration_m {
-            self.summary.max_penetration_m = pen_m;
+        if pen_m > self.tally.summary.max_penetration_m {
+            self.tally.summary.max_penetration_m = pen_m;
         }
     }
     fn event(&mut self, cs: &Consts, kind: EventKind, at: &St) -> Result<(), SimError> {

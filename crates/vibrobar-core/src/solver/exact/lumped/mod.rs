@@ -52,8 +52,8 @@ pub mod expsum;
 pub mod hertz;
 pub mod roots;
 
-use super::driver::{self, wall_of, Cavity, Kernel, Md, Tail, CUT, HORIZON};
-use super::{hertz_phase, modal, Exact, CONFINEMENT_TOL_M};
+use super::driver::{self, wall_of, Cavity, Kernel, Md, Tally, CUT, HORIZON};
+use super::{hertz_phase, modal, Exact};
 use crate::damper::impact::{impact_energy_loss_j, impact_relative, plastic_limit};
 use crate::error::SimError;
 use crate::params::{Bar, FrictionModel, State, System};
@@ -496,52 +496,18 @@ impl Segment for ExactSegment {
     }
 }
 
-/// Run bookkeeping: counters, invariant checks, observer.
+/// Run bookkeeping: the books every kernel keeps ([`Tally`]) and the observer.
 struct Book<'a> {
     obs: &'a mut dyn Observer,
-    summary: RunSummary,
-    max_events: u64,
-    check: bool,
-    lg: f64,
-    /// What the last events before the event limit did (recorded only near the limit).
-    tail: Tail,
+    tally: Tally,
     /// Set when a segment ended at a cut event ([`CUT`]); the cutting driver clears it.
     cut_event: bool,
 }
 
 impl Book<'_> {
+    #[inline]
     fn check_state(&mut self, s: &St) -> Result<(), SimError> {
-        let pen = s.w.abs() - self.lg;
-        if pen > self.summary.max_penetration_m {
-            self.summary.max_penetration_m = pen;
-        }
-        if self.check {
-            if !(s.u.is_finite() && s.du.is_finite() && s.w.is_finite() && s.dw.is_finite()) {
-                return Err(SimError::NonFinite { t_s: s.t });
-            }
-            if pen > CONFINEMENT_TOL_M {
-                return Err(SimError::Confinement {
-                    t_s: s.t,
-                    w_m: s.w,
-                    half_gap_m: self.lg,
-                });
-            }
-        }
-        Ok(())
-    }
-
-    /// The last events before the limit: recorded, and the error at the limit (kept out of
-    /// line, it runs for the last [`TAIL_EVENTS`] events of a run at most).
-    #[cold]
-    #[inline(never)]
-    fn near_limit(&mut self, cs: &Consts, t: f64, kind: &EventKind) -> Result<(), SimError> {
-        if self.summary.events > self.max_events {
-            return Err(self
-                .tail
-                .error(&cs.limit_facts(cs.om, cs.osc[0].wd), self.max_events, t));
-        }
-        self.tail.record(t, kind);
-        Ok(())
+        self.tally.check_state(s)
     }
 
     #[inline]
@@ -553,13 +519,8 @@ impl Book<'_> {
         before: &St,
         after: &St,
     ) -> Result<(), SimError> {
-        self.summary.events += 1;
-        if let EventKind::Impact { .. } = kind {
-            self.summary.impacts += 1;
-        }
-        if self.summary.events > self.tail.from {
-            self.near_limit(cs, t, &kind)?;
-        }
+        self.tally
+            .count(t, &kind, || cs.limit_facts(cs.om, cs.osc[0].wd))?;
         self.check_state(after)?;
         self.obs.event(&Event {
             t_s: t,
@@ -649,15 +610,16 @@ pub(in crate::solver) fn run(
     let cs = Consts::new(sys, bar);
     let mut book = Book {
         obs,
-        summary: RunSummary {
-            final_state: *init,
-            max_penetration_m: f64::NEG_INFINITY,
-            ..Default::default()
-        },
-        max_events: ex.max_events,
-        check: ex.check_invariants,
-        lg: cs.lg,
-        tail: Tail::new(ex.max_events),
+        tally: Tally::new(
+            RunSummary {
+                final_state: *init,
+                max_penetration_m: f64::NEG_INFINITY,
+                ..Default::default()
+            },
+            ex.max_events,
+            ex.check_invariants,
+            cs.lg,
+        ),
         cut_event: false,
     };
     let mut s = St {
@@ -681,8 +643,8 @@ pub(in crate::solver) fn run(
         &mut s,
         t_end_s,
     )?;
-    book.summary.final_state = s.public();
-    Ok(book.summary)
+    book.tally.summary.final_state = s.public();
+    Ok(book.tally.summary)
 }
 
 /// The lumped bar as a kernel of the one event loop ([`driver`]): its run constants, books and
@@ -693,7 +655,10 @@ struct Lumped<'r, 'o> {
     search: &'r mut Search,
 }
 
-driver::ball_state!(St);
+driver::ball_state!(St, |s| s.u.is_finite()
+    && s.du.is_finite()
+    && s.w.is_finite()
+    && s.dw.is_finite());
 
 impl Cavity for Consts {
     type St = St;
@@ -847,11 +812,11 @@ fn solid_bar(
         s = seg.at_end();
         s.t = t_end_s;
     }
-    if book.check && !(s.u.is_finite() && s.du.is_finite()) {
+    if book.tally.check && !(s.u.is_finite() && s.du.is_finite()) {
         return Err(SimError::NonFinite { t_s: s.t });
     }
-    book.summary.final_state = s.public();
-    Ok(book.summary)
+    book.tally.summary.final_state = s.public();
+    Ok(book.tally.summary)
 }
 
 /// Per-run scratch of the event searches (the root finder's buffers for large candidate sets).
@@ -1081,14 +1046,15 @@ mod tests {
     fn book(obs: &mut dyn Observer, check: bool) -> Book<'_> {
         Book {
             obs,
-            summary: RunSummary {
-                max_penetration_m: f64::NEG_INFINITY,
-                ..Default::default()
-            },
-            max_events: 10,
-            check,
-            lg: 1e-4,
-            tail: Tail::new(10),
+            tally: Tally::new(
+                RunSummary {
+                    max_penetration_m: f64::NEG_INFINITY,
+                    ..Default::default()
+                },
+                10,
+                check,
+                1e-4,
+            ),
             cut_event: false,
         }
     }
@@ -1105,7 +1071,7 @@ mod tests {
     }
 
     fn tail_cause(cs: &Consts, kinds: &[EventKind]) -> EventLimitCause {
-        let mut t = Tail::new(kinds.len() as u64);
+        let mut t = driver::Tail::new(kinds.len() as u64);
         for (i, k) in kinds.iter().enumerate() {
             t.record(i as f64 * 1e-6, k);
         }
@@ -1206,6 +1172,6 @@ mod tests {
         let mut o2 = ();
         let mut b2 = book(&mut o2, false);
         assert!(b2.check_state(&st(1e-4 + 2e-12, 0.0)).is_ok());
-        assert!(b2.summary.max_penetration_m > 1.9e-12);
+        assert!(b2.tally.summary.max_penetration_m > 1.9e-12);
     }
 }

@@ -1644,7 +1644,10 @@ impl<'a, 'h, 'o> CutKernel<'a, 'h, 'o> {
     }
 }
 
-driver::ball_state!(St);
+driver::ball_state!(St, |s| s.w.is_finite()
+    && s.dw.is_finite()
+    && s.q.iter().all(|x| x.is_finite())
+    && s.dq.iter().all(|x| x.is_finite()));
 
 impl Cavity for CutKernel<'_, '_, '_> {
     type St = St;

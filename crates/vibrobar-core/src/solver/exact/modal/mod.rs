@@ -59,9 +59,8 @@
 
 use std::cell::RefCell;
 
-use super::driver::{self, wall_of, Cavity, Kernel, Md, Tail, HORIZON};
+use super::driver::{self, wall_of, Cavity, Kernel, Md, Tally, HORIZON};
 use super::expsum::{integral_square, ExpSum, Trig};
-use super::CONFINEMENT_TOL_M;
 use crate::damper::impact::{modal_impact, modal_inverse_effective_mass_per_kg};
 use crate::error::SimError;
 use crate::limits::MAX_BEAM_MODES;
@@ -611,51 +610,16 @@ fn to_expsum(t: &TermSum, out: &mut ExpSumN) {
     out.f0 = f0;
 }
 
-/// Run bookkeeping: counters, invariant checks, observer.
+/// Run bookkeeping: the books every kernel keeps ([`Tally`]) and the observer.
 struct Book<'a> {
     obs: &'a mut dyn ModalObserver,
-    summary: RunSummary,
-    max_events: u64,
-    check: bool,
-    lg: f64,
-    /// What the last events before the event limit did (recorded only near the limit).
-    tail: Tail,
+    tally: Tally,
 }
 
 impl Book<'_> {
+    #[inline]
     fn check_state(&mut self, s: &St) -> Result<(), SimError> {
-        let pen = s.w.abs() - self.lg;
-        if pen > self.summary.max_penetration_m {
-            self.summary.max_penetration_m = pen;
-        }
-        if self.check {
-            let finite = s.w.is_finite()
-                && s.dw.is_finite()
-                && s.q.iter().all(|x| x.is_finite())
-                && s.dq.iter().all(|x| x.is_finite());
-            if !finite {
-                return Err(SimError::NonFinite { t_s: s.t });
-            }
-            if pen > CONFINEMENT_TOL_M {
-                return Err(SimError::Confinement {
-                    t_s: s.t,
-                    w_m: s.w,
-                    half_gap_m: self.lg,
-                });
-            }
-        }
-        Ok(())
-    }
-
-    /// The last events before the limit: recorded, and the error at the limit.
-    #[cold]
-    fn near_limit(&mut self, cs: &Consts, t: f64, kind: &EventKind) -> Result<(), SimError> {
-        if self.summary.events > self.max_events {
-            let facts = cs.limit_facts(cs.om, cs.osc[0].wd);
-            return Err(self.tail.error(&facts, self.max_events, t));
-        }
-        self.tail.record(t, kind);
-        Ok(())
+        self.tally.check_state(s)
     }
 
     fn event(
@@ -689,13 +653,8 @@ impl Book<'_> {
         after: &St,
         after_pub: State,
     ) -> Result<(), SimError> {
-        self.summary.events += 1;
-        if let EventKind::Impact { .. } = kind {
-            self.summary.impacts += 1;
-        }
-        if self.summary.events > self.tail.from {
-            self.near_limit(cs, after.t, &kind)?;
-        }
+        self.tally
+            .count(after.t, &kind, || cs.limit_facts(cs.om, cs.osc[0].wd))?;
         self.check_state(after)?;
         self.obs.event(&Event {
             t_s: after.t,
@@ -792,14 +751,15 @@ impl ModalExact {
         let cs = Consts::new(sys)?;
         let mut book = Book {
             obs,
-            summary: RunSummary {
-                max_penetration_m: f64::NEG_INFINITY,
-                ..Default::default()
-            },
-            max_events: self.max_events,
-            check: self.check_invariants,
-            lg: cs.lg,
-            tail: Tail::new(self.max_events),
+            tally: Tally::new(
+                RunSummary {
+                    max_penetration_m: f64::NEG_INFINITY,
+                    ..Default::default()
+                },
+                self.max_events,
+                self.check_invariants,
+                cs.lg,
+            ),
         };
         let mut s = St {
             t: init.t_s,
@@ -812,12 +772,12 @@ impl ModalExact {
         let mut work = Work::new();
         if sys.damper.is_none() {
             free_flight(&cs, None, &mut s, t_end_s, &mut book, &mut work)?;
-            book.summary.max_penetration_m = f64::NEG_INFINITY;
-            book.summary.final_state = s.public(&cs);
+            book.tally.summary.max_penetration_m = f64::NEG_INFINITY;
+            book.tally.summary.final_state = s.public(&cs);
             let fin = s.modal(&cs);
             return Ok((
                 ModalRunSummary {
-                    summary: book.summary,
+                    summary: book.tally.summary,
                     final_state: ModalState {
                         v_m: 0.0,
                         dv_m_s: 0.0,
@@ -840,10 +800,10 @@ impl ModalExact {
             &mut s,
             t_end_s,
         )?;
-        book.summary.final_state = s.public(&cs);
+        book.tally.summary.final_state = s.public(&cs);
         Ok((
             ModalRunSummary {
-                summary: book.summary,
+                summary: book.tally.summary,
                 final_state: s.modal(&cs),
             },
             work.search.steps,
@@ -860,7 +820,10 @@ struct ModalRun<'r, 'o, 's> {
     held: &'r mut Held<'s>,
 }
 
-driver::ball_state!(St);
+driver::ball_state!(St, |s| s.w.is_finite()
+    && s.dw.is_finite()
+    && s.q.iter().all(|x| x.is_finite())
+    && s.dq.iter().all(|x| x.is_finite()));
 
 impl Cavity for Consts {
     type St = St;
@@ -1125,7 +1088,8 @@ fn free_flight(
     // (`s` is the end state from here on: the event maps work on it in place.)
     book.close_free(&seg, &work.mo, s);
     if flight.is_none() {
-        if book.check && !(s.q.iter().all(|x| x.is_finite()) && s.dq.iter().all(|x| x.is_finite()))
+        if book.tally.check
+            && !(s.q.iter().all(|x| x.is_finite()) && s.dq.iter().all(|x| x.is_finite()))
         {
             return Err(SimError::NonFinite { t_s: s.t });
         }
