@@ -70,7 +70,8 @@ impl Rhs {
         )
     }
 
-    /// One classical RK4 step of size `h` from `s`.
+    /// One classical RK4 step of size `h` from `s` (inlined into the step loop: the hot path).
+    #[inline(always)]
     fn step(&self, s: &State, h: f64) -> State {
         let t = s.t_s;
         let f_a = self.force(t);
@@ -124,6 +125,7 @@ impl BarKernel for Lumped {
         &self.rhs.drive
     }
     fn stages(&self) {}
+    #[inline(always)]
     fn step(&self, s: &State, h: f64, _: &mut ()) -> State {
         self.rhs.step(s, h)
     }

@@ -12,9 +12,9 @@
 //! of the bar's fastest mode within RK4's stability limit [`crate::limits::RK4_MAX_OMEGA_DT`]; a
 //! larger step is refused.
 //!
-//! One step loop ([`run_steps`]), one impact check ([`wall_hit`]) and one step segment (cubic
+//! One step loop (`run_steps`), one impact check (`wall_hit`) and one step segment (cubic
 //! Hermite interpolation between the step's ends, for observers) serve every bar, through a
-//! [`BarKernel`]: what the loop needs from a bar (its state, the RK4 stage arithmetic, the contact
+//! `BarKernel`: what the loop needs from a bar (its state, the RK4 stage arithmetic, the contact
 //! row `w, ẇ`, the impact through it, the public [`State`], the response, the energy). Kernels:
 //! - [`lumped`]: the one-mode bar of the paper ([`Rk4`] on a [`BarModel::Lumped`] system);
 //! - [`modal`]: the N-mode bar ([`ModalRk4`]; [`Rk4`] runs it on a [`BarModel::Modal`] system).
@@ -165,6 +165,8 @@ trait StepState: Copy {
     fn time(&self) -> f64;
     /// The state moved to time `t` (nothing else changed).
     fn at_time(&self, t: f64) -> Self;
+    /// Move the state to time `t` in place (nothing else changed; no copy of a modal state).
+    fn set_time(&mut self, t: f64);
     /// The state with the ball at rest at 0 (a bar without damper).
     fn without_ball(&self) -> Self;
 }
@@ -177,6 +179,9 @@ macro_rules! step_state {
             }
             fn at_time(&self, t: f64) -> Self {
                 Self { t_s: t, ..*self }
+            }
+            fn set_time(&mut self, t: f64) {
+                self.t_s = t;
             }
             fn without_ball(&self) -> Self {
                 Self {
@@ -354,8 +359,8 @@ where
         } else {
             t0 + i as f64 * dt_s
         };
-        let next = kernel.step(&s, t_next - s.time(), &mut stages);
-        let mut next = next.at_time(t_next);
+        let mut next = kernel.step(&s, t_next - s.time(), &mut stages);
+        next.set_time(t_next);
         if !kernel.is_finite(&next) {
             return Err(SimError::NonFinite { t_s: t_next });
         }

@@ -162,6 +162,8 @@ impl Rhs {
 
     /// One classical RK4 step of size `h` from `s` (the lumped step's arithmetic, per mode).
     /// Only the first `n` entries of the scratch are used (and the state's beyond `n` stay 0).
+    /// Inlined into the step loop (the hot path).
+    #[inline(always)]
     fn step(&self, s: &ModalState, h: f64, k: &mut Stages) -> ModalState {
         let n = self.n;
         let t = s.t_s;
@@ -289,6 +291,7 @@ impl BarKernel for Modal {
     fn stages(&self) -> Stages {
         Stages::new()
     }
+    #[inline(always)]
     fn step(&self, s: &ModalState, h: f64, k: &mut Stages) -> ModalState {
         self.rhs.step(s, h, k)
     }
