@@ -163,10 +163,14 @@ trait BarKernel {
 trait StepState: Copy {
     /// Time.
     fn time(&self) -> f64;
-    /// The state moved to time `t` (nothing else changed).
-    fn at_time(&self, t: f64) -> Self;
-    /// Move the state to time `t` in place (nothing else changed; no copy of a modal state).
+    /// Move the state to time `t` (nothing else changed).
     fn set_time(&mut self, t: f64);
+    /// A copy of the state moved to time `t`.
+    fn at_time(&self, t: f64) -> Self {
+        let mut s = *self;
+        s.set_time(t);
+        s
+    }
     /// The state with the ball at rest at 0 (a bar without damper).
     fn without_ball(&self) -> Self;
 }
@@ -176,9 +180,6 @@ macro_rules! step_state {
         impl StepState for $state {
             fn time(&self) -> f64 {
                 self.t_s
-            }
-            fn at_time(&self, t: f64) -> Self {
-                Self { t_s: t, ..*self }
             }
             fn set_time(&mut self, t: f64) {
                 self.t_s = t;
@@ -415,7 +416,7 @@ where
 /// `∫|ẇ| dt` over `[a, b]` of the cubic Hermite `w` of one step from `t_a` of length `h` with
 /// end values and slopes `(w, ẇ)`: split at the roots of its quadratic derivative and sum `|Δw|`
 /// over the pieces.
-pub(crate) fn hermite_total_variation(
+fn hermite_total_variation(
     t_a: f64,
     h: f64,
     (p0, d0): (f64, f64),
@@ -470,7 +471,7 @@ pub(crate) fn hermite_total_variation(
 
 /// The paper's after-step impact check: the wall the ball is at or beyond while still moving
 /// into it (`w ≥ l_g` with `ẇ > 0`, or `w ≤ −l_g` with `ẇ < 0`).
-pub(crate) fn wall_hit(w_m: f64, dw_m_s: f64, half_gap_m: f64) -> Option<Wall> {
+fn wall_hit(w_m: f64, dw_m_s: f64, half_gap_m: f64) -> Option<Wall> {
     if w_m >= half_gap_m && dw_m_s > 0.0 {
         Some(Wall::Plus)
     } else if w_m <= -half_gap_m && dw_m_s < 0.0 {
