@@ -7,8 +7,10 @@
 
 pub mod dopri5;
 pub mod exact;
-pub mod modal_rk4;
 pub mod rk4;
+
+/// The N-mode bar's RK4 ([`rk4::modal`]), under the path it has always had.
+pub use rk4::modal as modal_rk4;
 
 pub use exact::Exact;
 pub use rk4::Rk4;

@@ -1,29 +1,27 @@
-//! The paper's scheme on a modal bar: classical RK4 with a fixed step on
-//! `mₙ q̈ₙ + 2ζₙωₙmₙ q̇ₙ + mₙωₙ² qₙ = φₙ(x_f) F(t) − φₙ(x_d) F_ball`, `m_d v̈ = F_ball`, and after
-//! each step the same impact check as [`super::rk4`] on `w = v − Σ φₙ(x_d) qₙ`, then the modal
-//! impact law ([`crate::damper::impact::modal_impact`]). The friction force on the ball is the
-//! law of [`crate::damper::friction`] at `ẇ`; the modes get `−φₙ(x_d) F_ball`.
+//! The N-mode bar's kernel: classical RK4 on
+//! `mₙ q̈ₙ + 2ζₙωₙmₙ q̇ₙ + mₙωₙ² qₙ = φₙ(x_f) F(t) − φₙ(x_d) F_ball`, `m_d v̈ = F_ball`, with the
+//! after-step impact check of [`super`] on `w = v − Σ φₙ(x_d) qₙ`, then the modal impact law
+//! ([`crate::damper::impact::modal_impact`]). The friction force on the ball is the law of
+//! [`crate::damper::friction`] at `ẇ`; the modes get `−φₙ(x_d) F_ball`.
 //!
-//! With one unit mode ([`ModalSystem::from_lumped`]) every operation is the lumped [`Rk4`]'s in
+//! With one unit mode ([`ModalSystem::from_lumped`]) every operation is the lumped kernel's in
 //! the same order; only the impulse formula rounds differently (tests/modal_rk4.rs).
 //!
-//! It reports through the ordinary [`Observer`] protocol: a segment's [`Segment::state_at`] is the
-//! public [`State`] with `u` at the response point; its integrals are the forcing work at the force
-//! point, the modal viscous loss `Σ cₙ q̇ₙ²` and the friction work at the cavity. The modal state
-//! itself goes to a [`ModalObserver`] (the public `State` cannot carry it: docs/n-mode-design.md).
+//! It reports through the ordinary [`Observer`] protocol: a segment's
+//! [`Segment::state_at`](crate::solver::Segment::state_at) is the public [`State`] with `u` at
+//! the response point; its integrals are the forcing work at the force point, the modal viscous
+//! loss `Σ cₙ q̇ₙ²` and the friction work at the cavity. The modal state itself goes to a
+//! [`ModalObserver`] (the public `State` cannot carry it: docs/n-mode-design.md).
 //!
 //! [`super::Rk4`] runs this on a [`crate::params::BarModel::Modal`] system (its step, through
 //! [`ModalSystem::from_system`] and [`ModalState::from_public`]).
-//!
-//! [`Rk4`]: super::Rk4
 
-use super::rk4::{hermite_total_variation, wall_hit};
-use super::{Event, EventKind, Mode, Observer, RunSummary, Segment, SegmentIntegrals};
-use crate::damper::friction::{sign_factor, sliding_friction_on_ball_n};
+use super::{BarKernel, Drive, Hermite, StepHooks};
 use crate::damper::impact::modal_impact;
 use crate::error::{ParamError, SimError};
 use crate::limits::{self, MAX_BEAM_MODES};
-use crate::params::{CavityMotion, FrictionModel, State};
+use crate::params::{CavityMotion, State};
+use crate::solver::{Event, Observer, RunSummary, Segment};
 use crate::structure::{ModalState, ModalSystem, Point};
 
 const N: usize = MAX_BEAM_MODES;
@@ -35,9 +33,11 @@ pub struct ModalRk4 {
     pub dt_s: f64,
 }
 
+/// [`super::Rk4`]'s default step.
 impl Default for ModalRk4 {
     fn default() -> Self {
-        ModalRk4 { dt_s: 1e-6 }
+        let super::Rk4 { dt_s } = super::Rk4::default();
+        ModalRk4 { dt_s }
     }
 }
 
@@ -51,6 +51,15 @@ pub trait ModalObserver: Observer {
     /// (two 0.5 KB copies per segment) for an observer that ignores them.
     fn wants_modal(&self) -> bool {
         true
+    }
+}
+
+impl StepHooks<ModalState> for dyn ModalObserver + '_ {
+    fn on_step(&mut self, a: &ModalState, b: &ModalState) {
+        self.modal_step(a, b)
+    }
+    fn on_impact(&mut self, before: &ModalState, after: &ModalState, energy_loss_j: f64) {
+        self.modal_impact(before, after, energy_loss_j)
     }
 }
 
@@ -97,20 +106,11 @@ struct Rhs {
     phi_f: [f64; N],
     phi_d: [f64; N],
     phi_r: [f64; N],
-    f0: f64,
-    fs: f64,
-    omega: f64,
-    md: f64,
-    friction: FrictionModel,
-    level: f64,
+    drive: Drive,
 }
 
 impl Rhs {
     fn new(sys: &ModalSystem) -> Rhs {
-        let (md, friction) = match &sys.damper {
-            Some(d) => (d.ball_mass_kg, d.friction),
-            None => (1.0, FrictionModel::None),
-        };
         let mut r = Rhs {
             n: sys.n_modes(),
             m: [0.0; N],
@@ -119,12 +119,12 @@ impl Rhs {
             phi_f: sys.row(Point::Force),
             phi_d: sys.row(Point::Cavity),
             phi_r: sys.row(Point::Response),
-            f0: sys.forcing.amplitude_n,
-            fs: sys.forcing.static_force_n,
-            omega: sys.omega_rad_s(),
-            md,
-            friction,
-            level: sys.friction_level_n(),
+            drive: Drive::new(
+                &sys.forcing,
+                sys.omega_rad_s(),
+                sys.damper.as_ref(),
+                sys.friction_level_n(),
+            ),
         };
         for (i, mode) in sys.model.modes().iter().enumerate() {
             let (m, k) = (mode.modal_mass_kg, mode.modal_stiffness_n_per_m());
@@ -137,7 +137,7 @@ impl Rhs {
     }
 
     fn force(&self, t: f64) -> f64 {
-        self.fs + self.f0 * (self.omega * t).sin()
+        self.drive.force(t)
     }
 
     /// `Σ φₙ xₙ` over the modes (from mode 1: one unit mode gives `x₁` exactly).
@@ -151,18 +151,19 @@ impl Rhs {
 
     /// Modal accelerations into `acc` and the ball's, given the external force at this stage.
     fn acc(&self, f_ext: f64, q: &[f64; N], dq: &[f64; N], dv: f64, acc: &mut [f64; N]) -> f64 {
-        let fb =
-            sliding_friction_on_ball_n(self.friction, self.level, dv - self.dot(&self.phi_d, dq));
+        let fb = self.drive.friction_on_ball(dv - self.dot(&self.phi_d, dq));
         for i in 0..self.n {
             acc[i] =
                 (self.phi_f[i] * f_ext - self.c[i] * dq[i] - self.k[i] * q[i] - self.phi_d[i] * fb)
                     / self.m[i];
         }
-        fb / self.md
+        fb / self.drive.md
     }
 
     /// One classical RK4 step of size `h` from `s` (the lumped step's arithmetic, per mode).
     /// Only the first `n` entries of the scratch are used (and the state's beyond `n` stay 0).
+    /// Inlined into the step loop (the hot path).
+    #[inline(always)]
     fn step(&self, s: &ModalState, h: f64, k: &mut Stages) -> ModalState {
         let n = self.n;
         let t = s.t_s;
@@ -225,7 +226,7 @@ impl Rhs {
                 0.5 * self.m[i] * s.dq_m_s[i] * s.dq_m_s[i] + 0.5 * self.k[i] * s.q_m[i] * s.q_m[i];
         }
         let ball = if has_ball {
-            0.5 * self.md * s.dv_m_s * s.dv_m_s
+            0.5 * self.drive.md * s.dv_m_s * s.dv_m_s
         } else {
             0.0
         };
@@ -273,132 +274,92 @@ impl Stages {
     }
 }
 
-/// One step seen as a segment: cubic Hermite interpolation of every coordinate between the ends.
-struct StepSegment<'a> {
-    rhs: &'a Rhs,
-    a: &'a ModalState,
-    b: &'a ModalState,
-    has_ball: bool,
+/// The N-mode bar as a [`BarKernel`]: its right-hand side and the restitution.
+struct Modal {
+    rhs: Rhs,
+    e: f64,
 }
 
-impl StepSegment<'_> {
-    fn hermite(&self, t: f64) -> ModalState {
-        let h = self.b.t_s - self.a.t_s;
-        if t <= self.a.t_s || h <= 0.0 {
-            return ModalState { t_s: t, ..*self.a };
-        }
-        if t >= self.b.t_s {
-            return ModalState { t_s: t, ..*self.b };
-        }
-        let r = self.rhs;
+impl BarKernel for Modal {
+    type S = ModalState;
+    type Stages = Stages;
+    const SOLVER: &'static str = "modal rk4";
+
+    fn drive(&self) -> &Drive {
+        &self.rhs.drive
+    }
+    fn stages(&self) -> Stages {
+        Stages::new()
+    }
+    #[inline(always)]
+    fn step(&self, s: &ModalState, h: f64, k: &mut Stages) -> ModalState {
+        self.rhs.step(s, h, k)
+    }
+    fn is_finite(&self, s: &ModalState) -> bool {
+        let n = self.rhs.n;
+        s.v_m.is_finite()
+            && s.dv_m_s.is_finite()
+            && s.q_m[..n].iter().all(|x| x.is_finite())
+            && s.dq_m_s[..n].iter().all(|x| x.is_finite())
+    }
+    fn beyond(&self, s: &ModalState, bound: f64) -> Option<f64> {
+        s.q_m[..self.rhs.n]
+            .iter()
+            .copied()
+            .find(|q| q.abs() > bound)
+    }
+    fn contact(&self, s: &ModalState) -> (f64, f64) {
+        self.rhs.relative(s)
+    }
+    fn impact(&self, s: &ModalState, dw: f64) -> (ModalState, f64) {
+        let (r, n) = (&self.rhs, self.rhs.n);
+        let mut after = *s;
+        let law = modal_impact(
+            r.drive.md,
+            self.e,
+            &r.phi_d[..n],
+            &r.m[..n],
+            dw,
+            &mut after.dq_m_s[..n],
+            &mut after.dv_m_s,
+        );
+        (after, law.energy_loss_j)
+    }
+    fn interpolate(&self, a: &ModalState, b: &ModalState, w: &Hermite) -> ModalState {
+        let r = &self.rhs;
         let (mut aa, mut ba) = ([0.0; N], [0.0; N]);
-        let ab = r.acc(
-            r.force(self.a.t_s),
-            &self.a.q_m,
-            &self.a.dq_m_s,
-            self.a.dv_m_s,
-            &mut aa,
-        );
-        let bb = r.acc(
-            r.force(self.b.t_s),
-            &self.b.q_m,
-            &self.b.dq_m_s,
-            self.b.dv_m_s,
-            &mut ba,
-        );
-        let s = (t - self.a.t_s) / h;
-        let (h00, h10, h01, h11) = (
-            (1.0 + 2.0 * s) * (1.0 - s) * (1.0 - s),
-            s * (1.0 - s) * (1.0 - s),
-            s * s * (3.0 - 2.0 * s),
-            s * s * (s - 1.0),
-        );
-        let pos =
-            |p0: f64, v0: f64, p1: f64, v1: f64| h00 * p0 + h10 * h * v0 + h01 * p1 + h11 * h * v1;
+        let ab = r.acc(r.force(a.t_s), &a.q_m, &a.dq_m_s, a.dv_m_s, &mut aa);
+        let bb = r.acc(r.force(b.t_s), &b.q_m, &b.dq_m_s, b.dv_m_s, &mut ba);
         let mut out = ModalState {
-            t_s: t,
-            v_m: pos(self.a.v_m, self.a.dv_m_s, self.b.v_m, self.b.dv_m_s),
-            dv_m_s: pos(self.a.dv_m_s, ab, self.b.dv_m_s, bb),
+            t_s: w.t,
+            v_m: w.pos(a.v_m, a.dv_m_s, b.v_m, b.dv_m_s),
+            dv_m_s: w.pos(a.dv_m_s, ab, b.dv_m_s, bb),
             ..ModalState::REST
         };
         for i in 0..r.n {
-            out.q_m[i] = pos(
-                self.a.q_m[i],
-                self.a.dq_m_s[i],
-                self.b.q_m[i],
-                self.b.dq_m_s[i],
-            );
-            out.dq_m_s[i] = pos(self.a.dq_m_s[i], aa[i], self.b.dq_m_s[i], ba[i]);
+            out.q_m[i] = w.pos(a.q_m[i], a.dq_m_s[i], b.q_m[i], b.dq_m_s[i]);
+            out.dq_m_s[i] = w.pos(a.dq_m_s[i], aa[i], b.dq_m_s[i], ba[i]);
         }
         out
     }
-}
-
-impl Segment for StepSegment<'_> {
-    fn t_start_s(&self) -> f64 {
-        self.a.t_s
+    fn public(&self, s: &ModalState) -> State {
+        self.rhs.public(s)
     }
-    fn t_end_s(&self) -> f64 {
-        self.b.t_s
+    fn response(&self, s: &ModalState) -> f64 {
+        self.rhs.dot(&self.rhs.phi_r, &s.q_m)
     }
-    fn mode(&self) -> Mode {
-        if self.has_ball {
-            Mode::Free
-        } else {
-            Mode::NoBall
+    fn force_point_velocity(&self, s: &ModalState) -> f64 {
+        self.rhs.dot(&self.rhs.phi_f, &s.dq_m_s)
+    }
+    fn viscous_power(&self, s: &ModalState) -> f64 {
+        let mut p = 0.0;
+        for i in 0..self.rhs.n {
+            p += self.rhs.c[i] * s.dq_m_s[i] * s.dq_m_s[i];
         }
+        p
     }
-    fn state_at(&self, t_s: f64) -> State {
-        self.rhs.public(&self.hermite(t_s))
-    }
-    fn mechanical_energy_j(&self, t_s: f64) -> f64 {
-        self.rhs.energy(&self.hermite(t_s), self.has_ball)
-    }
-    fn integral_u2(&self, a_s: f64, b_s: f64) -> f64 {
-        // Trapezoid over one step, as the lumped rk4.
-        let (sa, sb) = if a_s <= self.a.t_s && b_s >= self.b.t_s {
-            (*self.a, *self.b)
-        } else {
-            (self.hermite(a_s), self.hermite(b_s))
-        };
-        let r = self.rhs;
-        let (ua, ub) = (r.dot(&r.phi_r, &sa.q_m), r.dot(&r.phi_r, &sb.q_m));
-        0.5 * (b_s - a_s) * (ua * ua + ub * ub)
-    }
-    fn integrals(&self, a_s: f64, b_s: f64) -> SegmentIntegrals {
-        let (sa, sb) = (self.hermite(a_s), self.hermite(b_s));
-        let h = b_s - a_s;
-        let r = self.rhs;
-        let trap = |f: &dyn Fn(&ModalState) -> f64| 0.5 * h * (f(&sa) + f(&sb));
-        let viscous = |s: &ModalState| {
-            let mut p = 0.0;
-            for i in 0..r.n {
-                p += r.c[i] * s.dq_m_s[i] * s.dq_m_s[i];
-            }
-            p
-        };
-        let sign = sign_factor(r.friction);
-        SegmentIntegrals {
-            u2_m2_s: trap(&|s| {
-                let u = r.dot(&r.phi_r, &s.q_m);
-                u * u
-            }),
-            forcing_work_j: trap(&|s| r.force(s.t_s) * r.dot(&r.phi_f, &s.dq_m_s)),
-            viscous_loss_j: trap(&viscous),
-            friction_work_j: if sign == 0.0 || r.level == 0.0 {
-                0.0
-            } else {
-                sign * r.level
-                    * hermite_total_variation(
-                        self.a.t_s,
-                        self.b.t_s - self.a.t_s,
-                        r.relative(self.a),
-                        r.relative(self.b),
-                        a_s,
-                        b_s,
-                    )
-            },
-        }
+    fn energy(&self, s: &ModalState, has_ball: bool) -> f64 {
+        self.rhs.energy(s, has_ball)
     }
 }
 
@@ -443,7 +404,7 @@ impl ModalRk4 {
         t_end_s: f64,
         obs: &mut dyn ModalObserver,
     ) -> Result<ModalRunSummary, SimError> {
-        super::validate_modal_run(
+        crate::solver::validate_modal_run(
             sys,
             init,
             t_end_s,
@@ -451,105 +412,17 @@ impl ModalRk4 {
         )?;
         self.validate_step(sys, t_end_s - init.t_s)?;
 
-        let rhs = Rhs::new(sys);
-        let q_bound = divergence_bound_m(sys, init);
-        let has_ball = sys.damper.is_some();
-        let (lg, md, e) = match &sys.damper {
-            Some(d) => (d.half_gap_m(), d.ball_mass_kg, d.restitution),
-            None => (f64::INFINITY, 1.0, 0.0),
+        let kernel = Modal {
+            rhs: Rhs::new(sys),
+            e: sys.damper.map_or(0.0, |d| d.restitution),
         };
-        let n = rhs.n;
-        let t0 = init.t_s;
-        let span = t_end_s - t0;
-        // The lumped rk4's grid: t0 + i·dt, a last partial step closes the run.
-        let n_steps = if span > 0.0 {
-            (span / self.dt_s - 1e-9).ceil().max(1.0) as u64
-        } else {
-            0
-        };
-        let mut summary = RunSummary {
-            final_state: rhs.public(init),
-            max_penetration_m: f64::NEG_INFINITY,
-            ..Default::default()
-        };
-        let mut stages = Stages::new();
-        let mut s = *init;
-        if !has_ball {
-            s.v_m = 0.0;
-            s.dv_m_s = 0.0;
-        }
-        for i in 1..=n_steps {
-            let t_next = if i == n_steps {
-                t_end_s
-            } else {
-                t0 + i as f64 * self.dt_s
-            };
-            let mut next = rhs.step(&s, t_next - s.t_s, &mut stages);
-            next.t_s = t_next;
-            let finite = next.v_m.is_finite()
-                && next.dv_m_s.is_finite()
-                && next.q_m[..n].iter().all(|x| x.is_finite())
-                && next.dq_m_s[..n].iter().all(|x| x.is_finite());
-            if !finite {
-                return Err(SimError::NonFinite { t_s: t_next });
-            }
-            if let Some(q) = next.q_m[..n].iter().find(|q| q.abs() > q_bound) {
-                return Err(ParamError::Diverged {
-                    solver: "modal rk4",
-                    field: "dt_s (--dt)",
-                    value: self.dt_s,
-                    t_s: t_next,
-                    u_m: *q,
-                    bound_m: q_bound,
-                }
-                .into());
-            }
-            obs.segment(&StepSegment {
-                rhs: &rhs,
-                a: &s,
-                b: &next,
-                has_ball,
-            });
-            obs.modal_step(&s, &next);
-            if has_ball {
-                let (w, dw) = rhs.relative(&next);
-                summary.max_penetration_m = summary.max_penetration_m.max(w.abs() - lg);
-                if let Some(wall) = wall_hit(w, dw, lg) {
-                    let mut after = next;
-                    let law = modal_impact(
-                        md,
-                        e,
-                        &rhs.phi_d[..n],
-                        &rhs.m[..n],
-                        dw,
-                        &mut after.dq_m_s[..n],
-                        &mut after.dv_m_s,
-                    );
-                    obs.event(&Event {
-                        t_s: t_next,
-                        kind: EventKind::Impact {
-                            wall,
-                            dw_m_s: dw,
-                            energy_loss_j: law.energy_loss_j,
-                        },
-                        before: rhs.public(&next),
-                        after: rhs.public(&after),
-                    });
-                    obs.modal_impact(&next, &after, law.energy_loss_j);
-                    summary.impacts += 1;
-                    summary.events += 1;
-                    next = after;
-                }
-            }
-            s = next;
-        }
-        summary.final_state = rhs.public(&s);
-        if !has_ball {
-            summary.max_penetration_m = f64::NEG_INFINITY;
-        }
+        let bound = divergence_bound_m(sys, init);
+        let half_gap = sys.damper.map(|d| d.half_gap_m());
+        let (summary, final_state) =
+            super::run_steps(&kernel, init, t_end_s, self.dt_s, bound, half_gap, obs)?;
         Ok(ModalRunSummary {
             summary,
-            final_state: s,
+            final_state,
         })
     }
 }
