@@ -42,7 +42,7 @@ use crate::analysis::variational::{flow_with_param_derivative, Param};
 use crate::error::{ParamError, SimError};
 use crate::params::System;
 use crate::solver::{Exact, Solver};
-use nalgebra::{Matrix4, SMatrix, SVector};
+use nalgebra::{DMatrix, Matrix4, SMatrix, SVector};
 
 type M5 = SMatrix<f64, 5, 5>;
 type V5 = SVector<f64, 5>;
@@ -267,7 +267,7 @@ impl Cont<'_> {
     }
 
     /// `F(y)` and its 4 × 5 Jacobian (as the top of a 5 × 5 matrix), plus `DP`.
-    fn eval(&self, t0: f64, y: &V5) -> Result<(V5, M5, Matrix4<f64>), SimError> {
+    fn eval(&self, t0: f64, y: &V5) -> Result<(V5, M5, DMatrix<f64>), SimError> {
         let sec = self.section(t0, y[4])?;
         let x = sec.clamp(self.x_of(y));
         let (px, dp) = self.jac.map_and_jacobian(&sec, &x)?;
@@ -317,7 +317,7 @@ impl Cont<'_> {
     }
 
     /// Correct from the prediction `y_pred` with the arclength condition along `t`.
-    fn correct(&self, t0: f64, y_pred: &V5, t: &V5) -> Result<(V5, M5, Matrix4<f64>), SimError> {
+    fn correct(&self, t0: f64, y_pred: &V5, t: &V5) -> Result<(V5, M5, DMatrix<f64>), SimError> {
         let mut y = *y_pred;
         let tol = self.settings.newton.tolerance;
         let mut last = f64::INFINITY;
@@ -360,7 +360,7 @@ impl Cont<'_> {
     }
 
     /// A full point at `y` (section time `t0`): orbit description and tangent.
-    fn point(&self, t0: f64, y: V5, j: &M5, dp: Matrix4<f64>, prev_t: &V5) -> Result<Pt, SimError> {
+    fn point(&self, t0: f64, y: V5, j: &M5, dp: DMatrix<f64>, prev_t: &V5) -> Result<Pt, SimError> {
         let sec = self.section(t0, y[4])?;
         let x = sec.clamp(self.x_of(&y));
         let orbit = describe(&sec, &x, dp, self.jac.name(), 0.0, 0)?;

@@ -36,11 +36,8 @@ use super::continuation::{
     bisect_step, class_from, event_between, rephased_offset, BranchEvent, Class,
     ContinuationSettings,
 };
-use super::modal::{
-    describe_modal, find_modal_orbit, lstsq, scaled_minus_identity, ModalPeriodicOrbit,
-    ModalSection,
-};
-use super::NewtonSettings;
+use super::modal::{find_modal_orbit, ModalPeriodicOrbit, ModalSection};
+use super::{describe, lstsq, scaled_minus_identity, NewtonSettings};
 use crate::analysis::grid::Axis;
 use crate::error::{ParamError, SimError};
 use crate::solver::exact::modal::ModalExact;
@@ -288,7 +285,7 @@ impl Cont<'_> {
         let residual = (0..d)
             .map(|i| ((px[i] - x[i]) / self.sc[i]).abs())
             .fold(0.0, f64::max);
-        let orbit = describe_modal(&sec, &x, dp, residual, 0)?;
+        let orbit = describe(&sec, &x, dp, "variational", residual, 0)?;
         let tangent = self.tangent(j, prev_t).ok_or(SimError::NoConvergence {
             what: "the continuation tangent (modal bar; singular extended Jacobian)",
             iterations: 0,
