@@ -9,13 +9,12 @@ use super::{check_value, fmt_coord, SystemArgs};
 use anyhow::{bail, Context};
 use vibrobar_core::analysis::grid::Axis;
 use vibrobar_core::analysis::orbit::continuation::{ContinuationSettings, CONTINUATION_PARAMS};
-use vibrobar_core::analysis::orbit::modal::{modal_orbit_settled_at, ModalPeriodicOrbit};
-use vibrobar_core::analysis::orbit::modal_continuation::{
-    continue_modal_orbit, ModalFamily, ModalParam,
+use vibrobar_core::analysis::orbit::modal::{
+    continue_modal_orbit, modal_orbit_settled_at, ModalFamily, ModalParam, ModalPeriodicOrbit,
 };
 use vibrobar_core::structure::{ModalState, ModalSystem, Point};
 use vibrobar_core::System;
-use vibrobar_io::csv::{modal_continuation_values, write_json};
+use vibrobar_io::csv::{continuation_values, write_json};
 use vibrobar_io::params::OrbitParams;
 use vibrobar_io::Metadata;
 use vibrobar_report::figures::branch::BranchDot;
@@ -206,7 +205,7 @@ pub fn run_continue_modal(a: &ContinueArgs) -> anyhow::Result<()> {
     let rows: Vec<_> = b
         .points
         .iter()
-        .map(|p| modal_continuation_values(p, inv))
+        .map(|p| continuation_values(p, inv))
         .collect();
     let marks: Vec<_> = b
         .points
@@ -238,13 +237,12 @@ pub fn run_continue_modal(a: &ContinueArgs) -> anyhow::Result<()> {
         o.impacts_per_period,
         if o.stable() { "stable" } else { "unstable" }
     );
-    let mut ends = vec![format!("branch 0 ended: {}", b.stop_reason)];
-    ends.extend(
-        b.switched
-            .iter()
-            .enumerate()
-            .map(|(i, r)| format!("branch {} ended: {r}", i + 1)),
-    );
+    let ends: Vec<String> = b
+        .stop_reasons
+        .iter()
+        .enumerate()
+        .map(|(i, r)| format!("branch {i} ended: {r}"))
+        .collect();
     write_branch(a, &params, &rows, &marks, &title, &summary, &ends)
 }
 

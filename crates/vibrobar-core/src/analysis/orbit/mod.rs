@@ -29,7 +29,6 @@
 pub mod continuation;
 pub mod flow;
 pub mod modal;
-pub mod modal_continuation;
 pub mod region;
 pub mod symmetric;
 pub mod two_param;

@@ -23,15 +23,28 @@
 //!
 //! On a one-mode bar with the lumped bar's `M`, `K` (every shape 1) the map, its Jacobian and the
 //! orbit are the lumped ones (tested to 1e-9).
+//!
+//! **Branches** ([`continue_modal_orbit`]: the continuation of both bars,
+//! [`super::continuation::follow_branch`], over a [`ModalFamily`]) follow the frequency ratio,
+//! the gap, the friction force, the restitution, or the **cavity position** on a `[beam]` (the
+//! ball moves along the bar: every mode's shape at the cavity changes). The parameter column is a
+//! central difference of the map with step [`PARAM_STEP`] of the interval (its accuracy:
+//! [`super::continuation`]). For the cavity position the modal model is rebuilt from the
+//! `[beam]` at every evaluation (`Structure::Beam(..).modal_model()`: the analytic
+//! Euler–Bernoulli modes are cheap; a beam with a section loss or a tip mass is a finite-element
+//! model, about 100× slower). With the ratio given as `Ω/ω₁`, `Ω` follows `ω₁` if the position
+//! changes it (a section loss at the cavity); on a uniform beam it does not.
 
+use super::continuation::{follow_branch, Branch, BranchPoint, ContinuationSettings, Family};
 use super::{find_orbit, to_relative_coordinates, ExactJacobian, Flow, NewtonSettings, Orbit};
+use crate::analysis::grid::Axis;
 use crate::analysis::lyapunov::StateScales;
 use crate::analysis::variational_modal::modal_flow_with_jacobian;
 use crate::error::SimError;
 use crate::params::ContactLaw;
 use crate::solver::exact::modal::ModalExact;
 use crate::solver::Observer;
-use crate::structure::{ModalState, ModalSystem, Point};
+use crate::structure::{Beam, ModalState, ModalSystem, Point, Structure};
 use nalgebra::DMatrix;
 
 /// The stroboscopic map of a modal system.
@@ -341,4 +354,162 @@ pub fn modal_orbit_settled(
     settle_s: f64,
 ) -> Result<ModalPeriodicOrbit, SimError> {
     modal_orbit_settled_at(sys, periods, init, settle_s).map(|(o, _)| o)
+}
+
+/// Central-difference step of the parameter column, in units of the interval (`p̃`).
+pub const PARAM_STEP: f64 = 1e-6;
+
+/// A parameter of a modal bar's branch.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ModalParam {
+    /// One of the lumped bar's axes (ratio, gap, friction force, restitution), SI.
+    Axis(Axis),
+    /// The cavity centre's distance from the clamp, m (a `[beam]` only).
+    CavityPositionM,
+}
+
+impl ModalParam {
+    /// The name in output files and flags (`--param`): `ratio`, `gap-mm`, `friction-force-n`,
+    /// `restitution`, `cavity-position-mm`.
+    pub fn flag(&self) -> &'static str {
+        match self {
+            ModalParam::Axis(a) => super::continuation::CONTINUATION_PARAMS
+                .iter()
+                .find(|(_, b)| b == a)
+                .map_or(a.as_str(), |(n, _)| n),
+            ModalParam::CavityPositionM => "cavity-position-mm",
+        }
+    }
+}
+
+/// The systems along a branch: the base system and, for the cavity position, its beam.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModalFamily {
+    /// The system at the start.
+    pub base: ModalSystem,
+    /// The beam the modal model comes from (needed for [`ModalParam::CavityPositionM`]).
+    pub beam: Option<Beam>,
+    /// The parameter followed.
+    pub param: ModalParam,
+}
+
+/// Why the cavity position needs a beam.
+pub const CAVITY_NEEDS_BEAM: &str = "the cavity position (--param cavity-position-mm) is a parameter of a [beam]: its modes are recomputed at every position; measured [[modes]] give the shapes at one cavity only";
+
+impl ModalFamily {
+    /// The system at parameter `value` (SI), validated.
+    pub fn system_at(&self, value: f64) -> Result<ModalSystem, SimError> {
+        let sys = match self.param {
+            ModalParam::Axis(a) => {
+                let mut s = self.base.to_system();
+                a.apply(&mut s, value)?;
+                ModalSystem::from_system(&s)?
+            }
+            ModalParam::CavityPositionM => {
+                let beam = self
+                    .beam
+                    .as_ref()
+                    .ok_or(SimError::Unsupported(CAVITY_NEEDS_BEAM))?;
+                let b = Beam {
+                    cavity_position_m: value,
+                    ..beam.clone()
+                };
+                ModalSystem {
+                    model: Structure::Beam(b).modal_model()?,
+                    ..self.base.clone()
+                }
+            }
+        };
+        sys.validate()?;
+        Ok(sys)
+    }
+
+    /// The parameter's value in the base system (SI).
+    pub fn value_of_base(&self) -> Result<f64, SimError> {
+        Ok(match self.param {
+            ModalParam::Axis(a) => super::continuation::param_of(&self.base.to_system(), a),
+            ModalParam::CavityPositionM => {
+                self.beam
+                    .as_ref()
+                    .ok_or(SimError::Unsupported(CAVITY_NEEDS_BEAM))?
+                    .cavity_position_m
+            }
+        })
+    }
+}
+
+impl Family for ModalFamily {
+    type Flow = ModalSection;
+
+    fn name(&self) -> &'static str {
+        self.param.flag()
+    }
+
+    fn section(&self, value: f64, t0_s: f64, periods: u32) -> Result<ModalSection, SimError> {
+        ModalSection::new(self.system_at(value)?, t0_s, periods)
+    }
+
+    fn value_of(&self, sec: &ModalSection) -> Option<f64> {
+        match self.param {
+            ModalParam::Axis(a) => Some(super::continuation::param_of(&sec.system.to_system(), a)),
+            // The system does not carry where its modes were computed.
+            ModalParam::CavityPositionM => None,
+        }
+    }
+
+    fn param_derivative(&self, _: &ModalSection, _: &[f64]) -> Result<Option<Vec<f64>>, SimError> {
+        // The modal variational layer carries no parameter column: central differences.
+        Ok(None)
+    }
+
+    fn param_step(&self) -> f64 {
+        PARAM_STEP
+    }
+}
+
+/// One point of a modal branch.
+pub type ModalBranchPoint = BranchPoint<ModalSection>;
+
+/// A computed modal branch.
+pub type ModalBranch = Branch<ModalSection>;
+
+/// Follow the orbit `start` of `fam.base` (a fixed point at the parameter `from`, SI) from
+/// `from` to `to` with the exact Jacobian ([`follow_branch`]).
+pub fn continue_modal_orbit(
+    start: &ModalPeriodicOrbit,
+    fam: &ModalFamily,
+    from: f64,
+    to: f64,
+    settings: &ContinuationSettings,
+) -> Result<ModalBranch, SimError> {
+    follow_branch(start, fam, from, to, &ExactJacobian, settings)
+}
+
+/// `∂P(x)/∂p` (SI parameter) of the modal map at `x` by central differences with step `h`
+/// (SI), on `(q, q̇, w, ẇ)`: the parameter column of [`continue_modal_orbit`] (there with `h`
+/// = [`PARAM_STEP`] of the interval).
+pub fn modal_map_param_derivative_fd(
+    fam: &ModalFamily,
+    sec: &ModalSection,
+    x: &[f64],
+    value: f64,
+    h: f64,
+) -> Result<Vec<f64>, SimError> {
+    let run = |p: f64| -> Result<Vec<f64>, SimError> {
+        ModalSection::new(fam.system_at(p)?, sec.t0_s, sec.periods)?.flow(x)
+    };
+    let (a, b) = (run(value + h)?, run(value - h)?);
+    Ok(a.iter().zip(&b).map(|(a, b)| (a - b) / (2.0 * h)).collect())
+}
+
+/// Newton at the parameter `value` from `x0` at the section time of `sec` (a point of a branch
+/// recomputed independently).
+pub fn modal_orbit_at(
+    fam: &ModalFamily,
+    sec: &ModalSection,
+    x0: &[f64],
+    value: f64,
+) -> Result<ModalPeriodicOrbit, SimError> {
+    let s = ModalSection::new(fam.system_at(value)?, sec.t0_s, sec.periods)?;
+    find_modal_orbit(&s, x0, &NewtonSettings::default())
 }
