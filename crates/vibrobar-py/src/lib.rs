@@ -1423,10 +1423,8 @@ fn lyapunov_spectrum<'py>(
         BarModel::Modal(model) => {
             let init = ModalState::from_public(model, &init).map_err(input_error)?;
             let ms = ModalSystem::from_system(&sys).map_err(input_error)?;
-            vibrobar_core::analysis::lyapunov_spectrum_modal::lyapunov_spectrum_modal(
-                &ms, &init, &p,
-            )
-            .map_err(run_error)
+            vibrobar_core::analysis::lyapunov_spectrum::lyapunov_spectrum_modal(&ms, &init, &p)
+                .map_err(run_error)
         }
     })?;
     let d = PyDict::new(py);
@@ -1445,11 +1443,8 @@ fn lyapunov_spectrum<'py>(
     d.set_item("compliant_contacts", r.events.compliant_contacts)?;
     d.set_item(
         "volume_identity_per_s",
-        vibrobar_core::analysis::lyapunov_spectrum_modal::volume_identity_per_s(
-            &sys,
-            r.impacts_per_s,
-        )
-        .map_err(run_error)?,
+        vibrobar_core::analysis::lyapunov_spectrum::volume_identity_per_s(&sys, r.impacts_per_s)
+            .map_err(run_error)?,
     )?;
     Ok(d)
 }
