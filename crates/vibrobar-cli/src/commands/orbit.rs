@@ -602,27 +602,41 @@ pub fn bench_row() -> anyhow::Result<()> {
         switch_branches: false,
         ..Default::default()
     };
+    let (tn, tc, _, n) = time_orbit_and_branch(
+        || find_orbit(&sec, &x0, &ExactJacobian, &newton),
+        |o| continue_orbit(o, Axis::GapM, 0.06e-3, 0.2e-3, &ExactJacobian, &settings),
+    )?;
+    println!(
+        "  exact  periodic orbits (r = 1, frictionless): Newton from the analytic orbit median {:.2} ms; a {n}-point branch in the gap from 0.06 mm median {:.1} ms over 5 (issue #11 target: 200 points < 2 s on one core)",
+        tn * 1e3,
+        tc * 1e3
+    );
+    Ok(())
+}
+
+/// The median wall times of `newton` (one orbit) and of `branch` (a branch from it) over 5
+/// repetitions, the orbit's Newton iterations and the branch's points: the bench rows of both
+/// bars.
+fn time_orbit_and_branch<F: Flow>(
+    newton: impl Fn() -> Result<Orbit<F>, vibrobar_core::SimError>,
+    branch: impl Fn(&Orbit<F>) -> Result<Branch<F>, vibrobar_core::SimError>,
+) -> anyhow::Result<(f64, f64, usize, usize)> {
     let (mut tn, mut tc) = (Vec::new(), Vec::new());
-    let mut n = 0;
+    let (mut iters, mut n) = (0, 0);
     for _ in 0..5 {
         let t = std::time::Instant::now();
-        let o = find_orbit(&sec, &x0, &ExactJacobian, &newton)?;
+        let o = newton()?;
         tn.push(t.elapsed().as_secs_f64());
+        iters = o.iterations;
         let t = std::time::Instant::now();
-        let b = continue_orbit(&o, Axis::GapM, 0.06e-3, 0.2e-3, &ExactJacobian, &settings)?;
+        n = branch(&o)?.points.len();
         tc.push(t.elapsed().as_secs_f64());
-        n = b.points.len();
     }
     let med = |v: &mut Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
-    println!(
-        "  exact  periodic orbits (r = 1, frictionless): Newton from the analytic orbit median {:.2} ms; a {n}-point branch in the gap from 0.06 mm median {:.1} ms over 5 (issue #11 target: 200 points < 2 s on one core)",
-        med(&mut tn) * 1e3,
-        med(&mut tc) * 1e3
-    );
-    Ok(())
+    Ok((med(&mut tn), med(&mut tc), iters, n))
 }
 
 /// The scenario describes an N-mode bar.
@@ -773,27 +787,15 @@ pub fn bench_row_modal() -> anyhow::Result<()> {
         switch_branches: false,
         ..Default::default()
     };
-    let (mut tn, mut tc) = (Vec::new(), Vec::new());
-    let (mut iters, mut n) = (0, 0);
-    for _ in 0..5 {
-        let t = std::time::Instant::now();
-        let o = find_modal_orbit(&sec, &x0, &NewtonSettings::default())?;
-        tn.push(t.elapsed().as_secs_f64());
-        iters = o.iterations;
-        let p0 = beam.cavity_position_m;
-        let t = std::time::Instant::now();
-        let b = continue_modal_orbit(&o, &fam, p0, p0 - 20e-3, &settings)?;
-        tc.push(t.elapsed().as_secs_f64());
-        n = b.points.len();
-    }
-    let med = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
+    let p0 = beam.cavity_position_m;
+    let (tn, tc, iters, n) = time_orbit_and_branch(
+        || find_modal_orbit(&sec, &x0, &NewtonSettings::default()),
+        |o| continue_modal_orbit(o, &fam, p0, p0 - 20e-3, &settings),
+    )?;
     println!(
         "  exact  periodic orbit of the 4-mode beam (r = 1, 0.1 mm, frictionless): Newton ({iters} iterations from a settled run) median {:.2} ms; a {n}-point branch in the cavity position median {:.1} ms over 5",
-        med(&mut tn) * 1e3,
-        med(&mut tc) * 1e3
+        tn * 1e3,
+        tc * 1e3
     );
     Ok(())
 }
