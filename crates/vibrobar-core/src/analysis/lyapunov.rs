@@ -234,8 +234,8 @@ fn diverge<T: Trajectories>(
     summarise(rates, p.blocks, clamped)
 }
 
-/// The scales checked positive.
-fn check_scales(sc: &StateScales) -> Result<(), SimError> {
+/// The scales checked positive (every estimate: largest exponent and spectrum).
+pub(crate) fn check_scales(sc: &StateScales) -> Result<(), SimError> {
     for (field, v) in [
         ("scales.u_m", sc.u_m),
         ("scales.du_m_s", sc.du_m_s),

@@ -330,15 +330,7 @@ fn check_settings(p: &SpectrumParams, sc: &StateScales) -> Result<(), SimError> 
         }
         .into());
     }
-    for (field, v) in [
-        ("scales.u_m", sc.u_m),
-        ("scales.du_m_s", sc.du_m_s),
-        ("scales.w_m", sc.w_m),
-        ("scales.dw_m_s", sc.dw_m_s),
-    ] {
-        crate::params::positive(field, v)?;
-    }
-    Ok(())
+    super::lyapunov::check_scales(sc)
 }
 
 /// The block loop of a spectrum from `x` (after the transient) at `t0`: each block one run,
