@@ -2,7 +2,7 @@
 //! N-mode bar ([`lyapunov_spectrum_modal`], `2N + 2`): QR re-orthonormalisation (Benettin et al.
 //! 1980; Müller 1995 for the saltation at events) of the variational flow of
 //! [`super::variational`] or [`super::variational_modal`]. The two variational layers hand their
-//! tangent maps to one QR frame ([`Frame`]: Gram–Schmidt, `ln Rᵢᵢ`, the collapsed directions) and
+//! tangent maps to one QR frame (`Frame`: Gram–Schmidt, `ln Rᵢᵢ`, the collapsed directions) and
 //! one block loop (the exponents and their uncertainty).
 //!
 //! An orthonormal frame `Q` (4×4, in the scaled coordinates `(u/s_u, u̇/s_u̇, w/s_w, ẇ/s_ẇ)` of
