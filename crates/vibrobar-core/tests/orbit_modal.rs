@@ -166,7 +166,6 @@ use vibrobar_core::analysis::grid::Axis;
 use vibrobar_core::analysis::orbit::continuation::{
     continue_orbit, map_param_derivative, BranchEvent, ContinuationSettings,
 };
-use vibrobar_core::analysis::orbit::modal_continuation::*;
 
 /// The central-difference parameter column (step `PARAM_STEP` of the interval) against the
 /// lumped layer's exact column on one unit mode, for the gap and the ratio (whose map end
@@ -296,7 +295,7 @@ fn one_unit_mode_branch_finds_the_lumped_events() {
         lb.points.len(),
         mb.points.len(),
         t.elapsed().as_secs_f64(),
-        mb.stop_reason
+        mb.stop_reasons[0]
     );
     eprintln!(
         "lumped events {:?} last {}",
@@ -362,7 +361,7 @@ fn four_mode_beam_branch_in_the_cavity_position() {
         "{} points in {:.2} s: {}; params {:?}",
         br.points.len(),
         t.elapsed().as_secs_f64(),
-        br.stop_reason,
+        br.stop_reasons[0],
         br.points
             .iter()
             .map(|p| (p.param * 1e3, p.orbit.max_abs_multiplier(), p.event))
@@ -421,10 +420,10 @@ fn one_unit_mode_locates_the_period_doubling_and_switches_to_period_two() {
         mb.points.len(),
         two.len(),
         t.elapsed().as_secs_f64(),
-        mb.stop_reason,
-        mb.switched
+        mb.stop_reasons[0],
+        &mb.stop_reasons[1..]
     );
-    assert_eq!(mg.len(), 1, "{}", mb.stop_reason);
+    assert_eq!(mg.len(), 1, "{}", mb.stop_reasons[0]);
     assert_eq!(lg.len(), 1);
     assert!(
         ((mg[0] - lg[0]) / (to - from)).abs() < 1e-6,
@@ -441,8 +440,8 @@ fn one_unit_mode_locates_the_period_doubling_and_switches_to_period_two() {
     assert!(m < 1e-4, "closest multiplier to −1 at {m:e}");
     // The switched branch: period 2, starting next to it, every point a true orbit of the
     // period-2 map and not the period-1 orbit seen twice.
-    assert_eq!(mb.switched.len(), 1);
-    assert!(two.len() >= 3, "{:?}", mb.switched);
+    assert_eq!(mb.stop_reasons[1..].len(), 1);
+    assert!(two.len() >= 3, "{:?}", &mb.stop_reasons[1..]);
     assert!((two[0].param - mg[0]).abs() < 0.01e-3);
     for p in &two {
         assert_eq!(p.orbit.section.periods, 2);

@@ -218,7 +218,7 @@ fn symmetric_orbit_rms_is_the_solver_rms_over_a_period() {
     let sys = two_branch_case();
     for (i, o) in symmetric_orbits(&sys).unwrap().iter().enumerate() {
         let (sec, x0) = starting_guess(&sys, 1, &Start::Symmetric(i)).unwrap();
-        let orb = describe(&sec, &x0, nalgebra::Matrix4::identity(), "none", 0.0, 0).unwrap();
+        let orb = describe(&sec, &x0, nalgebra::DMatrix::identity(4, 4), "none", 0.0, 0).unwrap();
         assert!(((orb.rms_m - o.rms_m(&sys)) / o.rms_m(&sys)).abs() < 1e-9);
     }
 }

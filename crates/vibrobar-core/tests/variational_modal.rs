@@ -342,13 +342,12 @@ fn one_unit_mode_is_the_lumped_jacobian() {
     }
 }
 
-use vibrobar_core::analysis::lyapunov_spectrum::{lyapunov_spectrum, SpectrumParams};
-use vibrobar_core::analysis::lyapunov_spectrum_modal::{
-    lyapunov_spectrum_modal, modal_volume_contraction_per_s,
+use vibrobar_core::analysis::lyapunov_spectrum::{
+    lyapunov_spectrum, lyapunov_spectrum_modal, modal_volume_contraction_per_s, SpectrumParams,
 };
 
 /// The sum identity of the frictionless modal bar: `Σλ = −Σₙ cₙ/mₙ + 2 ln(e) × impacts/s`
-/// (module docs of `lyapunov_spectrum_modal`), on the 3- and 4-mode beams.
+/// (module docs of `lyapunov_spectrum`), on the 3- and 4-mode beams.
 #[test]
 fn spectrum_sum_of_the_frictionless_beam_is_the_volume_identity() {
     for (n, gap, e) in [(3, 0.1e-3, 0.6), (4, 0.08e-3, 0.5)] {

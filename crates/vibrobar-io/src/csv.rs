@@ -769,10 +769,10 @@ pub fn continuation_schema() -> Schema {
     }
 }
 
-/// One row of [`continuation_schema`] from a branch point; `scale` turns the parameter into the
-/// file's unit (1e3 for `gap-mm`).
-pub fn continuation_values(
-    p: &vibrobar_core::analysis::orbit::continuation::BranchPoint,
+/// One row of [`continuation_schema`] from a branch point of either bar; `scale` turns the
+/// parameter into the file's unit (1e3 for `gap-mm`).
+pub fn continuation_values<F: vibrobar_core::analysis::orbit::Flow>(
+    p: &vibrobar_core::analysis::orbit::continuation::BranchPoint<F>,
     scale: f64,
 ) -> Vec<Value> {
     continuation_row(
@@ -781,24 +781,7 @@ pub fn continuation_values(
         p.orbit.max_abs_multiplier(),
         p.orbit.stable(),
         p.orbit.impacts_per_period,
-        p.orbit.section.periods,
-        p.event.map(|e| e.as_str()),
-    )
-}
-
-/// One row of [`continuation_schema`] from a modal bar's branch point (`scale` as in
-/// [`continuation_values`]).
-pub fn modal_continuation_values(
-    p: &vibrobar_core::analysis::orbit::modal_continuation::ModalBranchPoint,
-    scale: f64,
-) -> Vec<Value> {
-    continuation_row(
-        p.param * scale,
-        p.orbit.rms_m,
-        p.orbit.max_abs_multiplier(),
-        p.orbit.stable(),
-        p.orbit.impacts_per_period,
-        p.orbit.section.periods,
+        p.orbit.section.periods(),
         p.event.map(|e| e.as_str()),
     )
 }

@@ -1423,10 +1423,8 @@ fn lyapunov_spectrum<'py>(
         BarModel::Modal(model) => {
             let init = ModalState::from_public(model, &init).map_err(input_error)?;
             let ms = ModalSystem::from_system(&sys).map_err(input_error)?;
-            vibrobar_core::analysis::lyapunov_spectrum_modal::lyapunov_spectrum_modal(
-                &ms, &init, &p,
-            )
-            .map_err(run_error)
+            vibrobar_core::analysis::lyapunov_spectrum::lyapunov_spectrum_modal(&ms, &init, &p)
+                .map_err(run_error)
         }
     })?;
     let d = PyDict::new(py);
@@ -1445,11 +1443,8 @@ fn lyapunov_spectrum<'py>(
     d.set_item("compliant_contacts", r.events.compliant_contacts)?;
     d.set_item(
         "volume_identity_per_s",
-        vibrobar_core::analysis::lyapunov_spectrum_modal::volume_identity_per_s(
-            &sys,
-            r.impacts_per_s,
-        )
-        .map_err(run_error)?,
+        vibrobar_core::analysis::lyapunov_spectrum::volume_identity_per_s(&sys, r.impacts_per_s)
+            .map_err(run_error)?,
     )?;
     Ok(d)
 }
@@ -1639,9 +1634,7 @@ fn continuation<'py>(
     switch_branches: bool,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use vibrobar_core::analysis::orbit::continuation::*;
-    use vibrobar_core::analysis::orbit::modal_continuation::{
-        continue_modal_orbit, ModalFamily, ModalParam,
-    };
+    use vibrobar_core::analysis::orbit::modal::{continue_modal_orbit, ModalFamily, ModalParam};
     let sc = &scenario.inner;
     let modal = sc.beam.is_some() || sc.modes.is_some();
     let axis = match param {
@@ -1685,22 +1678,7 @@ fn continuation<'py>(
             let o = start_modal_orbit(sc, &fam.base, period, start, None, None)?;
             continue_modal_orbit(&o, &fam, from_, to, &settings).map_err(run_error)
         })?;
-        b.points
-            .iter()
-            .map(|p| {
-                let o = &p.orbit;
-                let c = BranchColumns {
-                    param: p.param,
-                    rms_m: o.rms_m,
-                    max_abs_multiplier: o.max_abs_multiplier(),
-                    stable: o.stable(),
-                    impacts_per_period: o.impacts_per_period as u64,
-                    period: o.section.periods as u64,
-                    event: p.event.map_or("", |e| e.as_str()),
-                };
-                (iocsv::modal_continuation_values(p, 1.0), c)
-            })
-            .collect()
+        branch_rows(&b)
     } else {
         let axis = axis.ok_or_else(|| {
             PyValueError::new_err("param \"cavity_position_m\" needs a scenario with a [beam]")
@@ -1719,22 +1697,7 @@ fn continuation<'py>(
             )
             .map_err(run_error)
         })?;
-        b.points
-            .iter()
-            .map(|p| {
-                let o = &p.orbit;
-                let c = BranchColumns {
-                    param: p.param,
-                    rms_m: o.rms_m,
-                    max_abs_multiplier: o.max_abs_multiplier(),
-                    stable: o.stable(),
-                    impacts_per_period: o.impacts_per_period as u64,
-                    period: o.section.periods as u64,
-                    event: p.event.map_or("", |e| e.as_str()),
-                };
-                (iocsv::continuation_values(p, 1.0), c)
-            })
-            .collect()
+        branch_rows(&b)
     };
     let schema = iocsv::continuation_schema();
     let mut csv = schema.header();
@@ -1772,6 +1735,28 @@ struct BranchColumns {
     impacts_per_period: u64,
     period: u64,
     event: &'static str,
+}
+
+/// The CSV values and the dict's columns of every point of a branch (either bar).
+fn branch_rows<F: vibrobar_core::analysis::orbit::Flow>(
+    b: &vibrobar_core::analysis::orbit::continuation::Branch<F>,
+) -> Vec<(Vec<Value>, BranchColumns)> {
+    b.points
+        .iter()
+        .map(|p| {
+            let o = &p.orbit;
+            let c = BranchColumns {
+                param: p.param,
+                rms_m: o.rms_m,
+                max_abs_multiplier: o.max_abs_multiplier(),
+                stable: o.stable(),
+                impacts_per_period: o.impacts_per_period as u64,
+                period: o.section.periods() as u64,
+                event: p.event.map_or("", |e| e.as_str()),
+            };
+            (iocsv::continuation_values(p, 1.0), c)
+        })
+        .collect()
 }
 
 /// Two-parameter curve in (ratio, gap) of a `kind` point ("fold", "period-doubling", "torus",

@@ -132,7 +132,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
             spectrum_row(&single, &st)?;
         }
         super::orbit::bench_row()?;
-        super::orbit_modal::bench_row()?;
+        super::orbit::bench_row_modal()?;
     }
     cutting_row(&st)?;
     time_domain_row()?;

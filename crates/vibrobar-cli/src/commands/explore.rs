@@ -479,7 +479,7 @@ fn run_spectrum(a: &LyapunovArgs) -> anyhow::Result<()> {
         // 2N + 2 exponents of the modal state (the modal variational flow).
         BarModel::Modal(model) => {
             let init = ModalState::from_public(model, &spec.base.init)?;
-            vibrobar_core::analysis::lyapunov_spectrum_modal::lyapunov_spectrum_modal(
+            vibrobar_core::analysis::lyapunov_spectrum::lyapunov_spectrum_modal(
                 &ModalSystem::from_system(&sys)?,
                 &init,
                 &p,
@@ -492,10 +492,8 @@ fn run_spectrum(a: &LyapunovArgs) -> anyhow::Result<()> {
     let hertz = sys
         .damper
         .is_some_and(|d| d.contact.law == vibrobar_core::ContactLaw::Hertz);
-    let identity = vibrobar_core::analysis::lyapunov_spectrum_modal::volume_identity_per_s(
-        &sys,
-        r.impacts_per_s,
-    )?;
+    let identity =
+        vibrobar_core::analysis::lyapunov_spectrum::volume_identity_per_s(&sys, r.impacts_per_s)?;
     if a.json {
         let ev = r.events;
         let j = serde_json::json!({

@@ -18,7 +18,6 @@ pub mod merge;
 pub mod modes;
 pub mod orbit;
 pub mod orbit_docs;
-pub mod orbit_modal;
 pub mod paper;
 pub mod placement;
 pub mod run;

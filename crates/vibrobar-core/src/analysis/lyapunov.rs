@@ -23,7 +23,7 @@
 //!   so it is neutral, whereas in the flow it shifts the impact times. With `rk4`, choose `d0`
 //!   so that `d0·s_w` is at least `|ẇ|·dt`, compare several `d0` and `dt` (a finite-size
 //!   exponent), or use an event-driven solver.
-//! * **Modal bar** ([`max_lyapunov_modal`]): the state is `2N + 2`-dimensional (every mode's
+//! * **Modal bar** ([`max_lyapunov_modal`]; one loop for both bars): the state is `2N + 2`-dimensional (every mode's
 //!   `qₙ`, `q̇ₙ` and the ball's `w`, `ẇ`), so the two trajectories are modal states run by a
 //!   [`ModalRun`] and the distance is taken over all of them (scaled `qₙ/s_u`,
 //!   `q̇ₙ/(ωₙ s_u)`: the energy norm up to the modal masses). A distance on the public state
@@ -151,6 +151,165 @@ pub struct LyapunovResult {
     pub clamped: usize,
 }
 
+/// What the two-trajectory estimate needs of a bar's state space: scaled coordinates (a norm on
+/// the whole state), the projection into the cavity, the solver's run. The estimate itself
+/// ([`diverge`]) is one loop for the lumped and the modal bar.
+trait Trajectories {
+    /// The solver's state.
+    type State: Clone;
+    /// Coordinates measured (`D`, or the bar's alone without a ball).
+    fn dims(&self) -> usize;
+    /// A ball is present.
+    fn has_ball(&self) -> bool;
+    /// The fixed initial direction (scaled, unit, every measured component present).
+    fn direction(&self) -> Vec<f64>;
+    /// Scaled coordinates of a state (`D` of them).
+    fn to_scaled(&self, s: &Self::State) -> Vec<f64>;
+    /// The state of scaled coordinates `y` at `t_s`.
+    fn unscaled(&self, t_s: f64, y: &[f64]) -> Self::State;
+    /// The ball of a bar without one put at rest on the bar's origin.
+    fn drop_ball(&self, s: &mut Self::State);
+    /// Project `s` into the cavity; whether it was moved.
+    fn clamp(&self, s: &mut Self::State) -> bool;
+    /// The state at `t_end_s` from `s`.
+    fn run(&self, s: &Self::State, t_end_s: f64) -> Result<Self::State, SimError>;
+    /// Time of a state.
+    fn t_s(s: &Self::State) -> f64;
+}
+
+/// The two-trajectory estimate (module docs) from `init` on the bar `tr`.
+fn diverge<T: Trajectories>(
+    tr: &T,
+    init: &T::State,
+    p: &LyapunovParams,
+) -> Result<LyapunovResult, SimError> {
+    let t_init = T::t_s(init);
+    let dims = tr.dims();
+    let mut x = tr.run(init, t_init + p.transient_s)?;
+    if !tr.has_ball() {
+        tr.drop_ball(&mut x);
+    }
+    tr.clamp(&mut x);
+    let e = tr.direction();
+    let perturb = |x: &T::State, dir: &[f64]| -> T::State {
+        let mut ys = tr.to_scaled(x);
+        for k in 0..dims {
+            ys[k] += p.d0 * dir[k];
+        }
+        let mut y = tr.unscaled(T::t_s(x), &ys);
+        if !tr.has_ball() {
+            tr.drop_ball(&mut y);
+        }
+        y
+    };
+    let mut y = perturb(&x, &e);
+    let mut clamped = usize::from(tr.clamp(&mut y));
+    let mut rates = Vec::with_capacity(p.intervals);
+    for i in 1..=p.intervals {
+        let t_end = t_init + p.transient_s + i as f64 * p.interval_s;
+        let mut xn = tr.run(&x, t_end)?;
+        let yn = tr.run(&y, t_end)?;
+        let (xs, ys) = (tr.to_scaled(&xn), tr.to_scaled(&yn));
+        let mut diff = vec![0.0; xs.len()];
+        for k in 0..dims {
+            diff[k] = ys[k] - xs[k];
+        }
+        let d = diff.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if !d.is_finite() {
+            return Err(SimError::NonFinite { t_s: t_end });
+        }
+        // d = 0: the trajectories merged (e.g. both projected onto the same wall point). Record
+        // the collapse at the smallest representable distance and restart along `e`.
+        let (d, dir) = if d > 0.0 {
+            (d, diff.iter().map(|v| v / d).collect())
+        } else {
+            (f64::MIN_POSITIVE, e.clone())
+        };
+        rates.push((d / p.d0).ln() / p.interval_s);
+        tr.clamp(&mut xn);
+        y = perturb(&xn, &dir);
+        clamped += usize::from(tr.clamp(&mut y));
+        x = xn;
+    }
+    summarise(rates, p.blocks, clamped)
+}
+
+/// The scales checked positive (every estimate: largest exponent and spectrum).
+pub(crate) fn check_scales(sc: &StateScales) -> Result<(), SimError> {
+    for (field, v) in [
+        ("scales.u_m", sc.u_m),
+        ("scales.du_m_s", sc.du_m_s),
+        ("scales.w_m", sc.w_m),
+        ("scales.dw_m_s", sc.dw_m_s),
+    ] {
+        crate::params::positive(field, v)?;
+    }
+    Ok(())
+}
+
+/// The lumped bar's trajectories: `(u, u̇, w, ẇ)` scaled by [`StateScales`], any solver.
+struct Lumped<'a> {
+    sys: &'a System,
+    solver: &'a dyn Solver,
+    sc: StateScales,
+    lg: f64,
+}
+
+impl Trajectories for Lumped<'_> {
+    type State = State;
+
+    fn dims(&self) -> usize {
+        // Without a ball the ball coordinates are meaningless: measure (u, u̇) only.
+        if self.has_ball() {
+            4
+        } else {
+            2
+        }
+    }
+
+    fn has_ball(&self) -> bool {
+        self.sys.damper.is_some()
+    }
+
+    fn direction(&self) -> Vec<f64> {
+        if self.has_ball() {
+            vec![0.5; 4]
+        } else {
+            vec![
+                std::f64::consts::FRAC_1_SQRT_2,
+                std::f64::consts::FRAC_1_SQRT_2,
+                0.0,
+                0.0,
+            ]
+        }
+    }
+
+    fn to_scaled(&self, s: &State) -> Vec<f64> {
+        self.sc.to_scaled(s).to_vec()
+    }
+
+    fn unscaled(&self, t_s: f64, y: &[f64]) -> State {
+        self.sc.unscaled(t_s, [y[0], y[1], y[2], y[3]])
+    }
+
+    fn drop_ball(&self, s: &mut State) {
+        s.v_m = 0.0;
+        s.dv_m_s = 0.0;
+    }
+
+    fn clamp(&self, s: &mut State) -> bool {
+        onto_cavity(s, self.lg)
+    }
+
+    fn run(&self, s: &State, t_end_s: f64) -> Result<State, SimError> {
+        Ok(self.solver.run(self.sys, s, t_end_s, &mut ())?.final_state)
+    }
+
+    fn t_s(s: &State) -> f64 {
+        s.t_s
+    }
+}
+
 /// Estimate the largest Lyapunov exponent of `sys` starting from `init`.
 pub fn max_lyapunov(
     sys: &System,
@@ -163,77 +322,14 @@ pub fn max_lyapunov(
     }
     check_params(p)?;
     let sc = p.scales.unwrap_or_else(|| StateScales::for_system(sys));
-    for (field, v) in [
-        ("scales.u_m", sc.u_m),
-        ("scales.du_m_s", sc.du_m_s),
-        ("scales.w_m", sc.w_m),
-        ("scales.dw_m_s", sc.dw_m_s),
-    ] {
-        crate::params::positive(field, v)?;
-    }
-    let has_ball = sys.damper.is_some();
-    let lg = sys.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
-    // Without a ball the ball coordinates are meaningless: measure (u, u̇) only.
-    let dims = if has_ball { 4 } else { 2 };
-    let clamp = |s: &mut State| -> bool { onto_cavity(s, lg) };
-
-    let mut x = solver
-        .run(sys, init, init.t_s + p.transient_s, &mut ())?
-        .final_state;
-    if !has_ball {
-        x.v_m = 0.0;
-        x.dv_m_s = 0.0;
-    }
-    clamp(&mut x);
-    // Fixed initial direction with every component present.
-    let e = if has_ball {
-        [0.5, 0.5, 0.5, 0.5]
-    } else {
-        [
-            std::f64::consts::FRAC_1_SQRT_2,
-            std::f64::consts::FRAC_1_SQRT_2,
-            0.0,
-            0.0,
-        ]
+    check_scales(&sc)?;
+    let tr = Lumped {
+        sys,
+        solver,
+        sc,
+        lg: sys.damper.map_or(f64::INFINITY, |d| d.half_gap_m()),
     };
-    let perturb = |x: &State, dir: [f64; 4]| -> State {
-        let xs = sc.to_scaled(x);
-        let mut ys = xs;
-        for i in 0..4 {
-            ys[i] += p.d0 * dir[i];
-        }
-        sc.unscaled(x.t_s, ys)
-    };
-    let mut y = perturb(&x, e);
-    let mut clamped = usize::from(clamp(&mut y));
-    let mut rates = Vec::with_capacity(p.intervals);
-    for i in 1..=p.intervals {
-        let t_end = init.t_s + p.transient_s + i as f64 * p.interval_s;
-        let mut xn = solver.run(sys, &x, t_end, &mut ())?.final_state;
-        let yn = solver.run(sys, &y, t_end, &mut ())?.final_state;
-        let (xs, ys) = (sc.to_scaled(&xn), sc.to_scaled(&yn));
-        let mut diff = [0.0; 4];
-        for k in 0..dims {
-            diff[k] = ys[k] - xs[k];
-        }
-        let d = diff.iter().map(|v| v * v).sum::<f64>().sqrt();
-        if !d.is_finite() {
-            return Err(SimError::NonFinite { t_s: t_end });
-        }
-        // d = 0: the trajectories merged (e.g. both projected onto the same wall point). Record
-        // the collapse at the smallest representable distance and restart along `e`.
-        let (d, dir) = if d > 0.0 {
-            (d, diff.map(|v| v / d))
-        } else {
-            (f64::MIN_POSITIVE, e)
-        };
-        rates.push((d / p.d0).ln() / p.interval_s);
-        clamp(&mut xn);
-        y = perturb(&xn, dir);
-        clamped += usize::from(clamp(&mut y));
-        x = xn;
-    }
-    summarise(rates, p.blocks, clamped)
+    diverge(&tr, init, p)
 }
 
 /// Put a ball that reads outside the cavity (`|v − u| > l_g`) back on the wall it crossed:
@@ -404,78 +500,80 @@ pub fn max_lyapunov_modal(
     let st = p
         .scales
         .unwrap_or_else(|| StateScales::for_system(&sys.to_system()));
-    for (field, v) in [
-        ("scales.u_m", st.u_m),
-        ("scales.du_m_s", st.du_m_s),
-        ("scales.w_m", st.w_m),
-        ("scales.dw_m_s", st.dw_m_s),
-    ] {
-        crate::params::positive(field, v)?;
+    check_scales(&st)?;
+    let tr = Modal {
+        sys,
+        run,
+        sc: ModalScales::new(sys, &st),
+        lg: sys.damper.map_or(f64::INFINITY, |d| d.half_gap_m()),
+    };
+    diverge(&tr, init, p)
+}
+
+/// A modal bar's trajectories: the modal states scaled by [`ModalScales`], run by a
+/// [`ModalRun`].
+struct Modal<'a, 'r> {
+    sys: &'a ModalSystem,
+    run: &'a ModalRun<'r>,
+    sc: ModalScales,
+    lg: f64,
+}
+
+impl Trajectories for Modal<'_, '_> {
+    type State = ModalState;
+
+    fn dims(&self) -> usize {
+        // Without a ball: the modes only.
+        if self.has_ball() {
+            2 * self.sc.n + 2
+        } else {
+            2 * self.sc.n
+        }
     }
-    let sc = ModalScales::new(sys, &st);
-    let n = sc.n;
-    let has_ball = sys.damper.is_some();
-    let lg = sys.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
-    // Without a ball: the modes only.
-    let dims = if has_ball { 2 * n + 2 } else { 2 * n };
-    let clamp = |s: &mut ModalState| -> bool {
-        let w = s.w_m(&sys.model);
-        if w.abs() > lg {
-            s.v_m = s.u_at(&sys.model, Point::Cavity) + lg.copysign(w);
+
+    fn has_ball(&self) -> bool {
+        self.sys.damper.is_some()
+    }
+
+    fn direction(&self) -> Vec<f64> {
+        let dims = self.dims();
+        let mut e = vec![0.0; 2 * self.sc.n + 2];
+        for v in e.iter_mut().take(dims) {
+            *v = 1.0 / (dims as f64).sqrt();
+        }
+        e
+    }
+
+    fn to_scaled(&self, s: &ModalState) -> Vec<f64> {
+        self.sc.to_scaled(s)[..2 * self.sc.n + 2].to_vec()
+    }
+
+    fn unscaled(&self, t_s: f64, y: &[f64]) -> ModalState {
+        let mut a = [0.0; MODAL_DIMS];
+        a[..y.len()].copy_from_slice(y);
+        self.sc.unscaled(t_s, &a)
+    }
+
+    fn drop_ball(&self, s: &mut ModalState) {
+        s.v_m = 0.0;
+        s.dv_m_s = 0.0;
+    }
+
+    fn clamp(&self, s: &mut ModalState) -> bool {
+        let w = s.w_m(&self.sys.model);
+        if w.abs() > self.lg {
+            s.v_m = s.u_at(&self.sys.model, Point::Cavity) + self.lg.copysign(w);
             true
         } else {
             false
         }
-    };
-    let mut x = run(sys, init, init.t_s + p.transient_s)?;
-    if !has_ball {
-        x.v_m = 0.0;
-        x.dv_m_s = 0.0;
     }
-    clamp(&mut x);
-    // Fixed initial direction with every component present.
-    let mut e = [0.0; MODAL_DIMS];
-    for v in e.iter_mut().take(dims) {
-        *v = 1.0 / (dims as f64).sqrt();
+
+    fn run(&self, s: &ModalState, t_end_s: f64) -> Result<ModalState, SimError> {
+        (self.run)(self.sys, s, t_end_s)
     }
-    let perturb = |x: &ModalState, dir: &[f64; MODAL_DIMS]| -> ModalState {
-        let mut ys = sc.to_scaled(x);
-        for k in 0..dims {
-            ys[k] += p.d0 * dir[k];
-        }
-        let mut y = sc.unscaled(x.t_s, &ys);
-        if !has_ball {
-            y.v_m = 0.0;
-            y.dv_m_s = 0.0;
-        }
-        y
-    };
-    let mut y = perturb(&x, &e);
-    let mut clamped = usize::from(clamp(&mut y));
-    let mut rates = Vec::with_capacity(p.intervals);
-    for i in 1..=p.intervals {
-        let t_end = init.t_s + p.transient_s + i as f64 * p.interval_s;
-        let mut xn = run(sys, &x, t_end)?;
-        let yn = run(sys, &y, t_end)?;
-        let (xs, ys) = (sc.to_scaled(&xn), sc.to_scaled(&yn));
-        let mut diff = [0.0; MODAL_DIMS];
-        for k in 0..dims {
-            diff[k] = ys[k] - xs[k];
-        }
-        let d = diff.iter().map(|v| v * v).sum::<f64>().sqrt();
-        if !d.is_finite() {
-            return Err(SimError::NonFinite { t_s: t_end });
-        }
-        let (d, dir) = if d > 0.0 {
-            (d, diff.map(|v| v / d))
-        } else {
-            (f64::MIN_POSITIVE, e)
-        };
-        rates.push((d / p.d0).ln() / p.interval_s);
-        clamp(&mut xn);
-        y = perturb(&xn, &dir);
-        clamped += usize::from(clamp(&mut y));
-        x = xn;
+
+    fn t_s(s: &ModalState) -> f64 {
+        s.t_s
     }
-    summarise(rates, p.blocks, clamped)
 }

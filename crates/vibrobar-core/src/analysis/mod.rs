@@ -16,7 +16,6 @@ pub mod lobe_design;
 pub mod lobes;
 pub mod lyapunov;
 pub mod lyapunov_spectrum;
-pub mod lyapunov_spectrum_modal;
 pub mod map;
 pub mod orbit;
 pub mod placement;

@@ -71,7 +71,8 @@
 // Index loops read as the linear algebra they are.
 #![allow(clippy::needless_range_loop)]
 
-use super::variational::{EventCounts, Phase, VARIATIONAL_NEEDS_BALL};
+use super::lyapunov_spectrum::Frame;
+use super::variational::{EventCounts, Phase, Step, VARIATIONAL_NEEDS_BALL};
 
 /// Why the modal variational layer refuses the Hertz law.
 pub const VARIATIONAL_MODAL_NO_HERTZ: &str = "the N-mode bar's variational flow covers the instantaneous restitution law; the hertz law's tangent maps through compliant contact phases are the lumped bar's only so far";
@@ -268,21 +269,13 @@ pub struct ModalVariational {
     qr: Option<Box<Qr>>,
 }
 
-/// QR re-orthonormalisation state (weighted Gram–Schmidt, weights `1/sᵢ²`).
+/// QR re-orthonormalisation state: the spectrum's frame
+/// ([`super::lyapunov_spectrum::Frame`]) in the coordinates scaled by `scale`.
 pub(crate) struct Qr {
     /// Scale of every coordinate.
     pub scale: VecD,
-    /// `Σ ln Rᵢᵢ` of the current block.
-    pub logs: VecD,
-    /// Collapsed (removed) directions so far: the last columns.
-    pub deficit: usize,
-    /// Collapsed columns.
-    pub collapsed: [bool; D_MAX],
-    /// Steps since the last re-orthonormalisation.
-    steps: usize,
-    /// Impacts (restitution and plastic).
-    pub impacts: u64,
-    plastic_law: bool,
+    /// The frame's bookkeeping (logs, collapsed directions, impacts, steps).
+    pub frame: Frame,
 }
 
 /// `x` of a modal state.
@@ -336,15 +329,9 @@ impl ModalVariational {
     /// Re-orthonormalise every two steps in the coordinates scaled by `scale` (Lyapunov).
     pub(crate) fn with_qr(mut self, scale: VecD) -> Self {
         let d = self.dim();
-        let plastic_law = self.cs.e == 0.0;
         self.qr = Some(Box::new(Qr {
             scale,
-            logs: [0.0; D_MAX],
-            deficit: 0,
-            collapsed: [false; D_MAX],
-            steps: 0,
-            impacts: 0,
-            plastic_law,
+            frame: Frame::new(d, self.cs.e, false),
         }));
         // Start from the identity in scaled coordinates: column j is s_j e_j.
         for j in 0..d {
@@ -527,86 +514,40 @@ impl ModalVariational {
                 }
             }
         }
-        if let Some(q) = self.qr.as_deref_mut() {
-            let removes = match ev.kind {
-                EventKind::Impact { .. } => {
-                    q.impacts += 1;
-                    usize::from(plastic || q.plastic_law)
-                }
-                EventKind::Stick => 1,
-                _ => 0,
-            };
-            q.deficit = q.deficit.max(removes);
-        }
         self.cur = Some(after);
-        self.step_done();
+        self.step_done(Step::Event {
+            t_s: t,
+            kind: ev.kind,
+            plastic,
+        });
     }
 
-    /// Count a step; re-orthonormalise every two (see `lyapunov_spectrum::STEPS_PER_QR`).
-    fn step_done(&mut self) {
-        let due = match self.qr.as_deref_mut() {
-            Some(q) => {
-                q.steps += 1;
-                q.steps >= super::lyapunov_spectrum::STEPS_PER_QR
-            }
-            None => false,
-        };
-        if due {
+    /// Count a step with the frame; re-orthonormalise when it is due
+    /// (`lyapunov_spectrum::STEPS_PER_QR`).
+    fn step_done(&mut self, step: Step) {
+        if self.qr.as_deref_mut().is_some_and(|q| q.frame.note(&step)) {
             self.flush();
         }
     }
 
-    /// Re-orthonormalise now (weighted modified Gram–Schmidt), adding `ln Rᵢᵢ` to the logs.
+    /// Re-orthonormalise now (Gram–Schmidt in the scaled coordinates), adding `ln Rᵢᵢ` to the
+    /// logs.
     pub(crate) fn flush(&mut self) {
         let d = self.dim();
         let Some(q) = self.qr.as_deref_mut() else {
             return;
         };
-        if q.steps == 0 {
+        if q.frame.steps == 0 {
             return;
         }
-        q.steps = 0;
-        let w: VecD = std::array::from_fn(|i| if i < d { 1.0 / q.scale[i] } else { 0.0 });
-        let dot = |a: &VecD, b: &VecD| -> f64 { (0..d).map(|i| a[i] * b[i] * w[i] * w[i]).sum() };
-        let cols = &mut self.cols;
-        for i in 0..d {
-            let norm_in = dot(&cols[i], &cols[i]).sqrt();
-            for j in 0..i {
-                let (lo, hi) = cols.split_at_mut(i);
-                let dd = dot(&hi[0], &lo[j]);
-                for r in 0..d {
-                    hi[0][r] -= dd * lo[j][r];
-                }
-            }
-            let mut nrm = dot(&cols[i], &cols[i]).sqrt();
-            let rii = nrm;
-            if nrm.is_nan() || nrm <= super::lyapunov_spectrum::COLLAPSE_REL * norm_in {
-                // A scaled unit vector orthogonal to the earlier columns.
-                let mut best = ([0.0; D_MAX], 0.0);
-                for k in 0..d {
-                    let mut v = [0.0; D_MAX];
-                    v[k] = q.scale[k];
-                    for j in 0..i {
-                        let dd = dot(&v, &cols[j]);
-                        for r in 0..d {
-                            v[r] -= dd * cols[j][r];
-                        }
-                    }
-                    let nv = dot(&v, &v).sqrt();
-                    if nv > best.1 {
-                        best = (v, nv);
-                    }
-                }
-                cols[i] = best.0;
-                nrm = best.1;
-            }
+        let mut cols: Vec<Vec<f64>> = self.cols[..d]
+            .iter()
+            .map(|c| (0..d).map(|r| c[r] / q.scale[r]).collect())
+            .collect();
+        q.frame.orthonormalise(&mut cols);
+        for (c, s) in self.cols.iter_mut().zip(&cols) {
             for r in 0..d {
-                cols[i][r] /= nrm;
-            }
-            if i >= d - q.deficit {
-                q.collapsed[i] = true;
-            } else if !q.collapsed[i] {
-                q.logs[i] += rii.ln();
+                c[r] = s[r] * q.scale[r];
             }
         }
     }
@@ -632,15 +573,11 @@ impl Observer for ModalVariational {
             Mode::Free | Mode::NoBall => self.apply_free(t1 - t0),
             Mode::Stick | Mode::Contact(_) => self.apply_held(mode, t1 - t0),
         }
-        if let Some(q) = self.qr.as_deref_mut() {
-            let removes = match mode {
-                Mode::Stick => 1,
-                Mode::Contact(_) => 2,
-                _ => 0,
-            };
-            q.deficit = q.deficit.max(removes);
-        }
-        self.step_done();
+        self.step_done(Step::Segment {
+            t0_s: t0,
+            t1_s: t1,
+            mode,
+        });
     }
 
     fn event(&mut self, ev: &Event) {

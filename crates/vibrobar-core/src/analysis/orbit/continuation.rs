@@ -29,23 +29,30 @@
 //! grazing while the orbit stays confined; a branch whose orbit loses every event (the ball
 //! floats, neutral in its position) stops there.
 //!
+//! **Both bars.** The scheme is written once over [`Flow`] and a [`Family`] (the systems along a
+//! branch: the parameter's setter): on the lumped bar an [`AxisFamily`] (ratio, gap, friction
+//! force, restitution, mass ratio), on the N-mode bar a [`super::modal::ModalFamily`] (the same
+//! axes and the cavity position on a `[beam]`). The parameter column `∂F/∂p̃` is exact where the
+//! family's variational layer carries the parameter ([`Family::param_derivative`]); elsewhere it
+//! is the central difference `(P(x; p̃ + δ) − P(x; p̃ − δ))/2δ` with `δ` = [`Family::param_step`]
+//! of the interval (two runs per corrector iteration): truncation `O(δ²)` times the map's third
+//! derivative in `p̃`, rounding ~1e-12/δ of the scale. On the N-mode bar every column is a central
+//! difference (`δ` = [`super::modal::PARAM_STEP`]); its accuracy is tested through the
+//! implicit-function derivative `dx/dp = −(DP − I)⁻¹ ∂P/∂p` against orbits recomputed by Newton
+//! at nearby cavity positions (`tests/orbit_modal.rs`), and against the lumped layer's exact
+//! parameter columns on one unit mode.
+//!
 //! **The section moves with the orbit**: when an event comes within 2 % of the period of the
 //! section time, the section is moved to the middle of the longest event-free stretch (the
 //! multipliers do not depend on it).
 
-use super::{
-    describe, find_orbit, scales, to_vector, MapJacobian, NewtonSettings, OrbitEvent,
-    PeriodicOrbit, Section,
-};
+use super::{describe, find_orbit, Flow, MapJacobian, NewtonSettings, Orbit, OrbitEvent, Section};
 use crate::analysis::grid::Axis;
 use crate::analysis::variational::{flow_with_param_derivative, Param};
 use crate::error::{ParamError, SimError};
 use crate::params::System;
-use crate::solver::{Exact, Solver};
-use nalgebra::{Matrix4, SMatrix, SVector};
-
-type M5 = SMatrix<f64, 5, 5>;
-type V5 = SVector<f64, 5>;
+use crate::solver::Exact;
+use nalgebra::{DMatrix, DVector};
 
 /// What happened between two points of a branch.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -127,11 +134,11 @@ pub use crate::limits::MAX_CONTINUATION_POINTS;
 
 /// One point of a branch.
 #[derive(Debug, Clone, PartialEq)]
-pub struct BranchPoint {
+pub struct BranchPoint<F: Flow = Section> {
     /// Parameter value (SI: `gap_m` in metres).
     pub param: f64,
     /// The orbit.
-    pub orbit: PeriodicOrbit,
+    pub orbit: Orbit<F>,
     /// The event between the previous point and this one.
     pub event: Option<BranchEvent>,
     /// 0 for the main branch, 1, 2, … for branches switched to at period doublings.
@@ -140,40 +147,104 @@ pub struct BranchPoint {
 
 /// A computed branch (and the branches switched to).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Branch {
-    /// The parameter followed.
-    pub axis: Axis,
+pub struct Branch<F: Flow = Section> {
+    /// The parameter followed, by its name in messages ([`Family::name`]).
+    pub param: &'static str,
     /// Points, branch by branch, each in continuation order.
-    pub points: Vec<BranchPoint>,
-    /// Why each branch ended (main branch first).
+    pub points: Vec<BranchPoint<F>>,
+    /// Why each branch ended (main branch first; then one entry per period doubling the switch
+    /// was tried at).
     pub stop_reasons: Vec<String>,
 }
 
-/// The state of one continuation: fixed base system, axis, interval and scales.
-struct Cont<'a> {
-    base: System,
-    axis: Axis,
+/// The systems along a branch: a base system and the parameter followed (the continuation's
+/// setter), for one bar's [`Flow`].
+pub trait Family: Sync {
+    /// The bar's map.
+    type Flow: Flow;
+
+    /// The parameter's name in stop reasons (`gap_m`, `cavity-position-mm`, …).
+    fn name(&self) -> &'static str;
+
+    /// The map at the parameter `value` (SI), section time `t0_s`, period `periods`, checked.
+    fn section(&self, value: f64, t0_s: f64, periods: u32) -> Result<Self::Flow, SimError>;
+
+    /// The parameter's value (SI) in `sec`, where the system carries it.
+    fn value_of(&self, sec: &Self::Flow) -> Option<f64>;
+
+    /// `∂P(x)/∂p` per SI unit from the variational layer, `None` where it does not carry the
+    /// parameter (the continuation then takes central differences of the map).
+    fn param_derivative(&self, sec: &Self::Flow, x: &[f64]) -> Result<Option<Vec<f64>>, SimError>;
+
+    /// The central-difference step of the parameter column, in units of the interval (`p̃`).
+    fn param_step(&self) -> f64;
+}
+
+/// The lumped bar's systems along one [`Axis`] from `base`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisFamily {
+    /// The system the axis is set in.
+    pub base: System,
+    /// The parameter followed.
+    pub axis: Axis,
+}
+
+impl Family for AxisFamily {
+    type Flow = Section;
+
+    fn name(&self) -> &'static str {
+        self.axis.as_str()
+    }
+
+    fn section(&self, value: f64, t0_s: f64, periods: u32) -> Result<Section, SimError> {
+        let mut s = self.base;
+        self.axis.apply(&mut s, value)?;
+        s.validate()?;
+        Section::new(s, t0_s, periods)
+    }
+
+    fn value_of(&self, sec: &Section) -> Option<f64> {
+        Some(param_of(&sec.system, self.axis))
+    }
+
+    fn param_derivative(&self, sec: &Section, x: &[f64]) -> Result<Option<Vec<f64>>, SimError> {
+        let x = [x[0], x[1], x[2], x[3]];
+        Ok(map_param_derivative(sec, self.axis, &x)?.map(|c| c.to_vec()))
+    }
+
+    fn param_step(&self) -> f64 {
+        1e-7
+    }
+}
+
+/// The state of one continuation: the family, interval, Jacobian and scales.
+struct Cont<'a, Fm: Family> {
+    fam: &'a Fm,
     from: f64,
     to: f64,
-    sc: [f64; 4],
-    jac: &'a dyn MapJacobian,
+    sc: Vec<f64>,
+    d: usize,
+    jac: &'a dyn MapJacobian<Fm::Flow>,
     settings: ContinuationSettings,
     periods: u32,
 }
 
 /// A converged point: unknowns, its section, orbit and tangent.
-#[derive(Clone)]
-struct Pt {
-    y: V5,
-    sec: Section,
-    orbit: PeriodicOrbit,
-    tangent: V5,
+struct Pt<F: Flow> {
+    y: DVector<f64>,
+    sec: F,
+    orbit: Orbit<F>,
+    tangent: DVector<f64>,
 }
+
+/// `F(y)`, the extended Jacobian (the `D × (D+1)` block in the top rows of a square matrix) and
+/// `DP`.
+type Eval = (DVector<f64>, DMatrix<f64>, DMatrix<f64>);
 
 /// Stability class of an orbit: (real > 1, real < −1, complex outside), the cyclic event
 /// sequence, and how many stick/contact phases it has.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub(super) struct Class {
+struct Class {
     pos: usize,
     neg: usize,
     cplx: usize,
@@ -181,15 +252,9 @@ pub(super) struct Class {
     sticky: usize,
 }
 
-fn class_of(o: &PeriodicOrbit) -> Class {
-    class_from(&o.multipliers, &o.sequence)
-}
-
-/// [`class_of`] from the multipliers and the event sequence (shared with the modal bar's
-/// continuation).
-pub(super) fn class_from(multipliers: &[num_complex::Complex64], sequence: &str) -> Class {
+fn class_of<F: Flow>(o: &Orbit<F>) -> Class {
     let (mut pos, mut neg, mut cplx) = (0, 0, 0);
-    for l in multipliers {
+    for l in &o.multipliers {
         if l.norm() > 1.0 {
             if l.im.abs() > 1e-9 * l.norm() {
                 cplx += 1;
@@ -204,8 +269,8 @@ pub(super) fn class_from(multipliers: &[num_complex::Complex64], sequence: &str)
         pos,
         neg,
         cplx,
-        seq: cyclic_canonical(sequence),
-        sticky: sequence.chars().filter(|c| "scur".contains(*c)).count(),
+        seq: cyclic_canonical(&o.sequence),
+        sticky: o.sequence.chars().filter(|c| "scur".contains(*c)).count(),
     }
 }
 
@@ -225,7 +290,7 @@ fn cyclic_canonical(s: &str) -> String {
 
 /// The event between two classes (`None` if none), with the tangents' parameter components for
 /// telling a fold from a branch point.
-pub(super) fn event_between(a: &Class, b: &Class, tp_a: f64, tp_b: f64) -> Option<BranchEvent> {
+fn event_between(a: &Class, b: &Class, tp_a: f64, tp_b: f64) -> Option<BranchEvent> {
     if a.sticky != b.sticky {
         return Some(BranchEvent::StickOnset);
     }
@@ -246,79 +311,86 @@ pub(super) fn event_between(a: &Class, b: &Class, tp_a: f64, tp_b: f64) -> Optio
     }
 }
 
-impl Cont<'_> {
+impl<Fm: Family> Cont<'_, Fm> {
     fn param(&self, pt: f64) -> f64 {
         self.from + pt * (self.to - self.from)
     }
 
-    fn system(&self, pt: f64) -> Result<System, SimError> {
-        let mut s = self.base;
-        self.axis.apply(&mut s, self.param(pt))?;
-        s.validate()?;
-        Ok(s)
+    fn x_of(&self, y: &DVector<f64>) -> Vec<f64> {
+        (0..self.d).map(|i| y[i] * self.sc[i]).collect()
     }
 
-    fn x_of(&self, y: &V5) -> [f64; 4] {
-        [0, 1, 2, 3].map(|i| y[i] * self.sc[i])
+    /// The unknowns of the orbit state `x` at `p̃ = pt`.
+    fn y_of(&self, x: &[f64], pt: f64) -> DVector<f64> {
+        DVector::from_fn(
+            self.d + 1,
+            |i, _| {
+                if i < self.d {
+                    x[i] / self.sc[i]
+                } else {
+                    pt
+                }
+            },
+        )
     }
 
-    fn section(&self, t0: f64, pt: f64) -> Result<Section, SimError> {
-        Section::new(self.system(pt)?, t0, self.periods)
+    fn section(&self, t0: f64, pt: f64) -> Result<Fm::Flow, SimError> {
+        self.fam.section(self.param(pt), t0, self.periods)
     }
 
-    /// `F(y)` and its 4 × 5 Jacobian (as the top of a 5 × 5 matrix), plus `DP`.
-    fn eval(&self, t0: f64, y: &V5) -> Result<(V5, M5, Matrix4<f64>), SimError> {
-        let sec = self.section(t0, y[4])?;
-        let x = sec.clamp(self.x_of(y));
+    /// `F(y)`, its Jacobian and `DP`.
+    fn eval(&self, t0: f64, y: &DVector<f64>) -> Result<Eval, SimError> {
+        let d = self.d;
+        let sec = self.section(t0, y[d])?;
+        let x = sec.clamp(&self.x_of(y));
         let (px, dp) = self.jac.map_and_jacobian(&sec, &x)?;
-        let mut f = V5::zeros();
-        let mut j = M5::zeros();
-        for i in 0..4 {
+        let mut f = DVector::zeros(d + 1);
+        let mut j = DMatrix::zeros(d + 1, d + 1);
+        for i in 0..d {
             f[i] = (px[i] - x[i]) / self.sc[i];
-            for k in 0..4 {
+            for k in 0..d {
                 j[(i, k)] = dp[(i, k)] * self.sc[k] / self.sc[i] - if i == k { 1.0 } else { 0.0 };
             }
         }
         // ∂F/∂p̃: exact where the variational layer carries the parameter, else central
         // differences of the map (one-sided at the interval's natural ends is not needed: the
         // parameter stays valid slightly beyond them or the step fails).
-        match map_param_derivative(&sec, self.axis, &x)? {
+        match self.fam.param_derivative(&sec, &x)? {
             Some(col) => {
-                for i in 0..4 {
-                    j[(i, 4)] = col[i] * (self.to - self.from) / self.sc[i];
+                for i in 0..d {
+                    j[(i, d)] = col[i] * (self.to - self.from) / self.sc[i];
                 }
             }
             None => {
-                let d = 1e-7;
-                let fp = |pt: f64| -> Result<[f64; 4], SimError> {
-                    let s = self.section(t0, pt)?;
-                    s.flow(&x)
-                };
-                let (a, b) = (fp(y[4] + d)?, fp(y[4] - d)?);
-                for i in 0..4 {
-                    j[(i, 4)] = (a[i] - b[i]) / (2.0 * d * self.sc[i]);
+                let h = self.fam.param_step();
+                let fp = |pt: f64| -> Result<Vec<f64>, SimError> { self.section(t0, pt)?.flow(&x) };
+                let (a, b) = (fp(y[d] + h)?, fp(y[d] - h)?);
+                for i in 0..d {
+                    j[(i, d)] = (a[i] - b[i]) / (2.0 * h * self.sc[i]);
                 }
             }
         }
         Ok((f, j, dp))
     }
 
-    /// Unit tangent: kernel of the 4 × 5 Jacobian, oriented along `prev`.
-    fn tangent(&self, j: &M5, prev: &V5) -> Option<V5> {
-        let mut m = *j;
-        for k in 0..5 {
-            m[(4, k)] = prev[k];
+    /// Unit tangent: kernel of the `D × (D+1)` Jacobian, oriented along `prev`.
+    fn tangent(&self, j: &DMatrix<f64>, prev: &DVector<f64>) -> Option<DVector<f64>> {
+        let d = self.d;
+        let mut m = j.clone();
+        for k in 0..=d {
+            m[(d, k)] = prev[k];
         }
-        let mut rhs = V5::zeros();
-        rhs[4] = 1.0;
+        let mut rhs = DVector::zeros(d + 1);
+        rhs[d] = 1.0;
         let t = m.lu().solve(&rhs)?;
         let n = t.norm();
         (n.is_finite() && n > 0.0).then(|| t / n)
     }
 
     /// Correct from the prediction `y_pred` with the arclength condition along `t`.
-    fn correct(&self, t0: f64, y_pred: &V5, t: &V5) -> Result<(V5, M5, Matrix4<f64>), SimError> {
-        let mut y = *y_pred;
+    fn correct(&self, t0: f64, y_pred: &DVector<f64>, t: &DVector<f64>) -> Result<Eval, SimError> {
+        let d = self.d;
+        let mut y = y_pred.clone();
         let tol = self.settings.newton.tolerance;
         let mut last = f64::INFINITY;
         for it in 0..=self.settings.newton.max_iterations {
@@ -338,42 +410,47 @@ impl Cont<'_> {
             }
             last = r;
             let mut rhs = -f;
-            for k in 0..5 {
-                j[(4, k)] = t[k];
+            for k in 0..=d {
+                j[(d, k)] = t[k];
             }
-            rhs[4] = -t.dot(&(y - y_pred));
-            let d = j.lu().solve(&rhs).ok_or(SimError::NoConvergence {
+            rhs[d] = -t.dot(&(&y - y_pred));
+            let step = j.lu().solve(&rhs).ok_or(SimError::NoConvergence {
                 what: "the continuation corrector (singular Jacobian)",
                 iterations: it,
                 residual: r,
                 tolerance: tol,
             })?;
-            y += d;
+            y += step;
             // Keep w inside the cavity.
-            let lg = self
-                .system(y[4])?
-                .damper
-                .map_or(f64::INFINITY, |d| d.half_gap_m());
-            y[2] = y[2].clamp(-lg / self.sc[2], lg / self.sc[2]);
+            let lg = self.section(t0, y[d])?.half_gap_m();
+            let iw = d - 2;
+            y[iw] = y[iw].clamp(-lg / self.sc[iw], lg / self.sc[iw]);
         }
         unreachable!("the loop returns")
     }
 
     /// A full point at `y` (section time `t0`): orbit description and tangent.
-    fn point(&self, t0: f64, y: V5, j: &M5, dp: Matrix4<f64>, prev_t: &V5) -> Result<Pt, SimError> {
-        let sec = self.section(t0, y[4])?;
-        let x = sec.clamp(self.x_of(&y));
-        let orbit = describe(&sec, &x, dp, self.jac.name(), 0.0, 0)?;
+    fn point(
+        &self,
+        t0: f64,
+        y: DVector<f64>,
+        j: &DMatrix<f64>,
+        dp: DMatrix<f64>,
+        prev_t: &DVector<f64>,
+    ) -> Result<Pt<Fm::Flow>, SimError> {
+        let d = self.d;
+        let sec = self.section(t0, y[d])?;
+        let x = sec.clamp(&self.x_of(&y));
+        let mut orbit = describe(&sec, &x, dp, self.jac.name(), 0.0, 0)?;
         let tangent = self.tangent(j, prev_t).ok_or(SimError::NoConvergence {
             what: "the continuation tangent (singular extended Jacobian)",
             iterations: 0,
             residual: f64::NAN,
             tolerance: 0.0,
         })?;
-        let mut orbit = orbit;
         orbit.residual = {
             let px = sec.flow(&x)?;
-            (0..4)
+            (0..d)
                 .map(|i| ((px[i] - x[i]) / self.sc[i]).abs())
                 .fold(0.0, f64::max)
         };
@@ -386,30 +463,31 @@ impl Cont<'_> {
     }
 
     /// Move the section when an event is within 2 % of the period of it.
-    fn rephase(&self, p: Pt) -> Result<Pt, SimError> {
+    fn rephase(&self, p: Pt<Fm::Flow>) -> Result<Pt<Fm::Flow>, SimError> {
         let Some(mid) = rephased_offset(&p.orbit.events, p.sec.period_s()) else {
             return Ok(p);
         };
-        let t_new = p.sec.t0_s + mid;
-        let s = Exact::default()
-            .run(&p.sec.system, &p.orbit.state, t_new, &mut ())?
-            .final_state;
-        let tt = p.sec.system.forcing_period_s();
+        let t_new = p.sec.t0_s() + mid;
+        let (s, _) = p.sec.run(&p.orbit.state, t_new, &mut ())?;
+        let tt = p.sec.forcing_period_s();
         let t0 = t_new - (t_new / tt).floor() * tt;
-        let x = to_vector(&s);
-        let mut y = p.y;
-        for i in 0..4 {
-            y[i] = x[i] / self.sc[i];
-        }
+        let y = self.y_of(&p.sec.vector(&s), p.y[self.d]);
         let (_, j, dp) = self.eval(t0, &y)?;
         self.point(t0, y, &j, dp, &p.tangent)
+    }
+
+    /// The unit vector along `p̃`.
+    fn e_param(&self) -> DVector<f64> {
+        let mut e = DVector::zeros(self.d + 1);
+        e[self.d] = 1.0;
+        e
     }
 }
 
 /// Where to move the section of an orbit whose `events` (times from the section, orbit period
 /// `kt`) come within 2 % of the period of it: the offset of the middle of the longest
-/// event-free stretch; `None` where no event is near. The rule of lumped and modal branches.
-pub(super) fn rephased_offset(events: &[OrbitEvent], kt: f64) -> Option<f64> {
+/// event-free stretch; `None` where no event is near.
+fn rephased_offset(events: &[OrbitEvent], kt: f64) -> Option<f64> {
     let near = events
         .iter()
         .any(|e| e.dt_s < 0.02 * kt || e.dt_s > 0.98 * kt);
@@ -422,18 +500,37 @@ pub(super) fn rephased_offset(events: &[OrbitEvent], kt: f64) -> Option<f64> {
 }
 
 /// Follow the orbit `start` (a fixed point at parameter `from`) in `axis` from `from` to `to`
-/// (module docs). The branch ends at `to`, when it turns back past `from`, at
-/// `settings.max_points`, when the orbit loses every event, or when the step falls below its
-/// minimum; the reason is in [`Branch::stop_reasons`].
+/// (module docs): [`follow_branch`] on the lumped bar.
 pub fn continue_orbit(
-    start: &PeriodicOrbit,
+    start: &Orbit<Section>,
     axis: Axis,
     from: f64,
     to: f64,
     jac: &dyn MapJacobian,
     settings: &ContinuationSettings,
 ) -> Result<Branch, SimError> {
-    check_interval(axis, from, to)?;
+    let fam = AxisFamily {
+        base: start.section.system,
+        axis,
+    };
+    follow_branch(start, &fam, from, to, jac, settings)
+}
+
+/// Follow the orbit `start` of a system of `fam` (a fixed point at the parameter `from`, SI)
+/// from `from` to `to` (module docs), either bar; with `settings.switch_branches`, the
+/// period-doubled branch from each period doubling of the main branch too (points with
+/// `branch` 1, 2, …). The branch ends at `to`, when it turns back past `from`, at
+/// `settings.max_points`, when the orbit loses every event, or when the step falls below its
+/// minimum; the reason is in [`Branch::stop_reasons`].
+pub fn follow_branch<Fm: Family>(
+    start: &Orbit<Fm::Flow>,
+    fam: &Fm,
+    from: f64,
+    to: f64,
+    jac: &dyn MapJacobian<Fm::Flow>,
+    settings: &ContinuationSettings,
+) -> Result<Branch<Fm::Flow>, SimError> {
+    check_ends(from, to)?;
     crate::limits::check_count(
         "points (--max-points)",
         settings.max_points,
@@ -442,40 +539,41 @@ pub fn continue_orbit(
         "",
     )?;
     let c = Cont {
-        base: start.section.system,
-        axis,
+        fam,
         from,
         to,
-        sc: scales(&start.section.system),
+        sc: start.section.scales(),
+        d: start.section.dim(),
         jac,
         settings: *settings,
-        periods: start.section.periods,
+        periods: start.section.periods(),
     };
     let mut out = Branch {
-        axis,
+        param: fam.name(),
         points: Vec::new(),
         stop_reasons: Vec::new(),
     };
-    let reason = follow(&c, start, 0, &mut out.points)?;
+    let p0 = fam.value_of(&start.section).unwrap_or(from);
+    let reason = follow(&c, start, p0, 0, &mut out.points)?;
     out.stop_reasons.push(reason);
     if settings.switch_branches {
-        let pds: Vec<BranchPoint> = out
+        let pds: Vec<(f64, Orbit<Fm::Flow>)> = out
             .points
             .iter()
             .filter(|p| p.event == Some(BranchEvent::PeriodDoubling))
-            .cloned()
+            .map(|p| (p.param, p.orbit.clone()))
             .collect();
-        for pd in pds {
+        for (param, orbit) in pds {
             if 2 * c.periods > super::MAX_ORBIT_PERIOD {
                 break;
             }
             let id = out.stop_reasons.len();
-            match switch_at_doubling(&c, &pd, id, &mut out.points)? {
+            match switch_at_doubling(&c, param, &orbit, id, &mut out.points)? {
                 Some(r) => out.stop_reasons.push(r),
                 None => out.stop_reasons.push(format!(
                     "no period-{} orbit found next to the period doubling at {}",
                     2 * c.periods,
-                    pd.param
+                    param
                 )),
             }
         }
@@ -485,6 +583,12 @@ pub fn continue_orbit(
 
 /// Check a continuation interval: finite, not empty, both ends valid for the axis.
 pub fn check_interval(axis: Axis, from: f64, to: f64) -> Result<(), ParamError> {
+    let _ = axis;
+    check_ends(from, to)
+}
+
+/// Check a continuation interval's ends: finite and not equal.
+fn check_ends(from: f64, to: f64) -> Result<(), ParamError> {
     crate::params::finite("--from", from)?;
     crate::params::finite("--to", to)?;
     // An empty interval (the ends equal).
@@ -495,31 +599,26 @@ pub fn check_interval(axis: Axis, from: f64, to: f64) -> Result<(), ParamError> 
             allowed: "a value other than --from (the interval is empty)",
         });
     }
-    let _ = axis;
     Ok(())
 }
 
-/// Follow one branch, appending its points; returns why it ended.
-fn follow(
-    c: &Cont,
-    start: &PeriodicOrbit,
+/// Follow one branch from `start` (at the parameter `p0`, SI), appending its points (numbered
+/// `branch`); returns why it ended.
+fn follow<Fm: Family>(
+    c: &Cont<Fm>,
+    start: &Orbit<Fm::Flow>,
+    p0: f64,
     branch: usize,
-    out: &mut Vec<BranchPoint>,
+    out: &mut Vec<BranchPoint<Fm::Flow>>,
 ) -> Result<String, SimError> {
-    let x0 = to_vector(&start.state);
-    let mut y = V5::zeros();
-    for i in 0..4 {
-        y[i] = x0[i] / c.sc[i];
-    }
+    let d = c.d;
     // p̃ of the start (0 for the main branch).
-    y[4] = (param_of(&start.section.system, c.axis) - c.from) / (c.to - c.from);
-    let t0 = start.section.t0_s;
+    let y = c.y_of(&start.vector(), (p0 - c.from) / (c.to - c.from));
+    let t0 = start.section.t0_s();
     let (_, j, dp) = c.eval(t0, &y)?;
-    let mut e5 = V5::zeros();
-    e5[4] = 1.0;
-    let mut cur = c.rephase(c.point(t0, y, &j, dp, &e5)?)?;
+    let mut cur = c.rephase(c.point(t0, y, &j, dp, &c.e_param())?)?;
     out.push(BranchPoint {
-        param: c.param(cur.y[4]),
+        param: c.param(cur.y[d]),
         orbit: cur.orbit.clone(),
         event: None,
         branch,
@@ -551,10 +650,10 @@ fn follow(
                 let across = jump_across(c, &cur).filter(|p| class_of(&p.orbit).seq != ca.seq);
                 if let Some(p) = across {
                     let cb = class_of(&p.orbit);
-                    let ev = event_between(&ca, &cb, cur.tangent[4], p.tangent[4])
+                    let ev = event_between(&ca, &cb, cur.tangent[d], p.tangent[d])
                         .or(Some(BranchEvent::Grazing));
                     out.push(BranchPoint {
-                        param: c.param(p.y[4]),
+                        param: c.param(p.y[d]),
                         orbit: p.orbit.clone(),
                         event: ev,
                         branch,
@@ -566,13 +665,9 @@ fn follow(
                     continue;
                 }
             }
-            let lg = cur
-                .sec
-                .system
-                .damper
-                .map_or(f64::INFINITY, |d| d.half_gap_m());
+            let lg = cur.sec.half_gap_m();
             let ph = cur.orbit.physicality;
-            let slow = ph.min_impact_speed_m_s < 1e-2 * c.sc[3];
+            let slow = ph.min_impact_speed_m_s < 1e-2 * c.sc[d - 1];
             if ph.grazing_margin_m < 1e-2 * lg || slow {
                 if let Some(last) = out.last_mut() {
                     last.event.get_or_insert(BranchEvent::Grazing);
@@ -590,27 +685,26 @@ fn follow(
                 };
                 return Ok(format!(
                     "grazing at {} = {}: {what}, and no orbit was found past it",
-                    c.axis.as_str(),
-                    c.param(cur.y[4]),
+                    c.fam.name(),
+                    c.param(cur.y[d]),
                 ));
             }
             return Ok(format!(
                 "step below {:e} at {} = {} (the corrector fails: a nonsmooth point the branch cannot pass)",
                 c.settings.step_min,
-                c.axis.as_str(),
-                c.param(cur.y[4])
+                c.fam.name(),
+                c.param(cur.y[d])
             ));
         }
         // Land exactly on the end of the interval.
-        let end = if cur.tangent[4] > 0.0 { 1.0 } else { 0.0 };
+        let end = if cur.tangent[d] > 0.0 { 1.0 } else { 0.0 };
         let mut hh = h;
         let mut to_end = false;
-        if cur.tangent[4].abs() > 1e-3 && (end - cur.y[4]) / cur.tangent[4] < hh {
-            hh = (end - cur.y[4]) / cur.tangent[4];
+        if cur.tangent[d].abs() > 1e-3 && (end - cur.y[d]) / cur.tangent[d] < hh {
+            hh = (end - cur.y[d]) / cur.tangent[d];
             to_end = true;
         }
-        let attempt = step(c, &cur, hh, to_end.then_some(end));
-        let next = match attempt {
+        let next = match step(c, &cur, hh, to_end.then_some(end)) {
             Ok(p) => {
                 jumped = false;
                 p
@@ -627,7 +721,7 @@ fn follow(
             continue;
         }
         let (ca, cb) = (class_of(&cur.orbit), class_of(&next.orbit));
-        let ev = event_between(&ca, &cb, cur.tangent[4], next.tangent[4]);
+        let ev = event_between(&ca, &cb, cur.tangent[d], next.tangent[d]);
         // The event's row: the located first point past it (the branch goes on from the full
         // step's point, so that tiny steps near a branch point do not hop onto the other branch).
         let mut next_event = ev;
@@ -636,35 +730,33 @@ fn follow(
                 let cl = class_of(&l.orbit);
                 // The kind from the located point's class; a fold from the tangents of the full
                 // step (at the singular point itself the tangent is ill-conditioned).
-                let e = event_between(&ca, &cl, cur.tangent[4], next.tangent[4]).unwrap_or(e);
-                let fresh = (l.y - next.y).amax() > 1e-12;
-                out.push(BranchPoint {
-                    param: c.param(l.y[4]),
-                    orbit: l.orbit,
-                    event: Some(e),
-                    branch,
-                });
-                n += 1;
-                next_event = if fresh { None } else { Some(e) };
-                if !fresh {
-                    out.pop();
-                    n -= 1;
+                let e = event_between(&ca, &cl, cur.tangent[d], next.tangent[d]).unwrap_or(e);
+                if (&l.y - &next.y).amax() > 1e-12 {
+                    out.push(BranchPoint {
+                        param: c.param(l.y[d]),
+                        orbit: l.orbit,
+                        event: Some(e),
+                        branch,
+                    });
+                    n += 1;
+                    next_event = None;
+                } else {
+                    next_event = Some(e);
                 }
             }
         }
         out.push(BranchPoint {
-            param: c.param(next.y[4]),
+            param: c.param(next.y[d]),
             orbit: next.orbit.clone(),
             event: next_event,
             branch,
         });
         n += 1;
-        let done_end = to_end;
         cur = c.rephase(next)?;
-        if done_end || (to_end && (cur.y[4] - end).abs() < 1e-12) {
+        if to_end {
             return Ok("end of the interval reached".into());
         }
-        if cur.y[4] < -0.02 || cur.y[4] > 1.02 {
+        if cur.y[d] < -0.02 || cur.y[d] > 1.02 {
             return Ok("the branch left the interval".into());
         }
         h = (h * 1.3).min(c.settings.step_max);
@@ -672,60 +764,51 @@ fn follow(
 }
 
 /// One predictor–corrector step of length `h` from `cur`; `pin` fixes `p̃` (the interval's end).
-fn step(c: &Cont, cur: &Pt, h: f64, pin: Option<f64>) -> Result<Pt, SimError> {
-    let t0 = cur.sec.t0_s;
-    let y_pred = cur.y + cur.tangent * h;
+fn step<Fm: Family>(
+    c: &Cont<Fm>,
+    cur: &Pt<Fm::Flow>,
+    h: f64,
+    pin: Option<f64>,
+) -> Result<Pt<Fm::Flow>, SimError> {
+    let t0 = cur.sec.t0_s();
+    let y_pred = &cur.y + &cur.tangent * h;
     let (y, j, dp) = match pin {
         None => c.correct(t0, &y_pred, &cur.tangent)?,
         Some(p) => {
             // Natural-parameter correction at p̃ = p: the arclength row fixes p̃ only.
-            let mut e5 = V5::zeros();
-            e5[4] = 1.0;
             let mut yp = y_pred;
-            yp[4] = p;
-            c.correct(t0, &yp, &e5)?
+            yp[c.d] = p;
+            c.correct(t0, &yp, &c.e_param())?
         }
     };
     c.point(t0, y, &j, dp, &cur.tangent)
 }
 
-/// Bisect the step between `cur` (class `ca`) and `next` for the first point of the new class.
-fn locate(c: &Cont, cur: &Pt, h: f64, ca: &Class) -> Option<Pt> {
-    bisect_step(
-        h,
-        ca,
-        |mid| step(c, cur, mid, None).ok(),
-        |p| class_of(&p.orbit),
-    )
-}
-
-/// The bisection of an event between a point of class `ca` (step 0) and the step `h` past it
-/// (shared with the modal bar's continuation): `step(s)` corrects the point at arclength `s`
-/// (`None` if it fails, which ends the search); the first point found of another class, to
-/// 1e-9 of the step.
-pub(super) fn bisect_step<P>(
+/// Bisect the step between `cur` (class `ca`, step 0) and the step `h` past it for the first
+/// point of another class, to 1e-9 of the step (a failed correction ends the search).
+fn locate<Fm: Family>(
+    c: &Cont<Fm>,
+    cur: &Pt<Fm::Flow>,
     h: f64,
     ca: &Class,
-    mut step: impl FnMut(f64) -> Option<P>,
-    class: impl Fn(&P) -> Class,
-) -> Option<P> {
+) -> Option<Pt<Fm::Flow>> {
     let (mut lo, mut hi) = (0.0, h);
-    let mut best: Option<P> = None;
+    let mut best = None;
     for _ in 0..30 {
         if hi - lo < 1e-9 * h.max(1e-12) {
             break;
         }
         let mid = 0.5 * (lo + hi);
-        match step(mid) {
-            Some(p) => {
-                if class(&p) == *ca {
+        match step(c, cur, mid, None) {
+            Ok(p) => {
+                if class_of(&p.orbit) == *ca {
                     lo = mid;
                 } else {
                     hi = mid;
                     best = Some(p);
                 }
             }
-            None => break,
+            Err(_) => break,
         }
     }
     best
@@ -736,25 +819,21 @@ const MAX_JUMPS: usize = 20;
 
 /// Past a point where the tangent cannot be followed (grazing): Newton at fixed parameters a
 /// little further along the branch's direction, from the current orbit.
-fn jump_across(c: &Cont, cur: &Pt) -> Option<Pt> {
-    let dir = if cur.tangent[4] >= 0.0 { 1.0 } else { -1.0 };
-    let x = to_vector(&cur.orbit.state);
-    for d in [1e-4, 1e-3, 1e-2] {
-        let q = cur.y[4] + dir * d;
-        let sec = c.section(cur.sec.t0_s, q).ok()?;
+fn jump_across<Fm: Family>(c: &Cont<Fm>, cur: &Pt<Fm::Flow>) -> Option<Pt<Fm::Flow>> {
+    let d = c.d;
+    let dir = if cur.tangent[d] >= 0.0 { 1.0 } else { -1.0 };
+    let x = cur.orbit.vector();
+    for dq in [1e-4, 1e-3, 1e-2] {
+        let q = cur.y[d] + dir * dq;
+        let sec = c.section(cur.sec.t0_s(), q).ok()?;
         let Ok(orb) = find_orbit(&sec, &x, c.jac, &NewtonSettings::default()) else {
             continue;
         };
-        let xs = to_vector(&orb.state);
-        let mut y = V5::zeros();
-        for i in 0..4 {
-            y[i] = xs[i] / c.sc[i];
-        }
-        y[4] = q;
-        let Ok((_, j, dp)) = c.eval(sec.t0_s, &y) else {
+        let y = c.y_of(&orb.vector(), q);
+        let Ok((_, j, dp)) = c.eval(sec.t0_s(), &y) else {
             continue;
         };
-        if let Ok(p) = c.point(sec.t0_s, y, &j, dp, &cur.tangent) {
+        if let Ok(p) = c.point(sec.t0_s(), y, &j, dp, &cur.tangent) {
             return Some(p);
         }
     }
@@ -842,50 +921,49 @@ pub fn param_of(sys: &System, axis: Axis) -> f64 {
     }
 }
 
-/// Try to start the period-doubled branch next to a period doubling and follow it to the
-/// interval's end on the side it exists.
-fn switch_at_doubling(
-    c: &Cont,
-    pd: &BranchPoint,
+/// Try to start the period-doubled branch next to the period doubling at `pd_param` (orbit `o`)
+/// and follow it to the interval's end on the side it exists: Newton for a period-2k orbit from
+/// `o` displaced along the eigenvector of the multiplier closest to −1, on each side; the first
+/// genuine one (not the period-k orbit seen twice) is followed.
+fn switch_at_doubling<Fm: Family>(
+    c: &Cont<Fm>,
+    pd_param: f64,
+    o: &Orbit<Fm::Flow>,
     branch: usize,
-    out: &mut Vec<BranchPoint>,
+    out: &mut Vec<BranchPoint<Fm::Flow>>,
 ) -> Result<Option<String>, SimError> {
-    let o = &pd.orbit;
+    let dd = c.d;
     // Eigenvector of the multiplier closest to −1 (scaled coordinates): the smallest singular
     // vector of S⁻¹DPS + I.
-    let mut a = Matrix4::zeros();
-    for i in 0..4 {
-        for k in 0..4 {
-            a[(i, k)] = o.jacobian[(i, k)] * c.sc[k] / c.sc[i] + if i == k { 1.0 } else { 0.0 };
-        }
-    }
+    let a = DMatrix::from_fn(dd, dd, |i, k| {
+        o.jacobian[(i, k)] * c.sc[k] / c.sc[i] + if i == k { 1.0 } else { 0.0 }
+    });
     let svd = a.svd(false, true);
     let Some(vt) = svd.v_t else {
         return Ok(None);
     };
     let (imin, _) = svd.singular_values.argmin();
-    let v: [f64; 4] = [0, 1, 2, 3].map(|k| vt[(imin, k)]);
-    let pt = (pd.param - c.from) / (c.to - c.from);
-    let x = to_vector(&o.state);
+    let pt = (pd_param - c.from) / (c.to - c.from);
+    let x = o.vector();
     for side in [1.0, -1.0] {
         for (dp, eps) in [(2e-3, 0.05), (5e-3, 0.1), (1e-3, 0.02)] {
             let q = pt + side * dp;
-            let Ok(sys) = c.system(q) else { continue };
-            let Ok(sec) = Section::new(sys, o.section.t0_s, 2 * c.periods) else {
+            let Ok(sec) = c.fam.section(c.param(q), o.section.t0_s(), 2 * c.periods) else {
                 continue;
             };
-            let guess = [0, 1, 2, 3].map(|k| x[k] + eps * v[k] * c.sc[k]);
+            let guess: Vec<f64> = (0..dd)
+                .map(|k| x[k] + eps * vt[(imin, k)] * c.sc[k])
+                .collect();
             let Ok(orb) = find_orbit(&sec, &guess, c.jac, &NewtonSettings::default()) else {
                 continue;
             };
-            // A genuine period-2k orbit: not the period-k one seen twice.
-            let half = Section {
-                periods: c.periods,
-                ..sec
+            // A genuine period-2k orbit: not the period-k orbit seen twice.
+            let Ok(half) = sec.at(sec.t0_s(), c.periods) else {
+                continue;
             };
-            let xs = to_vector(&orb.state);
+            let xs = orb.vector();
             let Ok(ph) = half.flow(&xs) else { continue };
-            let dist = (0..4)
+            let dist = (0..dd)
                 .map(|k| ((ph[k] - xs[k]) / c.sc[k]).abs())
                 .fold(0.0, f64::max);
             if dist < 1e-5 {
@@ -900,16 +978,18 @@ fn switch_at_doubling(
                     switch_branches: false,
                     ..c.settings
                 },
+                sc: c.sc.clone(),
                 ..*c
             };
             if (sub.to - sub.from).abs() <= 0.0 {
                 continue;
             }
-            let r = follow(&sub, &orb, branch, out)?;
+            let p0 = c.fam.value_of(&orb.section).unwrap_or(sub.from);
+            let r = follow(&sub, &orb, p0, branch, out)?;
             return Ok(Some(format!(
                 "period-{} branch from the period doubling at {}: {r}",
                 2 * c.periods,
-                pd.param
+                pd_param
             )));
         }
     }

@@ -1,17 +1,21 @@
-//! Periodic orbits of the lumped bar: Newton's method on the stroboscopic map, Floquet
-//! multipliers, and (in [`continuation`]) pseudo-arclength continuation with bifurcation and
-//! grazing detection.
+//! Periodic orbits of the lumped and of the N-mode bar: Newton's method on the stroboscopic map,
+//! Floquet multipliers, and (in [`continuation`]) pseudo-arclength continuation with bifurcation
+//! and grazing detection. Each is written once over [`Flow`] ([`flow`]: the bar's exact flow as
+//! these analyses see it), which the lumped [`Section`] and the modal
+//! [`modal::ModalSection`] implement.
 //!
-//! **The map.** A [`Section`] fixes the system, a section time `t0` (a forcing phase `Ωt0`) and
-//! the period `k` in forcing cycles. Its state is `x = (u, u̇, w, ẇ)` at `t0`; the stroboscopic
+//! **The map.** A section fixes the system, a section time `t0` (a forcing phase `Ωt0`) and
+//! the period `k` in forcing cycles. Its state is `x = (u, u̇, w, ẇ)` at `t0` on the lumped bar
+//! ([`Section`]), `(q₁ … q_N, q̇₁ … q̇_N, w, ẇ)` on the N-mode bar ([`modal`]); the stroboscopic
 //! map `P(x)` is the exact solver's state at `t0 + kT` (`T = 2π/Ω`). A periodic orbit of period
 //! `k` is a fixed point `P(x) = x`; its Floquet multipliers are the eigenvalues of the Jacobian
 //! `DP` (the monodromy matrix, saltation at every event included). The Jacobian comes from a
 //! [`MapJacobian`]: [`FiniteDifference`] (central differences of the exact solver) or the exact
-//! variational flow.
+//! variational flow ([`ExactJacobian`]).
 //!
-//! **Newton** ([`find_orbit`]) works in scaled coordinates (`u/s_u`, `u̇/s_u̇`, `w/l_g`,
-//! `ẇ/(ω_n l_g)`, [`StateScales`]) so that one tolerance fits every component; the linear solve
+//! **Newton** ([`find_orbit`]) works in scaled coordinates ([`Flow::scales`]: `u/s_u`, `u̇/s_u̇`,
+//! `w/l_g`, `ẇ/(ω_n l_g)` on the lumped bar, [`StateScales`]; the modal bar's in [`modal`]) so
+//! that one tolerance fits every component; the linear solve
 //! is a least-squares one (SVD) because a ball that never touches a wall adds neutral
 //! directions (its position and velocity are free: multipliers 1). A step that does not lower the
 //! residual is halved. An iteration that does not converge is an error
@@ -23,8 +27,8 @@
 //! `|w|` (how close a new impact is: the grazing margin) and the slowest impact.
 
 pub mod continuation;
+pub mod flow;
 pub mod modal;
-pub mod modal_continuation;
 pub mod region;
 pub mod symmetric;
 pub mod two_param;
@@ -34,9 +38,10 @@ use crate::analysis::lyapunov::StateScales;
 use crate::error::{ParamError, SimError};
 use crate::params::{State, System};
 use crate::solver::{Event, EventKind, Exact, Fanout, Mode, Observer, Segment, Solver, Wall};
-use nalgebra::{Matrix4, Vector4};
+use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
+pub use flow::{to_relative_coordinates, ExactJacobian, FiniteDifference, Flow, MapJacobian};
 pub use symmetric::{symmetric_orbits, SymmetricOrbit};
 
 pub use crate::limits::MAX_ORBIT_PERIOD;
@@ -144,115 +149,96 @@ pub fn check_period(periods: u32) -> Result<(), ParamError> {
     Ok(())
 }
 
-/// The Jacobian of the stroboscopic map, `DP(x)` in the coordinates `(u, u̇, w, ẇ)` (SI).
-pub trait MapJacobian: Send + Sync {
-    /// Short name for output files (`finite-difference`, `variational`).
-    fn name(&self) -> &'static str;
-    /// `P(x)` and `DP(x)`.
-    fn map_and_jacobian(
+/// `T J T⁻¹` with `T: (u, u̇, v, v̇) → (u, u̇, v − u, v̇ − u̇)` ([`flow::to_relative_coordinates`]
+/// with `φ_d = 1`).
+pub fn to_relative(j: &crate::analysis::variational::Mat4) -> DMatrix<f64> {
+    to_relative_coordinates(&[1.0], &DMatrix::from_fn(4, 4, |r, c| j[r][c]))
+}
+
+impl Flow for Section {
+    type State = State;
+    const START_FIELD: &'static str = "starting guess (u, u̇, w, ẇ)";
+    const NO_ORBIT: &'static str = "Newton's method on the stroboscopic map (no periodic orbit near the starting guess; try another start, --period or a nearby parameter)";
+
+    fn dim(&self) -> usize {
+        4
+    }
+
+    fn t0_s(&self) -> f64 {
+        self.t0_s
+    }
+
+    fn periods(&self) -> u32 {
+        self.periods
+    }
+
+    fn at(&self, t0_s: f64, periods: u32) -> Result<Self, SimError> {
+        Section::new(self.system, t0_s, periods)
+    }
+
+    fn forcing_period_s(&self) -> f64 {
+        self.system.forcing_period_s()
+    }
+
+    fn period_s(&self) -> f64 {
+        Section::period_s(self)
+    }
+
+    fn omega_rad_s(&self) -> f64 {
+        self.system.omega_rad_s()
+    }
+
+    fn half_gap_m(&self) -> f64 {
+        self.system.damper.map_or(f64::INFINITY, |d| d.half_gap_m())
+    }
+
+    fn compliant(&self) -> bool {
+        self.system
+            .damper
+            .is_some_and(|d| d.contact.law == crate::params::ContactLaw::Hertz)
+    }
+
+    fn state(&self, x: &[f64]) -> State {
+        Section::state(self, &vec4(x))
+    }
+
+    fn vector(&self, s: &State) -> Vec<f64> {
+        to_vector(s).to_vec()
+    }
+
+    fn clamp(&self, x: &[f64]) -> Vec<f64> {
+        Section::clamp(self, vec4(x)).to_vec()
+    }
+
+    fn scales(&self) -> Vec<f64> {
+        scales(&self.system).to_vec()
+    }
+
+    fn run(
         &self,
-        sec: &Section,
-        x: &[f64; 4],
-    ) -> Result<([f64; 4], Matrix4<f64>), SimError>;
-}
-
-/// Central differences of the exact solver, step `rel_step` in scaled coordinates (one-sided
-/// where a central step would leave the cavity).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FiniteDifference {
-    /// Step in scaled units (`w/l_g` etc.).
-    pub rel_step: f64,
-}
-
-impl Default for FiniteDifference {
-    /// A step of 1e-6 scaled units: truncation ~1e-12 and rounding ~1e-10 of the entries.
-    fn default() -> Self {
-        FiniteDifference { rel_step: 1e-6 }
-    }
-}
-
-impl MapJacobian for FiniteDifference {
-    fn name(&self) -> &'static str {
-        "finite-difference"
+        s: &State,
+        t_end_s: f64,
+        obs: &mut dyn Observer,
+    ) -> Result<(State, f64), SimError> {
+        let r = Exact::default().run(&self.system, s, t_end_s, obs)?;
+        Ok((r.final_state, r.max_penetration_m))
     }
 
-    fn map_and_jacobian(
-        &self,
-        sec: &Section,
-        x: &[f64; 4],
-    ) -> Result<([f64; 4], Matrix4<f64>), SimError> {
-        let sc = scales(&sec.system);
-        let lg = sec.system.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
-        let px = sec.flow(x)?;
-        let mut jac = Matrix4::zeros();
-        for j in 0..4 {
-            let h = self.rel_step * sc[j];
-            let (mut plus, mut minus) = (*x, *x);
-            plus[j] += h;
-            minus[j] -= h;
-            // w stays inside the cavity: one-sided steps at a wall.
-            let (col, width) = if j == 2 && plus[2] > lg {
-                (sub(&px, &sec.flow(&minus)?), h)
-            } else if j == 2 && minus[2] < -lg {
-                (sub(&sec.flow(&plus)?, &px), h)
-            } else {
-                (sub(&sec.flow(&plus)?, &sec.flow(&minus)?), 2.0 * h)
-            };
-            for i in 0..4 {
-                jac[(i, j)] = col[i] / width;
-            }
-        }
-        Ok((px, jac))
-    }
-}
-
-/// The exact Jacobian: the variational flow with saltation matrices
-/// ([`crate::analysis::variational::flow_with_jacobian`]), taken from `(u, u̇, v, v̇)` to the map's
-/// `(u, u̇, w, ẇ)`. One run per evaluation instead of nine.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct ExactJacobian;
-
-impl MapJacobian for ExactJacobian {
-    fn name(&self) -> &'static str {
-        "variational"
-    }
-
-    fn map_and_jacobian(
-        &self,
-        sec: &Section,
-        x: &[f64; 4],
-    ) -> Result<([f64; 4], Matrix4<f64>), SimError> {
+    fn exact_jacobian(&self, x: &[f64]) -> Result<(Vec<f64>, DMatrix<f64>), SimError> {
         let fj = crate::analysis::variational::flow_with_jacobian(
             &Exact::default(),
-            &sec.system,
-            &sec.state(x),
-            sec.t0_s + sec.period_s(),
+            &self.system,
+            &Section::state(self, &vec4(x)),
+            self.t0_s + Section::period_s(self),
             &mut (),
         )?;
-        Ok((to_vector(&fj.state), to_relative(&fj.jacobian)))
+        Ok((to_vector(&fj.state).to_vec(), to_relative(&fj.jacobian)))
     }
 }
 
-/// `T J T⁻¹` with `T: (u, u̇, v, v̇) → (u, u̇, v − u, v̇ − u̇)`.
-pub fn to_relative(j: &crate::analysis::variational::Mat4) -> Matrix4<f64> {
-    let t = Matrix4::new(
-        1.0, 0.0, 0.0, 0.0, //
-        0.0, 1.0, 0.0, 0.0, //
-        -1.0, 0.0, 1.0, 0.0, //
-        0.0, -1.0, 0.0, 1.0,
-    );
-    let t_inv = Matrix4::new(
-        1.0, 0.0, 0.0, 0.0, //
-        0.0, 1.0, 0.0, 0.0, //
-        1.0, 0.0, 1.0, 0.0, //
-        0.0, 1.0, 0.0, 1.0,
-    );
-    let jm = Matrix4::from_fn(|r, c| j[r][c]);
-    t * jm * t_inv
-}
-
-fn sub(a: &[f64; 4], b: &[f64; 4]) -> [f64; 4] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2], a[3] - b[3]]
+/// The first four entries of `x` (a lumped state vector).
+fn vec4(x: &[f64]) -> [f64; 4] {
+    [x[0], x[1], x[2], x[3]]
 }
 
 /// Scales of `(u, u̇, w, ẇ)`: [`StateScales::for_system`].
@@ -323,18 +309,18 @@ pub struct Physicality {
     pub confined: bool,
 }
 
-/// A periodic orbit and its stability.
+/// A periodic orbit of a [`Flow`] and its stability.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PeriodicOrbit {
+pub struct Orbit<F: Flow> {
     /// The section it is a fixed point of.
-    pub section: Section,
+    pub section: F,
     /// The state at the section time.
-    pub state: State,
+    pub state: F::State,
     /// `max |P(x) − x|` in scaled units at the returned state.
     pub residual: f64,
     /// Newton iterations used.
     pub iterations: usize,
-    /// RMS of `u` over the orbit.
+    /// RMS of `u` (at the response point) over the orbit.
     pub rms_m: f64,
     /// Impacts over the orbit's period (`k` forcing cycles).
     pub impacts_per_period: u32,
@@ -342,8 +328,8 @@ pub struct PeriodicOrbit {
     pub events: Vec<OrbitEvent>,
     /// The event letters ([`event_letter`]) in order, e.g. `+-`.
     pub sequence: String,
-    /// Monodromy matrix `DP` (SI coordinates `(u, u̇, w, ẇ)`).
-    pub jacobian: Matrix4<f64>,
+    /// Monodromy matrix `DP` (SI, the map's coordinates).
+    pub jacobian: DMatrix<f64>,
     /// Which [`MapJacobian`] gave it.
     pub jacobian_source: &'static str,
     /// Floquet multipliers, largest modulus first.
@@ -352,11 +338,14 @@ pub struct PeriodicOrbit {
     pub physicality: Physicality,
 }
 
+/// A periodic orbit of the lumped bar.
+pub type PeriodicOrbit = Orbit<Section>;
+
 /// Multipliers inside the unit circle by at least this are stable; within it of 1 they are
 /// neutral (a free ball's position), which is not asymptotic stability.
 pub const STABILITY_MARGIN: f64 = 1e-7;
 
-impl PeriodicOrbit {
+impl<F: Flow> Orbit<F> {
     /// Largest `|λ|`.
     pub fn max_abs_multiplier(&self) -> f64 {
         self.multipliers
@@ -372,9 +361,16 @@ impl PeriodicOrbit {
 
     /// Impacts per forcing cycle.
     pub fn impacts_per_cycle(&self) -> f64 {
-        self.impacts_per_period as f64 / self.section.periods as f64
+        self.impacts_per_period as f64 / self.section.periods() as f64
     }
 
+    /// The orbit's state vector `x` at the section.
+    pub fn vector(&self) -> Vec<f64> {
+        self.section.vector(&self.state)
+    }
+}
+
+impl Orbit<Section> {
     /// `max |x(t0 + kT/2) + x(t0)|` in scaled units: 0 for an orbit with the symmetry
     /// `x(t + kT/2) = −x(t)` (the symmetric two-impact orbit), `None` for an even `k` (the
     /// symmetry maps the forcing onto itself only over an odd number of half cycles).
@@ -396,17 +392,12 @@ impl PeriodicOrbit {
     }
 }
 
-/// Eigenvalues of a 4 × 4 matrix, largest modulus first.
-pub fn multipliers_of(jac: &Matrix4<f64>) -> Vec<Complex64> {
+/// Eigenvalues of a square matrix, largest modulus first.
+pub fn multipliers_of(jac: &DMatrix<f64>) -> Vec<Complex64> {
     let ev = jac.complex_eigenvalues();
     let mut v: Vec<Complex64> = ev.iter().map(|c| Complex64::new(c.re, c.im)).collect();
     v.sort_by(|a, b| b.norm().total_cmp(&a.norm()).then(b.im.total_cmp(&a.im)));
     v
-}
-
-/// Scaled residual `(P(x) − x)/s`.
-fn residual(px: &[f64; 4], x: &[f64; 4], sc: &[f64; 4]) -> [f64; 4] {
-    [0, 1, 2, 3].map(|i| (px[i] - x[i]) / sc[i])
 }
 
 fn max_abs(r: &[f64]) -> f64 {
@@ -414,59 +405,73 @@ fn max_abs(r: &[f64]) -> f64 {
 }
 
 /// `(DP − I)` in scaled coordinates: `S⁻¹ DP S − I`.
-fn scaled_jac_minus_identity(jac: &Matrix4<f64>, sc: &[f64; 4]) -> Matrix4<f64> {
-    let mut a = Matrix4::zeros();
-    for i in 0..4 {
-        for j in 0..4 {
-            a[(i, j)] = jac[(i, j)] * sc[j] / sc[i] - if i == j { 1.0 } else { 0.0 };
-        }
-    }
-    a
+pub(crate) fn scaled_minus_identity(jac: &DMatrix<f64>, sc: &[f64]) -> DMatrix<f64> {
+    let d = sc.len();
+    DMatrix::from_fn(d, d, |i, j| {
+        jac[(i, j)] * sc[j] / sc[i] - if i == j { 1.0 } else { 0.0 }
+    })
 }
 
 /// Least-squares solution of `a·d = b` (SVD, singular values below 1e-12 of the largest
 /// dropped): the neutral directions of a free ball get no step.
-fn lstsq4(a: &Matrix4<f64>, b: &[f64; 4]) -> Option<[f64; 4]> {
-    let svd = a.svd(true, true);
+pub(crate) fn lstsq(a: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
+    let svd = a.clone().svd(true, true);
     let eps = 1e-12 * svd.singular_values.max();
-    let d = svd.solve(&Vector4::from(*b), eps).ok()?;
-    let d = [d[0], d[1], d[2], d[3]];
+    let d = svd.solve(b, eps).ok()?;
     d.iter().all(|v| v.is_finite()).then_some(d)
 }
 
-/// Newton's method on `P(x) = x` from `x0` (module docs). Returns the orbit with its
-/// multipliers and checks, or [`SimError::NoConvergence`] with the residual.
-pub fn find_orbit(
-    sec: &Section,
-    x0: &[f64; 4],
-    jac: &dyn MapJacobian,
+/// Newton's method on `P(x) = x` from `x0` (module docs), on either bar. Returns the orbit with
+/// its multipliers and checks, or [`SimError::NoConvergence`] with the residual.
+pub fn find_orbit<F: Flow>(
+    sec: &F,
+    x0: &[f64],
+    jac: &dyn MapJacobian<F>,
     settings: &NewtonSettings,
-) -> Result<PeriodicOrbit, SimError> {
+) -> Result<Orbit<F>, SimError> {
     crate::params::positive("newton.tolerance", settings.tolerance)?;
-    let sc = scales(&sec.system);
-    let mut x = sec.clamp(*x0);
-    for v in x {
-        crate::params::finite("starting guess (u, u̇, w, ẇ)", v)?;
+    let d = sec.dim();
+    if x0.len() != d {
+        return Err(ParamError::OutOfRange {
+            field: "starting guess (length of the state vector)",
+            value: x0.len() as f64,
+            allowed: "the map's dimension (4 on the lumped bar, 2N + 2 on an N-mode bar)",
+        }
+        .into());
     }
+    for &v in x0 {
+        crate::params::finite(F::START_FIELD, v)?;
+    }
+    let sc = sec.scales();
+    let mut x = sec.clamp(x0);
     let (mut px, mut dp) = jac.map_and_jacobian(sec, &x)?;
-    let mut r = residual(&px, &x, &sc);
+    let res =
+        |px: &[f64], x: &[f64]| -> Vec<f64> { (0..d).map(|i| (px[i] - x[i]) / sc[i]).collect() };
+    let mut r = res(&px, &x);
     let mut iterations = 0;
+    let fail = |iterations: usize, r: &[f64]| SimError::NoConvergence {
+        what: F::NO_ORBIT,
+        iterations,
+        residual: max_abs(r),
+        tolerance: settings.tolerance,
+    };
     while max_abs(&r) > settings.tolerance {
         if iterations >= settings.max_iterations {
-            return Err(no_convergence(iterations, max_abs(&r), settings.tolerance));
+            return Err(fail(iterations, &r));
         }
         iterations += 1;
-        let a = scaled_jac_minus_identity(&dp, &sc);
-        let Some(d) = lstsq4(&a, &r.map(|v| -v)) else {
-            return Err(no_convergence(iterations, max_abs(&r), settings.tolerance));
+        let a = scaled_minus_identity(&dp, &sc);
+        let rhs = DVector::from_iterator(d, r.iter().map(|v| -v));
+        let Some(step) = lstsq(&a, &rhs) else {
+            return Err(fail(iterations, &r));
         };
         // Halve a step that does not lower the residual (or leaves the solver's domain).
         let mut lambda = 1.0;
         let accepted = loop {
-            let trial = sec.clamp([0, 1, 2, 3].map(|i| x[i] + lambda * d[i] * sc[i]));
+            let trial: Vec<f64> = (0..d).map(|i| x[i] + lambda * step[i] * sc[i]).collect();
+            let trial = sec.clamp(&trial);
             if let Ok(pt) = sec.flow(&trial) {
-                let rt = residual(&pt, &trial, &sc);
-                if max_abs(&rt) < max_abs(&r) || lambda < 1e-3 {
+                if max_abs(&res(&pt, &trial)) < max_abs(&r) || lambda < 1e-3 {
                     break Some(trial);
                 }
             }
@@ -476,32 +481,22 @@ pub fn find_orbit(
             }
         };
         let Some(trial) = accepted else {
-            return Err(no_convergence(iterations, max_abs(&r), settings.tolerance));
+            return Err(fail(iterations, &r));
         };
         x = trial;
         (px, dp) = jac.map_and_jacobian(sec, &x)?;
-        r = residual(&px, &x, &sc);
+        r = res(&px, &x);
     }
-    let _ = px;
     describe(sec, &x, dp, jac.name(), max_abs(&r), iterations)
 }
 
-fn no_convergence(iterations: usize, residual: f64, tolerance: f64) -> SimError {
-    SimError::NoConvergence {
-        what: "Newton's method on the stroboscopic map (no periodic orbit near the starting guess; try another start, --period or a nearby parameter)",
-        iterations,
-        residual,
-        tolerance,
-    }
-}
-
 /// Records the events of one period and the free-flight turning points of `|w|`.
-pub(super) struct OrbitRecorder {
-    pub(super) t0_s: f64,
-    pub(super) lg: f64,
-    pub(super) events: Vec<OrbitEvent>,
-    pub(super) margin_m: f64,
-    pub(super) min_speed: f64,
+struct OrbitRecorder {
+    t0_s: f64,
+    lg: f64,
+    events: Vec<OrbitEvent>,
+    margin_m: f64,
+    min_speed: f64,
 }
 
 impl Observer for OrbitRecorder {
@@ -550,38 +545,50 @@ impl Observer for OrbitRecorder {
     }
 }
 
-/// The orbit at the fixed point `x` (RMS, events, multipliers, checks).
-pub fn describe(
-    sec: &Section,
-    x: &[f64; 4],
-    jacobian: Matrix4<f64>,
+/// The orbit of `sec` at the fixed point `x` (RMS, events, multipliers, checks), either bar.
+pub fn describe<F: Flow>(
+    sec: &F,
+    x: &[f64],
+    jacobian: DMatrix<f64>,
     jacobian_source: &'static str,
     residual: f64,
     iterations: usize,
-) -> Result<PeriodicOrbit, SimError> {
-    let lg = sec.system.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
-    let hertz = sec
-        .system
-        .damper
-        .is_some_and(|d| d.contact.law == crate::params::ContactLaw::Hertz);
-    let t_end = sec.t0_s + sec.period_s();
-    let mut rms = RmsObserver::new(sec.t0_s, t_end);
+) -> Result<Orbit<F>, SimError> {
+    let t_end = sec.t0_s() + sec.period_s();
+    let mut rms = RmsObserver::new(sec.t0_s(), t_end);
     let mut rec = OrbitRecorder {
-        t0_s: sec.t0_s,
-        lg,
+        t0_s: sec.t0_s(),
+        lg: sec.half_gap_m(),
         events: Vec::new(),
         margin_m: f64::INFINITY,
         min_speed: f64::INFINITY,
     };
     let init = sec.state(x);
-    let summary = {
+    let (_, max_penetration_m) = {
         let mut obs: [&mut dyn Observer; 2] = [&mut rms, &mut rec];
-        Exact::default().run(&sec.system, &init, t_end, &mut Fanout(&mut obs))?
+        sec.run(&init, t_end, &mut Fanout(&mut obs))?
     };
     let multipliers = multipliers_of(&jacobian);
-    let (rms_m, impacts, sequence) = run_facts(rms.rms_m(), &multipliers, &rec.events)?;
-    Ok(PeriodicOrbit {
-        section: *sec,
+    let rms_m = crate::limits::finite_result(
+        "RMS of the orbit",
+        rms.rms_m(),
+        "an orbit the exact solver could not follow",
+    )?;
+    for l in &multipliers {
+        crate::limits::finite_result(
+            "Floquet multiplier",
+            l.norm(),
+            "a Jacobian across a grazing event",
+        )?;
+    }
+    let impacts = rec
+        .events
+        .iter()
+        .filter(|e| matches!(e.kind, EventKind::Impact { .. }))
+        .count() as u32;
+    let sequence = rec.events.iter().map(|e| event_letter(&e.kind)).collect();
+    Ok(Orbit {
+        section: sec.clone(),
         state: init,
         residual,
         iterations,
@@ -593,10 +600,11 @@ pub fn describe(
         jacobian_source,
         multipliers,
         physicality: Physicality {
-            max_penetration_m: summary.max_penetration_m,
+            max_penetration_m,
             grazing_margin_m: rec.margin_m,
             min_impact_speed_m_s: rec.min_speed,
-            confined: hertz || summary.max_penetration_m <= crate::solver::exact::CONFINEMENT_TOL_M,
+            confined: sec.compliant()
+                || max_penetration_m <= crate::solver::exact::CONFINEMENT_TOL_M,
         },
     })
 }
@@ -704,33 +712,6 @@ fn longest_gap_mid(times: &[f64], default: f64) -> f64 {
         }
     }
     mid
-}
-
-/// What an orbit's description takes from its run over one period (lumped and modal alike):
-/// the RMS and the multipliers checked finite, the impacts and the sequence of event letters.
-fn run_facts(
-    rms_m: f64,
-    multipliers: &[Complex64],
-    events: &[OrbitEvent],
-) -> Result<(f64, u32, String), SimError> {
-    let rms_m = crate::limits::finite_result(
-        "RMS of the orbit",
-        rms_m,
-        "an orbit the exact solver could not follow",
-    )?;
-    for l in multipliers {
-        crate::limits::finite_result(
-            "Floquet multiplier",
-            l.norm(),
-            "a Jacobian across a grazing event",
-        )?;
-    }
-    let impacts = events
-        .iter()
-        .filter(|e| matches!(e.kind, EventKind::Impact { .. }))
-        .count() as u32;
-    let sequence = events.iter().map(|e| event_letter(&e.kind)).collect();
-    Ok((rms_m, impacts, sequence))
 }
 
 /// The event times after `from` (starting with `from` itself).

@@ -11,9 +11,8 @@
 //! **Newton** works in scaled coordinates: every `qₙ` by the tip's static response `s_u` (the
 //! force amplitude times the kept modes' tip compliance), every `q̇ₙ` by `ω₁ s_u`, `w` by `l_g`,
 //! `ẇ` by `ω₁ l_g` ([`StateScales::for_system`]); one scale for all modes because the impacts
-//! drive the higher modes far beyond their static response. The linear solve is least squares
-//! (SVD, neutral directions of a free ball get no step); a step that does not lower the residual
-//! is halved; no convergence is an error with the residual ([`SimError::NoConvergence`]).
+//! drive the higher modes far beyond their static response. The iteration itself is the one of
+//! both bars ([`super::find_orbit`] over [`Flow`]).
 //!
 //! **Starting guesses.** A settled run, the section in the middle of the longest event-free
 //! stretch of its last `k` periods (the analytic symmetric orbit is the lumped bar's only).
@@ -24,18 +23,29 @@
 //!
 //! On a one-mode bar with the lumped bar's `M`, `K` (every shape 1) the map, its Jacobian and the
 //! orbit are the lumped ones (tested to 1e-9).
+//!
+//! **Branches** ([`continue_modal_orbit`]: the continuation of both bars,
+//! [`super::continuation::follow_branch`], over a [`ModalFamily`]) follow the frequency ratio,
+//! the gap, the friction force, the restitution, or the **cavity position** on a `[beam]` (the
+//! ball moves along the bar: every mode's shape at the cavity changes). The parameter column is a
+//! central difference of the map with step [`PARAM_STEP`] of the interval (its accuracy:
+//! [`super::continuation`]). For the cavity position the modal model is rebuilt from the
+//! `[beam]` at every evaluation (`Structure::Beam(..).modal_model()`: the analytic
+//! Euler–Bernoulli modes are cheap; a beam with a section loss or a tip mass is a finite-element
+//! model, about 100× slower). With the ratio given as `Ω/ω₁`, `Ω` follows `ω₁` if the position
+//! changes it (a section loss at the cavity); on a uniform beam it does not.
 
-use super::{run_facts, NewtonSettings, OrbitEvent, OrbitRecorder, Physicality, STABILITY_MARGIN};
-use crate::analysis::case::RmsObserver;
+use super::continuation::{follow_branch, Branch, BranchPoint, ContinuationSettings, Family};
+use super::{find_orbit, to_relative_coordinates, ExactJacobian, Flow, NewtonSettings, Orbit};
+use crate::analysis::grid::Axis;
 use crate::analysis::lyapunov::StateScales;
 use crate::analysis::variational_modal::modal_flow_with_jacobian;
-use crate::error::{ParamError, SimError};
+use crate::error::SimError;
 use crate::params::ContactLaw;
 use crate::solver::exact::modal::ModalExact;
-use crate::solver::{Fanout, Observer};
-use crate::structure::{ModalState, ModalSystem, Point};
-use nalgebra::{DMatrix, DVector};
-use num_complex::Complex64;
+use crate::solver::Observer;
+use crate::structure::{Beam, ModalState, ModalSystem, Point, Structure};
+use nalgebra::DMatrix;
 
 /// The stroboscopic map of a modal system.
 #[derive(Debug, Clone, PartialEq)]
@@ -174,6 +184,83 @@ impl ModalSection {
     }
 }
 
+impl Flow for ModalSection {
+    type State = ModalState;
+    const START_FIELD: &'static str = "starting guess (q, q̇, w, ẇ)";
+    const NO_ORBIT: &'static str = "Newton's method on the stroboscopic map of the modal bar (no periodic orbit near the starting guess; try another --settle, --period or a nearby parameter)";
+
+    fn dim(&self) -> usize {
+        ModalSection::dim(self)
+    }
+
+    fn t0_s(&self) -> f64 {
+        self.t0_s
+    }
+
+    fn periods(&self) -> u32 {
+        self.periods
+    }
+
+    fn at(&self, t0_s: f64, periods: u32) -> Result<Self, SimError> {
+        ModalSection::new(self.system.clone(), t0_s, periods)
+    }
+
+    fn forcing_period_s(&self) -> f64 {
+        ModalSection::period_s(self) / self.periods as f64
+    }
+
+    fn period_s(&self) -> f64 {
+        ModalSection::period_s(self)
+    }
+
+    fn omega_rad_s(&self) -> f64 {
+        self.system.omega_rad_s()
+    }
+
+    fn half_gap_m(&self) -> f64 {
+        self.half_gap()
+    }
+
+    fn compliant(&self) -> bool {
+        // The hertz law is refused (ORBIT_RESTITUTION_ONLY).
+        false
+    }
+
+    fn state(&self, x: &[f64]) -> ModalState {
+        ModalSection::state(self, x)
+    }
+
+    fn vector(&self, s: &ModalState) -> Vec<f64> {
+        self.to_vector(s)
+    }
+
+    fn clamp(&self, x: &[f64]) -> Vec<f64> {
+        ModalSection::clamp(self, x)
+    }
+
+    fn scales(&self) -> Vec<f64> {
+        ModalSection::scales(self)
+    }
+
+    fn run(
+        &self,
+        s: &ModalState,
+        t_end_s: f64,
+        obs: &mut dyn Observer,
+    ) -> Result<(ModalState, f64), SimError> {
+        let r = ModalExact::default().run(&self.system, s, t_end_s, obs)?;
+        Ok((r.final_state, r.summary.max_penetration_m))
+    }
+
+    fn flow(&self, x: &[f64]) -> Result<Vec<f64>, SimError> {
+        ModalSection::flow(self, x)
+    }
+
+    fn exact_jacobian(&self, x: &[f64]) -> Result<(Vec<f64>, DMatrix<f64>), SimError> {
+        self.map_and_jacobian(x)
+    }
+}
+
 /// Scales of `(q, q̇, w, ẇ)` (module docs).
 pub fn modal_scales(sys: &ModalSystem) -> Vec<f64> {
     let s = StateScales::for_system(&sys.to_system());
@@ -187,213 +274,20 @@ pub fn modal_scales(sys: &ModalSystem) -> Vec<f64> {
 
 /// `T J T⁻¹`, `T: (q, q̇, v, v̇) → (q, q̇, v − φ_dᵀq, v̇ − φ_dᵀq̇)`.
 pub fn to_relative(sys: &ModalSystem, j: &DMatrix<f64>) -> DMatrix<f64> {
-    let n = sys.n_modes();
-    let d = 2 * n + 2;
     let phi = sys.row(Point::Cavity);
-    let mut t = DMatrix::identity(d, d);
-    let mut ti = DMatrix::identity(d, d);
-    for i in 0..n {
-        t[(2 * n, i)] = -phi[i];
-        t[(2 * n + 1, n + i)] = -phi[i];
-        ti[(2 * n, i)] = phi[i];
-        ti[(2 * n + 1, n + i)] = phi[i];
-    }
-    t * j * ti
+    to_relative_coordinates(&phi[..sys.n_modes()], j)
 }
 
 /// A periodic orbit of a modal bar and its stability.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ModalPeriodicOrbit {
-    /// The section it is a fixed point of.
-    pub section: ModalSection,
-    /// The modal state at the section time.
-    pub state: ModalState,
-    /// `max |P(x) − x|` in scaled units.
-    pub residual: f64,
-    /// Newton iterations used.
-    pub iterations: usize,
-    /// RMS of `u` at the response point over the orbit.
-    pub rms_m: f64,
-    /// Impacts over the period.
-    pub impacts_per_period: u32,
-    /// The events over one period.
-    pub events: Vec<OrbitEvent>,
-    /// The event letters ([`super::event_letter`]).
-    pub sequence: String,
-    /// Monodromy matrix on `(q, q̇, w, ẇ)` (SI).
-    pub jacobian: DMatrix<f64>,
-    /// Floquet multipliers, largest modulus first.
-    pub multipliers: Vec<Complex64>,
-    /// Physicality checks.
-    pub physicality: Physicality,
-}
+pub type ModalPeriodicOrbit = Orbit<ModalSection>;
 
-impl ModalPeriodicOrbit {
-    /// Largest `|λ|`.
-    pub fn max_abs_multiplier(&self) -> f64 {
-        self.multipliers
-            .iter()
-            .map(|l| l.norm())
-            .fold(0.0, f64::max)
-    }
-
-    /// Every `|λ| < 1 −` [`STABILITY_MARGIN`].
-    pub fn stable(&self) -> bool {
-        self.max_abs_multiplier() < 1.0 - STABILITY_MARGIN
-    }
-
-    /// Impacts per forcing cycle.
-    pub fn impacts_per_cycle(&self) -> f64 {
-        self.impacts_per_period as f64 / self.section.periods as f64
-    }
-
-    /// The orbit's state vector `x` at the section.
-    pub fn vector(&self) -> Vec<f64> {
-        self.section.to_vector(&self.state)
-    }
-}
-
-/// Eigenvalues, largest modulus first.
-pub fn multipliers_of_d(jac: &DMatrix<f64>) -> Vec<Complex64> {
-    let ev = jac.complex_eigenvalues();
-    let mut v: Vec<Complex64> = ev.iter().map(|c| Complex64::new(c.re, c.im)).collect();
-    v.sort_by(|a, b| b.norm().total_cmp(&a.norm()).then(b.im.total_cmp(&a.im)));
-    v
-}
-
-fn max_abs(r: &[f64]) -> f64 {
-    r.iter().map(|v| v.abs()).fold(0.0, f64::max)
-}
-
-/// Least squares (SVD, singular values below 1e-12 of the largest dropped).
-pub(crate) fn lstsq(a: &DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
-    let svd = a.clone().svd(true, true);
-    let eps = 1e-12 * svd.singular_values.max();
-    let d = svd.solve(b, eps).ok()?;
-    d.iter().all(|v| v.is_finite()).then_some(d)
-}
-
-/// `S⁻¹ DP S − I`.
-pub(crate) fn scaled_minus_identity(jac: &DMatrix<f64>, sc: &[f64]) -> DMatrix<f64> {
-    let d = sc.len();
-    DMatrix::from_fn(d, d, |i, j| {
-        jac[(i, j)] * sc[j] / sc[i] - if i == j { 1.0 } else { 0.0 }
-    })
-}
-
-/// Newton's method on `P(x) = x` from `x0` (module docs).
+/// Newton's method on the modal map from `x0` with the exact Jacobian ([`super::find_orbit`]).
 pub fn find_modal_orbit(
     sec: &ModalSection,
     x0: &[f64],
     settings: &NewtonSettings,
 ) -> Result<ModalPeriodicOrbit, SimError> {
-    crate::params::positive("newton.tolerance", settings.tolerance)?;
-    let d = sec.dim();
-    if x0.len() != d {
-        return Err(ParamError::OutOfRange {
-            field: "starting guess (length of (q, q̇, w, ẇ))",
-            value: x0.len() as f64,
-            allowed: "2N + 2",
-        }
-        .into());
-    }
-    for &v in x0 {
-        crate::params::finite("starting guess (q, q̇, w, ẇ)", v)?;
-    }
-    let sc = sec.scales();
-    let mut x = sec.clamp(x0);
-    let (mut px, mut dp) = sec.map_and_jacobian(&x)?;
-    let res =
-        |px: &[f64], x: &[f64]| -> Vec<f64> { (0..d).map(|i| (px[i] - x[i]) / sc[i]).collect() };
-    let mut r = res(&px, &x);
-    let mut iterations = 0;
-    while max_abs(&r) > settings.tolerance {
-        if iterations >= settings.max_iterations {
-            return Err(no_convergence(iterations, max_abs(&r), settings.tolerance));
-        }
-        iterations += 1;
-        let a = scaled_minus_identity(&dp, &sc);
-        let rhs = DVector::from_iterator(d, r.iter().map(|v| -v));
-        let Some(step) = lstsq(&a, &rhs) else {
-            return Err(no_convergence(iterations, max_abs(&r), settings.tolerance));
-        };
-        let mut lambda = 1.0;
-        let accepted = loop {
-            let trial: Vec<f64> = (0..d).map(|i| x[i] + lambda * step[i] * sc[i]).collect();
-            let trial = sec.clamp(&trial);
-            if let Ok(pt) = sec.flow(&trial) {
-                if max_abs(&res(&pt, &trial)) < max_abs(&r) || lambda < 1e-3 {
-                    break Some(trial);
-                }
-            }
-            lambda *= 0.5;
-            if lambda < 1e-4 {
-                break None;
-            }
-        };
-        let Some(trial) = accepted else {
-            return Err(no_convergence(iterations, max_abs(&r), settings.tolerance));
-        };
-        x = trial;
-        (px, dp) = sec.map_and_jacobian(&x)?;
-        r = res(&px, &x);
-    }
-    describe_modal(sec, &x, dp, max_abs(&r), iterations)
-}
-
-fn no_convergence(iterations: usize, residual: f64, tolerance: f64) -> SimError {
-    SimError::NoConvergence {
-        what: "Newton's method on the stroboscopic map of the modal bar (no periodic orbit near the starting guess; try another --settle, --period or a nearby parameter)",
-        iterations,
-        residual,
-        tolerance,
-    }
-}
-
-/// The orbit at the fixed point `x` (RMS, events, multipliers, checks).
-pub fn describe_modal(
-    sec: &ModalSection,
-    x: &[f64],
-    jacobian: DMatrix<f64>,
-    residual: f64,
-    iterations: usize,
-) -> Result<ModalPeriodicOrbit, SimError> {
-    let t_end = sec.t0_s + sec.period_s();
-    let mut rms = RmsObserver::new(sec.t0_s, t_end);
-    let mut rec = OrbitRecorder {
-        t0_s: sec.t0_s,
-        lg: sec.half_gap(),
-        events: Vec::new(),
-        margin_m: f64::INFINITY,
-        min_speed: f64::INFINITY,
-    };
-    let init = sec.state(x);
-    let summary = {
-        let mut obs: [&mut dyn Observer; 2] = [&mut rms, &mut rec];
-        ModalExact::default()
-            .run(&sec.system, &init, t_end, &mut Fanout(&mut obs))?
-            .summary
-    };
-    let multipliers = multipliers_of_d(&jacobian);
-    let (rms_m, impacts, sequence) = run_facts(rms.rms_m(), &multipliers, &rec.events)?;
-    Ok(ModalPeriodicOrbit {
-        section: sec.clone(),
-        state: init,
-        residual,
-        iterations,
-        rms_m,
-        impacts_per_period: impacts,
-        events: rec.events,
-        sequence,
-        jacobian,
-        multipliers,
-        physicality: Physicality {
-            max_penetration_m: summary.max_penetration_m,
-            grazing_margin_m: rec.margin_m,
-            min_impact_speed_m_s: rec.min_speed,
-            confined: summary.max_penetration_m <= crate::solver::exact::CONFINEMENT_TOL_M,
-        },
-    })
+    find_orbit(sec, x0, &ExactJacobian, settings)
 }
 
 /// A section and a starting state for `sys` with period `periods` from a run of `settle_s`
@@ -460,4 +354,162 @@ pub fn modal_orbit_settled(
     settle_s: f64,
 ) -> Result<ModalPeriodicOrbit, SimError> {
     modal_orbit_settled_at(sys, periods, init, settle_s).map(|(o, _)| o)
+}
+
+/// Central-difference step of the parameter column, in units of the interval (`p̃`).
+pub const PARAM_STEP: f64 = 1e-6;
+
+/// A parameter of a modal bar's branch.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ModalParam {
+    /// One of the lumped bar's axes (ratio, gap, friction force, restitution), SI.
+    Axis(Axis),
+    /// The cavity centre's distance from the clamp, m (a `[beam]` only).
+    CavityPositionM,
+}
+
+impl ModalParam {
+    /// The name in output files and flags (`--param`): `ratio`, `gap-mm`, `friction-force-n`,
+    /// `restitution`, `cavity-position-mm`.
+    pub fn flag(&self) -> &'static str {
+        match self {
+            ModalParam::Axis(a) => super::continuation::CONTINUATION_PARAMS
+                .iter()
+                .find(|(_, b)| b == a)
+                .map_or(a.as_str(), |(n, _)| n),
+            ModalParam::CavityPositionM => "cavity-position-mm",
+        }
+    }
+}
+
+/// The systems along a branch: the base system and, for the cavity position, its beam.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModalFamily {
+    /// The system at the start.
+    pub base: ModalSystem,
+    /// The beam the modal model comes from (needed for [`ModalParam::CavityPositionM`]).
+    pub beam: Option<Beam>,
+    /// The parameter followed.
+    pub param: ModalParam,
+}
+
+/// Why the cavity position needs a beam.
+pub const CAVITY_NEEDS_BEAM: &str = "the cavity position (--param cavity-position-mm) is a parameter of a [beam]: its modes are recomputed at every position; measured [[modes]] give the shapes at one cavity only";
+
+impl ModalFamily {
+    /// The system at parameter `value` (SI), validated.
+    pub fn system_at(&self, value: f64) -> Result<ModalSystem, SimError> {
+        let sys = match self.param {
+            ModalParam::Axis(a) => {
+                let mut s = self.base.to_system();
+                a.apply(&mut s, value)?;
+                ModalSystem::from_system(&s)?
+            }
+            ModalParam::CavityPositionM => {
+                let beam = self
+                    .beam
+                    .as_ref()
+                    .ok_or(SimError::Unsupported(CAVITY_NEEDS_BEAM))?;
+                let b = Beam {
+                    cavity_position_m: value,
+                    ..beam.clone()
+                };
+                ModalSystem {
+                    model: Structure::Beam(b).modal_model()?,
+                    ..self.base.clone()
+                }
+            }
+        };
+        sys.validate()?;
+        Ok(sys)
+    }
+
+    /// The parameter's value in the base system (SI).
+    pub fn value_of_base(&self) -> Result<f64, SimError> {
+        Ok(match self.param {
+            ModalParam::Axis(a) => super::continuation::param_of(&self.base.to_system(), a),
+            ModalParam::CavityPositionM => {
+                self.beam
+                    .as_ref()
+                    .ok_or(SimError::Unsupported(CAVITY_NEEDS_BEAM))?
+                    .cavity_position_m
+            }
+        })
+    }
+}
+
+impl Family for ModalFamily {
+    type Flow = ModalSection;
+
+    fn name(&self) -> &'static str {
+        self.param.flag()
+    }
+
+    fn section(&self, value: f64, t0_s: f64, periods: u32) -> Result<ModalSection, SimError> {
+        ModalSection::new(self.system_at(value)?, t0_s, periods)
+    }
+
+    fn value_of(&self, sec: &ModalSection) -> Option<f64> {
+        match self.param {
+            ModalParam::Axis(a) => Some(super::continuation::param_of(&sec.system.to_system(), a)),
+            // The system does not carry where its modes were computed.
+            ModalParam::CavityPositionM => None,
+        }
+    }
+
+    fn param_derivative(&self, _: &ModalSection, _: &[f64]) -> Result<Option<Vec<f64>>, SimError> {
+        // The modal variational layer carries no parameter column: central differences.
+        Ok(None)
+    }
+
+    fn param_step(&self) -> f64 {
+        PARAM_STEP
+    }
+}
+
+/// One point of a modal branch.
+pub type ModalBranchPoint = BranchPoint<ModalSection>;
+
+/// A computed modal branch.
+pub type ModalBranch = Branch<ModalSection>;
+
+/// Follow the orbit `start` of `fam.base` (a fixed point at the parameter `from`, SI) from
+/// `from` to `to` with the exact Jacobian ([`follow_branch`]).
+pub fn continue_modal_orbit(
+    start: &ModalPeriodicOrbit,
+    fam: &ModalFamily,
+    from: f64,
+    to: f64,
+    settings: &ContinuationSettings,
+) -> Result<ModalBranch, SimError> {
+    follow_branch(start, fam, from, to, &ExactJacobian, settings)
+}
+
+/// `∂P(x)/∂p` (SI parameter) of the modal map at `x` by central differences with step `h`
+/// (SI), on `(q, q̇, w, ẇ)`: the parameter column of [`continue_modal_orbit`] (there with `h`
+/// = [`PARAM_STEP`] of the interval).
+pub fn modal_map_param_derivative_fd(
+    fam: &ModalFamily,
+    sec: &ModalSection,
+    x: &[f64],
+    value: f64,
+    h: f64,
+) -> Result<Vec<f64>, SimError> {
+    let run = |p: f64| -> Result<Vec<f64>, SimError> {
+        ModalSection::new(fam.system_at(p)?, sec.t0_s, sec.periods)?.flow(x)
+    };
+    let (a, b) = (run(value + h)?, run(value - h)?);
+    Ok(a.iter().zip(&b).map(|(a, b)| (a - b) / (2.0 * h)).collect())
+}
+
+/// Newton at the parameter `value` from `x0` at the section time of `sec` (a point of a branch
+/// recomputed independently).
+pub fn modal_orbit_at(
+    fam: &ModalFamily,
+    sec: &ModalSection,
+    x0: &[f64],
+    value: f64,
+) -> Result<ModalPeriodicOrbit, SimError> {
+    let s = ModalSection::new(fam.system_at(value)?, sec.t0_s, sec.periods)?;
+    find_modal_orbit(&s, x0, &NewtonSettings::default())
 }

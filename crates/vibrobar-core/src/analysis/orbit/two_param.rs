@@ -50,7 +50,17 @@ use crate::analysis::variational::{flow_with_jacobian, flow_with_param_derivativ
 use crate::error::{ParamError, SimError};
 use crate::params::System;
 use crate::solver::{Exact, Solver};
-use nalgebra::{Matrix4, SMatrix, SVector};
+use nalgebra::{DMatrix, Matrix4, SMatrix, SVector};
+
+/// A 4 × 4 matrix of the orbit layer (dynamic size) as this module's fixed-size one.
+fn fixed4(m: &DMatrix<f64>) -> Matrix4<f64> {
+    Matrix4::from_fn(|r, c| m[(r, c)])
+}
+
+/// A fixed-size 4 × 4 matrix as the orbit layer's dynamic-size one.
+fn dyn4(m: &Matrix4<f64>) -> DMatrix<f64> {
+    DMatrix::from_fn(4, 4, |r, c| m[(r, c)])
+}
 use num_complex::Complex64;
 
 type M6 = SMatrix<f64, 6, 6>;
@@ -309,7 +319,7 @@ impl Ctx {
             let v = to_vector(&fj.state);
             return Ok(MapEval {
                 fx: [0, 1, 2, 3].map(|i| sg * v[i]),
-                m: scale_m(&to_relative(&fj.jacobian)),
+                m: scale_m(&fixed4(&to_relative(&fj.jacobian))),
                 dr: [0.0; 4],
                 dg: [0.0; 4],
             });
@@ -338,7 +348,7 @@ impl Ctx {
         let v = to_vector(&fj.state);
         Ok(MapEval {
             fx: [0, 1, 2, 3].map(|i| sg * v[i]),
-            m: scale_m(&to_relative(&fj.jacobian)),
+            m: scale_m(&fixed4(&to_relative(&fj.jacobian))),
             dr: [0, 1, 2, 3].map(|i| sg * dr[i] * RATIO_UNIT / self.sc[i]),
             dg: [0, 1, 2, 3].map(|i| sg * dg[i] * GAP_UNIT_M / self.sc[i]),
         })
@@ -373,7 +383,7 @@ impl Ctx {
     fn grazing_value(&self, t0: f64, z: &V6) -> Result<f64, SimError> {
         let sec = self.section(t0, z)?;
         let x = self.x_of(&sec, z);
-        let o = describe(&sec, &x, Matrix4::identity(), "none", 0.0, 0)?;
+        let o = describe(&sec, &x, DMatrix::identity(4, 4), "none", 0.0, 0)?;
         let lg = sec.system.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
         Ok(match self.grazing {
             GrazingMeasure::ImpactSpeed => o.physicality.min_impact_speed_m_s / self.sc[3],
@@ -462,7 +472,7 @@ impl Ctx {
         let x = self.x_of(&sec, &z);
         let mono = self.monodromy(&m);
         let jac_si = Matrix4::from_fn(|i, k| mono[(i, k)] * self.sc[i] / self.sc[k]);
-        let mut orbit = describe(&sec, &x, jac_si, "variational", 0.0, 0)?;
+        let mut orbit = describe(&sec, &x, dyn4(&jac_si), "variational", 0.0, 0)?;
         let px = sec.flow(&x)?;
         orbit.residual = (0..4)
             .map(|i| ((px[i] - x[i]) / self.sc[i]).abs())
@@ -550,7 +560,7 @@ fn test_of_matrix(kind: CurveKind, m: &Matrix4<f64>, mono: &Matrix4<f64>) -> Opt
 
 /// The complex multiplier (upper half plane) nearest the unit circle, if any.
 fn critical_pair(mono: &Matrix4<f64>) -> Option<Complex64> {
-    super::multipliers_of(mono)
+    super::multipliers_of(&dyn4(mono))
         .into_iter()
         .filter(|l| l.im > 1e-9 * l.norm().max(1e-300))
         .min_by(|a, b| (a.norm() - 1.0).abs().total_cmp(&(b.norm() - 1.0).abs()))
@@ -560,7 +570,7 @@ fn critical_pair(mono: &Matrix4<f64>) -> Option<Complex64> {
 /// the monodromy's otherwise) beyond `+1`, beyond `−1`, complex outside the circle and complex in
 /// all, leaving out the curve's own critical one(s).
 fn counts(kind: CurveKind, m: &Matrix4<f64>) -> [usize; 4] {
-    let mut list = super::multipliers_of(m);
+    let mut list = super::multipliers_of(&dyn4(m));
     let one = Complex64::new(1.0, 0.0);
     let drop = |target: Complex64, list: &mut Vec<Complex64>| {
         if let Some(i) = nearest(list, target) {
@@ -663,7 +673,7 @@ fn codim2_between(
 /// A strong resonance at a located codimension-two point: two multipliers of the map solved
 /// within 1e-3 of `+1` (1:1, where a torus curve ends on a fold curve) or of `−1`.
 fn resonance(m: &Matrix4<f64>) -> Option<Codim2> {
-    let l = super::multipliers_of(m);
+    let l = super::multipliers_of(&dyn4(m));
     [1.0, -1.0]
         .iter()
         .any(|t| l.iter().filter(|x| (*x - t).norm() < 1e-3).count() >= 2)
