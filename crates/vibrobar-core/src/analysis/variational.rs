@@ -109,7 +109,8 @@
 //!
 //! # Hertz contact phases (`contact.law = "hertz"`)
 //!
-//! The compliant phase of `solver/exact/hertz.rs` has, with penetration `δ = s w − l_g`
+//! The compliant phase of `solver/exact/hertz_phase.rs` (the lumped bar's side in
+//! `solver/exact/lumped/hertz.rs`) has, with penetration `δ = s w − l_g`
 //! (`s = ±1` the wall), the contact coordinates `y = (u, u̇, δ, δ̇)`
 //! (`y = T x + const`, `T⁻¹ = [[1,0,0,0],[0,1,0,0],[1,0,s,0],[0,1,0,s]]`) and the field
 //!
