@@ -186,8 +186,8 @@ fn contact_law_row(
     let contacts = o.result.summary.impacts.max(1) as f64;
     println!(
         "  exact  single run with contact = hertz: median {} against {} with restitution (RMS \
-         {:.4e} m, {} contacts), median ratio of {BEAM_PAIRS} alternating pairs {:.1}× (issue #9 \
-         target: ≤ 10×); {:.1} µs more per contact (the DP5 steps of the contact phase)",
+         {:.4e} m, {} contacts), median ratio of {BEAM_PAIRS} alternating pairs {:.1}× (target: \
+         ≤ 10×); {:.1} µs more per contact (the DP5 steps of the contact phase)",
         fmt_secs(mh),
         fmt_secs(mr),
         o.result.rms_m,
@@ -251,7 +251,7 @@ pub fn cutting_row(st: &vibrobar_core::RunSettings) -> Result<()> {
     println!(
         "  exact  cutting run (paper bar, 5000 rpm, b = 1.5 b_lim = {:.4} mm, {} s, {impacts} \
          impacts): median {} vs harmonic run {}; median ratio {:.2}× over {BEAM_PAIRS} \
-         alternating pairs (issue #13 target: ≤ 5× per simulated second)",
+         alternating pairs (target: ≤ 5× per simulated second)",
         cut.width_m * 1e3,
         st.duration_s,
         fmt_secs(median(&mut tc)),
@@ -361,7 +361,7 @@ pub fn time_domain_row() -> Result<()> {
         / 60.0;
     let diagram = TD_SPEEDS * f64::from(runs) * run * scale / 2.0;
     println!(
-        "  exact  time-domain lobes (issue #14; paper bar, default windows {} + {} rev): one \
+        "  exact  time-domain lobes (paper bar, default windows {} + {} rev): one \
          judged run at 5000 rpm median {}; one speed's four searches {} ({runs} runs, {:.1} per \
          search); 60 speeds 1000–10 000 rpm on 2 cores ≈ {} (target 5 min); 4-mode beam ≥ {}",
         p.settings.settle_revs,
@@ -425,7 +425,7 @@ pub fn lobe_design_row() -> Result<()> {
         / s as f64;
     let searches = (g * m * s + s) as f64;
     println!(
-        "  exact  lobe-design (issue #14 §3; paper bar, default windows): one design at one speed \
+        "  exact  lobe-design (paper bar, default windows): one design at one speed \
          (5000 rpm, gap {} mm, {} g, {runs} runs) median {}; {g} gaps × {m} ball masses × {s} \
          speeds 1000–10 000 rpm (+ {s} solid searches) on 2 cores ≈ {}",
         vibrobar_io::csv::fmt_coord(d.gap_m * 1e3),
@@ -504,7 +504,7 @@ fn beam_rows(names: &[String], st: &vibrobar_core::RunSettings, placement: bool)
             }
             println!(
                 "    {n:<6} beam run, {}: median {} (tip RMS {rms:.4e} m) vs lumped {}; median \
-                 ratio {:.1}× over {BEAM_PAIRS} alternating pairs (issue #8 target with exact: ≤ 3×)",
+                 ratio {:.1}× over {BEAM_PAIRS} alternating pairs (target with exact: ≤ 3×)",
                 friction.as_str(),
                 fmt_secs(median(&mut tb)),
                 fmt_secs(median(&mut tl)),
@@ -540,7 +540,7 @@ fn beam_rows(names: &[String], st: &vibrobar_core::RunSettings, placement: bool)
         println!(
             "    {n:<6} placement {}×{}×{} ({timed_runs} runs) on {PLACEMENT_THREADS} threads: {}; \
              projected {np}×{ng} positions × gaps over {nr} ratios ({map_runs} runs): {:.1} min \
-             (issue #8 target: < 10 min)",
+             (target: < 10 min)",
             2,
             2,
             nr,
@@ -639,6 +639,6 @@ fn lobes_row() -> Result<()> {
         line += &format!(" {label} {:.1} ms", median(&mut t) * 1e3);
         line += if label.starts_with('1') { "," } else { "" };
     }
-    println!("{line} (issue #13 target: < 0.1 s each)");
+    println!("{line} (target: < 0.1 s each)");
     Ok(())
 }
