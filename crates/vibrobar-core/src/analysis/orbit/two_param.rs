@@ -632,6 +632,15 @@ impl<F: Curve2Flow> Ctx<F> {
             z += dz;
             let iw = self.d - 2;
             let lg = 0.5 * z[n - 1] * GAP_UNIT_M;
+            // A step that leaves the gaps (0, ∞) fails like a diverging one (the step is halved).
+            if lg.is_nan() || lg <= 0.0 {
+                return Err(SimError::NoConvergence {
+                    what: "the two-parameter corrector (a step left the positive gaps)",
+                    iterations: it + 1,
+                    residual: r,
+                    tolerance: tol,
+                });
+            }
             z[iw] = z[iw].clamp(-lg / self.sc[iw], lg / self.sc[iw]);
         }
         unreachable!("the loop returns")
@@ -1293,7 +1302,7 @@ pub fn stability_boundary(
 
 /// A curve point on the edge of stability: no multiplier but the critical one(s) outside the
 /// unit circle (largest `|λ|` within 1e-6 of 1).
-pub fn on_boundary(p: &CurvePoint) -> bool {
+pub fn on_boundary<F: Flow>(p: &CurvePoint<F>) -> bool {
     p.orbit.max_abs_multiplier() < 1.0 + 1e-6
 }
 
