@@ -604,7 +604,20 @@ impl<F: Curve2Flow> Ctx<F> {
         let tol = self.settings.tolerance;
         let mut last = f64::INFINITY;
         for it in 0..=self.settings.max_iterations {
-            let (h, mut j, m) = self.eval(t0, &z)?;
+            let (h, mut j, m) = match self.eval(t0, &z) {
+                Ok(e) => e,
+                // After a step, a state or parameter the solver refuses is the step's failure (a
+                // diverging iteration), not the input's.
+                Err(_) if it > 0 => {
+                    return Err(SimError::NoConvergence {
+                        what: "the two-parameter corrector (a step left the solver's domain)",
+                        iterations: it,
+                        residual: last,
+                        tolerance: tol,
+                    })
+                }
+                Err(e) => return Err(e),
+            };
             let r = h.amax();
             if r <= tol && it > 0 {
                 return Ok((z, j, m));
