@@ -458,3 +458,81 @@ fn modal_continue_switches_at_the_period_doubling_unless_no_switch() {
     let plain = rows(&["--no-switch"]);
     assert!(plain.iter().all(|r| r.1 == 1) && plain.len() == sw.len() - two.len());
 }
+
+/// `continue2` on an N-mode bar: on the lumped bar as one `[[modes]]` table the README's torus
+/// curve of the symmetric orbit (half map) passes the lumped curve's point at r = 1 (0.09489 mm)
+/// and ends on the same box edges; on the 3-mode paper beam (`scenarios/paper_beam.toml`) the
+/// period-doubling curve through the one-parameter `continue`'s detection at r = 1.02 (0.067364
+/// mm) runs on the full map, every row on its test function's zero.
+#[test]
+fn continue2_runs_on_an_n_mode_bar() {
+    let dir = tempfile::tempdir().unwrap();
+    let sc = dir.path().join("one.toml");
+    std::fs::write(&sc, ONE_UNIT_MODE).unwrap();
+    let out = dir.path().join("c.csv");
+    let rows = |args: &[&str]| -> (String, Vec<Vec<String>>) {
+        let mut a = vec![
+            "continue2",
+            "--friction",
+            "none",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        a.extend(args);
+        let said = String::from_utf8_lossy(&vibrobar_ok(&a).stdout).into_owned();
+        let text = std::fs::read_to_string(&out).unwrap();
+        let rows = text
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(String::from).collect())
+            .collect();
+        (said, rows)
+    };
+    let num = |r: &Vec<String>, i: usize| r[i].parse::<f64>().unwrap();
+    let (said, one) = rows(&[
+        "--scenario",
+        sc.to_str().unwrap(),
+        "--from-point",
+        "ratio=1,gap-mm=0.09489",
+        "--kind",
+        "torus",
+        "--ratios",
+        "0.98:1.03",
+    ]);
+    assert!(said.contains("symmetric orbit, half map"), "{said}");
+    assert!(one.len() > 10);
+    assert!((num(&one[0], 0) - 0.98).abs() < 1e-12);
+    assert!((num(one.last().unwrap(), 0) - 1.03).abs() < 1e-12);
+    for r in &one {
+        assert_eq!(r[2], "torus");
+        assert!(num(r, 6).abs() < 1e-9 && num(r, 7) < 1e-9, "{r:?}");
+    }
+    let at1 = one
+        .iter()
+        .find(|r| (num(r, 0) - 1.0).abs() < 1e-12)
+        .unwrap();
+    assert!((num(at1, 1) - 0.09489).abs() < 1e-5, "{at1:?}");
+    let beam = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenarios/paper_beam.toml"
+    );
+    let (said, b) = rows(&[
+        "--scenario",
+        beam,
+        "--from-point",
+        "ratio=1.02,gap-mm=0.0673636645425",
+        "--kind",
+        "period-doubling",
+        "--ratios",
+        "1.0:1.04",
+        "--max-points",
+        "5",
+    ]);
+    assert!(said.contains("full map"), "{said}");
+    assert!(b.len() >= 8, "{said}");
+    for r in &b {
+        assert_eq!(r[2], "period-doubling");
+        assert!(num(r, 6).abs() < 1e-8 && num(r, 7) < 1e-9, "{r:?}");
+    }
+    assert!(b.iter().any(|r| (num(r, 0) - 1.02).abs() < 1e-12));
+}

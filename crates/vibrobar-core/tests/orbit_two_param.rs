@@ -9,6 +9,9 @@ use vibrobar_core::analysis::orbit::*;
 use vibrobar_core::solver::Solver as _;
 use vibrobar_core::*;
 
+#[path = "common/modal_beam.rs"]
+mod modal_beam;
+
 fn paper(gap_m: f64, f: FrictionModel, r: f64) -> System {
     System::paper_damped(gap_m, f, r)
 }
@@ -319,4 +322,198 @@ fn period_doubling_curve_passes_through_the_one_parameter_detection() {
         p.gap_m,
         g1
     );
+}
+
+/// The lumped bar's one unit mode as a `[[modes]]` table (`frequency_hz = √(K/M)/2π`, `ζ`,
+/// `modal_mass_kg = M`, every shape 1), as in `orbit_modal.rs`.
+fn measured_one_mode(lumped: &System) -> structure::ModalSystem {
+    let bar = lumped.lumped_bar().unwrap();
+    let mm = structure::MeasuredMode {
+        frequency_hz: bar.natural_freq_rad_s() / (2.0 * std::f64::consts::PI),
+        damping_ratio: bar.damping_ratio,
+        modal_mass_kg: bar.mass_kg,
+        shape_cavity: 1.0,
+    };
+    structure::ModalSystem {
+        model: structure::Structure::Measured(vec![mm.mode()])
+            .modal_model()
+            .unwrap(),
+        ..structure::ModalSystem::from_lumped(lumped).unwrap()
+    }
+}
+
+/// The torus curve of the symmetric orbit (the README's `continue2` example) on a one-mode
+/// `[[modes]]` table with the lumped bar's `M`, `K`, `ζ`: the modal continuation (half map of the
+/// modal flow, parameter columns by central differences) follows the lumped curve. At a few of
+/// its points the lumped curve is corrected onto the torus point at the modal point's ratio
+/// (the start's correction at fixed ratio): the gaps agree, and the lumped test function vanishes
+/// at the modal point's (ratio, gap).
+#[test]
+fn one_mode_table_follows_the_lumped_torus_curve() {
+    let s = Curve2Settings {
+        ratios: (0.99, 1.01),
+        max_points: 12,
+        ..Default::default()
+    };
+    let lumped = paper(0.09489e-3, FrictionModel::None, 1.0);
+    let lo = orbit_at(&lumped);
+    let t = std::time::Instant::now();
+    let lc = continue_curve(&lo, CurveKind::Torus, &s).unwrap();
+    let tl = t.elapsed().as_secs_f64();
+    let ms = modal::ModalSection::new(measured_one_mode(&lumped), lo.section.t0_s, 1).unwrap();
+    let mo = modal::find_modal_orbit(&ms, &lo.vector(), &NewtonSettings::default()).unwrap();
+    let t = std::time::Instant::now();
+    let mc = continue_curve(&mo, CurveKind::Torus, &s).unwrap();
+    eprintln!(
+        "lumped {} points in {tl:.2} s, one-mode table {} points in {:.2} s; ends {:?}",
+        lc.points.len(),
+        mc.points.len(),
+        t.elapsed().as_secs_f64(),
+        mc.stop_reasons
+    );
+    assert!(mc.symmetric && lc.symmetric);
+    assert!(mc.points.len() >= 10);
+    // Both reach the box's ends in ratio.
+    for c in [mc.points.first().unwrap(), mc.points.last().unwrap()] {
+        assert!((c.ratio - 0.99).abs() < 1e-12 || (c.ratio - 1.01).abs() < 1e-12);
+    }
+    let (mut dg_max, mut tf_max) = (0.0f64, 0.0f64);
+    for p in mc.points.iter().step_by(4) {
+        assert!(
+            p.residual < 1e-9 && p.test.abs() < 1e-8,
+            "{} {}",
+            p.residual,
+            p.test
+        );
+        // The lumped curve's point at this ratio: its start corrected at fixed ratio.
+        let sys = paper(p.gap_m, FrictionModel::None, p.ratio);
+        let sec = Section::new(sys, p.orbit.section.t0_s, 1).unwrap();
+        let x = p.orbit.vector();
+        let o = find_orbit(&sec, &x, &ExactJacobian, &NewtonSettings::default()).unwrap();
+        let tf = test_function(&o, CurveKind::Torus).unwrap().unwrap();
+        let at =
+            continue_curve(&o, CurveKind::Torus, &Curve2Settings { max_points: 2, ..s }).unwrap();
+        let q = at
+            .points
+            .iter()
+            .find(|q| (q.ratio - p.ratio).abs() < 1e-14)
+            .expect("the corrected start");
+        let dg = (q.gap_m - p.gap_m).abs() / p.gap_m;
+        eprintln!(
+            "  r = {:.6}: gap {:.9} mm (modal) {:.9} mm (lumped), relative {dg:.1e}; lumped test {tf:.1e}",
+            p.ratio,
+            p.gap_m * 1e3,
+            q.gap_m * 1e3
+        );
+        dg_max = dg_max.max(dg);
+        tf_max = tf_max.max(tf.abs());
+    }
+    assert!(dg_max < 1e-9, "{dg_max:e}");
+    assert!(tf_max < 1e-8, "{tf_max:e}");
+}
+
+/// A short period-doubling curve of the asymmetric two-impact orbit of the 4-mode paper beam
+/// (r = 1.02, found by the one-parameter continuation in the gap): every point a true orbit of
+/// the modal map with its test function `det(J + I)` at zero.
+#[test]
+fn four_mode_beam_period_doubling_curve_stays_on_its_zero() {
+    use structure::ModalState;
+    let g0 = 0.06e-3;
+    let sys = modal_beam::beam_system(4, Some(Damper::paper(g0, FrictionModel::None)), 1.02);
+    let o = modal::modal_orbit_settled(&sys, 1, &ModalState::REST, 0.5).unwrap();
+    let fam = modal::ModalFamily {
+        base: sys,
+        beam: None,
+        param: modal::ModalParam::Axis(Axis::GapM),
+    };
+    let s = ContinuationSettings {
+        switch_branches: false,
+        max_points: 200,
+        ..Default::default()
+    };
+    let b = modal::continue_modal_orbit(&o, &fam, g0, 0.14e-3, &s).unwrap();
+    let pd = b
+        .points
+        .iter()
+        .find(|p| p.event == Some(BranchEvent::PeriodDoubling))
+        .expect("a period doubling");
+    let t = std::time::Instant::now();
+    let c = continue_curve(
+        &pd.orbit,
+        CurveKind::PeriodDoubling,
+        &Curve2Settings {
+            ratios: (1.0, 1.04),
+            max_points: 6,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    eprintln!(
+        "4-mode beam: start gap {:.6} mm; {} points in {:.2} s; ends {:?}",
+        pd.param * 1e3,
+        c.points.len(),
+        t.elapsed().as_secs_f64(),
+        c.stop_reasons
+    );
+    assert!(!c.symmetric);
+    assert!(c.points.len() >= 5);
+    let r = c.points.iter().map(|p| p.ratio);
+    let span = r.clone().fold(f64::NEG_INFINITY, f64::max) - r.fold(f64::INFINITY, f64::min);
+    assert!(span > 1e-3, "{span}");
+    let mut worst = 0.0f64;
+    for p in &c.points {
+        let tf = test_function(&p.orbit, CurveKind::PeriodDoubling)
+            .unwrap()
+            .unwrap();
+        eprintln!(
+            "  r = {:.6}, gap {:.6} mm: test {:.1e} (again {tf:.1e}), residual {:.1e}, |λ| {:.3}",
+            p.ratio,
+            p.gap_m * 1e3,
+            p.test,
+            p.residual,
+            p.orbit.max_abs_multiplier()
+        );
+        assert!(p.residual < 1e-9 && p.orbit.physicality.confined);
+        assert_eq!(p.orbit.section.dim(), 10);
+        worst = worst.max(p.test.abs()).max(tf.abs());
+    }
+    assert!(worst < 1e-8, "{worst:e}");
+}
+
+/// The half map `G(x) = −P_{T/2}(x)` on the N-mode bar: the modal equations are odd in
+/// `(q, q̇, w, ẇ)` with the harmonic force shifted by half a period, so the full map is `G∘G`
+/// from the same section time, for any state (here the 4-mode beam's asymmetric orbit, which
+/// is not a fixed point of `G`, and a state off it).
+#[test]
+fn four_mode_beam_full_map_is_the_half_map_squared() {
+    use structure::ModalState;
+    let sys = modal_beam::beam_system(4, Some(Damper::paper(0.06e-3, FrictionModel::None)), 1.02);
+    let o = modal::modal_orbit_settled(&sys, 1, &ModalState::REST, 0.5).unwrap();
+    let sec = o.section.clone();
+    let sc = sec.scales();
+    let half = |x: &[f64]| -> Vec<f64> {
+        let (s, _) = sec
+            .run(&sec.state(x), sec.t0_s + 0.5 * sec.period_s(), &mut ())
+            .unwrap();
+        sec.vector(&s).iter().map(|v| -v).collect()
+    };
+    let x0 = o.vector();
+    let mut x1 = x0.clone();
+    x1[0] *= 1.1;
+    x1[5] *= 0.9;
+    for x in [x0, sec.clamp(&x1)] {
+        let full = sec.flow(&x).unwrap();
+        let gg = half(&half(&x));
+        let d = (0..x.len())
+            .map(|i| ((full[i] - gg[i]) / sc[i]).abs())
+            .fold(0.0, f64::max);
+        let g = half(&x);
+        let moved = (0..x.len())
+            .map(|i| ((g[i] - x[i]) / sc[i]).abs())
+            .fold(0.0, f64::max);
+        eprintln!("P − G∘G: {d:.1e} scaled (G moves x by {moved:.2e})");
+        assert!(d < 1e-9, "{d:e}");
+        assert!(moved > 1e-3);
+    }
+    assert!(symmetry_defect(&o).unwrap().unwrap() > 1e-3);
 }

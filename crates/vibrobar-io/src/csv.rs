@@ -836,9 +836,9 @@ pub fn curve2_schema() -> Schema {
 }
 
 /// One row of [`curve2_schema`].
-pub fn curve2_values(
+pub fn curve2_values<F: vibrobar_core::analysis::orbit::Flow>(
     kind: vibrobar_core::analysis::orbit::two_param::CurveKind,
-    p: &vibrobar_core::analysis::orbit::two_param::CurvePoint,
+    p: &vibrobar_core::analysis::orbit::two_param::CurvePoint<F>,
 ) -> Vec<Value> {
     let edge = vibrobar_core::analysis::orbit::two_param::on_boundary(p);
     vec![

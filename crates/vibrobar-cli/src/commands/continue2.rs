@@ -1,16 +1,18 @@
 //! `vibrobar continue2`: two-parameter continuation in (ratio, gap) of a fold, period-doubling,
 //! torus, branch-point or grazing point of a periodic orbit
 //! ([`vibrobar_core::analysis::orbit::two_param`]), from a point the one-parameter `continue`
-//! located. Output: the curve as CSV ([`vibrobar_io::csv::curve2_schema`]) and a figure of it in
+//! located, on the lumped bar or an N-mode bar (`[beam]`, `[[modes]]`). Output: the curve as CSV ([`vibrobar_io::csv::curve2_schema`]) and a figure of it in
 //! the (ratio, gap) plane (`FILE.png/.svg`: the edge of stability bold, codimension-two points
 //! marked).
 use super::{check_value, fmt_coord, SystemArgs};
 use anyhow::{bail, Context};
 use std::path::PathBuf;
+use vibrobar_core::analysis::orbit::modal::modal_orbit_settled_at;
 use vibrobar_core::analysis::orbit::two_param::{
-    continue_curve, on_boundary, stability_boundary, Curve2Settings, CurveKind,
+    continue_curve, on_boundary, stability_boundary, Curve, Curve2Settings, CurveKind,
 };
-use vibrobar_core::analysis::orbit::{orbit_auto, region::symmetric_orbit_at, ExactJacobian};
+use vibrobar_core::analysis::orbit::{orbit_auto, region::symmetric_orbit_at, ExactJacobian, Flow};
+use vibrobar_core::structure::{ModalState, ModalSystem};
 use vibrobar_io::csv::{curve2_schema, curve2_values, write_csv};
 
 /// `vibrobar continue2`.
@@ -20,7 +22,9 @@ pub struct Continue2Args {
     /// System and solver.
     pub system: SystemArgs,
     /// The starting point `ratio=R,gap-mm=G`: a point of the kind, e.g. one the one-parameter
-    /// `continue` located (its `event` row); Newton corrects it onto the curve at ratio R.
+    /// `continue` located (its `event` row); Newton corrects it onto the curve at ratio R. The
+    /// orbit there is the symmetric one on the lumped bar when it exists, else (and always on an
+    /// N-mode bar) Newton from a settled run.
     #[arg(long)]
     pub from_point: String,
     /// What to continue: fold, period-doubling, torus, branch-point or grazing.
@@ -113,6 +117,28 @@ pub fn run(a: &Continue2Args) -> anyhow::Result<()> {
         gap_mm: g0_mm,
     }
     .system()?;
+    let settings = Curve2Settings {
+        ratios,
+        gaps_m: (gaps_mm.0 * 1e-3, gaps_mm.1 * 1e-3),
+        max_points: a.max_points,
+        ..Default::default()
+    };
+    if sys.lumped_bar().is_none() {
+        // An N-mode bar: Newton from a settled run (the analytic symmetric orbit is the lumped
+        // bar's), as `orbit` and `continue` start there.
+        let msys = ModalSystem::from_system(&sys)?;
+        let init = ModalState::from_public(&msys.model, &sc.base()?.init)?;
+        let s = sc.settings();
+        let (start, _) = modal_orbit_settled_at(
+            &msys,
+            a.period,
+            &init,
+            s.duration_s * (1.0 - s.rms_fraction),
+        )?;
+        let t = std::time::Instant::now();
+        let c = continue_curve(&start, kind, &settings)?;
+        return write_curve(a, kind, ratios, &c, t.elapsed().as_secs_f64());
+    }
     // The symmetric orbit when it exists there (period 1), else Newton from the best start.
     let start = match (a.period, symmetric_orbit_at(&sys, &ExactJacobian)) {
         (1, Some(o)) => o,
@@ -129,15 +155,19 @@ pub fn run(a: &Continue2Args) -> anyhow::Result<()> {
             .0
         }
     };
-    let settings = Curve2Settings {
-        ratios,
-        gaps_m: (gaps_mm.0 * 1e-3, gaps_mm.1 * 1e-3),
-        max_points: a.max_points,
-        ..Default::default()
-    };
     let t = std::time::Instant::now();
     let c = continue_curve(&start, kind, &settings)?;
-    let wall = t.elapsed().as_secs_f64();
+    write_curve(a, kind, ratios, &c, t.elapsed().as_secs_f64())
+}
+
+/// The curve's CSV, its figure and the report line, either bar.
+fn write_curve<F: Flow>(
+    a: &Continue2Args,
+    kind: CurveKind,
+    ratios: (f64, f64),
+    c: &Curve<F>,
+    wall: f64,
+) -> anyhow::Result<()> {
     let schema = curve2_schema();
     write_csv(
         &a.out,

@@ -2,15 +2,19 @@
 //! orbit: a fold, a period doubling, a torus (Neimark–Sacker), a symmetry-breaking branch point
 //! or a grazing contact.
 //!
-//! **Augmented system.** Unknowns `z = (ξ, a, b)`: the scaled state at the section `ξ = x/s`
-//! ([`super::scales`] of the start, kept along the curve), the ratio `r = a·`[`RATIO_UNIT`] and
-//! the gap `g = b·`[`GAP_UNIT_M`]. Equations `H(z) = (F(z), φ(z)) = 0`: the orbit condition `F`
-//! (4 rows) and one smooth test function `φ` of the kind ([`CurveKind`]). Five equations in six
-//! unknowns: a curve, followed by pseudo-arclength (predict along the kernel of `DH`, correct
+//! **Both bars.** The scheme is written once over the bar's map ([`Curve2Flow`], a [`Flow`] whose
+//! ratio and gap can be set): the lumped bar ([`Section`], state `(u, u̇, w, ẇ)`, `D = 4`) and the
+//! N-mode bar ([`ModalSection`], `[beam]` or `[[modes]]`, state `(q, q̇, w, ẇ)`, `D = 2N + 2`).
+//!
+//! **Augmented system.** Unknowns `z = (ξ, a, b)` (`D + 2` of them): the scaled state at the
+//! section `ξ = x/s` ([`Flow::scales`] of the start, kept along the curve), the ratio
+//! `r = a·`[`RATIO_UNIT`] and the gap `g = b·`[`GAP_UNIT_M`]. Equations `H(z) = (F(z), φ(z)) = 0`:
+//! the orbit condition `F` (`D` rows) and one smooth test function `φ` of the kind
+//! ([`CurveKind`]). `D + 1` equations in `D + 2` unknowns: a curve, followed by pseudo-arclength (predict along the kernel of `DH`, correct
 //! with Newton on `H = 0` plus `t·(z − z_pred) = 0`).
 //!
 //! **The map.** For an orbit with the symmetry `x(t + kT/2) = −x(t)` (odd `k`: the symmetric
-//! two-impact orbit) the orbit condition is the half map's, `G(x) = −P_{kT/2}(x) = x`, with
+//! two-impact orbit, on either bar: [`symmetry_defect`]) the orbit condition is the half map's, `G(x) = −P_{kT/2}(x) = x`, with
 //! Jacobian `M = −DP_{kT/2}`; the monodromy is `M²` and its multipliers are the squares of `M`'s.
 //! This is what makes the symmetry-breaking branch point a regular point: there a multiplier of
 //! `M` is `−1` (the monodromy's `+1` with an antisymmetric eigenvector), while on the full map
@@ -28,11 +32,16 @@
 //!   smallest clearance at an interior turning point of `|w|`, `(l_g − |w|)/l_g` (an impact
 //!   appears), whichever is smaller at the start.
 //!
-//! **Derivatives.** The rows of `F` are exact: `DP` with saltation matrices and the parameter
-//! columns `∂P/∂r`, `∂P/∂g` from the variational layer (two runs; for the ratio with the moving
-//! end time). The row of `φ` is by central differences of `φ` in each of the six unknowns (step
-//! [`FD_STEP`] in scaled units, twelve runs: the second derivatives of the map that the exact
-//! gradient would need are not carried).
+//! **Derivatives.** The state columns of `F` are exact on both bars: `DP` with saltation matrices
+//! from the variational layer. The parameter columns `∂P/∂r`, `∂P/∂g` are exact on the lumped bar
+//! (its variational layer carries them: two runs; for the ratio with the moving end time). The
+//! modal variational layer does not carry them: on the N-mode bar they are central differences of
+//! the map solved, step [`PARAM_FD_STEP`] in scaled units (four runs; for the ratio the end time
+//! moves with it), as the one-parameter continuation takes them there
+//! ([`super::continuation`]). They only steer the corrector and the tangent: a converged point
+//! solves `H = 0` whatever their error. The row of `φ` is by central differences of `φ` in each of
+//! the `D + 2` unknowns (step [`FD_STEP`] in scaled units, `2D + 4` runs: the second derivatives
+//! of the map that the exact gradient would need are not carried).
 //!
 //! **Ends of a curve.** Along the curve the other multipliers are watched; a change of the number
 //! of multipliers beyond `+1`, beyond `−1` or complex outside the unit circle (the curve's own
@@ -44,27 +53,17 @@
 //! smallest step; the reason is in [`Curve::stop_reasons`].
 
 use super::continuation::BranchEvent;
-use super::{describe, scales, to_relative, to_vector, PeriodicOrbit, Section};
+use super::modal::{to_relative as modal_to_relative, ModalSection};
+use super::{describe, to_relative, to_vector, Flow, Orbit, PeriodicOrbit, Section};
 use crate::analysis::grid::Axis;
 use crate::analysis::variational::{flow_with_jacobian, flow_with_param_derivative, Param};
+use crate::analysis::variational_modal::modal_flow_with_jacobian;
 use crate::error::{ParamError, SimError};
 use crate::params::System;
-use crate::solver::{Exact, Solver};
-use nalgebra::{DMatrix, Matrix4, SMatrix, SVector};
-
-/// A 4 × 4 matrix of the orbit layer (dynamic size) as this module's fixed-size one.
-fn fixed4(m: &DMatrix<f64>) -> Matrix4<f64> {
-    Matrix4::from_fn(|r, c| m[(r, c)])
-}
-
-/// A fixed-size 4 × 4 matrix as the orbit layer's dynamic-size one.
-fn dyn4(m: &Matrix4<f64>) -> DMatrix<f64> {
-    DMatrix::from_fn(4, 4, |r, c| m[(r, c)])
-}
+use crate::solver::Exact;
+use crate::structure::ModalSystem;
+use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
-
-type M6 = SMatrix<f64, 6, 6>;
-type V6 = SVector<f64, 6>;
 
 /// The unit of the ratio in the continuation's unknowns.
 pub const RATIO_UNIT: f64 = 0.01;
@@ -72,6 +71,9 @@ pub const RATIO_UNIT: f64 = 0.01;
 pub const GAP_UNIT_M: f64 = 1e-5;
 /// Central-difference step of the test function's gradient, in scaled units.
 pub const FD_STEP: f64 = 1e-5;
+/// Central-difference step of the parameter columns where the variational layer does not carry
+/// them (the N-mode bar), in scaled units: `1e-7` in the ratio, `1e-10` m in the gap.
+pub const PARAM_FD_STEP: f64 = 1e-5;
 
 /// The codimension-one point a curve follows (`--kind`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -208,13 +210,13 @@ impl Default for Curve2Settings {
 
 /// One point of a curve.
 #[derive(Debug, Clone, PartialEq)]
-pub struct CurvePoint {
+pub struct CurvePoint<F: Flow = Section> {
     /// Frequency ratio.
     pub ratio: f64,
     /// Gap, m.
     pub gap_m: f64,
     /// The orbit there (full period, monodromy multipliers).
-    pub orbit: PeriodicOrbit,
+    pub orbit: Orbit<F>,
     /// The test function's value (≈ 0).
     pub test: f64,
     /// `max |F|` of the orbit condition, scaled units.
@@ -225,13 +227,13 @@ pub struct CurvePoint {
 
 /// A two-parameter curve.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Curve {
+pub struct Curve<F: Flow = Section> {
     /// What it follows.
     pub kind: CurveKind,
     /// Whether the symmetric half map was used.
     pub symmetric: bool,
     /// Points in order of increasing arclength (the start's backward side reversed first).
-    pub points: Vec<CurvePoint>,
+    pub points: Vec<CurvePoint<F>>,
     /// Why each end stopped: `[backward, forward]`.
     pub stop_reasons: Vec<String>,
 }
@@ -243,53 +245,205 @@ enum GrazingMeasure {
     TurningClearance,
 }
 
-struct Ctx {
-    base: System,
+/// A bar's map as the two-parameter continuation sees it: the [`Flow`] at any (ratio, gap), the
+/// map and its Jacobian over the duration solved (half or full period), and the parameter columns
+/// where the variational layer carries them (module docs, "Both bars").
+pub trait Curve2Flow: Flow {
+    /// The same bar at frequency ratio `ratio` and gap `gap_m` (SI), section time `t0_s`, period
+    /// `periods`, checked.
+    fn at_ratio_gap(
+        &self,
+        ratio: f64,
+        gap_m: f64,
+        t0_s: f64,
+        periods: u32,
+    ) -> Result<Self, SimError>;
+
+    /// The frequency ratio and the gap (m) of this section's system.
+    fn ratio_gap(&self) -> (f64, f64);
+
+    /// The map over `dur_s` from the section time, `x(t₀ + dur)`, and its Jacobian in the map's
+    /// coordinates.
+    fn map_over(&self, x: &[f64], dur_s: f64) -> Result<(Vec<f64>, DMatrix<f64>), SimError>;
+
+    /// The map over `dur_s`, its Jacobian and the exact columns `∂x(t₀ + dur)/∂r`,
+    /// `∂x(t₀ + dur)/∂g` (SI, in the map's coordinates; for the ratio with the end time moving
+    /// as `dur ∝ 1/r`), or `None` where the variational layer does not carry the parameters
+    /// (then central differences of the map, [`PARAM_FD_STEP`]). `ratio` is the ratio as set
+    /// (that of [`Curve2Flow::at_ratio_gap`]).
+    #[allow(clippy::type_complexity)]
+    fn map_with_param_columns(
+        &self,
+        x: &[f64],
+        dur_s: f64,
+        ratio: f64,
+    ) -> Result<Option<(Vec<f64>, DMatrix<f64>, Vec<f64>, Vec<f64>)>, SimError>;
+}
+
+impl Curve2Flow for Section {
+    fn at_ratio_gap(
+        &self,
+        ratio: f64,
+        gap_m: f64,
+        t0_s: f64,
+        periods: u32,
+    ) -> Result<Section, SimError> {
+        let mut s = self.system;
+        Axis::FreqRatio.apply(&mut s, ratio)?;
+        Axis::GapM.apply(&mut s, gap_m)?;
+        s.validate()?;
+        Section::new(s, t0_s, periods)
+    }
+
+    fn ratio_gap(&self) -> (f64, f64) {
+        (
+            super::continuation::param_of(&self.system, Axis::FreqRatio),
+            super::continuation::param_of(&self.system, Axis::GapM),
+        )
+    }
+
+    fn map_over(&self, x: &[f64], dur_s: f64) -> Result<(Vec<f64>, DMatrix<f64>), SimError> {
+        let init = Flow::state(self, x);
+        let fj = flow_with_jacobian(
+            &Exact::default(),
+            &self.system,
+            &init,
+            self.t0_s + dur_s,
+            &mut (),
+        )?;
+        Ok((to_vector(&fj.state).to_vec(), to_relative(&fj.jacobian)))
+    }
+
+    fn map_with_param_columns(
+        &self,
+        x: &[f64],
+        dur_s: f64,
+        ratio: f64,
+    ) -> Result<Option<(Vec<f64>, DMatrix<f64>, Vec<f64>, Vec<f64>)>, SimError> {
+        let init = Flow::state(self, x);
+        let col =
+            |p: Param| -> Result<(crate::analysis::variational::FlowJacobian, Vec<f64>), SimError> {
+                let (fj, mut d) = flow_with_param_derivative(
+                    &Exact::default(),
+                    &self.system,
+                    &init,
+                    self.t0_s + dur_s,
+                    p,
+                    &mut (),
+                )?;
+                if p == Param::FreqRatio {
+                    // The end time t₀ + dur(r) moves: ∂t_end/∂r = −dur/r.
+                    let dt = -dur_s / ratio;
+                    for (di, fi) in d.iter_mut().zip(fj.end_field) {
+                        *di += fi * dt;
+                    }
+                }
+                Ok((fj, vec![d[0], d[1], d[2] - d[0], d[3] - d[1]]))
+            };
+        let (fj, dr) = col(Param::FreqRatio)?;
+        let (_, dg) = col(Param::GapM)?;
+        Ok(Some((
+            to_vector(&fj.state).to_vec(),
+            to_relative(&fj.jacobian),
+            dr,
+            dg,
+        )))
+    }
+}
+
+impl Curve2Flow for ModalSection {
+    fn at_ratio_gap(
+        &self,
+        ratio: f64,
+        gap_m: f64,
+        t0_s: f64,
+        periods: u32,
+    ) -> Result<ModalSection, SimError> {
+        let mut s = self.system.to_system();
+        Axis::FreqRatio.apply(&mut s, ratio)?;
+        Axis::GapM.apply(&mut s, gap_m)?;
+        let m = ModalSystem::from_system(&s)?;
+        m.validate()?;
+        ModalSection::new(m, t0_s, periods)
+    }
+
+    fn ratio_gap(&self) -> (f64, f64) {
+        let s = self.system.to_system();
+        (
+            super::continuation::param_of(&s, Axis::FreqRatio),
+            super::continuation::param_of(&s, Axis::GapM),
+        )
+    }
+
+    fn map_over(&self, x: &[f64], dur_s: f64) -> Result<(Vec<f64>, DMatrix<f64>), SimError> {
+        let fj = modal_flow_with_jacobian(&self.system, &self.state(x), self.t0_s + dur_s)?;
+        let d = self.dim();
+        let j = DMatrix::from_fn(d, d, |r, c| fj.jacobian[r][c]);
+        Ok((
+            self.to_vector(&fj.state),
+            modal_to_relative(&self.system, &j),
+        ))
+    }
+
+    fn map_with_param_columns(
+        &self,
+        _: &[f64],
+        _: f64,
+        _: f64,
+    ) -> Result<Option<(Vec<f64>, DMatrix<f64>, Vec<f64>, Vec<f64>)>, SimError> {
+        // The modal variational layer carries no parameter column: central differences.
+        Ok(None)
+    }
+}
+
+struct Ctx<F: Curve2Flow> {
+    /// The start's section: the bar whose ratio and gap are set.
+    base: F,
     kind: CurveKind,
     symmetric: bool,
     periods: u32,
-    sc: [f64; 4],
+    /// The state's dimension `D`.
+    d: usize,
+    sc: Vec<f64>,
     grazing: GrazingMeasure,
     settings: Curve2Settings,
 }
 
 /// The map's value, scaled Jacobian `M` (map solved) and the two scaled parameter columns.
 struct MapEval {
-    fx: [f64; 4],
-    m: Matrix4<f64>,
-    dr: [f64; 4],
-    dg: [f64; 4],
+    fx: Vec<f64>,
+    m: DMatrix<f64>,
+    dr: Vec<f64>,
+    dg: Vec<f64>,
 }
+
+/// `H(z)`, `DH` (top `D + 1` rows of a square matrix) and `M`.
+type Eval = (DVector<f64>, DMatrix<f64>, DMatrix<f64>);
 
 #[derive(Clone)]
-struct Pt {
-    z: V6,
+struct Pt<F: Flow> {
+    z: DVector<f64>,
     t0: f64,
-    tangent: V6,
-    point: CurvePoint,
+    tangent: DVector<f64>,
+    point: CurvePoint<F>,
     /// `M` (scaled) at the point.
-    m: Matrix4<f64>,
+    m: DMatrix<f64>,
 }
 
-impl Ctx {
-    fn system(&self, z: &V6) -> Result<System, SimError> {
-        let mut s = self.base;
-        Axis::FreqRatio.apply(&mut s, z[4] * RATIO_UNIT)?;
-        Axis::GapM.apply(&mut s, z[5] * GAP_UNIT_M)?;
-        s.validate()?;
-        Ok(s)
+impl<F: Curve2Flow> Ctx<F> {
+    fn section(&self, t0: f64, z: &DVector<f64>) -> Result<F, SimError> {
+        let d = self.d;
+        self.base
+            .at_ratio_gap(z[d] * RATIO_UNIT, z[d + 1] * GAP_UNIT_M, t0, self.periods)
     }
 
-    fn section(&self, t0: f64, z: &V6) -> Result<Section, SimError> {
-        Section::new(self.system(z)?, t0, self.periods)
-    }
-
-    fn x_of(&self, sec: &Section, z: &V6) -> [f64; 4] {
-        sec.clamp([0, 1, 2, 3].map(|i| z[i] * self.sc[i]))
+    fn x_of(&self, sec: &F, z: &DVector<f64>) -> Vec<f64> {
+        let x: Vec<f64> = (0..self.d).map(|i| z[i] * self.sc[i]).collect();
+        sec.clamp(&x)
     }
 
     /// The duration of the map solved.
-    fn duration(&self, sec: &Section) -> f64 {
+    fn duration(&self, sec: &F) -> f64 {
         if self.symmetric {
             0.5 * sec.period_s()
         } else {
@@ -305,71 +459,79 @@ impl Ctx {
         }
     }
 
+    /// `M` in scaled coordinates from the Jacobian `j` of the map (SI).
+    fn scale_m(&self, j: &DMatrix<f64>) -> DMatrix<f64> {
+        let sg = self.sign();
+        DMatrix::from_fn(self.d, self.d, |i, k| {
+            sg * j[(i, k)] * self.sc[k] / self.sc[i]
+        })
+    }
+
     /// `G(x)` and `M = DG` (scaled); with `params`, also `∂G/∂(a, b)` (scaled).
-    fn map_eval(&self, t0: f64, z: &V6, params: bool) -> Result<MapEval, SimError> {
+    fn map_eval(&self, t0: f64, z: &DVector<f64>, params: bool) -> Result<MapEval, SimError> {
+        let d = self.d;
         let sec = self.section(t0, z)?;
         let x = self.x_of(&sec, z);
         let dur = self.duration(&sec);
-        let init = sec.state(&x);
         let sg = self.sign();
-        let scale_m =
-            |j: &Matrix4<f64>| Matrix4::from_fn(|i, k| sg * j[(i, k)] * self.sc[k] / self.sc[i]);
+        let scaled = |v: &[f64], unit: f64| -> Vec<f64> {
+            (0..d).map(|i| sg * v[i] * unit / self.sc[i]).collect()
+        };
         if !params {
-            let fj = flow_with_jacobian(&Exact::default(), &sec.system, &init, t0 + dur, &mut ())?;
-            let v = to_vector(&fj.state);
+            let (v, j) = sec.map_over(&x, dur)?;
             return Ok(MapEval {
-                fx: [0, 1, 2, 3].map(|i| sg * v[i]),
-                m: scale_m(&fixed4(&to_relative(&fj.jacobian))),
-                dr: [0.0; 4],
-                dg: [0.0; 4],
+                fx: (0..d).map(|i| sg * v[i]).collect(),
+                m: self.scale_m(&j),
+                dr: vec![0.0; d],
+                dg: vec![0.0; d],
             });
         }
-        let col =
-            |p: Param| -> Result<(crate::analysis::variational::FlowJacobian, [f64; 4]), SimError> {
-                let (fj, mut d) = flow_with_param_derivative(
-                    &Exact::default(),
-                    &sec.system,
-                    &init,
-                    t0 + dur,
-                    p,
-                    &mut (),
-                )?;
-                if p == Param::FreqRatio {
-                    // The end time t₀ + dur(r) moves: ∂t_end/∂r = −dur/r.
-                    let dt = -dur / (z[4] * RATIO_UNIT);
-                    for (di, fi) in d.iter_mut().zip(fj.end_field) {
-                        *di += fi * dt;
-                    }
-                }
-                Ok((fj, [d[0], d[1], d[2] - d[0], d[3] - d[1]]))
-            };
-        let (fj, dr) = col(Param::FreqRatio)?;
-        let (_, dg) = col(Param::GapM)?;
-        let v = to_vector(&fj.state);
+        let (v, j, dr, dg) = match sec.map_with_param_columns(&x, dur, z[d] * RATIO_UNIT)? {
+            Some(cols) => cols,
+            None => {
+                // Central differences of the map solved in the scaled parameters (step
+                // PARAM_FD_STEP): for the ratio the end time t₀ + dur(r) moves with it.
+                let (v, j) = sec.map_over(&x, dur)?;
+                let run = |dz: usize, h: f64| -> Result<Vec<f64>, SimError> {
+                    let mut zz = z.clone();
+                    zz[dz] += h;
+                    let s = self.section(t0, &zz)?;
+                    Ok(s.map_over(&x, self.duration(&s))?.0)
+                };
+                let col = |dz: usize, unit: f64| -> Result<Vec<f64>, SimError> {
+                    let (a, b) = (run(dz, PARAM_FD_STEP)?, run(dz, -PARAM_FD_STEP)?);
+                    Ok((0..d)
+                        .map(|i| (a[i] - b[i]) / (2.0 * PARAM_FD_STEP * unit))
+                        .collect())
+                };
+                let (dr, dg) = (col(d, RATIO_UNIT)?, col(d + 1, GAP_UNIT_M)?);
+                (v, j, dr, dg)
+            }
+        };
         Ok(MapEval {
-            fx: [0, 1, 2, 3].map(|i| sg * v[i]),
-            m: scale_m(&fixed4(&to_relative(&fj.jacobian))),
-            dr: [0, 1, 2, 3].map(|i| sg * dr[i] * RATIO_UNIT / self.sc[i]),
-            dg: [0, 1, 2, 3].map(|i| sg * dg[i] * GAP_UNIT_M / self.sc[i]),
+            fx: (0..d).map(|i| sg * v[i]).collect(),
+            m: self.scale_m(&j),
+            dr: scaled(&dr, RATIO_UNIT),
+            dg: scaled(&dg, GAP_UNIT_M),
         })
     }
 
     /// The monodromy (scaled) from `M`.
-    fn monodromy(&self, m: &Matrix4<f64>) -> Matrix4<f64> {
+    fn monodromy(&self, m: &DMatrix<f64>) -> DMatrix<f64> {
         if self.symmetric {
             m * m
         } else {
-            *m
+            m.clone()
         }
     }
 
     /// The test function at `z`.
-    fn test(&self, t0: f64, z: &V6, m: Option<&Matrix4<f64>>) -> Result<f64, SimError> {
+    fn test(&self, t0: f64, z: &DVector<f64>, m: Option<&DMatrix<f64>>) -> Result<f64, SimError> {
         if self.kind == CurveKind::Grazing {
             return self.grazing_value(t0, z);
         }
         let m = match m {
-            Some(m) => *m,
+            Some(m) => m.clone(),
             None => self.map_eval(t0, z, false)?.m,
         };
         test_of_matrix(self.kind, &m, &self.monodromy(&m)).ok_or(SimError::NoConvergence {
@@ -380,61 +542,82 @@ impl Ctx {
         })
     }
 
-    fn grazing_value(&self, t0: f64, z: &V6) -> Result<f64, SimError> {
+    fn grazing_value(&self, t0: f64, z: &DVector<f64>) -> Result<f64, SimError> {
         let sec = self.section(t0, z)?;
         let x = self.x_of(&sec, z);
-        let o = describe(&sec, &x, DMatrix::identity(4, 4), "none", 0.0, 0)?;
-        let lg = sec.system.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
+        let o = describe(&sec, &x, DMatrix::identity(self.d, self.d), "none", 0.0, 0)?;
+        let lg = sec.half_gap_m();
         Ok(match self.grazing {
-            GrazingMeasure::ImpactSpeed => o.physicality.min_impact_speed_m_s / self.sc[3],
+            GrazingMeasure::ImpactSpeed => o.physicality.min_impact_speed_m_s / self.sc[self.d - 1],
             GrazingMeasure::TurningClearance => o.physicality.grazing_margin_m / lg,
         })
     }
 
-    /// `H(z)` and `DH` (top five rows of a 6 × 6 matrix), and `M`.
-    fn eval(&self, t0: f64, z: &V6) -> Result<(V6, M6, Matrix4<f64>), SimError> {
+    /// `H(z)` and `DH` (top `D + 1` rows of a `(D + 2)`-square matrix), and `M`.
+    fn eval(&self, t0: f64, z: &DVector<f64>) -> Result<Eval, SimError> {
+        let d = self.d;
         let me = self.map_eval(t0, z, true)?;
-        let mut h = V6::zeros();
-        let mut j = M6::zeros();
-        for i in 0..4 {
+        let mut h = DVector::zeros(d + 2);
+        let mut j = DMatrix::zeros(d + 2, d + 2);
+        for i in 0..d {
             h[i] = me.fx[i] / self.sc[i] - z[i];
-            for k in 0..4 {
+            for k in 0..d {
                 j[(i, k)] = me.m[(i, k)] - if i == k { 1.0 } else { 0.0 };
             }
-            j[(i, 4)] = me.dr[i];
-            j[(i, 5)] = me.dg[i];
+            j[(i, d)] = me.dr[i];
+            j[(i, d + 1)] = me.dg[i];
         }
-        h[4] = self.test(t0, z, Some(&me.m))?;
-        for k in 0..6 {
-            let mut zp = *z;
-            let mut zm = *z;
+        h[d] = self.test(t0, z, Some(&me.m))?;
+        for k in 0..d + 2 {
+            let mut zp = z.clone();
+            let mut zm = z.clone();
             zp[k] += FD_STEP;
             zm[k] -= FD_STEP;
             let (a, b) = (self.test(t0, &zp, None)?, self.test(t0, &zm, None)?);
-            j[(4, k)] = (a - b) / (2.0 * FD_STEP);
+            j[(d, k)] = (a - b) / (2.0 * FD_STEP);
         }
         Ok((h, j, me.m))
     }
 
-    fn tangent(&self, j: &M6, prev: &V6) -> Option<V6> {
-        let mut m = *j;
-        for k in 0..6 {
-            m[(5, k)] = prev[k];
+    fn tangent(&self, j: &DMatrix<f64>, prev: &DVector<f64>) -> Option<DVector<f64>> {
+        let n = self.d + 2;
+        let mut m = j.clone();
+        for k in 0..n {
+            m[(n - 1, k)] = prev[k];
         }
-        let mut rhs = V6::zeros();
-        rhs[5] = 1.0;
+        let mut rhs = DVector::zeros(n);
+        rhs[n - 1] = 1.0;
         let t = m.lu().solve(&rhs)?;
-        let n = t.norm();
-        (n.is_finite() && n > 0.0).then(|| t / n)
+        let nrm = t.norm();
+        (nrm.is_finite() && nrm > 0.0).then(|| t / nrm)
     }
 
     /// Newton on `H = 0` with the last row `row·(z − z_pred) = 0`.
-    fn correct(&self, t0: f64, z_pred: &V6, row: &V6) -> Result<(V6, M6, Matrix4<f64>), SimError> {
-        let mut z = *z_pred;
+    fn correct(
+        &self,
+        t0: f64,
+        z_pred: &DVector<f64>,
+        row: &DVector<f64>,
+    ) -> Result<Eval, SimError> {
+        let n = self.d + 2;
+        let mut z = z_pred.clone();
         let tol = self.settings.tolerance;
         let mut last = f64::INFINITY;
         for it in 0..=self.settings.max_iterations {
-            let (h, mut j, m) = self.eval(t0, &z)?;
+            let (h, mut j, m) = match self.eval(t0, &z) {
+                Ok(e) => e,
+                // After a step, a state or parameter the solver refuses is the step's failure (a
+                // diverging iteration), not the input's.
+                Err(_) if it > 0 => {
+                    return Err(SimError::NoConvergence {
+                        what: "the two-parameter corrector (a step left the solver's domain)",
+                        iterations: it,
+                        residual: last,
+                        tolerance: tol,
+                    })
+                }
+                Err(e) => return Err(e),
+            };
             let r = h.amax();
             if r <= tol && it > 0 {
                 return Ok((z, j, m));
@@ -449,32 +632,50 @@ impl Ctx {
             }
             last = r;
             let mut rhs = -h;
-            for k in 0..6 {
-                j[(5, k)] = row[k];
+            for k in 0..n {
+                j[(n - 1, k)] = row[k];
             }
-            rhs[5] = -row.dot(&(z - z_pred));
-            let d = j.lu().solve(&rhs).ok_or(SimError::NoConvergence {
+            rhs[n - 1] = -row.dot(&(&z - z_pred));
+            let dz = j.lu().solve(&rhs).ok_or(SimError::NoConvergence {
                 what: "the two-parameter corrector (singular Jacobian)",
                 iterations: it,
                 residual: r,
                 tolerance: tol,
             })?;
-            z += d;
-            let lg = 0.5 * z[5] * GAP_UNIT_M;
-            z[2] = z[2].clamp(-lg / self.sc[2], lg / self.sc[2]);
+            z += dz;
+            let iw = self.d - 2;
+            let lg = 0.5 * z[n - 1] * GAP_UNIT_M;
+            // A step that leaves the gaps (0, ∞) fails like a diverging one (the step is halved).
+            if lg.is_nan() || lg <= 0.0 {
+                return Err(SimError::NoConvergence {
+                    what: "the two-parameter corrector (a step left the positive gaps)",
+                    iterations: it + 1,
+                    residual: r,
+                    tolerance: tol,
+                });
+            }
+            z[iw] = z[iw].clamp(-lg / self.sc[iw], lg / self.sc[iw]);
         }
         unreachable!("the loop returns")
     }
 
     /// The full point at a converged `z`.
-    fn point(&self, t0: f64, z: V6, j: &M6, m: Matrix4<f64>, prev_t: &V6) -> Result<Pt, SimError> {
+    fn point(
+        &self,
+        t0: f64,
+        z: DVector<f64>,
+        j: &DMatrix<f64>,
+        m: DMatrix<f64>,
+        prev_t: &DVector<f64>,
+    ) -> Result<Pt<F>, SimError> {
+        let d = self.d;
         let sec = self.section(t0, &z)?;
         let x = self.x_of(&sec, &z);
         let mono = self.monodromy(&m);
-        let jac_si = Matrix4::from_fn(|i, k| mono[(i, k)] * self.sc[i] / self.sc[k]);
-        let mut orbit = describe(&sec, &x, dyn4(&jac_si), "variational", 0.0, 0)?;
+        let jac_si = DMatrix::from_fn(d, d, |i, k| mono[(i, k)] * self.sc[i] / self.sc[k]);
+        let mut orbit = describe(&sec, &x, jac_si, "variational", 0.0, 0)?;
         let px = sec.flow(&x)?;
-        orbit.residual = (0..4)
+        orbit.residual = (0..d)
             .map(|i| ((px[i] - x[i]) / self.sc[i]).abs())
             .fold(0.0, f64::max);
         let tangent = self.tangent(j, prev_t).ok_or(SimError::NoConvergence {
@@ -485,30 +686,31 @@ impl Ctx {
         })?;
         let test = self.test(t0, &z, Some(&m))?;
         Ok(Pt {
-            z,
             t0,
             tangent,
             point: CurvePoint {
-                ratio: z[4] * RATIO_UNIT,
-                gap_m: z[5] * GAP_UNIT_M,
+                ratio: z[d] * RATIO_UNIT,
+                gap_m: z[d + 1] * GAP_UNIT_M,
                 residual: orbit.residual,
                 orbit,
                 test,
                 event: None,
             },
+            z,
             m,
         })
     }
 
     /// Move the section away from an event within 2 % of the solved map's duration of it (either
     /// end).
-    fn rephase(&self, p: Pt) -> Result<Pt, SimError> {
+    fn rephase(&self, p: Pt<F>) -> Result<Pt<F>, SimError> {
+        let d = self.d;
         let o = &p.point.orbit;
         let kt = o.section.period_s();
         let dur = self.duration(&o.section);
         let near = o.events.iter().any(|e| {
-            let d = e.dt_s % dur;
-            d < 0.02 * dur || d > 0.98 * dur
+            let r = e.dt_s % dur;
+            r < 0.02 * dur || r > 0.98 * dur
         });
         if !near || o.events.is_empty() {
             return Ok(p);
@@ -522,22 +724,20 @@ impl Ctx {
                 mid = 0.5 * (w[0] + w[1]);
             }
         }
-        let t_new = o.section.t0_s + mid;
-        let s = Exact::default()
-            .run(&o.section.system, &o.state, t_new, &mut ())?
-            .final_state;
-        let tt = o.section.system.forcing_period_s();
+        let t_new = o.section.t0_s() + mid;
+        let (s, _) = o.section.run(&o.state, t_new, &mut ())?;
+        let tt = o.section.forcing_period_s();
         let t0 = t_new - (t_new / tt).floor() * tt;
-        let x = to_vector(&s);
-        let mut z = p.z;
-        for i in 0..4 {
+        let x = o.section.vector(&s);
+        let mut z = p.z.clone();
+        for i in 0..d {
             z[i] = x[i] / self.sc[i];
         }
         let (_, j, m) = self.eval(t0, &z)?;
         let mut q = self.point(t0, z, &j, m, &p.tangent)?;
         // The state part of the old tangent is in the old section's coordinates: orient the new
         // one by its parameter part.
-        if q.tangent[4] * p.tangent[4] + q.tangent[5] * p.tangent[5] < 0.0 {
+        if q.tangent[d] * p.tangent[d] + q.tangent[d + 1] * p.tangent[d + 1] < 0.0 {
             q.tangent = -q.tangent;
         }
         q.point.event = p.point.event;
@@ -547,20 +747,20 @@ impl Ctx {
 
 /// The test function of `kind` on the solved map's scaled Jacobian `m` and the monodromy `mono`
 /// (`None` for a torus without a complex pair; grazing has none here).
-fn test_of_matrix(kind: CurveKind, m: &Matrix4<f64>, mono: &Matrix4<f64>) -> Option<f64> {
-    let id = Matrix4::<f64>::identity();
+fn test_of_matrix(kind: CurveKind, m: &DMatrix<f64>, mono: &DMatrix<f64>) -> Option<f64> {
+    let id = DMatrix::<f64>::identity(m.nrows(), m.ncols());
     match kind {
-        CurveKind::Fold => Some((m - id).determinant()),
-        CurveKind::BranchPoint => Some((m + id).determinant()),
-        CurveKind::PeriodDoubling => Some((mono + id).determinant()),
+        CurveKind::Fold => Some((m - &id).determinant()),
+        CurveKind::BranchPoint => Some((m + &id).determinant()),
+        CurveKind::PeriodDoubling => Some((mono + &id).determinant()),
         CurveKind::Torus => critical_pair(mono).map(|l| l.norm_sqr() - 1.0),
         CurveKind::Grazing => None,
     }
 }
 
 /// The complex multiplier (upper half plane) nearest the unit circle, if any.
-fn critical_pair(mono: &Matrix4<f64>) -> Option<Complex64> {
-    super::multipliers_of(&dyn4(mono))
+fn critical_pair(mono: &DMatrix<f64>) -> Option<Complex64> {
+    super::multipliers_of(mono)
         .into_iter()
         .filter(|l| l.im > 1e-9 * l.norm().max(1e-300))
         .min_by(|a, b| (a.norm() - 1.0).abs().total_cmp(&(b.norm() - 1.0).abs()))
@@ -569,8 +769,8 @@ fn critical_pair(mono: &Matrix4<f64>) -> Option<Complex64> {
 /// Counts of the solved map's multipliers (those of `M`: the half map's for a symmetric orbit,
 /// the monodromy's otherwise) beyond `+1`, beyond `−1`, complex outside the circle and complex in
 /// all, leaving out the curve's own critical one(s).
-fn counts(kind: CurveKind, m: &Matrix4<f64>) -> [usize; 4] {
-    let mut list = super::multipliers_of(&dyn4(m));
+fn counts(kind: CurveKind, m: &DMatrix<f64>) -> [usize; 4] {
+    let mut list = super::multipliers_of(m);
     let one = Complex64::new(1.0, 0.0);
     let drop = |target: Complex64, list: &mut Vec<Complex64>| {
         if let Some(i) = nearest(list, target) {
@@ -672,8 +872,8 @@ fn codim2_between(
 
 /// A strong resonance at a located codimension-two point: two multipliers of the map solved
 /// within 1e-3 of `+1` (1:1, where a torus curve ends on a fold curve) or of `−1`.
-fn resonance(m: &Matrix4<f64>) -> Option<Codim2> {
-    let l = super::multipliers_of(&dyn4(m));
+fn resonance(m: &DMatrix<f64>) -> Option<Codim2> {
+    let l = super::multipliers_of(m);
     [1.0, -1.0]
         .iter()
         .any(|t| l.iter().filter(|x| (*x - t).norm() < 1e-3).count() >= 2)
@@ -681,8 +881,30 @@ fn resonance(m: &Matrix4<f64>) -> Option<Codim2> {
 }
 
 /// Whether `orbit` has the symmetry `x(t + kT/2) = −x(t)` (odd `k`, defect below 1e-6).
-pub fn is_symmetric(orbit: &PeriodicOrbit) -> Result<bool, SimError> {
-    Ok(orbit.symmetry_defect()?.is_some_and(|d| d < 1e-6))
+pub fn is_symmetric<F: Flow>(orbit: &Orbit<F>) -> Result<bool, SimError> {
+    Ok(symmetry_defect(orbit)?.is_some_and(|d| d < 1e-6))
+}
+
+/// `max |x(t0 + kT/2) + x(t0)|` in scaled units, either bar: 0 for an orbit with the symmetry
+/// `x(t + kT/2) = −x(t)`, `None` for an even `k` ([`Orbit::symmetry_defect`] of the lumped bar).
+/// On the N-mode bar the symmetry is the same in its map's coordinates `(q, q̇, w, ẇ)`: the modal
+/// equations are linear in `(q, q̇)`, the ball's `(w, ẇ)` meets walls at `±l_g` with the same law,
+/// and the harmonic force changes sign over half a period (a static force breaks it: the defect
+/// says so).
+pub fn symmetry_defect<F: Flow>(orbit: &Orbit<F>) -> Result<Option<f64>, SimError> {
+    let sec = &orbit.section;
+    if sec.periods() % 2 == 0 {
+        return Ok(None);
+    }
+    let half = sec.t0_s() + 0.5 * sec.period_s();
+    let (s, _) = sec.run(&orbit.state, half, &mut ())?;
+    let (a, b) = (sec.vector(&orbit.state), sec.vector(&s));
+    let sc = sec.scales();
+    Ok(Some(
+        (0..a.len())
+            .map(|i| ((a[i] + b[i]) / sc[i]).abs())
+            .fold(0.0, f64::max),
+    ))
 }
 
 /// Check the settings: finite, non-empty ratio and gap intervals, step and point limits. Errors
@@ -722,28 +944,28 @@ pub fn check_settings(s: &Curve2Settings) -> Result<(), ParamError> {
 /// both directions within the settings' box (module docs). The start is first corrected onto the
 /// curve at its own ratio (Newton on the orbit condition and the test function in the state and
 /// the gap).
-pub fn continue_curve(
-    start: &PeriodicOrbit,
+pub fn continue_curve<F: Curve2Flow>(
+    start: &Orbit<F>,
     kind: CurveKind,
     settings: &Curve2Settings,
-) -> Result<Curve, SimError> {
+) -> Result<Curve<F>, SimError> {
     check_settings(settings)?;
-    let base = start.section.system;
-    let ratio0 = super::continuation::param_of(&base, Axis::FreqRatio);
-    let gap0 = super::continuation::param_of(&base, Axis::GapM);
+    let base = start.section.clone();
+    let d = base.dim();
+    let (ratio0, gap0) = base.ratio_gap();
     // Symmetric up to 1e-3 (a one-parameter detection next to a symmetry-breaking branch point may
     // sit slightly off the symmetric branch): the first correction projects it onto it.
-    let symmetric = start.symmetry_defect()?.is_some_and(|d| d < 1e-3);
+    let symmetric = symmetry_defect(start)?.is_some_and(|d| d < 1e-3);
     if kind == CurveKind::BranchPoint && !symmetric {
         return Err(SimError::Unsupported(
             "--kind branch-point needs a symmetric orbit (x(t + kT/2) = −x(t), odd period) at the start: a symmetry-breaking branch point has one",
         ));
     }
-    let lg = base.damper.map_or(f64::INFINITY, |d| d.half_gap_m());
-    let sc = scales(&base);
+    let lg = base.half_gap_m();
+    let sc = base.scales();
     let grazing = {
         let ph = start.physicality;
-        if ph.min_impact_speed_m_s / sc[3] <= ph.grazing_margin_m / lg {
+        if ph.min_impact_speed_m_s / sc[d - 1] <= ph.grazing_margin_m / lg {
             GrazingMeasure::ImpactSpeed
         } else {
             GrazingMeasure::TurningClearance
@@ -754,22 +976,23 @@ pub fn continue_curve(
         kind,
         // The grazing measure is taken over the full period.
         symmetric: symmetric && kind != CurveKind::Grazing,
-        periods: start.section.periods,
+        periods: start.section.periods(),
+        d,
         sc,
         grazing,
         settings: *settings,
     };
-    let x0 = to_vector(&start.state);
-    let mut z = V6::zeros();
-    for i in 0..4 {
-        z[i] = x0[i] / sc[i];
+    let x0 = start.vector();
+    let mut z = DVector::zeros(d + 2);
+    for i in 0..d {
+        z[i] = x0[i] / c.sc[i];
     }
-    z[4] = ratio0 / RATIO_UNIT;
-    z[5] = gap0 / GAP_UNIT_M;
-    let t0 = start.section.t0_s;
+    z[d] = ratio0 / RATIO_UNIT;
+    z[d + 1] = gap0 / GAP_UNIT_M;
+    let t0 = start.section.t0_s();
     // Onto the curve at fixed ratio: the last row pins a.
-    let mut e_r = V6::zeros();
-    e_r[4] = 1.0;
+    let mut e_r = DVector::zeros(d + 2);
+    e_r[d] = 1.0;
     let (z, j, m) = c.correct(t0, &z, &e_r).map_err(|e| match e {
         SimError::NoConvergence {
             iterations,
@@ -786,9 +1009,9 @@ pub fn continue_curve(
     })?;
     // Initial tangent: the kernel oriented toward increasing ratio (or gap if the curve is
     // vertical).
-    let mut guess = V6::zeros();
-    guess[4] = 1.0;
-    guess[5] = 1e-3;
+    let mut guess = DVector::zeros(d + 2);
+    guess[d] = 1.0;
+    guess[d + 1] = 1e-3;
     let first = c.rephase(c.point(t0, z, &j, m, &guess)?)?;
     let mut sides = Vec::new();
     let mut reasons = Vec::new();
@@ -801,7 +1024,7 @@ pub fn continue_curve(
         reasons.push(reason);
     }
     // Joined in arclength order: [b_n … b_1, start, f_1 …]; an event stays on its located point.
-    let mut points: Vec<CurvePoint> = sides[0].iter().rev().map(|p| p.point.clone()).collect();
+    let mut points: Vec<CurvePoint<F>> = sides[0].iter().rev().map(|p| p.point.clone()).collect();
     points.push(first.point.clone());
     points.extend(sides[1].iter().map(|p| p.point.clone()));
     Ok(Curve {
@@ -813,12 +1036,16 @@ pub fn continue_curve(
 }
 
 /// One direction of a curve from `cur`; pushes the points after it, returns why it stopped.
-fn follow(c: &Ctx, mut cur: Pt, out: &mut Vec<Pt>) -> Result<String, SimError> {
+fn follow<F: Curve2Flow>(
+    c: &Ctx<F>,
+    mut cur: Pt<F>,
+    out: &mut Vec<Pt<F>>,
+) -> Result<String, SimError> {
     let (rlo, rhi) = c.settings.ratios;
     let (glo, ghi) = c.settings.gaps_m;
     let bounds = [
-        (4, rlo / RATIO_UNIT, rhi / RATIO_UNIT),
-        (5, glo / GAP_UNIT_M, ghi / GAP_UNIT_M),
+        (c.d, rlo / RATIO_UNIT, rhi / RATIO_UNIT),
+        (c.d + 1, glo / GAP_UNIT_M, ghi / GAP_UNIT_M),
     ];
     let mut h = c.settings.step_initial;
     loop {
@@ -895,13 +1122,13 @@ fn follow(c: &Ctx, mut cur: Pt, out: &mut Vec<Pt>) -> Result<String, SimError> {
             continue;
         }
         let (ca, cb) = (counts(c.kind, &cur.m), counts(c.kind, &next.m));
-        let seq = |p: &Pt| cyclic_canonical(&p.point.orbit.sequence);
+        let seq = |p: &Pt<F>| cyclic_canonical(&p.point.orbit.sequence);
         let mut next = next;
         let ev = codim2_between(c.symmetric, &ca, &cb, &seq(&cur), &seq(&next));
         if let Some(e) = ev {
             // Locate it by bisection on the step: the first point with the new counts.
             let (mut lo, mut hi) = (0.0, hh);
-            let mut best: Option<Pt> = None;
+            let mut best: Option<Pt<F>> = None;
             for _ in 0..40 {
                 if hi - lo < 1e-10 * hh.max(1e-12) {
                     break;
@@ -926,7 +1153,7 @@ fn follow(c: &Ctx, mut cur: Pt, out: &mut Vec<Pt>) -> Result<String, SimError> {
                 }
             }
             match best {
-                Some(mut b) if (b.z - next.z).amax() > 1e-9 => {
+                Some(mut b) if (&b.z - &next.z).amax() > 1e-9 => {
                     b.point.event = Some(resonance(&b.m).unwrap_or(e));
                     out.push(b);
                 }
@@ -947,12 +1174,17 @@ fn follow(c: &Ctx, mut cur: Pt, out: &mut Vec<Pt>) -> Result<String, SimError> {
     }
 }
 
-fn step(c: &Ctx, cur: &Pt, h: f64, pin: Option<(usize, f64)>) -> Result<Pt, SimError> {
-    let mut z_pred = cur.z + cur.tangent * h;
+fn step<F: Curve2Flow>(
+    c: &Ctx<F>,
+    cur: &Pt<F>,
+    h: f64,
+    pin: Option<(usize, f64)>,
+) -> Result<Pt<F>, SimError> {
+    let mut z_pred = &cur.z + &cur.tangent * h;
     let (z, j, m) = match pin {
         None => c.correct(cur.t0, &z_pred, &cur.tangent)?,
         Some((k, v)) => {
-            let mut row = V6::zeros();
+            let mut row = DVector::zeros(c.d + 2);
             row[k] = 1.0;
             z_pred[k] = v;
             c.correct(cur.t0, &z_pred, &row)?
@@ -964,26 +1196,23 @@ fn step(c: &Ctx, cur: &Pt, h: f64, pin: Option<(usize, f64)>) -> Result<Pt, SimE
 /// The value of `kind`'s test function at a converged orbit (`None` for grazing and a torus
 /// without a complex pair): on the half map for a symmetric orbit (module docs). The check that
 /// a curve point is a codimension-one point of the right kind.
-pub fn test_function(orbit: &PeriodicOrbit, kind: CurveKind) -> Result<Option<f64>, SimError> {
-    let sc = scales(&orbit.section.system);
+pub fn test_function<F: Curve2Flow>(
+    orbit: &Orbit<F>,
+    kind: CurveKind,
+) -> Result<Option<f64>, SimError> {
+    let sec = &orbit.section;
+    let sc = sec.scales();
     let symmetric = is_symmetric(orbit)?;
-    let sec = orbit.section;
-    let x = to_vector(&orbit.state);
+    let x = orbit.vector();
     let (dur, sg) = if symmetric {
         (0.5 * sec.period_s(), -1.0)
     } else {
         (sec.period_s(), 1.0)
     };
-    let fj = flow_with_jacobian(
-        &Exact::default(),
-        &sec.system,
-        &sec.state(&x),
-        sec.t0_s + dur,
-        &mut (),
-    )?;
-    let j = to_relative(&fj.jacobian);
-    let m = Matrix4::from_fn(|i, k| sg * j[(i, k)] * sc[k] / sc[i]);
-    let mono = if symmetric { m * m } else { m };
+    let (_, j) = sec.map_over(&x, dur)?;
+    let d = sec.dim();
+    let m = DMatrix::from_fn(d, d, |i, k| sg * j[(i, k)] * sc[k] / sc[i]);
+    let mono = if symmetric { &m * &m } else { m.clone() };
     Ok(test_of_matrix(kind, &m, &mono))
 }
 
@@ -1086,7 +1315,7 @@ pub fn stability_boundary(
 
 /// A curve point on the edge of stability: no multiplier but the critical one(s) outside the
 /// unit circle (largest `|λ|` within 1e-6 of 1).
-pub fn on_boundary(p: &CurvePoint) -> bool {
+pub fn on_boundary<F: Flow>(p: &CurvePoint<F>) -> bool {
     p.orbit.max_abs_multiplier() < 1.0 + 1e-6
 }
 
