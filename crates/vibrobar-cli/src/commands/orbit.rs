@@ -607,7 +607,7 @@ pub fn bench_row() -> anyhow::Result<()> {
         |o| continue_orbit(o, Axis::GapM, 0.06e-3, 0.2e-3, &ExactJacobian, &settings),
     )?;
     println!(
-        "  exact  periodic orbits (r = 1, frictionless): Newton from the analytic orbit median {:.2} ms; a {n}-point branch in the gap from 0.06 mm median {:.1} ms over 5 (issue #11 target: 200 points < 2 s on one core)",
+        "  exact  periodic orbits (r = 1, frictionless): Newton from the analytic orbit median {:.2} ms; a {n}-point branch in the gap from 0.06 mm median {:.1} ms over 5 (target: 200 points < 2 s on one core)",
         tn * 1e3,
         tc * 1e3
     );
