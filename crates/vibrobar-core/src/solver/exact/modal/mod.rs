@@ -1013,6 +1013,37 @@ fn build_free(cs: &Consts, s: &St, fb: f64, no_ball: bool, mo: &mut FreeMotion) 
     mo.no_ball = no_ball;
 }
 
+/// The segment's joint event search over `cands` (what each means in `ids`): the earliest zero
+/// on `[0, span]` as `(τ, which)` (`which = 0`: none before `span`, [`HORIZON`]: the search's
+/// work bound reached), and the transcendentals at `τ` in `end` (the search's own where it has
+/// them at `τ`, else computed on `basis`).
+fn joint_search(
+    cands: &[CandN],
+    ids: &[u8],
+    search: &mut ScratchN,
+    end: &mut TrigN,
+    span: f64,
+    tol_t: f64,
+    basis: &ExpSumN,
+) -> (f64, u8) {
+    let (best, which) = if cands.is_empty() {
+        (span, 0)
+    } else {
+        let (root, i) = first_root_n(cands, 0.0, span, tol_t, search);
+        match root {
+            Root::At(t) => (t, ids[i]),
+            Root::None => (span, 0),
+            Root::Horizon(t) => (t, HORIZON),
+        }
+    };
+    if which != 0 && search.trig_full && search.trig.tau.to_bits() == best.to_bits() {
+        end.copy_from(&search.trig);
+    } else {
+        end.fill(best, basis);
+    }
+    (best, which)
+}
+
 /// One free-flight segment with friction sign `σ` and departure orders `[wall +, wall −,
 /// ẇ = 0]` (`None`: the bar without a ball, one segment to the end) ([`Kernel::free_flight`]).
 /// Returns which event ended it.
@@ -1056,21 +1087,15 @@ fn free_flight(
             push(3, k_sw, cs.tol_v, &work.tmp, sigma, 0.0);
         }
     }
-    let (best, which) = if nc == 0 {
-        (span, 0)
-    } else {
-        let (root, i) = first_root_n(&work.cands[..nc], 0.0, span, tol_t, &mut work.search);
-        match root {
-            Root::At(t) => (t, work.ids[i]),
-            Root::None => (span, 0),
-            Root::Horizon(t) => (t, HORIZON),
-        }
-    };
-    if which != 0 && work.search.trig_full && work.search.trig.tau.to_bits() == best.to_bits() {
-        work.end.copy_from(&work.search.trig);
-    } else {
-        work.end.fill(best, &work.mo.w);
-    }
+    let (best, which) = joint_search(
+        &work.cands[..nc],
+        &work.ids,
+        &mut work.search,
+        &mut work.end,
+        span,
+        tol_t,
+        &work.mo.w,
+    );
     let seg = ModalExactSegment {
         t0: s.t,
         t1: if which == 0 { t_end_s } else { s.t + best },
@@ -1216,21 +1241,15 @@ fn pair_motion(
             unreachable!("pair_motion is called for stick and contact")
         }
     };
-    let (best, which) = if nc == 0 {
-        (span, 0)
-    } else {
-        let (root, i) = first_root_n(&work.cands[..nc], 0.0, span, tol_t, &mut work.search);
-        match root {
-            Root::At(t) => (t, work.ids[i]),
-            Root::None => (span, 0),
-            Root::Horizon(t) => (t, HORIZON),
-        }
-    };
-    if which != 0 && work.search.trig_full && work.search.trig.tau.to_bits() == best.to_bits() {
-        work.end.copy_from(&work.search.trig);
-    } else {
-        work.end.fill(best, &pm.ur);
-    }
+    let (best, which) = joint_search(
+        &work.cands[..nc],
+        &work.ids,
+        &mut work.search,
+        &mut work.end,
+        span,
+        tol_t,
+        &pm.ur,
+    );
     let seg = ModalExactSegment {
         t0: s.t,
         t1: if which == 0 { t_end_s } else { s.t + best },
