@@ -17,7 +17,7 @@
 //! reported as an [`EventKind::Impact`] with the approach speed and `W_c` as its energy loss,
 //! so impact counts and the energy books keep their meaning.
 
-use super::driver::{after_wall_free, wall_of, wall_touch, Cavity, Md};
+use super::driver::{after_wall_free, wall_of, wall_touch, BallState, Cavity, Md};
 use super::hertz::APPROACH_FLOOR_REL;
 use crate::damper::contact::Hertz;
 use crate::damper::friction::can_stick;
@@ -203,6 +203,99 @@ pub(super) struct ContactPhase<const N: usize> {
     pub(super) t_touch: f64,
 }
 
+impl<const N: usize> ContactPhase<N> {
+    /// The phase from the touch `s` at wall `sw` (`s.w = sw·l_g`, `s.dw` the approach velocity,
+    /// or 0 resting): `δ = 0`, the damping's reference speed the approach speed held at its
+    /// floor, a first step of a fiftieth of the undamped contact time, and friction sliding
+    /// with `σ = sgn ẇ = sw·sgn δ̇` (at the touch `δ̇ ≥ 0`, pressed in: `σ = sw`).
+    pub(super) fn touch<C: CompliantBar<N>>(cs: &C, law: &Hertz, sw: f64, s: &C::St) -> Self {
+        let approach = (sw * s.dw()).max(0.0);
+        let floor = APPROACH_FLOOR_REL * cs.half_gap_m() * cs.omegas().1;
+        let v0 = approach.max(floor);
+        ContactPhase {
+            t: s.t(),
+            y: cs.phase_state(s, approach),
+            h: law.undamped_contact_time_s(cs.contact_mass_kg(), v0) / 50.0,
+            approach,
+            v0,
+            sigma: if cs.frictional() { sw } else { 0.0 },
+            stuck: false,
+            max_pen: 0.0,
+            steps: 0,
+            t_touch: s.t(),
+        }
+    }
+
+    /// The phase's integrator: the scales of its tolerances are the impact's own penetration
+    /// and speed, and the bar's motion.
+    pub(super) fn integrator<C: CompliantBar<N>>(&self, cs: &C, law: &Hertz) -> Dopri5<N> {
+        let meff = cs.contact_mass_kg();
+        let d_scale = law.with_damping(0.0).max_penetration_m(meff, self.v0);
+        let v_scale = self.v0.max(cs.half_gap_m() * cs.omegas().0);
+        cs.integrator(d_scale, v_scale)
+    }
+
+    /// The events of the phase (the first `n` of the array): 0 the release (`δ < 0`); sliding
+    /// with friction, 1 `δ̇` crossing 0 (the sign of `ẇ`); stuck, 1 and 2 the friction needed
+    /// leaving `[−f, f]` (`lag = f − needed`, `lead = f + needed`); last, `extra` if any.
+    pub(super) fn events<'a, C: CompliantBar<N>>(
+        &self,
+        cs: &C,
+        sw: f64,
+        lag: EventFn<'a, N>,
+        lead: EventFn<'a, N>,
+        extra: Option<Event<'a, N>>,
+    ) -> ([Event<'a, N>; 4], usize) {
+        let (id, idd, _) = cs.slots();
+        let mut ev = [Event::Comp { i: id, sign: 1.0 }; 4];
+        let mut n = 1;
+        if self.stuck {
+            (ev[1], ev[2], n) = (Event::Fn(lag), Event::Fn(lead), 3);
+        } else if cs.frictional() {
+            let sign = if sw * self.sigma >= 0.0 { 1.0 } else { -1.0 };
+            (ev[1], n) = (Event::Comp { i: idd, sign }, 2);
+        }
+        if let Some(e) = extra {
+            ev[n] = e;
+            n += 1;
+        }
+        (ev, n)
+    }
+
+    /// The phase stopped at event `which` of [`ContactPhase::events`] (the extra one already
+    /// handled): a change of friction, and the phase goes on (`true`). At `ẇ = 0` inside the
+    /// contact the ball sticks if coulomb can hold it (the friction `needed` within `f`), else the
+    /// sliding friction reverses; stuck, where friction can no longer hold, the ball slides the
+    /// way the needed force pulls (`F_ball = −f sgn ẇ` = the sign of the needed force at the
+    /// limit, so `ẇ` against it).
+    pub(super) fn friction_switch<C: CompliantBar<N>>(
+        &mut self,
+        cs: &C,
+        which: Option<usize>,
+        needed: impl Fn(f64, &[f64; N]) -> f64,
+    ) -> bool {
+        match (which, self.stuck) {
+            (Some(1), false) => {
+                self.y[cs.slots().1] = 0.0;
+                if can_stick(cs.friction_model())
+                    && needed(self.t, &self.y).abs() <= cs.friction_level_n()
+                {
+                    self.stuck = true;
+                } else {
+                    self.sigma = -self.sigma;
+                }
+                true
+            }
+            (Some(k @ (1 | 2)), true) => {
+                self.stuck = false;
+                self.sigma = if k == 1 { -1.0 } else { 1.0 };
+                true
+            }
+            _ => false,
+        }
+    }
+}
+
 /// The bar's side of a compliant contact phase with a phase state of `N` components: its
 /// right-hand side, the friction the ball needs to move with it, and the solver's state of a
 /// phase state.
@@ -282,31 +375,14 @@ where
     B: PhaseBook<C, N>,
     C::St: Copy,
 {
-    use super::driver::BallState;
-    let (id, idd, iw) = cs.slots();
-    let t0 = s.t();
-    let approach = (sw * s.dw()).max(0.0);
-    let lg = cs.half_gap_m();
-    let (om, om_max) = cs.omegas();
-    let floor = APPROACH_FLOOR_REL * lg * om_max;
-    let v0 = approach.max(floor);
-    // Scales of the tolerances: the impact's own penetration and speed, the bar's motion.
-    let meff = cs.contact_mass_kg();
-    let d_scale = law.with_damping(0.0).max_penetration_m(meff, v0);
-    let v_scale = v0.max(lg * om);
-    let ig = cs.integrator(d_scale, v_scale);
-    let mut y = cs.phase_state(s, approach);
-    let mut t = t0;
-    let mut h = law.undamped_contact_time_s(meff, v0) / 50.0;
-    let mut steps = 0u64;
-    let mut max_pen = 0.0_f64;
-    // Friction: sliding with σ = sgn ẇ = sw·sgn δ̇ (at the touch δ̇ ≥ 0, pressed in: σ = sw), or
-    // stuck (coulomb, at ẇ = 0 while the friction needed stays within f).
-    let mut sigma = if cs.frictional() { sw } else { 0.0 };
-    let mut stuck = false;
+    let (id, _, iw) = cs.slots();
+    let mut ph = ContactPhase::touch(cs, law, sw, s);
+    let ig = ph.integrator(cs, law);
+    let (approach, v0) = (ph.approach, ph.v0);
     let fl = cs.friction_level_n();
     let needed = |t: f64, y: &[f64; N]| cs.needed(law, sw, cs.force_at(t), y);
     loop {
+        let (stuck, sigma) = (ph.stuck, ph.sigma);
         let fb = if stuck { 0.0 } else { cs.fb(sigma) };
         // The last `(t, F(t))`: the 6th and 7th stages of a step are both at `t + h`.
         let mut last = (f64::NAN, 0.0);
@@ -320,25 +396,9 @@ where
             };
             cs.rhs(law, v0, sw, stuck, fb, force, y)
         };
-        // Events: 0 release (δ < 0); sliding with friction: 1 δ̇ crosses 0 (the sign of ẇ);
-        // stuck: 1, 2 the friction needed leaves [−f, f].
-        let dsign = if sw * sigma >= 0.0 { 1.0 } else { -1.0 };
-        let release = Event::Comp { i: id, sign: 1.0 };
-        let switch = Event::Comp {
-            i: idd,
-            sign: dsign,
-        };
         let lag = |t: f64, y: &[f64; N]| fl - needed(t, y);
         let lead = |t: f64, y: &[f64; N]| fl + needed(t, y);
-        let slide_ev: [Event<'_, N>; 2] = [release, switch];
-        let stuck_ev: [Event<'_, N>; 3] = [release, Event::Fn(&lag), Event::Fn(&lead)];
-        let events: &[Event<'_, N>] = if stuck {
-            &stuck_ev
-        } else if cs.frictional() {
-            &slide_ev
-        } else {
-            &slide_ev[..1]
-        };
+        let (events, ne) = ph.events(cs, sw, &lag, &lead, None);
         let step = PhaseStep {
             sw,
             fb,
@@ -347,42 +407,34 @@ where
             stuck,
             law: *law,
         };
-        let end = run_phase(&ig, &mut f, t, y, h, t_end_s, events, |st, th| {
-            for k in 0..=4 {
-                max_pen = max_pen.max(st.comp(id, th * k as f64 / 4.0));
-            }
-            book.step(cs, st, th, &step);
-            h = st.h;
-        });
-        let end = count_steps(end, &mut steps, t0)?;
-        t = end.t;
-        y = end.y;
-        match (end.which, stuck) {
-            (Some(1), false) => {
-                // ẇ = 0 inside the contact: stick if coulomb can hold the ball, else the
-                // sliding friction reverses.
-                y[idd] = 0.0;
-                if can_stick(cs.friction_model()) && needed(t, &y).abs() <= fl {
-                    stuck = true;
-                } else {
-                    sigma = -sigma;
+        let (mut h, mut max_pen) = (ph.h, ph.max_pen);
+        let end = run_phase(
+            &ig,
+            &mut f,
+            ph.t,
+            ph.y,
+            ph.h,
+            t_end_s,
+            &events[..ne],
+            |st, th| {
+                for k in 0..=4 {
+                    max_pen = max_pen.max(st.comp(id, th * k as f64 / 4.0));
                 }
-                continue;
-            }
-            (Some(k @ (1 | 2)), true) => {
-                // Friction can no longer hold: slide the way the needed force pulls (F_ball = −f
-                // sgn ẇ = sign of the needed force at the limit, so ẇ against it).
-                stuck = false;
-                sigma = if k == 1 { -1.0 } else { 1.0 };
-                continue;
-            }
-            _ => {}
+                book.step(cs, st, th, &step);
+                h = st.h;
+            },
+        );
+        let end = count_steps(end, &mut ph.steps, ph.t_touch)?;
+        (ph.h, ph.max_pen, ph.t, ph.y) = (h, max_pen, end.t, end.y);
+        if ph.friction_switch(cs, end.which, needed) {
+            continue;
         }
+        let (t, mut y) = (ph.t, ph.y);
         return match end.which {
             Some(_) => {
                 // Released: δ = 0 with δ̇ ≤ 0.
                 y[id] = 0.0;
-                book.penetration(max_pen);
+                book.penetration(ph.max_pen);
                 let at = cs.state_of(sw, t, &y);
                 book.event(
                     cs,
@@ -394,11 +446,7 @@ where
                     &at,
                 )?;
                 *s = at;
-                if s.dw() == 0.0 {
-                    Ok(Some(wall_touch(cs, sw, s)))
-                } else {
-                    Ok(Some(after_wall_free(sw, s.dw())))
-                }
+                Ok(Some(after_release(cs, sw, s)))
             }
             None => {
                 // End of the run inside the contact.
@@ -406,5 +454,16 @@ where
                 Ok(None)
             }
         };
+    }
+}
+
+/// The next mode after a release at wall `sw` with the state `s` (`w = sw·l_g`): the wall's
+/// contact test where the ball leaves at rest relative to the bar, else free flight away from
+/// the wall.
+pub(super) fn after_release<C: Cavity>(cs: &C, sw: f64, s: &C::St) -> Md {
+    if s.dw() == 0.0 {
+        wall_touch(cs, sw, s)
+    } else {
+        after_wall_free(sw, s.dw())
     }
 }

@@ -7,7 +7,7 @@
 //! | piece | where |
 //! |---|---|
 //! | the one event loop: the ball's modes and every transition (impact, chatter limit, stick, wall contact, release), the event limit | [`driver`] |
-//! | the one compliant (`hertz`) contact phase | [`hertz_phase`] |
+//! | the one compliant (`hertz`) contact phase, and under a cut | [`hertz_phase`], [`hertz_cut`] |
 //! | the lumped bar's kernel: closed forms, event functions, root search, the cut | [`lumped`] ([`expsum`], [`roots`], [`hertz`], [`cutting`]) |
 //! | the N-mode bar's kernel: the same on N modes, the ball held by the constrained modes | [`modal`] ([`expsum_n`], [`roots_n`], [`constrained`], [`modal::cutting`]) |
 //!
@@ -23,6 +23,7 @@
 //! is only defined statistically: rounding-level changes of an event time change it by a few %.
 
 mod driver;
+mod hertz_cut;
 pub mod hertz_phase;
 pub mod lumped;
 pub mod modal;

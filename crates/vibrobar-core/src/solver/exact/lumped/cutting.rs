@@ -104,13 +104,13 @@
 //! Scope: the lumped bar with both contact laws and every friction law, both force laws (the
 //! three-quarter law on the bar without a ball by [`super::cutting_nonlinear`]: DP5 steps on the
 //! same pieces). Under `[contact] law = hertz` a wall touch starts the compliant phase of
-//! [`super::cutting_hertz`]: DP5 on bar + ball with the cutting force from the piece's delayed
+//! [`super::super::hertz_cut`]: DP5 on bar + ball with the cutting force from the piece's delayed
 //! surface quadratic, piece by piece (it stops at every piece end and breakpoint and resumes), the
 //! tool leaving or re-entering the cut located on its dense output and stored as every cut event
 //! is; its accuracy is the contact phase's (rtol 1e-9) on top of the pieces'. A modal bar goes to
 //! [`super::modal::cutting`] (both force laws, the three-quarter law by the same remainder fit,
 //! [`fit_remainder`], with or without a ball; both contact laws, `hertz` through
-//! [`super::modal::cutting_hertz`]; kept and continued as here, [`CutContinuation`] carrying the
+//! [`super::super::hertz_cut`]; kept and continued as here, [`CutContinuation`] carrying the
 //! modal state).
 
 use super::{
@@ -122,6 +122,7 @@ use crate::error::{EventLimitCause, SimError};
 use crate::excitation::{Cutting, CuttingForceLaw};
 use crate::params::{BarModel, State, System};
 use crate::solver::exact::driver::Tally;
+use crate::solver::exact::hertz_cut::{self, CutOver, PieceEnd};
 use crate::solver::{Event, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Solver};
 use std::cell::{Cell, RefCell};
 use std::collections::VecDeque;
@@ -1099,7 +1100,7 @@ pub struct CutContinuation {
     tau: f64,
     shift: f64,
     /// A `hertz` contact phase under way at the end (its integrator state and wall).
-    contact: Option<(super::cutting_hertz::Phase, crate::solver::Wall)>,
+    contact: Option<(super::hertz_phase::ContactPhase<5>, crate::solver::Wall)>,
     /// The same on a modal bar.
     modal_contact: Option<(ModalContactPhase, crate::solver::Wall)>,
     /// The modal state at the end of a run on a modal bar (`None` on the lumped bar).
@@ -1479,18 +1480,25 @@ impl ExactCutting {
                         book.cut_event = ev;
                     }
                 } else if let (true, Md::HertzTouch(wall), Some(law)) = (has_ball, mode, cs.hertz) {
-                    // A compliant contact phase over this piece ([`super::cutting_hertz`]).
-                    mode = super::cutting_hertz::contact_piece(
-                        &cs,
-                        &law,
-                        cut,
-                        wall.sign(),
-                        &mut phase,
-                        &mut s,
-                        step_end,
-                        order,
-                        &mut book,
-                    )?;
+                    // A compliant contact phase over this piece ([`hertz_cut`]).
+                    let (p, sw) = (cs.cut.expect("a cutting piece"), wall.sign());
+                    let over = CutOver {
+                        cut: *cut,
+                        in_cut: p.in_cut,
+                        d: p.d,
+                        h0: p.h0,
+                        c_chip: p.c_chip,
+                        t_ref: s.t,
+                    };
+                    match hertz_cut::contact_piece(
+                        &cs, &law, over, sw, &mut phase, &mut s, step_end, order, &mut book,
+                    )? {
+                        PieceEnd::Goes { cut_event } => book.cut_event = cut_event,
+                        PieceEnd::Released { at, kind } => {
+                            book.event(&cs, at.t, kind, &at, &at)?;
+                            mode = super::hertz_phase::after_release(&cs, sw, &s);
+                        }
+                    }
                 } else if has_ball {
                     let mut cs = cs;
                     if nonlinear && in_cut {

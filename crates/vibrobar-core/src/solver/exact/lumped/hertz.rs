@@ -17,6 +17,7 @@ use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::contact::Hertz;
 use crate::error::SimError;
 use crate::solver::dopri5::{DenseStep, Dopri5};
+use crate::solver::exact::hertz_cut::{CutBar, CutContactSegment, CutPhaseBook};
 use crate::solver::{CompliantContact, EventKind, Mode, Segment, SegmentIntegrals};
 
 /// Below this approach speed (as a fraction of `l_g·ω`) the damping's reference speed `δ̇₀` is
@@ -37,7 +38,7 @@ pub struct HertzSegment {
     stuck: bool,
 }
 
-/// What the lumped contact segments share, with and without the cut (`cutting_hertz`): one
+/// A lumped contact segment: one
 /// accepted step (the fraction `th_end` of it inside the phase) at the wall `sw`, the
 /// constants their integrals read, and the state and energy on it.
 #[derive(Debug, Clone, Copy)]
@@ -221,18 +222,20 @@ impl CompliantBar<5> for Consts {
         self.fs + self.f0 * (self.om * t).sin()
     }
     fn rhs(&self, law: &Hertz, v0: f64, sw: f64, stuck: bool, fb: f64, force: f64, y: &Y) -> Y {
+        // The bar's own stiffness: a cut's force comes in `force`.
+        let k = self.k_spring;
         if stuck {
-            let ddu = (force - self.c * y[1] - self.k * y[0]) / (self.m + self.md);
+            let ddu = (force - self.c * y[1] - k * y[0]) / (self.m + self.md);
             return [y[1], ddu, 0.0, 0.0, 0.0];
         }
         let (p, pd) = law.forces_n(y[2], y[3], v0);
-        let ddu = (force - self.c * y[1] - self.k * y[0] + sw * p - fb) / self.m;
+        let ddu = (force - self.c * y[1] - k * y[0] + sw * p - fb) / self.m;
         let ddv = (-sw * p + fb) / self.md;
         // δ̈ = sw·(v̈ − ü).
         [y[1], ddu, y[3], sw * (ddv - ddu), pd * y[3]]
     }
     fn needed(&self, law: &Hertz, sw: f64, force: f64, y: &Y) -> f64 {
-        let ddu = (force - self.c * y[1] - self.k * y[0]) / (self.m + self.md);
+        let ddu = (force - self.c * y[1] - self.k_spring * y[0]) / (self.m + self.md);
         self.md * ddu + sw * law.elastic_force_n(y[2])
     }
     fn state_of(&self, sw: f64, t: f64, y: &Y) -> St {
@@ -266,5 +269,44 @@ impl PhaseBook<Consts, 5> for Book<'_> {
     }
     fn event(&mut self, cs: &Consts, kind: EventKind, at: &St) -> Result<(), SimError> {
         Book::event(self, cs, at.t, kind, at, at)
+    }
+}
+
+impl CutBar<5> for Consts {
+    fn u_tool(&self, y: &Y) -> f64 {
+        y[0]
+    }
+    fn du_tool(&self, y: &Y) -> f64 {
+        y[1]
+    }
+    fn u_response(&self, y: &Y) -> f64 {
+        y[0]
+    }
+    fn viscous(&self, y: &Y) -> f64 {
+        y[1] * y[1]
+    }
+    fn viscous_scale(&self) -> f64 {
+        self.c
+    }
+    fn cut_state(&self, sw: f64, t: f64, y: &Y, force: f64) -> St {
+        St {
+            force,
+            ..self.state_of(sw, t, y)
+        }
+    }
+    fn public(&self, s: &St) -> crate::params::State {
+        s.public()
+    }
+    fn energy_j(&self, s: &St) -> f64 {
+        crate::model::lumped_mechanical_energy_j(self.m, self.k_spring, Some(self.md), &s.public())
+    }
+}
+
+impl CutPhaseBook<Consts, 5> for Book<'_> {
+    fn segment(&mut self, seg: &CutContactSegment<'_, Consts, 5>) {
+        self.obs.segment(seg);
+    }
+    fn penetration(&mut self, pen_m: f64) {
+        PhaseBook::penetration(self, pen_m);
     }
 }

@@ -46,7 +46,6 @@
 //! is only defined statistically: rounding-level changes of an event time change it by a few %.
 
 pub mod cutting;
-mod cutting_hertz;
 mod cutting_nonlinear;
 pub mod expsum;
 pub mod hertz;

@@ -82,6 +82,8 @@ use super::super::cutting::{
 };
 use super::super::driver::{self, flight, wall_of, Cavity, Kernel, Md, CUT, HORIZON};
 use super::super::expsum_n::{ExpSumN, Term, MAX_TERMS};
+use super::super::hertz_cut::{self, CutOver, PieceEnd};
+use super::super::hertz_phase;
 use super::super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
 use super::super::CONFINEMENT_TOL_M;
 use super::ModalExact;
@@ -206,6 +208,25 @@ impl Consts {
     }
     fn harmonic(&self, t: f64) -> f64 {
         self.f0 * (self.om * t).sin()
+    }
+    /// The bar's acceleration at the cavity without the ball's force (the cut's force at the
+    /// state's chip included).
+    fn a_b(&self, s: &St, in_cut: bool, d0: f64) -> f64 {
+        let cs = self;
+        let mut f = cs.fs + cs.harmonic(s.t);
+        if in_cut {
+            let h = cs.h0 + cs.c_chip * (d0 - cs.dot(&cs.phi_f, &s.q));
+            f += if cs.nonlinear {
+                cs.cut.force_on_bar_n(h)
+            } else {
+                cs.kfb * h
+            };
+        }
+        let mut a = 0.0;
+        for i in 0..cs.n {
+            a += cs.phi_d[i] * (cs.phi_f[i] * f - cs.c[i] * s.dq[i] - cs.k[i] * s.q[i]) / cs.m[i];
+        }
+        a
     }
 }
 
@@ -859,26 +880,6 @@ impl Run<'_> {
         Ok(i)
     }
 
-    /// The bar's acceleration at the cavity without the ball's force (the cut's force at the
-    /// state's chip included).
-    fn a_b(&self, s: &St, in_cut: bool, d0: f64) -> f64 {
-        let cs = &self.cs;
-        let mut f = cs.fs + cs.harmonic(s.t);
-        if in_cut {
-            let h = cs.h0 + cs.c_chip * (d0 - cs.dot(&cs.phi_f, &s.q));
-            f += if cs.nonlinear {
-                cs.cut.force_on_bar_n(h)
-            } else {
-                cs.kfb * h
-            };
-        }
-        let mut a = 0.0;
-        for i in 0..cs.n {
-            a += cs.phi_d[i] * (cs.phi_f[i] * f - cs.c[i] * s.dq[i] - cs.k[i] * s.q[i]) / cs.m[i];
-        }
-        a
-    }
-
     /// One segment from `s` in `mode` up to `t_stop` at most (a forced end `t_forced` for a
     /// summed chatter sequence), with the chip's departure order `chip_order`. Hands it to the
     /// observer; `s` becomes its end state.
@@ -1453,55 +1454,65 @@ impl ModalCutting {
                 };
                 let d = run.hist.window_quadratic(a, win_end.max(a));
                 run.r = None;
-                if let (Md::HertzTouch(wall), Some(law)) = (mode, run.cs.hertz) {
-                    // A compliant contact phase over this piece ([`cutting_hertz`]).
-                    let pe = cutting_hertz::contact_piece(
-                        &mut run,
-                        &law,
-                        cut,
-                        wall.sign(),
-                        &mut phase,
-                        &mut s,
-                        step_end,
+                let cut_event = if let (Md::HertzTouch(wall), Some(law)) = (mode, run.cs.hertz) {
+                    // A compliant contact phase over this piece ([`hertz_cut`]).
+                    let sw = wall.sign();
+                    let over = CutOver {
+                        cut: *cut,
                         in_cut,
                         d,
-                        chip_order,
-                        &mut book,
+                        h0: run.cs.h0,
+                        c_chip: run.cs.c_chip,
+                        t_ref: s.t,
+                    };
+                    let bar = cutting_hertz::PieceBar {
+                        cs: &run.cs,
+                        in_cut,
+                        d0: d[0],
+                    };
+                    let mut host = cutting_hertz::PhaseHost {
+                        book: &mut book,
+                        hist: &mut *run.hist,
+                        in_cut,
+                    };
+                    let end = hertz_cut::contact_piece(
+                        &bar, &law, over, sw, &mut phase, &mut s, step_end, chip_order, &mut host,
                     )?;
-                    mode = pe.mode;
-                    if run.hist.is_full() {
-                        return Err(SimError::Unsupported(HISTORY_FULL));
+                    match end {
+                        PieceEnd::Goes { cut_event } => cut_event,
+                        PieceEnd::Released { at, kind } => {
+                            run.event(kind, &at, &at, in_cut, &mut book)?;
+                            let bar = cutting_hertz::PieceBar {
+                                cs: &run.cs,
+                                in_cut,
+                                d0: run.hist.value_slope(s.t - run.tau).0,
+                            };
+                            mode = hertz_phase::after_release(&bar, sw, &s);
+                            false
+                        }
                     }
-                    chip_order = 0;
-                    if pe.cut_event {
-                        in_cut = !in_cut;
-                        chip_order = 1;
-                        run.hist.add_breakpoint(s.t);
-                        let du = run.cs.dot(&run.cs.phi_f, &s.dq);
-                        run.hist.cut_event_slope_after(s.t, in_cut, du);
-                        book.count(s.t, t0, tau)?;
+                } else {
+                    if run.cs.nonlinear && in_cut {
+                        let r = remainder_fit(
+                            &mut run, mode, !has_ball, d, chip_order, &s, step_end, &book,
+                        )?;
+                        run.r = Some(r);
                     }
-                    continue;
-                }
-                if run.cs.nonlinear && in_cut {
-                    let r = remainder_fit(
-                        &mut run, mode, !has_ball, d, chip_order, &s, step_end, &book,
-                    )?;
-                    run.r = Some(r);
-                }
-                let mut k = CutKernel::new(&mut run, &mut book, in_cut, d, chip_order, f64::NAN);
-                let next = driver::advance(&mut k, mode, &mut s, step_end)?;
-                let cut_event = k.cut_event;
+                    let mut k =
+                        CutKernel::new(&mut run, &mut book, in_cut, d, chip_order, f64::NAN);
+                    let next = driver::advance(&mut k, mode, &mut s, step_end)?;
+                    mode = match (next, mode) {
+                        (Some(m), _) => m,
+                        // At the piece's end the same flight goes on, no zero at hand.
+                        (None, Md::Free { sigma, .. }) => flight(sigma),
+                        (None, m) => m,
+                    };
+                    k.cut_event
+                };
                 if run.hist.is_full() {
                     return Err(SimError::Unsupported(HISTORY_FULL));
                 }
                 chip_order = 0;
-                mode = match (next, mode) {
-                    (Some(m), _) => m,
-                    // At the piece's end the same flight goes on, no zero at hand.
-                    (None, Md::Free { sigma, .. }) => flight(sigma),
-                    (None, m) => m,
-                };
                 if cut_event {
                     in_cut = !in_cut;
                     chip_order = 1;
@@ -1656,10 +1667,10 @@ impl Cavity for CutKernel<'_, '_, '_> {
         self.run.cs.kappa
     }
     fn a_b(&self, s: &St) -> f64 {
-        self.run.a_b(s, self.in_cut, self.d0)
+        self.run.cs.a_b(s, self.in_cut, self.d0)
     }
     fn held_acceleration(&self, s: &St) -> f64 {
-        self.run.a_b(s, self.in_cut, self.d0) / (self.run.cs.md * self.run.cs.kappa)
+        self.run.cs.a_b(s, self.in_cut, self.d0) / (self.run.cs.md * self.run.cs.kappa)
     }
     fn a_b_rates(&self, _s: &St, _ab: f64) -> (f64, f64) {
         (0.0, 0.0)

@@ -116,6 +116,44 @@ impl PhaseBar<'_> {
     }
 }
 
+/// The phase's integrator on `n` modes with relative tolerance `rtol`: the scales `l_g` of
+/// the displacements, `v_scale` of the velocities, `d_scale` of `δ` and the contact's kinetic
+/// energy at `v_scale` of `W_c`.
+pub(super) fn integrator(
+    n: usize,
+    lg: f64,
+    meff: f64,
+    rtol: f64,
+    d_scale: f64,
+    v_scale: f64,
+) -> Dopri5<NY> {
+    debug_assert!(n <= MAX_BEAM_MODES);
+    let (id, idd, iw) = (2 * n, 2 * n + 1, 2 * n + 2);
+    let mut atol = [0.0; NY];
+    for i in 0..n {
+        atol[i] = rtol * lg;
+        atol[n + i] = rtol * v_scale;
+    }
+    atol[id] = rtol * d_scale;
+    atol[idd] = rtol * v_scale;
+    atol[iw] = rtol * 0.5 * meff * v_scale * v_scale;
+    Dopri5::<NY> {
+        rtol,
+        atol,
+        len: 2 * n + 3,
+    }
+}
+
+/// The phase state at a touch of the modes `(q, q̇)` with the approach speed `approach`
+/// (`δ = 0`, `W_c = 0`).
+pub(super) fn phase_state(n: usize, q: &[f64; NM], dq: &[f64; NM], approach: f64) -> Y {
+    let mut y: Y = [0.0; NY];
+    y[..n].copy_from_slice(&q[..n]);
+    y[n..2 * n].copy_from_slice(&dq[..n]);
+    y[2 * n + 1] = approach;
+    y
+}
+
 /// One accepted step of a contact phase, as a segment.
 struct ContactSegment<'a> {
     step: &'a DenseStep<NY>,
@@ -240,31 +278,17 @@ impl CompliantBar<NY> for Consts {
         1.0 / self.kappa
     }
     fn integrator(&self, d_scale: f64, v_scale: f64) -> Dopri5<NY> {
-        let n = self.n;
-        debug_assert!(n <= MAX_BEAM_MODES);
-        let (id, idd, iw) = self.slots();
-        let meff = self.contact_mass_kg();
-        let mut atol = [0.0; NY];
-        for i in 0..n {
-            atol[i] = CONTACT_RTOL * self.lg;
-            atol[n + i] = CONTACT_RTOL * v_scale;
-        }
-        atol[id] = CONTACT_RTOL * d_scale;
-        atol[idd] = CONTACT_RTOL * v_scale;
-        atol[iw] = CONTACT_RTOL * 0.5 * meff * v_scale * v_scale;
-        Dopri5::<NY> {
-            rtol: CONTACT_RTOL,
-            atol,
-            len: 2 * n + 3,
-        }
+        integrator(
+            self.n,
+            self.lg,
+            self.contact_mass_kg(),
+            CONTACT_RTOL,
+            d_scale,
+            v_scale,
+        )
     }
     fn phase_state(&self, s: &St, approach: f64) -> Y {
-        let n = self.n;
-        let mut y: Y = [0.0; NY];
-        y[..n].copy_from_slice(&s.q[..n]);
-        y[n..2 * n].copy_from_slice(&s.dq[..n]);
-        y[2 * n + 1] = approach;
-        y
+        phase_state(self.n, &s.q, &s.dq, approach)
     }
     fn force_at(&self, t: f64) -> f64 {
         Consts::force_at(self, t)
