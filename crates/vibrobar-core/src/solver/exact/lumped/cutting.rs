@@ -575,7 +575,8 @@ impl History {
         };
         h.push(Knot::cubic(t0 - 2.0 * tau, u_eq, 0.0, u_eq, 0.0));
         h.push(Knot::cubic(t0, u_eq, 0.0, s_r, ds_r));
-        h.breakpoint(t0);
+        // The start is an event of the history (an offset jumps the surface).
+        h.queue_breakpoint(t0, BREAK_JUMP);
         h
     }
 
@@ -600,14 +601,11 @@ impl History {
         self.push(kn);
     }
 
-    /// The surface's kink at a cut event at `t` for a caller that keeps its own cut flag
-    /// (the modal path): [`History::cut_event_slope`] with the side after the event.
-    pub(in crate::solver::exact) fn cut_event_slope_after(
-        &mut self,
-        t: f64,
-        in_cut_after: bool,
-        du: f64,
-    ) {
+    /// A cut event at `t` (the tool's velocity `du` there): its breakpoint queued and the
+    /// surface's kink ([`History::cut_event_slope`]) with the side after the event, whatever
+    /// the history's own cut flag.
+    pub(in crate::solver::exact) fn cut_event(&mut self, t: f64, in_cut_after: bool, du: f64) {
+        self.breakpoint(t);
         let keep = self.in_cut;
         self.in_cut = in_cut_after;
         self.cut_event_slope(t, du);
@@ -664,18 +662,18 @@ impl History {
         let mut h = History::new(cap, c.in_cut, tau, shift);
         h.k.extend(c.knots.iter().copied());
         h.bp.extend(c.bp.iter().copied());
-        h.breakpoint(t0);
+        // The cut changes here: a breakpoint of the history.
+        h.queue_breakpoint(t0, BREAK_JUMP);
         Some(h)
     }
 
-    /// Where a modal run ended, to continue it: this history, the public and the modal state,
-    /// whether the tool cuts, the contact phase under way.
+    /// Where a run ended, to continue it: this history, the public state, whether the tool
+    /// cuts, the bar's own part.
     pub(in crate::solver::exact) fn into_continuation(
         self,
         state: State,
-        modal: crate::structure::ModalState,
         in_cut: bool,
-        contact: Option<(ModalContactPhase, crate::solver::Wall)>,
+        bar: BarEnd,
     ) -> CutContinuation {
         CutContinuation {
             state,
@@ -684,9 +682,7 @@ impl History {
             knots: self.k,
             bp: self.bp,
             in_cut,
-            contact: None,
-            modal_contact: contact,
-            modal: Some(modal),
+            bar,
         }
     }
 }
@@ -694,14 +690,28 @@ impl History {
 impl CutContinuation {
     /// The modal state at the end of a run on a modal bar.
     pub(in crate::solver::exact) fn modal_state(&self) -> Option<&crate::structure::ModalState> {
-        self.modal.as_ref()
+        match &self.bar {
+            BarEnd::Modal(m, _) => Some(m),
+            BarEnd::Lumped(_) => None,
+        }
     }
 
     /// The contact phase under way at the end of a run on a modal bar, and its wall.
     pub(in crate::solver::exact) fn modal_contact(
         &self,
     ) -> Option<(ModalContactPhase, crate::solver::Wall)> {
-        self.modal_contact
+        match self.bar {
+            BarEnd::Modal(_, c) => c,
+            BarEnd::Lumped(_) => None,
+        }
+    }
+
+    /// The contact phase under way at the end of a run on the lumped bar, and its wall.
+    fn lumped_contact(&self) -> Option<(super::hertz_phase::ContactPhase<5>, crate::solver::Wall)> {
+        match self.bar {
+            BarEnd::Lumped(c) => c,
+            BarEnd::Modal(..) => None,
+        }
     }
 }
 
@@ -1088,6 +1098,19 @@ pub(in crate::solver::exact) const CONTINUE_MISMATCH: &str =
 /// An N-mode bar's contact phase under way where a run ended.
 type ModalContactPhase = super::hertz_phase::ContactPhase<{ super::hertz_phase::MODAL_PHASE_LEN }>;
 
+/// A bar's own part of where a cutting run ended: a `hertz` contact phase under way at the end
+/// (its integrator state and wall), and on a modal bar the modal state.
+#[derive(Debug, Clone)]
+pub(in crate::solver::exact) enum BarEnd {
+    /// The lumped bar.
+    Lumped(Option<(super::hertz_phase::ContactPhase<5>, crate::solver::Wall)>),
+    /// A modal bar.
+    Modal(
+        crate::structure::ModalState,
+        Option<(ModalContactPhase, crate::solver::Wall)>,
+    ),
+}
+
 /// Where a cutting run ended: its final state, the machined surface over the last revolution
 /// and the pending breakpoints, so that a run can go on from it with another cut (e.g. another
 /// width: chatter grown at one width, then the width lowered).
@@ -1099,12 +1122,8 @@ pub struct CutContinuation {
     in_cut: bool,
     tau: f64,
     shift: f64,
-    /// A `hertz` contact phase under way at the end (its integrator state and wall).
-    contact: Option<(super::hertz_phase::ContactPhase<5>, crate::solver::Wall)>,
-    /// The same on a modal bar.
-    modal_contact: Option<(ModalContactPhase, crate::solver::Wall)>,
-    /// The modal state at the end of a run on a modal bar (`None` on the lumped bar).
-    modal: Option<crate::structure::ModalState>,
+    /// The bar's own part.
+    bar: BarEnd,
 }
 
 impl CutContinuation {
@@ -1161,7 +1180,7 @@ impl ExactCutting {
         t_end_s: f64,
         obs: &mut dyn Observer,
     ) -> Result<(RunSummary, CutContinuation), SimError> {
-        match (&sys.bar, from.modal.is_some()) {
+        match (&sys.bar, from.modal_state().is_some()) {
             (BarModel::Lumped(_), false) => self.drive(sys, &from.state, Some(from), t_end_s, obs),
             (BarModel::Modal(_), true) => {
                 let msys = crate::structure::ModalSystem::from_system(sys)?;
@@ -1228,7 +1247,7 @@ impl ExactCutting {
         };
         // A continued run inside a `hertz` contact starts with the ball in the wall: the
         // state is checked at the wall, the penetration is the phase's.
-        let checked = match from.and_then(|c| c.contact) {
+        let checked = match from.and_then(|c| c.lumped_contact()) {
             Some((_, wall)) if sys.damper.is_some() => State {
                 v_m: start.u_m + wall.sign() * sys.damper.map_or(0.0, |d| d.half_gap_m()),
                 ..start
@@ -1281,47 +1300,27 @@ impl ExactCutting {
         let pieces = (tau / h_near).ceil() + 4.0;
         let cap = 2 * pieces as usize + MAX_EVENT_KNOTS;
         let mut h0_chip = cut.feed_m - cut.chip_direction_factor * init.u_m;
-        let mut in_cut0 = h0_chip > 0.0;
+        let in_cut0 = match from {
+            Some(c) => c.in_cut,
+            None => h0_chip > 0.0,
+        };
         let shift = cut.feed_m / cut.chip_direction_factor;
-        let mut cap = cap;
-        if let Some(c) = from {
-            if c.tau.to_bits() != tau.to_bits() || c.shift.to_bits() != shift.to_bits() {
-                return Err(SimError::Unsupported(CONTINUE_MISMATCH));
-            }
-            in_cut0 = c.in_cut;
-            cap = cap.max(c.knots.len().max(c.bp.len()) + MAX_EVENT_KNOTS);
-        }
-        let hist = RefCell::new(History::new(cap, in_cut0, tau, shift));
-        hist.borrow_mut().quintic = quintic;
-        if let Some(c) = from {
-            let mut h = hist.borrow_mut();
-            h.k.extend(c.knots.iter().copied());
-            h.bp.extend(c.bp.iter().copied());
+        let mut h = match from {
+            Some(c) => History::resumed(c, cap, tau, shift, t0)
+                .ok_or(SimError::Unsupported(CONTINUE_MISMATCH))?,
+            None => History::smooth(cap, tau, shift, t0, u_eq, in_cut0, start.u_m, start.du_m_s),
+        };
+        h.quintic = quintic;
+        if from.is_some() {
             // The chip at the start, from the continued surface.
             h0_chip = cut.feed_m + cut.chip_direction_factor * (h.eval(t0 - tau, true) - start.u_m);
-            // The cut changes here: a breakpoint of the history.
-            h.queue_breakpoint(t0, BREAK_JUMP);
-        } else {
-            let mut h = hist.borrow_mut();
-            // The smooth surface of the tool at rest at the equilibrium, one revolution back.
-            let (s_r, ds_r) = if in_cut0 {
-                (start.u_m, start.du_m_s)
-            } else {
-                (u_eq + shift, 0.0)
-            };
-            let mut k0 = Knot::cubic(t0 - 2.0 * tau, u_eq, 0.0, u_eq, 0.0);
-            let mut k1 = Knot::cubic(t0, u_eq, 0.0, s_r, ds_r);
-            if quintic {
-                // At rest before the start; after it the first segment's (in the cut) or the
-                // smooth surface advanced (out of it).
-                (k0.dds_l, k0.dds_r, k1.dds_l) = (0.0, 0.0, 0.0);
-                k1.dds_r = if in_cut0 { f64::NAN } else { 0.0 };
-            }
-            h.push(k0);
-            h.push(k1);
-            // The start is an event of the history (an offset jumps the surface).
-            h.queue_breakpoint(t0, BREAK_JUMP);
+        } else if quintic {
+            // At rest before the start; after it the first segment's (in the cut) or the
+            // smooth surface advanced (out of it).
+            (h.k[0].dds_l, h.k[0].dds_r, h.k[1].dds_l) = (0.0, 0.0, 0.0);
+            h.k[1].dds_r = if in_cut0 { f64::NAN } else { 0.0 };
         }
+        let hist = RefCell::new(h);
         let mut rec = Recorder {
             inner: obs,
             hist: &hist,
@@ -1370,7 +1369,7 @@ impl ExactCutting {
         let mut search = Search::default();
         // A `hertz` contact phase carried over a piece end or a cut event (or from the run
         // continued: it goes on where it stopped, the penetration kept).
-        let resumed = from.and_then(|c| c.contact).filter(|_| has_ball);
+        let resumed = from.and_then(|c| c.lumped_contact()).filter(|_| has_ball);
         let mut phase = resumed.map(|r| r.0);
         let mut mode = match resumed {
             Some((_, wall)) => Md::HertzTouch(wall),
@@ -1535,8 +1534,7 @@ impl ExactCutting {
                     order = 1;
                     cut_events += 1;
                     h.in_cut = in_cut;
-                    h.breakpoint(s.t);
-                    h.cut_event_slope(s.t, s.du);
+                    h.cut_event(s.t, in_cut, s.du);
                     if cut_events > self.exact.max_events {
                         return Err(SimError::TooManyEvents {
                             limit: self.exact.max_events,
@@ -1569,21 +1567,15 @@ impl ExactCutting {
         book.tally.summary.final_state = s.public();
         book.tally.summary.events += cut_events;
         let summary = book.tally.summary;
-        let h = hist.into_inner();
-        let end = CutContinuation {
-            state: summary.final_state,
-            knots: h.k,
-            bp: h.bp,
-            in_cut,
-            tau,
-            shift,
-            contact: match (mode, phase) {
-                (Md::HertzTouch(wall), Some(p)) => Some((p, wall)),
-                _ => None,
-            },
-            modal_contact: None,
-            modal: None,
+        let contact = match (mode, phase) {
+            (Md::HertzTouch(wall), Some(p)) => Some((p, wall)),
+            _ => None,
         };
+        let end = (hist.into_inner()).into_continuation(
+            summary.final_state,
+            in_cut,
+            BarEnd::Lumped(contact),
+        );
         Ok((summary, end))
     }
 }

@@ -77,8 +77,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::super::cutting::{
-    fit_remainder, CutContinuation, History, CONTINUE_MISMATCH, DEFAULT_STEPS_PER_PERIOD, GL8,
-    MAX_EVENT_KNOTS, REMAINDER_TOL,
+    fit_remainder, BarEnd, CutContinuation, History, CONTINUE_MISMATCH, DEFAULT_STEPS_PER_PERIOD,
+    GL8, MAX_EVENT_KNOTS, REMAINDER_TOL,
 };
 use super::super::driver::{self, flight, wall_of, Cavity, Kernel, Md, CUT, HORIZON};
 use super::super::expsum_n::{ExpSumN, Term, MAX_TERMS};
@@ -1516,9 +1516,8 @@ impl ModalCutting {
                 if cut_event {
                     in_cut = !in_cut;
                     chip_order = 1;
-                    run.hist.add_breakpoint(s.t);
                     let du = run.cs.dot(&run.cs.phi_f, &s.dq);
-                    run.hist.cut_event_slope_after(s.t, in_cut, du);
+                    run.hist.cut_event(s.t, in_cut, du);
                     book.count(s.t, t0, tau)?;
                 }
             }
@@ -1535,9 +1534,8 @@ impl ModalCutting {
         };
         let end = hist.into_continuation(
             summary.summary.final_state,
-            summary.final_state,
             in_cut,
-            contact,
+            BarEnd::Modal(summary.final_state, contact),
         );
         Ok((summary, end))
     }
