@@ -1100,6 +1100,8 @@ type ModalContactPhase = super::hertz_phase::ContactPhase<{ super::hertz_phase::
 
 /// A bar's own part of where a cutting run ended: a `hertz` contact phase under way at the end
 /// (its integrator state and wall), and on a modal bar the modal state.
+// One per kept run: the modal variant's size (the modal state and phase inline) costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone)]
 pub(in crate::solver::exact) enum BarEnd {
     /// The lumped bar.
