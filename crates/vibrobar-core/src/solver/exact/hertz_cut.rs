@@ -30,7 +30,7 @@
 
 use super::cutting::GL8;
 use super::driver::{wall_of, BallState};
-use super::hertz_phase::{count_steps, run_phase, CompliantBar, ContactPhase, Event};
+use super::hertz_phase::{CompliantBar, ContactPhase, Event};
 use crate::damper::contact::Hertz;
 use crate::error::SimError;
 use crate::excitation::Cutting;
@@ -280,39 +280,22 @@ where
         let lag = |t: f64, y: &[f64; N]| fl - needed(t, y);
         let lead = |t: f64, y: &[f64; N]| fl + needed(t, y);
         let (events, ne) = ph.events(cs, sw, &lag, &lead, Some(Event::Fn(&margin)));
-        let (mut h, mut max_pen) = (ph.h, ph.max_pen);
-        let end = run_phase(
-            &ig,
-            &mut f,
-            ph.t,
-            ph.y,
-            ph.h,
-            t_stop,
-            &events[..ne],
-            |st, th| {
-                for j in 0..=4 {
-                    max_pen = max_pen.max(st.comp(id, th * j as f64 / 4.0));
-                }
-                let seg = CutContactSegment {
-                    step: st,
-                    th_end: th,
-                    bar: cs,
-                    sw,
-                    fb,
-                    law,
-                    over,
-                };
-                if seg.t_end_s() > seg.t_start_s() {
-                    book.segment(&seg);
-                }
-                // The step clipped to the piece end is no guide to the next piece's first step.
-                if th < 1.0 || st.t0 + st.h < t_stop - 1e-9 * st.h {
-                    h = st.h;
-                }
-            },
-        );
-        let end = count_steps(end, &mut ph.steps, ph.t_touch)?;
-        (ph.h, ph.max_pen, ph.t, ph.y) = (h, max_pen, end.t, end.y);
+        let end = ph.advance(&ig, &mut f, t_stop, &events[..ne], id, |st, th| {
+            let seg = CutContactSegment {
+                step: st,
+                th_end: th,
+                bar: cs,
+                sw,
+                fb,
+                law,
+                over,
+            };
+            if seg.t_end_s() > seg.t_start_s() {
+                book.segment(&seg);
+            }
+            // The step clipped to the piece end is no guide to the next piece's first step.
+            th < 1.0 || st.t0 + st.h < t_stop - 1e-9 * st.h
+        })?;
         book.penetration(ph.max_pen);
         let cut_event = end.which == Some(ne - 1);
         if cut_event || end.which.is_none() {

@@ -235,6 +235,36 @@ impl<const N: usize> ContactPhase<N> {
         cs.integrator(d_scale, v_scale)
     }
 
+    /// The phase from where it stands up to `t_end` or its first event ([`run_phase`]), its
+    /// state, step, steps and largest penetration (`δ` in slot `id`) updated. Each accepted
+    /// step goes to `on_step`, which says whether its size is a guide to the next.
+    pub(super) fn advance<F, S>(
+        &mut self,
+        ig: &Dopri5<N>,
+        f: &mut F,
+        t_end: f64,
+        events: &[Event<'_, N>],
+        id: usize,
+        mut on_step: S,
+    ) -> Result<PhaseEnd<N>, SimError>
+    where
+        F: FnMut(f64, &[f64; N]) -> [f64; N],
+        S: FnMut(&DenseStep<N>, f64) -> bool,
+    {
+        let (mut h, mut max_pen) = (self.h, self.max_pen);
+        let end = run_phase(ig, f, self.t, self.y, self.h, t_end, events, |st, th| {
+            for k in 0..=4 {
+                max_pen = max_pen.max(st.comp(id, th * k as f64 / 4.0));
+            }
+            if on_step(st, th) {
+                h = st.h;
+            }
+        });
+        let end = count_steps(end, &mut self.steps, self.t_touch)?;
+        (self.h, self.max_pen, self.t, self.y) = (h, max_pen, end.t, end.y);
+        Ok(end)
+    }
+
     /// The events of the phase (the first `n` of the array): 0 the release (`δ < 0`); sliding
     /// with friction, 1 `δ̇` crossing 0 (the sign of `ẇ`); stuck, 1 and 2 the friction needed
     /// leaving `[−f, f]` (`lag = f − needed`, `lead = f + needed`); last, `extra` if any.
@@ -407,25 +437,10 @@ where
             stuck,
             law: *law,
         };
-        let (mut h, mut max_pen) = (ph.h, ph.max_pen);
-        let end = run_phase(
-            &ig,
-            &mut f,
-            ph.t,
-            ph.y,
-            ph.h,
-            t_end_s,
-            &events[..ne],
-            |st, th| {
-                for k in 0..=4 {
-                    max_pen = max_pen.max(st.comp(id, th * k as f64 / 4.0));
-                }
-                book.step(cs, st, th, &step);
-                h = st.h;
-            },
-        );
-        let end = count_steps(end, &mut ph.steps, ph.t_touch)?;
-        (ph.h, ph.max_pen, ph.t, ph.y) = (h, max_pen, end.t, end.y);
+        let end = ph.advance(&ig, &mut f, t_end_s, &events[..ne], id, |st, th| {
+            book.step(cs, st, th, &step);
+            true
+        })?;
         if ph.friction_switch(cs, end.which, needed) {
             continue;
         }
