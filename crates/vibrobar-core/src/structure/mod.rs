@@ -13,6 +13,7 @@
 pub mod analytic;
 pub mod beam;
 pub mod fe;
+pub mod fit;
 pub mod nodes;
 pub mod system;
 
