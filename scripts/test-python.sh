@@ -11,7 +11,7 @@ if [ ! -x "$VENV/bin/python" ]; then
     "$PYTHON" -m venv "$VENV"
 fi
 "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check \
-    "maturin>=1.7,<2" numpy pytest pandas xarray matplotlib "dask[distributed]"
+    "maturin>=1.7,<2" numpy pytest pandas xarray matplotlib "dask[distributed]" sdypy-EMA
 cargo build --release --locked -p vibrobar-cli
 VIRTUAL_ENV="$PWD/$VENV" "$VENV/bin/maturin" develop --release --locked --quiet
 status=0

@@ -143,6 +143,31 @@ def lyapunov(
     d0: float = 1e-9,
     **overrides: Any,
 ) -> dict[str, Any]: ...
+class ModalFit:
+    modes: Table
+    chart: Table
+    upper_residual_m_per_n: float
+    lower_residual_per_kg: float
+    fit_error: float
+    fit_error_cross: Optional[float]
+    refine_iterations: int
+    def __init__(self, d: dict[str, Any]) -> None: ...
+
+def fit_modes(
+    freqs_hz: ArrayLike,
+    frf: ArrayLike,
+    *,
+    form: str = ...,
+    cross: Optional[ArrayLike] = ...,
+    weights: Optional[ArrayLike] = ...,
+    band_hz: Optional[Sequence[float]] = ...,
+    max_order: int = ...,
+    min_stable_orders: int = ...,
+    poles_hz: Optional[ArrayLike] = ...,
+    upper_residual: bool = ...,
+    lower_residual: bool = ...,
+    refine: bool = ...,
+) -> ModalFit: ...
 def lobes(
     scenario: Optional[Scenario] = None,
     rpm_start: float = ...,

@@ -217,24 +217,24 @@ fn bad_input_is_refused_naming_the_field() {
         band_hz: Some((1.0, 5000.0)),
         ..s.clone()
     };
-    assert!(msg(&ok, &band).contains("band low"));
+    assert!(msg(&ok, &band).contains("band_hz low end (--band-hz)"));
     let band = FitSettings {
         band_hz: Some((100.0, 20_000.0)),
         ..s.clone()
     };
-    assert!(msg(&ok, &band).contains("band high"));
+    assert!(msg(&ok, &band).contains("band_hz high end"));
     let order = FitSettings {
         max_order: 31,
         ..s.clone()
     };
-    assert!(msg(&ok, &order).contains("max model order"));
+    assert!(msg(&ok, &order).contains("max_order (--max-order)"));
     // More poles than a narrow band supports.
     let narrow = FitSettings {
         band_hz: Some((590.0, 604.0)),
         max_order: 40,
         ..s.clone()
     };
-    assert!(msg(&ok, &narrow).contains("max model order"));
+    assert!(msg(&ok, &narrow).contains("max_order (--max-order)"));
     let w = vec![1.5; f.len()];
     assert!(msg(
         &FrfLines {

@@ -2172,6 +2172,175 @@ fn _busy(py: Python<'_>, seconds: f64, panic: bool) -> PyResult<f64> {
     })
 }
 
+// ---------------------------------------------------------------------------------------------
+// the modal fit of a measured FRF
+
+/// One FRF's lines: frequencies (Hz), values, optional weights.
+type FrfArrays = (Vec<f64>, Vec<num_complex::Complex64>, Option<Vec<f64>>);
+
+/// One FRF's lines from Python: frequencies (Hz), real and imaginary parts, optional weights.
+fn frf_arrays(
+    name: &str,
+    freqs_hz: &PyReadonlyArray1<'_, f64>,
+    re: &PyReadonlyArray1<'_, f64>,
+    im: &PyReadonlyArray1<'_, f64>,
+    weights: Option<&PyReadonlyArray1<'_, f64>>,
+) -> PyResult<FrfArrays> {
+    use vibrobar_core::structure::fit::MAX_FIT_LINES;
+    let f = values(
+        "freqs_hz",
+        freqs_hz,
+        |x| x > 0.0,
+        "(0, ∞) Hz",
+        MAX_FIT_LINES,
+    )?;
+    let re = re.as_array().to_vec();
+    let im = im.as_array().to_vec();
+    if re.len() != f.len() || im.len() != f.len() {
+        return Err(PyValueError::new_err(format!(
+            "{name} has {} values for {} frequencies (allowed: one value per frequency)",
+            re.len(),
+            f.len()
+        )));
+    }
+    let h = re
+        .iter()
+        .zip(&im)
+        .map(|(a, b)| num_complex::Complex64::new(*a, *b))
+        .collect();
+    let w = match weights {
+        Some(w) => Some(values(
+            "weights",
+            w,
+            |x| (0.0..=1.0).contains(&x),
+            "[0, 1]",
+            MAX_FIT_LINES,
+        )?),
+        None => None,
+    };
+    Ok((f, h, w))
+}
+
+/// Modes from a measured FRF (``vibrobar fit-modes``): LSCF poles, LSFD residues and their
+/// refinement. Returns the modes, the quality figures and the stabilisation chart.
+#[pyfunction]
+#[pyo3(signature = (freqs_hz, frf_re, frf_im, form, cross_re = None, cross_im = None, weights = None, band_hz = None, max_order = 40, min_stable_orders = 4, poles_hz = None, upper_residual = true, lower_residual = false, refine = true))]
+#[allow(clippy::too_many_arguments)]
+fn fit_modes<'py>(
+    py: Python<'py>,
+    freqs_hz: PyReadonlyArray1<'py, f64>,
+    frf_re: PyReadonlyArray1<'py, f64>,
+    frf_im: PyReadonlyArray1<'py, f64>,
+    form: &str,
+    cross_re: Option<PyReadonlyArray1<'py, f64>>,
+    cross_im: Option<PyReadonlyArray1<'py, f64>>,
+    weights: Option<PyReadonlyArray1<'py, f64>>,
+    band_hz: Option<(f64, f64)>,
+    max_order: usize,
+    min_stable_orders: usize,
+    poles_hz: Option<Vec<f64>>,
+    upper_residual: bool,
+    lower_residual: bool,
+    refine: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    use vibrobar_core::structure::fit::{self, FitSettings, FrfForm, FrfLines};
+    let form = match form {
+        "receptance" => FrfForm::Receptance,
+        "mobility" => FrfForm::Mobility,
+        "accelerance" => FrfForm::Accelerance,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "form = {other:?} is not one of \"receptance\", \"mobility\", \"accelerance\""
+            )))
+        }
+    };
+    let (f, h, w) = frf_arrays("frf", &freqs_hz, &frf_re, &frf_im, weights.as_ref())?;
+    let cross = match (&cross_re, &cross_im) {
+        (Some(a), Some(b)) => Some(frf_arrays("cross", &freqs_hz, a, b, None)?.1),
+        (None, None) => None,
+        _ => {
+            return Err(PyValueError::new_err(
+                "cross needs both its real and imaginary parts (or neither)",
+            ))
+        }
+    };
+    if min_stable_orders == 0 {
+        return Err(PyValueError::new_err(
+            "min_stable_orders = 0 is outside the allowed range [1, max_order/2]",
+        ));
+    }
+    let settings = FitSettings {
+        band_hz,
+        max_order,
+        min_stable_orders,
+        poles_hz,
+        upper_residual,
+        lower_residual,
+        refine,
+        ..FitSettings::default()
+    };
+    let r = detached(py, None, |_| {
+        let d = FrfLines {
+            freqs_hz: &f,
+            values: &h,
+            weights: w.as_deref(),
+            form,
+        };
+        let c = cross.as_ref().map(|c| FrfLines {
+            values: c,
+            weights: None,
+            ..d
+        });
+        fit::fit_modes(&d, c.as_ref(), &settings).map_err(input_error)
+    })?;
+    let out = PyDict::new(py);
+    let col = |g: &dyn Fn(&fit::FittedMode) -> f64| -> Vec<f64> { r.modes.iter().map(g).collect() };
+    out.set_item("frequency_hz", col(&|m| m.frequency_hz).into_pyarray(py))?;
+    out.set_item("damping_ratio", col(&|m| m.damping_ratio).into_pyarray(py))?;
+    out.set_item("modal_mass_kg", col(&|m| m.modal_mass_kg).into_pyarray(py))?;
+    out.set_item(
+        "modal_stiffness_n_per_m",
+        col(&|m| m.modal_stiffness_n_per_m).into_pyarray(py),
+    )?;
+    out.set_item(
+        "shape_cavity",
+        col(&|m| m.shape_cavity.unwrap_or(f64::NAN)).into_pyarray(py),
+    )?;
+    out.set_item("pole_re", col(&|m| m.pole.re).into_pyarray(py))?;
+    out.set_item("pole_im", col(&|m| m.pole.im).into_pyarray(py))?;
+    out.set_item("residue_re", col(&|m| m.residue.re).into_pyarray(py))?;
+    out.set_item("residue_im", col(&|m| m.residue.im).into_pyarray(py))?;
+    out.set_item(
+        "residue_phase_deg",
+        col(&|m| m.residue_phase_deg).into_pyarray(py),
+    )?;
+    out.set_item("frac", col(&|m| m.frac).into_pyarray(py))?;
+    out.set_item("mpc", col(&|m| m.mpc).into_pyarray(py))?;
+    out.set_item("order", col(&|m| m.order as f64).into_pyarray(py))?;
+    out.set_item("upper_residual_m_per_n", r.upper_residual)?;
+    out.set_item("lower_residual_per_kg", r.lower_residual)?;
+    out.set_item("fit_error", r.fit_error)?;
+    out.set_item("fit_error_cross", r.fit_error_cross)?;
+    out.set_item("refine_iterations", r.refine_iterations)?;
+    let chart = PyDict::new(py);
+    let p = &r.chart.poles;
+    let cc = |g: &dyn Fn(&fit::ChartPole) -> f64| -> Vec<f64> { p.iter().map(g).collect() };
+    chart.set_item("order", cc(&|c| c.order as f64).into_pyarray(py))?;
+    chart.set_item("frequency_hz", cc(&|c| c.frequency_hz).into_pyarray(py))?;
+    chart.set_item("damping_ratio", cc(&|c| c.damping_ratio).into_pyarray(py))?;
+    chart.set_item("pole_re", cc(&|c| c.pole.re).into_pyarray(py))?;
+    chart.set_item("pole_im", cc(&|c| c.pole.im).into_pyarray(py))?;
+    chart.set_item(
+        "stable",
+        p.iter()
+            .map(|c| c.stable())
+            .collect::<Vec<bool>>()
+            .into_pyarray(py),
+    )?;
+    out.set_item("chart", chart)?;
+    Ok(out)
+}
+
 /// The native part of the `vibrobar` package.
 #[pymodule]
 fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -2189,6 +2358,7 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bifurcation_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble, m)?)?;
     m.add_function(wrap_pyfunction!(lobes, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_modes, m)?)?;
     m.add_function(wrap_pyfunction!(width_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(time_domain_lobes, m)?)?;
     m.add_function(wrap_pyfunction!(lobe_design, m)?)?;

@@ -374,11 +374,11 @@ fn check_lines(d: &FrfLines, name: &'static str) -> Result<(), ParamError> {
 fn band(d: &FrfLines, band_hz: Option<(f64, f64)>) -> Result<Band, ParamError> {
     let (lo_d, hi_d) = (d.freqs_hz[0], *d.freqs_hz.last().unwrap());
     let (lo, hi) = band_hz.unwrap_or((lo_d, hi_d));
-    crate::params::finite("band low (Hz)", lo)?;
-    crate::params::finite("band high (Hz)", hi)?;
+    crate::params::finite("band_hz low end (--band-hz)", lo)?;
+    crate::params::finite("band_hz high end (--band-hz)", hi)?;
     if lo < lo_d || lo >= hi_d {
         return Err(ParamError::Limit {
-            field: "band low (Hz)",
+            field: "band_hz low end (--band-hz)",
             value: lo,
             min: lo_d,
             max: hi_d,
@@ -387,7 +387,7 @@ fn band(d: &FrfLines, band_hz: Option<(f64, f64)>) -> Result<Band, ParamError> {
     }
     if hi <= lo || hi > hi_d {
         return Err(ParamError::Limit {
-            field: "band high (Hz)",
+            field: "band_hz high end (--band-hz)",
             value: hi,
             min: lo,
             max: hi_d,
@@ -410,7 +410,7 @@ fn band(d: &FrfLines, band_hz: Option<(f64, f64)>) -> Result<Band, ParamError> {
     }
     if b.idx.len() < 4 {
         return Err(ParamError::Limit {
-            field: "band (Hz): lines with a positive weight",
+            field: "band_hz (--band-hz): lines with a positive weight",
             value: b.idx.len() as f64,
             min: 4.0,
             max: MAX_FIT_LINES as f64,
@@ -433,7 +433,7 @@ fn lscf(d: &FrfLines, b: &Band, settings: &FitSettings) -> Result<Stabilisation,
     let max_n = (b.idx.len() - 1).min(MAX_MODEL_ORDER);
     if n < 2 || n % 2 != 0 || n > max_n {
         return Err(ParamError::Limit {
-            field: "max model order (--max-order)",
+            field: "max_order (--max-order)",
             value: n as f64,
             min: 2.0,
             max: (max_n - max_n % 2) as f64,
@@ -552,7 +552,7 @@ pub fn pick_poles(
     if let Some(want) = &settings.poles_hz {
         if want.is_empty() || want.len() > MAX_FIT_MODES {
             return Err(ParamError::Limit {
-                field: "pole frequencies (--poles-hz)",
+                field: "poles_hz (--poles-hz)",
                 value: want.len() as f64,
                 min: 1.0,
                 max: MAX_FIT_MODES as f64,
@@ -561,7 +561,7 @@ pub fn pick_poles(
         }
         let mut out = Vec::new();
         for &f in want {
-            crate::params::finite("pole frequencies (--poles-hz)", f)?;
+            crate::params::finite("poles_hz (--poles-hz)", f)?;
             let best = stable
                 .iter()
                 .filter(|p| ((p.frequency_hz - f) / f).abs() < 0.05)
@@ -577,7 +577,7 @@ pub fn pick_poles(
                 Some(p) => out.push(*p),
                 None => {
                     return Err(ParamError::OutOfRange {
-                        field: "pole frequencies (--poles-hz)",
+                        field: "poles_hz (--poles-hz)",
                         value: f,
                         allowed:
                             "within 5 % of a stable pole of the chart (see the stabilisation CSV)",
