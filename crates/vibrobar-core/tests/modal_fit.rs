@@ -5,7 +5,7 @@ use num_complex::Complex64;
 use std::f64::consts::PI;
 use vibrobar_core::analysis::ensemble::SplitMix64;
 use vibrobar_core::analysis::lobes::{Linearisation, LobeTable, TipReceptance};
-use vibrobar_core::structure::fit::{fit_modes, mpc, FitSettings, FrfForm, FrfLines};
+use vibrobar_core::structure::fit::{fit_modes, mpc, FitSettings, FrfKind, FrfLines};
 use vibrobar_core::structure::{MeasuredMode, ModalModel};
 
 /// A known 3-mode bar (the first three modes of the paper's beam, in the tip normalisation).
@@ -32,7 +32,7 @@ fn receptance(f_hz: f64, cross: bool) -> Complex64 {
         .sum()
 }
 
-fn data(form: FrfForm, cross: bool, noise: f64, seed: u64) -> Vec<Complex64> {
+fn data(form: FrfKind, cross: bool, noise: f64, seed: u64) -> Vec<Complex64> {
     let mut rng = SplitMix64::new(seed);
     lines()
         .iter()
@@ -45,7 +45,7 @@ fn data(form: FrfForm, cross: bool, noise: f64, seed: u64) -> Vec<Complex64> {
         .collect()
 }
 
-fn fit(form: FrfForm, noise: f64) -> vibrobar_core::structure::fit::ModalFit {
+fn fit(form: FrfKind, noise: f64) -> vibrobar_core::structure::fit::ModalFit {
     let f = lines();
     let h = data(form, false, noise, 11);
     let c = data(form, true, noise, 12);
@@ -61,7 +61,7 @@ fn fit(form: FrfForm, noise: f64) -> vibrobar_core::structure::fit::ModalFit {
 
 #[test]
 fn noise_free_modes_are_recovered_to_1e_6_in_every_form() {
-    for form in [FrfForm::Receptance, FrfForm::Mobility, FrfForm::Accelerance] {
+    for form in [FrfKind::Receptance, FrfKind::Mobility, FrfKind::Accelerance] {
         let r = fit(form, 0.0);
         assert_eq!(r.modes.len(), 3, "{form:?}: {:?}", r.modes);
         for (m, &(f, z, mass, s)) in r.modes.iter().zip(&TRUE) {
@@ -102,7 +102,7 @@ fn noise_free_modes_are_recovered_to_1e_6_in_every_form() {
 
 #[test]
 fn one_percent_noise_keeps_frequencies_damping_shape_and_lobes() {
-    let r = fit(FrfForm::Receptance, 0.01);
+    let r = fit(FrfKind::Receptance, 0.01);
     assert_eq!(r.modes.len(), 3, "{:?}", r.modes);
     let mut fitted = Vec::new();
     for (m, &(f, z, _mass, s)) in r.modes.iter().zip(&TRUE) {
@@ -159,14 +159,14 @@ fn one_percent_noise_keeps_frequencies_damping_shape_and_lobes() {
 #[test]
 fn coherence_weights_drop_lines_and_chosen_poles_are_honoured() {
     let f = lines();
-    let h = data(FrfForm::Receptance, false, 0.0, 1);
+    let h = data(FrfKind::Receptance, false, 0.0, 1);
     // Zero weight on every other line: the same modes from half the lines.
     let w: Vec<f64> = (0..f.len()).map(|k| (k % 2) as f64).collect();
     let d = FrfLines {
         freqs_hz: &f,
         values: &h,
         weights: Some(&w),
-        form: FrfForm::Receptance,
+        form: FrfKind::Receptance,
     };
     let settings = FitSettings {
         poles_hz: Some(vec![600.0, 10_000.0]),
@@ -191,12 +191,12 @@ fn mpc_is_one_for_real_and_collinear_shapes_and_zero_for_a_circular_one() {
 #[test]
 fn bad_input_is_refused_naming_the_field() {
     let f = lines();
-    let h = data(FrfForm::Receptance, false, 0.0, 1);
+    let h = data(FrfKind::Receptance, false, 0.0, 1);
     let ok = FrfLines {
         freqs_hz: &f,
         values: &h,
         weights: None,
-        form: FrfForm::Receptance,
+        form: FrfKind::Receptance,
     };
     let s = FitSettings::default();
     let msg = |d: &FrfLines, s: &FitSettings| fit_modes(d, None, s).unwrap_err().to_string();
@@ -254,12 +254,12 @@ fn bad_input_is_refused_naming_the_field() {
 #[test]
 fn the_refinement_is_what_reaches_rounding_on_clean_data() {
     let f = lines();
-    let h = data(FrfForm::Receptance, false, 0.0, 1);
+    let h = data(FrfKind::Receptance, false, 0.0, 1);
     let d = FrfLines {
         freqs_hz: &f,
         values: &h,
         weights: None,
-        form: FrfForm::Receptance,
+        form: FrfKind::Receptance,
     };
     let worst = |refine: bool| {
         let r = fit_modes(
@@ -292,13 +292,13 @@ fn the_refinement_is_what_reaches_rounding_on_clean_data() {
 #[test]
 fn a_mode_above_the_band_becomes_the_upper_residual_and_its_pseudo_mode() {
     let f = lines();
-    let h = data(FrfForm::Receptance, false, 0.0, 1);
-    let c = data(FrfForm::Receptance, true, 0.0, 1);
+    let h = data(FrfKind::Receptance, false, 0.0, 1);
+    let c = data(FrfKind::Receptance, true, 0.0, 1);
     let d = FrfLines {
         freqs_hz: &f,
         values: &h,
         weights: None,
-        form: FrfForm::Receptance,
+        form: FrfKind::Receptance,
     };
     let x = FrfLines { values: &c, ..d };
     let s = FitSettings {

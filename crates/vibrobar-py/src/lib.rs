@@ -2243,11 +2243,11 @@ fn fit_modes<'py>(
     lower_residual: bool,
     refine: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use vibrobar_core::structure::fit::{self, FitSettings, FrfForm, FrfLines};
+    use vibrobar_core::structure::fit::{self, FitSettings, FrfKind, FrfLines};
     let form = match form {
-        "receptance" => FrfForm::Receptance,
-        "mobility" => FrfForm::Mobility,
-        "accelerance" => FrfForm::Accelerance,
+        "receptance" => FrfKind::Receptance,
+        "mobility" => FrfKind::Mobility,
+        "accelerance" => FrfKind::Accelerance,
         other => {
             return Err(PyValueError::new_err(format!(
                 "form = {other:?} is not one of \"receptance\", \"mobility\", \"accelerance\""

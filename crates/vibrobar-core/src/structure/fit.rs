@@ -70,28 +70,7 @@ use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use std::f64::consts::PI;
 
-/// The form of an FRF: what is measured per unit force.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum FrfForm {
-    /// Displacement per force, m/N.
-    #[default]
-    Receptance,
-    /// Velocity per force, (m/s)/N.
-    Mobility,
-    /// Acceleration per force, (m/s²)/N.
-    Accelerance,
-}
-
-impl FrfForm {
-    /// The factor from receptance to this form at `ω`: 1, `iω` or `−ω²`.
-    pub fn factor(self, omega_rad_s: f64) -> Complex64 {
-        match self {
-            FrfForm::Receptance => Complex64::new(1.0, 0.0),
-            FrfForm::Mobility => Complex64::new(0.0, omega_rad_s),
-            FrfForm::Accelerance => Complex64::new(-omega_rad_s * omega_rad_s, 0.0),
-        }
-    }
-}
+pub use super::frf_data::FrfKind;
 
 /// Most lines of one FRF the fit takes (memory and time stay small: the sums are `O(lines ×
 /// order)`).
@@ -112,7 +91,19 @@ pub struct FrfLines<'a> {
     /// Weights per line in `[0, 1]` (the fit minimises `Σ (w|H_fit − H|)²`); `None` for 1.
     pub weights: Option<&'a [f64]>,
     /// Receptance, mobility or accelerance.
-    pub form: FrfForm,
+    pub form: FrfKind,
+}
+
+impl<'a> From<&'a super::frf_data::MeasuredFrf> for FrfLines<'a> {
+    /// The measured FRF's lines, its coherence as the weights.
+    fn from(m: &'a super::frf_data::MeasuredFrf) -> Self {
+        FrfLines {
+            freqs_hz: &m.freqs_hz,
+            values: &m.values,
+            weights: m.coherence.as_deref(),
+            form: m.kind,
+        }
+    }
 }
 
 /// The stability criteria between consecutive model orders.
@@ -634,7 +625,7 @@ fn lsfd_row(
     poles: &[Complex64],
     upper: bool,
     lower: bool,
-    form: FrfForm,
+    form: FrfKind,
     w: f64,
     out: &mut Vec<Complex64>,
 ) {
