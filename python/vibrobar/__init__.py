@@ -52,6 +52,8 @@ __all__ = [
     "width_diagram",
     "time_domain_lobes",
     "lobe_design",
+    "read_frf",
+    "write_uff58",
     "submit",
     "solver_names",
     "DEFAULT_SOLVER",
@@ -1045,3 +1047,71 @@ def submit(client, fn: str, scenario: Optional[Scenario] = None, ratios: ArrayLi
         raise ValueError(f"fn = {fn!r}: only 'map' and 'ensemble' run on Dask")
     _array("ratios", ratios)
     return _dask.submit(client, fn, scenario, ratios, shards, **kwargs)
+
+
+def read_frf(
+    path: Any,
+    *,
+    units: Optional[str] = None,
+    frf_type: Optional[str] = None,
+    columns: Optional[str] = None,
+    record: Optional[int] = None,
+    conjugate: bool = False,
+    negate: bool = False,
+    accelerometer_mass_kg: Optional[float] = None,
+    cross: bool = False,
+) -> dict:
+    """Read a measured FRF, as ``vibrobar lobes --frf`` does.
+
+    ``path`` is a universal file (dataset 58 ASCII or 58b binary, with dataset 164 units) or
+    plain columns (CSV or blank separated: frequency in Hz, then re/im or magnitude/phase,
+    optionally a coherence). ``units`` gives the units of plain columns (m/N, mm/N, µm/N,
+    in/lbf, (m/s)/N, (m/s²)/N, g/N); ``frf_type`` the kind where the file does not say
+    (receptance, mobility, accelerance); ``columns`` the layout of plain columns without a
+    header (re-im, mag-deg, mag-rad); ``record`` the FRF record of a universal file with several
+    response/reference pairs (1-based). ``conjugate``/``negate`` fix an FRF under the
+    e^{−iωt} convention or with a reversed hammer; ``accelerometer_mass_kg`` cancels the
+    sensor's mass; ``cross`` marks plain columns as a cross FRF (no passivity check).
+
+    Returns a dict: ``freqs_hz`` (Hz), ``values`` (complex, SI units of ``kind``), ``kind``,
+    ``coherence`` (or None), ``driving_point``, ``units_note`` (where the units came from),
+    ``notes`` and ``format`` (uff58, uff58b or columns). Bad files raise ``ValueError`` naming
+    the file, the dataset, the record and the line.
+    """
+    return _vibrobar.read_frf(
+        str(path),
+        units,
+        frf_type,
+        columns,
+        record,
+        conjugate,
+        negate,
+        accelerometer_mass_kg,
+        cross,
+    )
+
+
+def write_uff58(
+    path: Any,
+    freqs_hz: ArrayLike,
+    values: Any,
+    *,
+    kind: str = "receptance",
+    coherence: Optional[ArrayLike] = None,
+    binary: bool = True,
+    driving_point: bool = True,
+    description: str = "vibrobar FRF",
+) -> None:
+    """Write an FRF as a universal file: dataset 164 (SI), the FRF as dataset 58b
+    (``binary=True``: little-endian doubles, read back bit for bit) or ASCII 58 (values to 12
+    significant digits), and its coherence if given.
+
+    ``freqs_hz`` must increase; ``values`` are complex, in SI units of ``kind`` (m/N for a
+    receptance, (m/s)/N mobility, (m/s²)/N accelerance). Evenly spaced lines whose start and
+    step have at most 6 significant digits are stored as start and step; others line by line
+    (in ASCII with 6 significant digits).
+    """
+    f = _np.ascontiguousarray(freqs_hz, dtype=_np.float64)
+    v = _np.ascontiguousarray(values, dtype=_np.complex128)
+    c = None if coherence is None else _np.ascontiguousarray(coherence, dtype=_np.float64)
+    _vibrobar.write_uff58(str(path), f, v, kind, c, binary, driving_point, description)

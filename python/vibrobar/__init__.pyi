@@ -199,3 +199,26 @@ def submit(
     shards: Optional[int] = None,
     **kwargs: Any,
 ) -> Any: ...
+def read_frf(
+    path: Any,
+    *,
+    units: Optional[str] = None,
+    frf_type: Optional[str] = None,
+    columns: Optional[str] = None,
+    record: Optional[int] = None,
+    conjugate: bool = False,
+    negate: bool = False,
+    accelerometer_mass_kg: Optional[float] = None,
+    cross: bool = False,
+) -> dict[str, Any]: ...
+def write_uff58(
+    path: Any,
+    freqs_hz: ArrayLike,
+    values: Any,
+    *,
+    kind: str = "receptance",
+    coherence: Optional[ArrayLike] = None,
+    binary: bool = True,
+    driving_point: bool = True,
+    description: str = "vibrobar FRF",
+) -> None: ...

@@ -163,3 +163,24 @@ def lobe_design(
     progress: _Progress = None,
 ) -> tuple[dict[str, Any], str]: ...
 def _busy(seconds: float, panic: bool = False) -> float: ...
+def read_frf(
+    path: str,
+    units: Optional[str] = None,
+    frf_type: Optional[str] = None,
+    columns: Optional[str] = None,
+    record: Optional[int] = None,
+    conjugate: bool = False,
+    negate: bool = False,
+    accelerometer_mass_kg: Optional[float] = None,
+    cross: bool = False,
+) -> dict[str, Any]: ...
+def write_uff58(
+    path: str,
+    freqs_hz: npt.NDArray[np.float64],
+    values: npt.NDArray[np.complex128],
+    kind: str = "receptance",
+    coherence: Optional[npt.NDArray[np.float64]] = None,
+    binary: bool = True,
+    driving_point: bool = True,
+    description: str = "vibrobar FRF",
+) -> None: ...

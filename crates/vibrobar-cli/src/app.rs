@@ -253,7 +253,11 @@ impl Command {
             Command::ContactTest(a) => (one(&a.scenario), Some(a.out.as_path())),
             Command::ContactLaws(a) => (vec![], Some(a.out.as_path())),
             Command::ContactConvergence(a) => (vec![], Some(a.out.as_path())),
-            Command::Lobes(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
+            Command::Lobes(a) => {
+                let mut inputs = vec![a.scenario.as_path()];
+                inputs.extend(a.frf.as_deref());
+                (inputs, Some(a.out.as_path()))
+            }
             Command::WidthDiagram(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
             Command::LobeDesign(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
         }

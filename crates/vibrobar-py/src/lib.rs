@@ -2142,6 +2142,118 @@ fn lobe_design<'py>(
     columns(py, &iocsv::lobe_design_schema(axis), &rows)
 }
 
+// ---------------------------------------------------------------------------------------------
+// measured FRFs: universal files (dataset 58/58b with 164) and plain columns
+
+/// Read a measured FRF (`vibrobar lobes --frf` reads it the same way): a universal file or plain
+/// columns, converted to SI, with the corrections asked for and the passivity check of a
+/// driving point. Returns a dict: `freqs_hz`, `values` (complex, SI units of `kind`), `kind`,
+/// `coherence` (or None), `driving_point`, `units_note`, `notes`, `format`.
+#[pyfunction]
+#[pyo3(signature = (path, units = None, frf_type = None, columns = None, record = None, conjugate = false, negate = false, accelerometer_mass_kg = None, cross = false))]
+#[allow(clippy::too_many_arguments)]
+fn read_frf<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    units: Option<String>,
+    frf_type: Option<String>,
+    columns: Option<String>,
+    record: Option<usize>,
+    conjugate: bool,
+    negate: bool,
+    accelerometer_mass_kg: Option<f64>,
+    cross: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    use vibrobar_core::structure::frf_data::FrfKind;
+    use vibrobar_io::frf::{ColumnLayout, FrfReadOptions};
+    let kind = match &frf_type {
+        None => None,
+        Some(t) => Some(FrfKind::parse(t).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "frf_type must be 'receptance', 'mobility' or 'accelerance', got {t:?}"
+            ))
+        })?),
+    };
+    let columns = match &columns {
+        None => ColumnLayout::default(),
+        Some(c) => ColumnLayout::parse(c).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "columns must be 're-im', 'mag-deg' or 'mag-rad', got {c:?}"
+            ))
+        })?,
+    };
+    let opts = FrfReadOptions {
+        units,
+        kind,
+        columns,
+        record,
+        conjugate,
+        negate,
+        accelerometer_mass_kg,
+        cross,
+    };
+    let read = vibrobar_io::frf::read_frf(&path, &opts).map_err(input_error)?;
+    let f = read.frf;
+    let d = PyDict::new(py);
+    d.set_item("freqs_hz", f.freqs_hz.into_pyarray(py))?;
+    d.set_item("values", f.values.into_pyarray(py))?;
+    d.set_item("kind", f.kind.name())?;
+    match f.coherence {
+        Some(c) => d.set_item("coherence", c.into_pyarray(py))?,
+        None => d.set_item("coherence", py.None())?,
+    }
+    d.set_item("driving_point", f.driving_point)?;
+    d.set_item("units_note", f.units_note)?;
+    d.set_item("notes", read.notes)?;
+    d.set_item("format", read.format)?;
+    Ok(d)
+}
+
+/// Write a measured FRF as a universal file: dataset 164 (SI), the FRF as dataset 58b
+/// (`binary`, little endian, doubles: values read back bit for bit) or ASCII 58 (12
+/// significant digits), and its coherence if given. The values are SI units of `kind`.
+#[pyfunction]
+#[pyo3(signature = (path, freqs_hz, values, kind = "receptance", coherence = None, binary = true, driving_point = true, description = "vibrobar FRF"))]
+#[allow(clippy::too_many_arguments)]
+fn write_uff58(
+    path: std::path::PathBuf,
+    freqs_hz: PyReadonlyArray1<'_, f64>,
+    values: PyReadonlyArray1<'_, numpy::Complex64>,
+    kind: &str,
+    coherence: Option<PyReadonlyArray1<'_, f64>>,
+    binary: bool,
+    driving_point: bool,
+    description: &str,
+) -> PyResult<()> {
+    use vibrobar_core::structure::frf_data::{FrfKind, MeasuredFrf};
+    let k = FrfKind::parse(kind).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "kind must be 'receptance', 'mobility' or 'accelerance', got {kind:?}"
+        ))
+    })?;
+    let frf = MeasuredFrf::new(
+        freqs_hz.as_slice()?.to_vec(),
+        values.as_slice()?.to_vec(),
+        k,
+        match &coherence {
+            Some(c) => Some(c.as_slice()?.to_vec()),
+            None => None,
+        },
+        driving_point,
+        String::new(),
+    )
+    .map_err(input_error)?;
+    let header = vibrobar_io::frf::Uff58Header {
+        description: description.chars().take(80).collect(),
+        rsp_node: 1,
+        rsp_dir: 3,
+        ref_node: if driving_point { 1 } else { 2 },
+        ref_dir: 3,
+    };
+    vibrobar_io::frf::write_frf_uff(&path, &frf, &header, binary).map_err(input_error)
+}
+// end of measured FRFs
+
 /// Names of the solvers (`solver=` of a scenario).
 #[pyfunction]
 fn solver_names() -> Vec<&'static str> {
@@ -2362,6 +2474,8 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(width_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(time_domain_lobes, m)?)?;
     m.add_function(wrap_pyfunction!(lobe_design, m)?)?;
+    m.add_function(wrap_pyfunction!(read_frf, m)?)?;
+    m.add_function(wrap_pyfunction!(write_uff58, m)?)?;
     m.add_function(wrap_pyfunction!(solver_names, m)?)?;
     m.add_function(wrap_pyfunction!(_busy, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

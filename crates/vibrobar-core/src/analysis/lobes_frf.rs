@@ -37,7 +37,7 @@ const MAX_NODES: usize = 20_000_000;
 /// A peak is under-resolved where `ζ·f < UNDER_RESOLVED_LINES × Δf`.
 pub const UNDER_RESOLVED_LINES: f64 = 5.0;
 /// Peaks below this fraction of the largest `|G|` are not examined by [`peak_resolution`].
-const PEAK_MIN_FRACTION: f64 = 0.05;
+const PEAK_MIN_FRACTION: f64 = 1e-3;
 
 /// A natural cubic spline through complex values at strictly increasing abscissae (second
 /// derivative zero at both ends), evaluated with its first derivative.
@@ -430,7 +430,7 @@ pub struct PeakResolution {
     pub under_resolved: bool,
 }
 
-/// The resonance peaks of the receptance magnitude of `frf` (those at least 5 % of the largest,
+/// The resonance peaks of the receptance magnitude of `frf` (those at least 0.1 % of the largest,
 /// with both half-power points inside the band) and how well each is resolved, highest first.
 pub fn peak_resolution(frf: &MeasuredFrf) -> Result<Vec<PeakResolution>, FrfDataError> {
     let g = if frf.kind == FrfKind::Receptance {
