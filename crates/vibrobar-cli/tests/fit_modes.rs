@@ -92,6 +92,36 @@ fn a_tap_test_in_uff58b_is_fitted_back_to_its_modes() {
     common::assert_ok(&o);
     let csv = fs::read_to_string(dir.path().join("m.csv")).unwrap();
     assert!(csv.lines().count() == 4, "{csv}");
+    // Lobes from the measured FRF carry the fitted modes' minimum beside the measured one, and
+    // on clean data the two agree.
+    let sc = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenarios/measured_modes.toml"
+    );
+    let o = vibrobar_in(
+        dir.path(),
+        &[
+            "lobes",
+            "--scenario",
+            sc,
+            "--frf",
+            s(&tip),
+            "--rpm",
+            "1000:50000:500",
+            "--out",
+            "l.csv",
+        ],
+    );
+    common::assert_ok(&o);
+    let out = String::from_utf8_lossy(&o.stdout);
+    let pct = out
+        .lines()
+        .find(|l| l.contains("fitted     : b_lim,min"))
+        .and_then(|l| l.split("defaults: ").nth(1))
+        .and_then(|t| t.split(" %").next())
+        .map(|t| t.trim().parse::<f64>().unwrap())
+        .unwrap_or_else(|| panic!("no fitted line in\n{out}"));
+    assert!(pct.abs() < 0.1, "fitted against measured: {pct} %");
 }
 
 #[test]

@@ -329,8 +329,6 @@ fn frf_lobes(
     };
     let t0 = std::time::Instant::now();
     let table = FrfLobeTable::new(frf).map_err(data)?;
-    // The lobes of a modal fit of the same FRF belong beside these (what the fit costs); they
-    // are computed by the exact lobes of `analysis::lobes` on the fitted modes.
     let rows: Vec<(f64, vibrobar_core::analysis::lobes::BoundaryPoint)> = rpms
         .iter()
         .map(|&n| table.boundary_at(n, k_o).map(|b| (n, b)))
@@ -381,6 +379,15 @@ fn frf_lobes(
         s / k_o * 1e3,
         w / (2.0 * std::f64::consts::PI)
     );
+    match fitted_minimum(frf) {
+        Ok((sf, wf, n)) => println!(
+            "  fitted     : b_lim,min = {:.6} mm at {:.2} Hz ({n} modes of `vibrobar fit-modes` with its defaults: {:+.2} % against the measured lines; what the fit costs)",
+            sf / k_o * 1e3,
+            wf / (2.0 * std::f64::consts::PI),
+            100.0 * (sf / s - 1.0)
+        ),
+        Err(e) => eprintln!("warning: no lobes of fitted modes beside the measured ones: the modal fit failed: {e:#}"),
+    }
     for p in peak_resolution(frf).map_err(data)? {
         if p.under_resolved {
             eprintln!(
@@ -409,4 +416,39 @@ fn frf_lobes(
         super::fmt_secs(secs)
     );
     Ok(())
+}
+
+/// The lowest point of the exact lobes of the modes fitted to `frf` (the fit's defaults, ball
+/// free): `(s, ω, modes)` with `b_lim,min = s/K_o`.
+fn fitted_minimum(
+    frf: &vibrobar_core::structure::frf_data::MeasuredFrf,
+) -> Result<(f64, f64, usize)> {
+    use vibrobar_core::analysis::lobes::{Linearisation, LobeTable, TipReceptance};
+    use vibrobar_core::structure::fit::{fit_modes, FitSettings, FrfLines};
+    use vibrobar_core::structure::{MeasuredMode, ModalModel};
+    let frf = if frf.freqs_hz[0] == 0.0 {
+        frf.without_zero_frequency()?
+    } else {
+        frf.clone()
+    };
+    let r = fit_modes(&FrfLines::from(&frf), None, &FitSettings::default())?;
+    let modes: Vec<_> = r
+        .modes
+        .iter()
+        .map(|m| MeasuredMode {
+            frequency_hz: m.frequency_hz,
+            damping_ratio: m.damping_ratio,
+            modal_mass_kg: m.modal_mass_kg,
+            shape_cavity: 1.0,
+        })
+        .filter(|m| m.validate().is_ok())
+        .map(|m| m.mode())
+        .collect();
+    let stat = modes
+        .iter()
+        .map(|m| 1.0 / m.modal_stiffness_n_per_m())
+        .sum();
+    let model = ModalModel::new(&modes, stat)?;
+    let (sm, wm) = LobeTable::new(TipReceptance::new(&model, Linearisation::BallFree)?)?.minimum();
+    Ok((sm, wm, modes.len()))
 }
