@@ -2,6 +2,7 @@
 # The Python package (issue #10): a venv under target/ (created once, reused), the build and test
 # tools from PyPI, the package built from this tree (maturin, the committed Cargo.lock), then
 # pytest on python/tests, whose examples and bit-identity tests need matplotlib/pandas/xarray
+# (and the universal-file cross-checks pyuff)
 # and the release `vibrobar` binary beside the package.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -11,7 +12,7 @@ if [ ! -x "$VENV/bin/python" ]; then
     "$PYTHON" -m venv "$VENV"
 fi
 "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check \
-    "maturin>=1.7,<2" numpy pytest pandas xarray matplotlib "dask[distributed]"
+    "maturin>=1.7,<2" numpy pytest pandas xarray matplotlib "dask[distributed]" "pyuff>=2.4,<3" "sdypy-EMA>=0.31,<1"
 cargo build --release --locked -p vibrobar-cli
 VIRTUAL_ENV="$PWD/$VENV" "$VENV/bin/maturin" develop --release --locked --quiet
 status=0

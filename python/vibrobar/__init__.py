@@ -47,9 +47,13 @@ __all__ = [
     "continuation2",
     "ensemble",
     "lobes",
+    "fit_modes",
+    "ModalFit",
     "width_diagram",
     "time_domain_lobes",
     "lobe_design",
+    "read_frf",
+    "write_uff58",
     "submit",
     "solver_names",
     "DEFAULT_SOLVER",
@@ -748,6 +752,123 @@ def lobes(
     )
     return Table(cols, csv)
 
+class ModalFit:
+    """Modes fitted to a measured FRF (:func:`fit_modes`).
+
+    Attributes:
+        modes: a :class:`Table` with one row per mode: ``frequency_hz`` (undamped, Hz),
+            ``damping_ratio``, ``modal_mass_kg`` (shape 1 at the tip), ``modal_stiffness_n_per_m``,
+            ``shape_cavity`` (from the cross FRF; NaN without one), ``pole_re``, ``pole_im``
+            (rad/s), ``residue_re``, ``residue_im`` (receptance form, m/(N·s)),
+            ``residue_phase_deg`` (−90° for a lightly damped receptance mode), ``frac``, ``mpc``
+            and ``order`` (the model order the pole was taken at).
+        chart: a :class:`Table` of the stabilisation chart: ``order``, ``frequency_hz``,
+            ``damping_ratio``, ``pole_re``, ``pole_im``, ``stable``.
+        upper_residual_m_per_n: the upper residual (modes above the band), m/N.
+        lower_residual_per_kg: the lower residual ``L`` of ``−L/ω²`` (modes below the band), 1/kg.
+        fit_error: relative error of the fitted driving-point FRF over the band.
+        fit_error_cross: the same for the cross FRF (None without one).
+        refine_iterations: Levenberg–Marquardt iterations of the refinement.
+    """
+
+    def __init__(self, d: dict):
+        chart = d.pop("chart")
+        keys = ("upper_residual_m_per_n", "lower_residual_per_kg", "fit_error", "fit_error_cross",
+                "refine_iterations")
+        scalars = {k: d.pop(k) for k in keys}
+        self.modes = Table(d)
+        self.chart = Table(chart)
+        self.upper_residual_m_per_n: float = scalars["upper_residual_m_per_n"]
+        self.lower_residual_per_kg: float = scalars["lower_residual_per_kg"]
+        self.fit_error: float = scalars["fit_error"]
+        self.fit_error_cross: Optional[float] = scalars["fit_error_cross"]
+        self.refine_iterations: int = scalars["refine_iterations"]
+
+    def __repr__(self) -> str:
+        f = ", ".join(f"{x:.6g}" for x in self.modes["frequency_hz"])
+        return f"ModalFit(frequency_hz=[{f}], fit_error={self.fit_error:.3e})"
+
+
+def fit_modes(
+    freqs_hz: ArrayLike,
+    frf: ArrayLike,
+    *,
+    form: str = "receptance",
+    cross: Optional[ArrayLike] = None,
+    weights: Optional[ArrayLike] = None,
+    band_hz: Optional[Sequence[float]] = None,
+    max_order: int = 40,
+    min_stable_orders: int = 4,
+    poles_hz: Optional[ArrayLike] = None,
+    upper_residual: bool = True,
+    lower_residual: bool = False,
+    refine: bool = True,
+) -> ModalFit:
+    """Modes of a bar from its measured driving-point FRF at the tool tip (``vibrobar fit-modes``).
+
+    Poles by least-squares complex frequency (LSCF) over model orders 2, 4, …, ``max_order``
+    with a stabilisation chart (stable: frequency within 1 % and damping within 5 % of the
+    lower order's pole, damping positive), residues by LSFD, then poles and residues refined
+    together by nonlinear least squares. The FRF is fitted in its own form.
+
+    The modes describe the bar **without the ball**: tap it with the ball removed, or locked
+    with its mass subtracted.
+
+    Args:
+        freqs_hz: the lines, Hz, strictly increasing and positive.
+        frf: complex values at those lines, SI units of ``form``.
+        form: ``"receptance"`` (m/N), ``"mobility"`` ((m/s)/N) or ``"accelerance"`` ((m/s²)/N).
+        cross: the cross FRF between the cavity and the tip (same lines and form); gives
+            ``shape_cavity``.
+        weights: per-line weights in [0, 1] (e.g. the coherence); 0 drops a line.
+        band_hz: ``(low, high)`` band within the lines; default: the whole record.
+        max_order: highest LSCF model order (even).
+        min_stable_orders: orders at which a pole must be stable to count as a mode.
+        poles_hz: take the stable poles nearest these frequencies (within 5 %) instead.
+        upper_residual, lower_residual: fit the residual terms of the modes above / below the
+            band.
+        refine: refine poles and residues by nonlinear least squares.
+    """
+    f = _array("freqs_hz", freqs_hz)
+    h = _np.asarray(frf, dtype=_np.complex128)
+    if h.ndim != 1:
+        raise ValueError(f"frf must be 1-d, got an array of shape {h.shape}")
+    c = None
+    if cross is not None:
+        c = _np.asarray(cross, dtype=_np.complex128)
+        if c.ndim != 1:
+            raise ValueError(f"cross must be 1-d, got an array of shape {c.shape}")
+    if not isinstance(form, str):
+        raise TypeError(f"form must be a str, got {type(form).__name__}")
+    if band_hz is not None:
+        if len(band_hz) != 2:
+            raise ValueError(f"band_hz must be (low, high) in Hz, got {band_hz!r}")
+        band_hz = (float(band_hz[0]), float(band_hz[1]))
+    for name, v in (("max_order", max_order), ("min_stable_orders", min_stable_orders)):
+        if isinstance(v, bool) or not isinstance(v, (int, _np.integer)):
+            raise TypeError(f"{name} must be an int, got {type(v).__name__}")
+        if v < 1:
+            raise ValueError(f"{name} = {v} is outside the allowed range [1, ∞)")
+    p = None if poles_hz is None else [float(x) for x in _array("poles_hz", poles_hz)]
+    d = _vibrobar.fit_modes(
+        f,
+        _np.ascontiguousarray(h.real),
+        _np.ascontiguousarray(h.imag),
+        form,
+        None if c is None else _np.ascontiguousarray(c.real),
+        None if c is None else _np.ascontiguousarray(c.imag),
+        _array("weights", weights, False),
+        band_hz,
+        int(max_order),
+        int(min_stable_orders),
+        p,
+        bool(upper_residual),
+        bool(lower_residual),
+        bool(refine),
+    )
+    return ModalFit(d)
+
+
 
 def ensemble(
     scenario: Optional[Scenario] = None,
@@ -926,3 +1047,71 @@ def submit(client, fn: str, scenario: Optional[Scenario] = None, ratios: ArrayLi
         raise ValueError(f"fn = {fn!r}: only 'map' and 'ensemble' run on Dask")
     _array("ratios", ratios)
     return _dask.submit(client, fn, scenario, ratios, shards, **kwargs)
+
+
+def read_frf(
+    path: Any,
+    *,
+    units: Optional[str] = None,
+    frf_type: Optional[str] = None,
+    columns: Optional[str] = None,
+    record: Optional[int] = None,
+    conjugate: bool = False,
+    negate: bool = False,
+    accelerometer_mass_kg: Optional[float] = None,
+    cross: bool = False,
+) -> dict:
+    """Read a measured FRF, as ``vibrobar lobes --frf`` does.
+
+    ``path`` is a universal file (dataset 58 ASCII or 58b binary, with dataset 164 units) or
+    plain columns (CSV or blank separated: frequency in Hz, then re/im or magnitude/phase,
+    optionally a coherence). ``units`` gives the units of plain columns (m/N, mm/N, µm/N,
+    in/lbf, (m/s)/N, (m/s²)/N, g/N); ``frf_type`` the kind where the file does not say
+    (receptance, mobility, accelerance); ``columns`` the layout of plain columns without a
+    header (re-im, mag-deg, mag-rad); ``record`` the FRF record of a universal file with several
+    response/reference pairs (1-based). ``conjugate``/``negate`` fix an FRF under the
+    e^{−iωt} convention or with a reversed hammer; ``accelerometer_mass_kg`` cancels the
+    sensor's mass; ``cross`` marks plain columns as a cross FRF (no passivity check).
+
+    Returns a dict: ``freqs_hz`` (Hz), ``values`` (complex, SI units of ``kind``), ``kind``,
+    ``coherence`` (or None), ``driving_point``, ``units_note`` (where the units came from),
+    ``notes`` and ``format`` (uff58, uff58b or columns). Bad files raise ``ValueError`` naming
+    the file, the dataset, the record and the line.
+    """
+    return _vibrobar.read_frf(
+        str(path),
+        units,
+        frf_type,
+        columns,
+        record,
+        conjugate,
+        negate,
+        accelerometer_mass_kg,
+        cross,
+    )
+
+
+def write_uff58(
+    path: Any,
+    freqs_hz: ArrayLike,
+    values: Any,
+    *,
+    kind: str = "receptance",
+    coherence: Optional[ArrayLike] = None,
+    binary: bool = True,
+    driving_point: bool = True,
+    description: str = "vibrobar FRF",
+) -> None:
+    """Write an FRF as a universal file: dataset 164 (SI), the FRF as dataset 58b
+    (``binary=True``: little-endian doubles, read back bit for bit) or ASCII 58 (values to 12
+    significant digits), and its coherence if given.
+
+    ``freqs_hz`` must increase; ``values`` are complex, in SI units of ``kind`` (m/N for a
+    receptance, (m/s)/N mobility, (m/s²)/N accelerance). Evenly spaced lines whose start and
+    step have at most 6 significant digits are stored as start and step; others line by line
+    (in ASCII with 6 significant digits).
+    """
+    f = _np.ascontiguousarray(freqs_hz, dtype=_np.float64)
+    v = _np.ascontiguousarray(values, dtype=_np.complex128)
+    c = None if coherence is None else _np.ascontiguousarray(coherence, dtype=_np.float64)
+    _vibrobar.write_uff58(str(path), f, v, kind, c, binary, driving_point, description)

@@ -143,6 +143,31 @@ def lyapunov(
     d0: float = 1e-9,
     **overrides: Any,
 ) -> dict[str, Any]: ...
+class ModalFit:
+    modes: Table
+    chart: Table
+    upper_residual_m_per_n: float
+    lower_residual_per_kg: float
+    fit_error: float
+    fit_error_cross: Optional[float]
+    refine_iterations: int
+    def __init__(self, d: dict[str, Any]) -> None: ...
+
+def fit_modes(
+    freqs_hz: ArrayLike,
+    frf: ArrayLike,
+    *,
+    form: str = ...,
+    cross: Optional[ArrayLike] = ...,
+    weights: Optional[ArrayLike] = ...,
+    band_hz: Optional[Sequence[float]] = ...,
+    max_order: int = ...,
+    min_stable_orders: int = ...,
+    poles_hz: Optional[ArrayLike] = ...,
+    upper_residual: bool = ...,
+    lower_residual: bool = ...,
+    refine: bool = ...,
+) -> ModalFit: ...
 def lobes(
     scenario: Optional[Scenario] = None,
     rpm_start: float = ...,
@@ -174,3 +199,26 @@ def submit(
     shards: Optional[int] = None,
     **kwargs: Any,
 ) -> Any: ...
+def read_frf(
+    path: Any,
+    *,
+    units: Optional[str] = None,
+    frf_type: Optional[str] = None,
+    columns: Optional[str] = None,
+    record: Optional[int] = None,
+    conjugate: bool = False,
+    negate: bool = False,
+    accelerometer_mass_kg: Optional[float] = None,
+    cross: bool = False,
+) -> dict[str, Any]: ...
+def write_uff58(
+    path: Any,
+    freqs_hz: ArrayLike,
+    values: Any,
+    *,
+    kind: str = "receptance",
+    coherence: Optional[ArrayLike] = None,
+    binary: bool = True,
+    driving_point: bool = True,
+    description: str = "vibrobar FRF",
+) -> None: ...

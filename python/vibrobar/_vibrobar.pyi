@@ -127,6 +127,22 @@ def bifurcation_diagram(
 def lobes(
     scenario: Scenario, rpm_start: float, rpm_stop: float, rpm_step: float
 ) -> tuple[dict[str, Any], str]: ...
+def fit_modes(
+    freqs_hz: npt.NDArray[np.float64],
+    frf_re: npt.NDArray[np.float64],
+    frf_im: npt.NDArray[np.float64],
+    form: str,
+    cross_re: Optional[npt.NDArray[np.float64]] = None,
+    cross_im: Optional[npt.NDArray[np.float64]] = None,
+    weights: Optional[npt.NDArray[np.float64]] = None,
+    band_hz: Optional[tuple[float, float]] = None,
+    max_order: int = 40,
+    min_stable_orders: int = 4,
+    poles_hz: Optional[list[float]] = None,
+    upper_residual: bool = True,
+    lower_residual: bool = False,
+    refine: bool = True,
+) -> dict[str, Any]: ...
 def ensemble(
     scenario: Scenario,
     ratios: npt.NDArray[np.float64],
@@ -147,3 +163,24 @@ def lobe_design(
     progress: _Progress = None,
 ) -> tuple[dict[str, Any], str]: ...
 def _busy(seconds: float, panic: bool = False) -> float: ...
+def read_frf(
+    path: str,
+    units: Optional[str] = None,
+    frf_type: Optional[str] = None,
+    columns: Optional[str] = None,
+    record: Optional[int] = None,
+    conjugate: bool = False,
+    negate: bool = False,
+    accelerometer_mass_kg: Optional[float] = None,
+    cross: bool = False,
+) -> dict[str, Any]: ...
+def write_uff58(
+    path: str,
+    freqs_hz: npt.NDArray[np.float64],
+    values: npt.NDArray[np.complex128],
+    kind: str = "receptance",
+    coherence: Optional[npt.NDArray[np.float64]] = None,
+    binary: bool = True,
+    driving_point: bool = True,
+    description: str = "vibrobar FRF",
+) -> None: ...

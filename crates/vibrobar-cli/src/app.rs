@@ -148,6 +148,9 @@ pub enum Command {
     /// Modes of the bar at the cavity, force and response points (a [beam] scenario: the
     /// Euler–Bernoulli beam; otherwise the lumped bar's one mode), as CSV.
     Modes(crate::commands::modes::ModesArgs),
+    /// Modes from a measured FRF (a tap test at the tool tip): LSCF poles with a stabilisation
+    /// chart, residues, refinement; writes [[modes]] TOML with the chart and the fit beside it.
+    FitModes(crate::commands::fit_modes::FitModesArgs),
     /// Cavity placement on a beam: position × gap over a band of ratios (mean reduction, worst
     /// RMS, regime), the optimum and a heat map with the nodes of modes 2 and 3; resumable
     /// (--resume) and shardable (--shard K/N).
@@ -204,6 +207,7 @@ impl Command {
             Command::Ensemble(_) => "ensemble",
             Command::BenchMap(_) => "bench-map",
             Command::Modes(_) => "modes",
+            Command::FitModes(_) => "fit-modes",
             Command::Placement(_) => "placement",
             Command::LumpedVsBeam(_) => "lumped-vs-beam",
             Command::CuttingDeeper(_) => "cutting-deeper",
@@ -242,13 +246,18 @@ impl Command {
             Command::Ensemble(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::BenchMap(a) => (one(&a.scenario), None),
             Command::Modes(a) => (one(&a.scenario), Some(a.out.as_path())),
+            Command::FitModes(a) => (crate::commands::fit_modes::inputs(a), Some(a.out.as_path())),
             Command::Placement(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::LumpedVsBeam(a) => (vec![], Some(a.out.as_path())),
             Command::CuttingDeeper(a) => (vec![], Some(a.out.as_path())),
             Command::ContactTest(a) => (one(&a.scenario), Some(a.out.as_path())),
             Command::ContactLaws(a) => (vec![], Some(a.out.as_path())),
             Command::ContactConvergence(a) => (vec![], Some(a.out.as_path())),
-            Command::Lobes(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
+            Command::Lobes(a) => {
+                let mut inputs = vec![a.scenario.as_path()];
+                inputs.extend(a.frf.as_deref());
+                (inputs, Some(a.out.as_path()))
+            }
             Command::WidthDiagram(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
             Command::LobeDesign(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
         }
@@ -342,6 +351,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::BenchMap(a) => map::run_bench(&a),
         Command::Bench(a) => bench::bench(&a),
         Command::Modes(a) => modes::modes(&a),
+        Command::FitModes(a) => crate::commands::fit_modes::run(&a),
         Command::Placement(a) => placement::run(&a),
         Command::LumpedVsBeam(a) => lumped_vs_beam::run(&a),
         Command::CuttingDeeper(a) => crate::commands::cutting_deeper::run(&a),

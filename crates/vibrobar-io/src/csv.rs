@@ -1478,6 +1478,38 @@ pub fn write_lobes_csv(
     write_csv(path, &lobes_schema(), rows.iter().map(lobes_values))
 }
 
+/// `vibrobar lobes --frf`: the stability boundary of a measured receptance at each spindle
+/// speed, with its chatter frequency and lobe index.
+pub fn lobes_frf_schema() -> Schema {
+    Schema {
+        columns: vec![
+            col("spindle_rpm", Format::Coord),
+            col("b_lim_m", Format::Plain),
+            col("chatter_frequency_hz", Format::Plain),
+            col("lobe", Format::Count),
+        ],
+    }
+}
+
+/// Write a `lobes --frf` CSV: `(spindle_rpm, boundary)` rows.
+pub fn write_lobes_frf_csv(
+    path: &Path,
+    rows: &[(f64, vibrobar_core::analysis::lobes::BoundaryPoint)],
+) -> Result<()> {
+    write_csv(
+        path,
+        &lobes_frf_schema(),
+        rows.iter().map(|(n, b)| {
+            vec![
+                Value::F(*n),
+                Value::F(b.b_lim_m),
+                Value::F(b.chatter_frequency_hz),
+                Value::U(b.lobe),
+            ]
+        }),
+    )
+}
+
 // ---------------------------------------------------------------------------------------------
 // contact-test
 

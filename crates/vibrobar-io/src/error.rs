@@ -132,6 +132,16 @@ pub enum IoError {
         /// What is wrong.
         why: String,
     },
+    /// A measured FRF file (universal file or columns) that cannot be used: where and why.
+    #[error("{}{}{why}", path.display(), if location.is_empty() { ": ".to_string() } else { format!(", {location}: ") })]
+    FrfInput {
+        /// File.
+        path: PathBuf,
+        /// Where in it: line, dataset and record, or byte offset (may be empty).
+        location: String,
+        /// What is wrong.
+        why: String,
+    },
     /// Bad `--shard` text.
     #[error("--shard must be K/N with whole numbers 1 ≤ K ≤ N, got {0:?}")]
     ShardSpec(String),

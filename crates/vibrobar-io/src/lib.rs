@@ -4,7 +4,7 @@
 //! output-path policy ([`target`]: links followed, devices and FIFOs written through, outputs
 //! that are inputs refused), resumable row journals with a lock ([`journal`], [`lock`]), CSV
 //! schemas defined once ([`csv`]), time histories streamed in constant memory ([`history`]),
-//! NPY arrays ([`npy`]), typed JSON metadata ([`meta`], [`params`]), shards and merging ([`shard`]).
+//! NPY arrays ([`npy`]), measured FRFs in and out ([`frf`]: universal files, [`uff`], and plain columns), typed JSON metadata ([`meta`], [`params`]), shards and merging ([`shard`]).
 //! No command line, no progress bars, no physics: the types stored come from `vibrobar-core`.
 
 #![warn(missing_docs)]
@@ -12,6 +12,7 @@
 pub mod atomic;
 pub mod csv;
 pub mod error;
+pub mod frf;
 pub mod history;
 pub mod journal;
 pub mod lock;
@@ -20,6 +21,7 @@ pub mod npy;
 pub mod params;
 pub mod shard;
 pub mod target;
+pub mod uff;
 
 pub use atomic::{
     close_for_exit, ensure_parent, partial_path, publish, remove_live_partials, track_partial,

@@ -2142,6 +2142,118 @@ fn lobe_design<'py>(
     columns(py, &iocsv::lobe_design_schema(axis), &rows)
 }
 
+// ---------------------------------------------------------------------------------------------
+// measured FRFs: universal files (dataset 58/58b with 164) and plain columns
+
+/// Read a measured FRF (`vibrobar lobes --frf` reads it the same way): a universal file or plain
+/// columns, converted to SI, with the corrections asked for and the passivity check of a
+/// driving point. Returns a dict: `freqs_hz`, `values` (complex, SI units of `kind`), `kind`,
+/// `coherence` (or None), `driving_point`, `units_note`, `notes`, `format`.
+#[pyfunction]
+#[pyo3(signature = (path, units = None, frf_type = None, columns = None, record = None, conjugate = false, negate = false, accelerometer_mass_kg = None, cross = false))]
+#[allow(clippy::too_many_arguments)]
+fn read_frf<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    units: Option<String>,
+    frf_type: Option<String>,
+    columns: Option<String>,
+    record: Option<usize>,
+    conjugate: bool,
+    negate: bool,
+    accelerometer_mass_kg: Option<f64>,
+    cross: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    use vibrobar_core::structure::frf_data::FrfKind;
+    use vibrobar_io::frf::{ColumnLayout, FrfReadOptions};
+    let kind = match &frf_type {
+        None => None,
+        Some(t) => Some(FrfKind::parse(t).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "frf_type must be 'receptance', 'mobility' or 'accelerance', got {t:?}"
+            ))
+        })?),
+    };
+    let columns = match &columns {
+        None => ColumnLayout::default(),
+        Some(c) => ColumnLayout::parse(c).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "columns must be 're-im', 'mag-deg' or 'mag-rad', got {c:?}"
+            ))
+        })?,
+    };
+    let opts = FrfReadOptions {
+        units,
+        kind,
+        columns,
+        record,
+        conjugate,
+        negate,
+        accelerometer_mass_kg,
+        cross,
+    };
+    let read = vibrobar_io::frf::read_frf(&path, &opts).map_err(input_error)?;
+    let f = read.frf;
+    let d = PyDict::new(py);
+    d.set_item("freqs_hz", f.freqs_hz.into_pyarray(py))?;
+    d.set_item("values", f.values.into_pyarray(py))?;
+    d.set_item("kind", f.kind.name())?;
+    match f.coherence {
+        Some(c) => d.set_item("coherence", c.into_pyarray(py))?,
+        None => d.set_item("coherence", py.None())?,
+    }
+    d.set_item("driving_point", f.driving_point)?;
+    d.set_item("units_note", f.units_note)?;
+    d.set_item("notes", read.notes)?;
+    d.set_item("format", read.format)?;
+    Ok(d)
+}
+
+/// Write a measured FRF as a universal file: dataset 164 (SI), the FRF as dataset 58b
+/// (`binary`, little endian, doubles: values read back bit for bit) or ASCII 58 (12
+/// significant digits), and its coherence if given. The values are SI units of `kind`.
+#[pyfunction]
+#[pyo3(signature = (path, freqs_hz, values, kind = "receptance", coherence = None, binary = true, driving_point = true, description = "vibrobar FRF"))]
+#[allow(clippy::too_many_arguments)]
+fn write_uff58(
+    path: std::path::PathBuf,
+    freqs_hz: PyReadonlyArray1<'_, f64>,
+    values: PyReadonlyArray1<'_, numpy::Complex64>,
+    kind: &str,
+    coherence: Option<PyReadonlyArray1<'_, f64>>,
+    binary: bool,
+    driving_point: bool,
+    description: &str,
+) -> PyResult<()> {
+    use vibrobar_core::structure::frf_data::{FrfKind, MeasuredFrf};
+    let k = FrfKind::parse(kind).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "kind must be 'receptance', 'mobility' or 'accelerance', got {kind:?}"
+        ))
+    })?;
+    let frf = MeasuredFrf::new(
+        freqs_hz.as_slice()?.to_vec(),
+        values.as_slice()?.to_vec(),
+        k,
+        match &coherence {
+            Some(c) => Some(c.as_slice()?.to_vec()),
+            None => None,
+        },
+        driving_point,
+        String::new(),
+    )
+    .map_err(input_error)?;
+    let header = vibrobar_io::frf::Uff58Header {
+        description: description.chars().take(80).collect(),
+        rsp_node: 1,
+        rsp_dir: 3,
+        ref_node: if driving_point { 1 } else { 2 },
+        ref_dir: 3,
+    };
+    vibrobar_io::frf::write_frf_uff(&path, &frf, &header, binary).map_err(input_error)
+}
+// end of measured FRFs
+
 /// Names of the solvers (`solver=` of a scenario).
 #[pyfunction]
 fn solver_names() -> Vec<&'static str> {
@@ -2172,6 +2284,175 @@ fn _busy(py: Python<'_>, seconds: f64, panic: bool) -> PyResult<f64> {
     })
 }
 
+// ---------------------------------------------------------------------------------------------
+// the modal fit of a measured FRF
+
+/// One FRF's lines: frequencies (Hz), values, optional weights.
+type FrfArrays = (Vec<f64>, Vec<num_complex::Complex64>, Option<Vec<f64>>);
+
+/// One FRF's lines from Python: frequencies (Hz), real and imaginary parts, optional weights.
+fn frf_arrays(
+    name: &str,
+    freqs_hz: &PyReadonlyArray1<'_, f64>,
+    re: &PyReadonlyArray1<'_, f64>,
+    im: &PyReadonlyArray1<'_, f64>,
+    weights: Option<&PyReadonlyArray1<'_, f64>>,
+) -> PyResult<FrfArrays> {
+    use vibrobar_core::structure::fit::MAX_FIT_LINES;
+    let f = values(
+        "freqs_hz",
+        freqs_hz,
+        |x| x > 0.0,
+        "(0, ∞) Hz",
+        MAX_FIT_LINES,
+    )?;
+    let re = re.as_array().to_vec();
+    let im = im.as_array().to_vec();
+    if re.len() != f.len() || im.len() != f.len() {
+        return Err(PyValueError::new_err(format!(
+            "{name} has {} values for {} frequencies (allowed: one value per frequency)",
+            re.len(),
+            f.len()
+        )));
+    }
+    let h = re
+        .iter()
+        .zip(&im)
+        .map(|(a, b)| num_complex::Complex64::new(*a, *b))
+        .collect();
+    let w = match weights {
+        Some(w) => Some(values(
+            "weights",
+            w,
+            |x| (0.0..=1.0).contains(&x),
+            "[0, 1]",
+            MAX_FIT_LINES,
+        )?),
+        None => None,
+    };
+    Ok((f, h, w))
+}
+
+/// Modes from a measured FRF (``vibrobar fit-modes``): LSCF poles, LSFD residues and their
+/// refinement. Returns the modes, the quality figures and the stabilisation chart.
+#[pyfunction]
+#[pyo3(signature = (freqs_hz, frf_re, frf_im, form, cross_re = None, cross_im = None, weights = None, band_hz = None, max_order = 40, min_stable_orders = 4, poles_hz = None, upper_residual = true, lower_residual = false, refine = true))]
+#[allow(clippy::too_many_arguments)]
+fn fit_modes<'py>(
+    py: Python<'py>,
+    freqs_hz: PyReadonlyArray1<'py, f64>,
+    frf_re: PyReadonlyArray1<'py, f64>,
+    frf_im: PyReadonlyArray1<'py, f64>,
+    form: &str,
+    cross_re: Option<PyReadonlyArray1<'py, f64>>,
+    cross_im: Option<PyReadonlyArray1<'py, f64>>,
+    weights: Option<PyReadonlyArray1<'py, f64>>,
+    band_hz: Option<(f64, f64)>,
+    max_order: usize,
+    min_stable_orders: usize,
+    poles_hz: Option<Vec<f64>>,
+    upper_residual: bool,
+    lower_residual: bool,
+    refine: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    use vibrobar_core::structure::fit::{self, FitSettings, FrfKind, FrfLines};
+    let form = match form {
+        "receptance" => FrfKind::Receptance,
+        "mobility" => FrfKind::Mobility,
+        "accelerance" => FrfKind::Accelerance,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "form = {other:?} is not one of \"receptance\", \"mobility\", \"accelerance\""
+            )))
+        }
+    };
+    let (f, h, w) = frf_arrays("frf", &freqs_hz, &frf_re, &frf_im, weights.as_ref())?;
+    let cross = match (&cross_re, &cross_im) {
+        (Some(a), Some(b)) => Some(frf_arrays("cross", &freqs_hz, a, b, None)?.1),
+        (None, None) => None,
+        _ => {
+            return Err(PyValueError::new_err(
+                "cross needs both its real and imaginary parts (or neither)",
+            ))
+        }
+    };
+    if min_stable_orders == 0 {
+        return Err(PyValueError::new_err(
+            "min_stable_orders = 0 is outside the allowed range [1, max_order/2]",
+        ));
+    }
+    let settings = FitSettings {
+        band_hz,
+        max_order,
+        min_stable_orders,
+        poles_hz,
+        upper_residual,
+        lower_residual,
+        refine,
+        ..FitSettings::default()
+    };
+    let r = detached(py, None, |_| {
+        let d = FrfLines {
+            freqs_hz: &f,
+            values: &h,
+            weights: w.as_deref(),
+            form,
+        };
+        let c = cross.as_ref().map(|c| FrfLines {
+            values: c,
+            weights: None,
+            ..d
+        });
+        fit::fit_modes(&d, c.as_ref(), &settings).map_err(input_error)
+    })?;
+    let out = PyDict::new(py);
+    let col = |g: &dyn Fn(&fit::FittedMode) -> f64| -> Vec<f64> { r.modes.iter().map(g).collect() };
+    out.set_item("frequency_hz", col(&|m| m.frequency_hz).into_pyarray(py))?;
+    out.set_item("damping_ratio", col(&|m| m.damping_ratio).into_pyarray(py))?;
+    out.set_item("modal_mass_kg", col(&|m| m.modal_mass_kg).into_pyarray(py))?;
+    out.set_item(
+        "modal_stiffness_n_per_m",
+        col(&|m| m.modal_stiffness_n_per_m).into_pyarray(py),
+    )?;
+    out.set_item(
+        "shape_cavity",
+        col(&|m| m.shape_cavity.unwrap_or(f64::NAN)).into_pyarray(py),
+    )?;
+    out.set_item("pole_re", col(&|m| m.pole.re).into_pyarray(py))?;
+    out.set_item("pole_im", col(&|m| m.pole.im).into_pyarray(py))?;
+    out.set_item("residue_re", col(&|m| m.residue.re).into_pyarray(py))?;
+    out.set_item("residue_im", col(&|m| m.residue.im).into_pyarray(py))?;
+    out.set_item(
+        "residue_phase_deg",
+        col(&|m| m.residue_phase_deg).into_pyarray(py),
+    )?;
+    out.set_item("frac", col(&|m| m.frac).into_pyarray(py))?;
+    out.set_item("mpc", col(&|m| m.mpc).into_pyarray(py))?;
+    out.set_item("order", col(&|m| m.order as f64).into_pyarray(py))?;
+    out.set_item("upper_residual_m_per_n", r.upper_residual)?;
+    out.set_item("lower_residual_per_kg", r.lower_residual)?;
+    out.set_item("fit_error", r.fit_error)?;
+    out.set_item("fit_error_cross", r.fit_error_cross)?;
+    out.set_item("refine_iterations", r.refine_iterations)?;
+    let chart = PyDict::new(py);
+    let p = &r.chart.poles;
+    let cc = |g: &dyn Fn(&fit::ChartPole) -> f64| -> Vec<f64> { p.iter().map(g).collect() };
+    chart.set_item("order", cc(&|c| c.order as f64).into_pyarray(py))?;
+    chart.set_item("frequency_hz", cc(&|c| c.frequency_hz).into_pyarray(py))?;
+    chart.set_item("damping_ratio", cc(&|c| c.damping_ratio).into_pyarray(py))?;
+    chart.set_item("pole_re", cc(&|c| c.pole.re).into_pyarray(py))?;
+    chart.set_item("pole_im", cc(&|c| c.pole.im).into_pyarray(py))?;
+    chart.set_item(
+        "stable",
+        p.iter()
+            .map(|c| c.stable())
+            .collect::<Vec<bool>>()
+            .into_pyarray(py),
+    )?;
+    out.set_item("chart", chart)?;
+    Ok(out)
+}
+
 /// The native part of the `vibrobar` package.
 #[pymodule]
 fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -2189,9 +2470,12 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bifurcation_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble, m)?)?;
     m.add_function(wrap_pyfunction!(lobes, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_modes, m)?)?;
     m.add_function(wrap_pyfunction!(width_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(time_domain_lobes, m)?)?;
     m.add_function(wrap_pyfunction!(lobe_design, m)?)?;
+    m.add_function(wrap_pyfunction!(read_frf, m)?)?;
+    m.add_function(wrap_pyfunction!(write_uff58, m)?)?;
     m.add_function(wrap_pyfunction!(solver_names, m)?)?;
     m.add_function(wrap_pyfunction!(_busy, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -46,6 +46,39 @@ pub struct LobesArgs {
     /// merge`.
     #[arg(long, value_name = "K/N", requires = "time_domain")]
     pub shard: Option<String>,
+    /// Lobes straight from a measured FRF instead of the scenario's structure: a tap test at
+    /// the tool tip, measured in the direction that the `[cutting]` direction factors assume
+    /// (a universal file, dataset 58 or 58b with 164, or plain columns: frequency in Hz and
+    /// re/im or magnitude/phase). The receptance is interpolated between the measured lines by
+    /// a natural cubic spline; no modal fit. Only `[cutting]` of the scenario is used. Output
+    /// CSV: spindle_rpm,b_lim_m,chatter_frequency_hz,lobe.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["time_domain", "beam_modes", "cavity_position_mm"])]
+    pub frf: Option<PathBuf>,
+    /// With --frf: units of plain columns (or replacing a universal file's): m/N, mm/N, µm/N,
+    /// in/lbf, (m/s)/N, (m/s²)/N or g/N. Without it, plain columns are taken as SI.
+    #[arg(long, value_name = "UNITS", requires = "frf")]
+    pub frf_units: Option<String>,
+    /// With --frf: receptance, mobility or accelerance, where the file does not say.
+    #[arg(long, value_name = "KIND", requires = "frf")]
+    pub frf_type: Option<String>,
+    /// With --frf: layout of plain columns without a header: re-im (default), mag-deg or
+    /// mag-rad (a fourth column is a coherence).
+    #[arg(long, value_name = "LAYOUT", requires = "frf")]
+    pub frf_columns: Option<String>,
+    /// With --frf: the FRF record of a universal file holding records of several
+    /// response/reference pairs (1-based among its FRF records).
+    #[arg(long, value_name = "N", requires = "frf")]
+    pub frf_record: Option<usize>,
+    /// With --frf: conjugate the values (an FRF written under the e^{−iωt} convention).
+    #[arg(long, requires = "frf")]
+    pub frf_conjugate: bool,
+    /// With --frf: negate the values (hammer or sensor pointing the other way).
+    #[arg(long, requires = "frf")]
+    pub frf_negate: bool,
+    /// With --frf: cancel the mass of the accelerometer at the tip, in grams, in [0, 1e6]:
+    /// H = H_m/(1 + m_a ω² H_m).
+    #[arg(long, value_name = "GRAMS", requires = "frf")]
+    pub frf_accelerometer_mass_g: Option<f64>,
     /// Output CSV: spindle_rpm,b_lim_m,chatter_frequency_hz,b_lim_ball_stuck_m,
     /// chatter_frequency_ball_stuck_hz,b_lim_solid_m,chatter_frequency_solid_hz,lobe,
     /// lobe_ball_stuck,lobe_solid; parameters go to FILE.meta.json, the figure to STEM.png and
@@ -98,6 +131,9 @@ pub fn run(args: &LobesArgs) -> Result<()> {
             no_figure: args.no_figure,
             out: args.out.clone(),
         });
+    }
+    if let Some(frf) = &args.frf {
+        return frf_lobes(args, frf, (start, stop, step), &rpms);
     }
     let mut sc = Scenario::load_any(&args.scenario)?;
     sc.apply_beam_flags(args.beam_modes, args.cavity_position_mm)?;
@@ -202,4 +238,217 @@ pub fn run(args: &LobesArgs) -> Result<()> {
         super::fmt_secs(secs)
     );
     Ok(())
+}
+
+/// What the metadata of `lobes --frf` records.
+#[derive(Serialize)]
+struct FrfLobesParams<'a> {
+    scenario: &'a Scenario,
+    frf_file: String,
+    frf_format: &'a str,
+    frf_kind: &'a str,
+    frf_lines: usize,
+    frf_band_hz: [f64; 2],
+    frf_notes: &'a [String],
+    rpm_start: f64,
+    rpm_stop: f64,
+    rpm_step: f64,
+}
+
+/// The read options of the `--frf*` flags.
+pub fn frf_read_options(args: &LobesArgs) -> Result<vibrobar_io::frf::FrfReadOptions> {
+    use vibrobar_core::structure::frf_data::FrfKind;
+    let kind = match &args.frf_type {
+        None => None,
+        Some(t) => Some(FrfKind::parse(t).ok_or_else(|| {
+            anyhow::anyhow!("--frf-type must be receptance, mobility or accelerance, got {t:?}")
+        })?),
+    };
+    let columns = match &args.frf_columns {
+        None => vibrobar_io::frf::ColumnLayout::default(),
+        Some(c) => vibrobar_io::frf::ColumnLayout::parse(c).ok_or_else(|| {
+            anyhow::anyhow!("--frf-columns must be re-im, mag-deg or mag-rad, got {c:?}")
+        })?,
+    };
+    let mass = match args.frf_accelerometer_mass_g {
+        None => None,
+        Some(g) if (0.0..=1e6).contains(&g) => Some(g * 1e-3),
+        Some(g) => anyhow::bail!("--frf-accelerometer-mass-g = {g} is outside [0, 1e6] grams"),
+    };
+    if let Some(u) = &args.frf_units {
+        if vibrobar_io::frf::parse_frf_units(u).is_none() {
+            anyhow::bail!(
+                "--frf-units {u:?} is not an FRF unit; allowed {}",
+                vibrobar_io::frf::PLAIN_UNITS
+            );
+        }
+    }
+    Ok(vibrobar_io::frf::FrfReadOptions {
+        units: args.frf_units.clone(),
+        kind,
+        columns,
+        record: args.frf_record,
+        conjugate: args.frf_conjugate,
+        negate: args.frf_negate,
+        accelerometer_mass_kg: mass,
+        cross: false,
+    })
+}
+
+/// `vibrobar lobes --frf FILE`: the lobes of the measured receptance (module docs of
+/// [`vibrobar_core::analysis::lobes_frf`]), at the oriented coefficient of `[cutting]`.
+fn frf_lobes(
+    args: &LobesArgs,
+    frf_path: &std::path::Path,
+    (start, stop, step): (f64, f64, f64),
+    rpms: &[f64],
+) -> Result<()> {
+    use vibrobar_core::analysis::lobes_frf::{peak_resolution, FrfLobeTable};
+    let opts = frf_read_options(args)?;
+    let sc = Scenario::load_any(&args.scenario)?;
+    let cut = sc.cutting.ok_or_else(|| {
+        anyhow::anyhow!(
+            "{}: lobes need a [cutting] section (coefficient_n_m2 and the direction factors)",
+            args.scenario.display()
+        )
+    })?;
+    cut.validate()?;
+    let k_o = cut.coefficient_n_m2 * cut.force_direction_factor * cut.chip_direction_factor;
+    vibrobar_io::refuse_input(&args.out)?;
+    vibrobar_io::refuse_input(&vibrobar_io::meta::meta_path(&args.out))?;
+    let read = vibrobar_io::frf::read_frf(frf_path, &opts)?;
+    let frf = &read.frf;
+    if !frf.driving_point {
+        anyhow::bail!(
+            "{}: the FRF is a cross FRF (response and reference at different points or directions); lobes need the driving-point FRF at the tool tip",
+            frf_path.display()
+        );
+    }
+    let data = |e: vibrobar_core::structure::frf_data::FrfDataError| {
+        anyhow::anyhow!("{}: {e}", frf_path.display())
+    };
+    let t0 = std::time::Instant::now();
+    let table = FrfLobeTable::new(frf).map_err(data)?;
+    let rows: Vec<(f64, vibrobar_core::analysis::lobes::BoundaryPoint)> = rpms
+        .iter()
+        .map(|&n| table.boundary_at(n, k_o).map(|b| (n, b)))
+        .collect::<Result<_, _>>()?;
+    let secs = t0.elapsed().as_secs_f64();
+    vibrobar_io::csv::write_lobes_frf_csv(&args.out, &rows)
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    let band = [frf.freqs_hz[0], frf.freqs_hz[frf.len() - 1]];
+    vibrobar_io::Metadata::new(
+        "lobes-frf",
+        &vibrobar_io::csv::lobes_frf_schema().header(),
+        FrfLobesParams {
+            scenario: &sc,
+            frf_file: frf_path.display().to_string(),
+            frf_format: read.format,
+            frf_kind: frf.kind.name(),
+            frf_lines: frf.len(),
+            frf_band_hz: band,
+            frf_notes: &read.notes,
+            rpm_start: start,
+            rpm_stop: stop,
+            rpm_step: step,
+        },
+        None,
+    )
+    .write_beside(&args.out)
+    .with_context(|| format!("metadata beside {}", args.out.display()))?;
+
+    println!("vibrobar lobes --frf ({})", crate::VERSION);
+    println!(
+        "  FRF        : {} ({}, {}, {} lines, {}–{} Hz)",
+        frf_path.display(),
+        read.format,
+        frf.kind.name(),
+        frf.len(),
+        band[0],
+        band[1]
+    );
+    for n in &read.notes {
+        println!("  note       : {n}");
+    }
+    println!(
+        "  cut        : K_f·c_force·c_chip = {k_o:e} N/m² (the FRF must be measured in the direction these factors assume)"
+    );
+    let (s, w) = table.minimum();
+    println!(
+        "  measured   : b_lim,min = {:.6} mm at {:.2} Hz (lowest point of every lobe; spline through the measured lines, no fit)",
+        s / k_o * 1e3,
+        w / (2.0 * std::f64::consts::PI)
+    );
+    match fitted_minimum(frf) {
+        Ok((sf, wf, n)) => println!(
+            "  fitted     : b_lim,min = {:.6} mm at {:.2} Hz ({n} modes of `vibrobar fit-modes` with its defaults: {:+.2} % against the measured lines; what the fit costs)",
+            sf / k_o * 1e3,
+            wf / (2.0 * std::f64::consts::PI),
+            100.0 * (sf / s - 1.0)
+        ),
+        Err(e) => eprintln!("warning: no lobes of fitted modes beside the measured ones: the modal fit failed: {e:#}"),
+    }
+    for p in peak_resolution(frf).map_err(data)? {
+        if p.under_resolved {
+            eprintln!(
+                "warning: the peak at {:.1} Hz is under-resolved: ζ·f ≈ {:.3} Hz is less than 5 line spacings ({:.3} Hz each); its lobes are not reliable: measure with finer lines",
+                p.peak_hz, p.zeta_f_hz, p.line_spacing_hz
+            );
+        }
+    }
+    let (lo, hi) = table.band_edges_negative();
+    if lo || hi {
+        eprintln!(
+            "warning: Re G < 0 at the {} of the measured band: chatter frequencies continue outside it, and lobes there are not seen",
+            match (lo, hi) {
+                (true, true) => "lowest and the highest line",
+                (true, false) => "lowest line",
+                _ => "highest line",
+            }
+        );
+    }
+    println!(
+        "  output     : {} speeds {}–{} rpm to {} (+ .meta.json) in {}",
+        rows.len(),
+        vibrobar_io::csv::fmt_coord(start),
+        vibrobar_io::csv::fmt_coord(rows.last().map_or(stop, |r| r.0)),
+        args.out.display(),
+        super::fmt_secs(secs)
+    );
+    Ok(())
+}
+
+/// The lowest point of the exact lobes of the modes fitted to `frf` (the fit's defaults, ball
+/// free): `(s, ω, modes)` with `b_lim,min = s/K_o`.
+fn fitted_minimum(
+    frf: &vibrobar_core::structure::frf_data::MeasuredFrf,
+) -> Result<(f64, f64, usize)> {
+    use vibrobar_core::analysis::lobes::{Linearisation, LobeTable, TipReceptance};
+    use vibrobar_core::structure::fit::{fit_modes, FitSettings, FrfLines};
+    use vibrobar_core::structure::{MeasuredMode, ModalModel};
+    let frf = if frf.freqs_hz[0] == 0.0 {
+        frf.without_zero_frequency()?
+    } else {
+        frf.clone()
+    };
+    let r = fit_modes(&FrfLines::from(&frf), None, &FitSettings::default())?;
+    let modes: Vec<_> = r
+        .modes
+        .iter()
+        .map(|m| MeasuredMode {
+            frequency_hz: m.frequency_hz,
+            damping_ratio: m.damping_ratio,
+            modal_mass_kg: m.modal_mass_kg,
+            shape_cavity: 1.0,
+        })
+        .filter(|m| m.validate().is_ok())
+        .map(|m| m.mode())
+        .collect();
+    let stat = modes
+        .iter()
+        .map(|m| 1.0 / m.modal_stiffness_n_per_m())
+        .sum();
+    let model = ModalModel::new(&modes, stat)?;
+    let (sm, wm) = LobeTable::new(TipReceptance::new(&model, Linearisation::BallFree)?)?.minimum();
+    Ok((sm, wm, modes.len()))
 }

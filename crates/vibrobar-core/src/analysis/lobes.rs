@@ -129,7 +129,7 @@ impl TipReceptance {
 }
 
 /// `x` wrapped into (−π, π].
-fn principal(x: f64) -> f64 {
+pub(crate) fn principal(x: f64) -> f64 {
     let y = x.rem_euclid(2.0 * PI);
     if y > PI {
         y - 2.0 * PI
@@ -139,7 +139,7 @@ fn principal(x: f64) -> f64 {
 }
 
 /// `ε = (3π + 2 arg G) mod 2π`, in (0, 2π].
-fn epsilon(g: Complex64) -> f64 {
+pub(crate) fn epsilon(g: Complex64) -> f64 {
     let e = (3.0 * PI + 2.0 * g.arg()).rem_euclid(2.0 * PI);
     if e <= 0.0 {
         2.0 * PI
@@ -149,7 +149,7 @@ fn epsilon(g: Complex64) -> f64 {
 }
 
 /// `s = −1/(2 Re G)` (N/m; `b = s/K_o`), `+∞` where `Re G ≥ 0`.
-fn stiffness_bound(re_g: f64) -> f64 {
+pub(crate) fn stiffness_bound(re_g: f64) -> f64 {
     if re_g < 0.0 {
         -0.5 / re_g
     } else {
@@ -158,7 +158,7 @@ fn stiffness_bound(re_g: f64) -> f64 {
 }
 
 /// A root of `f` in `[a, b]` with `f(a)·f(b) ≤ 0` (Illinois), to `ROOT_REL_TOL`·|x|.
-fn illinois(
+pub(crate) fn illinois(
     mut f: impl FnMut(f64) -> f64,
     mut a: f64,
     mut b: f64,

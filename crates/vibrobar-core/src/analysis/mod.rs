@@ -4,7 +4,7 @@
 //! it): `case` (one run and its observers) and `grid` (ranges, axes, grids) are leaves; `batch`
 //! (the batch runner: pool, cancellation, progress, solid runs shared per ratio) uses `case`;
 //! `sweep` and `poincare` use `batch`; `regime` uses `poincare`; `map` uses `regime` and
-//! `batch`; `placement` uses `regime`, `batch` and `case`; `ensemble` uses `map`; `lobes` is a leaf (receptances only); `time_domain` uses `batch`, `lobes` and `regime`; `lobe_design` uses `time_domain`, `placement` and `batch`. `scripts/module_deps.py` lists the edges.
+//! `batch`; `placement` uses `regime`, `batch` and `case`; `ensemble` uses `map`; `lobes` is a leaf (receptances only); `lobes_frf` uses `lobes` (its root finder's pieces); `time_domain` uses `batch`, `lobes` and `regime`; `lobe_design` uses `time_domain`, `placement` and `batch`. `scripts/module_deps.py` lists the edges.
 
 pub mod batch;
 pub mod case;
@@ -14,6 +14,7 @@ pub mod ensemble;
 pub mod grid;
 pub mod lobe_design;
 pub mod lobes;
+pub mod lobes_frf;
 pub mod lyapunov;
 pub mod lyapunov_spectrum;
 pub mod map;

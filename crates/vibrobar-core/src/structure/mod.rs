@@ -13,10 +13,13 @@
 pub mod analytic;
 pub mod beam;
 pub mod fe;
+pub mod fit;
+pub mod frf_data;
 pub mod nodes;
 pub mod system;
 
 pub use beam::{Beam, CavitySection, DampingRatio, TipMass};
+pub use frf_data::{FrfDataError, FrfKind, MeasuredFrf};
 pub use system::{ModalState, ModalSystem};
 
 use crate::error::ParamError;
