@@ -12,6 +12,7 @@
 pub mod atomic;
 pub mod csv;
 pub mod error;
+pub mod frf_csv;
 pub mod history;
 pub mod journal;
 pub mod lock;

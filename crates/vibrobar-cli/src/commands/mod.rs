@@ -10,6 +10,7 @@ pub mod continue2;
 pub mod cutting_deeper;
 pub mod design;
 pub mod explore;
+pub mod frf;
 pub mod lobe_design;
 pub mod lobes;
 pub mod lumped_vs_beam;

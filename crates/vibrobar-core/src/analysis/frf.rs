@@ -767,3 +767,53 @@ pub fn tap_test(
     };
     Ok((rows, summary))
 }
+
+/// The complex type of every receptance here (`num_complex`'s), for the crates that store them.
+pub use num_complex::Complex64 as Receptance;
+
+/// One curve of an FRF table: a receptance per line and the per-line quantities beside it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrfCurve {
+    /// Column prefix: `solid`, `ball_free`, `ball_stuck`, `stepped_sine` or `tap`.
+    pub name: &'static str,
+    /// The receptance (or first harmonic, or H1) at each line, m/N.
+    pub values_m_per_n: Vec<Complex64>,
+    /// Further columns, `(suffix, value per line)`: `rms_m`, `impacts_per_cycle` of a stepped
+    /// sine, `coherence` of a tap test.
+    pub extra: Vec<(&'static str, Vec<f64>)>,
+}
+
+impl FrfCurve {
+    /// A linear curve (no extra columns).
+    pub fn linear(name: &'static str, values_m_per_n: Vec<Complex64>) -> FrfCurve {
+        FrfCurve {
+            name,
+            values_m_per_n,
+            extra: Vec::new(),
+        }
+    }
+
+    /// The stepped sine's curve: first harmonic, RMS and impacts per cycle.
+    pub fn stepped_sine(rows: &[SteppedSineRow]) -> FrfCurve {
+        FrfCurve {
+            name: "stepped_sine",
+            values_m_per_n: rows.iter().map(|r| r.first_harmonic_m_per_n).collect(),
+            extra: vec![
+                ("rms_m", rows.iter().map(|r| r.rms_m).collect()),
+                (
+                    "impacts_per_cycle",
+                    rows.iter().map(|r| r.impacts_per_cycle).collect(),
+                ),
+            ],
+        }
+    }
+
+    /// The tap test's curve: H1 and its coherence.
+    pub fn tap(rows: &[TapRow]) -> FrfCurve {
+        FrfCurve {
+            name: "tap",
+            values_m_per_n: rows.iter().map(|r| r.h1_m_per_n).collect(),
+            extra: vec![("coherence", rows.iter().map(|r| r.coherence).collect())],
+        }
+    }
+}
