@@ -278,3 +278,105 @@ fn frf_never_replaces_its_scenario() {
     }
     assert_eq!(names(d), ["f.png", "g.csv.meta.json", "s.toml"]);
 }
+
+#[test]
+fn sweep_in_hz_runs_both_bars_at_the_same_frequency() {
+    use vibrobar_core::analysis::case::{run_one, Case};
+    use vibrobar_core::analysis::{Batch, SweepPoint};
+    use vibrobar_core::solver::Exact;
+    use vibrobar_core::FrictionModel;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = vibrobar_in(
+        d,
+        &[
+            "sweep",
+            "--freqs-hz",
+            "590:600:10",
+            "--gap-mm",
+            "0.1",
+            "--duration",
+            "0.2",
+            "--out",
+            "s.csv",
+        ],
+    );
+    common::assert_ok(&o);
+    let text = fs::read_to_string(d.join("s.csv")).unwrap();
+    let rows: Vec<Vec<String>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    assert_eq!(rows.len(), 2);
+    let mut sc = Scenario::paper();
+    sc.run.settings.duration_s = 0.2;
+    sc.damper.gap_m = 1e-4;
+    let base = sc.base().unwrap();
+    let settings = sc.settings();
+    let solver = Exact::default();
+    let batch = Batch::new(&base, &settings, &solver);
+    for (row, f) in rows.iter().zip([590.0, 600.0]) {
+        let w = 2.0 * std::f64::consts::PI * f;
+        let (rd, rs) = (
+            w / base.damped_bar.omega1_rad_s(),
+            w / base.solid_bar.omega1_rad_s(),
+        );
+        // One Ω for both bars, though their own ω₁ differ.
+        assert!(
+            (rd * base.damped_bar.omega1_rad_s() - rs * base.solid_bar.omega1_rad_s()).abs()
+                < 1e-12 * w
+        );
+        assert!((rd - rs).abs() > 1e-3);
+        let solid = batch.solid(rs).unwrap().rms_m;
+        let damped = run_one(
+            &Case {
+                system: base.damped_system(&SweepPoint {
+                    ratio: rd,
+                    gap_m: 1e-4,
+                    friction: FrictionModel::None,
+                    friction_force_n: None,
+                }),
+                init: base.init,
+                sample_interval_s: None,
+                energy_audit: false,
+            },
+            &settings,
+            &solver,
+        )
+        .unwrap()
+        .result
+        .rms_m;
+        assert_eq!(row[4].parse::<f64>().unwrap(), solid, "{f} Hz");
+        assert_eq!(row[5].parse::<f64>().unwrap(), damped, "{f} Hz");
+        assert!((row[0].parse::<f64>().unwrap() - rd).abs() < 1e-9);
+    }
+    let meta: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(d.join("s.csv.meta.json")).unwrap()).unwrap();
+    assert_eq!(
+        meta["parameters"]["frequencies_hz"],
+        serde_json::json!([590.0, 600.0])
+    );
+    // Bad input names the flag; ratios and frequencies are exclusive.
+    for (spec, want) in [
+        ("0:600:10", "START"),
+        ("600:500:10", "STOP"),
+        ("500:600:0", "STEP"),
+    ] {
+        let o = vibrobar_in(d, &["sweep", "--freqs-hz", spec, "--out", "x.csv"]);
+        assert_fails_with(&o, &["--freqs-hz", want]);
+    }
+    let o = vibrobar_in(
+        d,
+        &[
+            "sweep",
+            "--freqs-hz",
+            "500:600:10",
+            "--ratios",
+            "1:1:1",
+            "--out",
+            "x.csv",
+        ],
+    );
+    assert_fails_with(&o, &["--ratios"]);
+}

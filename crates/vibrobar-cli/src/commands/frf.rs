@@ -191,17 +191,23 @@ struct TapParams {
 
 /// Parse `--band-hz START:STOP:STEP` into the lines.
 pub fn parse_band(text: &str) -> Result<([f64; 3], Vec<f64>)> {
+    parse_lines("--band-hz", text)
+}
+
+/// Parse a `flag` of frequencies in Hz, `START:STOP:STEP` (STOP included), into the lines:
+/// each in (0, 1e7] Hz, at most 100000 of them.
+pub fn parse_lines(flag: &'static str, text: &str) -> Result<([f64; 3], Vec<f64>)> {
     let parts: Vec<&str> = text.split(':').collect();
     if parts.len() != 3 {
-        anyhow::bail!("--band-hz must be START:STOP:STEP in Hz (e.g. 400:800:0.5), got {text:?}");
+        anyhow::bail!("{flag} must be START:STOP:STEP in Hz (e.g. 400:800:0.5), got {text:?}");
     }
     let mut v = [0.0; 3];
     for (i, (p, name)) in parts.iter().zip(["START", "STOP", "STEP"]).enumerate() {
         v[i] = p.trim().parse::<f64>().map_err(|_| {
-            anyhow::anyhow!("--band-hz {name} must be a number, got {p:?} (in {text:?})")
+            anyhow::anyhow!("{flag} {name} must be a number, got {p:?} (in {text:?})")
         })?;
     }
-    Ok((v, frequency_lines_hz("--band-hz", v[0], v[1], v[2])?))
+    Ok((v, frequency_lines_hz(flag, v[0], v[1], v[2])?))
 }
 
 fn modal(b: BarModel) -> Result<ModalModel> {

@@ -47,16 +47,9 @@ use crate::structure::{ModalModel, ModalState, ModalSystem, Point};
 use num_complex::Complex64;
 use std::f64::consts::PI;
 
-/// Most frequency lines one FRF computes.
-pub const MAX_FRF_LINES: usize = 100_000;
-/// Highest frequency line, Hz.
-pub const MAX_FRF_FREQUENCY_HZ: f64 = 1e7;
-/// Most forcing periods of a stepped-sine measuring window.
-pub const MAX_MEASURE_PERIODS: u32 = 100_000;
-/// Most taps of a tap test.
-pub const MAX_TAPS: usize = 1000;
-/// Most samples of one tap's record.
-pub const MAX_TAP_SAMPLES: f64 = 1e7;
+pub use crate::limits::{
+    MAX_FRF_FREQUENCY_HZ, MAX_FRF_LINES, MAX_MEASURE_PERIODS, MAX_TAPS, MAX_TAP_SAMPLES,
+};
 /// The default settling time lets the slowest mode's free decay fall by this factor.
 pub const SETTLE_DECAY: f64 = 1e12;
 /// The default tap record lets the slowest mode's free decay fall by this factor.
