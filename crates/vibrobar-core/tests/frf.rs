@@ -52,6 +52,7 @@ fn modal_damped(friction: FrictionModel, gap_m: f64) -> System {
 }
 
 /// Solve `A x = b` for a small dense complex system (Gaussian elimination, partial pivoting).
+#[allow(clippy::needless_range_loop)] // textbook index form
 fn solve(mut a: Vec<Vec<Complex64>>, mut b: Vec<Complex64>) -> Vec<Complex64> {
     let n = b.len();
     for k in 0..n {

@@ -100,14 +100,14 @@ pub fn frequency_lines_hz(
     for x in [start_hz, stop_hz, step_hz] {
         crate::params::finite(field, x)?;
     }
-    if !(start_hz > 0.0) {
+    if start_hz <= 0.0 {
         return Err(ParamError::OutOfRange {
             field,
             value: start_hz,
             allowed: "START in (0, 1e7] Hz",
         });
     }
-    if !(step_hz > 0.0) {
+    if step_hz <= 0.0 {
         return Err(ParamError::OutOfRange {
             field,
             value: step_hz,
@@ -196,7 +196,7 @@ fn check_model(model: &ModalModel) -> Result<(), ParamError> {
     )?;
     for m in model.modes() {
         m.validate()?;
-        if !(m.damping_ratio < 1.0) {
+        if m.damping_ratio >= 1.0 {
             return Err(ParamError::OutOfRange {
                 field: "modes.damping_ratio",
                 value: m.damping_ratio,
@@ -262,7 +262,7 @@ impl SteppedSine {
     /// Check the fields against `sys`; returns the settling time in use.
     pub fn validate(&self, sys: &System) -> Result<f64, ParamError> {
         crate::params::finite("force amplitude (--force-n)", self.force_amplitude_n)?;
-        if !(self.force_amplitude_n > 0.0) {
+        if self.force_amplitude_n <= 0.0 {
             return Err(ParamError::OutOfRange {
                 field: "force amplitude (--force-n)",
                 value: self.force_amplitude_n,
@@ -279,7 +279,7 @@ impl SteppedSine {
         match self.settle_s {
             Some(t) => {
                 crate::params::finite("settle time (--settle-s)", t)?;
-                if !(t >= 0.0) {
+                if t < 0.0 {
                     return Err(ParamError::OutOfRange {
                         field: "settle time (--settle-s)",
                         value: t,
@@ -290,7 +290,7 @@ impl SteppedSine {
             }
             None => {
                 let rate = slowest_decay_rate_per_s(&sys.modal_model());
-                if !(rate > 0.0) {
+                if rate <= 0.0 || !rate.is_finite() {
                     return Err(ParamError::OutOfRange {
                         field: "settle time (--settle-s)",
                         value: rate,
@@ -553,7 +553,7 @@ impl TapTest {
             ),
         ] {
             crate::params::finite(field, x)?;
-            if !(x > 0.0) {
+            if x <= 0.0 {
                 return Err(ParamError::OutOfRange {
                     field,
                     value: x,
@@ -566,7 +566,7 @@ impl TapTest {
         let fs = match self.sample_rate_hz {
             Some(fs) => {
                 crate::params::finite("sample rate (--sample-rate-hz)", fs)?;
-                if !(fs > 2.0 * f_max) {
+                if fs <= 2.0 * f_max {
                     return Err(ParamError::OutOfRange {
                         field: "sample rate (--sample-rate-hz)",
                         value: fs,
@@ -580,7 +580,7 @@ impl TapTest {
         let record = match self.record_s {
             Some(t) => {
                 crate::params::finite("record length (--record-s)", t)?;
-                if !(t > self.pulse_duration_s) {
+                if t <= self.pulse_duration_s {
                     return Err(ParamError::OutOfRange {
                         field: "record length (--record-s)",
                         value: t,
@@ -591,7 +591,7 @@ impl TapTest {
             }
             None => {
                 let rate = slowest_decay_rate_per_s(&sys.modal_model());
-                if !(rate > 0.0) {
+                if rate <= 0.0 || !rate.is_finite() {
                     return Err(ParamError::OutOfRange {
                         field: "record length (--record-s)",
                         value: rate,
