@@ -54,6 +54,7 @@ __all__ = [
     "lobe_design",
     "read_frf",
     "write_uff58",
+    "frf",
     "submit",
     "solver_names",
     "DEFAULT_SOLVER",
@@ -868,6 +869,100 @@ def fit_modes(
     )
     return ModalFit(d)
 
+
+
+def frf(
+    scenario: Optional[Scenario] = None,
+    band_hz: Optional[Sequence[float]] = None,
+    *,
+    frequencies_hz: Optional[ArrayLike] = None,
+    curves: Sequence[str] = ("solid", "ball_free", "ball_stuck"),
+    from_point: str = "force",
+    to_point: str = "response",
+    force_n: Optional[float] = None,
+    settle_s: Optional[float] = None,
+    measure_periods: int = 50,
+    tap_force_n: float = 100.0,
+    tap_duration_s: float = 1e-4,
+    taps: int = 5,
+    sample_rate_hz: Optional[float] = None,
+    record_s: Optional[float] = None,
+    progress: Progress = None,
+    **overrides,
+) -> Table:
+    """Frequency response functions of the scenario's bar (``vibrobar frf``), over absolute
+    frequencies in Hz.
+
+    Curves (``curves``, any of):
+
+    * ``solid``: the solid reference bar's receptance (linear);
+    * ``ball_free``: the damped bar with the ball never touching a wall (the bar alone);
+    * ``ball_stuck``: the damped bar with the ball stuck at the cavity, its mass added there;
+    * ``stepped_sine``: the nonlinear damped bar forced at ``force_n`` (default: the scenario's
+      forcing amplitude), run ``settle_s`` (default: until the slowest mode's free decay has
+      fallen by 1e12), then the first harmonic of the response over ``measure_periods`` forcing
+      periods, with its RMS and impacts per cycle;
+    * ``tap``: a simulated tap test, ``taps`` half-sine hammer pulses of peak ``tap_force_n`` and
+      duration ``tap_duration_s`` at the force point, the free decay recorded at
+      ``sample_rate_hz`` over ``record_s``; H1 = S_fx/S_ff and the coherence. Each tap starts
+      with the ball at rest at its own place in the gap. With a ball that impacts, H1 depends on
+      the tap force: it describes the bar at that force only.
+
+    The linear curves take any ``from_point``/``to_point`` (``"force"``, ``"cavity"``,
+    ``"response"``); the stepped sine and the tap test force the force point and read the
+    response point or the cavity. A ``[cutting]`` section is not applied.
+
+    Args:
+        scenario: the scenario (default: the paper's).
+        band_hz: ``(start, stop, step)`` in Hz, stop included, as ``--band-hz``; or give
+            ``frequencies_hz`` (each in (0, 1e7] Hz, at most 100000 lines).
+        progress: ``progress(done, total)`` callable over the simulated runs, or True for a bar.
+        **overrides: scenario keyword overrides (``gap_m=1e-4``, ``friction="coulomb"``, ...).
+
+    Returns:
+        Table: ``frequency_hz``, then per curve ``{curve}_re_m_per_n``, ``{curve}_im_m_per_n``,
+        ``{curve}_mag_m_per_n``, ``{curve}_phase_deg`` and ``stepped_sine_rms_m``,
+        ``stepped_sine_impacts_per_cycle``, ``tap_coherence``; :meth:`Table.to_csv` is the
+        CLI's file.
+    """
+    sc = _scenario(scenario, overrides)
+    if isinstance(curves, str):
+        curves = [curves]
+    band = None
+    if band_hz is not None:
+        band = tuple(band_hz)
+        if len(band) != 3:
+            raise ValueError(f"band_hz must be (start, stop, step) in Hz, got {band_hz!r}")
+        band = tuple(_number("band_hz", x, False) for x in band)
+    for name, x in [("measure_periods", measure_periods), ("taps", taps)]:
+        if isinstance(x, bool) or not isinstance(x, (int, _np.integer)):
+            raise TypeError(f"{name} must be an int, got {type(x).__name__}")
+    if measure_periods < 1:
+        raise ValueError(f"measure periods (measure_periods) = {measure_periods} is outside the allowed range [1, 100000]")
+    if taps < 1:
+        raise ValueError(f"taps = {taps} is outside the allowed range [1, 1000]")
+    cb, close = _progress(progress, "frf")
+    try:
+        cols, csv = _vibrobar.frf(
+            sc,
+            band,
+            _array("frequencies_hz", frequencies_hz, False),
+            [str(c) for c in curves],
+            str(from_point),
+            str(to_point),
+            _number("force_n", force_n),
+            _number("settle_s", settle_s),
+            int(min(measure_periods, 2**32 - 1)),
+            _number("tap_force_n", tap_force_n, False),
+            _number("tap_duration_s", tap_duration_s, False),
+            int(taps),
+            _number("sample_rate_hz", sample_rate_hz),
+            _number("record_s", record_s),
+            cb,
+        )
+    finally:
+        close()
+    return Table(cols, csv)
 
 
 def ensemble(

@@ -175,6 +175,25 @@ def lobes(
     rpm_step: float = ...,
     **overrides: Any,
 ) -> Table: ...
+def frf(
+    scenario: Optional[Scenario] = None,
+    band_hz: Optional[Sequence[float]] = None,
+    *,
+    frequencies_hz: Optional[ArrayLike] = None,
+    curves: Sequence[str] = ...,
+    from_point: str = "force",
+    to_point: str = "response",
+    force_n: Optional[float] = None,
+    settle_s: Optional[float] = None,
+    measure_periods: int = 50,
+    tap_force_n: float = 100.0,
+    tap_duration_s: float = 1e-4,
+    taps: int = 5,
+    sample_rate_hz: Optional[float] = None,
+    record_s: Optional[float] = None,
+    progress: Progress = None,
+    **overrides: Any,
+) -> Table: ...
 def ensemble(
     scenario: Optional[Scenario] = None,
     ratios: ArrayLike = ...,

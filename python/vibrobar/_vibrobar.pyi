@@ -143,6 +143,23 @@ def fit_modes(
     lower_residual: bool = False,
     refine: bool = True,
 ) -> dict[str, Any]: ...
+def frf(
+    scenario: Scenario,
+    band_hz: Optional[tuple[float, float, float]] = None,
+    frequencies_hz: Optional[npt.NDArray[np.float64]] = None,
+    curves: Optional[list[str]] = None,
+    from_point: str = "force",
+    to_point: str = "response",
+    force_n: Optional[float] = None,
+    settle_s: Optional[float] = None,
+    measure_periods: int = 50,
+    tap_force_n: float = 100.0,
+    tap_duration_s: float = 1e-4,
+    taps: int = 5,
+    sample_rate_hz: Optional[float] = None,
+    record_s: Optional[float] = None,
+    progress: _Progress = None,
+) -> tuple[dict[str, Any], str]: ...
 def ensemble(
     scenario: Scenario,
     ratios: npt.NDArray[np.float64],

@@ -7,8 +7,8 @@ use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 
 use crate::commands::{
-    beam, bench, contact_convergence, contact_laws, contact_test, explore, lobes, lumped_vs_beam,
-    map, merge, modes, orbit, paper, placement, run, sweep,
+    beam, bench, contact_convergence, contact_laws, contact_test, explore, frf, lobes,
+    lumped_vs_beam, map, merge, modes, orbit, paper, placement, run, sweep,
 };
 
 /// Vibro-impact boring-bar simulator: a bar with a free ball in a cavity, after the paper
@@ -184,6 +184,11 @@ pub enum Command {
     /// over a band of spindle speeds from the large disturbance, beside the solid bar; the
     /// optimum and a heat map; resumable (--resume) and shardable (--shard K/N).
     LobeDesign(crate::commands::lobe_design::LobeDesignArgs),
+    /// Frequency response functions over a band in Hz: linear receptances of the solid bar and
+    /// of the damped bar (ball free, ball stuck) between any two of the force, cavity and
+    /// response points, the stepped sine of the nonlinear damped bar at a force level, and a
+    /// simulated tap test (H1, coherence); CSV and a magnitude/phase figure.
+    Frf(crate::commands::frf::FrfArgs),
 }
 
 impl Command {
@@ -217,6 +222,7 @@ impl Command {
             Command::Lobes(_) => "lobes",
             Command::WidthDiagram(_) => "width-diagram",
             Command::LobeDesign(_) => "lobe-design",
+            Command::Frf(_) => "frf",
         }
     }
 
@@ -260,6 +266,7 @@ impl Command {
             }
             Command::WidthDiagram(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
             Command::LobeDesign(a) => (vec![a.scenario.as_path()], Some(a.out.as_path())),
+            Command::Frf(a) => (one(&a.scenario), Some(a.out.as_path())),
         }
     }
 
@@ -361,5 +368,6 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::LobeDesign(a) => crate::commands::lobe_design::run(&a),
         Command::ContactLaws(a) => contact_laws::run(&a),
         Command::ContactConvergence(a) => contact_convergence::run(&a),
+        Command::Frf(a) => frf::run(&a),
     }
 }

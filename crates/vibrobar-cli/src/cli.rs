@@ -120,6 +120,16 @@ pub struct SweepArgs {
     /// solid reference at Ω/ω₁ of its own) as START:STOP:STEP, STOP included (0.95:1.05:0.01 is 11 points) [default: from the scenario].
     #[arg(long, value_name = "START:STOP:STEP", allow_hyphen_values = true)]
     pub ratios: Option<String>,
+    /// Absolute forcing frequencies in Hz as START:STOP:STEP, STOP included, instead of
+    /// --ratios: the damped and the solid bar both run at the same Ω (the `ratio` column is then
+    /// Ω/ω₁ of the damped bar; the frequencies go to the metadata).
+    #[arg(
+        long,
+        value_name = "START:STOP:STEP",
+        allow_hyphen_values = true,
+        conflicts_with = "ratios"
+    )]
+    pub freqs_hz: Option<String>,
     /// Continue an interrupted sweep from FILE.csv.journal (same parameters only).
     #[arg(long)]
     pub resume: bool,

@@ -45,6 +45,7 @@ fn commands_writing(out: &str) -> Vec<Vec<String>> {
             "2",
         ]),
         v(&["lobes", "--rpm", "1000:2000:500"]),
+        v(&["frf", "--band-hz", "500:600:50"]),
         v(&["orbit", "--ratio", "1", "--gap-mm", "0.08"]),
         v(&[
             "continue", "--ratio", "1", "--param", "gap-mm", "--from", "0.08", "--to", "0.081",

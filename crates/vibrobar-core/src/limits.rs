@@ -54,6 +54,16 @@ pub const MAX_GRID_POINTS: usize = 10_000_000;
 pub const MAX_SWEEP_RATIOS: usize = 100_000;
 /// Most spindle speeds of one lobes computation.
 pub const MAX_LOBE_SPEEDS: usize = 1_000_000;
+/// Most frequency lines of one FRF (`frf --band-hz`, `sweep --freqs-hz`).
+pub const MAX_FRF_LINES: usize = 100_000;
+/// Highest frequency line of an FRF, Hz.
+pub const MAX_FRF_FREQUENCY_HZ: f64 = 1e7;
+/// Most forcing periods of a stepped sine's measuring window.
+pub const MAX_MEASURE_PERIODS: u32 = 100_000;
+/// Most taps of a simulated tap test.
+pub const MAX_TAPS: usize = 1000;
+/// Most samples of one simulated tap's record (`record_s × sample_rate_hz`).
+pub const MAX_TAP_SAMPLES: f64 = 1e7;
 /// Most ensemble members per point.
 pub const MAX_ENSEMBLE_MEMBERS: usize = 100_000;
 /// Most runs of one batch (grid points × ensemble members).

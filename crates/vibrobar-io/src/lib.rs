@@ -13,6 +13,7 @@ pub mod atomic;
 pub mod csv;
 pub mod error;
 pub mod frf;
+pub mod frf_csv;
 pub mod history;
 pub mod journal;
 pub mod lock;

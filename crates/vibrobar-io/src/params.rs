@@ -153,10 +153,15 @@ pub struct SweepParams<S> {
     pub settings: RunSettings,
     /// Gaps in m, in row order.
     pub gaps_m: Vec<f64>,
-    /// Frequency ratios, in row order within a gap.
+    /// Frequency ratios, in row order within a gap (with `frequencies_hz`: `Ω/ω₁` of the damped
+    /// bar).
     pub ratios: Vec<f64>,
     /// Row order (`gap-major`).
     pub order: String,
+    /// Absolute forcing frequencies in Hz when the sweep was given them (`--freqs-hz`): both
+    /// bars run at the same `Ω`; absent for a sweep in ratios (each bar at its own `Ω/ω₁`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frequencies_hz: Option<Vec<f64>>,
 }
 
 impl MapParams {

@@ -300,6 +300,7 @@ mod tests {
                 gaps_m: vec![1e-4],
                 ratios: (0..total).map(|i| i as f64 * 0.25).collect(),
                 order: "gap-major".into(),
+                frequencies_hz: None,
             },
             Some(GridInfo {
                 total,

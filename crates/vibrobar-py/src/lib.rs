@@ -2253,6 +2253,207 @@ fn write_uff58(
     vibrobar_io::frf::write_frf_uff(&path, &frf, &header, binary).map_err(input_error)
 }
 // end of measured FRFs
+// frf: frequency response functions of every model (`vibrobar frf`)
+
+/// One curve's name as the CSV prefixes it (hyphens accepted for the command line's spelling).
+fn frf_curve_name(name: &str) -> PyResult<&'static str> {
+    match name.replace('-', "_").as_str() {
+        "solid" => Ok("solid"),
+        "ball_free" => Ok("ball_free"),
+        "ball_stuck" => Ok("ball_stuck"),
+        "stepped_sine" => Ok("stepped_sine"),
+        "tap" => Ok("tap"),
+        _ => Err(PyValueError::new_err(format!(
+            "curves: {name:?} is not a curve (allowed: solid, ball_free, ball_stuck, stepped_sine, tap)"
+        ))),
+    }
+}
+
+fn frf_point(field: &str, name: &str) -> PyResult<vibrobar_core::structure::Point> {
+    use vibrobar_core::structure::Point;
+    match name {
+        "force" => Ok(Point::Force),
+        "cavity" => Ok(Point::Cavity),
+        "response" => Ok(Point::Response),
+        _ => Err(PyValueError::new_err(format!(
+            "{field} = {name:?} is not a point (allowed: force, cavity, response)"
+        ))),
+    }
+}
+
+/// Frequency response functions of the scenario's bar (`vibrobar frf`): the linear curves
+/// (`solid`, `ball_free`, `ball_stuck`) between any two points, the stepped sine of the
+/// nonlinear damped bar and the simulated tap test, at the lines `band_hz = (start, stop, step)`
+/// or `frequencies_hz`; the columns of the command's CSV.
+#[pyfunction]
+#[pyo3(signature = (scenario, band_hz = None, frequencies_hz = None, curves = None, from_point = "force", to_point = "response", force_n = None, settle_s = None, measure_periods = 50, tap_force_n = 100.0, tap_duration_s = 1e-4, taps = 5, sample_rate_hz = None, record_s = None, progress = None))]
+#[allow(clippy::too_many_arguments)]
+fn frf<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    band_hz: Option<(f64, f64, f64)>,
+    frequencies_hz: Option<PyReadonlyArray1<'py, f64>>,
+    curves: Option<Vec<String>>,
+    from_point: &str,
+    to_point: &str,
+    force_n: Option<f64>,
+    settle_s: Option<f64>,
+    measure_periods: u32,
+    tap_force_n: f64,
+    tap_duration_s: f64,
+    taps: usize,
+    sample_rate_hz: Option<f64>,
+    record_s: Option<f64>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    use vibrobar_core::analysis::frf::{
+        check_lines_hz, frequency_lines_hz, linear_frf, stepped_sine, tap_test, FrfCurve,
+        ResponsePoint, SteppedSine, TapTest,
+    };
+    use vibrobar_core::structure::{Point, Structure};
+    let sc = &scenario.inner;
+    let lines = match (band_hz, &frequencies_hz) {
+        (Some((a, b, c)), None) => frequency_lines_hz("band_hz", a, b, c).map_err(input_error)?,
+        (None, Some(f)) => {
+            let v = f.as_array().to_vec();
+            check_lines_hz("frequencies_hz", &v).map_err(input_error)?;
+            v
+        }
+        _ => {
+            return Err(PyValueError::new_err(
+                "give the frequency lines as band_hz = (start, stop, step) or as frequencies_hz, one of the two",
+            ))
+        }
+    };
+    let names: Vec<String> =
+        curves.unwrap_or_else(|| vec!["solid".into(), "ball_free".into(), "ball_stuck".into()]);
+    let mut asked: Vec<&'static str> = Vec::new();
+    for n in &names {
+        let c = frf_curve_name(n)?;
+        if !asked.contains(&c) {
+            asked.push(c);
+        }
+    }
+    if asked.is_empty() {
+        return Err(PyValueError::new_err(
+            "curves is empty (allowed: one or more of solid, ball_free, ball_stuck, stepped_sine, tap)",
+        ));
+    }
+    let (from, to) = (
+        frf_point("from_point", from_point)?,
+        frf_point("to_point", to_point)?,
+    );
+    let simulated = asked.iter().any(|c| matches!(*c, "stepped_sine" | "tap"));
+    if simulated && from != Point::Force {
+        return Err(PyValueError::new_err(format!(
+            "from_point = {from_point:?}: the stepped sine and the tap test force the force point (allowed: \"force\")"
+        )));
+    }
+    let response = match to {
+        Point::Response => ResponsePoint::Response,
+        Point::Cavity => ResponsePoint::Cavity,
+        Point::Force if simulated => {
+            return Err(PyValueError::new_err(
+                "to_point = \"force\": the stepped sine and the tap test read the response point or the cavity (allowed: \"response\", \"cavity\")",
+            ))
+        }
+        Point::Force => ResponsePoint::Response,
+    };
+    let (damped_bar, solid_bar) = sc.bars().map_err(anyhow_input)?;
+    let modal = |b: BarModel| -> PyResult<vibrobar_core::structure::ModalModel> {
+        match b {
+            BarModel::Lumped(bar) => Structure::Lumped(bar).modal_model().map_err(input_error),
+            BarModel::Modal(m) => Ok(m),
+        }
+    };
+    let (damped, solid) = (modal(damped_bar)?, modal(solid_bar)?);
+    let md = sc.damper.ball_mass_kg;
+    let mut sys = None;
+    let mut solver = None;
+    if simulated {
+        sc.validate().map_err(anyhow_input)?;
+        sys = Some(sc.damped_system().map_err(anyhow_input)?);
+        // The bar's own solver: a [cutting] section is not applied (the FRF is out of the cut).
+        solver = Some(
+            solver_by_name(&sc.run.solver, &sc.settings()).ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "solver must be one of {}, got {:?}",
+                    SOLVER_NAMES.join(", "),
+                    sc.run.solver
+                ))
+            })?,
+        );
+    }
+    let ss_spec = SteppedSine {
+        force_amplitude_n: force_n.unwrap_or(sc.forcing.amplitude_n),
+        settle_s,
+        measure_periods,
+        response,
+    };
+    let tap_spec = TapTest {
+        peak_force_n: tap_force_n,
+        pulse_duration_s: tap_duration_s,
+        taps,
+        sample_rate_hz,
+        record_s,
+        response,
+    };
+    // Every setting checked before any run.
+    if let Some(sys) = &sys {
+        if asked.contains(&"stepped_sine") {
+            ss_spec.validate(sys).map_err(input_error)?;
+        }
+        if asked.contains(&"tap") {
+            tap_spec.validate(sys, &lines).map_err(input_error)?;
+        }
+    }
+    let init = sc.initial;
+    let out = detached(py, progress, |ctl| {
+        let mut out = Vec::new();
+        for c in &asked {
+            let curve = match *c {
+                "solid" => FrfCurve::linear(
+                    "solid",
+                    linear_frf(&solid, None, from, to, &lines).map_err(input_error)?,
+                ),
+                "ball_free" => FrfCurve::linear(
+                    "ball_free",
+                    linear_frf(&damped, None, from, to, &lines).map_err(input_error)?,
+                ),
+                "ball_stuck" => FrfCurve::linear(
+                    "ball_stuck",
+                    linear_frf(&damped, Some(md), from, to, &lines).map_err(input_error)?,
+                ),
+                "stepped_sine" => {
+                    let prog = |d, t| ctl.progress(d, t);
+                    let rows = batch_result(stepped_sine(
+                        sys.as_ref().expect("simulated"),
+                        &init,
+                        &ss_spec,
+                        &lines,
+                        solver.as_deref().expect("simulated"),
+                        runner(ctl, &prog, None),
+                    ))?;
+                    FrfCurve::stepped_sine(&rows)
+                }
+                _ => {
+                    let prog = |d, t| ctl.progress(d, t);
+                    let (rows, _) = batch_result(tap_test(
+                        sys.as_ref().expect("simulated"),
+                        &tap_spec,
+                        &lines,
+                        runner(ctl, &prog, None),
+                    ))?;
+                    FrfCurve::tap(&rows)
+                }
+            };
+            out.push(curve);
+        }
+        Ok(out)
+    })?;
+    let table = vibrobar_io::frf_csv::frf_rows(&lines, &out);
+    columns(py, &vibrobar_io::frf_csv::frf_schema(&out), &table)
+}
 
 /// Names of the solvers (`solver=` of a scenario).
 #[pyfunction]
@@ -2476,6 +2677,7 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(lobe_design, m)?)?;
     m.add_function(wrap_pyfunction!(read_frf, m)?)?;
     m.add_function(wrap_pyfunction!(write_uff58, m)?)?;
+    m.add_function(wrap_pyfunction!(frf, m)?)?;
     m.add_function(wrap_pyfunction!(solver_names, m)?)?;
     m.add_function(wrap_pyfunction!(_busy, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

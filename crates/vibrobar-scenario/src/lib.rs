@@ -714,8 +714,14 @@ fn positive(field: &str, v: f64) -> Result<()> {
 }
 
 /// The commands that run a `[cutting]` scenario.
-pub const CUTTING_COMMANDS: [&str; 5] =
-    ["run", "ensemble", "lobes", "width-diagram", "lobe-design"];
+pub const CUTTING_COMMANDS: [&str; 6] = [
+    "run",
+    "ensemble",
+    "lobes",
+    "width-diagram",
+    "lobe-design",
+    "frf",
+];
 
 /// The error for a `[cutting]` scenario given to `command`.
 pub fn cutting_refusal(command: &str) -> String {

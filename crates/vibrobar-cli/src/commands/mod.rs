@@ -11,6 +11,7 @@ pub mod cutting_deeper;
 pub mod design;
 pub mod explore;
 pub mod fit_modes;
+pub mod frf;
 pub mod lobe_design;
 pub mod lobes;
 pub mod lumped_vs_beam;

@@ -35,15 +35,27 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
             "sweep.gaps_m = [] in the scenario file: no gap to sweep (allowed: one or more gaps > 0 m; or give --gap-mm)"
         );
     }
-    let ratios = match &args.ratios {
-        Some(spec) => parse_ratios(spec)?,
-        None => sweep_ratios(&sc.sweep)?,
+    // In Hz: each bar's ratio of the one Ω (the damped bar's in the rows, the solid bar's for
+    // its shared runs); in ratios: the same ratio of each bar's own ω₁.
+    let (damped_bar, solid_bar) = sc.bars()?;
+    let (ratios, solid_ratios, frequencies_hz) = match (&args.ratios, &args.freqs_hz) {
+        (_, Some(spec)) => {
+            let (_, f) = super::frf::parse_lines("--freqs-hz", spec)?;
+            let w = |f: f64| 2.0 * std::f64::consts::PI * f;
+            let r: Vec<f64> = f
+                .iter()
+                .map(|&f| w(f) / damped_bar.omega1_rad_s())
+                .collect();
+            let rs: Vec<f64> = f.iter().map(|&f| w(f) / solid_bar.omega1_rad_s()).collect();
+            (r, Some(rs), Some(f))
+        }
+        (Some(spec), None) => (parse_ratios(spec)?, None, None),
+        (None, None) => (sweep_ratios(&sc.sweep)?, None, None),
     };
     // Grid order (= row order and journal index): gap-major.
     let points = sc.sweep_points(&gaps_m, &ratios);
     // Validate every point before starting, so bad input fails fast with the field's name.
     // The bars (a beam's modes) are computed here, once: every clone below shares them.
-    sc.bars()?;
     for p in &points {
         let mut s = sc.clone();
         s.damper.gap_m = p.gap_m;
@@ -61,6 +73,7 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
         gaps_m: gaps_m.clone(),
         ratios: ratios.clone(),
         order: "gap-major".into(),
+        frequencies_hz: frequencies_hz.clone(),
     };
     let indices: Vec<usize> = (0..points.len()).collect();
     let schema = sweep_schema();
@@ -81,10 +94,16 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     let bar = Progress::new("sweep", points.len(), journal.done_count());
     let progress = bar.callback();
     let batch = Batch::new(&base, &settings, solver).on(Runner::default().with_progress(&progress));
-    let n_solid = batch.distinct_ratios(&pending, |&i| points[i].ratio).len();
+    // The solid bar's ratio of a row: the row's own, or (in Hz) the solid bar's at the same Ω.
+    let n_ratios = ratios.len();
+    let solid_ratio = |i: usize| match &solid_ratios {
+        Some(rs) => rs[i % n_ratios],
+        None => points[i].ratio,
+    };
+    let n_solid = batch.distinct_ratios(&pending, |&i| solid_ratio(i)).len();
     let res = batch.run(
         &pending,
-        |&i| points[i].ratio,
+        |&i| solid_ratio(i),
         |&i, solid| -> Result<()> {
             let p = &points[i];
             let case = Case {

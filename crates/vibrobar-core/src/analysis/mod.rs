@@ -4,13 +4,14 @@
 //! it): `case` (one run and its observers) and `grid` (ranges, axes, grids) are leaves; `batch`
 //! (the batch runner: pool, cancellation, progress, solid runs shared per ratio) uses `case`;
 //! `sweep` and `poincare` use `batch`; `regime` uses `poincare`; `map` uses `regime` and
-//! `batch`; `placement` uses `regime`, `batch` and `case`; `ensemble` uses `map`; `lobes` is a leaf (receptances only); `lobes_frf` uses `lobes` (its root finder's pieces); `time_domain` uses `batch`, `lobes` and `regime`; `lobe_design` uses `time_domain`, `placement` and `batch`. `scripts/module_deps.py` lists the edges.
+//! `batch`; `placement` uses `regime`, `batch` and `case`; `ensemble` uses `map`; `lobes` is a leaf (receptances only); `lobes_frf` uses `lobes` (its root finder's pieces); `time_domain` uses `batch`, `lobes` and `regime`; `lobe_design` uses `time_domain`, `placement` and `batch`; `frf` uses `batch` and `case`. `scripts/module_deps.py` lists the edges.
 
 pub mod batch;
 pub mod case;
 pub mod contact_test;
 pub mod energy;
 pub mod ensemble;
+pub mod frf;
 pub mod grid;
 pub mod lobe_design;
 pub mod lobes;

@@ -33,6 +33,7 @@ macro_rules! png_and_svg {
 
 pub mod branch;
 pub mod fit;
+pub mod frf;
 pub mod lobe_design;
 pub mod lobes;
 pub mod map;
