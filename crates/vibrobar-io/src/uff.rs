@@ -267,6 +267,8 @@ struct Cursor<'a> {
     pos: usize,
     /// Number of the next line (1-based).
     line: usize,
+    /// Notes gathered while reading.
+    notes: Vec<String>,
 }
 
 impl<'a> Cursor<'a> {
@@ -412,6 +414,7 @@ pub fn parse_uff(path: &Path, bytes: &[u8]) -> Result<UffFile> {
         bytes,
         pos: 0,
         line: 1,
+        notes: Vec::new(),
     };
     let mut out = UffFile {
         functions: Vec::new(),
@@ -427,6 +430,7 @@ pub fn parse_uff(path: &Path, bytes: &[u8]) -> Result<UffFile> {
                     if dataset == 0 {
                         return Err(bad(path, "", "not a universal file (UFF): it is empty"));
                     }
+                    out.notes.append(&mut c.notes);
                     return Ok(out);
                 }
                 Some((_, t)) if t.trim().is_empty() => continue,
@@ -841,7 +845,21 @@ fn read_58(
             record: 0,
             line: id_line,
         };
-        if nbytes < 0 || nbytes as u64 != expected as u64 {
+        // pyuff writes the byte count of real data (8 per point) for complex data too: the
+        // data are accepted where they end exactly as record 7 says, followed by "-1".
+        let ends_as_record_7 = {
+            let rest = c.bytes.get(c.pos + expected..).unwrap_or(b"");
+            let rest = rest
+                .strip_prefix(b"\r\n")
+                .or_else(|| rest.strip_prefix(b"\n"))
+                .unwrap_or(rest);
+            rest.starts_with(b"    -1")
+        };
+        if nbytes as u64 != expected as u64 && ends_as_record_7 {
+            c.notes.push(format!(
+                "dataset {dataset} (line {start_line}): the 58b ID line announces {nbytes} data bytes, record 7 needs {expected}; the data end where record 7 says, so they were read (a byte count written by some tools for complex data)"
+            ));
+        } else if nbytes < 0 || nbytes as u64 != expected as u64 {
             return Err(hb.err(format!(
                 "the 58b ID line announces {nbytes} data bytes; record 7 ({npts} points, data type {ord_data_type}, {} abscissa) needs {expected}",
                 if even.is_some() { "even" } else { "uneven" }
