@@ -644,7 +644,7 @@ fn read_164(c: &mut Cursor<'_>, dataset: usize, start: usize) -> Result<Units164
     }
     for (i, name) in [(0, "length"), (1, "force")] {
         let (l, v) = nums[i];
-        if !(v > 0.0) {
+        if v.is_nan() || v <= 0.0 {
             return Err(bad(
                 c.path,
                 format!("line {l} (dataset {dataset}, record 2)"),
@@ -789,7 +789,7 @@ fn read_58(
     let step = h7.float(f7[4], "the abscissa increment (field 5)")?;
     let z_axis_value = h7.float(f7[5], "the z-axis value (field 6)")?;
     let even = if spacing == 1 {
-        if !(step > 0.0) && npts > 1 {
+        if (step.is_nan() || step <= 0.0) && npts > 1 {
             return Err(h7.err(format!(
                 "the abscissa increment of an even abscissa is {step}; it must be > 0 (the lines must increase)"
             )));
