@@ -267,6 +267,8 @@ struct Cursor<'a> {
     pos: usize,
     /// Number of the next line (1-based).
     line: usize,
+    /// Notes gathered while reading.
+    notes: Vec<String>,
 }
 
 impl<'a> Cursor<'a> {
@@ -412,6 +414,7 @@ pub fn parse_uff(path: &Path, bytes: &[u8]) -> Result<UffFile> {
         bytes,
         pos: 0,
         line: 1,
+        notes: Vec::new(),
     };
     let mut out = UffFile {
         functions: Vec::new(),
@@ -427,6 +430,7 @@ pub fn parse_uff(path: &Path, bytes: &[u8]) -> Result<UffFile> {
                     if dataset == 0 {
                         return Err(bad(path, "", "not a universal file (UFF): it is empty"));
                     }
+                    out.notes.append(&mut c.notes);
                     return Ok(out);
                 }
                 Some((_, t)) if t.trim().is_empty() => continue,
@@ -640,7 +644,7 @@ fn read_164(c: &mut Cursor<'_>, dataset: usize, start: usize) -> Result<Units164
     }
     for (i, name) in [(0, "length"), (1, "force")] {
         let (l, v) = nums[i];
-        if !(v > 0.0) {
+        if v.is_nan() || v <= 0.0 {
             return Err(bad(
                 c.path,
                 format!("line {l} (dataset {dataset}, record 2)"),
@@ -785,7 +789,7 @@ fn read_58(
     let step = h7.float(f7[4], "the abscissa increment (field 5)")?;
     let z_axis_value = h7.float(f7[5], "the z-axis value (field 6)")?;
     let even = if spacing == 1 {
-        if !(step > 0.0) && npts > 1 {
+        if (step.is_nan() || step <= 0.0) && npts > 1 {
             return Err(h7.err(format!(
                 "the abscissa increment of an even abscissa is {step}; it must be > 0 (the lines must increase)"
             )));
@@ -841,7 +845,21 @@ fn read_58(
             record: 0,
             line: id_line,
         };
-        if nbytes < 0 || nbytes as u64 != expected as u64 {
+        // pyuff writes the byte count of real data (8 per point) for complex data too: the
+        // data are accepted where they end exactly as record 7 says, followed by "-1".
+        let ends_as_record_7 = {
+            let rest = c.bytes.get(c.pos + expected..).unwrap_or(b"");
+            let rest = rest
+                .strip_prefix(b"\r\n")
+                .or_else(|| rest.strip_prefix(b"\n"))
+                .unwrap_or(rest);
+            rest.starts_with(b"    -1")
+        };
+        if nbytes as u64 != expected as u64 && ends_as_record_7 {
+            c.notes.push(format!(
+                "dataset {dataset} (line {start_line}): the 58b ID line announces {nbytes} data bytes, record 7 needs {expected}; the data end where record 7 says, so they were read (a byte count written by some tools for complex data)"
+            ));
+        } else if nbytes < 0 || nbytes as u64 != expected as u64 {
             return Err(hb.err(format!(
                 "the 58b ID line announces {nbytes} data bytes; record 7 ({npts} points, data type {ord_data_type}, {} abscissa) needs {expected}",
                 if even.is_some() { "even" } else { "uneven" }

@@ -228,7 +228,7 @@ fn units_from_labels_dataset_164_and_flags() {
         &(uin.to_string() + &record(REC6, ord, den, &VALS)),
     );
     let r = read_frf(&p, &opts()).unwrap();
-    let expect = 1e-6 / (39.370_078_740_157_481_4 / 0.224_808_943_099_710_48);
+    let expect = 1e-6 / (39.370_078_740_157_48 / 0.224_808_943_099_710_48);
     assert!((r.frf.values[0].re - expect).abs() < 1e-14 * expect);
     assert!((expect - 1e-6 * 0.0254 / 4.448_221_615_260_5).abs() < 1e-9 * expect);
     // No units at all: SI assumed, and said.
@@ -651,6 +651,19 @@ fn bad_input_names_file_record_and_line() {
     let field = id_at + 7 + 12 + 12;
     assert_eq!(&wrong[field..field + 12], b"         256");
     wrong[field..field + 12].copy_from_slice(b"         264");
+    // Data that end where record 7 says are read (some writers, pyuff among them, give the
+    // byte count of real data for complex data), with a note.
+    let p = d.path().join("count_ok.uff");
+    std::fs::write(&p, &wrong).unwrap();
+    let r = read_frf(&p, &opts()).unwrap();
+    assert!(
+        r.notes.iter().any(|n| n.contains("announces 264")),
+        "{:?}",
+        r.notes
+    );
+    // Data that do not: refused.
+    let end = wrong.len() - 7;
+    wrong.splice(end..end, [0u8; 8]);
     let p = d.path().join("count.uff");
     std::fs::write(&p, &wrong).unwrap();
     names(
