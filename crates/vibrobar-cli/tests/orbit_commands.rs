@@ -536,3 +536,176 @@ fn continue2_runs_on_an_n_mode_bar() {
     }
     assert!(b.iter().any(|r| (num(r, 0) - 1.02).abs() < 1e-12));
 }
+
+/// Determinant by LU with partial pivoting.
+#[allow(clippy::needless_range_loop)]
+fn det(a: &[Vec<f64>]) -> f64 {
+    let mut m = a.to_vec();
+    let n = m.len();
+    let mut d = 1.0;
+    for k in 0..n {
+        let p = (k..n)
+            .max_by(|&i, &j| m[i][k].abs().total_cmp(&m[j][k].abs()))
+            .unwrap();
+        if p != k {
+            m.swap(p, k);
+            d = -d;
+        }
+        let piv = m[k][k];
+        d *= piv;
+        for i in k + 1..n {
+            let f = m[i][k] / piv;
+            for j in k..n {
+                m[i][j] -= f * m[k][j];
+            }
+        }
+    }
+    d
+}
+
+/// `--contact hertz` on the paper's 3-mode beam (`scenarios/paper_beam.toml`): the N-mode bar's
+/// variational flow through compliant contact phases. `orbit` finds the stable two-contact
+/// orbit at r = 1, 0.1 mm; over a window of whole periods on it the spectrum's sum is
+/// `ln|det J|/T` of its monodromy (measured 1e-12 apart: the attractor is that orbit, and the
+/// determinant of the map over a whole period does not depend on the section phase); `continue`
+/// in the gap finds the symmetry-breaking branch point (0.07775 mm), `continue2` follows the
+/// torus curve through (r = 1, 0.069734 mm).
+#[test]
+fn hertz_on_a_beam_has_orbits_branches_curves_and_the_spectrum() {
+    let dir = tempfile::tempdir().unwrap();
+    let beam = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenarios/paper_beam.toml"
+    );
+    let base = [
+        "--scenario",
+        beam,
+        "--friction",
+        "none",
+        "--contact",
+        "hertz",
+    ];
+    let out = dir.path().join("o.json");
+    let mut a = vec!["orbit"];
+    a.extend(base);
+    a.extend([
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "0.1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let said = String::from_utf8_lossy(&vibrobar_ok(&a).stdout).into_owned();
+    assert!(said.contains("hertz contacts"), "{said}");
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let n = j["modes"].as_u64().unwrap() as usize;
+    assert_eq!(n, 3);
+    assert_eq!(j["impacts_per_period"], 2);
+    assert_eq!(j["stable"], true);
+    assert!(j["residual"].as_f64().unwrap() <= 1e-9, "{j}");
+    assert_eq!(j["physical"]["confined"], true);
+    let pen = j["physical"]["max_penetration_m"].as_f64().unwrap();
+    assert!(pen > 0.0 && pen < 1e-5, "{pen}");
+    let mono: Vec<Vec<f64>> = j["monodromy"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            r.as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect()
+        })
+        .collect();
+    assert_eq!(mono.len(), 2 * n + 2);
+    let omega = j["parameters"]["damped_bar"]["modes"][0]["omega_rad_s"]
+        .as_f64()
+        .unwrap();
+    let period = 2.0 * std::f64::consts::PI / omega;
+    let want = det(&mono).abs().ln() / period;
+
+    // The spectrum over 100 whole periods after 0.3 s.
+    let duration = format!("{}", 0.3 + 100.0 * period);
+    let mut a = vec!["lyapunov", "--spectrum", "--json", "--solver", "exact"];
+    a.extend(base);
+    a.extend([
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "0.1",
+        "--transient",
+        "0.3",
+        "--duration",
+        &duration,
+    ]);
+    let run = vibrobar_ok(&a);
+    let s: serde_json::Value = serde_json::from_str(&String::from_utf8_lossy(&run.stdout)).unwrap();
+    let sum = s["sum_per_s"].as_f64().unwrap();
+    eprintln!("Σλ {sum} vs ln|det J|/T {want}: {s}");
+    assert_eq!(s["collapsed"], 0);
+    assert_eq!(s["exponents_per_s"].as_array().unwrap().len(), 2 * n + 2);
+    assert_eq!(s["events"]["compliant_contacts"], 200);
+    assert_eq!(s["events"]["grazing"], 0);
+    assert!(s["approach_memory_per_s"].as_f64().unwrap() > 100.0, "{s}");
+    assert!(((sum - want) / want).abs() < 1e-9, "{sum} vs {want}");
+    // The largest exponent tends to ln|λ₁|/T of the orbit's multiplier.
+    let l1 = s["exponents_per_s"][0].as_f64().unwrap();
+    let m1 = j["max_abs_multiplier"].as_f64().unwrap().ln() / period;
+    assert!((l1 - m1).abs() < 0.05 * m1.abs(), "{l1} vs {m1}");
+
+    let csv = dir.path().join("b.csv");
+    let mut a = vec!["continue"];
+    a.extend(base);
+    a.extend([
+        "--ratio",
+        "1",
+        "--param",
+        "gap-mm",
+        "--from",
+        "0.085",
+        "--to",
+        "0.07",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    vibrobar_ok(&a);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let bp: Vec<f64> = text
+        .lines()
+        .filter(|l| l.ends_with(",branch-point"))
+        .map(|l| l.split(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert!(bp.iter().any(|g| (g - 0.07775).abs() < 1e-4), "{bp:?}");
+
+    let mut a = vec!["continue2"];
+    a.extend(base);
+    a.extend([
+        "--from-point",
+        "ratio=1,gap-mm=0.069733927992",
+        "--kind",
+        "torus",
+        "--ratios",
+        "0.998:1.002",
+        "--max-points",
+        "3",
+        "--out",
+        csv.to_str().unwrap(),
+    ]);
+    vibrobar_ok(&a);
+    let rows: Vec<Vec<String>> = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    assert!(rows.len() >= 5, "{rows:?}");
+    for r in &rows {
+        assert_eq!(r[2], "torus");
+        let test: f64 = r[6].parse().unwrap();
+        let residual: f64 = r[7].parse().unwrap();
+        assert!(test.abs() < 1e-8 && residual < 1e-9, "{r:?}");
+    }
+}

@@ -413,3 +413,188 @@ fn one_unit_mode_spectrum_is_the_lumped_spectrum() {
     }
     assert!(((l.sum_per_s - m.sum_per_s) / l.sum_per_s).abs() < 1e-9);
 }
+
+// ---- The hertz law (compliant contact phases) ----
+
+use vibrobar_core::params::ContactLaw;
+
+/// `sys` under the hertz law.
+fn with_hertz(mut sys: ModalSystem) -> ModalSystem {
+    sys.damper.as_mut().unwrap().contact.law = ContactLaw::Hertz;
+    sys
+}
+
+/// A settled state in free flight (not inside a contact) near `t_s`.
+fn settled_free(sys: &ModalSystem, t_s: f64) -> ModalState {
+    let lg = sys.damper.unwrap().half_gap_m();
+    let mut t = t_s;
+    loop {
+        let s = settled(sys, t);
+        if s.w_m(&sys.model).abs() < 0.99 * lg {
+            return s;
+        }
+        t += 1e-4;
+    }
+}
+
+/// FD steps and tolerance through compliant phases. The solver's contact phase runs at
+/// `CONTACT_RTOL = 1e-9`: its end state is not differentiable to better than that lets the step
+/// sequence move with the start state, and the beam's scaled Jacobian amplifies it (measured at
+/// the best step: 2.9e-4, 1.7e-3, 6.0e-6, 2.3e-4, 2.3e-6 for the cases below). With the phase
+/// and the tangent at 1e-12 (the constant edited) the same comparison gives 1.2e-6, 8.3e-6,
+/// 2.0e-7, 1.4e-7, that is the FD's own truncation and rounding; leaving out the approach-speed
+/// memory (`c = 0`) gives 0.77–1.08.
+const HERTZ_STEPS: [f64; 3] = [1e-3, 1e-4, 1e-5];
+const HERTZ_TOL: f64 = 5e-3;
+
+/// Goal: the modal Jacobian through compliant contact phases (onset and release `S = I`, the
+/// approach-speed memory, friction reversing and sticking inside and between contacts) against
+/// central differences of `ModalExact`, over two periods holding four to eight contacts.
+#[test]
+fn hertz_contact_phases_of_the_beam_match_finite_differences() {
+    for (name, n, gap, fm, f) in [
+        ("3-mode frictionless", 3, 0.1e-3, FrictionModel::None, None),
+        ("4-mode frictionless", 4, 0.08e-3, FrictionModel::None, None),
+        (
+            "3-mode as-published",
+            3,
+            0.1e-3,
+            FrictionModel::AsPublished,
+            None,
+        ),
+        (
+            "3-mode coulomb 5 N",
+            3,
+            0.08e-3,
+            FrictionModel::Coulomb,
+            Some(5.0),
+        ),
+        (
+            "3-mode coulomb 5 N, 0.02 mm",
+            3,
+            0.02e-3,
+            FrictionModel::Coulomb,
+            Some(5.0),
+        ),
+    ] {
+        let sys = with_hertz(beam(n, gap, fm, f, None));
+        let x = settled_free(&sys, 0.3);
+        let t = x.t_s + 2.0 * 2.0 * std::f64::consts::PI / sys.omega_rad_s();
+        let d = 2 * n + 2;
+        let all: Vec<usize> = (0..d).collect();
+        let fj = modal_flow_with_jacobian(&sys, &x, t).unwrap();
+        let js = scaled(&sys, &fj.jacobian);
+        let errs: Vec<f64> = HERTZ_STEPS
+            .iter()
+            .map(|&h| rel_err(&fd_jacobian(&sys, &x, t, h, &all), &js, &all))
+            .collect();
+        let e = errs.iter().copied().fold(f64::INFINITY, f64::min);
+        let ev = fj.events;
+        eprintln!("{name}: FD rel err {errs:?} at h = {HERTZ_STEPS:?}, {ev:?}");
+        assert!(
+            e < HERTZ_TOL,
+            "{name}: Jacobian vs FD relative error {errs:?}"
+        );
+        assert_eq!(ev.grazing, 0, "{name}");
+        assert!(ev.compliant_contacts >= 4, "{name}: {ev:?}");
+        assert_eq!(ev.compliant_contacts, ev.impacts, "{name}: {ev:?}");
+        if fm != FrictionModel::None {
+            // At least one reversal per contact (inside it), besides those in flight.
+            assert!(
+                ev.friction_switches >= ev.compliant_contacts,
+                "{name}: {ev:?}"
+            );
+        }
+        if gap == 0.02e-3 {
+            assert!(ev.sticks >= 2 && ev.unsticks >= 2, "{name}: {ev:?}");
+        }
+    }
+}
+
+/// One unit mode is the lumped bar under the hertz law too: the modal Jacobian through its
+/// compliant phases equals the lumped layer's. The two solvers' trajectories agree to 5e-14 m;
+/// the two layers integrate the same tangent equations at `HERTZ_TANGENT_RTOL = 1e-9`, the
+/// lumped one as one 4×5 block, the modal one column by column, so their step sequences
+/// differ: measured 5.7e-9, 9.1e-10, 4.0e-8 of the largest entry over three periods with six
+/// contacts (friction reversing inside each); the bound 1e-6 is 25× the worst of them and 100×
+/// below what a wrong term gives (the approach memory alone is O(1)).
+#[test]
+fn one_unit_mode_is_the_lumped_jacobian_under_hertz() {
+    for (fm, f) in [
+        (FrictionModel::None, None),
+        (FrictionModel::Coulomb, Some(5.0)),
+        (FrictionModel::AsPublished, None),
+    ] {
+        let mut lumped = System::paper_damped(0.08e-3, fm, 1.0);
+        let d = lumped.damper.as_mut().unwrap();
+        d.friction_force_n = f.or(d.friction_force_n);
+        d.contact.law = ContactLaw::Hertz;
+        let lg = d.half_gap_m();
+        let modal = ModalSystem::from_lumped(&lumped).unwrap();
+        let mut t0 = 0.3;
+        let x = loop {
+            let x = Exact::default()
+                .run(&lumped, &State::REST, t0, &mut ())
+                .unwrap()
+                .final_state;
+            if x.w_m().abs() < 0.99 * lg {
+                break x;
+            }
+            t0 += 1e-4;
+        };
+        let t = x.t_s + 3.0 * lumped.forcing_period_s();
+        let lj = flow_with_jacobian(&Exact::default(), &lumped, &x, t, &mut ()).unwrap();
+        let mj = modal_flow_with_jacobian(&modal, &ModalState::from_lumped(&x), t).unwrap();
+        let big = lj
+            .jacobian
+            .iter()
+            .flatten()
+            .fold(0.0f64, |a, v| a.max(v.abs()));
+        let err = (0..4)
+            .flat_map(|r| (0..4).map(move |c| (r, c)))
+            .map(|(r, c)| (lj.jacobian[r][c] - mj.jacobian[r][c]).abs())
+            .fold(0.0, f64::max);
+        eprintln!(
+            "{fm:?}: lumped vs one-mode Jacobian under hertz {:.2e} of {big:.2e}, {:?}",
+            err / big,
+            mj.events
+        );
+        assert_eq!(lj.events, mj.events, "{fm:?}");
+        assert!(mj.events.compliant_contacts >= 1, "{fm:?}");
+        assert!(err < 1e-6 * big, "{fm:?}: {err:e} of {big:e}");
+    }
+}
+
+/// The modal spectrum under the hertz law: nothing collapses in a contact, the frictionless
+/// one-unit-mode bar gives the lumped spectrum's sum (the approach memory included).
+#[test]
+fn one_unit_mode_spectrum_under_hertz_is_the_lumped_spectrum() {
+    let mut lumped = System::paper_damped(0.08e-3, FrictionModel::None, 1.0);
+    lumped.damper.as_mut().unwrap().contact.law = ContactLaw::Hertz;
+    let modal = ModalSystem::from_lumped(&lumped).unwrap();
+    let p = SpectrumParams {
+        transient_s: 0.2,
+        duration_s: 0.2,
+        blocks: 5,
+        scales: None,
+    };
+    let l = lyapunov_spectrum(&lumped, &State::REST, &Exact::default(), &p).unwrap();
+    let m = lyapunov_spectrum_modal(&modal, &ModalState::REST, &p).unwrap();
+    eprintln!(
+        "lumped {:?} Σ {} memory {}\nmodal  {:?} Σ {} memory {}",
+        l.exponents_per_s,
+        l.sum_per_s,
+        l.approach_memory_per_s,
+        m.exponents_per_s,
+        m.sum_per_s,
+        m.approach_memory_per_s
+    );
+    assert_eq!(l.events, m.events);
+    assert_eq!(m.collapsed, 0);
+    assert!(m.events.compliant_contacts > 100, "{:?}", m.events);
+    assert!(((l.sum_per_s - m.sum_per_s) / l.sum_per_s).abs() < 1e-6);
+    assert!(
+        ((l.approach_memory_per_s - m.approach_memory_per_s) / l.approach_memory_per_s).abs()
+            < 1e-6
+    );
+}

@@ -352,6 +352,26 @@ pub(crate) fn onto_cavity(s: &mut State, lg: f64) -> bool {
     true
 }
 
+/// [`onto_cavity`] for a modal state: a ball beyond a wall (a run that ended inside a compliant
+/// contact, or `v = w + φ_dᵀq` rounded) is put back on it, stepped inwards by ulps.
+pub(crate) fn onto_cavity_modal(s: &mut ModalState, sys: &ModalSystem) -> bool {
+    let Some(lg) = sys.damper.map(|d| d.half_gap_m()) else {
+        return false;
+    };
+    let w = s.w_m(&sys.model);
+    if w.abs() <= lg {
+        return false;
+    }
+    s.v_m = s.u_at(&sys.model, Point::Cavity) + lg.copysign(w);
+    for _ in 0..64 {
+        if s.w_m(&sys.model).abs() <= lg {
+            break;
+        }
+        s.v_m -= w.signum() * f64::EPSILON * s.v_m.abs().max(f64::MIN_POSITIVE);
+    }
+    true
+}
+
 /// The checks of the settings every estimate makes.
 fn check_params(p: &LyapunovParams) -> Result<(), SimError> {
     crate::params::non_negative("transient_s", p.transient_s)?;

@@ -27,8 +27,8 @@
 //! * The tangent maps of [`STEPS_PER_QR`] steps are multiplied before each
 //!   re-orthonormalisation (the exponents do not depend on how often it happens, as long as
 //!   no column leaves the range of `f64`).
-//! * **Hertz law.** A compliant contact phase removes no dimension; its tangent map (one step,
-//!   [`super::variational`]) has `det = exp(∫ tr A dt) · (1 + cᵀW⁻¹ζ)` (friction events aside):
+//! * **Hertz law** (either bar). A compliant contact phase removes no dimension; its tangent
+//!   map (one step, [`super::variational`], [`super::variational_modal`]) has `det = exp(∫ tr A dt) · (1 + cᵀW⁻¹ζ)` (friction events aside):
 //!   `Σ λᵢ` is the time average of the trace (`−C/M`, plus `−P_δ̇ (1/M + 1/m_d)` in contact)
 //!   plus [`SpectrumResult::approach_memory_per_s`]. A block that ends inside a contact hands
 //!   its state to the next block's run, which restarts the contact at `δ = 0` (the state is
@@ -469,10 +469,15 @@ impl TangentRun for ModalRun<'_> {
 
     fn block(&mut self, x: &ModalState, t_end_s: f64) -> Result<ModalState, SimError> {
         self.var.restart_at(x);
-        let s = ModalExact::default()
+        let mut s = ModalExact::default()
             .run_modal(self.sys, x, t_end_s, &mut self.var)?
             .final_state;
+        // A block that ends inside a compliant contact: the next run starts on the wall.
+        super::lyapunov::onto_cavity_modal(&mut s, self.sys);
         self.var.finish();
+        if let Some(e) = self.var.failure.take() {
+            return Err(e);
+        }
         self.var.flush();
         Ok(s)
     }
@@ -491,8 +496,8 @@ pub fn modal_volume_contraction_per_s(sys: &ModalSystem) -> f64 {
         .sum()
 }
 
-/// The Lyapunov spectrum of the modal system `sys` (a ball under the restitution law) from
-/// `init`, with [`ModalExact`] (module docs).
+/// The Lyapunov spectrum of the modal system `sys` (a ball, either contact law) from `init`,
+/// with [`ModalExact`] (module docs).
 pub fn lyapunov_spectrum_modal(
     sys: &ModalSystem,
     init: &ModalState,
@@ -512,14 +517,15 @@ pub fn lyapunov_spectrum_modal(
     scale[2 * n + 1] = sc.du_m_s + sc.dw_m_s;
     // Refuses what the variational layer cannot do before any run.
     let var = ModalVariational::new(sys, init)?.with_qr(scale);
-    let x = ModalExact::default()
+    let mut x = ModalExact::default()
         .run(sys, init, init.t_s + p.transient_s, &mut ())?
         .final_state;
+    super::lyapunov::onto_cavity_modal(&mut x, sys);
     let t0 = x.t_s;
     let mut run = ModalRun { sys, var };
     let mut r = blocks(&mut run, x, t0, p)?;
-    // Restitution law only (the hertz law is refused): no approach-speed memory.
     r.events = run.var.counts;
+    r.approach_memory_per_s = run.var.approach_memory_log / p.duration_s;
     Ok(r)
 }
 

@@ -180,7 +180,7 @@
 //!
 //! * The N-mode bar (`ModalExact`): refused here; [`super::variational_modal`] is the same
 //!   construction with the modal transition matrices and the contact row `w = v − Σ φₙ qₙ`
-//!   (restitution law only).
+//!   (either contact law).
 //! * Parameter derivatives other than [`Param`]'s (mass ratio, forcing amplitude).
 //!
 //! References: P. C. Müller, "Calculation of Lyapunov exponents for dynamic systems with

@@ -718,6 +718,10 @@ fn longest_gap_mid(times: &[f64], default: f64) -> f64 {
 struct EventTimes {
     from: f64,
     t: Vec<f64>,
+    /// Also the start of every step of a compliant contact phase, so that no stretch between
+    /// two times holds a contact (the N-mode bar's starting guess; the lumped bar's keeps its
+    /// section times).
+    contacts: bool,
 }
 
 impl EventTimes {
@@ -725,15 +729,25 @@ impl EventTimes {
         EventTimes {
             from,
             t: vec![from],
+            contacts: false,
+        }
+    }
+
+    fn push(&mut self, t_s: f64) {
+        if t_s > self.from && self.t.len() < 1_000_000 {
+            self.t.push(t_s);
         }
     }
 }
 
 impl Observer for EventTimes {
-    fn event(&mut self, ev: &Event) {
-        if ev.t_s > self.from && self.t.len() < 1_000_000 {
-            self.t.push(ev.t_s);
+    fn segment(&mut self, seg: &dyn Segment) {
+        if self.contacts && seg.compliant_contact().is_some() {
+            self.push(seg.t_start_s());
         }
+    }
+    fn event(&mut self, ev: &Event) {
+        self.push(ev.t_s);
     }
 }
 

@@ -58,25 +58,20 @@ pub struct ModalSection {
     pub periods: u32,
 }
 
-/// Why an orbit needs the restitution law (shared with the lumped bar's message).
-/// Why orbits of the N-mode bar refuse the Hertz law.
-pub const ORBIT_RESTITUTION_ONLY: &str = "periodic orbits of the N-mode bar are computed with the instantaneous restitution law only; the hertz law's orbits are the lumped bar's only so far";
-
 fn check_modal_system(sys: &ModalSystem) -> Result<(), SimError> {
     sys.validate()?;
-    let Some(d) = sys.damper else {
+    // Either contact law: the hertz law's compliant phases have their variational equations
+    // (crate::analysis::variational_modal).
+    if sys.damper.is_none() {
         return Err(SimError::Unsupported(
             "periodic orbits of the damped bar need a ball (a damper section)",
         ));
-    };
-    if d.contact.law != ContactLaw::Restitution {
-        return Err(SimError::Unsupported(ORBIT_RESTITUTION_ONLY));
     }
     Ok(())
 }
 
 impl ModalSection {
-    /// A checked section: a ball under the restitution law, `1 ≤ periods ≤`
+    /// A checked section: a ball (either contact law), `1 ≤ periods ≤`
     /// [`super::MAX_ORBIT_PERIOD`], a finite `t0_s`.
     pub fn new(system: ModalSystem, t0_s: f64, periods: u32) -> Result<ModalSection, SimError> {
         check_modal_system(&system)?;
@@ -222,8 +217,9 @@ impl Flow for ModalSection {
     }
 
     fn compliant(&self) -> bool {
-        // The hertz law is refused (ORBIT_RESTITUTION_ONLY).
-        false
+        self.system
+            .damper
+            .is_some_and(|d| d.contact.law == ContactLaw::Hertz)
     }
 
     fn state(&self, x: &[f64]) -> ModalState {
@@ -304,7 +300,9 @@ pub fn modal_starting_guess(
     let t = 2.0 * std::f64::consts::PI / sys.omega_rad_s();
     let kt = periods as f64 * t;
     let (from, end) = super::settle_window(init.t_s, settle_s, kt)?;
+    // Under the hertz law a contact phase is not event-free: its touch counts too.
     let mut times = super::EventTimes::new(from);
+    times.contacts = true;
     ModalExact::default().run(sys, init, end, &mut times)?;
     times.t.push(end);
     let mid = super::longest_gap_mid(&times.t, from + 0.5 * kt);

@@ -30,7 +30,7 @@ use crate::limits::MAX_BEAM_MODES;
 use crate::solver::dopri5::{DenseStep, Dopri5};
 use crate::solver::exact::hertz::{GL_W, GL_X};
 use crate::solver::exact::hertz_phase::{CompliantBar, PhaseBook, PhaseStep};
-use crate::solver::{EventKind, Mode, Segment, SegmentIntegrals};
+use crate::solver::{CompliantContact, EventKind, Mode, Segment, SegmentIntegrals};
 
 /// Capacity of the phase's state: `N` displacements, `N` velocities, `δ`, `δ̇`, `W_c`.
 pub(super) const NY: usize = crate::solver::exact::hertz_phase::MODAL_PHASE_LEN;
@@ -162,6 +162,10 @@ struct ContactSegment<'a> {
     sw: f64,
     fb: f64,
     law: &'a Hertz,
+    /// `sw·ẇ` at the touch, the law's reference speed `δ̇₀`, the ball stuck (coulomb).
+    approach: f64,
+    v0: f64,
+    stuck: bool,
 }
 
 impl ContactSegment<'_> {
@@ -247,6 +251,16 @@ impl Segment for ContactSegment<'_> {
         let (s, delta) = self.st_at(t_s);
         energy_j(self.cs, &s.modal(self.cs), true) + self.law.elastic_energy_j(delta)
     }
+    fn compliant_contact(&self) -> Option<CompliantContact> {
+        Some(CompliantContact {
+            wall_sign: self.sw,
+            approach_m_s: self.approach,
+            reference_speed_m_s: self.v0,
+            ball_friction_n: self.fb,
+            stuck: self.stuck,
+            law: *self.law,
+        })
+    }
 }
 
 impl Consts {
@@ -313,6 +327,9 @@ impl PhaseBook<Consts, NY> for Book<'_> {
             sw: p.sw,
             fb: p.fb,
             law: &p.law,
+            approach: p.approach,
+            v0: p.v0,
+            stuck: p.stuck,
         };
         if seg.t_end_s() > seg.t_start_s() {
             self.obs.segment(&seg);
