@@ -51,7 +51,8 @@ pub struct LobesArgs {
     /// (a universal file, dataset 58 or 58b with 164, or plain columns: frequency in Hz and
     /// re/im or magnitude/phase). The receptance is interpolated between the measured lines by
     /// a natural cubic spline; no modal fit. Only `[cutting]` of the scenario is used. Output
-    /// CSV: spindle_rpm,b_lim_m,chatter_frequency_hz,lobe.
+    /// CSV: spindle_rpm,b_lim_m,chatter_frequency_hz,lobe; the figure (STEM.png, STEM.svg)
+    /// shows the lobes of the modes fitted to the same FRF beside them.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["time_domain", "beam_modes", "cavity_position_mm"])]
     pub frf: Option<PathBuf>,
     /// With --frf: units of plain columns (or replacing a universal file's): m/N, mm/N, µm/N,
@@ -379,14 +380,59 @@ fn frf_lobes(
         s / k_o * 1e3,
         w / (2.0 * std::f64::consts::PI)
     );
-    match fitted_minimum(frf) {
-        Ok((sf, wf, n)) => println!(
-            "  fitted     : b_lim,min = {:.6} mm at {:.2} Hz ({n} modes of `vibrobar fit-modes` with its defaults: {:+.2} % against the measured lines; what the fit costs)",
-            sf / k_o * 1e3,
-            wf / (2.0 * std::f64::consts::PI),
-            100.0 * (sf / s - 1.0)
-        ),
+    let mut fitted_curve = None;
+    match fitted_table(frf) {
+        Ok((mut ft, n)) => {
+            let (sf, wf) = ft.minimum();
+            println!(
+                "  fitted     : b_lim,min = {:.6} mm at {:.2} Hz ({n} modes of `vibrobar fit-modes` with its defaults: {:+.2} % against the measured lines; what the fit costs)",
+                sf / k_o * 1e3,
+                wf / (2.0 * std::f64::consts::PI),
+                100.0 * (sf / s - 1.0)
+            );
+            if !args.no_figure {
+                fitted_curve = Some(
+                    rpms.iter()
+                        .map(|&n| ft.boundary_at(n, k_o).map(|b| (n, b.b_lim_m * 1e3)))
+                        .collect::<Result<Vec<_>, _>>()?,
+                );
+            }
+        }
         Err(e) => eprintln!("warning: no lobes of fitted modes beside the measured ones: the modal fit failed: {e:#}"),
+    }
+    if !args.no_figure && vibrobar_io::resolve_output(&args.out)?.is_regular() {
+        use plotters::style::RGBColor;
+        use vibrobar_report::plot::Curve;
+        let curve = |label: &str, points: Vec<(f64, f64)>, color, dashed| Curve {
+            label: label.into(),
+            points,
+            color,
+            markers: false,
+            dashed,
+            width: 1,
+        };
+        let mut curves = vec![curve(
+            "from the measured lines (spline, no fit)",
+            rows.iter().map(|(n, b)| (*n, b.b_lim_m * 1e3)).collect(),
+            RGBColor(120, 120, 120),
+            false,
+        )];
+        if let Some(points) = fitted_curve {
+            curves.push(curve(
+                "from the fitted modes",
+                points,
+                RGBColor(200, 40, 40),
+                true,
+            ));
+        }
+        vibrobar_report::plot::lines(
+            &args.out.with_extension(""),
+            "stability lobes from a measured FRF",
+            "spindle speed (rpm)",
+            "b_lim (mm)",
+            &curves,
+            &[],
+        )?;
     }
     for p in peak_resolution(frf).map_err(data)? {
         if p.under_resolved {
@@ -418,11 +464,11 @@ fn frf_lobes(
     Ok(())
 }
 
-/// The lowest point of the exact lobes of the modes fitted to `frf` (the fit's defaults, ball
-/// free): `(s, ω, modes)` with `b_lim,min = s/K_o`.
-fn fitted_minimum(
+/// The exact lobes of the modes fitted to `frf` (the fit's defaults, ball free) and the number
+/// of modes.
+fn fitted_table(
     frf: &vibrobar_core::structure::frf_data::MeasuredFrf,
-) -> Result<(f64, f64, usize)> {
+) -> Result<(vibrobar_core::analysis::lobes::LobeTable, usize)> {
     use vibrobar_core::analysis::lobes::{Linearisation, LobeTable, TipReceptance};
     use vibrobar_core::structure::fit::{fit_modes, FitSettings, FrfLines};
     use vibrobar_core::structure::{MeasuredMode, ModalModel};
@@ -449,6 +495,6 @@ fn fitted_minimum(
         .map(|m| 1.0 / m.modal_stiffness_n_per_m())
         .sum();
     let model = ModalModel::new(&modes, stat)?;
-    let (sm, wm) = LobeTable::new(TipReceptance::new(&model, Linearisation::BallFree)?)?.minimum();
-    Ok((sm, wm, modes.len()))
+    let table = LobeTable::new(TipReceptance::new(&model, Linearisation::BallFree)?)?;
+    Ok((table, modes.len()))
 }
