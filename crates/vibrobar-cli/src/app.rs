@@ -151,6 +151,11 @@ pub enum Command {
     /// Modes from a measured FRF (a tap test at the tool tip): LSCF poles with a stabilisation
     /// chart, residues, refinement; writes [[modes]] TOML with the chart and the fit beside it.
     FitModes(crate::commands::fit_modes::FitModesArgs),
+    /// Write the worked example from a tap test to a design (a generated Markdown document):
+    /// a known bar's tip and cross FRFs with 1 % noise as universal files, the modal fit, the
+    /// lobes from the measurement and from the fit, the cavity placement and the lobe design
+    /// on the fitted bar.
+    TapTest(crate::commands::tap_test::TapTestArgs),
     /// Cavity placement on a beam: position × gap over a band of ratios (mean reduction, worst
     /// RMS, regime), the optimum and a heat map with the nodes of modes 2 and 3; resumable
     /// (--resume) and shardable (--shard K/N).
@@ -213,6 +218,7 @@ impl Command {
             Command::BenchMap(_) => "bench-map",
             Command::Modes(_) => "modes",
             Command::FitModes(_) => "fit-modes",
+            Command::TapTest(_) => "tap-test",
             Command::Placement(_) => "placement",
             Command::LumpedVsBeam(_) => "lumped-vs-beam",
             Command::CuttingDeeper(_) => "cutting-deeper",
@@ -253,6 +259,7 @@ impl Command {
             Command::BenchMap(a) => (one(&a.scenario), None),
             Command::Modes(a) => (one(&a.scenario), Some(a.out.as_path())),
             Command::FitModes(a) => (crate::commands::fit_modes::inputs(a), Some(a.out.as_path())),
+            Command::TapTest(a) => (vec![], Some(a.out.as_path())),
             Command::Placement(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::LumpedVsBeam(a) => (vec![], Some(a.out.as_path())),
             Command::CuttingDeeper(a) => (vec![], Some(a.out.as_path())),
@@ -359,6 +366,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Bench(a) => bench::bench(&a),
         Command::Modes(a) => modes::modes(&a),
         Command::FitModes(a) => crate::commands::fit_modes::run(&a),
+        Command::TapTest(a) => crate::commands::tap_test::run(&a),
         Command::Placement(a) => placement::run(&a),
         Command::LumpedVsBeam(a) => lumped_vs_beam::run(&a),
         Command::CuttingDeeper(a) => crate::commands::cutting_deeper::run(&a),

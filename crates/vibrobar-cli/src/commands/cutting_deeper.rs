@@ -326,7 +326,7 @@ fn bistable(
 
 /// What [`design_study`] computes: the scenario, the spec, the grid, the solid reference and
 /// every design's searches (one per speed) and row (with its chaos spread).
-type Computed = (
+pub(crate) type Computed = (
     Scenario,
     LobeDesignSpec,
     DesignGrid,
@@ -334,8 +334,11 @@ type Computed = (
     Vec<(Vec<Search>, DesignRow)>,
 );
 
+/// One design study: the scenario written to `DIR/NAME.toml`, the solid bar searched once per
+/// speed, every design's searches and its seeded spread (the functions of `vibrobar
+/// lobe-design`).
 #[allow(clippy::too_many_arguments)]
-fn design_study(
+pub(crate) fn design_study(
     name: &'static str,
     toml: String,
     axis: DesignAxis,

@@ -24,6 +24,7 @@ pub mod paper;
 pub mod placement;
 pub mod run;
 pub mod sweep;
+pub mod tap_test;
 pub mod time_domain;
 
 pub use design::{
