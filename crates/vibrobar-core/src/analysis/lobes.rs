@@ -157,6 +157,50 @@ pub(crate) fn stiffness_bound(re_g: f64) -> f64 {
     }
 }
 
+/// `h(ω) = (ωτ − 3π − 2ψ)/2π`: on a lobe `h` is an integer.
+pub(crate) fn lobe_phase(omega: f64, psi: f64, tau: f64) -> f64 {
+    (omega * tau - 3.0 * PI - 2.0 * psi) / (2.0 * PI)
+}
+
+/// The nearest integer `k` that `h` crosses moving from `p` towards `q` (`(ω, ψ)` each), if
+/// any, with the two points ordered by `ω`.
+#[allow(clippy::type_complexity)]
+pub(crate) fn nearest_crossing(
+    p: (f64, f64),
+    q: (f64, f64),
+    tau: f64,
+) -> Option<(f64, (f64, f64), (f64, f64))> {
+    let (hp, hq) = (lobe_phase(p.0, p.1, tau), lobe_phase(q.0, q.1, tau));
+    let k = if hq > hp { hp.ceil() } else { hp.floor() };
+    let crossed = if hq > hp {
+        k <= hq
+    } else if hq < hp {
+        k >= hq
+    } else {
+        k.total_cmp(&hp).is_eq()
+    };
+    let (l, r) = if p.0 < q.0 { (p, q) } else { (q, p) };
+    crossed.then_some((k, l, r))
+}
+
+/// The root of `h = k` in `[l, r]` (`l`, `r` with their phases; `h − k` changes sign), the
+/// phase at `ω` given by `psi`.
+pub(crate) fn crossing_frequency(
+    psi: impl Fn(f64) -> f64,
+    l: (f64, f64),
+    r: (f64, f64),
+    k: f64,
+    tau: f64,
+) -> f64 {
+    illinois(
+        |w: f64| lobe_phase(w, psi(w), tau) - k,
+        l.0,
+        r.0,
+        lobe_phase(l.0, l.1, tau) - k,
+        lobe_phase(r.0, r.1, tau) - k,
+    )
+}
+
 /// A root of `f` in `[a, b]` with `f(a)·f(b) ≤ 0` (Illinois), to `ROOT_REL_TOL`·|x|.
 pub(crate) fn illinois(
     mut f: impl FnMut(f64) -> f64,
@@ -423,47 +467,17 @@ impl LobeTable {
         60.0 * w / (eps + 2.0 * PI * j as f64)
     }
 
-    /// `h(ω) = (ωτ − 3π − 2ψ)/2π`.
-    fn h(omega: f64, psi: f64, tau: f64) -> f64 {
-        (omega * tau - 3.0 * PI - 2.0 * psi) / (2.0 * PI)
-    }
-
     /// The root of `h = k` in `[l, r]` (`l`, `r` with their phases; `h − k` changes sign),
     /// phases unwrapped from node `anchor`.
     fn solve(&self, anchor: &Node, l: (f64, f64), r: (f64, f64), k: f64, tau: f64) -> f64 {
         let rec = self.rec;
-        let f = |w: f64| {
-            let g = rec.eval(w).0;
-            Self::h(
-                w,
-                TipReceptance::phase_near(g, anchor.psi, anchor.g.arg()),
-                tau,
-            ) - k
-        };
-        illinois(
-            f,
-            l.0,
-            r.0,
-            Self::h(l.0, l.1, tau) - k,
-            Self::h(r.0, r.1, tau) - k,
-        )
+        let psi = |w: f64| TipReceptance::phase_near(rec.eval(w).0, anchor.psi, anchor.g.arg());
+        crossing_frequency(psi, l, r, k, tau)
     }
 
     /// The nearest integer crossing of `h` moving from `p` towards `q` (`(ω, ψ)` each), if any.
     fn nearest_root(&self, anchor: &Node, p: (f64, f64), q: (f64, f64), tau: f64) -> Option<f64> {
-        let (hp, hq) = (Self::h(p.0, p.1, tau), Self::h(q.0, q.1, tau));
-        let k = if hq > hp { hp.ceil() } else { hp.floor() };
-        let crossed = if hq > hp {
-            k <= hq
-        } else if hq < hp {
-            k >= hq
-        } else {
-            k.total_cmp(&hp).is_eq()
-        };
-        if !crossed {
-            return None;
-        }
-        let (l, r) = if p.0 < q.0 { (p, q) } else { (q, p) };
+        let (k, l, r) = nearest_crossing(p, q, tau)?;
         Some(self.solve(anchor, l, r, k, tau))
     }
 

@@ -20,7 +20,10 @@
 //! coarsely sampled for its `Re G` minimum (the lowest point of its lobes) to be trusted;
 //! [`peak_resolution`] finds such peaks from the measured magnitudes.
 
-use crate::analysis::lobes::{epsilon, illinois, principal, stiffness_bound, BoundaryPoint};
+use crate::analysis::lobes::{
+    crossing_frequency, epsilon, illinois, nearest_crossing, principal, stiffness_bound,
+    BoundaryPoint,
+};
 use crate::error::ParamError;
 use crate::structure::frf_data::{FrfDataError, FrfKind, MeasuredFrf};
 use num_complex::Complex64;
@@ -321,39 +324,10 @@ impl FrfLobeTable {
             })
     }
 
-    fn h(omega: f64, psi: f64, tau: f64) -> f64 {
-        (omega * tau - 3.0 * PI - 2.0 * psi) / (2.0 * PI)
-    }
-
-    fn solve(&self, anchor: &Node, l: (f64, f64), r: (f64, f64), k: f64, tau: f64) -> f64 {
-        let f = |w: f64| {
-            let g = self.eval(w).0;
-            Self::h(w, anchor.psi + principal(g.arg() - anchor.g.arg()), tau) - k
-        };
-        illinois(
-            f,
-            l.0,
-            r.0,
-            Self::h(l.0, l.1, tau) - k,
-            Self::h(r.0, r.1, tau) - k,
-        )
-    }
-
     fn nearest_root(&self, anchor: &Node, p: (f64, f64), q: (f64, f64), tau: f64) -> Option<f64> {
-        let (hp, hq) = (Self::h(p.0, p.1, tau), Self::h(q.0, q.1, tau));
-        let k = if hq > hp { hp.ceil() } else { hp.floor() };
-        let crossed = if hq > hp {
-            k <= hq
-        } else if hq < hp {
-            k >= hq
-        } else {
-            k.total_cmp(&hp).is_eq()
-        };
-        if !crossed {
-            return None;
-        }
-        let (l, r) = if p.0 < q.0 { (p, q) } else { (q, p) };
-        Some(self.solve(anchor, l, r, k, tau))
+        let (k, l, r) = nearest_crossing(p, q, tau)?;
+        let psi = |w: f64| anchor.psi + principal(self.eval(w).0.arg() - anchor.g.arg());
+        Some(crossing_frequency(psi, l, r, k, tau))
     }
 
     /// The boundary at `spindle_rpm` for the oriented coefficient `K_o` (N/m²), inside the
