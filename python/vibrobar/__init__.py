@@ -19,6 +19,7 @@ for a progress bar: tqdm when installed) and stop on Ctrl-C with ``KeyboardInter
 
 from __future__ import annotations
 
+import os as _os
 import sys as _sys
 from typing import Any, Callable, Mapping, Optional, Sequence, Union
 
@@ -729,6 +730,8 @@ def lobes(
     rpm_start: float = None,
     rpm_stop: float = None,
     rpm_step: float = None,
+    *,
+    measured_frf: Any = None,
     **overrides,
 ) -> Table:
     """Exact linear stability lobes of regenerative chatter (``vibrobar lobes``).
@@ -743,8 +746,45 @@ def lobes(
         ``chatter_frequency_hz`` (ball free), ``b_lim_ball_stuck_m``,
         ``chatter_frequency_ball_stuck_hz``, ``b_lim_solid_m``, ``chatter_frequency_solid_hz``,
         ``lobe``, ``lobe_ball_stuck``, ``lobe_solid``; :meth:`Table.to_csv` is the CLI's file.
+
+    With ``measured_frf`` (``vibrobar lobes --frf``): the lobes straight from a measured FRF at
+    the tool tip instead of the scenario's structure, with no modal fit: the receptance is
+    interpolated between the measured lines by a natural cubic spline. Only the scenario's
+    ``[cutting]`` is used, and the FRF must be measured in the direction its direction factors
+    assume. ``measured_frf`` is a file path (read as :func:`read_frf` reads it) or the dict
+    :func:`read_frf` returns (``freqs_hz``, complex ``values``, ``kind``). The rows are then
+    ``spindle_rpm``, ``b_lim_m``, ``chatter_frequency_hz``, ``lobe``, as in the command's CSV.
     """
     sc = _scenario(scenario, overrides)
+    if measured_frf is not None:
+        if isinstance(measured_frf, (str, _os.PathLike)):
+            measured_frf = read_frf(measured_frf)
+        if not isinstance(measured_frf, dict):
+            raise TypeError(
+                "measured_frf must be a file path or the dict read_frf returns, got "
+                f"{type(measured_frf).__name__}"
+            )
+        missing = [k for k in ("freqs_hz", "values", "kind") if k not in measured_frf]
+        if missing:
+            raise ValueError(f"measured_frf lacks {', '.join(missing)} (the keys read_frf returns)")
+        if not measured_frf.get("driving_point", True):
+            raise ValueError(
+                "measured_frf is a cross FRF (response and reference at different points); "
+                "lobes need the driving-point FRF at the tool tip"
+            )
+        f = _array("measured_frf['freqs_hz']", measured_frf["freqs_hz"])
+        h = _np.asarray(measured_frf["values"], dtype=_np.complex128)
+        cols, csv = _vibrobar.lobes_frf(
+            sc,
+            f,
+            _np.ascontiguousarray(h.real),
+            _np.ascontiguousarray(h.imag),
+            str(measured_frf["kind"]),
+            _number("rpm_start", rpm_start, False),
+            _number("rpm_stop", rpm_stop, False),
+            _number("rpm_step", rpm_step, False),
+        )
+        return Table(cols, csv)
     cols, csv = _vibrobar.lobes(
         sc,
         _number("rpm_start", rpm_start, False),

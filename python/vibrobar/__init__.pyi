@@ -173,6 +173,8 @@ def lobes(
     rpm_start: float = ...,
     rpm_stop: float = ...,
     rpm_step: float = ...,
+    *,
+    measured_frf: Any = None,
     **overrides: Any,
 ) -> Table: ...
 def frf(

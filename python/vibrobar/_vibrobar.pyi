@@ -127,6 +127,16 @@ def bifurcation_diagram(
 def lobes(
     scenario: Scenario, rpm_start: float, rpm_stop: float, rpm_step: float
 ) -> tuple[dict[str, Any], str]: ...
+def lobes_frf(
+    scenario: Scenario,
+    freqs_hz: npt.NDArray[np.float64],
+    frf_re: npt.NDArray[np.float64],
+    frf_im: npt.NDArray[np.float64],
+    kind: str,
+    rpm_start: float,
+    rpm_stop: float,
+    rpm_step: float,
+) -> tuple[dict[str, Any], str]: ...
 def fit_modes(
     freqs_hz: npt.NDArray[np.float64],
     frf_re: npt.NDArray[np.float64],

@@ -1491,6 +1491,19 @@ pub fn lobes_frf_schema() -> Schema {
     }
 }
 
+/// One `lobes --frf` row: the speed and its boundary, by [`lobes_frf_schema`].
+pub fn lobes_frf_values(
+    spindle_rpm: f64,
+    b: &vibrobar_core::analysis::lobes::BoundaryPoint,
+) -> Vec<Value> {
+    vec![
+        Value::F(spindle_rpm),
+        Value::F(b.b_lim_m),
+        Value::F(b.chatter_frequency_hz),
+        Value::U(b.lobe),
+    ]
+}
+
 /// Write a `lobes --frf` CSV: `(spindle_rpm, boundary)` rows.
 pub fn write_lobes_frf_csv(
     path: &Path,
@@ -1499,14 +1512,7 @@ pub fn write_lobes_frf_csv(
     write_csv(
         path,
         &lobes_frf_schema(),
-        rows.iter().map(|(n, b)| {
-            vec![
-                Value::F(*n),
-                Value::F(b.b_lim_m),
-                Value::F(b.chatter_frequency_hz),
-                Value::U(b.lobe),
-            ]
-        }),
+        rows.iter().map(|(n, b)| lobes_frf_values(*n, b)),
     )
 }
 

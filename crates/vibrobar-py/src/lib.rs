@@ -1326,6 +1326,55 @@ fn lobes<'py>(
     columns(py, &iocsv::lobes_schema(), &rows)
 }
 
+/// Lobes straight from a measured FRF (``vibrobar lobes --frf``): the receptance interpolated
+/// between the lines by a natural cubic spline, no fit; only the scenario's `[cutting]` is used.
+/// Returns the rows of the command's CSV.
+#[pyfunction]
+#[pyo3(signature = (scenario, freqs_hz, frf_re, frf_im, kind, rpm_start, rpm_stop, rpm_step))]
+#[allow(clippy::too_many_arguments)]
+fn lobes_frf<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    freqs_hz: PyReadonlyArray1<'py, f64>,
+    frf_re: PyReadonlyArray1<'py, f64>,
+    frf_im: PyReadonlyArray1<'py, f64>,
+    kind: &str,
+    rpm_start: f64,
+    rpm_stop: f64,
+    rpm_step: f64,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    use vibrobar_core::analysis::lobes_frf::FrfLobeTable;
+    use vibrobar_core::structure::frf_data::{FrfKind, MeasuredFrf};
+    let kind = FrfKind::parse(kind).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "kind must be 'receptance', 'mobility' or 'accelerance', got {kind:?}"
+        ))
+    })?;
+    let rpms = vibrobar_scenario::spindle_speeds("rpm", rpm_start, rpm_stop, rpm_step)
+        .map_err(anyhow_input)?;
+    let cut = scenario.inner.cutting.as_ref().ok_or_else(|| {
+        PyValueError::new_err(
+            "lobes from an FRF need a scenario with a [cutting] section (coefficient_n_m2 and the direction factors)",
+        )
+    })?;
+    cut.validate().map_err(input_error)?;
+    let k_o = cut.coefficient_n_m2 * cut.force_direction_factor * cut.chip_direction_factor;
+    let (f, h, _) = frf_arrays("frf", &freqs_hz, &frf_re, &frf_im, None)?;
+    let frf = MeasuredFrf::new(f, h, kind, None, true, String::new()).map_err(input_error)?;
+    let rows = detached(py, None, |_| {
+        let table = FrfLobeTable::new(&frf).map_err(input_error)?;
+        rpms.iter()
+            .map(|&n| {
+                table
+                    .boundary_at(n, k_o)
+                    .map(|b| iocsv::lobes_frf_values(n, &b))
+                    .map_err(input_error)
+            })
+            .collect::<PyResult<Vec<_>>>()
+    })?;
+    columns(py, &iocsv::lobes_frf_schema(), &rows)
+}
+
 /// The largest Lyapunov exponent at one point (two nearby trajectories, renormalised every
 /// `periods` forcing periods).
 #[pyfunction]
@@ -2671,6 +2720,7 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(bifurcation_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble, m)?)?;
     m.add_function(wrap_pyfunction!(lobes, m)?)?;
+    m.add_function(wrap_pyfunction!(lobes_frf, m)?)?;
     m.add_function(wrap_pyfunction!(fit_modes, m)?)?;
     m.add_function(wrap_pyfunction!(width_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(time_domain_lobes, m)?)?;
