@@ -148,17 +148,23 @@ impl Consts {
 }
 
 fn solve4(mut a: [[f64; 5]; 4]) -> [f64; 4] {
+    // Plain fixed-bound loops: this is the inner step of the phase scan (millions of calls),
+    // and indexed loops compile to the same code whatever the crate around them looks like.
     for col in 0..4 {
-        let piv = (col..4)
-            .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
-            .unwrap_or(col);
+        // The largest pivot, the last of equals.
+        let mut piv = col;
+        for i in col + 1..4 {
+            if a[i][col].abs().total_cmp(&a[piv][col].abs()).is_ge() {
+                piv = i;
+            }
+        }
         a.swap(col, piv);
-        for row in 0..4 {
+        let pivot_row = a[col];
+        for (row, r) in a.iter_mut().enumerate() {
             if row != col {
-                let f = a[row][col] / a[col][col];
-                let pivot_row = a[col];
-                for (x, p) in a[row].iter_mut().zip(pivot_row).skip(col) {
-                    *x -= f * p;
+                let f = r[col] / pivot_row[col];
+                for k in col..5 {
+                    r[k] -= f * pivot_row[k];
                 }
             }
         }
