@@ -1149,8 +1149,8 @@ def _one_frequency_axis(ratios, freqs_hz, required: bool) -> None:
             "or freqs_hz in (0, 1e7] Hz)"
         )
     if required and ratios is None and freqs_hz is None:
-        raise ValueError(
-            "neither ratios nor freqs_hz given (allowed: one of them: ratios Ω/ω₁ > 0, "
+        raise TypeError(
+            "ratios is required, or freqs_hz instead (allowed: one of them: ratios Ω/ω₁ > 0, "
             "or freqs_hz in (0, 1e7] Hz)"
         )
 
