@@ -206,36 +206,23 @@ fn map_in_hz_shards_merge_and_resume_byte_for_byte() {
 fn map_in_hz_bad_input_names_the_flag_and_its_range() {
     let d = tempfile::tempdir().unwrap();
     let out = p(d.path(), "x.csv");
-    let o = vibrobar_env(
-        &[
-            "map",
-            "--ratios",
-            "1:1:1",
-            "--freqs-hz",
-            FREQS,
+    // `map` with these frequency flags on a one-gap grid.
+    let map = |freq: &[&str]| {
+        let mut a = vec!["map"];
+        a.extend_from_slice(freq);
+        a.extend([
             "--gaps-mm",
             "0.1:0.1:0.1",
             "--friction",
             "none",
             "--out",
             s(&out),
-        ],
-        &[],
-    );
-    assert_fails_with(&o, &["--ratios", "--freqs-hz"]);
-    let o = vibrobar_env(
-        &[
-            "map",
-            "--gaps-mm",
-            "0.1:0.1:0.1",
-            "--friction",
-            "none",
-            "--out",
-            s(&out),
-        ],
-        &[],
-    );
-    assert_fails_with(&o, &["--ratios", "--freqs-hz"]);
+        ]);
+        vibrobar_env(&a, &[])
+    };
+    let both = map(&["--ratios", "1:1:1", "--freqs-hz", FREQS]);
+    assert_fails_with(&both, &["--ratios", "--freqs-hz"]);
+    assert_fails_with(&map(&[]), &["--ratios", "--freqs-hz"]);
     for (spec, want) in [
         ("-600:600:10", "START in (0, 1e7] Hz"),
         ("0:600:10", "START in (0, 1e7] Hz"),
@@ -247,21 +234,7 @@ fn map_in_hz_bad_input_names_the_flag_and_its_range() {
         ("1:2", "START:STOP:STEP"),
         ("nan:600:1", "--freqs-hz"),
     ] {
-        let o = vibrobar_env(
-            &[
-                "map",
-                "--freqs-hz",
-                spec,
-                "--gaps-mm",
-                "0.1:0.1:0.1",
-                "--friction",
-                "none",
-                "--out",
-                s(&out),
-            ],
-            &[],
-        );
-        assert_fails_with(&o, &["--freqs-hz", want]);
+        assert_fails_with(&map(&["--freqs-hz", spec]), &["--freqs-hz", want]);
     }
     assert!(!out.exists());
 }
