@@ -101,3 +101,12 @@ def test_bad_arguments_are_refused(client):
     # An error in a shard reaches the caller as the function's own error.
     with pytest.raises(ValueError, match="gaps_m"):
         vibrobar.map(None, RATIOS, [-1.0], client=client)
+
+
+def test_map_in_hz_on_dask_is_bit_identical(client):
+    sc = vibrobar.Scenario.paper(solver="rk4", duration_s=0.05)
+    freqs = 580.0 + np.arange(5) * 5.0
+    ref = vibrobar.map(sc, freqs_hz=freqs, gaps_m=GAPS_M[:2])
+    same(ref, vibrobar.map(sc, freqs_hz=freqs, gaps_m=GAPS_M[:2], client=client, shards=2))
+    with pytest.raises(ValueError, match="ratios and freqs_hz"):
+        vibrobar.map(sc, RATIOS, GAPS_M, freqs_hz=freqs, client=client)

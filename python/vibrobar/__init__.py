@@ -336,6 +336,7 @@ def sweep(
     ratios: Optional[ArrayLike] = None,
     gaps_m: Optional[ArrayLike] = None,
     *,
+    freqs_hz: Optional[ArrayLike] = None,
     progress: Progress = None,
     threads: Optional[int] = None,
     **overrides,
@@ -344,8 +345,13 @@ def sweep(
 
     Args:
         scenario: the scenario (default: the paper's).
-        ratios: forcing frequency ratios Ω/ω₁ (> 0); default: the scenario's ``[sweep]`` range.
+        ratios: forcing frequency ratios Ω/ω₁ (> 0), each bar at its own ω₁; default (without
+            ``freqs_hz``): the scenario's ``[sweep]`` range.
         gaps_m: total clearances in m (> 0); default: the scenario's ``[sweep] gaps_m``.
+        freqs_hz: absolute forcing frequencies in Hz (in (0, 1e7]) instead of ``ratios``
+            (``sweep --freqs-hz``): the damped and the solid bar both run at the same Ω; the
+            ``ratio`` column is then Ω/ω₁ of the damped bar. ``start + step * np.arange(n)``
+            gives the CLI's ``START:STOP:STEP`` values.
         progress: ``progress(done, total)`` callable over the runs, or True for a progress bar.
         threads: worker threads (default: all cores, or ``RAYON_NUM_THREADS``).
         **overrides: scenario keyword overrides (``solver="rk4"``, ``friction="coulomb"``, ...).
@@ -355,11 +361,17 @@ def sweep(
         ``rms_solid_m`` (m), ``rms_damped_m`` (m), ``reduction_pct`` (%), ``impacts``; rows
         gap-major, as the CLI's CSV.
     """
+    _one_frequency_axis(ratios, freqs_hz, required=False)
     sc = _scenario(scenario, overrides)
     cb, close = _progress(progress, "sweep")
     try:
         cols, csv = _vibrobar.sweep(
-            sc, _array("ratios", ratios, False), _array("gaps_m", gaps_m, False), cb, _threads(threads)
+            sc,
+            _array("ratios", ratios, False),
+            _array("gaps_m", gaps_m, False),
+            cb,
+            _threads(threads),
+            _array("freqs_hz", freqs_hz, False),
         )
     finally:
         close()
@@ -371,6 +383,7 @@ def map(
     ratios: ArrayLike = None,
     gaps_m: ArrayLike = None,
     *,
+    freqs_hz: Optional[ArrayLike] = None,
     friction_forces_n: Optional[ArrayLike] = None,
     restitutions: Optional[ArrayLike] = None,
     mass_ratios: Optional[ArrayLike] = None,
@@ -384,8 +397,12 @@ def map(
 
     Args:
         scenario: the scenario (default: the paper's).
-        ratios: forcing frequency ratios Ω/ω₁ (> 0).
+        ratios: forcing frequency ratios Ω/ω₁ (> 0), each bar at its own ω₁.
         gaps_m: total clearances in m (> 0).
+        freqs_hz: absolute forcing frequencies in Hz (in (0, 1e7]) instead of ``ratios``
+            (``map --freqs-hz``): the damped and the solid bar both run at the same Ω; the
+            ``ratio`` column is then Ω/ω₁ of the damped bar. Give exactly one of ``ratios`` and
+            ``freqs_hz``.
         friction_forces_n: optional axis, friction force levels in N (≥ 0).
         restitutions: optional axis, coefficients of restitution in [0, 1].
         mass_ratios: optional axis, ball mass over bar mass (> 0).
@@ -402,25 +419,27 @@ def map(
         MapResult: columns ``ratio``, ``gap_mm`` (mm), the optional axes, ``rms_solid_m`` (m),
         ``rms_damped_m`` (m), ``reduction_pct`` (%), ``impacts_per_cycle``, ``regime``.
     """
+    _one_frequency_axis(ratios, freqs_hz, required=True)
     sc = _scenario(scenario, overrides)
     cb, close = _progress(progress, "map")
     if client is not None:
         try:
             return _on_dask(client, "map", sc, ratios, shards, cb, gaps_m=gaps_m,
                             friction_forces_n=friction_forces_n, restitutions=restitutions,
-                            mass_ratios=mass_ratios, threads=threads)
+                            mass_ratios=mass_ratios, threads=threads, freqs_hz=freqs_hz)
         finally:
             close()
     try:
         cols, csv = _vibrobar.design_map(
             sc,
-            _array("ratios", ratios),
+            _array("ratios", ratios, False),
             _array("gaps_m", gaps_m),
             _array("friction_forces_n", friction_forces_n, False),
             _array("restitutions", restitutions, False),
             _array("mass_ratios", mass_ratios, False),
             cb,
             _threads(threads),
+            _array("freqs_hz", freqs_hz, False),
         )
     finally:
         close()
@@ -1162,10 +1181,28 @@ def lobe_design(
     return Table(cols, csv)
 
 
+def _one_frequency_axis(ratios, freqs_hz, required: bool) -> None:
+    """``ratios`` or ``freqs_hz``, not both (and, when ``required``, one of them)."""
+    if ratios is not None and freqs_hz is not None:
+        raise ValueError(
+            "ratios and freqs_hz given together (allowed: one of them: ratios Ω/ω₁ > 0, "
+            "or freqs_hz in (0, 1e7] Hz)"
+        )
+    if required and ratios is None and freqs_hz is None:
+        raise TypeError(
+            "ratios is required, or freqs_hz instead (allowed: one of them: ratios Ω/ω₁ > 0, "
+            "or freqs_hz in (0, 1e7] Hz)"
+        )
+
+
 def _on_dask(client, fn, sc, ratios, shards, cb, **kwargs):
     from . import _dask
 
-    _array("ratios", ratios)
+    if kwargs.get("freqs_hz") is None:
+        kwargs.pop("freqs_hz", None)
+        _array("ratios", ratios)
+    else:
+        _array("freqs_hz", kwargs["freqs_hz"])
     return _dask.run(client, fn, sc, ratios, shards, cb, **kwargs)
 
 
@@ -1180,7 +1217,13 @@ def submit(client, fn: str, scenario: Optional[Scenario] = None, ratios: ArrayLi
 
     if fn not in ("map", "ensemble"):
         raise ValueError(f"fn = {fn!r}: only 'map' and 'ensemble' run on Dask")
-    _array("ratios", ratios)
+    if fn == "map":
+        _one_frequency_axis(ratios, kwargs.get("freqs_hz"), required=True)
+    if kwargs.get("freqs_hz") is None:
+        kwargs.pop("freqs_hz", None)
+        _array("ratios", ratios)
+    else:
+        _array("freqs_hz", kwargs["freqs_hz"])
     return _dask.submit(client, fn, scenario, ratios, shards, **kwargs)
 
 

@@ -50,15 +50,17 @@ def sweep(
     ratios: Optional[ArrayLike] = None,
     gaps_m: Optional[ArrayLike] = None,
     *,
+    freqs_hz: Optional[ArrayLike] = None,
     progress: Progress = None,
     threads: Optional[int] = None,
     **overrides: Any,
 ) -> SweepResult: ...
 def map(
     scenario: Optional[Scenario] = None,
-    ratios: ArrayLike = ...,
+    ratios: Optional[ArrayLike] = None,
     gaps_m: ArrayLike = ...,
     *,
+    freqs_hz: Optional[ArrayLike] = None,
     friction_forces_n: Optional[ArrayLike] = None,
     restitutions: Optional[ArrayLike] = None,
     mass_ratios: Optional[ArrayLike] = None,

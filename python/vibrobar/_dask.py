@@ -21,12 +21,13 @@ from typing import Any, Callable, Optional
 import numpy as _np
 
 
-def _run_shard(fn: str, scenario_toml: Optional[str], ratios, kwargs: dict):
-    """One shard, on a worker: the function itself, without a client."""
+def _run_shard(fn: str, scenario_toml: Optional[str], axis: str, values, kwargs: dict):
+    """One shard, on a worker: the function itself, without a client; ``axis`` is the keyword
+    of its frequency values (``ratios``, or ``freqs_hz`` for a map in Hz)."""
     import vibrobar
 
     sc = None if scenario_toml is None else vibrobar.Scenario.from_toml_str(scenario_toml)
-    return getattr(vibrobar, fn)(sc, ratios, **kwargs)
+    return getattr(vibrobar, fn)(sc, **{axis: values}, **kwargs)
 
 
 def _merge(n_ratios: int, *parts):
@@ -53,10 +54,16 @@ def _merge(n_ratios: int, *parts):
 
 def submit(client, fn: str, scenario, ratios, shards: Optional[int] = None, **kwargs):
     """Submit ``vibrobar.<fn>(scenario, ratios, **kwargs)`` as shard tasks and a merge task;
-    returns the merge's future (its result: what the function returns without a client)."""
+    returns the merge's future (its result: what the function returns without a client). A map
+    in absolute frequencies (``freqs_hz=`` in ``kwargs``, no ratios) is cut by frequency the
+    same way: a row depends only on its own frequency."""
+    axis = "ratios"
+    if kwargs.get("freqs_hz") is not None:
+        axis, ratios = "freqs_hz", kwargs.pop("freqs_hz")
+    kwargs.pop("freqs_hz", None)
     ratios = _np.atleast_1d(_np.asarray(ratios, dtype=float))
     if ratios.ndim != 1 or len(ratios) == 0:
-        raise ValueError("ratios must be a non-empty 1-d array")
+        raise ValueError(f"{axis} must be a non-empty 1-d array")
     if shards is None:
         workers = max(1, len(client.scheduler_info().get("workers", {})))
         shards = 4 * workers
@@ -72,6 +79,7 @@ def submit(client, fn: str, scenario, ratios, shards: Optional[int] = None, **kw
             _run_shard,
             fn,
             toml,
+            axis,
             ratios[k::n],
             kwargs,
             key=f"vibrobar-{fn}-shard-{k + 1}-of-{n}-{job}",

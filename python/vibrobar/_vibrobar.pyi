@@ -56,16 +56,18 @@ def sweep(
     gaps_m: Optional[npt.NDArray[np.float64]] = None,
     progress: _Progress = None,
     threads: Optional[int] = None,
+    freqs_hz: Optional[npt.NDArray[np.float64]] = None,
 ) -> tuple[dict[str, Any], str]: ...
 def design_map(
     scenario: Scenario,
-    ratios: npt.NDArray[np.float64],
+    ratios: Optional[npt.NDArray[np.float64]],
     gaps_m: npt.NDArray[np.float64],
     friction_forces_n: Optional[npt.NDArray[np.float64]] = None,
     restitutions: Optional[npt.NDArray[np.float64]] = None,
     mass_ratios: Optional[npt.NDArray[np.float64]] = None,
     progress: _Progress = None,
     threads: Optional[int] = None,
+    freqs_hz: Optional[npt.NDArray[np.float64]] = None,
 ) -> tuple[dict[str, Any], str]: ...
 def regime(scenario: Scenario, ratio: Optional[float] = None, gap_m: Optional[float] = None) -> dict[str, Any]: ...
 def poincare(

@@ -79,6 +79,11 @@ pub struct MapParams {
     /// were classified with the defaults).
     #[serde(default)]
     pub regime_tolerances: Tolerances,
+    /// Absolute forcing frequencies in Hz when the map was given them (`--freqs-hz`): both bars
+    /// run at the same `Ω` and the grid's ratios are `Ω/ω₁` of the damped bar; absent for a map
+    /// in ratios (each bar at its own `Ω/ω₁`), so the fingerprints of those are unchanged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frequencies_hz: Option<Vec<f64>>,
 }
 
 /// Parameters of a placement file (`kind = "placement"`): the study's spec (beam, ball,

@@ -30,8 +30,8 @@ use vibrobar_core::analysis::map::{compute_point, compute_point_from, Axis, Grid
 use vibrobar_core::analysis::map::{GridPoint, MapSpec};
 use vibrobar_core::analysis::poincare::{bifurcation, BifurcationSpec, Stroboscope};
 use vibrobar_core::analysis::regime::Tolerances;
-use vibrobar_core::analysis::sweep::sweep_audited;
-use vibrobar_core::analysis::{BatchError, Runner};
+use vibrobar_core::analysis::sweep::sweep_audited_at;
+use vibrobar_core::analysis::{BatchError, Runner, SolidRatios, SweepBase};
 use vibrobar_core::params::BarModel;
 use vibrobar_core::solver::{modal_run_by_name, solver_by_name, Event, EventKind, Fanout};
 use vibrobar_core::solver::{Segment, SOLVER_NAMES};
@@ -995,7 +995,8 @@ fn run<'py>(
 
 /// `vibrobar sweep`: the damped and the solid bar over `ratios` × `gaps_m` (gap-major rows).
 #[pyfunction]
-#[pyo3(signature = (scenario, ratios = None, gaps_m = None, progress = None, threads = None))]
+#[pyo3(signature = (scenario, ratios = None, gaps_m = None, progress = None, threads = None, freqs_hz = None))]
+#[allow(clippy::too_many_arguments)]
 fn sweep<'py>(
     py: Python<'py>,
     scenario: &PyScenario,
@@ -1003,6 +1004,7 @@ fn sweep<'py>(
     gaps_m: Option<PyReadonlyArray1<'py, f64>>,
     progress: Option<&Bound<'py, PyAny>>,
     threads: Option<usize>,
+    freqs_hz: Option<PyReadonlyArray1<'py, f64>>,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     let sc = &scenario.inner;
     check_threads(threads)?;
@@ -1015,15 +1017,18 @@ fn sweep<'py>(
         }
         None => sc.sweep.gaps_m.clone(),
     };
-    let ratios = match &ratios {
-        Some(r) => values(
-            "ratios",
-            r,
-            |x| x > 0.0,
-            "(0, ∞)",
-            limits::MAX_SWEEP_RATIOS + 1,
-        )?,
-        None => vibrobar_scenario::sweep_ratios(&sc.sweep).map_err(anyhow_input)?,
+    let max = limits::MAX_SWEEP_RATIOS + 1;
+    let (ratios, solid) = match (&ratios, &freqs_hz) {
+        (Some(_), Some(_)) => return Err(both_frequency_axes()),
+        (None, Some(f)) => ratios_at_hz(&sc.base().map_err(anyhow_input)?, f, max)?,
+        (Some(r), None) => (
+            values("ratios", r, |x| x > 0.0, "(0, ∞)", max)?,
+            SolidRatios::default(),
+        ),
+        (None, None) => (
+            vibrobar_scenario::sweep_ratios(&sc.sweep).map_err(anyhow_input)?,
+            SolidRatios::default(),
+        ),
     };
     let points = sc.sweep_points(&gaps_m, &ratios);
     sc.bars().map_err(anyhow_input)?;
@@ -1038,8 +1043,9 @@ fn sweep<'py>(
     let base = sc.base().map_err(anyhow_input)?;
     let rows = detached(py, progress, |ctl| {
         let prog = |d, t| ctl.progress(d, t);
-        batch_result(sweep_audited(
+        batch_result(sweep_audited_at(
             &points,
+            &solid,
             &base,
             &settings,
             solver.as_ref(),
@@ -1065,6 +1071,30 @@ fn sweep<'py>(
     columns(py, &iocsv::sweep_schema(), &table)
 }
 
+/// `ratios` and `freqs_hz` of `sweep` and `map` given together.
+fn both_frequency_axes() -> PyErr {
+    PyValueError::new_err(
+        "ratios and freqs_hz given together (allowed: one of them: ratios Ω/ω₁ > 0, or freqs_hz in (0, 1e7] Hz)",
+    )
+}
+
+/// `freqs_hz` of `sweep` and `map` (the CLI's `--freqs-hz`): both bars at the same absolute
+/// frequencies; the damped bar's ratios and the solid bar's.
+fn ratios_at_hz(
+    base: &SweepBase,
+    freqs_hz: &PyReadonlyArray1<'_, f64>,
+    max: usize,
+) -> PyResult<(Vec<f64>, SolidRatios)> {
+    let f = values(
+        "freqs_hz",
+        freqs_hz,
+        |x| x > 0.0 && x <= limits::MAX_FRF_FREQUENCY_HZ,
+        "(0, 1e7] Hz",
+        max,
+    )?;
+    SolidRatios::at_hz(base, &f, "freqs_hz").map_err(input_error)
+}
+
 /// The map spec of a scenario, as `vibrobar map` and the explore commands build it.
 fn map_spec(sc: &Scenario) -> PyResult<MapSpec> {
     Ok(MapSpec {
@@ -1086,26 +1116,41 @@ fn describe(p: &GridPoint) -> String {
 /// `vibrobar map`: a design map over ratios × gaps (and optionally friction levels,
 /// restitutions, mass ratios), in grid order.
 #[pyfunction]
-#[pyo3(signature = (scenario, ratios, gaps_m, friction_forces_n = None, restitutions = None, mass_ratios = None, progress = None, threads = None))]
+#[pyo3(signature = (scenario, ratios, gaps_m, friction_forces_n = None, restitutions = None, mass_ratios = None, progress = None, threads = None, freqs_hz = None))]
 #[allow(clippy::too_many_arguments)]
 fn design_map<'py>(
     py: Python<'py>,
     scenario: &PyScenario,
-    ratios: PyReadonlyArray1<'py, f64>,
+    ratios: Option<PyReadonlyArray1<'py, f64>>,
     gaps_m: PyReadonlyArray1<'py, f64>,
     friction_forces_n: Option<PyReadonlyArray1<'py, f64>>,
     restitutions: Option<PyReadonlyArray1<'py, f64>>,
     mass_ratios: Option<PyReadonlyArray1<'py, f64>>,
     progress: Option<&Bound<'py, PyAny>>,
     threads: Option<usize>,
+    freqs_hz: Option<PyReadonlyArray1<'py, f64>>,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     let sc = &scenario.inner;
     check_threads(threads)?;
     let max = vibrobar_core::analysis::sweep::MAX_GRID_POINTS;
+    let spec = map_spec(sc)?;
+    let (ratios, solid) = match (&ratios, &freqs_hz) {
+        (Some(_), Some(_)) => return Err(both_frequency_axes()),
+        (None, None) => {
+            return Err(PyValueError::new_err(
+                "map needs ratios or freqs_hz (one of them: ratios Ω/ω₁ > 0, or freqs_hz in (0, 1e7] Hz)",
+            ))
+        }
+        (None, Some(f)) => ratios_at_hz(&spec.base, f, max)?,
+        (Some(r), None) => (
+            values("ratios", r, |x| x > 0.0, "(0, ∞)", max)?,
+            SolidRatios::default(),
+        ),
+    };
     let mut axes = vec![
         GridAxis {
             axis: Axis::FreqRatio,
-            values: values("ratios", &ratios, |x| x > 0.0, "(0, ∞)", max)?,
+            values: ratios,
         },
         GridAxis {
             axis: Axis::GapM,
@@ -1154,7 +1199,6 @@ fn design_map<'py>(
         }
     }
     let grid = Grid::new(axes).map_err(|e| input_error(format!("grid: {e}")))?;
-    let spec = map_spec(sc)?;
     let settings = spec.settings;
     let points = grid.points();
     for p in &points {
@@ -1174,7 +1218,7 @@ fn design_map<'py>(
                 .on(runner(ctl, &prog, threads))
                 .run(
                     &points,
-                    |p| spec.ratio(p),
+                    |p| solid.of(spec.ratio(p)),
                     |p, solid| {
                         compute_point_from(&spec, solver.as_ref(), p, &spec.base.init, solid.rms_m)
                     },

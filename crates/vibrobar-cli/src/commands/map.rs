@@ -27,7 +27,7 @@ use vibrobar_core::analysis::map::{
     Optimum,
 };
 use vibrobar_core::analysis::regime::Tolerances;
-use vibrobar_core::analysis::{run_case, Runner, SweepBase};
+use vibrobar_core::analysis::{run_case, Runner, SolidRatios, SweepBase};
 use vibrobar_core::params::FrictionModel;
 use vibrobar_core::solver::{Solver, SOLVER_NAMES};
 use vibrobar_io::csv::{map_key, map_schema, map_values, optimum_schema};
@@ -37,13 +37,19 @@ use vibrobar_io::{shard, GridInfo, Journal, Metadata};
 
 /// `vibrobar map`: design map over frequency ratio × gap.
 #[derive(Debug, Clone, clap::Args)]
+#[command(group(clap::ArgGroup::new("frequencies").required(true).args(["ratios", "freqs_hz"])))]
 pub struct MapArgs {
     #[command(flatten)]
     /// System and solver.
     pub system: SystemArgs,
     /// Frequency ratios Ω/ω₁ (each bar's own first frequency), START:STOP:STEP (inclusive), each > 0.
     #[arg(long, allow_hyphen_values = true)]
-    pub ratios: String,
+    pub ratios: Option<String>,
+    /// Absolute forcing frequencies in Hz as START:STOP:STEP, STOP included, instead of
+    /// --ratios: the damped and the solid bar both run at the same Ω (the `ratio` column is then
+    /// Ω/ω₁ of the damped bar; the frequencies go to the metadata; the figures stay in ratio).
+    #[arg(long, value_name = "START:STOP:STEP", allow_hyphen_values = true)]
+    pub freqs_hz: Option<String>,
     /// Total gaps (clearance) in mm, START:STOP:STEP (inclusive), each > 0.
     #[arg(long, allow_hyphen_values = true)]
     pub gaps_mm: String,
@@ -90,18 +96,40 @@ pub struct MapJob {
     pub params: MapParams,
     /// Solver name.
     pub solver: String,
+    /// The solid bar's ratio of each ratio of the grid (its own with `--freqs-hz`).
+    pub solid: SolidRatios,
+}
+
+/// The map's ratio axis (`Ω/ω₁` of the damped bar), the solid bar's ratios, and the frequencies
+/// in Hz when given by `--freqs-hz`.
+fn ratio_axis(
+    args: &MapArgs,
+    base: &SweepBase,
+) -> anyhow::Result<(Vec<f64>, SolidRatios, Option<Vec<f64>>)> {
+    match (&args.ratios, &args.freqs_hz) {
+        (_, Some(spec)) => {
+            let (r, solid, f) = super::ratios_at_hz(spec, base)?;
+            Ok((r, solid, Some(f)))
+        }
+        (Some(spec), None) => Ok((
+            parse_range("--ratios", spec, |x| x > 0.0, "(0, ∞)")?,
+            SolidRatios::default(),
+            None,
+        )),
+        (None, None) => anyhow::bail!("map needs --ratios or --freqs-hz (one of them)"),
+    }
 }
 
 /// Build and check the job from the flags (no shard, no output).
 pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
-    if args.stability_overlay {
-        overlay_system(args)?;
-    }
     let sc = args.system.scenario()?;
     let settings = sc.settings();
     let base = sc.base()?;
+    let (ratios, solid, frequencies_hz) = ratio_axis(args, &base)?;
+    if args.stability_overlay {
+        overlay_system(args, &ratios)?;
+    }
     make_solver(&sc.run.solver, &settings)?;
-    let ratios = parse_range("--ratios", &args.ratios, |x| x > 0.0, "(0, ∞)")?;
     let gaps_mm = parse_range("--gaps-mm", &args.gaps_mm, |x| x > 0.0, "(0, ∞) mm")?;
     let mut axes = vec![
         GridAxis {
@@ -115,7 +143,12 @@ pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
     ];
     let mut extra = Vec::new();
     let mut axes_flags = std::collections::BTreeMap::new();
-    axes_flags.insert("ratios".to_string(), args.ratios.clone());
+    if let Some(t) = &args.ratios {
+        axes_flags.insert("ratios".to_string(), t.clone());
+    }
+    if let Some(t) = &args.freqs_hz {
+        axes_flags.insert("freqs_hz".to_string(), t.clone());
+    }
     axes_flags.insert("gaps_mm".to_string(), args.gaps_mm.clone());
     type Check = fn(f64) -> bool;
     let optional: [(&str, &Option<String>, Axis, Check, &str); 3] = [
@@ -179,6 +212,7 @@ pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
         grid: axes_flags,
         grid_values_si: values_si,
         regime_tolerances: spec.tolerances,
+        frequencies_hz,
     };
     Ok(MapJob {
         spec,
@@ -187,6 +221,7 @@ pub fn job(args: &MapArgs) -> anyhow::Result<MapJob> {
         header,
         params,
         solver: sc.run.solver,
+        solid,
     })
 }
 
@@ -233,7 +268,7 @@ fn compute(
             .with_progress(&progress))
         .run(
             &pending,
-            |p| spec.ratio(p),
+            |p| job.solid.of(spec.ratio(p)),
             |p, solid| -> anyhow::Result<()> {
                 let row = compute_point_from(spec, solver, p, &spec.base.init, solid.rms_m)
                     .with_context(|| format!("damped bar at {}", describe(p)))?;
@@ -302,7 +337,7 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
     if shard.is_none() {
         postprocess(&args.out)?;
         if args.stability_overlay {
-            stability_overlay(args)?;
+            stability_overlay(args, &job)?;
         }
     }
     Ok(())
@@ -310,8 +345,11 @@ pub fn run(args: &MapArgs) -> anyhow::Result<()> {
 
 /// The map's base system at its first grid point, checked for periodic orbits (the error names
 /// `--stability-overlay`).
-fn overlay_system(args: &MapArgs) -> anyhow::Result<(vibrobar_core::System, Vec<f64>, Vec<f64>)> {
-    let ratios = parse_range("--ratios", &args.ratios, |x| x > 0.0, "(0, ∞)")?;
+fn overlay_system(
+    args: &MapArgs,
+    ratios: &[f64],
+) -> anyhow::Result<(vibrobar_core::System, Vec<f64>, Vec<f64>)> {
+    let ratios = ratios.to_vec();
     let gaps_mm = parse_range("--gaps-mm", &args.gaps_mm, |x| x > 0.0, "(0, ∞) mm")?;
     let sys = super::explore::PointArgs {
         system: args.system.clone(),
@@ -325,8 +363,15 @@ fn overlay_system(args: &MapArgs) -> anyhow::Result<(vibrobar_core::System, Vec<
 }
 
 /// Redraw the map's figures with the stability boundary over the reduction map.
-fn stability_overlay(args: &MapArgs) -> anyhow::Result<()> {
-    let (sys, ratios, gaps_mm) = overlay_system(args)?;
+fn stability_overlay(args: &MapArgs, job: &MapJob) -> anyhow::Result<()> {
+    let ratios = job
+        .grid
+        .axes()
+        .iter()
+        .find(|a| a.axis == Axis::FreqRatio)
+        .map(|a| a.values.clone())
+        .unwrap_or_default();
+    let (sys, ratios, gaps_mm) = overlay_system(args, &ratios)?;
     if ratios.len() < 2 || gaps_mm.len() < 2 {
         anyhow::bail!("--stability-overlay needs at least two ratios and two gaps");
     }

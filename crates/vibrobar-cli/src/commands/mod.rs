@@ -35,13 +35,22 @@ use anyhow::{anyhow, Result};
 pub use vibrobar_core::analysis::case::{run_one, Case, CaseOutcome};
 use vibrobar_core::analysis::sweep::sweep_audited;
 pub use vibrobar_core::analysis::SweepRow;
-use vibrobar_core::analysis::{BatchError, Runner, SweepBase, SweepPoint};
+use vibrobar_core::analysis::{BatchError, Runner, SolidRatios, SweepBase, SweepPoint};
 use vibrobar_core::ContactLaw;
 use vibrobar_core::{Observer, RunSettings, SimError, Solver, State, System};
 
 /// Look a solver up by name; the error lists the names the library provides.
 pub fn solver(name: &str, settings: &RunSettings) -> Result<Box<dyn Solver>> {
     make_solver(name, settings)
+}
+
+/// `--freqs-hz START:STOP:STEP` of `sweep` and `map`: both bars at the same absolute
+/// frequencies. Returns the damped bar's ratios `Ω/ω₁` (the grid's ratio axis and the `ratio`
+/// column), the solid bar's ratio of each, and the frequencies in Hz (for the metadata).
+pub fn ratios_at_hz(spec: &str, base: &SweepBase) -> Result<(Vec<f64>, SolidRatios, Vec<f64>)> {
+    let (_, f) = frf::parse_lines("--freqs-hz", spec)?;
+    let (r, solid) = SolidRatios::at_hz(base, &f, "--freqs-hz")?;
+    Ok((r, solid, f))
 }
 
 /// A batch runner error as one message: the job's own error as it is, the runner's (a solid

@@ -8,7 +8,7 @@
 //! stamp and the job's fingerprint (which `--resume` checks).
 
 use anyhow::{Context, Result};
-use vibrobar_core::analysis::{Batch, Runner};
+use vibrobar_core::analysis::{Batch, Runner, SolidRatios};
 
 use super::{batch_error, fmt_secs, run_one, solver, Case, SweepRow};
 use crate::cli::SweepArgs;
@@ -37,20 +37,13 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     }
     // In Hz: each bar's ratio of the one Ω (the damped bar's in the rows, the solid bar's for
     // its shared runs); in ratios: the same ratio of each bar's own ω₁.
-    let (damped_bar, solid_bar) = sc.bars()?;
-    let (ratios, solid_ratios, frequencies_hz) = match (&args.ratios, &args.freqs_hz) {
+    let (ratios, solid, frequencies_hz) = match (&args.ratios, &args.freqs_hz) {
         (_, Some(spec)) => {
-            let (_, f) = super::frf::parse_lines("--freqs-hz", spec)?;
-            let w = |f: f64| 2.0 * std::f64::consts::PI * f;
-            let r: Vec<f64> = f
-                .iter()
-                .map(|&f| w(f) / damped_bar.omega1_rad_s())
-                .collect();
-            let rs: Vec<f64> = f.iter().map(|&f| w(f) / solid_bar.omega1_rad_s()).collect();
-            (r, Some(rs), Some(f))
+            let (r, solid, f) = super::ratios_at_hz(spec, &sc.base()?)?;
+            (r, solid, Some(f))
         }
-        (Some(spec), None) => (parse_ratios(spec)?, None, None),
-        (None, None) => (sweep_ratios(&sc.sweep)?, None, None),
+        (Some(spec), None) => (parse_ratios(spec)?, SolidRatios::default(), None),
+        (None, None) => (sweep_ratios(&sc.sweep)?, SolidRatios::default(), None),
     };
     // Grid order (= row order and journal index): gap-major.
     let points = sc.sweep_points(&gaps_m, &ratios);
@@ -95,11 +88,7 @@ pub fn sweep(args: &SweepArgs) -> Result<()> {
     let progress = bar.callback();
     let batch = Batch::new(&base, &settings, solver).on(Runner::default().with_progress(&progress));
     // The solid bar's ratio of a row: the row's own, or (in Hz) the solid bar's at the same Ω.
-    let n_ratios = ratios.len();
-    let solid_ratio = |i: usize| match &solid_ratios {
-        Some(rs) => rs[i % n_ratios],
-        None => points[i].ratio,
-    };
+    let solid_ratio = |i: usize| solid.of(points[i].ratio);
     let n_solid = batch.distinct_ratios(&pending, |&i| solid_ratio(i)).len();
     let res = batch.run(
         &pending,

@@ -127,6 +127,54 @@ impl SweepBase {
     }
 }
 
+/// The solid bar's ratio of each damped ratio of a job. In ratios (the default, empty) each
+/// bar runs at its own `Ω/ω₁`, so the solid ratio is the damped one; in absolute frequencies
+/// ([`SolidRatios::at_hz`]) both bars run at the same `Ω`, so the solid bar runs at
+/// `Ω/ω₁,solid` while the points (and the `ratio` column) hold `Ω/ω₁,damped`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SolidRatios(std::collections::BTreeMap<u64, f64>);
+
+impl SolidRatios {
+    /// Both bars at the forcing frequencies `freqs_hz` (`Ω = 2πf`): the damped bar's ratios, in
+    /// the order given, and the solid bar's ratio of each. Two frequencies too close to give
+    /// distinct damped ratios are refused, naming `field`.
+    pub fn at_hz(
+        base: &SweepBase,
+        freqs_hz: &[f64],
+        field: &'static str,
+    ) -> Result<(Vec<f64>, SolidRatios), ParamError> {
+        let omega = |f: f64| 2.0 * std::f64::consts::PI * f;
+        let mut ratios = Vec::with_capacity(freqs_hz.len());
+        let mut solid = std::collections::BTreeMap::new();
+        for &f in freqs_hz {
+            let r = omega(f) / base.damped_bar.omega1_rad_s();
+            if solid
+                .insert(r.to_bits(), omega(f) / base.solid_bar.omega1_rad_s())
+                .is_some()
+            {
+                return Err(ParamError::OutOfRange {
+                    field,
+                    value: f,
+                    allowed: "distinct frequencies, each a distinct ratio Ω/ω₁ (use a larger STEP)",
+                });
+            }
+            ratios.push(r);
+        }
+        Ok((ratios, SolidRatios(solid)))
+    }
+
+    /// True for a job in absolute frequencies.
+    pub fn is_hz(&self) -> bool {
+        !self.0.is_empty()
+    }
+
+    /// The solid bar's ratio at the damped ratio `ratio` (`ratio` itself in ratios, or for a
+    /// ratio not given to [`SolidRatios::at_hz`]).
+    pub fn of(&self, ratio: f64) -> f64 {
+        self.0.get(&ratio.to_bits()).copied().unwrap_or(ratio)
+    }
+}
+
 /// Why a batch stopped.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum BatchError<E> {

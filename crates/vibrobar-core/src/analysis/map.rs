@@ -10,6 +10,7 @@ use crate::params::{Frequency, FrictionModel, RunSettings, State, System};
 use crate::solver::Solver;
 use std::collections::BTreeMap;
 
+pub use super::batch::SolidRatios;
 pub use super::grid::{Axis, Grid, GridAxis, GridPoint};
 
 /// Everything fixed across a map (serialisable, for typed metadata).

@@ -28,7 +28,7 @@ pub mod time_domain;
 pub mod variational;
 pub mod variational_modal;
 
-pub use batch::{par_map_with_progress, Batch, BatchError, Runner, SweepBase};
+pub use batch::{par_map_with_progress, Batch, BatchError, Runner, SolidRatios, SweepBase};
 pub use case::{run_case, ImpactCounter, RmsObserver, RunResult, Sampler};
 pub use grid::{checked_linspace_inclusive, linspace_inclusive, MAX_GRID_POINTS};
 pub use sweep::{sweep, SweepPoint, SweepRow};

@@ -7,7 +7,7 @@ use crate::params::RunSettings;
 use crate::solver::Solver;
 use serde::{Deserialize, Serialize};
 
-pub use super::batch::{SweepBase, SweepPoint};
+pub use super::batch::{SolidRatios, SweepBase, SweepPoint};
 pub use super::grid::{checked_linspace_inclusive, linspace_inclusive, MAX_GRID_POINTS};
 
 /// Frequency ratios (an inclusive range) and gaps of a sweep: the `[sweep]` section of a
@@ -105,9 +105,31 @@ pub fn sweep_audited(
     runner: Runner<'_>,
     energy_audit: bool,
 ) -> Result<Vec<SweepRow>, BatchError<PointFailed>> {
+    sweep_audited_at(
+        points,
+        &SolidRatios::default(),
+        base,
+        settings,
+        solver,
+        runner,
+        energy_audit,
+    )
+}
+
+/// [`sweep_audited`] with the solid bar at `solid.of(ratio)` of each point (both bars at one
+/// `Ω` for a sweep in absolute frequencies, [`SolidRatios::at_hz`]).
+pub fn sweep_audited_at(
+    points: &[SweepPoint],
+    solid: &SolidRatios,
+    base: &SweepBase,
+    settings: &RunSettings,
+    solver: &dyn Solver,
+    runner: Runner<'_>,
+    energy_audit: bool,
+) -> Result<Vec<SweepRow>, BatchError<PointFailed>> {
     Batch::new(base, settings, solver).on(runner).run(
         points,
-        |p| p.ratio,
+        |p| solid.of(p.ratio),
         |p, solid| {
             let case = Case {
                 system: base.damped_system(p),
