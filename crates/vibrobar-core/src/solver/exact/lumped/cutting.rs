@@ -12,7 +12,10 @@
 //! start). Over a piece the delayed surface `s(t − T)` is the quadratic through three values of
 //! the stored history (Hermite pieces on its knots: values and one-sided velocities, and on the
 //! sixth-order surface accelerations, exact at the knots); the breakpoints guarantee that no
-//! piece reaches across a stored event.
+//! piece reaches across a stored event. The pieces' ends, the windows, the cut events and their
+//! count, and the history's start and end are the drive every bar shares
+//! ([`super::super::cut_loop`]); this module is the lumped bar's arithmetic under it and the
+//! surface [`History`].
 //! With the linear law each piece is then a linear ODE with polynomial forcing, solved in closed
 //! form by the same segment code as every other lumped run ([`super::Consts::bar_sum`]): in the
 //! cut the stiffness gains `c_force K_f b c_chip`, out of it the bar is free. Its event
@@ -118,9 +121,10 @@ use super::{
     HORIZON,
 };
 use super::{joint_search, Consts, EventSet, Osc, Trig};
-use crate::error::{EventLimitCause, SimError};
+use crate::error::SimError;
 use crate::excitation::{Cutting, CuttingForceLaw};
 use crate::params::{BarModel, State, System};
+use crate::solver::exact::cut_loop::{self, CutCount, Pieces, CONTINUE_OTHER_BAR};
 use crate::solver::exact::driver::Tally;
 use crate::solver::exact::hertz_cut::{self, CutOver, PieceEnd};
 use crate::solver::{Event, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Solver};
@@ -601,15 +605,13 @@ impl History {
         self.push(kn);
     }
 
-    /// A cut event at `t` (the tool's velocity `du` there): its breakpoint queued and the
-    /// surface's kink ([`History::cut_event_slope`]) with the side after the event, whatever
-    /// the history's own cut flag.
+    /// A cut event at `t` (the tool's velocity `du` there): its breakpoint queued, the
+    /// history's cut flag the side after the event, and the surface's kink
+    /// ([`History::cut_event_slope`]) with that side.
     pub(in crate::solver::exact) fn cut_event(&mut self, t: f64, in_cut_after: bool, du: f64) {
         self.breakpoint(t);
-        let keep = self.in_cut;
         self.in_cut = in_cut_after;
         self.cut_event_slope(t, du);
-        self.in_cut = keep;
     }
 
     /// Queue the breakpoint source `t`.
@@ -625,9 +627,9 @@ impl History {
         }
     }
 
-    /// The next breakpoint source.
-    pub(in crate::solver::exact) fn first_breakpoint(&self) -> Option<f64> {
-        self.bp.front().map(|b| b.0)
+    /// The next breakpoint source and the order of its break.
+    pub(in crate::solver::exact) fn first_breakpoint(&self) -> Option<(f64, u8)> {
+        self.bp.front().copied()
     }
 
     /// The quadratic through the surface over the window `[a, b]` ([`History::quadratic`]).
@@ -1189,10 +1191,7 @@ impl ExactCutting {
                 let (r, c) = self.modal().continue_run(&msys, from, t_end_s, obs)?;
                 Ok((r.summary, c))
             }
-            _ => Err(SimError::Unsupported(
-                "continuing a cutting run: the bar ([bar], or [beam]/[[modes]]) must be the \
-                 continued run's",
-            )),
+            _ => Err(SimError::Unsupported(CONTINUE_OTHER_BAR)),
         }
     }
 
@@ -1302,16 +1301,17 @@ impl ExactCutting {
         let pieces = (tau / h_near).ceil() + 4.0;
         let cap = 2 * pieces as usize + MAX_EVENT_KNOTS;
         let mut h0_chip = cut.feed_m - cut.chip_direction_factor * init.u_m;
-        let in_cut0 = match from {
-            Some(c) => c.in_cut,
-            None => h0_chip > 0.0,
-        };
         let shift = cut.feed_m / cut.chip_direction_factor;
-        let mut h = match from {
-            Some(c) => History::resumed(c, cap, tau, shift, t0)
-                .ok_or(SimError::Unsupported(CONTINUE_MISMATCH))?,
-            None => History::smooth(cap, tau, shift, t0, u_eq, in_cut0, start.u_m, start.du_m_s),
-        };
+        let (in_cut0, mut h) = cut_loop::start_history(
+            from,
+            cap,
+            tau,
+            shift,
+            t0,
+            u_eq,
+            h0_chip > 0.0,
+            (start.u_m, start.du_m_s),
+        )?;
         h.quintic = quintic;
         if from.is_some() {
             // The chip at the start, from the continued surface.
@@ -1341,7 +1341,7 @@ impl ExactCutting {
             ),
             cut_event: false,
         };
-        let mut in_cut = in_cut0;
+        let mut pc = Pieces::new(t0, tau, t_end_s, in_cut0, CutCount::Apart);
         let cut_force0 = match (in_cut0, nonlinear) {
             (false, _) => 0.0,
             (true, false) => kfb * h0_chip,
@@ -1377,43 +1377,24 @@ impl ExactCutting {
             Some((_, wall)) => Md::HertzTouch(wall),
             None if has_ball => {
                 let d0 = hist.borrow().quadratic(t0 - tau, t0 - tau);
-                initial_mode(&consts(in_cut, d0, 0), &mut s, &mut book)?
+                initial_mode(&consts(in_cut0, d0, 0), &mut s, &mut book)?
             }
             None => Md::Stick,
-        };
-        let mut order = 0;
-        let mut cut_events: u64 = 0;
-        // The window start of a piece that begins at the previous piece's end (exact `t_k`).
-        let mut win_prev: Option<(u64, f64)> = None;
-        let window_start = |win_prev: Option<(u64, f64)>, t: f64| match win_prev {
-            Some((bits, x)) if bits == t.to_bits() => x,
-            _ => t - tau,
         };
         // The quadratic of the piece starting at this time, fitted already.
         let mut fitted: Option<(u64, [f64; 3])> = None;
         while s.t < t_end_s {
             let (step_end, win_end, near, at_breakpoint) = {
                 let mut h = hist.borrow_mut();
-                h.trim(s.t - tau - h_max.max(h_near));
-                while h.bp.front().is_some_and(|&(tk, _)| tk + tau <= s.t) {
-                    h.bp.pop_front();
-                }
-                let step = |len: f64| match h.bp.front() {
-                    Some(&(tk, order)) if tk + tau < (s.t + len).min(t_end_s) => {
-                        (tk + tau, tk, Some(order))
-                    }
-                    _ => {
-                        let e = (s.t + len).min(t_end_s);
-                        (e, e - tau, None)
-                    }
-                };
+                h.forget_before(s.t - tau - h_max.max(h_near), s.t);
+                let step = |len: f64| pc.end(&h, s.t, len);
                 let (mut end, mut win, mut bp) = step(if quintic { h_max } else { h_near });
                 // The chip's deviation from the feed, `D = c_chip (s(t − T) − u)`, as an
                 // oscillation at the fastest frequency: its amplitude `√(D² + (Ḋ/ω)²)` against
                 // the feed says whether the chip can reach 0 soon (from the long piece's
                 // quadratic, kept for the piece when it is not).
                 let near = quintic && {
-                    let a = window_start(win_prev, s.t);
+                    let a = pc.window_start(s.t);
                     let d = h.quadratic(a, win.max(a));
                     let c = cut.chip_direction_factor;
                     let dd = c * (d[0] - s.u);
@@ -1430,7 +1411,8 @@ impl ExactCutting {
                 (end, win, near, bp)
             };
             while s.t < step_end {
-                let a = window_start(win_prev, s.t);
+                let (in_cut, order) = (pc.in_cut, pc.order);
+                let a = pc.window_start(s.t);
                 let d = match fitted.take() {
                     // The long piece's quadratic from the test above (same window).
                     Some((bits, d)) if bits == s.t.to_bits() => d,
@@ -1524,32 +1506,14 @@ impl ExactCutting {
                 } else {
                     bar_only(&cs, &mut s, step_end, &mut book, &mut search)?;
                 }
-                let mut h = hist.borrow_mut();
-                if h.full {
-                    return Err(SimError::Unsupported(
-                        "a cutting run had more events within one spindle revolution than its \
-                         surface history holds (solver::exact::cutting::MAX_EVENT_KNOTS)",
-                    ));
-                }
-                if book.cut_event {
-                    in_cut = !in_cut;
-                    order = 1;
-                    cut_events += 1;
-                    h.in_cut = in_cut;
-                    h.cut_event(s.t, in_cut, s.du);
-                    if cut_events > self.exact.max_events {
-                        return Err(SimError::TooManyEvents {
-                            limit: self.exact.max_events,
-                            t_s: s.t,
-                            // Per revolution here: the cut's own period.
-                            events_per_period: cut_events as f64
-                                / ((s.t - t0) / tau).max(f64::MIN_POSITIVE),
-                            cause: EventLimitCause::Dense,
-                        });
-                    }
-                } else {
-                    order = 0;
-                }
+                let du = s.du;
+                pc.segment_done(
+                    &mut hist.borrow_mut(),
+                    &mut book.tally,
+                    book.cut_event,
+                    s.t,
+                    || du,
+                )?;
             }
             if let (true, Some(order)) = (quintic, at_breakpoint) {
                 // The surface's break at `t_k` reaches `t_k + T` and from there `t_k + 2T`: out
@@ -1558,25 +1522,21 @@ impl ExactCutting {
                 // across `t_k + 2T` would carry as an O(Δ³) error of its delayed surface
                 // (measured: the order through loss of contact fell to ~3 without it); a
                 // kink becomes a jump in `u⃛`, O(Δ⁴) once per event, left as it is.
-                if !in_cut {
+                if !pc.in_cut {
                     hist.borrow_mut().queue_breakpoint(s.t, order);
                 } else if order == BREAK_JUMP {
                     hist.borrow_mut().queue_breakpoint(s.t, BREAK_ACCEL);
                 }
             }
-            win_prev = Some((s.t.to_bits(), win_end));
+            pc.piece_done(s.t, win_end);
         }
+        pc.finish(&mut book.tally);
         book.tally.summary.final_state = s.public();
-        book.tally.summary.events += cut_events;
         let summary = book.tally.summary;
-        let contact = match (mode, phase) {
-            (Md::HertzTouch(wall), Some(p)) => Some((p, wall)),
-            _ => None,
-        };
         let end = (hist.into_inner()).into_continuation(
             summary.final_state,
-            in_cut,
-            BarEnd::Lumped(contact),
+            pc.in_cut,
+            BarEnd::Lumped(cut_loop::contact_at_end(mode, phase)),
         );
         Ok((summary, end))
     }
