@@ -13,8 +13,11 @@
 //! of each bar's loop, so that each bar's runs stop at the event they always stopped at).
 
 use super::driver::{Md, Tally};
-use super::lumped::cutting::{CutContinuation, History, CONTINUE_MISMATCH};
+use super::lumped::cutting::{
+    CutContinuation, History, CONTINUE_MISMATCH, REMAINDER_MAX_ITERATIONS, REMAINDER_TOL,
+};
 use crate::error::{EventLimitCause, SimError};
+use crate::excitation::Cutting;
 use crate::solver::Wall;
 
 /// The error of a run whose surface history overflowed.
@@ -49,25 +52,16 @@ pub(super) fn too_many_events(count: u64, limit: u64, t: f64, t0: f64, tau: f64)
     }
 }
 
-/// The surface history a run starts with, and whether the tool cuts at the start: a fresh
-/// start's smooth surface (the tool at rest at `u_eq` before `t0`, at `u0`, `du0` from it;
-/// `in_cut` the start's), or the history of the run `from` continues.
-#[allow(clippy::too_many_arguments)]
+/// The surface history a run starts with, and whether the tool cuts at the start: `fresh()`
+/// on a fresh start, else the history of the run `from` continues (`cap`, `tau`, `shift`, `t0`
+/// as for [`History::resumed`]).
 pub(super) fn start_history(
     from: Option<&CutContinuation>,
-    cap: usize,
-    tau: f64,
-    shift: f64,
-    t0: f64,
-    u_eq: f64,
-    in_cut: bool,
-    (u0, du0): (f64, f64),
+    (cap, tau, shift, t0): (usize, f64, f64, f64),
+    fresh: impl FnOnce() -> (bool, History),
 ) -> Result<(bool, History), SimError> {
     match from {
-        None => Ok((
-            in_cut,
-            History::smooth(cap, tau, shift, t0, u_eq, in_cut, u0, du0),
-        )),
+        None => Ok(fresh()),
         Some(c) => Ok((
             c.in_cut(),
             History::resumed(c, cap, tau, shift, t0)
@@ -194,4 +188,69 @@ impl Pieces {
     pub fn finish(&self, tally: &mut Tally) {
         tally.summary.events += self.apart;
     }
+}
+
+/// The three-quarter law's remainder `R = c_force F(h) − c_force K_f b h` over a segment of the
+/// tool from `u0` (in the cut, `d` the delayed surface's quadratic, `len` the segment's planned
+/// length) as the quadratic `r0 + r1 τ + r2 τ²` through its values at the segment's start,
+/// middle and end: `dry(fit, len)` runs the segment with `fit` (a dry run: no events counted, no
+/// observer) and returns the length it reached and the tool's displacement at `len/2` and `len`
+/// along it (continued past an event that ends it early) ([`fit_remainder`]).
+pub(super) fn remainder_fit(
+    cut: &Cutting,
+    kfb: f64,
+    d: [f64; 3],
+    u0: f64,
+    len: f64,
+    mut dry: impl FnMut(&[f64; 3], f64) -> Result<(f64, f64, f64), SimError>,
+) -> Result<[f64; 3], SimError> {
+    let (h0, c_chip) = (cut.feed_m, cut.chip_direction_factor);
+    let rem = |tau: f64, u: f64| -> f64 {
+        let dd = d[0] + tau * (d[1] + tau * d[2]);
+        let h = h0 + c_chip * (dd - u);
+        cut.force_on_bar_n(h) - kfb * h
+    };
+    let r0 = rem(0.0, u0);
+    let scale = REMAINDER_TOL * (kfb * h0).abs();
+    fit_remainder(r0, scale, len, |r, len| {
+        let (end, um, u1) = dry(r, len)?;
+        Ok((end, rem(0.5 * len, um), rem(len, u1)))
+    })
+}
+
+/// The fixed-point iteration of the three-quarter law's remainder fit over one piece, shared
+/// by every bar's [`remainder_fit`]: from
+/// `R` constant at its start value `r0`, `dry(fit, len)` runs the piece with `fit` (a dry run:
+/// no events counted, no observer) and returns the length it reached and `R` at `len/2` and
+/// `len` along it; the next fit is the quadratic through `r0` and those values. It stops when
+/// the fit moves by at most `scale` at the nodes and the piece's end settles, or after
+/// [`REMAINDER_MAX_ITERATIONS`] dry runs (keeping the last fit).
+fn fit_remainder(
+    r0: f64,
+    scale: f64,
+    mut len: f64,
+    mut dry: impl FnMut(&[f64; 3], f64) -> Result<(f64, f64, f64), SimError>,
+) -> Result<[f64; 3], SimError> {
+    let mut r = [r0, 0.0, 0.0];
+    for _ in 0..REMAINDER_MAX_ITERATIONS {
+        let (end, rm, r1) = dry(&r, len)?;
+        let mut next = [r0, 0.0, 0.0];
+        if len > 0.0 {
+            next[2] = 2.0 * (r1 - 2.0 * rm + r0) / (len * len);
+            next[1] = (r1 - r0) / len - next[2] * len;
+        }
+        let settled = (0..3).all(|i| {
+            let x = [0.0, 0.5, 1.0][i] * len;
+            let a = r[0] + x * (r[1] + x * r[2]);
+            let b = next[0] + x * (next[1] + x * next[2]);
+            (a - b).abs() <= scale
+        });
+        let same_end = end.to_bits() == len.to_bits();
+        r = next;
+        if settled && same_end {
+            break;
+        }
+        len = end;
+    }
+    Ok(r)
 }

@@ -86,7 +86,7 @@
 //! The three-quarter law with a ball. Its force is the linear law's plus the remainder
 //! `R = c_force F(h) − c_force K_f b h` (`O((h − h0)²)` near the feed: the slopes agree at `h0`).
 //! Over each piece in the cut `R` is fitted as the quadratic through its values at the piece's
-//! start, middle and end ([`remainder_fit`]), folded into the piece's polynomial forcing, and the
+//! start, middle and end ([`super::super::cut_loop::remainder_fit`]), folded into the piece's polynomial forcing, and the
 //! piece is solved in closed form by the same segment code, its events (the ball's and the chip's)
 //! found by the same root search: so the event guarantees above hold unchanged for the motion the
 //! pieces carry. The chip at the middle and end comes from the piece itself, run with the
@@ -112,9 +112,9 @@
 //! tool leaving or re-entering the cut located on its dense output and stored as every cut event
 //! is; its accuracy is the contact phase's (rtol 1e-9) on top of the pieces'. A modal bar goes to
 //! [`super::modal::cutting`] (both force laws, the three-quarter law by the same remainder fit,
-//! [`fit_remainder`], with or without a ball; both contact laws, `hertz` through
-//! [`super::super::hertz_cut`]; kept and continued as here, [`CutContinuation`] carrying the
-//! modal state).
+//! [`super::super::cut_loop::remainder_fit`], with or without a ball; both contact laws,
+//! `hertz` through [`super::super::hertz_cut`]; kept and continued as here,
+//! [`CutContinuation`] carrying the modal state).
 
 use super::{
     advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, CUT,
@@ -1006,12 +1006,10 @@ impl Observer for Probe {
     }
 }
 
-/// The three-quarter law's remainder `R = c_force F(h) − c_force K_f b h` over the piece from
-/// `s` (in the cut) as the quadratic `r0 + r1 τ + r2 τ²` through its values at the piece's
-/// start, middle and end, the chip from the closed form of the piece run with the previous fit
-/// (a fixed-point iteration from `R` constant at its start value). The piece is the one the
-/// event loop will take: up to `t_stop`, or to the first event of the dry run (its end moves
-/// with the fit; the iteration goes on until both settle).
+/// The three-quarter law's remainder fit over the piece from `s` (in the cut) up to `t_stop`
+/// ([`cut_loop::remainder_fit`]), each dry run the piece the event loop will take (to `t_stop`
+/// or to its first event) with the previous fit, the tool's displacement at the nodes from the
+/// segments' closed forms.
 fn remainder_fit(
     cs: &Consts,
     cut: &Cutting,
@@ -1022,14 +1020,7 @@ fn remainder_fit(
     search: &mut Search,
 ) -> Result<[f64; 3], SimError> {
     let cp = cs.cut.expect("a cutting piece");
-    let rem = |tau: f64, u: f64| -> f64 {
-        let d = cp.d[0] + tau * (cp.d[1] + tau * cp.d[2]);
-        let h = cp.h0 + cp.c_chip * (d - u);
-        cut.force_on_bar_n(h) - cp.kfb * h
-    };
-    let r0 = rem(0.0, s.u);
-    let scale = REMAINDER_TOL * (cp.kfb * cp.h0).abs();
-    fit_remainder(r0, scale, t_stop - s.t, |r, len| {
+    cut_loop::remainder_fit(cut, cp.kfb, cp.d, s.u, t_stop - s.t, |r, len| {
         let mut c = *cs;
         if let Some(p) = c.cut.as_mut() {
             p.r = Some(*r);
@@ -1051,45 +1042,8 @@ fn remainder_fit(
         let mut st = *s;
         advance(&c, mode, &mut st, t_stop, &mut dry, search)?;
         let [_, um, u1] = probe.u;
-        Ok((st.t - s.t, rem(0.5 * len, um), rem(len, u1)))
+        Ok((st.t - s.t, um, u1))
     })
-}
-
-/// The fixed-point iteration of the three-quarter law's remainder fit over one piece, shared
-/// by the lumped bar ([`remainder_fit`]) and the modal bar ([`super::modal::cutting`]): from
-/// `R` constant at its start value `r0`, `dry(fit, len)` runs the piece with `fit` (a dry run:
-/// no events counted, no observer) and returns the length it reached and `R` at `len/2` and
-/// `len` along it; the next fit is the quadratic through `r0` and those values. It stops when
-/// the fit moves by at most `scale` at the nodes and the piece's end settles, or after
-/// [`REMAINDER_MAX_ITERATIONS`] dry runs (keeping the last fit).
-pub(in crate::solver::exact) fn fit_remainder(
-    r0: f64,
-    scale: f64,
-    mut len: f64,
-    mut dry: impl FnMut(&[f64; 3], f64) -> Result<(f64, f64, f64), SimError>,
-) -> Result<[f64; 3], SimError> {
-    let mut r = [r0, 0.0, 0.0];
-    for _ in 0..REMAINDER_MAX_ITERATIONS {
-        let (end, rm, r1) = dry(&r, len)?;
-        let mut next = [r0, 0.0, 0.0];
-        if len > 0.0 {
-            next[2] = 2.0 * (r1 - 2.0 * rm + r0) / (len * len);
-            next[1] = (r1 - r0) / len - next[2] * len;
-        }
-        let settled = (0..3).all(|i| {
-            let x = [0.0, 0.5, 1.0][i] * len;
-            let a = r[0] + x * (r[1] + x * r[2]);
-            let b = next[0] + x * (next[1] + x * next[2]);
-            (a - b).abs() <= scale
-        });
-        let same_end = end.to_bits() == len.to_bits();
-        r = next;
-        if settled && same_end {
-            break;
-        }
-        len = end;
-    }
-    Ok(r)
 }
 
 /// The error of a continued run whose cut changes the surface history's delay or advance.
@@ -1302,16 +1256,11 @@ impl ExactCutting {
         let cap = 2 * pieces as usize + MAX_EVENT_KNOTS;
         let mut h0_chip = cut.feed_m - cut.chip_direction_factor * init.u_m;
         let shift = cut.feed_m / cut.chip_direction_factor;
-        let (in_cut0, mut h) = cut_loop::start_history(
-            from,
-            cap,
-            tau,
-            shift,
-            t0,
-            u_eq,
-            h0_chip > 0.0,
-            (start.u_m, start.du_m_s),
-        )?;
+        let (in_cut0, mut h) = cut_loop::start_history(from, (cap, tau, shift, t0), || {
+            let in_cut = h0_chip > 0.0;
+            let h = History::smooth(cap, tau, shift, t0, u_eq, in_cut, start.u_m, start.du_m_s);
+            (in_cut, h)
+        })?;
         h.quintic = quintic;
         if from.is_some() {
             // The chip at the start, from the continued surface.

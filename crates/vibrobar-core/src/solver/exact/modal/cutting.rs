@@ -53,9 +53,9 @@
 //! The three-quarter law, with and without a ball: as on the lumped bar
 //! ([`super::super::cutting`]), the force is the linear law's plus the remainder
 //! `R = c_force F(h) − c_force K_f b h`, fitted over each segment in the cut as the quadratic
-//! through its start, middle and end values by the lumped bar's fixed-point iteration
-//! ([`fit_remainder`], its tolerance and cap; each dry run this segment with the previous fit)
-//! and added to the polynomial forcing along `φ_f`. The segments stay closed forms and their
+//! through its start, middle and end values by the one fixed-point iteration of every bar
+//! ([`cut_loop::remainder_fit`], its tolerance and cap; each dry run this segment with the
+//! previous fit) and added to the polynomial forcing along `φ_f`. The segments stay closed forms and their
 //! events the same joint search, so the guarantees above hold for the motion the pieces carry;
 //! the books' cutting work is that force's. Measured (`tests/modal_cutting_three_quarter.rs`): a
 //! one-mode table is the lumped three-quarter run to ~1e-13 relative (impacting ball, ball out
@@ -79,8 +79,7 @@
 
 use super::super::cut_loop::{self, too_many_events, CutCount, Pieces, CONTINUE_OTHER_BAR};
 use super::super::cutting::{
-    fit_remainder, BarEnd, CutContinuation, History, DEFAULT_STEPS_PER_PERIOD, GL8,
-    MAX_EVENT_KNOTS, REMAINDER_TOL,
+    BarEnd, CutContinuation, History, DEFAULT_STEPS_PER_PERIOD, GL8, MAX_EVENT_KNOTS,
 };
 use super::super::driver::{self, flight, wall_of, Cavity, Kernel, Md, Tally, CUT, HORIZON};
 use super::super::expsum_n::{ExpSumN, Term, MAX_TERMS};
@@ -1350,17 +1349,11 @@ impl ModalCutting {
         }
         let u_f0 = cs.dot(&cs.phi_f, &s.q);
         let du_f0 = cs.dot(&cs.phi_f, &s.dq);
-        let fresh_in_cut = cut.feed_m - cut.chip_direction_factor * (u_f0 - u_f_eq) > 0.0;
-        let (in_cut, mut hist) = cut_loop::start_history(
-            from,
-            cap,
-            tau,
-            shift,
-            t0,
-            u_f_eq,
-            fresh_in_cut,
-            (u_f0, du_f0),
-        )?;
+        let (in_cut, mut hist) = cut_loop::start_history(from, (cap, tau, shift, t0), || {
+            let in_cut = cut.feed_m - cut.chip_direction_factor * (u_f0 - u_f_eq) > 0.0;
+            let h = History::smooth(cap, tau, shift, t0, u_f_eq, in_cut, u_f0, du_f0);
+            (in_cut, h)
+        })?;
         let mut run = Run {
             cs,
             sys: [None, Some(in_free), None, None],
@@ -1495,11 +1488,9 @@ impl ModalCutting {
     }
 }
 
-/// The three-quarter law's remainder `R = c_force F(h) − c_force K_f b h` over the next segment
-/// from `s` (in the cut) as the quadratic through its values at the segment's start, middle and
-/// end: the lumped bar's fixed-point iteration ([`fit_remainder`], its tolerance and cap), each
-/// dry run this very segment (mode, chip order, delayed surface `d`) with the previous fit, the
-/// chip at the nodes from its closed form (continued past an event that ends it early).
+/// The three-quarter law's remainder fit over the next segment from `s` (in the cut)
+/// ([`cut_loop::remainder_fit`]), each dry run this very segment (mode, chip order, delayed
+/// surface `d`) with the previous fit, the tool at the nodes from its closed form.
 #[allow(clippy::too_many_arguments)]
 fn remainder_fit(
     run: &mut Run,
@@ -1511,14 +1502,10 @@ fn remainder_fit(
     t_stop: f64,
     book: &Book,
 ) -> Result<[f64; 3], SimError> {
-    let rem = |cs: &Consts, tau: f64, q: &[f64; NM]| -> f64 {
-        let dd = d[0] + tau * (d[1] + tau * d[2]);
-        cs.remainder(cs.h0 + cs.c_chip * (dd - cs.dot(&cs.phi_f, q)))
-    };
-    let r0 = rem(&run.cs, 0.0, &s.q);
-    let scale = REMAINDER_TOL * (run.cs.kfb * run.cs.h0).abs();
+    let u0 = run.cs.dot(&run.cs.phi_f, &s.q);
+    let (cut, kfb) = (run.cs.cut, run.cs.kfb);
     run.dry = true;
-    let fit = fit_remainder(r0, scale, t_stop - s.t, |r, len| {
+    let fit = cut_loop::remainder_fit(&cut, kfb, d, u0, t_stop - s.t, |r, len| {
         run.r = Some(*r);
         let mut st = *s;
         let mut null = ();
@@ -1536,7 +1523,11 @@ fn remainder_fit(
         let (cs, mo) = (&run.cs, &run.mo);
         let ls = run.sys[mo.sys].as_ref().expect("built by the segment");
         let (xm, x1) = (mo.at(ls, cs, 0.5 * len), mo.at(ls, cs, len));
-        Ok((st.t - s.t, rem(cs, 0.5 * len, &xm.q), rem(cs, len, &x1.q)))
+        Ok((
+            st.t - s.t,
+            cs.dot(&cs.phi_f, &xm.q),
+            cs.dot(&cs.phi_f, &x1.q),
+        ))
     });
     run.dry = false;
     fit
