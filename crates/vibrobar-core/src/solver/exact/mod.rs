@@ -8,6 +8,7 @@
 //! |---|---|
 //! | the one event loop: the ball's modes and every transition (impact, chatter limit, stick, wall contact, release), the event limit | [`driver`] |
 //! | the one compliant (`hertz`) contact phase, and under a cut | [`hertz_phase`], [`hertz_cut`] |
+//! | the cutting run's drive: pieces to the breakpoints, the delayed surface's windows, cut events and their count, the surface history's start and end | `cut_loop` |
 //! | the lumped bar's kernel: closed forms, event functions, root search, the cut | [`lumped`] ([`expsum`], [`roots`], [`hertz`], [`cutting`]) |
 //! | the N-mode bar's kernel: the same on N modes, the ball held by the constrained modes | [`modal`] ([`expsum_n`], [`roots_n`], [`constrained`], [`modal::cutting`]) |
 //!
@@ -22,6 +23,7 @@
 //! ΔE) closes to ~1e-12 relative on the paper cases. In chaotic runs the RMS over the window
 //! is only defined statistically: rounding-level changes of an event time change it by a few %.
 
+mod cut_loop;
 mod driver;
 mod hertz_cut;
 pub mod hertz_phase;

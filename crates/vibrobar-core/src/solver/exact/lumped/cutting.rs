@@ -12,7 +12,10 @@
 //! start). Over a piece the delayed surface `s(t − T)` is the quadratic through three values of
 //! the stored history (Hermite pieces on its knots: values and one-sided velocities, and on the
 //! sixth-order surface accelerations, exact at the knots); the breakpoints guarantee that no
-//! piece reaches across a stored event.
+//! piece reaches across a stored event. The pieces' ends, the windows, the cut events and their
+//! count, and the history's start and end are the drive every bar shares
+//! ([`super::super::cut_loop`]); this module is the lumped bar's arithmetic under it and the
+//! surface [`History`].
 //! With the linear law each piece is then a linear ODE with polynomial forcing, solved in closed
 //! form by the same segment code as every other lumped run ([`super::Consts::bar_sum`]): in the
 //! cut the stiffness gains `c_force K_f b c_chip`, out of it the bar is free. Its event
@@ -83,7 +86,7 @@
 //! The three-quarter law with a ball. Its force is the linear law's plus the remainder
 //! `R = c_force F(h) − c_force K_f b h` (`O((h − h0)²)` near the feed: the slopes agree at `h0`).
 //! Over each piece in the cut `R` is fitted as the quadratic through its values at the piece's
-//! start, middle and end ([`remainder_fit`]), folded into the piece's polynomial forcing, and the
+//! start, middle and end ([`super::super::cut_loop::remainder_fit`]), folded into the piece's polynomial forcing, and the
 //! piece is solved in closed form by the same segment code, its events (the ball's and the chip's)
 //! found by the same root search: so the event guarantees above hold unchanged for the motion the
 //! pieces carry. The chip at the middle and end comes from the piece itself, run with the
@@ -109,18 +112,19 @@
 //! tool leaving or re-entering the cut located on its dense output and stored as every cut event
 //! is; its accuracy is the contact phase's (rtol 1e-9) on top of the pieces'. A modal bar goes to
 //! [`super::modal::cutting`] (both force laws, the three-quarter law by the same remainder fit,
-//! [`fit_remainder`], with or without a ball; both contact laws, `hertz` through
-//! [`super::super::hertz_cut`]; kept and continued as here, [`CutContinuation`] carrying the
-//! modal state).
+//! [`super::super::cut_loop::remainder_fit`], with or without a ball; both contact laws,
+//! `hertz` through [`super::super::hertz_cut`]; kept and continued as here,
+//! [`CutContinuation`] carrying the modal state).
 
 use super::{
     advance, initial_mode, Book, CutPiece, CutSeg, Exact, ExactSegment, Md, Search, St, CUT,
     HORIZON,
 };
 use super::{joint_search, Consts, EventSet, Osc, Trig};
-use crate::error::{EventLimitCause, SimError};
+use crate::error::SimError;
 use crate::excitation::{Cutting, CuttingForceLaw};
 use crate::params::{BarModel, State, System};
+use crate::solver::exact::cut_loop::{self, CutCount, Pieces, CONTINUE_OTHER_BAR};
 use crate::solver::exact::driver::Tally;
 use crate::solver::exact::hertz_cut::{self, CutOver, PieceEnd};
 use crate::solver::{Event, Mode, Observer, RunSummary, Segment, SegmentIntegrals, Solver};
@@ -601,15 +605,13 @@ impl History {
         self.push(kn);
     }
 
-    /// A cut event at `t` (the tool's velocity `du` there): its breakpoint queued and the
-    /// surface's kink ([`History::cut_event_slope`]) with the side after the event, whatever
-    /// the history's own cut flag.
+    /// A cut event at `t` (the tool's velocity `du` there): its breakpoint queued, the
+    /// history's cut flag the side after the event, and the surface's kink
+    /// ([`History::cut_event_slope`]) with that side.
     pub(in crate::solver::exact) fn cut_event(&mut self, t: f64, in_cut_after: bool, du: f64) {
         self.breakpoint(t);
-        let keep = self.in_cut;
         self.in_cut = in_cut_after;
         self.cut_event_slope(t, du);
-        self.in_cut = keep;
     }
 
     /// Queue the breakpoint source `t`.
@@ -625,9 +627,9 @@ impl History {
         }
     }
 
-    /// The next breakpoint source.
-    pub(in crate::solver::exact) fn first_breakpoint(&self) -> Option<f64> {
-        self.bp.front().map(|b| b.0)
+    /// The next breakpoint source and the order of its break.
+    pub(in crate::solver::exact) fn first_breakpoint(&self) -> Option<(f64, u8)> {
+        self.bp.front().copied()
     }
 
     /// The quadratic through the surface over the window `[a, b]` ([`History::quadratic`]).
@@ -1004,12 +1006,10 @@ impl Observer for Probe {
     }
 }
 
-/// The three-quarter law's remainder `R = c_force F(h) − c_force K_f b h` over the piece from
-/// `s` (in the cut) as the quadratic `r0 + r1 τ + r2 τ²` through its values at the piece's
-/// start, middle and end, the chip from the closed form of the piece run with the previous fit
-/// (a fixed-point iteration from `R` constant at its start value). The piece is the one the
-/// event loop will take: up to `t_stop`, or to the first event of the dry run (its end moves
-/// with the fit; the iteration goes on until both settle).
+/// The three-quarter law's remainder fit over the piece from `s` (in the cut) up to `t_stop`
+/// ([`cut_loop::remainder_fit`]), each dry run the piece the event loop will take (to `t_stop`
+/// or to its first event) with the previous fit, the tool's displacement at the nodes from the
+/// segments' closed forms.
 fn remainder_fit(
     cs: &Consts,
     cut: &Cutting,
@@ -1020,14 +1020,7 @@ fn remainder_fit(
     search: &mut Search,
 ) -> Result<[f64; 3], SimError> {
     let cp = cs.cut.expect("a cutting piece");
-    let rem = |tau: f64, u: f64| -> f64 {
-        let d = cp.d[0] + tau * (cp.d[1] + tau * cp.d[2]);
-        let h = cp.h0 + cp.c_chip * (d - u);
-        cut.force_on_bar_n(h) - cp.kfb * h
-    };
-    let r0 = rem(0.0, s.u);
-    let scale = REMAINDER_TOL * (cp.kfb * cp.h0).abs();
-    fit_remainder(r0, scale, t_stop - s.t, |r, len| {
+    cut_loop::remainder_fit(cut, cp.kfb, cp.d, s.u, t_stop - s.t, |r, len| {
         let mut c = *cs;
         if let Some(p) = c.cut.as_mut() {
             p.r = Some(*r);
@@ -1049,45 +1042,8 @@ fn remainder_fit(
         let mut st = *s;
         advance(&c, mode, &mut st, t_stop, &mut dry, search)?;
         let [_, um, u1] = probe.u;
-        Ok((st.t - s.t, rem(0.5 * len, um), rem(len, u1)))
+        Ok((st.t - s.t, um, u1))
     })
-}
-
-/// The fixed-point iteration of the three-quarter law's remainder fit over one piece, shared
-/// by the lumped bar ([`remainder_fit`]) and the modal bar ([`super::modal::cutting`]): from
-/// `R` constant at its start value `r0`, `dry(fit, len)` runs the piece with `fit` (a dry run:
-/// no events counted, no observer) and returns the length it reached and `R` at `len/2` and
-/// `len` along it; the next fit is the quadratic through `r0` and those values. It stops when
-/// the fit moves by at most `scale` at the nodes and the piece's end settles, or after
-/// [`REMAINDER_MAX_ITERATIONS`] dry runs (keeping the last fit).
-pub(in crate::solver::exact) fn fit_remainder(
-    r0: f64,
-    scale: f64,
-    mut len: f64,
-    mut dry: impl FnMut(&[f64; 3], f64) -> Result<(f64, f64, f64), SimError>,
-) -> Result<[f64; 3], SimError> {
-    let mut r = [r0, 0.0, 0.0];
-    for _ in 0..REMAINDER_MAX_ITERATIONS {
-        let (end, rm, r1) = dry(&r, len)?;
-        let mut next = [r0, 0.0, 0.0];
-        if len > 0.0 {
-            next[2] = 2.0 * (r1 - 2.0 * rm + r0) / (len * len);
-            next[1] = (r1 - r0) / len - next[2] * len;
-        }
-        let settled = (0..3).all(|i| {
-            let x = [0.0, 0.5, 1.0][i] * len;
-            let a = r[0] + x * (r[1] + x * r[2]);
-            let b = next[0] + x * (next[1] + x * next[2]);
-            (a - b).abs() <= scale
-        });
-        let same_end = end.to_bits() == len.to_bits();
-        r = next;
-        if settled && same_end {
-            break;
-        }
-        len = end;
-    }
-    Ok(r)
 }
 
 /// The error of a continued run whose cut changes the surface history's delay or advance.
@@ -1189,10 +1145,7 @@ impl ExactCutting {
                 let (r, c) = self.modal().continue_run(&msys, from, t_end_s, obs)?;
                 Ok((r.summary, c))
             }
-            _ => Err(SimError::Unsupported(
-                "continuing a cutting run: the bar ([bar], or [beam]/[[modes]]) must be the \
-                 continued run's",
-            )),
+            _ => Err(SimError::Unsupported(CONTINUE_OTHER_BAR)),
         }
     }
 
@@ -1302,16 +1255,12 @@ impl ExactCutting {
         let pieces = (tau / h_near).ceil() + 4.0;
         let cap = 2 * pieces as usize + MAX_EVENT_KNOTS;
         let mut h0_chip = cut.feed_m - cut.chip_direction_factor * init.u_m;
-        let in_cut0 = match from {
-            Some(c) => c.in_cut,
-            None => h0_chip > 0.0,
-        };
         let shift = cut.feed_m / cut.chip_direction_factor;
-        let mut h = match from {
-            Some(c) => History::resumed(c, cap, tau, shift, t0)
-                .ok_or(SimError::Unsupported(CONTINUE_MISMATCH))?,
-            None => History::smooth(cap, tau, shift, t0, u_eq, in_cut0, start.u_m, start.du_m_s),
-        };
+        let (in_cut0, mut h) = cut_loop::start_history(from, (cap, tau, shift, t0), || {
+            let in_cut = h0_chip > 0.0;
+            let h = History::smooth(cap, tau, shift, t0, u_eq, in_cut, start.u_m, start.du_m_s);
+            (in_cut, h)
+        })?;
         h.quintic = quintic;
         if from.is_some() {
             // The chip at the start, from the continued surface.
@@ -1341,7 +1290,7 @@ impl ExactCutting {
             ),
             cut_event: false,
         };
-        let mut in_cut = in_cut0;
+        let mut pc = Pieces::new(t0, tau, t_end_s, in_cut0, CutCount::Apart);
         let cut_force0 = match (in_cut0, nonlinear) {
             (false, _) => 0.0,
             (true, false) => kfb * h0_chip,
@@ -1377,43 +1326,24 @@ impl ExactCutting {
             Some((_, wall)) => Md::HertzTouch(wall),
             None if has_ball => {
                 let d0 = hist.borrow().quadratic(t0 - tau, t0 - tau);
-                initial_mode(&consts(in_cut, d0, 0), &mut s, &mut book)?
+                initial_mode(&consts(in_cut0, d0, 0), &mut s, &mut book)?
             }
             None => Md::Stick,
-        };
-        let mut order = 0;
-        let mut cut_events: u64 = 0;
-        // The window start of a piece that begins at the previous piece's end (exact `t_k`).
-        let mut win_prev: Option<(u64, f64)> = None;
-        let window_start = |win_prev: Option<(u64, f64)>, t: f64| match win_prev {
-            Some((bits, x)) if bits == t.to_bits() => x,
-            _ => t - tau,
         };
         // The quadratic of the piece starting at this time, fitted already.
         let mut fitted: Option<(u64, [f64; 3])> = None;
         while s.t < t_end_s {
             let (step_end, win_end, near, at_breakpoint) = {
                 let mut h = hist.borrow_mut();
-                h.trim(s.t - tau - h_max.max(h_near));
-                while h.bp.front().is_some_and(|&(tk, _)| tk + tau <= s.t) {
-                    h.bp.pop_front();
-                }
-                let step = |len: f64| match h.bp.front() {
-                    Some(&(tk, order)) if tk + tau < (s.t + len).min(t_end_s) => {
-                        (tk + tau, tk, Some(order))
-                    }
-                    _ => {
-                        let e = (s.t + len).min(t_end_s);
-                        (e, e - tau, None)
-                    }
-                };
+                h.forget_before(s.t - tau - h_max.max(h_near), s.t);
+                let step = |len: f64| pc.end(&h, s.t, len);
                 let (mut end, mut win, mut bp) = step(if quintic { h_max } else { h_near });
                 // The chip's deviation from the feed, `D = c_chip (s(t − T) − u)`, as an
                 // oscillation at the fastest frequency: its amplitude `√(D² + (Ḋ/ω)²)` against
                 // the feed says whether the chip can reach 0 soon (from the long piece's
                 // quadratic, kept for the piece when it is not).
                 let near = quintic && {
-                    let a = window_start(win_prev, s.t);
+                    let a = pc.window_start(s.t);
                     let d = h.quadratic(a, win.max(a));
                     let c = cut.chip_direction_factor;
                     let dd = c * (d[0] - s.u);
@@ -1430,7 +1360,8 @@ impl ExactCutting {
                 (end, win, near, bp)
             };
             while s.t < step_end {
-                let a = window_start(win_prev, s.t);
+                let (in_cut, order) = (pc.in_cut, pc.order);
+                let a = pc.window_start(s.t);
                 let d = match fitted.take() {
                     // The long piece's quadratic from the test above (same window).
                     Some((bits, d)) if bits == s.t.to_bits() => d,
@@ -1524,32 +1455,14 @@ impl ExactCutting {
                 } else {
                     bar_only(&cs, &mut s, step_end, &mut book, &mut search)?;
                 }
-                let mut h = hist.borrow_mut();
-                if h.full {
-                    return Err(SimError::Unsupported(
-                        "a cutting run had more events within one spindle revolution than its \
-                         surface history holds (solver::exact::cutting::MAX_EVENT_KNOTS)",
-                    ));
-                }
-                if book.cut_event {
-                    in_cut = !in_cut;
-                    order = 1;
-                    cut_events += 1;
-                    h.in_cut = in_cut;
-                    h.cut_event(s.t, in_cut, s.du);
-                    if cut_events > self.exact.max_events {
-                        return Err(SimError::TooManyEvents {
-                            limit: self.exact.max_events,
-                            t_s: s.t,
-                            // Per revolution here: the cut's own period.
-                            events_per_period: cut_events as f64
-                                / ((s.t - t0) / tau).max(f64::MIN_POSITIVE),
-                            cause: EventLimitCause::Dense,
-                        });
-                    }
-                } else {
-                    order = 0;
-                }
+                let du = s.du;
+                pc.segment_done(
+                    &mut hist.borrow_mut(),
+                    &mut book.tally,
+                    book.cut_event,
+                    s.t,
+                    || du,
+                )?;
             }
             if let (true, Some(order)) = (quintic, at_breakpoint) {
                 // The surface's break at `t_k` reaches `t_k + T` and from there `t_k + 2T`: out
@@ -1558,25 +1471,21 @@ impl ExactCutting {
                 // across `t_k + 2T` would carry as an O(Δ³) error of its delayed surface
                 // (measured: the order through loss of contact fell to ~3 without it); a
                 // kink becomes a jump in `u⃛`, O(Δ⁴) once per event, left as it is.
-                if !in_cut {
+                if !pc.in_cut {
                     hist.borrow_mut().queue_breakpoint(s.t, order);
                 } else if order == BREAK_JUMP {
                     hist.borrow_mut().queue_breakpoint(s.t, BREAK_ACCEL);
                 }
             }
-            win_prev = Some((s.t.to_bits(), win_end));
+            pc.piece_done(s.t, win_end);
         }
+        pc.finish(&mut book.tally);
         book.tally.summary.final_state = s.public();
-        book.tally.summary.events += cut_events;
         let summary = book.tally.summary;
-        let contact = match (mode, phase) {
-            (Md::HertzTouch(wall), Some(p)) => Some((p, wall)),
-            _ => None,
-        };
         let end = (hist.into_inner()).into_continuation(
             summary.final_state,
-            in_cut,
-            BarEnd::Lumped(contact),
+            pc.in_cut,
+            BarEnd::Lumped(cut_loop::contact_at_end(mode, phase)),
         );
         Ok((summary, end))
     }

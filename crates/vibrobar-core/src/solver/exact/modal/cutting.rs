@@ -1,7 +1,8 @@
 //! The cutting process (issue #13) on a modal bar ([`ModalSystem`]: the N-mode beam, measured
 //! `[[modes]]`): the delay stepping of [`super::super::cutting`] (the same pieces ending at the
 //! breakpoints `t_k + T`, the same [`History`] of the machined surface, the same quadratic for
-//! the delayed surface over a piece) on the modal bar's event rules ([`super::ModalExact`]).
+//! the delayed surface over a piece, driven by [`super::super::cut_loop`]) on the modal bar's
+//! event rules ([`super::ModalExact`]).
 //!
 //! The cut acts at the force point: `u_tip = Σ φ_f,n qₙ`, the chip `h = h0 + c_chip (s(t − T) −
 //! u_tip)`. With the linear law the force `c_force K_f b h` is, in the cut, the stiffness
@@ -52,9 +53,9 @@
 //! The three-quarter law, with and without a ball: as on the lumped bar
 //! ([`super::super::cutting`]), the force is the linear law's plus the remainder
 //! `R = c_force F(h) − c_force K_f b h`, fitted over each segment in the cut as the quadratic
-//! through its start, middle and end values by the lumped bar's fixed-point iteration
-//! ([`fit_remainder`], its tolerance and cap; each dry run this segment with the previous fit)
-//! and added to the polynomial forcing along `φ_f`. The segments stay closed forms and their
+//! through its start, middle and end values by the one fixed-point iteration of every bar
+//! ([`cut_loop::remainder_fit`], its tolerance and cap; each dry run this segment with the
+//! previous fit) and added to the polynomial forcing along `φ_f`. The segments stay closed forms and their
 //! events the same joint search, so the guarantees above hold for the motion the pieces carry;
 //! the books' cutting work is that force's. Measured (`tests/modal_cutting_three_quarter.rs`): a
 //! one-mode table is the lumped three-quarter run to ~1e-13 relative (impacting ball, ball out
@@ -76,16 +77,15 @@
 // The loops run over parallel per-mode and per-pair arrays (shapes, eigenpairs, coefficients).
 #![allow(clippy::needless_range_loop)]
 
+use super::super::cut_loop::{self, too_many_events, CutCount, Pieces, CONTINUE_OTHER_BAR};
 use super::super::cutting::{
-    fit_remainder, BarEnd, CutContinuation, History, CONTINUE_MISMATCH, DEFAULT_STEPS_PER_PERIOD,
-    GL8, MAX_EVENT_KNOTS, REMAINDER_TOL,
+    BarEnd, CutContinuation, History, DEFAULT_STEPS_PER_PERIOD, GL8, MAX_EVENT_KNOTS,
 };
-use super::super::driver::{self, flight, wall_of, Cavity, Kernel, Md, CUT, HORIZON};
+use super::super::driver::{self, flight, wall_of, Cavity, Kernel, Md, Tally, CUT, HORIZON};
 use super::super::expsum_n::{ExpSumN, Term, MAX_TERMS};
 use super::super::hertz_cut::{self, CutOver, PieceEnd};
 use super::super::hertz_phase;
 use super::super::roots_n::{first_root_n, CandN, Root, ScratchN, MAX_CANDS};
-use super::super::CONFINEMENT_TOL_M;
 use super::ModalExact;
 
 /// The ball modes and their helpers are the modal solver's ([`super`]); a `HertzTouch` runs as
@@ -98,7 +98,7 @@ mod cutting_hertz;
 use crate::analysis::contact_test::CONTACT_RTOL;
 use crate::damper::friction::{holding_capacity_n, sliding_friction_on_ball_n};
 use crate::damper::impact::{modal_impact, modal_inverse_effective_mass_per_kg};
-use crate::error::{EventLimitCause, SimError};
+use crate::error::SimError;
 use crate::excitation::{Cutting, CuttingForceLaw};
 use crate::limits::MAX_BEAM_MODES;
 use crate::params::{CavityMotion, FrictionModel, State};
@@ -781,52 +781,27 @@ impl Segment for CutSegment<'_> {
     }
 }
 
-/// Run bookkeeping.
+/// Run bookkeeping: the observer and the books every kernel keeps ([`Tally`]).
 struct Book<'a> {
     obs: &'a mut dyn Observer,
-    summary: RunSummary,
-    max_events: u64,
-    check: bool,
+    tally: Tally,
 }
 
 impl Book<'_> {
-    fn check_state(&mut self, cs: &Consts, s: &St) -> Result<(), SimError> {
-        if !cs.has_ball {
-            return Ok(());
-        }
-        let pen = s.w.abs() - cs.lg;
-        if pen > self.summary.max_penetration_m {
-            self.summary.max_penetration_m = pen;
-        }
-        if self.check {
-            let finite = s.w.is_finite()
-                && s.dw.is_finite()
-                && s.q.iter().all(|x| x.is_finite())
-                && s.dq.iter().all(|x| x.is_finite());
-            if !finite {
-                return Err(SimError::NonFinite { t_s: s.t });
-            }
-            if pen > CONFINEMENT_TOL_M {
-                return Err(SimError::Confinement {
-                    t_s: s.t,
-                    w_m: s.w,
-                    half_gap_m: cs.lg,
-                });
-            }
-        }
-        Ok(())
-    }
-
+    /// One more event at `t`, against the limit per revolution `tau` since `t0` (a cut event
+    /// and a ball event alike: [`CutCount::WithBall`]).
+    #[inline]
     fn count(&mut self, t: f64, t0: f64, tau: f64) -> Result<(), SimError> {
-        self.summary.events += 1;
-        if self.summary.events > self.max_events {
-            return Err(SimError::TooManyEvents {
-                limit: self.max_events,
-                t_s: t,
-                events_per_period: self.summary.events as f64
-                    / ((t - t0) / tau).max(f64::MIN_POSITIVE),
-                cause: EventLimitCause::Dense,
-            });
+        let tally = &mut self.tally;
+        tally.summary.events += 1;
+        if tally.summary.events > tally.max_events {
+            return Err(too_many_events(
+                tally.summary.events,
+                tally.max_events,
+                t,
+                t0,
+                tau,
+            ));
         }
         Ok(())
     }
@@ -853,9 +828,6 @@ struct Run<'h> {
 }
 
 const CHIP: u8 = 10;
-
-const HISTORY_FULL: &str = "a cutting run had more events within one spindle revolution than \
-                            its surface history holds (solver::exact::cutting::MAX_EVENT_KNOTS)";
 
 /// How a segment ended.
 enum End {
@@ -1097,7 +1069,7 @@ impl Run<'_> {
         if !(next.q.iter().all(|x| x.is_finite()) && next.dq.iter().all(|x| x.is_finite())) {
             return Err(SimError::NonFinite { t_s: t1 });
         }
-        book.check_state(cs, &next)?;
+        book.tally.check_state(&next)?;
         *s = next;
         if self.dry {
             return Ok(end);
@@ -1124,9 +1096,9 @@ impl Run<'_> {
         let cs = &self.cs;
         book.count(after.t, self.t0, self.tau)?;
         if let EventKind::Impact { .. } = kind {
-            book.summary.impacts += 1;
+            book.tally.summary.impacts += 1;
         }
-        book.check_state(cs, after)?;
+        book.tally.check_state(after)?;
         book.obs.event(&Event {
             t_s: after.t,
             kind,
@@ -1224,10 +1196,7 @@ impl ModalCutting {
         obs: &mut dyn Observer,
     ) -> Result<(ModalRunSummary, CutContinuation), SimError> {
         let Some(init) = from.modal_state() else {
-            return Err(SimError::Unsupported(
-                "continuing a cutting run: the bar ([bar], or [beam]/[[modes]]) must be the \
-                 continued run's",
-            ));
+            return Err(SimError::Unsupported(CONTINUE_OTHER_BAR));
         };
         self.drive(sys, init, Some(from), t_end_s, CONTACT_RTOL, obs)
     }
@@ -1380,18 +1349,11 @@ impl ModalCutting {
         }
         let u_f0 = cs.dot(&cs.phi_f, &s.q);
         let du_f0 = cs.dot(&cs.phi_f, &s.dq);
-        let (mut in_cut, mut hist) = match from {
-            None => {
-                let in_cut = cut.feed_m - cut.chip_direction_factor * (u_f0 - u_f_eq) > 0.0;
-                let h = History::smooth(cap, tau, shift, t0, u_f_eq, in_cut, u_f0, du_f0);
-                (in_cut, h)
-            }
-            Some(c) => (
-                c.in_cut(),
-                History::resumed(c, cap, tau, shift, t0)
-                    .ok_or(SimError::Unsupported(CONTINUE_MISMATCH))?,
-            ),
-        };
+        let (in_cut, mut hist) = cut_loop::start_history(from, (cap, tau, shift, t0), || {
+            let in_cut = cut.feed_m - cut.chip_direction_factor * (u_f0 - u_f_eq) > 0.0;
+            let h = History::smooth(cap, tau, shift, t0, u_f_eq, in_cut, u_f0, du_f0);
+            (in_cut, h)
+        })?;
         let mut run = Run {
             cs,
             sys: [None, Some(in_free), None, None],
@@ -1412,13 +1374,16 @@ impl ModalCutting {
         };
         let mut book = Book {
             obs,
-            summary: RunSummary {
-                final_state: s.public(&run.cs),
-                max_penetration_m: f64::NEG_INFINITY,
-                ..Default::default()
-            },
-            max_events: self.exact.max_events,
-            check: self.exact.check_invariants,
+            tally: Tally::new(
+                RunSummary {
+                    final_state: s.public(&run.cs),
+                    max_penetration_m: f64::NEG_INFINITY,
+                    ..Default::default()
+                },
+                self.exact.max_events,
+                self.exact.check_invariants,
+                run.cs.lg,
+            ),
         };
         let has_ball = run.cs.has_ball;
         // A `hertz` contact phase carried over a piece end or a cut event (or from the run
@@ -1433,25 +1398,17 @@ impl ModalCutting {
             }
             None => flight(0.0),
         };
-        let mut chip_order = 0;
-        let mut win_prev: Option<(u64, f64)> = None;
+        let mut pc = Pieces::new(t0, tau, t_end_s, in_cut, CutCount::WithBall);
         while s.t < t_end_s {
             let (step_end, win_end) = {
                 let h = &mut *run.hist;
                 h.forget_before(s.t - tau - h_max, s.t);
-                match h.first_breakpoint() {
-                    Some(tk) if tk + tau < (s.t + h_max).min(t_end_s) => (tk + tau, tk),
-                    _ => {
-                        let e = (s.t + h_max).min(t_end_s);
-                        (e, e - tau)
-                    }
-                }
+                let (end, win, _) = pc.end(h, s.t, h_max);
+                (end, win)
             };
             while s.t < step_end {
-                let a = match win_prev {
-                    Some((bits, x)) if bits == s.t.to_bits() => x,
-                    _ => s.t - tau,
-                };
+                let (in_cut, chip_order) = (pc.in_cut, pc.order);
+                let a = pc.window_start(s.t);
                 let d = run.hist.window_quadratic(a, win_end.max(a));
                 run.r = None;
                 let cut_event = if let (Md::HertzTouch(wall), Some(law)) = (mode, run.cs.hertz) {
@@ -1509,43 +1466,31 @@ impl ModalCutting {
                     };
                     k.cut_event
                 };
-                if run.hist.is_full() {
-                    return Err(SimError::Unsupported(HISTORY_FULL));
-                }
-                chip_order = 0;
-                if cut_event {
-                    in_cut = !in_cut;
-                    chip_order = 1;
-                    let du = run.cs.dot(&run.cs.phi_f, &s.dq);
-                    run.hist.cut_event(s.t, in_cut, du);
-                    book.count(s.t, t0, tau)?;
-                }
+                let cs = &run.cs;
+                pc.segment_done(run.hist, &mut book.tally, cut_event, s.t, || {
+                    cs.dot(&cs.phi_f, &s.dq)
+                })?;
             }
-            win_prev = Some((s.t.to_bits(), win_end));
+            pc.piece_done(s.t, win_end);
         }
-        book.summary.final_state = s.public(&run.cs);
+        pc.finish(&mut book.tally);
+        book.tally.summary.final_state = s.public(&run.cs);
         let summary = ModalRunSummary {
-            summary: book.summary,
+            summary: book.tally.summary,
             final_state: s.modal(&run.cs),
-        };
-        let contact = match (mode, phase) {
-            (Md::HertzTouch(wall), Some(p)) => Some((p, wall)),
-            _ => None,
         };
         let end = hist.into_continuation(
             summary.summary.final_state,
-            in_cut,
-            BarEnd::Modal(summary.final_state, contact),
+            pc.in_cut,
+            BarEnd::Modal(summary.final_state, cut_loop::contact_at_end(mode, phase)),
         );
         Ok((summary, end))
     }
 }
 
-/// The three-quarter law's remainder `R = c_force F(h) − c_force K_f b h` over the next segment
-/// from `s` (in the cut) as the quadratic through its values at the segment's start, middle and
-/// end: the lumped bar's fixed-point iteration ([`fit_remainder`], its tolerance and cap), each
-/// dry run this very segment (mode, chip order, delayed surface `d`) with the previous fit, the
-/// chip at the nodes from its closed form (continued past an event that ends it early).
+/// The three-quarter law's remainder fit over the next segment from `s` (in the cut)
+/// ([`cut_loop::remainder_fit`]), each dry run this very segment (mode, chip order, delayed
+/// surface `d`) with the previous fit, the tool at the nodes from its closed form.
 #[allow(clippy::too_many_arguments)]
 fn remainder_fit(
     run: &mut Run,
@@ -1557,22 +1502,20 @@ fn remainder_fit(
     t_stop: f64,
     book: &Book,
 ) -> Result<[f64; 3], SimError> {
-    let rem = |cs: &Consts, tau: f64, q: &[f64; NM]| -> f64 {
-        let dd = d[0] + tau * (d[1] + tau * d[2]);
-        cs.remainder(cs.h0 + cs.c_chip * (dd - cs.dot(&cs.phi_f, q)))
-    };
-    let r0 = rem(&run.cs, 0.0, &s.q);
-    let scale = REMAINDER_TOL * (run.cs.kfb * run.cs.h0).abs();
+    let u0 = run.cs.dot(&run.cs.phi_f, &s.q);
+    let (cut, kfb) = (run.cs.cut, run.cs.kfb);
     run.dry = true;
-    let fit = fit_remainder(r0, scale, t_stop - s.t, |r, len| {
+    let fit = cut_loop::remainder_fit(&cut, kfb, d, u0, t_stop - s.t, |r, len| {
         run.r = Some(*r);
         let mut st = *s;
         let mut null = ();
         let mut dry = Book {
             obs: &mut null,
-            summary: book.summary,
-            max_events: u64::MAX,
-            check: false,
+            tally: Tally {
+                max_events: u64::MAX,
+                check: false,
+                ..book.tally
+            },
         };
         run.segment(
             mode, no_ball, true, d, chip_order, &mut st, t_stop, &mut dry,
@@ -1580,7 +1523,11 @@ fn remainder_fit(
         let (cs, mo) = (&run.cs, &run.mo);
         let ls = run.sys[mo.sys].as_ref().expect("built by the segment");
         let (xm, x1) = (mo.at(ls, cs, 0.5 * len), mo.at(ls, cs, len));
-        Ok((st.t - s.t, rem(cs, 0.5 * len, &xm.q), rem(cs, len, &x1.q)))
+        Ok((
+            st.t - s.t,
+            cs.dot(&cs.phi_f, &xm.q),
+            cs.dot(&cs.phi_f, &x1.q),
+        ))
     });
     run.dry = false;
     fit

@@ -180,8 +180,8 @@ impl CutPhaseBook<PieceBar<'_>, NY> for PhaseHost<'_, '_, '_> {
         }
     }
     fn penetration(&mut self, pen_m: f64) {
-        if pen_m > self.book.summary.max_penetration_m {
-            self.book.summary.max_penetration_m = pen_m;
+        if pen_m > self.book.tally.summary.max_penetration_m {
+            self.book.tally.summary.max_penetration_m = pen_m;
         }
     }
 }
