@@ -1,9 +1,10 @@
 //! The whole Lyapunov spectrum of the lumped bar ([`lyapunov_spectrum`], 4 exponents) and of the
 //! N-mode bar ([`lyapunov_spectrum_modal`], `2N + 2`): QR re-orthonormalisation (Benettin et al.
-//! 1980; Müller 1995 for the saltation at events) of the variational flow of
-//! [`super::variational`] or [`super::variational_modal`]. The two variational layers hand their
-//! tangent maps to one QR frame (`Frame`: Gram–Schmidt, `ln Rᵢᵢ`, the collapsed directions) and
-//! one block loop (the exponents and their uncertainty).
+//! 1980; Müller 1995 for the saltation at events) of the one variational layer
+//! ([`super::variational`]) on either bar (the lumped bar's 4×4 maps, the N-mode bar's columns,
+//! [`super::variational_modal`]). Both hand their tangent maps to one QR frame (`Frame`:
+//! Gram–Schmidt, `ln Rᵢᵢ`, the collapsed directions) and one block loop (the exponents and
+//! their uncertainty).
 //!
 //! An orthonormal frame `Q` (4×4, in the scaled coordinates `(u/s_u, u̇/s_u̇, w/s_w, ẇ/s_ẇ)` of
 //! [`StateScales`]) is carried through every segment's transition matrix and every event's
@@ -516,7 +517,7 @@ pub fn lyapunov_spectrum_modal(
     scale[2 * n] = sc.u_m + sc.w_m;
     scale[2 * n + 1] = sc.du_m_s + sc.dw_m_s;
     // Refuses what the variational layer cannot do before any run.
-    let var = ModalVariational::new(sys, init)?.with_qr(scale);
+    let var = ModalVariational::new_modal(sys, init)?.with_qr(scale);
     let mut x = ModalExact::default()
         .run(sys, init, init.t_s + p.transient_s, &mut ())?
         .final_state;

@@ -1,13 +1,26 @@
-//! Variational equations of the exact flow of the lumped bar (issue #11, item 1): the Jacobian
-//! `∂x(t₁)/∂x(t₀)` of the solver's flow map, with saltation matrices at every event.
+//! Variational equations of the exact flow (issue #11, item 1): the Jacobian `∂x(t₁)/∂x(t₀)` of
+//! the solver's flow map, with saltation matrices at every event, written once for every bar.
 //!
 //! # Built on the observer stream
 //!
 //! [`Variational`] is an [`Observer`]: it never re-runs or copies the solver. A run reports
 //! smooth [`Segment`]s and [`Event`]s; the tangent map of the run is the product, in time order,
-//! of one state transition matrix per segment and one saltation matrix per event. Both are 4×4
-//! in the public coordinates `x = (u, u̇, v, v̇)` of [`State`]. The solver's results are untouched
-//! (the layer only reads what it is shown), and nothing is allocated per segment or event.
+//! of one state transition matrix per segment and one saltation matrix per event. The solver's
+//! results are untouched (the layer only reads what it is shown), and nothing is allocated per
+//! segment or event.
+//!
+//! # One layer, one bar trait
+//!
+//! What happens at each event (which `h`, `G`, `f⁻`, `f⁺` and crossing rate, the counts, the
+//! grazing and chatter-release cases, the phase that follows), the compliant contact phase
+//! (onset, the approach-speed memory, friction events inside it, release) and the end field
+//! are the layer's ([`Variational`], written once). A bar ([`TangentBar`]) gives its
+//! arithmetic on its public coordinates: vector fields, resets, the contact row, the
+//! transition map of a segment and where the maps go. Two bars implement it: the lumped bar
+//! ([`lumped`]: 4×4 maps on `x = (u, u̇, v, v̇)` of [`State`](crate::params::State), handed to a [`TangentSink`]) and
+//! the N-mode bar ([`super::variational_modal`]: `2N + 2` tangent columns on
+//! `(q, q̇, v, v̇)`, carried in place). The derivations below are the lumped bar's; the modal
+//! module gives its ingredients.
 //!
 //! # Between events (closed form)
 //!
@@ -178,29 +191,29 @@
 //!
 //! # Not covered
 //!
-//! * The N-mode bar (`ModalExact`): refused here; [`super::variational_modal`] is the same
-//!   construction with the modal transition matrices and the contact row `w = v − Σ φₙ qₙ`
-//!   (either contact law).
-//! * Parameter derivatives other than [`Param`]'s (mass ratio, forcing amplitude).
+//! * Parameter columns on the N-mode bar (its orbit layer takes central differences of the
+//!   map), and parameter derivatives other than [`Param`]'s (mass ratio, forcing amplitude).
 //!
 //! References: P. C. Müller, "Calculation of Lyapunov exponents for dynamic systems with
 //! discontinuities", Chaos, Solitons & Fractals 5 (1995) 1671–1681; R. I. Leine and
 //! H. Nijmeijer, *Dynamics and Bifurcations of Non-Smooth Mechanical Systems*, Springer 2004.
 
 use crate::damper::contact::Hertz;
-use crate::damper::friction::sliding_friction_on_ball_n;
 use crate::error::SimError;
-use crate::params::{ContactLaw, FrictionModel, State, System};
+use crate::params::{ContactLaw, Damper, Forcing, FrictionModel};
 use crate::solver::dopri5::Dopri5;
-use crate::solver::{
-    CompliantContact, Event, EventKind, Mode, Observer, RunSummary, Segment, Solver,
+use crate::solver::{CompliantContact, Event, EventKind, Mode, Observer, Segment, Solver};
+
+pub mod lumped;
+
+pub use lumped::{
+    flow_with_jacobian, flow_with_param_derivative, FlowJacobian, LumpedBar,
+    VARIATIONAL_LUMPED_ONLY, VARIATIONAL_NO_HERTZ_PARAM,
 };
 
 /// A 4×4 matrix, row-major, on `(u, u̇, v, v̇)`.
 pub type Mat4 = [[f64; 4]; 4];
 
-/// Why the variational layer refuses a modal bar.
-pub const VARIATIONAL_LUMPED_ONLY: &str = "this variational layer is the lumped bar's (4×4 tangent maps); the N-mode bar's 2N+2-dimensional tangent map is analysis::variational_modal";
 /// Why the variational layer refuses a solver other than `exact`.
 pub const VARIATIONAL_EXACT_ONLY: &str = "the variational flow (Jacobian, Lyapunov spectrum) needs the exact solver: its saltation matrices need the event times and states the exact solver resolves (a fixed-step solver puts events on its grid)";
 
@@ -213,8 +226,6 @@ pub fn require_exact(solver: &dyn Solver) -> Result<(), SimError> {
     }
 }
 
-/// Why the variational layer refuses a parameter derivative under the Hertz law.
-pub const VARIATIONAL_NO_HERTZ_PARAM: &str = "the parameter column of the variational flow covers the instantaneous restitution law; under the hertz law take central differences of the map (orbit::continuation::map_param_derivative_fd)";
 /// Why the variational layer refuses a bar without a ball.
 pub const VARIATIONAL_NEEDS_BALL: &str =
     "the variational flow needs a damper (a solid bar is linear: its Jacobian is the bar's closed form)";
@@ -336,17 +347,17 @@ pub struct EventCounts {
 
 /// The ball's phase: mode and friction sign of a free flight.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct Phase {
-    pub(super) mode: Mode,
-    pub(super) sigma: f64,
+pub struct Phase {
+    /// The mode.
+    pub mode: Mode,
+    /// The friction sign `σ` of a free flight (0 otherwise).
+    pub sigma: f64,
 }
 
-// The phase bookkeeping around events is the same for the lumped and the N-mode bar
-// (variational_modal uses these too), so it is stated once here.
 impl Phase {
     /// The phase after event `ev` when no segment follows to say it; `cur` is the phase the
     /// event ended.
-    pub(super) fn default_after(ev: &Event, cur: Option<Phase>) -> Phase {
+    pub(crate) fn default_after(ev: &Event, cur: Option<Phase>) -> Phase {
         let free = |dw: f64| Phase {
             mode: Mode::Free,
             sigma: crate::damper::friction::sgn0(dw),
@@ -379,7 +390,7 @@ impl Phase {
 
     /// The phase before event `ev` implied by its kind (for an event that follows another at
     /// once).
-    pub(super) fn before(ev: &Event, last: Option<Phase>) -> Phase {
+    pub(crate) fn before(ev: &Event, last: Option<Phase>) -> Phase {
         match ev.kind {
             EventKind::Impact { .. } | EventKind::FrictionSwitch | EventKind::Stick => Phase {
                 mode: Mode::Free,
@@ -397,339 +408,8 @@ impl Phase {
     }
 }
 
-/// An event waiting for the mode that follows it (its `f⁺`).
-#[derive(Debug, Clone, Copy)]
-struct Pending {
-    ev: Event,
-    before: Phase,
-    /// The end of a compliant contact phase (the solver's `Impact` at the release).
-    release: bool,
-}
-
-/// Constants of the lumped system.
-#[derive(Debug, Clone, Copy)]
-struct Lumped {
-    m: f64,
-    md: f64,
-    k: f64,
-    c: f64,
-    e: f64,
-    fl: f64,
-    model: FrictionModel,
-    fs: f64,
-    f0: f64,
-    om: f64,
-    /// `∂Ω/∂ratio = ω₁`.
-    om1: f64,
-    /// The compliant law, `None` under the restitution law.
-    hertz: Option<Hertz>,
-    /// Half gap `l_g`.
-    lg: f64,
-}
-
-impl Lumped {
-    fn force(&self, t: f64) -> f64 {
-        self.fs + self.f0 * (self.om * t).sin()
-    }
-    fn dforce_dt(&self, t: f64) -> f64 {
-        self.f0 * self.om * (self.om * t).cos()
-    }
-    /// Friction force on the ball in a free flight with sign `σ`.
-    fn fb(&self, sigma: f64) -> f64 {
-        sliding_friction_on_ball_n(self.model, self.fl, sigma)
-    }
-    /// The free-flight friction sign `σ` whose sliding force is `fb` (`F_b = s F sgn σ`).
-    fn sigma_of_fb(&self, fb: f64) -> f64 {
-        crate::damper::friction::sign_factor(self.model) * crate::damper::friction::sgn0(fb)
-    }
-    fn mu_ratio(&self) -> f64 {
-        self.md / (self.m + self.md)
-    }
-
-    /// The vector field `f = (u̇, ü, v̇, v̈)` of phase `p` at `x`, `t`.
-    fn field(&self, p: Phase, x: &State, t: f64) -> [f64; 4] {
-        let free = self.force(t) - self.c * x.du_m_s - self.k * x.u_m;
-        match p.mode {
-            Mode::Free | Mode::NoBall => {
-                let fb = self.fb(p.sigma);
-                [x.du_m_s, (free - fb) / self.m, x.dv_m_s, fb / self.md]
-            }
-            Mode::Stick | Mode::Contact(_) => {
-                let a = free / (self.m + self.md);
-                [x.du_m_s, a, x.dv_m_s, a]
-            }
-        }
-    }
-
-    /// `e^{−ατ}`-form transition matrix of the bar of mass `mass` over `τ` (2×2).
-    fn bar_phi(&self, mass: f64, tau: f64) -> [[f64; 2]; 2] {
-        let al = self.c / (2.0 * mass);
-        let wn2 = self.k / mass;
-        let wd = (wn2 - al * al).sqrt();
-        let ex = (-al * tau).exp();
-        let (s, co) = (wd * tau).sin_cos();
-        let sw = s / wd;
-        [
-            [ex * (co + al * sw), ex * sw],
-            [-wn2 * ex * sw, ex * (co - al * sw)],
-        ]
-    }
-
-    /// `(u_p, u̇_p)(t)`: a particular solution of `mass ü + C u̇ + K u = F₀ t cos Ωt`,
-    /// `Re[F₀ e^{st} (t/D − D'/D²)]`, `s = iΩ`, `D(s) = mass s² + C s + K` (differentiate
-    /// `L e^{st} = D(s) e^{st}` in `s`).
-    fn secular_particular(&self, mass: f64, t: f64) -> [f64; 2] {
-        use nalgebra::Complex;
-        let sj = Complex::new(0.0, self.om);
-        let d = sj * sj * mass + sj * self.c + self.k;
-        let dp = sj * (2.0 * mass) + self.c;
-        let est = Complex::new(0.0, self.om * t).exp() * self.f0;
-        let a = Complex::new(t, 0.0) / d - dp / (d * d);
-        let u = est * a;
-        let du = est * (sj * a + Complex::new(1.0, 0.0) / d);
-        [u.re, du.re]
-    }
-
-    /// `∫ Φ(τ − s) (0, F₀ s cos Ωs / mass) ds` over `[t0, t1]`, from zero.
-    fn secular_response(&self, mass: f64, t0: f64, t1: f64) -> [f64; 2] {
-        let (a, b) = (
-            self.secular_particular(mass, t0),
-            self.secular_particular(mass, t1),
-        );
-        let p = self.bar_phi(mass, t1 - t0);
-        [
-            b[0] - p[0][0] * a[0] - p[0][1] * a[1],
-            b[1] - p[1][0] * a[0] - p[1][1] * a[1],
-        ]
-    }
-
-    /// The projection onto the constrained motion of phase `mode` (identity in free flight).
-    fn projection(&self, mode: Mode) -> Mat4 {
-        let r = self.mu_ratio();
-        match mode {
-            Mode::Free | Mode::NoBall => IDENTITY,
-            Mode::Stick => [
-                [1.0, 0.0, 0.0, 0.0],
-                [0.0, 1.0 - r, 0.0, r],
-                [0.0, 0.0, 1.0, 0.0],
-                [0.0, 1.0 - r, 0.0, r],
-            ],
-            Mode::Contact(_) => [
-                [1.0, 0.0, 0.0, 0.0],
-                [0.0, 1.0 - r, 0.0, r],
-                [1.0, 0.0, 0.0, 0.0],
-                [0.0, 1.0 - r, 0.0, r],
-            ],
-        }
-    }
-
-    /// Transition matrix of a segment of phase `mode` and length `τ`.
-    fn segment_stm(&self, mode: Mode, tau: f64) -> Mat4 {
-        match mode {
-            Mode::Free | Mode::NoBall => {
-                let p = self.bar_phi(self.m, tau);
-                [
-                    [p[0][0], p[0][1], 0.0, 0.0],
-                    [p[1][0], p[1][1], 0.0, 0.0],
-                    [0.0, 0.0, 1.0, tau],
-                    [0.0, 0.0, 0.0, 1.0],
-                ]
-            }
-            Mode::Stick | Mode::Contact(_) => {
-                let p = self.bar_phi(self.m + self.md, tau);
-                // v(τ) = u(τ) + (v₀ − u₀), v̇ = u̇; then the projection at the start.
-                let pair = [
-                    [p[0][0], p[0][1], 0.0, 0.0],
-                    [p[1][0], p[1][1], 0.0, 0.0],
-                    [p[0][0] - 1.0, p[0][1], 1.0, 0.0],
-                    [p[1][0], p[1][1], 0.0, 0.0],
-                ];
-                mat_mul(&pair, &self.projection(mode))
-            }
-        }
-    }
-
-    /// Restitution map on `(u̇, v̇)` as a 4×4 `G` (positions kept).
-    fn impact_g(&self) -> Mat4 {
-        // u̇⁺ = u̇ + β(v̇ − u̇), v̇⁺ = u̇⁺ − e(v̇ − u̇), β = μ(1+e)/(1+μ), μ = m_d/M.
-        let mu = self.md / self.m;
-        let beta = mu * (1.0 + self.e) / (1.0 + mu);
-        [
-            [1.0, 0.0, 0.0, 0.0],
-            [0.0, 1.0 - beta, 0.0, beta],
-            [0.0, 0.0, 1.0, 0.0],
-            [0.0, 1.0 - beta + self.e, 0.0, beta - self.e],
-        ]
-    }
-
-    /// `G = ∂g/∂x` of the plastic limit (common momentum-conserving velocity).
-    fn plastic_g(&self) -> Mat4 {
-        let r = self.mu_ratio();
-        [
-            [1.0, 0.0, 0.0, 0.0],
-            [0.0, 1.0 - r, 0.0, r],
-            [0.0, 0.0, 1.0, 0.0],
-            [0.0, 1.0 - r, 0.0, r],
-        ]
-    }
-}
-
-impl Lumped {
-    /// Contact coordinates `y = (u, u̇, δ, δ̇)` of a public state at wall `sw`:
-    /// `δ = sw·w − l_g`, `δ̇ = sw·ẇ`.
-    fn hz_y(&self, sw: f64, x: &State) -> [f64; 4] {
-        [x.u_m, x.du_m_s, sw * x.w_m() - self.lg, sw * x.dw_m_s()]
-    }
-
-    /// The compliant phase's vector field in contact coordinates (`hertz.rs`):
-    /// `M ü = F(t) − C u̇ − K u + sw P − F_b`, `m_d v̈ = −sw P + F_b`, `δ̈ = sw (v̈ − ü)`; stuck:
-    /// the pair moves as one body at fixed `δ`.
-    fn hz_field(&self, c: &CompliantContact, t: f64, y: &[f64; 4]) -> [f64; 4] {
-        let free = self.force(t) - self.c * y[1] - self.k * y[0];
-        if c.stuck {
-            return [y[1], free / (self.m + self.md), 0.0, 0.0];
-        }
-        let sw = c.wall_sign;
-        let p = c.law.force_n(y[2], y[3], c.reference_speed_m_s);
-        let fb = c.ball_friction_n;
-        let ddu = (free + sw * p - fb) / self.m;
-        let ddv = (-sw * p + fb) / self.md;
-        [y[1], ddu, y[3], sw * (ddv - ddu)]
-    }
-
-    /// The phase's vector field in public coordinates `(u̇, ü, v̇, v̈)` at `x`.
-    fn hz_field_public(&self, c: &CompliantContact, t: f64, x: &State) -> [f64; 4] {
-        let sw = c.wall_sign;
-        let f = self.hz_field(c, t, &self.hz_y(sw, x));
-        [f[0], f[1], f[0] + sw * f[2], f[1] + sw * f[3]]
-    }
-
-    /// `A = ∂f/∂y` of [`Lumped::hz_field`] and `b = ∂f/∂δ̇₀` (the law's reference speed).
-    /// With `P = K_h δ^{3/2}(1 + D δ̇/δ̇₀)`: `P_δ = (3/2) K_h δ^{1/2}(1 + D δ̇/δ̇₀)`,
-    /// `P_δ̇ = K_h δ^{3/2} D/δ̇₀`, `P_δ̇₀ = −K_h δ^{3/2} D δ̇/δ̇₀²` (all 0 at `δ ≤ 0`).
-    fn hz_jac(&self, c: &CompliantContact, y: &[f64; 4]) -> (Mat4, [f64; 4]) {
-        if c.stuck {
-            let mt = self.m + self.md;
-            return (
-                [
-                    [0.0, 1.0, 0.0, 0.0],
-                    [-self.k / mt, -self.c / mt, 0.0, 0.0],
-                    [0.0, 0.0, 0.0, 0.0],
-                    [0.0, 0.0, 0.0, 0.0],
-                ],
-                [0.0; 4],
-            );
-        }
-        let sw = c.wall_sign;
-        let d = y[2].max(0.0);
-        let sq = d.sqrt();
-        let kh = c.law.stiffness_n_m32;
-        let v0 = c.reference_speed_m_s;
-        let damp = c.law.damping;
-        let fac = 1.0 + damp * y[3] / v0;
-        let p_d = 1.5 * kh * sq * fac;
-        let p_dd = kh * d * sq * damp / v0;
-        let p_v0 = -kh * d * sq * damp * y[3] / (v0 * v0);
-        let (m, md) = (self.m, self.md);
-        let inv = 1.0 / m + 1.0 / md;
-        (
-            [
-                [0.0, 1.0, 0.0, 0.0],
-                [-self.k / m, -self.c / m, sw * p_d / m, sw * p_dd / m],
-                [0.0, 0.0, 0.0, 1.0],
-                [sw * self.k / m, sw * self.c / m, -p_d * inv, -p_dd * inv],
-            ],
-            [0.0, sw * p_v0 / m, 0.0, -p_v0 * inv],
-        )
-    }
-}
-
-/// Relative tolerance of the tangent integration along a compliant contact phase (that of the
-/// phase itself, [`crate::analysis::contact_test::CONTACT_RTOL`]).
-pub const HERTZ_TANGENT_RTOL: f64 = crate::analysis::contact_test::CONTACT_RTOL;
-
-/// Most tangent-integrator steps (accepted or rejected) per step of a contact phase: the
-/// tangent shares the phase's smoothness, so it takes one to a few; the bound only stops a
-/// runaway.
-pub const HERTZ_TANGENT_MAX_SUBSTEPS: u32 = 10_000;
-
-/// A compliant contact phase in progress: its tangent map from the public state at the touch.
-#[derive(Debug, Clone, Copy)]
-struct HzPhase {
-    t0: f64,
-    t_last: f64,
-    sw: f64,
-    /// `∂y/∂x(touch)` (contact coordinates from public ones) and `∂y/∂δ̇₀`, as one 4×5 block
-    /// row-major (`z[5i + j]`, `j = 4` the `δ̇₀` column).
-    z: [f64; 20],
-    /// `∂δ̇₀/∂x(touch)`.
-    c: [f64; 4],
-    /// The constants of the last step seen (a change marks a friction event).
-    last: CompliantContact,
-    /// Tangent step size to try next.
-    h: f64,
-    /// `Mode::Contact(wall)`.
-    mode: Mode,
-    /// A stick happened in this phase (a direction is removed for good).
-    stuck_seen: bool,
-    /// Row scales `(l_g, v, δ, v)` of the tolerance.
-    scale: [f64; 4],
-}
-
-/// `S = G + (f⁺ − G f⁻) ∇hᵀ / rate`, `rate = ∇h·f⁻ + ∂h/∂t`. Returns `None` when the rate
-/// vanishes (grazing).
-fn saltation(
-    g: &Mat4,
-    f_minus: &[f64; 4],
-    f_plus: &[f64; 4],
-    grad_h: &[f64; 4],
-    rate: f64,
-) -> Option<Mat4> {
-    if rate == 0.0 || !rate.is_finite() {
-        return None;
-    }
-    let mut gf = [0.0; 4];
-    for i in 0..4 {
-        gf[i] = (0..4).map(|j| g[i][j] * f_minus[j]).sum();
-    }
-    let mut s = *g;
-    for i in 0..4 {
-        let d = (f_plus[i] - gf[i]) / rate;
-        for j in 0..4 {
-            s[i][j] += d * grad_h[j];
-        }
-    }
-    Some(s)
-}
-
-/// The variational layer: an [`Observer`] that hands the tangent map of each segment and event
-/// of a lumped exact run to a [`TangentSink`].
-pub struct Variational<T: TangentSink> {
-    sys: Lumped,
-    /// The tangent maps go here.
-    pub sink: T,
-    /// Events seen.
-    pub counts: EventCounts,
-    cur: Option<Phase>,
-    pending: Option<Pending>,
-    /// The parameter whose derivative column `∂x/∂p` is carried (none by default).
-    param: Option<Param>,
-    /// `∂x/∂p` on `(u, u̇, v, v̇)` at the current time (zero at the start).
-    dxdp: [f64; 4],
-    /// The compliant contact phase in progress (`hertz` law).
-    hz: Option<HzPhase>,
-    /// The phase a run ended in, when it ended inside a compliant contact (for the end field).
-    open_contact: Option<CompliantContact>,
-    /// What stopped the tangent integration of a compliant phase (an observer cannot return an
-    /// error; [`flow_with_jacobian`] and the spectrum report it after the run).
-    pub failure: Option<SimError>,
-    /// `Σ ln|det(W + ζcᵀ)/det W|` over the compliant phases closed so far: the phase-volume
-    /// change of the law's memory of the approach speed (module docs, "Hertz contact phases").
-    pub approach_memory_log: f64,
-}
-
 /// A parameter whose derivative `∂x(t_end)/∂p` the layer can carry (see "Parameter
-/// derivatives" in the module docs).
+/// derivatives" in the module docs; the lumped bar's).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Param {
     /// The coefficient of restitution `e`.
@@ -743,107 +423,340 @@ pub enum Param {
     FreqRatio,
 }
 
-/// `m · d`.
-#[inline]
-fn mat_vec(m: &Mat4, d: &[f64; 4]) -> [f64; 4] {
-    [0, 1, 2, 3].map(|i| m[i][0] * d[0] + m[i][1] * d[1] + m[i][2] * d[2] + m[i][3] * d[3])
+/// Relative tolerance of the tangent integration along a compliant contact phase (that of the
+/// phase itself, [`crate::analysis::contact_test::CONTACT_RTOL`]).
+pub const HERTZ_TANGENT_RTOL: f64 = crate::analysis::contact_test::CONTACT_RTOL;
+
+/// Most tangent-integrator steps (accepted or rejected) per step of a contact phase: the
+/// tangent shares the phase's smoothness, so it takes one to a few; the bound only stops a
+/// runaway.
+pub const HERTZ_TANGENT_MAX_SUBSTEPS: u32 = 10_000;
+
+/// What the layer reads of the ball, the cavity, the contact and friction laws and the
+/// forcing: the same for every bar.
+#[derive(Debug, Clone, Copy)]
+pub struct Laws {
+    /// `m_d`.
+    pub md: f64,
+    /// `e`.
+    pub e: f64,
+    /// The friction level `F` and the friction law.
+    pub fl: f64,
+    /// The friction law.
+    pub model: FrictionModel,
+    /// `F(t) = F_s + F₀ sin Ωt`: `F_s`.
+    pub fs: f64,
+    /// `F₀`.
+    pub f0: f64,
+    /// `Ω`.
+    pub om: f64,
+    /// `∂Ω/∂ratio = ω₁`.
+    pub om1: f64,
+    /// The compliant law, `None` under the restitution law.
+    pub hertz: Option<Hertz>,
+    /// Half gap `l_g`.
+    pub lg: f64,
 }
 
-impl<T: TangentSink> Variational<T> {
-    /// The layer for `sys` (lumped bar with a damper, either contact law).
-    pub fn new(sys: &System, sink: T) -> Result<Self, SimError> {
-        sys.validate()?;
-        let bar = sys
-            .lumped_bar()
-            .ok_or(SimError::Unsupported(VARIATIONAL_LUMPED_ONLY))?;
-        let d = sys
-            .damper
-            .ok_or(SimError::Unsupported(VARIATIONAL_NEEDS_BALL))?;
-        let hertz = (d.contact.law == ContactLaw::Hertz).then(|| Hertz::of_damper(&d));
-        Ok(Variational {
-            sys: Lumped {
-                m: bar.mass_kg,
-                md: d.ball_mass_kg,
-                k: bar.stiffness_n_per_m,
-                c: bar.damping_n_s_per_m(),
-                e: d.restitution,
-                fl: sys.friction_level_n(),
-                model: d.friction,
-                fs: sys.forcing.static_force_n,
-                f0: sys.forcing.amplitude_n,
-                om: sys.omega_rad_s(),
-                om1: sys.omega1_rad_s(),
-                hertz,
-                lg: d.half_gap_m(),
-            },
+impl Laws {
+    /// The laws of damper `d` with friction level `fl`, forcing `f` at `Ω = om`, `ω₁ = om1`.
+    pub fn new(d: &Damper, fl: f64, f: &Forcing, om: f64, om1: f64) -> Laws {
+        Laws {
+            md: d.ball_mass_kg,
+            e: d.restitution,
+            fl,
+            model: d.friction,
+            fs: f.static_force_n,
+            f0: f.amplitude_n,
+            om,
+            om1,
+            hertz: (d.contact.law == ContactLaw::Hertz).then(|| Hertz::of_damper(d)),
+            lg: d.half_gap_m(),
+        }
+    }
+    /// `F(t)`.
+    pub fn force(&self, t: f64) -> f64 {
+        self.fs + self.f0 * (self.om * t).sin()
+    }
+    /// `Ḟ(t)`.
+    pub fn dforce_dt(&self, t: f64) -> f64 {
+        self.f0 * self.om * (self.om * t).cos()
+    }
+    /// Friction force on the ball in a free flight with sign `σ`.
+    pub fn fb(&self, sigma: f64) -> f64 {
+        crate::damper::friction::sliding_friction_on_ball_n(self.model, self.fl, sigma)
+    }
+    /// The free-flight friction sign `σ` whose sliding force is `fb` (`F_b = s F sgn σ`).
+    pub fn sigma_of_fb(&self, fb: f64) -> f64 {
+        crate::damper::friction::sign_factor(self.model) * crate::damper::friction::sgn0(fb)
+    }
+    /// Friction is on and has a level.
+    pub fn frictional(&self) -> bool {
+        self.model != FrictionModel::None && self.fl > 0.0
+    }
+}
+
+/// What happened at an event, for the bar's map ([`TangentBar::event_map`]): the saltation
+/// `S = G + (f⁺ − G f⁻) ∇hᵀ / rate` and what a parameter column needs.
+#[derive(Debug, Clone, Copy)]
+pub struct EventMap<X, G> {
+    /// The event.
+    pub kind: EventKind,
+    /// Its time.
+    pub t_s: f64,
+    /// The reset's Jacobian `G`.
+    pub g: G,
+    /// The field before.
+    pub f_minus: X,
+    /// The field after.
+    pub f_plus: X,
+    /// `∇h`.
+    pub grad_h: X,
+    /// `∇h·f⁻ + ∂h/∂t`.
+    pub rate: f64,
+    /// The rate is finite and not 0 (else grazing: only `G` applies).
+    pub ok: bool,
+    /// The state before.
+    pub x: X,
+    /// An impact taken to its plastic limit.
+    pub plastic: bool,
+    /// The end of a compliant contact phase.
+    pub release: bool,
+}
+
+/// A compliant contact phase in progress (module docs, "Hertz contact phases"); its tangent
+/// block `Z = [W | ζ]` is the bar's ([`TangentBar::hz_col`]).
+#[derive(Debug, Clone, Copy)]
+pub struct ContactPhase<X> {
+    /// The touch.
+    pub t0: f64,
+    /// The end of the last step seen.
+    pub t_last: f64,
+    /// The wall, `±1`.
+    pub sw: f64,
+    /// `∂δ̇₀/∂x(touch)`.
+    pub c: X,
+    /// The constants of the last step seen (a change marks a friction event).
+    pub last: CompliantContact,
+    /// `Mode::Contact(wall)`.
+    pub mode: Mode,
+    /// A stick happened in this phase (a direction is removed for good).
+    pub stuck_seen: bool,
+    /// Scales `(l_g, v, δ_max, v)` of the tolerance.
+    pub scale: [f64; 4],
+}
+
+impl<X> ContactPhase<X> {
+    /// The scale of row `i` of `Z` (contact coordinates `(q, q̇, δ, δ̇)`) on a bar of `n`
+    /// modes: `l_g`, the speed scale, `δ_max`, the speed scale.
+    pub fn row_scale(&self, n: usize, i: usize) -> f64 {
+        if i < n {
+            self.scale[0]
+        } else if i < 2 * n {
+            self.scale[1]
+        } else {
+            self.scale[i - 2 * n + 2]
+        }
+    }
+
+    /// The size of the perturbation column `j` of `Z` maps: positions `l_g`, velocities and
+    /// `δ̇₀` (column `2n + 2`) the speed scale.
+    pub fn col_scale(&self, n: usize, j: usize) -> f64 {
+        if j < n || j == 2 * n {
+            self.scale[0]
+        } else {
+            self.scale[1]
+        }
+    }
+}
+
+/// What the variational layer needs from a bar whose tangent maps go to `S` (module docs):
+/// its arithmetic on its public coordinates `x` (the bar's, then the ball's `v`, `v̇`; the
+/// contact row `w = v − φ_dᵀq`) and the maps.
+pub trait TangentBar<S> {
+    /// A vector on the public coordinates.
+    type X: Copy + std::ops::Index<usize, Output = f64> + std::ops::IndexMut<usize>;
+    /// The Jacobian `G` of an event's reset.
+    type G: Copy;
+    /// The dimension `D` of `x`.
+    fn dim(&self) -> usize;
+    /// The zero vector.
+    fn zero(&self) -> Self::X;
+    /// The ball, cavity, laws and forcing.
+    fn laws(&self) -> &Laws;
+    /// The contact's effective mass (a scale of a contact phase's tolerance).
+    fn contact_mass_kg(&self) -> f64;
+    /// `x` just before event `ev`.
+    fn event_state(&self, sink: &S, ev: &Event) -> Self::X;
+    /// `x` at the start `t0` of segment `seg` (a step of a contact phase).
+    fn state_at_start(&self, sink: &S, seg: &dyn Segment, t0: f64) -> Self::X;
+    /// The vector field of phase `p` at `x`, `t`.
+    fn field(&self, p: Phase, x: &Self::X, t: f64) -> Self::X;
+    /// `ẇ` of `x` (of a field: `ẅ`).
+    fn dw(&self, x: &Self::X) -> f64;
+    /// `∇w`.
+    fn grad_w(&self) -> Self::X;
+    /// `∇ẇ`.
+    fn grad_dw(&self) -> Self::X;
+    /// `∇h` and the rate of the unstick and release test with `f⁻` at `t`.
+    fn hold_release(&self, t: f64, f_minus: &Self::X) -> (Self::X, f64);
+    /// `G = I`.
+    fn identity_g(&self) -> Self::G;
+    /// `G` of an impact (`plastic`: taken to its plastic limit).
+    fn impact_g(&self, plastic: bool) -> Self::G;
+    /// `x⁺` after event `ev` with the reset `g` from `x`.
+    fn after_reset(&self, g: &Self::G, plastic: bool, ev: &Event, x: &Self::X) -> Self::X;
+    /// Hand on the transition map of segment `seg` (`mode`, `[t0, t1]`).
+    fn segment_map(&mut self, sink: &mut S, seg: &dyn Segment, mode: Mode, t0: f64, t1: f64);
+    /// Hand on the saltation map of an event.
+    fn event_map(&mut self, sink: &mut S, e: &EventMap<Self::X, Self::G>);
+    /// Hand on the identity as the map of `step` (a marker).
+    fn mark(&mut self, sink: &mut S, step: Step);
+
+    /// Contact coordinates `y = (q, q̇, δ, δ̇)` of `x` at wall `sw` (`δ = sw·w − l_g`).
+    fn contact_coords(&self, sw: f64, x: &Self::X) -> Self::X;
+    /// A tangent (or field) in contact coordinates back to public ones.
+    fn public_tangent(&self, sw: f64, z: &Self::X) -> Self::X;
+    /// The compliant phase's vector field at `y` (contact coordinates).
+    fn hz_field(&self, c: &CompliantContact, t: f64, y: &Self::X) -> Self::X;
+    /// `∇h` (contact coordinates) and the rate of the unstick inside a stuck phase.
+    fn hz_unstick(
+        &self,
+        sw: f64,
+        c: &CompliantContact,
+        t: f64,
+        y: &Self::X,
+        f_minus: &Self::X,
+    ) -> (Self::X, f64);
+    /// Column `j` of the phase's block `Z = [W | ζ]` (`j = D`: `ζ`).
+    fn hz_col(&self, j: usize) -> Self::X;
+    /// Set column `j` of `Z`.
+    fn hz_set_col(&mut self, j: usize, z: &Self::X);
+    /// A new phase's block: the tangent integrator's first step `h0`.
+    fn hz_begin(&mut self, h0: f64);
+    /// Carry `Z` over step `seg` of `ph` (constants `ph.last`).
+    fn hz_advance(&mut self, ph: &ContactPhase<Self::X>, seg: &dyn Segment)
+        -> Result<(), SimError>;
+    /// Hand on the phase's map `T⁻¹ (W + ζ cᵀ)` from its touch to `t_end`; returns
+    /// `det(W + ζcᵀ)/det W` where it is defined.
+    fn phase_map(&mut self, sink: &mut S, ph: &ContactPhase<Self::X>, t_end: f64) -> Option<f64>;
+}
+
+/// `P_δ`, `P_δ̇`, `P_δ̇₀` of the law `P = K_h δ^{3/2}(1 + D δ̇/δ̇₀)` at `δ` (0 below), `δ̇`:
+/// `(3/2) K_h δ^{1/2}(1 + D δ̇/δ̇₀)`, `K_h δ^{3/2} D/δ̇₀`, `−K_h δ^{3/2} D δ̇/δ̇₀²`.
+pub(crate) fn contact_partials(c: &CompliantContact, delta: f64, ddelta: f64) -> (f64, f64, f64) {
+    let d = delta.max(0.0);
+    let sq = d.sqrt();
+    let kh = c.law.stiffness_n_m32;
+    let v0 = c.reference_speed_m_s;
+    let damp = c.law.damping;
+    let fac = 1.0 + damp * ddelta / v0;
+    (
+        1.5 * kh * sq * fac,
+        kh * d * sq * damp / v0,
+        -kh * d * sq * damp * ddelta / (v0 * v0),
+    )
+}
+
+/// Integrate the linear tangent equation `z' = f(t, z)` over `[a, b]` from the step `h`:
+/// adaptive Dormand–Prince 5(4) with the error control of `ig`, at most
+/// [`HERTZ_TANGENT_MAX_SUBSTEPS`] steps; `h` becomes the step to try next.
+pub(crate) fn tangent_advance<const L: usize, F>(
+    ig: &Dopri5<L>,
+    mut f: F,
+    a: f64,
+    b: f64,
+    z: &mut [f64; L],
+    h: &mut f64,
+) -> Result<(), SimError>
+where
+    F: FnMut(f64, &[f64; L]) -> [f64; L],
+{
+    let (mut t, mut hs) = (a, h.min(b - a));
+    let mut f0 = f(t, z);
+    let mut tries = 0u32;
+    loop {
+        tries += 1;
+        if tries > HERTZ_TANGENT_MAX_SUBSTEPS {
+            return Err(SimError::ContactStepLimit {
+                t_s: a,
+                steps: HERTZ_TANGENT_MAX_SUBSTEPS as u64,
+            });
+        }
+        let last = t + hs >= b;
+        let hh = if last { b - t } else { hs };
+        let at = ig.attempt(&mut f, t, z, &f0, hh);
+        if at.err > 1.0 {
+            hs = Dopri5::<L>::next_h(hh, at.err);
+            if hs <= 4.0 * f64::EPSILON * t.abs().max(1e-300) || !hs.is_finite() {
+                return Err(SimError::NonFinite { t_s: t });
+            }
+            continue;
+        }
+        *z = at.step.y1;
+        f0 = at.f1;
+        hs = Dopri5::<L>::next_h(hh, at.err);
+        if last {
+            break;
+        }
+        t += hh;
+    }
+    *h = hs;
+    Ok(())
+}
+
+/// An event waiting for the phase that follows it (its `f⁺`).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Pending<X> {
+    pub(crate) ev: Event,
+    pub(crate) before: Phase,
+    /// `x` just before it.
+    pub(crate) x: X,
+    /// The end of a compliant contact phase (the solver's `Impact` at the release).
+    pub(crate) release: bool,
+}
+
+/// The variational layer: an [`Observer`] that hands the tangent map of each segment and event
+/// of an exact run of the bar `B` to `S` (module docs). The lumped bar's is
+/// `Variational<T: TangentSink>`; the N-mode bar's [`super::variational_modal::ModalVariational`].
+pub struct Variational<S, B: TangentBar<S> = LumpedBar> {
+    pub(crate) bar: B,
+    /// Where the tangent maps go.
+    pub sink: S,
+    /// Events seen.
+    pub counts: EventCounts,
+    pub(crate) cur: Option<Phase>,
+    pub(crate) pending: Option<Pending<B::X>>,
+    /// The compliant contact phase in progress (`hertz` law).
+    pub(crate) hz: Option<ContactPhase<B::X>>,
+    /// The phase a run ended in, when it ended inside a compliant contact (for the end field).
+    pub(crate) open_contact: Option<CompliantContact>,
+    /// What stopped the tangent integration of a compliant phase (an observer cannot return an
+    /// error; the flows and the spectrum report it after the run).
+    pub failure: Option<SimError>,
+    /// `Σ ln|det(W + ζcᵀ)/det W|` over the compliant phases closed so far: the phase-volume
+    /// change of the law's memory of the approach speed (module docs, "Hertz contact phases").
+    pub approach_memory_log: f64,
+}
+
+impl<S, B: TangentBar<S>> Variational<S, B> {
+    /// The layer of `bar` handing its maps to `sink`.
+    pub(crate) fn with_bar(bar: B, sink: S) -> Self {
+        Variational {
+            bar,
             sink,
             counts: EventCounts::default(),
             cur: None,
             pending: None,
-            param: None,
-            dxdp: [0.0; 4],
             hz: None,
             open_contact: None,
             failure: None,
             approach_memory_log: 0.0,
-        })
-    }
-
-    /// Also carry the column `∂x/∂p` of parameter `p` (from zero at the start). Restitution
-    /// law only: under the `hertz` law the column is not built ([`flow_with_param_derivative`]
-    /// refuses it).
-    pub fn with_param(mut self, p: Param) -> Self {
-        self.param = Some(p);
-        self
-    }
-
-    /// `∂x/∂p` so far (zero when no parameter is carried).
-    pub fn dx_dp(&self) -> [f64; 4] {
-        self.dxdp
-    }
-
-    /// The inhomogeneous part of `∂x/∂p` over a segment of `mode` and length `τ`, from zero:
-    /// `∫₀^τ Φ(τ − s) ∂f/∂p ds`. Only the friction level enters a vector field (the ball's
-    /// sliding force `b F`, `b = ∂F_ball/∂F`, constant over a free flight).
-    fn segment_param_term(&self, mode: Mode, sigma: f64, t0: f64, t1: f64) -> [f64; 4] {
-        let s = &self.sys;
-        let tau = t1 - t0;
-        match (self.param, mode) {
-            (Some(Param::FreqRatio), Mode::Free | Mode::NoBall) => {
-                let r = s.secular_response(s.m, t0, t1);
-                [r[0] * s.om1, r[1] * s.om1, 0.0, 0.0]
-            }
-            (Some(Param::FreqRatio), Mode::Stick | Mode::Contact(_)) => {
-                // The pair moves as one body; the ball follows at fixed w.
-                let r = s.secular_response(s.m + s.md, t0, t1);
-                let (a, b) = (r[0] * s.om1, r[1] * s.om1);
-                [a, b, a, b]
-            }
-            (Some(Param::FrictionForceN), Mode::Free) => {
-                let b = sliding_friction_on_ball_n(s.model, 1.0, sigma);
-                // Bar: M ü + C u̇ + K u = −b, from rest: (I − Φ(τ)) (−b/K, 0).
-                let p = s.bar_phi(s.m, tau);
-                let up = -b / s.k;
-                // Ball: v̈ = b/m_d.
-                let a = b / s.md;
-                [
-                    (1.0 - p[0][0]) * up,
-                    -p[1][0] * up,
-                    0.5 * a * tau * tau,
-                    a * tau,
-                ]
-            }
-            (Some(Param::GapM), Mode::Contact(wall)) => {
-                // On the wall `v = u + s l_g`: the projection keeps `δw = 0`, the offset
-                // `∂w/∂gap = s/2` (`l_g = gap/2`) is restored here.
-                [0.0, 0.0, 0.5 * wall.sign(), 0.0]
-            }
-            _ => [0.0; 4],
         }
     }
 
-    /// Apply what is still pending (an event at the very end of the run). Call once after the
-    /// run; [`flow_with_jacobian`] does.
+    /// Apply what is still pending (an event at the very end of the run, a compliant phase the
+    /// run ended in). Call once after the run; the flows do.
     pub fn finish(&mut self) {
         self.open_contact = None;
         if let Some(p) = self.pending.take() {
@@ -855,18 +768,34 @@ impl<T: TangentSink> Variational<T> {
         }
     }
 
+    /// The vector field at the end of a run (after [`Variational::finish`]) at `x_end`,
+    /// `t_end`: `∂x(t_end)/∂t_end`.
+    pub(crate) fn end_field(&self, t_end: f64, x_end: &B::X) -> B::X {
+        let b = &self.bar;
+        match self.open_contact {
+            Some(c) => {
+                let sw = c.wall_sign;
+                b.public_tangent(sw, &b.hz_field(&c, t_end, &b.contact_coords(sw, x_end)))
+            }
+            None => {
+                let p = self.cur.unwrap_or(Phase {
+                    mode: Mode::Free,
+                    sigma: crate::damper::friction::sgn0(b.dw(x_end)),
+                });
+                b.field(p, x_end, t_end)
+            }
+        }
+    }
+
     /// Start, continue or (at a friction event) switch the compliant phase with step `seg`
     /// (constants `info`), then carry its tangent over the step.
     fn hz_segment(&mut self, seg: &dyn Segment, info: &CompliantContact) {
-        let sys = self.sys;
         let (t0, t1) = (seg.t_start_s(), seg.t_end_s());
-        let x0 = seg.state_at(t0);
-        let sw = info.wall_sign;
         // At `δ = 0` the contact force vanishes: the phase's field is free flight with the
         // phase's friction force.
         let free_like = Phase {
             mode: Mode::Free,
-            sigma: sys.sigma_of_fb(info.ball_friction_n),
+            sigma: self.bar.laws().sigma_of_fb(info.ball_friction_n),
         };
         if let Some(p) = self.pending.take() {
             self.resolve(p, free_like, false);
@@ -874,51 +803,10 @@ impl<T: TangentSink> Variational<T> {
         if self.hz.is_some_and(|ph| ph.mode != seg.mode()) {
             self.hz_close(t0);
         }
+        let x0 = self.bar.state_at_start(&self.sink, seg, t0);
         let mut ph = match self.hz {
             Some(ph) => ph,
-            None => {
-                self.counts.compliant_contacts += 1;
-                let before = self
-                    .cur
-                    .filter(|p| p.mode == Mode::Free)
-                    .unwrap_or(free_like);
-                // δ̇₀ = sw·ẇ(t*) at the perturbed touch time t* + δt*, δt* = −δw/ẇ:
-                // δδ̇₀ = sw (δẇ − ẅ⁻ δw/ẇ⁻), δw = δv − δu. Zero when the floor holds δ̇₀.
-                let dw = x0.dw_m_s();
-                let mut c = [0.0; 4];
-                if dw == 0.0 {
-                    // A touch at rest: not differentiable (a perturbation lifts the ball off).
-                    self.counts.grazing += 1;
-                } else if info.approach_m_s >= info.reference_speed_m_s {
-                    let f = sys.field(before, &x0, t0);
-                    let r = (f[3] - f[1]) / dw;
-                    c = [sw * r, -sw, -sw * r, sw];
-                }
-                let meff = sys.m * sys.md / (sys.m + sys.md);
-                let v0 = info.reference_speed_m_s;
-                let vs = v0.max(sys.lg * sys.om);
-                let ds = info.law.with_damping(0.0).max_penetration_m(meff, v0);
-                let mut z = [0.0; 20];
-                // W = T: (u, u̇, v, v̇) → (u, u̇, δ, δ̇); the onset's saltation is I.
-                z[0] = 1.0;
-                z[6] = 1.0;
-                z[10] = -sw;
-                z[12] = sw;
-                z[16] = -sw;
-                z[18] = sw;
-                HzPhase {
-                    t0,
-                    t_last: t0,
-                    sw,
-                    mode: seg.mode(),
-                    z,
-                    c,
-                    last: *info,
-                    h: t1 - t0,
-                    stuck_seen: false,
-                    scale: [sys.lg, vs, ds, vs],
-                }
-            }
+            None => self.hz_start(seg, info, &x0, free_like),
         };
         // The same step constants are the same bits: a change is a friction event.
         if info.stuck != ph.last.stuck
@@ -928,7 +816,7 @@ impl<T: TangentSink> Variational<T> {
         }
         ph.last = *info;
         if t1 > t0 {
-            if let Err(e) = Self::hz_advance(&sys, &mut ph, seg, info, t0, t1) {
+            if let Err(e) = self.bar.hz_advance(&ph, seg) {
                 self.failure.get_or_insert(e);
             }
         }
@@ -940,27 +828,91 @@ impl<T: TangentSink> Variational<T> {
         });
     }
 
+    /// The touch: `Z = [T | 0]` (the onset's saltation is `I`) and the memory row `c`.
+    fn hz_start(
+        &mut self,
+        seg: &dyn Segment,
+        info: &CompliantContact,
+        x0: &B::X,
+        free_like: Phase,
+    ) -> ContactPhase<B::X> {
+        let b = &self.bar;
+        let (t0, t1) = (seg.t_start_s(), seg.t_end_s());
+        let sw = info.wall_sign;
+        let d = b.dim();
+        self.counts.compliant_contacts += 1;
+        let before = self
+            .cur
+            .filter(|p| p.mode == Mode::Free)
+            .unwrap_or(free_like);
+        let (gw, gdw) = (b.grad_w(), b.grad_dw());
+        // δ̇₀ = sw·ẇ(t*) at the perturbed touch time t* + δt*, δt* = −δw/ẇ:
+        // δδ̇₀ = sw (δẇ − ẅ⁻ δw/ẇ⁻). Zero when the floor holds δ̇₀.
+        let dw = b.dw(x0);
+        let mut c = b.zero();
+        if dw == 0.0 {
+            // A touch at rest: not differentiable (a perturbation lifts the ball off).
+            self.counts.grazing += 1;
+        } else if info.approach_m_s >= info.reference_speed_m_s {
+            let r = b.dw(&b.field(before, x0, t0)) / dw;
+            for i in 0..d {
+                c[i] = sw * gdw[i] - sw * r * gw[i];
+            }
+        }
+        let (lg, om) = (b.laws().lg, b.laws().om);
+        let v0 = info.reference_speed_m_s;
+        let vs = v0.max(lg * om);
+        let ds = info
+            .law
+            .with_damping(0.0)
+            .max_penetration_m(b.contact_mass_kg(), v0);
+        // W = T: the ball's (v, v̇) rows become (δ, δ̇) = sw (∇w, ∇ẇ)·x; ζ = 0.
+        let zero = b.zero();
+        for j in 0..=d {
+            let mut col = zero;
+            if j < d - 2 {
+                col[j] = 1.0;
+            }
+            if j < d && gw[j] != 0.0 {
+                col[d - 2] = sw * gw[j];
+            }
+            if j < d && gdw[j] != 0.0 {
+                col[d - 1] = sw * gdw[j];
+            }
+            self.bar.hz_set_col(j, &col);
+        }
+        self.bar.hz_begin(t1 - t0);
+        ContactPhase {
+            t0,
+            t_last: t0,
+            sw,
+            c,
+            last: *info,
+            mode: seg.mode(),
+            stuck_seen: false,
+            scale: [lg, vs, ds, vs],
+        }
+    }
+
     /// The saltation of a friction event inside a compliant phase (the step constants change
-    /// from `ph.last` to `info` at `t`): `S = I + (f⁺ − f⁻) ∇hᵀ / (∇h·f⁻ + ∂h/∂t)` in contact
-    /// coordinates, on the whole block (`∂h/∂δ̇₀ = 0`: the `δ̇₀` column just follows).
-    fn hz_friction_event(&mut self, ph: &mut HzPhase, info: &CompliantContact, t: f64, x: &State) {
-        let sys = self.sys;
-        let y = sys.hz_y(ph.sw, x);
-        let fm = sys.hz_field(&ph.last, t, &y);
-        let fp = sys.hz_field(info, t, &y);
+    /// from `ph.last` to `info` at `t`, public state `x`): `S = I + (f⁺ − f⁻) ∇hᵀ / (∇h·f⁻ +
+    /// ∂h/∂t)` in contact coordinates, on every column of `Z` (`∂h/∂δ̇₀ = 0`: `ζ` just follows).
+    fn hz_friction_event(
+        &mut self,
+        ph: &mut ContactPhase<B::X>,
+        info: &CompliantContact,
+        t: f64,
+        x: &B::X,
+    ) {
+        let b = &self.bar;
+        let d = b.dim();
+        let y = b.contact_coords(ph.sw, x);
+        let fm = b.hz_field(&ph.last, t, &y);
+        let fp = b.hz_field(info, t, &y);
         let (grad, rate) = if ph.last.stuck {
-            // Unstick: h = f_l ∓ needed, needed = m_d ü_pair + sw K_h δ^{3/2} (hertz.rs).
+            // Unstick: h = f_l ∓ needed, needed = m_d ü_pair + sw K_h δ^{3/2} (the solver's).
             self.counts.unsticks += 1;
-            let r = sys.md / (sys.m + sys.md);
-            let kh = ph.last.law.stiffness_n_m32;
-            let g = [
-                -sys.k * r,
-                -sys.c * r,
-                ph.sw * 1.5 * kh * y[2].max(0.0).sqrt(),
-                0.0,
-            ];
-            let rate = (0..4).map(|i| g[i] * fm[i]).sum::<f64>() + r * sys.dforce_dt(t);
-            (g, rate)
+            b.hz_unstick(ph.sw, &ph.last, t, &y, &fm)
         } else {
             // ẇ = 0: h = δ̇.
             if info.stuck {
@@ -969,134 +921,36 @@ impl<T: TangentSink> Variational<T> {
             } else {
                 self.counts.friction_switches += 1;
             }
-            ([0.0, 0.0, 0.0, 1.0], fm[3])
+            let mut g = b.zero();
+            g[d - 1] = 1.0;
+            (g, fm[d - 1])
         };
         if rate == 0.0 || !rate.is_finite() {
             self.counts.grazing += 1;
             return;
         }
-        for j in 0..5 {
-            let gz: f64 = (0..4).map(|k| grad[k] * ph.z[5 * k + j]).sum();
-            for i in 0..4 {
-                ph.z[5 * i + j] += (fp[i] - fm[i]) * gz / rate;
+        for j in 0..=d {
+            let mut z = self.bar.hz_col(j);
+            let gz: f64 = (0..d).map(|k| grad[k] * z[k]).sum();
+            for i in 0..d {
+                z[i] += (fp[i] - fm[i]) * gz / rate;
             }
+            self.bar.hz_set_col(j, &z);
         }
     }
 
-    /// Integrate the phase's variational equation `Z' = A(t) Z + [0 | b(t)]` over `[a, b]`
-    /// along the step's dense output (module docs): adaptive Dormand–Prince 5(4) with relative
-    /// tolerance [`HERTZ_TANGENT_RTOL`] on every entry.
-    fn hz_advance(
-        sys: &Lumped,
-        ph: &mut HzPhase,
-        seg: &dyn Segment,
-        info: &CompliantContact,
-        a: f64,
-        b: f64,
-    ) -> Result<(), SimError> {
-        let sw = ph.sw;
-        // Entry (i, j) maps a perturbation of size `col_j` to one of size `scale_i`.
-        let col = [
-            ph.scale[0],
-            ph.scale[1],
-            ph.scale[0],
-            ph.scale[1],
-            ph.scale[1],
-        ];
-        let mut atol = [0.0; 20];
-        for i in 0..4 {
-            for j in 0..5 {
-                atol[5 * i + j] = HERTZ_TANGENT_RTOL * ph.scale[i] / col[j];
-            }
-        }
-        let ig = Dopri5::<20>::new(HERTZ_TANGENT_RTOL, atol);
-        let mut f = |t: f64, z: &[f64; 20]| {
-            let y = sys.hz_y(sw, &seg.state_at(t));
-            let (am, bv) = sys.hz_jac(info, &y);
-            let mut dz = [0.0; 20];
-            for i in 0..4 {
-                for j in 0..5 {
-                    let mut acc = if j == 4 { bv[i] } else { 0.0 };
-                    for k in 0..4 {
-                        acc += am[i][k] * z[5 * k + j];
-                    }
-                    dz[5 * i + j] = acc;
-                }
-            }
-            dz
-        };
-        let (mut t, mut h) = (a, ph.h.min(b - a));
-        let mut z = ph.z;
-        let mut f0 = f(t, &z);
-        let mut tries = 0u32;
-        loop {
-            tries += 1;
-            if tries > HERTZ_TANGENT_MAX_SUBSTEPS {
-                return Err(SimError::ContactStepLimit {
-                    t_s: a,
-                    steps: HERTZ_TANGENT_MAX_SUBSTEPS as u64,
-                });
-            }
-            let last = t + h >= b;
-            let hh = if last { b - t } else { h };
-            let at = ig.attempt(&mut f, t, &z, &f0, hh);
-            if at.err > 1.0 {
-                h = Dopri5::<20>::next_h(hh, at.err);
-                if h <= 4.0 * f64::EPSILON * t.abs().max(1e-300) || !h.is_finite() {
-                    return Err(SimError::NonFinite { t_s: t });
-                }
-                continue;
-            }
-            z = at.step.y1;
-            f0 = at.f1;
-            h = Dopri5::<20>::next_h(hh, at.err);
-            if last {
-                break;
-            }
-            t += hh;
-        }
-        ph.z = z;
-        ph.h = h;
-        Ok(())
-    }
-
-    /// Close the compliant phase at `t_end`: hand its tangent map
-    /// `T⁻¹ (W + ζ cᵀ)` (public coordinates at the touch → public at `t_end`) to the sink.
-    /// Returns the last step's constants.
+    /// Close the compliant phase at `t_end`: its map to the sink, the memory's volume to
+    /// [`Variational::approach_memory_log`]. Returns the last step's constants.
     fn hz_close(&mut self, t_end: f64) -> Option<CompliantContact> {
         let ph = self.hz.take()?;
-        let mut w = [[0.0; 4]; 4];
-        let mut wm = [[0.0; 4]; 4];
-        for i in 0..4 {
-            for j in 0..4 {
-                w[i][j] = ph.z[5 * i + j];
-                wm[i][j] = w[i][j] + ph.z[5 * i + 4] * ph.c[j];
-            }
+        if let Some(r) = self.bar.phase_map(&mut self.sink, &ph, t_end) {
+            self.approach_memory_log += r.abs().ln();
         }
-        let (dw, dm) = (det4(&w), det4(&wm));
-        if dw != 0.0 && dm != 0.0 && (dm / dw).is_finite() {
-            self.approach_memory_log += (dm / dw).abs().ln();
-        }
-        let sw = ph.sw;
-        let t_inv = [
-            [1.0, 0.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0, 0.0],
-            [1.0, 0.0, sw, 0.0],
-            [0.0, 1.0, 0.0, sw],
-        ];
-        self.sink.apply(
-            &mat_mul(&t_inv, &wm),
-            Step::Segment {
-                t0_s: ph.t0,
-                t1_s: t_end,
-                mode: ph.mode,
-            },
-        );
         if ph.stuck_seen {
             // The stick's saltation is inside the map above; this marks the direction it
             // removed (the spectrum's structural count).
-            self.sink.apply(
-                &IDENTITY,
+            self.bar.mark(
+                &mut self.sink,
                 Step::Event {
                     t_s: t_end,
                     kind: EventKind::Stick,
@@ -1108,159 +962,81 @@ impl<T: TangentSink> Variational<T> {
     }
 
     /// Build and apply the saltation of `p` with the phase `after` that follows it.
-    fn resolve(&mut self, p: Pending, after: Phase, followed_by_contact: bool) {
-        if p.release {
-            // The end of a compliant phase (`δ = 0`, `P = 0`): h = w − sw·l_g, G = I; the
-            // fields on both sides are free flight, with the friction of each side.
-            self.counts.impacts += 1;
-            let ev = &p.ev;
-            let fm = self.sys.field(p.before, &ev.before, ev.t_s);
-            let fp = self.sys.field(after, &ev.after, ev.t_s);
-            let salt = saltation(
-                &IDENTITY,
-                &fm,
-                &fp,
-                &[-1.0, 0.0, 1.0, 0.0],
-                ev.before.dw_m_s(),
-            );
-            let m = salt.unwrap_or_else(|| {
-                self.counts.grazing += 1;
-                IDENTITY
-            });
-            self.sink.apply(
-                &m,
-                Step::Event {
-                    t_s: ev.t_s,
-                    kind: ev.kind,
-                    plastic: false,
-                },
-            );
-            self.cur = Some(after);
-            return;
-        }
-        let s = &self.sys;
+    fn resolve(&mut self, p: Pending<B::X>, after: Phase, followed_by_contact: bool) {
+        let b = &self.bar;
         let ev = &p.ev;
         let t = ev.t_s;
-        let x = &ev.before;
-        let f_minus = s.field(p.before, x, t);
+        let x = &p.x;
+        let f_minus = b.field(p.before, x, t);
+        let c = &mut self.counts;
         let mut plastic = false;
-        let (g, grad, rate, x_plus) = match ev.kind {
+        let (g, grad_h, rate) = match ev.kind {
+            EventKind::Impact { .. } if p.release => {
+                // The end of a compliant phase (`δ = 0`, `P = 0`): h = w − sw·l_g, G = I; the
+                // fields on both sides are free flight, with the friction of each side.
+                c.impacts += 1;
+                (b.identity_g(), b.grad_w(), b.dw(x))
+            }
             EventKind::Impact { .. } => {
-                plastic = followed_by_contact && s.e > 0.0;
-                let g = if plastic { s.plastic_g() } else { s.impact_g() };
+                plastic = followed_by_contact && b.laws().e > 0.0;
                 if plastic {
-                    self.counts.plastic_impacts += 1;
+                    c.plastic_impacts += 1;
                 } else {
-                    self.counts.impacts += 1;
+                    c.impacts += 1;
                 }
-                let mut xp = ev.after;
-                if plastic {
-                    let v = (1.0 - s.mu_ratio()) * x.du_m_s + s.mu_ratio() * x.dv_m_s;
-                    xp.du_m_s = v;
-                    xp.dv_m_s = v;
-                }
-                (g, [-1.0, 0.0, 1.0, 0.0], x.dw_m_s(), xp)
+                (b.impact_g(plastic), b.grad_w(), b.dw(x))
             }
             EventKind::FrictionSwitch | EventKind::Stick => {
                 if ev.kind == EventKind::Stick {
-                    self.counts.sticks += 1;
+                    c.sticks += 1;
                 } else {
-                    self.counts.friction_switches += 1;
+                    c.friction_switches += 1;
                 }
-                (
-                    IDENTITY,
-                    [0.0, -1.0, 0.0, 1.0],
-                    f_minus[3] - f_minus[1],
-                    ev.after,
-                )
+                (b.identity_g(), b.grad_dw(), b.dw(&f_minus))
             }
             EventKind::Unstick | EventKind::ContactRelease { .. } => {
                 if ev.kind == EventKind::Unstick {
-                    self.counts.unsticks += 1;
+                    c.unsticks += 1;
                 } else {
-                    self.counts.releases += 1;
+                    c.releases += 1;
                 }
-                // h = f_l − q·m_d ü_pair with ü_pair = (F(t) − C u̇ − K u)/(M + m_d); only
-                // the direction of ∇h and the rate matter up to a common factor.
-                let r = s.md / (s.m + s.md);
-                let grad = [-s.k * r, -s.c * r, 0.0, 0.0];
-                let rate = grad[0] * f_minus[0] + grad[1] * f_minus[1] + r * s.dforce_dt(t);
-                (IDENTITY, grad, rate, ev.after)
+                let (grad, rate) = b.hold_release(t, &f_minus);
+                (b.identity_g(), grad, rate)
             }
             EventKind::ChatterLimit { .. } => {
-                self.counts.chatter_limits += 1;
+                c.chatter_limits += 1;
                 if matches!(after.mode, Mode::Free) {
-                    self.counts.chatter_releases += 1;
+                    c.chatter_releases += 1;
                 }
                 self.cur = Some(after);
                 return;
             }
         };
-        let f_plus = s.field(after, &x_plus, t);
-        let salt = saltation(&g, &f_minus, &f_plus, &grad, rate);
-        if let Some(p) = self.param {
-            // d⁺ = S d⁻ + ∂g/∂p + (f⁺ − G f⁻) (∂h/∂p) / rate.
-            let mut q = [0.0; 4];
-            if p == Param::FreqRatio
-                && matches!(
-                    ev.kind,
-                    EventKind::Unstick | EventKind::ContactRelease { .. }
-                )
-                && salt.is_some()
-            {
-                // h = r (F(t) − C u̇ − K u) − threshold: ∂h/∂ratio = r F₀ t cos Ωt · ω₁.
-                let r = s.md / (s.m + s.md);
-                let dh = r * s.f0 * t * (s.om * t).cos() * s.om1;
-                let gf = mat_vec(&g, &f_minus);
-                for i in 0..4 {
-                    q[i] = (f_plus[i] - gf[i]) * dh / rate;
-                }
-            }
-            if let EventKind::Impact { wall, .. } = ev.kind {
-                match p {
-                    Param::Restitution if !plastic => {
-                        let mu = s.md / s.m;
-                        let db = mu / (1.0 + mu) * x.dw_m_s();
-                        q[1] = db;
-                        q[3] = db - x.dw_m_s();
-                    }
-                    Param::GapM if salt.is_some() => {
-                        let gf = mat_vec(&g, &f_minus);
-                        // h = w − s l_g with l_g = gap/2.
-                        let dh = -0.5 * wall.sign();
-                        for i in 0..4 {
-                            q[i] = (f_plus[i] - gf[i]) * dh / rate;
-                        }
-                    }
-                    _ => {}
-                }
-            }
-            // Unstick and release: `h` holds the friction level only for Coulomb, where
-            // `f⁺ = f⁻` at the threshold, so the term vanishes; no other event's `h` or `g`
-            // depends on these parameters.
-            let d = mat_vec(salt.as_ref().unwrap_or(&g), &self.dxdp);
-            self.dxdp = [0, 1, 2, 3].map(|i| d[i] + q[i]);
+        let x_plus = b.after_reset(&g, plastic, ev, x);
+        let f_plus = b.field(after, &x_plus, t);
+        let ok = rate != 0.0 && rate.is_finite();
+        if !ok {
+            c.grazing += 1;
         }
-        let m = match salt {
-            Some(m) => m,
-            None => {
-                self.counts.grazing += 1;
-                g
-            }
+        let e = EventMap {
+            kind: ev.kind,
+            t_s: t,
+            g,
+            f_minus,
+            f_plus,
+            grad_h,
+            rate,
+            ok,
+            x: *x,
+            plastic,
+            release: p.release,
         };
-        self.sink.apply(
-            &m,
-            Step::Event {
-                t_s: t,
-                kind: ev.kind,
-                plastic,
-            },
-        );
+        self.bar.event_map(&mut self.sink, &e);
         self.cur = Some(after);
     }
 }
 
-impl<T: TangentSink> Observer for Variational<T> {
+impl<S, B: TangentBar<S>> Observer for Variational<S, B> {
     fn segment(&mut self, seg: &dyn Segment) {
         if let Some(info) = seg.compliant_contact() {
             self.hz_segment(seg, &info);
@@ -1273,8 +1049,7 @@ impl<T: TangentSink> Observer for Variational<T> {
         let (t0, t1) = (seg.t_start_s(), seg.t_end_s());
         let mode = seg.mode();
         // The friction sign matters only with a friction force.
-        let frictional = self.sys.model != FrictionModel::None && self.sys.fl > 0.0;
-        let sigma = if mode == Mode::Free && frictional {
+        let sigma = if mode == Mode::Free && self.bar.laws().frictional() {
             crate::damper::friction::sgn0(seg.state_at(0.5 * (t0 + t1)).dw_m_s())
         } else {
             0.0
@@ -1285,26 +1060,7 @@ impl<T: TangentSink> Observer for Variational<T> {
             self.resolve(p, phase, contact);
         }
         self.cur = Some(phase);
-        let m = self.sys.segment_stm(mode, t1 - t0);
-        if self.param.is_some() {
-            // The friction sign even at a zero level (the derivative there is not zero).
-            let sig = if mode == Mode::Free && self.sys.model != FrictionModel::None {
-                crate::damper::friction::sgn0(seg.state_at(0.5 * (t0 + t1)).dw_m_s())
-            } else {
-                0.0
-            };
-            let q = self.segment_param_term(mode, sig, t0, t1);
-            let d = mat_vec(&m, &self.dxdp);
-            self.dxdp = [0, 1, 2, 3].map(|i| d[i] + q[i]);
-        }
-        self.sink.apply(
-            &m,
-            Step::Segment {
-                t0_s: t0,
-                t1_s: t1,
-                mode,
-            },
-        );
+        self.bar.segment_map(&mut self.sink, seg, mode, t0, t1);
     }
 
     fn event(&mut self, ev: &Event) {
@@ -1314,12 +1070,13 @@ impl<T: TangentSink> Observer for Variational<T> {
                 // The release (the solver reports the end of contact as the impact).
                 let before = Phase {
                     mode: Mode::Free,
-                    sigma: self.sys.sigma_of_fb(c.ball_friction_n),
+                    sigma: self.bar.laws().sigma_of_fb(c.ball_friction_n),
                 };
                 self.cur = Some(before);
                 self.pending = Some(Pending {
                     ev: *ev,
                     before,
+                    x: self.bar.event_state(&self.sink, ev),
                     release: true,
                 });
                 return;
@@ -1339,121 +1096,8 @@ impl<T: TangentSink> Observer for Variational<T> {
         self.pending = Some(Pending {
             ev: *ev,
             before,
+            x: self.bar.event_state(&self.sink, ev),
             release: false,
         });
-    }
-}
-
-/// The end state of a run, its Jacobian and the events it went through.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FlowJacobian {
-    /// The state at `t_end_s`.
-    pub state: State,
-    /// `∂x(t_end)/∂x(t₀)` on `x = (u, u̇, v, v̇)`, at fixed start and end times.
-    pub jacobian: Mat4,
-    /// The vector field at the end, `∂x(t_end)/∂t_end` (for a phase condition or a period
-    /// derivative).
-    pub end_field: [f64; 4],
-    /// The events the tangent map went through.
-    pub events: EventCounts,
-    /// The solver's summary.
-    pub summary: RunSummary,
-}
-
-/// Run the exact solver `solver` (any other is refused) on `sys` from `init` to `t_end_s` and return the end state with
-/// the Jacobian of the flow map (the stroboscopic map over `k` forcing periods is
-/// `t_end_s = init.t_s + k·T`). `extra` sees the run too (`&mut ()` for nothing).
-pub fn flow_with_jacobian(
-    solver: &dyn Solver,
-    sys: &System,
-    init: &State,
-    t_end_s: f64,
-    extra: &mut dyn Observer,
-) -> Result<FlowJacobian, SimError> {
-    flow_tangent(solver, sys, init, t_end_s, None, extra).map(|(f, _)| f)
-}
-
-/// [`flow_with_jacobian`] plus `∂x(t_end)/∂p` at fixed start state and times, on
-/// `(u, u̇, v, v̇)`.
-pub fn flow_with_param_derivative(
-    solver: &dyn Solver,
-    sys: &System,
-    init: &State,
-    t_end_s: f64,
-    param: Param,
-    extra: &mut dyn Observer,
-) -> Result<(FlowJacobian, [f64; 4]), SimError> {
-    flow_tangent(solver, sys, init, t_end_s, Some(param), extra)
-}
-
-fn flow_tangent(
-    solver: &dyn Solver,
-    sys: &System,
-    init: &State,
-    t_end_s: f64,
-    param: Option<Param>,
-    extra: &mut dyn Observer,
-) -> Result<(FlowJacobian, [f64; 4]), SimError> {
-    require_exact(solver)?;
-    let mut var = Variational::new(sys, JacobianSink::default())?;
-    if param.is_some() && var.sys.hertz.is_some() {
-        return Err(SimError::Unsupported(VARIATIONAL_NO_HERTZ_PARAM));
-    }
-    var.param = param;
-    let summary = {
-        let v: &mut dyn Observer = &mut var;
-        solver.run(
-            sys,
-            init,
-            t_end_s,
-            &mut crate::solver::Fanout(&mut [v, extra]),
-        )?
-    };
-    var.finish();
-    if let Some(e) = var.failure.take() {
-        return Err(e);
-    }
-    let jacobian = var.sink.jacobian;
-    let end_phase = var.cur.unwrap_or(Phase {
-        mode: Mode::Free,
-        sigma: crate::damper::friction::sgn0(summary.final_state.dw_m_s()),
-    });
-    let end_field = match var.open_contact {
-        Some(c) => var.sys.hz_field_public(&c, t_end_s, &summary.final_state),
-        None => var.sys.field(end_phase, &summary.final_state, t_end_s),
-    };
-    Ok((
-        FlowJacobian {
-            state: summary.final_state,
-            jacobian,
-            end_field,
-            events: var.counts,
-            summary,
-        },
-        var.dxdp,
-    ))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn determinant_of_products_and_blocks() {
-        let a: Mat4 = [
-            [2.0, 1.0, 0.0, 3.0],
-            [0.5, -1.0, 2.0, 0.0],
-            [1.0, 0.0, 1.0, 1.0],
-            [0.0, 2.0, -1.0, 4.0],
-        ];
-        let b: Mat4 = [
-            [1.0, 0.0, 2.0, 0.0],
-            [0.0, 3.0, 0.0, 1.0],
-            [1.0, 1.0, 1.0, 0.0],
-            [0.0, 0.0, 0.5, 2.0],
-        ];
-        let (da, db) = (det4(&a), det4(&b));
-        assert!((det4(&mat_mul(&a, &b)) - da * db).abs() < 1e-12 * (da * db).abs());
-        assert!((det4(&IDENTITY) - 1.0).abs() < 1e-15);
     }
 }
