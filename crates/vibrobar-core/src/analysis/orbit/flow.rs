@@ -1,9 +1,10 @@
 //! A bar's exact flow as the orbit analyses see it: one interface ([`Flow`]) that the lumped bar
 //! ([`super::Section`], state `(u, u̇, w, ẇ)`, `D = 4`) and the N-mode bar
 //! ([`super::modal::ModalSection`], state `(q₁ … q_N, q̇₁ … q̇_N, w, ẇ)`, `D = 2N + 2`) both
-//! implement by delegating to their exact solver and the variational layer
-//! ([`crate::analysis::variational`], the N-mode bar's in [`crate::analysis::variational_modal`]). Newton's method,
-//! the orbit's description ([`super::find_orbit`], [`super::describe`]) and the continuation
+//! implement by delegating to their exact solver and the one variational layer
+//! ([`crate::analysis::variational`]: its [`lumped`](crate::analysis::variational::lumped) and
+//! [`modal`](crate::analysis::variational::modal) bars). Newton's method, the orbit's
+//! description ([`super::find_orbit`], [`super::describe`]) and the continuation
 //! ([`super::continuation`]) are written once over it.
 //!
 //! **Coordinates.** A flow's state vector `x` has the bar's coordinates first and the ball's

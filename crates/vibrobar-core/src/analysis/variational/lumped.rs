@@ -18,7 +18,7 @@ use crate::solver::{
 };
 
 /// Why the variational layer refuses a modal bar.
-pub const VARIATIONAL_LUMPED_ONLY: &str = "this variational layer is the lumped bar's (4×4 tangent maps); the N-mode bar's 2N+2-dimensional tangent map is analysis::variational_modal";
+pub const VARIATIONAL_LUMPED_ONLY: &str = "this variational layer is the lumped bar's (4×4 tangent maps); the N-mode bar's 2N+2-dimensional tangent map is analysis::variational::modal";
 /// Why the variational layer refuses a parameter derivative under the Hertz law.
 pub const VARIATIONAL_NO_HERTZ_PARAM: &str = "the parameter column of the variational flow covers the instantaneous restitution law; under the hertz law take central differences of the map (orbit::continuation::map_param_derivative_fd)";
 
@@ -658,10 +658,7 @@ fn flow_tangent(
             &mut crate::solver::Fanout(&mut [v, extra]),
         )?
     };
-    var.finish();
-    if let Some(e) = var.failure.take() {
-        return Err(e);
-    }
+    var.conclude()?;
     let jacobian = var.sink.jacobian;
     let end_field = var.end_field(t_end_s, &vec_of(&summary.final_state));
     Ok((

@@ -1,5 +1,19 @@
-//! Variational equations of the exact flow (issue #11, item 1): the Jacobian `∂x(t₁)/∂x(t₀)` of
-//! the solver's flow map, with saltation matrices at every event, written once for every bar.
+//! Variational equations of the exact flow: the Jacobian `∂x(t₁)/∂x(t₀)` of the solver's flow
+//! map, with saltation matrices at every event, written once for every bar.
+//!
+//! # Where things are
+//!
+//! * this file: the one layer ([`Variational`]: what happens at each event, the compliant
+//!   contact phase, the end field), the bar trait it is written over ([`TangentBar`]), the
+//!   sinks of the lumped bar's maps ([`TangentSink`], [`JacobianSink`]) and the derivations;
+//! * [`lumped`]: the lumped bar's arithmetic (4×4 maps on `x = (u, u̇, v, v̇)` of
+//!   [`State`](crate::params::State), the parameter column) and its flows
+//!   ([`flow_with_jacobian`], [`flow_with_param_derivative`]);
+//! * [`modal`]: the N-mode bar's arithmetic (`2N + 2` tangent columns on `(q, q̇, v, v̇)`,
+//!   carried in place) and its flow ([`modal::modal_flow_with_jacobian`]).
+//!
+//! The Lyapunov spectrum ([`super::lyapunov_spectrum`]) and the periodic orbits and their
+//! continuation ([`super::orbit`]) are built on these flows, once for both bars.
 //!
 //! # Built on the observer stream
 //!
@@ -16,11 +30,8 @@
 //! (onset, the approach-speed memory, friction events inside it, release) and the end field
 //! are the layer's ([`Variational`], written once). A bar ([`TangentBar`]) gives its
 //! arithmetic on its public coordinates: vector fields, resets, the contact row, the
-//! transition map of a segment and where the maps go. Two bars implement it: the lumped bar
-//! ([`lumped`]: 4×4 maps on `x = (u, u̇, v, v̇)` of [`State`](crate::params::State), handed to a [`TangentSink`]) and
-//! the N-mode bar ([`super::variational_modal`]: `2N + 2` tangent columns on
-//! `(q, q̇, v, v̇)`, carried in place). The derivations below are the lumped bar's; the modal
-//! module gives its ingredients.
+//! transition map of a segment and where the maps go. The derivations below are the lumped
+//! bar's; [`modal`] gives the N-mode bar's ingredients.
 //!
 //! # Between events (closed form)
 //!
@@ -205,6 +216,7 @@ use crate::solver::dopri5::Dopri5;
 use crate::solver::{CompliantContact, Event, EventKind, Mode, Observer, Segment, Solver};
 
 pub mod lumped;
+pub mod modal;
 
 pub use lumped::{
     flow_with_jacobian, flow_with_param_derivative, FlowJacobian, LumpedBar,
@@ -718,7 +730,7 @@ pub(crate) struct Pending<X> {
 
 /// The variational layer: an [`Observer`] that hands the tangent map of each segment and event
 /// of an exact run of the bar `B` to `S` (module docs). The lumped bar's is
-/// `Variational<T: TangentSink>`; the N-mode bar's [`super::variational_modal::ModalVariational`].
+/// `Variational<T: TangentSink>`; the N-mode bar's [`modal::ModalVariational`].
 pub struct Variational<S, B: TangentBar<S> = LumpedBar> {
     pub(crate) bar: B,
     /// Where the tangent maps go.
@@ -753,6 +765,12 @@ impl<S, B: TangentBar<S>> Variational<S, B> {
             failure: None,
             approach_memory_log: 0.0,
         }
+    }
+
+    /// [`Variational::finish`], then what stopped the tangent integration, if anything.
+    pub(crate) fn conclude(&mut self) -> Result<(), SimError> {
+        self.finish();
+        self.failure.take().map_or(Ok(()), Err)
     }
 
     /// Apply what is still pending (an event at the very end of the run, a compliant phase the

@@ -1,5 +1,5 @@
-//! The N-mode bar ([`ModalExact`], issue #11) as a bar of the one variational layer
-//! ([`super::variational`], whose module docs derive the saltation matrix
+//! The N-mode bar ([`ModalExact`]) as a bar of the one variational layer
+//! ([`super`], whose module docs derive the saltation matrix
 //! `S = G + (f⁺ − G f⁻) ∇hᵀ / (∇h·f⁻ + ∂h/∂t)`, the compliant phase's tangent map and what the
 //! layer does at each event): this module gives the modal ingredients ([`ModalBar`]) and carries
 //! the tangent columns ([`ModalTangent`]).
@@ -50,11 +50,6 @@
 //! window `T` with `I` impacts `ln|det J|/T = −Σₙ cₙ/mₙ + 2 ln(e) I/T`: the sum of the Lyapunov
 //! exponents of the frictionless modal bar (tested to 1e-9 in `tests/variational_modal.rs`).
 //!
-//! Grazing (an event with a vanishing crossing rate) has no saltation matrix: it is counted in
-//! [`EventCounts::grazing`] and only `G` is applied. The chatter-limit release (the ball leaves
-//! the wall at the end of the summed sequence) is `S = I`, counted in
-//! [`EventCounts::chatter_releases`], as on the lumped bar.
-//!
 //! # Cost
 //!
 //! The tangent vectors are the columns of a fixed-capacity `D_MAX × D_MAX` buffer allocated
@@ -65,34 +60,29 @@
 //!
 //! # Hertz contact phases
 //!
-//! The layer's construction ([`super::variational`], "Hertz contact phases") with the contact
+//! The layer's construction ([`super`], "Hertz contact phases") with the contact
 //! row: in the contact coordinates `y = (q, q̇, δ, δ̇)`, `δ = s(v − φ_dᵀq) − l_g`,
 //! `δ̇ = s(v̇ − φ_dᵀq̇)`, the field of `solver/exact/modal/hertz.rs`
 //! (`mₙq̈ₙ + cₙq̇ₙ + kₙqₙ = φ_fn F(t) + φ_dn(s P − F_b)`, `m_d v̈ = −s P + F_b`) has the Jacobian
 //! rows `q̈ₙ: (−kₙ, −cₙ, φ_dn s P_δ, φ_dn s P_δ̇)/mₙ` and `δ̈ = s(−s δP/m_d − φ_dᵀq̈)`, whose
-//! `δ` entry is `−P_δ κ` (`κ = 1/m_d + Σφ_dn²/mₙ`; the lumped `1/M + 1/m_d`). Onset and
-//! release have `S = I` (the force is 0 on both sides); the memory of the approach speed is the
-//! extra column `ζ = ∂y/∂δ̇₀` with `cᵀ = s(∇ẇ − (ẅ⁻/ẇ⁻)∇w)`, `∇w = (−φ_d, 0, 1, 0)`,
-//! `∇ẇ = (0, −φ_d, 0, 1)`; the phase's map is `T⁻¹(W + ζcᵀ)`, applied to the carried columns at
-//! the release. Friction inside a contact: reversal at `δ̇ = 0`, stick (the held modes, `δ`
-//! frozen), unstick at `h = f_l ∓ (a_b/κ + s K_h δ^{3/2})`. The `D + 1` columns of `[W | ζ]`
+//! `δ` entry is `−P_δ κ` (`κ = 1/m_d + Σφ_dn²/mₙ`; the lumped `1/M + 1/m_d`). The memory
+//! row has `∇w = (−φ_d, 0, 1, 0)`, `∇ẇ = (0, −φ_d, 0, 1)`; the phase's map `T⁻¹(W + ζcᵀ)` is
+//! applied to the carried columns at the release. Stuck inside a contact: the held modes, `δ`
+//! frozen; unstick at `h = f_l ∓ (a_b/κ + s K_h δ^{3/2})`. The `D + 1` columns of `[W | ζ]`
 //! are integrated one by one (each its own adaptive Dormand–Prince 5(4) at
 //! [`HERTZ_TANGENT_RTOL`], along the solver's dense output; the lumped bar's block at once),
 //! `O(N)` per column and stage. `A(t)` reads only `δ`, `δ̇`, from the segment's public state.
 //!
-//! # Not covered
-//!
-//! Parameter columns (the orbit layer takes parameter derivatives by central differences of
-//! the map).
+//! Not covered: parameter columns ([`super`], "Not covered").
 
 // Index loops read as the linear algebra they are.
 #![allow(clippy::needless_range_loop)]
 
-use super::lyapunov_spectrum::Frame;
-use super::variational::{
+use super::{
     contact_partials, tangent_advance, ContactPhase, EventCounts, EventMap, Laws, Phase, Step,
     TangentBar, Variational, HERTZ_TANGENT_RTOL, VARIATIONAL_NEEDS_BALL,
 };
+use crate::analysis::lyapunov_spectrum::Frame;
 use crate::damper::impact::modal_inverse_effective_mass_per_kg;
 use crate::error::SimError;
 use crate::limits::MAX_BEAM_MODES;
@@ -309,7 +299,7 @@ pub struct ModalTangent {
 pub type ModalVariational = Variational<ModalTangent, ModalBar>;
 
 /// QR re-orthonormalisation state: the spectrum's frame
-/// ([`super::lyapunov_spectrum::Frame`]) in the coordinates scaled by `scale`.
+/// ([`crate::analysis::lyapunov_spectrum::Frame`]) in the coordinates scaled by `scale`.
 pub(crate) struct Qr {
     /// Scale of every coordinate.
     pub scale: VecD,
@@ -843,10 +833,7 @@ pub fn modal_flow_with_jacobian(
 ) -> Result<ModalFlowJacobian, SimError> {
     let mut var = ModalVariational::new_modal(sys, init)?;
     let r = ModalExact::default().run_modal(sys, init, t_end_s, &mut var)?;
-    var.finish();
-    if let Some(e) = var.failure.take() {
-        return Err(e);
-    }
+    var.conclude()?;
     let f = var.end_field(t_end_s, &to_vec(var.bar.cs.n, &r.final_state));
     Ok(ModalFlowJacobian {
         state: r.final_state,
