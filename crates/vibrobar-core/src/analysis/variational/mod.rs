@@ -673,6 +673,8 @@ pub(crate) fn contact_partials(c: &CompliantContact, delta: f64, ddelta: f64) ->
 /// Integrate the linear tangent equation `z' = f(t, z)` over `[a, b]` from the step `h`:
 /// adaptive Dormand–Prince 5(4) with the error control of `ig`, at most
 /// [`HERTZ_TANGENT_MAX_SUBSTEPS`] steps; `h` becomes the step to try next.
+// Inlined into each bar's caller so that the integrator's constant length folds into its loops.
+#[inline(always)]
 pub(crate) fn tangent_advance<const L: usize, F>(
     ig: &Dopri5<L>,
     mut f: F,
