@@ -1,9 +1,10 @@
 //! The whole Lyapunov spectrum of the lumped bar ([`lyapunov_spectrum`], 4 exponents) and of the
 //! N-mode bar ([`lyapunov_spectrum_modal`], `2N + 2`): QR re-orthonormalisation (Benettin et al.
-//! 1980; Müller 1995 for the saltation at events) of the variational flow of
-//! [`super::variational`] or [`super::variational_modal`]. The two variational layers hand their
-//! tangent maps to one QR frame (`Frame`: Gram–Schmidt, `ln Rᵢᵢ`, the collapsed directions) and
-//! one block loop (the exponents and their uncertainty).
+//! 1980; Müller 1995 for the saltation at events) of the one variational layer
+//! ([`super::variational`]) on either bar (the lumped bar's 4×4 maps, the N-mode bar's columns,
+//! [`super::variational::modal`]). Both hand their tangent maps to one QR frame (`Frame`:
+//! Gram–Schmidt, `ln Rᵢᵢ`, the collapsed directions) and one block loop (the exponents and
+//! their uncertainty).
 //!
 //! An orthonormal frame `Q` (4×4, in the scaled coordinates `(u/s_u, u̇/s_u̇, w/s_w, ẇ/s_ẇ)` of
 //! [`StateScales`]) is carried through every segment's transition matrix and every event's
@@ -28,7 +29,8 @@
 //!   re-orthonormalisation (the exponents do not depend on how often it happens, as long as
 //!   no column leaves the range of `f64`).
 //! * **Hertz law** (either bar). A compliant contact phase removes no dimension; its tangent
-//!   map (one step, [`super::variational`], [`super::variational_modal`]) has `det = exp(∫ tr A dt) · (1 + cᵀW⁻¹ζ)` (friction events aside):
+//!   map (one step, [`super::variational`]) has `det = exp(∫ tr A dt) · (1 + cᵀW⁻¹ζ)`
+//!   (friction events aside):
 //!   `Σ λᵢ` is the time average of the trace (`−C/M`, plus `−P_δ̇ (1/M + 1/m_d)` in contact)
 //!   plus [`SpectrumResult::approach_memory_per_s`]. A block that ends inside a contact hands
 //!   its state to the next block's run, which restarts the contact at `δ = 0` (the state is
@@ -41,7 +43,7 @@
 //! * **Volume of the N-mode bar.** In free flight every mode contracts the phase volume by
 //!   `e^{−(cₙ/mₙ)τ}` (its 2×2 transition matrix has determinant `e^{−2αₙτ}`, `2αₙ = cₙ/mₙ`) and
 //!   the ball by nothing; each impact's saltation matrix has `det S = e²`
-//!   ([`super::variational_modal`]). So for the frictionless modal bar without holding phases
+//!   ([`super::variational::modal`]). So for the frictionless modal bar without holding phases
 //!
 //!   `Σᵢ λᵢ = −Σₙ cₙ/mₙ + 2 ln(e) × (impacts per second)`,
 //!
@@ -49,8 +51,8 @@
 //!   estimate checks it to 1e-9 (`tests/variational_modal.rs`).
 
 use super::lyapunov::StateScales;
+use super::variational::modal::{ModalVariational, D_MAX};
 use super::variational::{mat_mul, EventCounts, Mat4, Step, TangentSink, Variational, IDENTITY};
-use super::variational_modal::{ModalVariational, D_MAX};
 use crate::error::SimError;
 use crate::params::{State, System};
 use crate::solver::exact::modal::ModalExact;
@@ -316,6 +318,8 @@ trait TangentRun {
     fn block(&mut self, x: &Self::State, t_end_s: f64) -> Result<Self::State, SimError>;
     /// The frame.
     fn frame(&mut self) -> &mut Frame;
+    /// The events so far and the approach memory's `Σ ln|1 + cᵀW⁻¹ζ|`.
+    fn tally(&self) -> (EventCounts, f64);
 }
 
 /// The checks of the settings and the scales every spectrum makes.
@@ -335,7 +339,7 @@ fn check_settings(p: &SpectrumParams, sc: &StateScales) -> Result<(), SimError> 
 
 /// The block loop of a spectrum from `x` (after the transient) at `t0`: each block one run,
 /// its `ln Rᵢᵢ` per second; the exponents are the block means, their standard errors from the
-/// spread. `events` and the approach memory are the run's.
+/// spread, with the run's events and approach memory.
 fn blocks<R: TangentRun>(
     run: &mut R,
     mut x: R::State,
@@ -352,6 +356,7 @@ fn blocks<R: TangentRun>(
         block_rates.push(run.frame().logs.iter().map(|l| l / dt).collect());
     }
     let n = block_rates.len() as f64;
+    let (events, memory) = run.tally();
     let frame = run.frame();
     let d = frame.logs.len();
     let mut exps = Vec::with_capacity(d);
@@ -384,8 +389,8 @@ fn blocks<R: TangentRun>(
         collapsed: frame.collapsed.iter().filter(|c| **c).count(),
         sum_per_s: sum,
         impacts_per_s: frame.impacts as f64 / p.duration_s,
-        events: EventCounts::default(),
-        approach_memory_per_s: 0.0,
+        events,
+        approach_memory_per_s: memory / p.duration_s,
         duration_s: p.duration_s,
     })
 }
@@ -410,16 +415,17 @@ impl TangentRun for LumpedRun<'_> {
         // it, which the next run's check refuses. Put it back on the wall (as `max_lyapunov`
         // does).
         super::lyapunov::onto_cavity(&mut s, self.lg);
-        self.var.finish();
-        if let Some(e) = self.var.failure.take() {
-            return Err(e);
-        }
+        self.var.conclude()?;
         self.var.sink.flush();
         Ok(s)
     }
 
     fn frame(&mut self) -> &mut Frame {
         &mut self.var.sink.frame
+    }
+
+    fn tally(&self) -> (EventCounts, f64) {
+        (self.var.counts, self.var.approach_memory_log)
     }
 }
 
@@ -452,10 +458,7 @@ pub fn lyapunov_spectrum(
         var,
         lg,
     };
-    let mut r = blocks(&mut run, x, t0, p)?;
-    r.events = run.var.counts;
-    r.approach_memory_per_s = run.var.approach_memory_log / p.duration_s;
-    Ok(r)
+    blocks(&mut run, x, t0, p)
 }
 
 /// The N-mode bar's run: [`ModalExact`] and the modal variational layer with the frame.
@@ -474,16 +477,17 @@ impl TangentRun for ModalRun<'_> {
             .final_state;
         // A block that ends inside a compliant contact: the next run starts on the wall.
         super::lyapunov::onto_cavity_modal(&mut s, self.sys);
-        self.var.finish();
-        if let Some(e) = self.var.failure.take() {
-            return Err(e);
-        }
+        self.var.conclude()?;
         self.var.flush();
         Ok(s)
     }
 
     fn frame(&mut self) -> &mut Frame {
         &mut self.var.qr_state().expect("set by with_qr").frame
+    }
+
+    fn tally(&self) -> (EventCounts, f64) {
+        (self.var.counts, self.var.approach_memory_log)
     }
 }
 
@@ -516,17 +520,14 @@ pub fn lyapunov_spectrum_modal(
     scale[2 * n] = sc.u_m + sc.w_m;
     scale[2 * n + 1] = sc.du_m_s + sc.dw_m_s;
     // Refuses what the variational layer cannot do before any run.
-    let var = ModalVariational::new(sys, init)?.with_qr(scale);
+    let var = ModalVariational::new_modal(sys, init)?.with_qr(scale);
     let mut x = ModalExact::default()
         .run(sys, init, init.t_s + p.transient_s, &mut ())?
         .final_state;
     super::lyapunov::onto_cavity_modal(&mut x, sys);
     let t0 = x.t_s;
     let mut run = ModalRun { sys, var };
-    let mut r = blocks(&mut run, x, t0, p)?;
-    r.events = run.var.counts;
-    r.approach_memory_per_s = run.var.approach_memory_log / p.duration_s;
-    Ok(r)
+    blocks(&mut run, x, t0, p)
 }
 
 /// The phase-volume identity of the frictionless bar for a spectrum with `impacts_per_s`:

@@ -4,7 +4,7 @@
 //! it): `case` (one run and its observers) and `grid` (ranges, axes, grids) are leaves; `batch`
 //! (the batch runner: pool, cancellation, progress, solid runs shared per ratio) uses `case`;
 //! `sweep` and `poincare` use `batch`; `regime` uses `poincare`; `map` uses `regime` and
-//! `batch`; `placement` uses `regime`, `batch` and `case`; `ensemble` uses `map`; `lobes` is a leaf (receptances only); `lobes_frf` uses `lobes` (its root finder's pieces); `time_domain` uses `batch`, `lobes` and `regime`; `lobe_design` uses `time_domain`, `placement` and `batch`; `frf` uses `batch` and `case`. `scripts/module_deps.py` lists the edges.
+//! `batch`; `placement` uses `regime`, `batch` and `case`; `ensemble` uses `map`; `lobes` is a leaf (receptances only); `lobes_frf` uses `lobes` (its root finder's pieces); `time_domain` uses `batch`, `lobes` and `regime`; `lobe_design` uses `time_domain`, `placement` and `batch`; `frf` uses `batch` and `case`; `variational` (the one variational layer, with each bar's arithmetic in `variational/lumped` and `variational/modal`) is used by `lyapunov_spectrum` and `orbit`. `scripts/module_deps.py` lists the edges.
 
 pub mod batch;
 pub mod case;
@@ -26,7 +26,9 @@ pub mod regime;
 pub mod sweep;
 pub mod time_domain;
 pub mod variational;
-pub mod variational_modal;
+
+/// The N-mode bar's side of the variational layer, under its own name too.
+pub use variational::modal as variational_modal;
 
 pub use batch::{par_map_with_progress, Batch, BatchError, Runner, SolidRatios, SweepBase};
 pub use case::{run_case, ImpactCounter, RmsObserver, RunResult, Sampler};

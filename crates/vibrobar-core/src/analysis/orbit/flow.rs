@@ -1,14 +1,15 @@
 //! A bar's exact flow as the orbit analyses see it: one interface ([`Flow`]) that the lumped bar
 //! ([`super::Section`], state `(u, u̇, w, ẇ)`, `D = 4`) and the N-mode bar
 //! ([`super::modal::ModalSection`], state `(q₁ … q_N, q̇₁ … q̇_N, w, ẇ)`, `D = 2N + 2`) both
-//! implement by delegating to their exact solver and their variational layer
-//! ([`crate::analysis::variational`], [`crate::analysis::variational_modal`]). Newton's method,
-//! the orbit's description ([`super::find_orbit`], [`super::describe`]) and the continuation
+//! implement by delegating to their exact solver and the one variational layer
+//! ([`crate::analysis::variational`]: its [`lumped`](crate::analysis::variational::lumped) and
+//! [`modal`](crate::analysis::variational::modal) bars). Newton's method, the orbit's
+//! description ([`super::find_orbit`], [`super::describe`]) and the continuation
 //! ([`super::continuation`]) are written once over it.
 //!
 //! **Coordinates.** A flow's state vector `x` has the bar's coordinates first and the ball's
 //! relative `w`, `ẇ` last (index `D − 2`, `D − 1`), so that `|w| ≤ l_g` is a bound on one
-//! coordinate whatever the bar. Each variational layer works on `(…, v, v̇)`; its Jacobian is
+//! coordinate whatever the bar. The variational layer works on `(…, v, v̇)`; its Jacobian is
 //! taken to the map's coordinates as `T J T⁻¹` with `T: v ↦ w = v − φ_dᵀq` (`φ_d = 1` and
 //! `q = u` on the lumped bar).
 //!

@@ -1,6 +1,6 @@
 //! Periodic orbits of the N-mode bar (`[beam]`, `[[modes]]`): Newton's method on the
 //! stroboscopic map of [`ModalExact`] with the exact Jacobian of
-//! [`crate::analysis::variational_modal`], Floquet multipliers and the physicality checks, as on
+//! [`crate::analysis::variational::modal`], Floquet multipliers and the physicality checks, as on
 //! the lumped bar ([`super`]).
 //!
 //! **The map.** Its state is `x = (q₁ … q_N, q̇₁ … q̇_N, w, ẇ)` at the section time `t0`
@@ -39,7 +39,7 @@ use super::continuation::{follow_branch, Branch, BranchPoint, ContinuationSettin
 use super::{find_orbit, to_relative_coordinates, ExactJacobian, Flow, NewtonSettings, Orbit};
 use crate::analysis::grid::Axis;
 use crate::analysis::lyapunov::StateScales;
-use crate::analysis::variational_modal::modal_flow_with_jacobian;
+use crate::analysis::variational::modal::modal_flow_with_jacobian;
 use crate::error::SimError;
 use crate::params::ContactLaw;
 use crate::solver::exact::modal::ModalExact;
@@ -61,7 +61,7 @@ pub struct ModalSection {
 fn check_modal_system(sys: &ModalSystem) -> Result<(), SimError> {
     sys.validate()?;
     // Either contact law: the hertz law's compliant phases have their variational equations
-    // (crate::analysis::variational_modal).
+    // (crate::analysis::variational::modal).
     if sys.damper.is_none() {
         return Err(SimError::Unsupported(
             "periodic orbits of the damped bar need a ball (a damper section)",
