@@ -469,9 +469,8 @@ fn frf_lobes(
 fn fitted_table(
     frf: &vibrobar_core::structure::frf_data::MeasuredFrf,
 ) -> Result<(vibrobar_core::analysis::lobes::LobeTable, usize)> {
-    use vibrobar_core::analysis::lobes::{Linearisation, LobeTable, TipReceptance};
     use vibrobar_core::structure::fit::{fit_modes, FitSettings, FrfLines};
-    use vibrobar_core::structure::{MeasuredMode, ModalModel};
+    use vibrobar_core::structure::MeasuredMode;
     let frf = if frf.freqs_hz[0] == 0.0 {
         frf.without_zero_frequency()?
     } else {
@@ -488,13 +487,24 @@ fn fitted_table(
             shape_cavity: 1.0,
         })
         .filter(|m| m.validate().is_ok())
-        .map(|m| m.mode())
         .collect();
+    Ok((modes_lobe_table(&modes)?, modes.len()))
+}
+
+/// The exact lobes at the tip (ball free) of measured modes: the static compliance is the modes'
+/// own (no residual).
+pub fn modes_lobe_table(
+    modes: &[vibrobar_core::structure::MeasuredMode],
+) -> Result<vibrobar_core::analysis::lobes::LobeTable> {
+    use vibrobar_core::analysis::lobes::{Linearisation, LobeTable, TipReceptance};
+    let modes: Vec<_> = modes.iter().map(|m| m.mode()).collect();
     let stat = modes
         .iter()
         .map(|m| 1.0 / m.modal_stiffness_n_per_m())
         .sum();
-    let model = ModalModel::new(&modes, stat)?;
-    let table = LobeTable::new(TipReceptance::new(&model, Linearisation::BallFree)?)?;
-    Ok((table, modes.len()))
+    let model = vibrobar_core::structure::ModalModel::new(&modes, stat)?;
+    Ok(LobeTable::new(TipReceptance::new(
+        &model,
+        Linearisation::BallFree,
+    )?)?)
 }

@@ -29,11 +29,10 @@ use vibrobar_core::analysis::ensemble::SplitMix64;
 use vibrobar_core::analysis::lobe_design::{
     optimum, DesignAxis, DesignRow, SPREAD_REL, SPREAD_SEEDS,
 };
-use vibrobar_core::analysis::lobes::{Linearisation, LobeTable, TipReceptance};
 use vibrobar_core::analysis::lobes_frf::FrfLobeTable;
 use vibrobar_core::structure::fit::{self, FitSettings, FrfLines, ModalFit};
 use vibrobar_core::structure::frf_data::{FrfKind, MeasuredFrf};
-use vibrobar_core::structure::{MeasuredMode, ModalModel};
+use vibrobar_core::structure::MeasuredMode;
 use vibrobar_io::csv::{lobe_design_schema, lobe_design_values, write_text};
 use vibrobar_io::frf::{read_frf, write_frf_uff, FrfReadOptions, Uff58Header};
 use vibrobar_report::plot::Curve;
@@ -163,20 +162,6 @@ fn measured(
             Ok(mode)
         })
         .collect()
-}
-
-/// The exact linear lobes of modes (ball free) at the tip.
-fn lobe_table(modes: &[MeasuredMode]) -> Result<LobeTable> {
-    let modes: Vec<_> = modes.iter().map(|m| m.mode()).collect();
-    let stat = modes
-        .iter()
-        .map(|m| 1.0 / m.modal_stiffness_n_per_m())
-        .sum();
-    let model = ModalModel::new(&modes, stat)?;
-    Ok(LobeTable::new(TipReceptance::new(
-        &model,
-        Linearisation::BallFree,
-    )?)?)
 }
 
 /// The `[[modes]]` tables of a scenario.
@@ -365,9 +350,9 @@ pub fn run(args: &TapTestArgs) -> Result<()> {
 
     // 3. Lobes: the measured lines, the fitted modes, the true system.
     let measured_table = FrfLobeTable::new(&tip)?;
-    let mut fitted_table = lobe_table(&fitted)?;
-    let mut true_table = lobe_table(&truth)?;
-    let mut first_table = lobe_table(&fitted[..1])?;
+    let mut fitted_table = super::lobes::modes_lobe_table(&fitted)?;
+    let mut true_table = super::lobes::modes_lobe_table(&truth)?;
+    let mut first_table = super::lobes::modes_lobe_table(&fitted[..1])?;
     let mut csv = String::from(
         "spindle_rpm,measured_b_lim_m,fitted_b_lim_m,true_b_lim_m,fitted_first_mode_b_lim_m\n",
     );
@@ -407,7 +392,7 @@ pub fn run(args: &TapTestArgs) -> Result<()> {
     let min_measured = minimum(measured_table.minimum());
     let min_fitted = minimum(fitted_table.minimum());
     let min_true = minimum(true_table.minimum());
-    let min_clean = minimum(lobe_table(&fitted_clean)?.minimum());
+    let min_clean = minimum(super::lobes::modes_lobe_table(&fitted_clean)?.minimum());
     let min_first = minimum(first_table.minimum());
 
     // 4a. Where the cavity goes: the fitted modes with the clamped–free shape at each position.
