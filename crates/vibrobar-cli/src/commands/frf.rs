@@ -462,18 +462,7 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         vibrobar_io::csv::fmt_coord(lines[0]),
         vibrobar_io::csv::fmt_coord(*lines.last().expect("one line")),
         args.out.display(),
-        if figures.is_empty() {
-            String::new()
-        } else {
-            format!(
-                ", {}",
-                figures
-                    .iter()
-                    .map(|p| p.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        },
+        super::after_outputs(&figures),
         super::fmt_secs(secs)
     );
     Ok(())

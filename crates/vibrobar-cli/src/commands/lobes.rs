@@ -224,18 +224,7 @@ pub fn run(args: &LobesArgs) -> Result<()> {
         vibrobar_io::csv::fmt_coord(start),
         vibrobar_io::csv::fmt_coord(rows.last().map_or(stop, |r| r.spindle_rpm)),
         args.out.display(),
-        if figures.is_empty() {
-            String::new()
-        } else {
-            format!(
-                ", {}",
-                figures
-                    .iter()
-                    .map(|p| p.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        },
+        super::after_outputs(&figures),
         super::fmt_secs(secs)
     );
     Ok(())

@@ -222,3 +222,12 @@ pub fn fmt_secs(s: f64) -> String {
         format!("{s:.2} s")
     }
 }
+
+/// `", a.png, a.svg"`: the figures written beside an output, for its summary line (empty when
+/// none).
+pub fn after_outputs(figures: &[std::path::PathBuf]) -> String {
+    figures
+        .iter()
+        .map(|p| format!(", {}", p.display()))
+        .collect()
+}
