@@ -341,25 +341,39 @@ struct Harmonic {
     sum: Complex64,
 }
 
-impl Observer for Harmonic {
-    fn segment(&mut self, seg: &dyn Segment) {
-        let a = seg.t_start_s().max(self.t0);
-        let b = seg.t_end_s().min(self.t1);
-        if b <= a {
-            return;
-        }
-        let n = ((b - a) / self.piece_s).ceil().max(1.0) as usize;
-        let h = (b - a) / n as f64;
-        for k in 0..n {
-            let mid = a + (k as f64 + 0.5) * h;
-            for &(x, w) in &GL8 {
-                for t in [mid - 0.5 * h * x, mid + 0.5 * h * x] {
-                    let u = displacement_at(&seg.state_at(t), self.point);
-                    let (s, c) = (self.omega * t).sin_cos();
-                    self.sum += Complex64::new(s, c) * (0.5 * h * w * u);
-                }
+/// Gauss–Legendre nodes over the part of `seg` inside `[t0, t1]`, on pieces of at most
+/// `piece_s`: `node(t, ½·h·w)` at each node `t` with its weight.
+fn window_nodes(
+    seg: &dyn Segment,
+    (t0, t1): (f64, f64),
+    piece_s: f64,
+    mut node: impl FnMut(f64, f64),
+) {
+    let a = seg.t_start_s().max(t0);
+    let b = seg.t_end_s().min(t1);
+    if b <= a {
+        return;
+    }
+    let n = ((b - a) / piece_s).ceil().max(1.0) as usize;
+    let h = (b - a) / n as f64;
+    for k in 0..n {
+        let mid = a + (k as f64 + 0.5) * h;
+        for &(x, w) in &GL8 {
+            for t in [mid - 0.5 * h * x, mid + 0.5 * h * x] {
+                node(t, 0.5 * h * w);
             }
         }
+    }
+}
+
+impl Observer for Harmonic {
+    fn segment(&mut self, seg: &dyn Segment) {
+        let (omega, point, sum) = (self.omega, self.point, &mut self.sum);
+        window_nodes(seg, (self.t0, self.t1), self.piece_s, |t, hw| {
+            let u = displacement_at(&seg.state_at(t), point);
+            let (s, c) = (omega * t).sin_cos();
+            *sum += Complex64::new(s, c) * (hw * u);
+        });
     }
 }
 
@@ -438,22 +452,11 @@ struct CavityRms {
 
 impl Observer for CavityRms {
     fn segment(&mut self, seg: &dyn Segment) {
-        let a = seg.t_start_s().max(self.t0);
-        let b = seg.t_end_s().min(self.t1);
-        if b <= a {
-            return;
-        }
-        let n = ((b - a) / self.piece_s).ceil().max(1.0) as usize;
-        let h = (b - a) / n as f64;
-        for k in 0..n {
-            let mid = a + (k as f64 + 0.5) * h;
-            for &(x, w) in &GL8 {
-                for t in [mid - 0.5 * h * x, mid + 0.5 * h * x] {
-                    let u = seg.state_at(t).u_cavity_m();
-                    self.sum += 0.5 * h * w * u * u;
-                }
-            }
-        }
+        let sum = &mut self.sum;
+        window_nodes(seg, (self.t0, self.t1), self.piece_s, |t, hw| {
+            let u = seg.state_at(t).u_cavity_m();
+            *sum += hw * u * u;
+        });
     }
 }
 
