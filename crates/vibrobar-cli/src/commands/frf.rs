@@ -197,16 +197,7 @@ pub fn parse_band(text: &str) -> Result<([f64; 3], Vec<f64>)> {
 /// Parse a `flag` of frequencies in Hz, `START:STOP:STEP` (STOP included), into the lines:
 /// each in (0, 1e7] Hz, at most 100000 of them.
 pub fn parse_lines(flag: &'static str, text: &str) -> Result<([f64; 3], Vec<f64>)> {
-    let parts: Vec<&str> = text.split(':').collect();
-    if parts.len() != 3 {
-        anyhow::bail!("{flag} must be START:STOP:STEP in Hz (e.g. 400:800:0.5), got {text:?}");
-    }
-    let mut v = [0.0; 3];
-    for (i, (p, name)) in parts.iter().zip(["START", "STOP", "STEP"]).enumerate() {
-        v[i] = p.trim().parse::<f64>().map_err(|_| {
-            anyhow::anyhow!("{flag} {name} must be a number, got {p:?} (in {text:?})")
-        })?;
-    }
+    let v = super::lobes::start_stop_step(flag, text, "START:STOP:STEP in Hz (e.g. 400:800:0.5)")?;
     Ok((v, frequency_lines_hz(flag, v[0], v[1], v[2])?))
 }
 

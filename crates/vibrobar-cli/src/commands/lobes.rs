@@ -100,17 +100,24 @@ struct LobesParams<'a> {
 
 /// Parse `--rpm START:STOP:STEP` into the speeds.
 pub fn parse_rpm(text: &str) -> Result<(f64, f64, f64, Vec<f64>)> {
+    let v = start_stop_step("--rpm", text, "START:STOP:STEP (e.g. 1000:50000:49)")?;
+    Ok((v[0], v[1], v[2], spindle_speeds("--rpm", v[0], v[1], v[2])?))
+}
+
+/// The three numbers of `flag`'s `START:STOP:STEP` text, each named in its error; `form` is the
+/// expected form as the error shows it.
+pub fn start_stop_step(flag: &str, text: &str, form: &str) -> Result<[f64; 3]> {
     let parts: Vec<&str> = text.split(':').collect();
     if parts.len() != 3 {
-        anyhow::bail!("--rpm must be START:STOP:STEP (e.g. 1000:50000:49), got {text:?}");
+        anyhow::bail!("{flag} must be {form}, got {text:?}");
     }
     let mut v = [0.0; 3];
     for (i, (p, name)) in parts.iter().zip(["START", "STOP", "STEP"]).enumerate() {
         v[i] = p.trim().parse::<f64>().map_err(|_| {
-            anyhow::anyhow!("--rpm {name} must be a number, got {p:?} (in {text:?})")
+            anyhow::anyhow!("{flag} {name} must be a number, got {p:?} (in {text:?})")
         })?;
     }
-    Ok((v[0], v[1], v[2], spindle_speeds("--rpm", v[0], v[1], v[2])?))
+    Ok(v)
 }
 
 /// Run the command.
