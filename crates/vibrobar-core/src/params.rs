@@ -8,6 +8,8 @@ use crate::limits;
 use crate::structure::ModalModel;
 use serde::{Deserialize, Serialize};
 
+pub mod two_plane;
+
 /// Standard gravity used for the derived rolling-friction force.
 pub const STANDARD_GRAVITY_M_S2: f64 = 9.806_65;
 

@@ -3,7 +3,9 @@
 //! * [`friction`]: the sliding friction force on the ball (the paper's sign, which injects
 //!   energy, or dissipative Coulomb), and what can hold the ball at relative rest;
 //! * [`impact`]: the impact law (Eqs. 4–5), its plastic limit (a chatter sequence summed to
-//!   its accumulation point), and the kinetic energy each removes.
+//!   its accumulation point), and the kinetic energy each removes;
+//! * [`wall_impact`]: the impact of a spinning ball on a wall of its hole with Coulomb friction
+//!   (the bar that bends in two planes).
 //!
 //! Sign convention: `w = v − u` (ball relative to bar). The force on the ball is `F_ball`, the
 //! force on the bar `−F_ball` (friction is internal to the bar–ball pair), so the friction power
@@ -12,3 +14,4 @@
 pub mod contact;
 pub mod friction;
 pub mod impact;
+pub mod wall_impact;

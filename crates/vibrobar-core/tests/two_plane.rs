@@ -1,0 +1,419 @@
+//! The bar that bends in two planes, on its reference solver (RK4 with located events and a
+//! resting mode), against closed forms and against the one-plane exact solver.
+
+use vibrobar_core::params::two_plane::{
+    Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneSystem,
+};
+use vibrobar_core::solver::two_plane_rk4::{
+    HoleWall, TwoPlaneEvent, TwoPlaneEventKind, TwoPlaneRk4, TwoPlaneStart,
+};
+use vibrobar_core::solver::{Event, EventKind, Exact, Observer, Solver, Wall};
+use vibrobar_core::*;
+
+const R_BALL: f64 = 0.0075;
+
+/// The paper's bar in both planes with its 15 mm ball on frictionless walls.
+fn paper(
+    gap_m: f64,
+    c_r_m: f64,
+    hole_deg: f64,
+    force_deg: f64,
+    ratio: f64,
+    g: f64,
+) -> TwoPlaneSystem {
+    TwoPlaneSystem {
+        bar: PlanarBar::isotropic(&Bar::PAPER_CAVITY),
+        ball: PlanarBall::paper_frictionless(),
+        hole: Hole {
+            angle_deg: hole_deg,
+            axial_gap_m: gap_m,
+            diameter_m: Hole::diameter_for_clearance_m(R_BALL, c_r_m),
+        },
+        forcing: PlanarForcing {
+            amplitude_n: 15.0,
+            frequency: Frequency::Ratio(ratio),
+            angle_deg: force_deg,
+        },
+        gravity: Gravity {
+            m_s2: g,
+            angle_deg: 90.0,
+        },
+        bar_diameter_m: None,
+    }
+}
+
+fn settings(duration_s: f64) -> RunSettings {
+    RunSettings {
+        duration_s,
+        dt_s: 1e-6,
+        rms_fraction: 0.8,
+    }
+}
+
+fn run2(
+    sys: &TwoPlaneSystem,
+    start: &TwoPlaneStart,
+    dur: f64,
+) -> (
+    Vec<TwoPlaneEvent>,
+    vibrobar_core::solver::two_plane_rk4::TwoPlaneSummary,
+) {
+    let mut evs = Vec::new();
+    let s = TwoPlaneRk4::default()
+        .run(sys, start, &settings(dur), &mut |e| evs.push(*e))
+        .unwrap();
+    (evs, s)
+}
+
+#[derive(Default)]
+struct Impacts(Vec<Event>);
+impl Observer for Impacts {
+    fn event(&mut self, ev: &Event) {
+        if matches!(ev.kind, EventKind::Impact { .. }) {
+            self.0.push(*ev);
+        }
+    }
+}
+
+/// The one-plane exact run of the paper's bar with force amplitude `f0`, gap `gap_m`, at `Ω`.
+fn one_plane(f0: f64, gap_m: f64, omega: f64, dur: f64) -> Vec<Event> {
+    let sys = System {
+        bar: Bar::PAPER_CAVITY.into(),
+        damper: Some(Damper::paper(gap_m, FrictionModel::None)),
+        forcing: Forcing {
+            amplitude_n: f0,
+            frequency: Frequency::RadPerS(omega),
+            static_force_n: 0.0,
+        },
+        gravity_m_s2: STANDARD_GRAVITY_M_S2,
+    };
+    let mut rec = Impacts::default();
+    Exact::default()
+        .run(&sys, &State::REST, dur, &mut rec)
+        .unwrap();
+    rec.0
+}
+
+/// Impact times at the walls of one axis, with their sign.
+fn impacts_on(evs: &[TwoPlaneEvent], axis: usize) -> Vec<(f64, f64)> {
+    evs.iter()
+        .filter_map(|e| match e.kind {
+            TwoPlaneEventKind::Impact { wall, .. } if wall.axis() == axis => {
+                Some((e.t_s, wall.sign()))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+fn assert_same_impacts(two: &[(f64, f64)], one: &[Event], tol_s: f64, what: &str) {
+    assert!(!one.is_empty(), "{what}: the one-plane run has no impact");
+    assert_eq!(two.len(), one.len(), "{what}: impact counts differ");
+    for ((t2, s2), e) in two.iter().zip(one) {
+        let EventKind::Impact { wall, .. } = e.kind else {
+            unreachable!()
+        };
+        let s1 = if wall == Wall::Plus { 1.0 } else { -1.0 };
+        assert!(
+            (t2 - e.t_s).abs() < tol_s,
+            "{what}: impact at {t2} s against {} s",
+            e.t_s
+        );
+        assert!(s1 * s2 > 0.0, "{what}: different walls at {t2} s");
+    }
+}
+
+use vibrobar_core::params::STANDARD_GRAVITY_M_S2;
+
+#[test]
+fn force_along_the_hole_is_the_one_plane_model() {
+    // No gravity, the ball centred: nothing moves across the hole.
+    let sys = paper(0.1e-3, 0.05e-3, 0.0, 0.0, 1.0, 0.0);
+    let dur = 0.06;
+    let (evs, s) = run2(&sys, &TwoPlaneStart::at_rest([0.0; 2]), dur);
+    assert_eq!(s.impacts[2] + s.impacts[3], 0);
+    let one = one_plane(15.0, 0.1e-3, sys.omega_rad_s(), dur);
+    assert_same_impacts(&impacts_on(&evs, 0), &one, 1e-10, "along the hole");
+}
+
+#[test]
+fn frictionless_planes_decouple_on_a_round_bar() {
+    // Force at 30° to the hole, no gravity: along the hole the one-plane run with F0 cos 30° and
+    // the axial gap, across it the one with F0 sin 30° and the radial clearance.
+    let (gap, c_r) = (0.1e-3, 0.02e-3);
+    for hole_deg in [0.0, 40.0] {
+        let sys = paper(gap, c_r, hole_deg, hole_deg + 30.0, 1.0, 0.0);
+        let dur = 0.06;
+        let (evs, _) = run2(&sys, &TwoPlaneStart::at_rest([0.0; 2]), dur);
+        let om = sys.omega_rad_s();
+        let along = one_plane(15.0 * 30f64.to_radians().cos(), gap, om, dur);
+        let across = one_plane(15.0 * 30f64.to_radians().sin(), 2.0 * c_r, om, dur);
+        assert_same_impacts(&impacts_on(&evs, 0), &along, 1e-10, "along");
+        assert_same_impacts(&impacts_on(&evs, 1), &across, 1e-10, "across");
+    }
+}
+
+#[test]
+fn frictionless_answers_depend_on_the_force_angle_minus_the_hole_angle() {
+    let base = paper(1.0e-3, 0.05e-3, 0.0, 63.4, 1.0, 9.80665);
+    let mut turned = paper(1.0e-3, 0.05e-3, 25.0, 88.4, 1.0, 9.80665);
+    turned.gravity.angle_deg += 25.0;
+    let start = TwoPlaneStart::resting(&base, 0.0);
+    let start_t = TwoPlaneStart::resting(&turned, 0.0);
+    assert_eq!(start.w_hole_m, start_t.w_hole_m);
+    // Over the first 60 ms: the same events at the same times, and the same RMS. The turned
+    // run differs by rounding (1e-16 in every projection), which this impacting motion
+    // amplifies to about 1e-10 s by the 60th ms; by 0.3 s the two runs have parted.
+    let (ea, a) = run2(&base, &start, 0.06);
+    let (eb, b) = run2(&turned, &start_t, 0.06);
+    assert!(ea.len() > 20, "{}", ea.len());
+    assert_eq!(a.impacts, b.impacts);
+    same_events(&ea, &eb, |w| w, 1e-8);
+    let rel = (a.rms_along_force_m - b.rms_along_force_m).abs() / a.rms_along_force_m;
+    assert!(rel < 1e-7, "rms along the force differs by {rel:e}");
+    assert!((a.rms_total_m - b.rms_total_m).abs() / a.rms_total_m < 1e-7);
+}
+
+/// The same events (walls mapped by `map`) at the same times.
+fn same_events(
+    a: &[TwoPlaneEvent],
+    b: &[TwoPlaneEvent],
+    map: impl Fn(HoleWall) -> HoleWall,
+    tol_s: f64,
+) {
+    assert_eq!(a.len(), b.len());
+    let wall = |k: &TwoPlaneEventKind| match *k {
+        TwoPlaneEventKind::Impact { wall, .. }
+        | TwoPlaneEventKind::Rest { wall, .. }
+        | TwoPlaneEventKind::LiftOff { wall } => wall,
+    };
+    for (x, y) in a.iter().zip(b) {
+        assert!((x.t_s - y.t_s).abs() < tol_s, "{x:?} against {y:?}");
+        assert_eq!(map(wall(&x.kind)), wall(&y.kind), "{x:?} against {y:?}");
+        assert_eq!(
+            std::mem::discriminant(&x.kind),
+            std::mem::discriminant(&y.kind)
+        );
+    }
+}
+
+#[test]
+fn mirrored_clearances_and_force_give_the_same_answer() {
+    // Zero gravity, no friction, a round bar: the force at θ with (l_g, c_r) equals the force at
+    // 90° − θ with (c_r, l_g).
+    let (l_g, c_r, theta) = (0.06e-3, 0.02e-3, 25.0);
+    let a = paper(2.0 * l_g, c_r, 0.0, theta, 1.0, 0.0);
+    let b = paper(2.0 * c_r, l_g, 0.0, 90.0 - theta, 1.0, 0.0);
+    let (ea, ra) = run2(&a, &TwoPlaneStart::at_rest([0.0; 2]), 0.06);
+    let (eb, rb) = run2(&b, &TwoPlaneStart::at_rest([0.0; 2]), 0.06);
+    assert!(ea.len() > 20, "{}", ea.len());
+    // Reflecting about the 45° line swaps the hole's axes: the plugs become the hole's wall.
+    let swap = |w: HoleWall| match w {
+        HoleWall::AxialPlus => HoleWall::AcrossPlus,
+        HoleWall::AxialMinus => HoleWall::AcrossMinus,
+        HoleWall::AcrossPlus => HoleWall::AxialPlus,
+        HoleWall::AcrossMinus => HoleWall::AxialMinus,
+    };
+    same_events(&ea, &eb, swap, 1e-10);
+    let rel = (ra.rms_along_force_m - rb.rms_along_force_m).abs() / ra.rms_along_force_m;
+    assert!(rel < 1e-9, "{rel:e}");
+    assert!((ra.rms_m[0] - rb.rms_m[1]).abs() / ra.rms_m[0] < 1e-9);
+}
+
+#[test]
+fn a_dropped_ball_falls_as_a_parabola() {
+    // Gravity along the hole, no force: the bar stays at rest until the ball lands.
+    let mut sys = paper(1.0e-3, 0.05e-3, 0.0, 0.0, 1.0, 9.80665);
+    sys.gravity.angle_deg = 0.0;
+    sys.forcing.amplitude_n = 0.0;
+    let (evs, s) = run2(&sys, &TwoPlaneStart::at_rest([0.0, 0.0]), 0.05);
+    let TwoPlaneEventKind::Impact {
+        wall, approach_m_s, ..
+    } = evs[0].kind
+    else {
+        panic!("{:?}", evs[0])
+    };
+    let (g, l_g): (f64, f64) = (9.80665, 0.5e-3);
+    assert_eq!(wall, HoleWall::AxialPlus);
+    assert!(
+        (evs[0].t_s - (2.0 * l_g / g).sqrt()).abs() < 1e-14,
+        "{}",
+        evs[0].t_s
+    );
+    assert!((approach_m_s - (2.0 * g * l_g).sqrt()).abs() < 1e-12);
+    // e = 0.5: the bounces end with the ball resting on the plug.
+    assert!(evs.iter().any(|e| matches!(
+        e.kind,
+        TwoPlaneEventKind::Rest {
+            wall: HoleWall::AxialPlus,
+            ..
+        }
+    )));
+    // The landing's impulse shakes the bar harder than g, so the ball lifts off again.
+    assert!(s.rest_fraction[0] > 0.0, "{:?}", s.rest_fraction);
+}
+
+/// The steady state of the bar carrying the resting ball across the hole (gravity at 90°, the
+/// hole at 0°, the force across it): `(u_y, u̇_y)` at `t = 0` and the acceleration amplitude.
+fn carried_steady_state(sys: &TwoPlaneSystem) -> ([f64; 2], f64) {
+    let b = sys.bar;
+    let (m, k) = (b.mass_kg + sys.ball.mass_kg, b.stiffness_n_per_m[0]);
+    let c = 2.0 * b.damping_ratio[0] * (k * b.mass_kg).sqrt();
+    let om = sys.omega_rad_s();
+    let (re, im) = (k - m * om * om, c * om);
+    let mag = sys.forcing.amplitude_n / (re * re + im * im).sqrt();
+    let phi = im.atan2(re);
+    let stat = sys.ball.mass_kg * sys.gravity.m_s2 / k;
+    // u = stat + X sin(Ωt − φ).
+    (
+        [stat - mag * phi.sin(), mag * om * phi.cos()],
+        mag * om * om,
+    )
+}
+
+#[test]
+fn the_ball_lifts_off_where_the_cavity_accelerates_away_faster_than_g() {
+    let mut sys = paper(1.0e-3, 0.05e-3, 0.0, 90.0, 1.0, 9.80665);
+    let (_, acc1) = carried_steady_state(&sys);
+    let threshold_n = sys.forcing.amplitude_n * 9.80665 / acc1;
+    for (scale, lifts) in [(0.95, false), (1.05, true)] {
+        sys.forcing.amplitude_n = scale * threshold_n;
+        let ([u, du], _) = carried_steady_state(&sys);
+        let start = TwoPlaneStart {
+            u_m: [0.0, u],
+            du_m_s: [0.0, du],
+            ..TwoPlaneStart::resting(&sys, 0.0)
+        };
+        assert!(start.w_hole_m[0] == 0.0 && (start.w_hole_m[1] - 0.05e-3).abs() < 1e-18);
+        let (evs, s) = run2(&sys, &start, 0.1);
+        let first_lift = evs
+            .iter()
+            .find(|e| matches!(e.kind, TwoPlaneEventKind::LiftOff { .. }));
+        assert_eq!(
+            first_lift.is_some(),
+            lifts,
+            "scale {scale}: {:?}",
+            evs.first()
+        );
+        if !lifts {
+            // Carried all along: the response is the linear one of M + m_d.
+            assert!(evs.is_empty());
+            assert!(s.rest_fraction[2] > 0.999_999);
+        } else {
+            // At lift-off the cavity's acceleration across the hole equals g: run to the event
+            // and read the bar's force there (a resting ball leaves when f_y/M reaches g).
+            let t_ev = first_lift.unwrap().t_s;
+            let (_, s) = run2(&sys, &start, t_ev);
+            let (kk, cc) = sys.bar.matrices();
+            let fy = sys.forcing.amplitude_n * (sys.omega_rad_s() * t_ev).sin()
+                - cc[1][1] * s.end.du_m_s[1]
+                - kk[1][1] * s.end.u_m[1];
+            let acc = fy / sys.bar.mass_kg;
+            assert!((acc - 9.80665).abs() < 1e-6 * 9.80665, "{acc}");
+        }
+    }
+}
+
+#[test]
+fn a_carried_ball_adds_its_mass_to_the_bar() {
+    // Force across the hole below the lift-off threshold: the bar carries the ball, and its RMS
+    // is that of the linear bar of mass M + m_d about its static offset.
+    let mut sys = paper(1.0e-3, 0.05e-3, 0.0, 90.0, 1.0, 9.80665);
+    sys.forcing.amplitude_n = 0.2;
+    let ([u, du], acc) = carried_steady_state(&sys);
+    assert!(acc < 9.80665);
+    let start = TwoPlaneStart {
+        u_m: [0.0, u],
+        du_m_s: [0.0, du],
+        ..TwoPlaneStart::resting(&sys, 0.0)
+    };
+    let (evs, s) = run2(&sys, &start, 0.2);
+    assert!(evs.is_empty());
+    let om = sys.omega_rad_s();
+    let stat = sys.ball.mass_kg * 9.80665 / sys.bar.stiffness_n_per_m[0];
+    let amp = acc / (om * om);
+    // Over whole periods RMS² = stat² + amp²/2; the window is 0.16 s, 0.16·Ω/2π periods.
+    let periods = 0.16 * om / (2.0 * std::f64::consts::PI);
+    let want = (stat * stat + 0.5 * amp * amp).sqrt();
+    let tol = amp * amp / periods; // the partial period's share, an upper bound
+    assert!(
+        (s.rms_m[1] * s.rms_m[1] - want * want).abs() < tol,
+        "{} against {want}",
+        s.rms_m[1]
+    );
+    assert!(s.rms_m[0] < 1e-15);
+}
+
+#[test]
+fn books_close_and_the_ball_stays_inside_over_a_long_run() {
+    // Force at 63.4° to a radial hole, gravity at 90°, the 15.1 mm hole and the 1 mm gap.
+    let sys = paper(1.0e-3, 0.05e-3, 0.0, 63.4, 1.0, 9.80665);
+    let (evs, s) = run2(&sys, &TwoPlaneStart::resting(&sys, 0.0), 0.5);
+    assert!(evs.len() > 100, "{} events", evs.len());
+    let b = s.book;
+    assert!(
+        b.residual_j().abs() < 1e-8 * b.forcing_work_j.abs(),
+        "{b:?}, residual {:e}",
+        b.residual_j()
+    );
+    assert!(s.max_penetration_m <= 1e-12, "{}", s.max_penetration_m);
+    assert!(s.end.w_hole_m[0].abs() <= 0.5e-3 + 1e-12);
+    assert!(s.end.w_hole_m[1].abs() <= 0.05e-3 + 1e-12);
+    let total: f64 = s.flight_fraction + s.rest_fraction.iter().sum::<f64>();
+    assert!(total >= 1.0 - 1e-9, "{total}");
+}
+
+#[test]
+fn bad_input_names_the_field() {
+    let good = paper(1.0e-3, 0.05e-3, 0.0, 63.4, 1.0, 9.80665);
+    assert!(good.validate().is_ok());
+    let err = |f: &dyn Fn(&mut TwoPlaneSystem)| {
+        let mut s = good;
+        f(&mut s);
+        s.validate().unwrap_err().to_string()
+    };
+    assert!(err(&|s| s.hole.diameter_m = 0.012).contains("hole.diameter_m"));
+    assert!(err(&|s| {
+        s.bar_diameter_m = Some(0.016);
+    })
+    .contains("bar_diameter_m"));
+    assert!(err(&|s| {
+        s.bar_diameter_m = Some(0.0155);
+        s.hole.diameter_m = 0.0151;
+    })
+    .contains("must fit across bar_diameter_m"));
+    assert!(err(&|s| s.hole.angle_deg = f64::NAN).contains("hole.angle_deg"));
+    assert!(err(&|s| s.forcing.angle_deg = f64::INFINITY).contains("forcing.angle_deg"));
+    assert!(err(&|s| s.gravity.angle_deg = f64::NAN).contains("gravity.angle_deg"));
+    assert!(err(&|s| s.gravity.m_s2 = f64::NAN).contains("gravity.m_s2"));
+    assert!(err(&|s| s.hole.axial_gap_m = -1e-4).contains("hole.axial_gap_m"));
+    assert!(err(&|s| s.ball.friction_static = -0.1).contains("ball.friction_static"));
+    assert!(err(&|s| s.ball.friction_static = 1.0).contains("[0, 1)"));
+    assert!(err(&|s| {
+        s.ball.friction_static = 0.2;
+        s.ball.friction_kinetic = 0.3;
+    })
+    .contains("ball.friction_kinetic"));
+    // The reference solver refuses friction instead of ignoring it.
+    let mut f = good;
+    f.ball.friction_static = 0.2;
+    let e = TwoPlaneRk4::default()
+        .run(
+            &f,
+            &TwoPlaneStart::at_rest([0.0; 2]),
+            &settings(0.01),
+            &mut |_| {},
+        )
+        .unwrap_err();
+    assert!(e.to_string().contains("frictionless"), "{e}");
+    // A start outside the box.
+    let e = TwoPlaneRk4::default()
+        .run(
+            &good,
+            &TwoPlaneStart::at_rest([0.6e-3, 0.0]),
+            &settings(0.01),
+            &mut |_| {},
+        )
+        .unwrap_err();
+    assert!(e.to_string().contains("start.w_hole_m[0]"), "{e}");
+}
