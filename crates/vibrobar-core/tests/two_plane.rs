@@ -5,7 +5,7 @@ use vibrobar_core::params::two_plane::{
     Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneSystem,
 };
 use vibrobar_core::solver::two_plane_rk4::{
-    HoleWall, TwoPlaneEvent, TwoPlaneEventKind, TwoPlaneRk4, TwoPlaneStart,
+    HoleWall, TwoPlaneEvent, TwoPlaneEventKind, TwoPlaneRk4, TwoPlaneStart, WallMotion,
 };
 use vibrobar_core::solver::{Event, EventKind, Exact, Observer, Solver, Wall};
 use vibrobar_core::*;
@@ -185,7 +185,8 @@ fn same_events(
     let wall = |k: &TwoPlaneEventKind| match *k {
         TwoPlaneEventKind::Impact { wall, .. }
         | TwoPlaneEventKind::Rest { wall, .. }
-        | TwoPlaneEventKind::LiftOff { wall } => wall,
+        | TwoPlaneEventKind::LiftOff { wall }
+        | TwoPlaneEventKind::Motion { wall, .. } => wall,
     };
     for (x, y) in a.iter().zip(b) {
         assert!((x.t_s - y.t_s).abs() < tol_s, "{x:?} against {y:?}");
@@ -250,7 +251,11 @@ fn a_dropped_ball_falls_as_a_parabola() {
         }
     )));
     // The landing's impulse shakes the bar harder than g, so the ball lifts off again.
-    assert!(s.rest_fraction[0] > 0.0, "{:?}", s.rest_fraction);
+    assert!(
+        s.rest_fraction(HoleWall::AxialPlus) > 0.0,
+        "{:?}",
+        s.contact_fraction
+    );
 }
 
 /// The steady state of the bar carrying the resting ball across the hole (gravity at 90°, the
@@ -298,7 +303,7 @@ fn the_ball_lifts_off_where_the_cavity_accelerates_away_faster_than_g() {
         if !lifts {
             // Carried all along: the response is the linear one of M + m_d.
             assert!(evs.is_empty());
-            assert!(s.rest_fraction[2] > 0.999_999);
+            assert!(s.rest_fraction(HoleWall::AcrossPlus) > 0.999_999);
         } else {
             // At lift-off the cavity's acceleration across the hole equals g: run to the event
             // and read the bar's force there (a resting ball leaves when f_y/M reaches g).
@@ -359,7 +364,11 @@ fn books_close_and_the_ball_stays_inside_over_a_long_run() {
     assert!(s.max_penetration_m <= 1e-12, "{}", s.max_penetration_m);
     assert!(s.end.w_hole_m[0].abs() <= 0.5e-3 + 1e-12);
     assert!(s.end.w_hole_m[1].abs() <= 0.05e-3 + 1e-12);
-    let total: f64 = s.flight_fraction + s.rest_fraction.iter().sum::<f64>();
+    let total: f64 = s.flight_fraction
+        + HoleWall::ALL
+            .iter()
+            .map(|&w| s.rest_fraction(w))
+            .sum::<f64>();
     assert!(total >= 1.0 - 1e-9, "{total}");
 }
 
@@ -394,18 +403,6 @@ fn bad_input_names_the_field() {
         s.ball.friction_kinetic = 0.3;
     })
     .contains("ball.friction_kinetic"));
-    // The reference solver refuses friction instead of ignoring it.
-    let mut f = good;
-    f.ball.friction_static = 0.2;
-    let e = TwoPlaneRk4::default()
-        .run(
-            &f,
-            &TwoPlaneStart::at_rest([0.0; 2]),
-            &settings(0.01),
-            &mut |_| {},
-        )
-        .unwrap_err();
-    assert!(e.to_string().contains("frictionless"), "{e}");
     // A start outside the box.
     let e = TwoPlaneRk4::default()
         .run(
@@ -416,4 +413,195 @@ fn bad_input_names_the_field() {
         )
         .unwrap_err();
     assert!(e.to_string().contains("start.w_hole_m[0]"), "{e}");
+}
+
+/// The paper's ball with friction on the walls.
+fn frictional(mut sys: TwoPlaneSystem, mu_s: f64, mu_k: f64, eta: f64) -> TwoPlaneSystem {
+    sys.ball.friction_static = mu_s;
+    sys.ball.friction_kinetic = mu_k;
+    sys.ball.rolling_friction_m = eta;
+    sys
+}
+
+/// A bar so heavy it does not move: 1e9 kg at 100 rad/s, no force.
+fn fixed_wall(gap_m: f64, mu_s: f64, mu_k: f64, eta: f64) -> TwoPlaneSystem {
+    let mut sys = paper(gap_m, 0.05e-3, 0.0, 0.0, 1.0, 9.80665);
+    sys.bar = PlanarBar::isotropic(&Bar {
+        mass_kg: 1e9,
+        stiffness_n_per_m: 1e13,
+        damping_ratio: 0.01,
+    });
+    sys.forcing.amplitude_n = 0.0;
+    frictional(sys, mu_s, mu_k, eta)
+}
+
+fn first_motion(evs: &[TwoPlaneEvent], motion: WallMotion) -> Option<f64> {
+    evs.iter().find_map(|e| match e.kind {
+        TwoPlaneEventKind::Motion { motion: m, .. } if m == motion => Some(e.t_s),
+        _ => None,
+    })
+}
+
+#[test]
+fn a_ball_launched_sliding_rolls_after_2v0_over_7_mu_g_at_five_sevenths() {
+    let (mu_k, v0, g) = (0.2, 0.05, 9.80665);
+    let sys = fixed_wall(20e-3, 0.3, mu_k, 0.0);
+    let start = TwoPlaneStart {
+        dw_hole_m_s: [v0, 0.0],
+        ..TwoPlaneStart::resting(&sys, 0.0)
+    };
+    let (evs, _) = run2(&sys, &start, 0.02);
+    let t_roll = first_motion(&evs, WallMotion::Rolling).expect("the ball starts to roll");
+    let want = 2.0 * v0 / (7.0 * mu_k * g);
+    assert!(
+        (t_roll - want).abs() < 1e-9 * want,
+        "{t_roll} against {want}"
+    );
+    let (_, s) = run2(&sys, &start, t_roll);
+    let v = s.end.dw_hole_m_s[0];
+    assert!((v - 5.0 / 7.0 * v0).abs() < 1e-9 * v0, "{v}");
+    // Rolling without resistance keeps that speed.
+    let (_, s) = run2(&sys, &start, 0.02);
+    assert!((s.end.dw_hole_m_s[0] - 5.0 / 7.0 * v0).abs() < 1e-9 * v0);
+    assert!((s.end.spin_rad_s * R_BALL - 5.0 / 7.0 * v0).abs() < 1e-9 * v0);
+}
+
+#[test]
+fn rolling_resistance_stops_a_rolling_ball_after_7rv0_over_5_eta_g() {
+    let (eta, v0, g) = (0.6e-3, 0.01, 9.80665);
+    let sys = fixed_wall(20e-3, 0.3, 0.2, eta);
+    // Rolling without slip: σ = (ḃ − u̇)·t + rω = −v0 + rω = 0 on the wall at +n.
+    let start = TwoPlaneStart {
+        dw_hole_m_s: [v0, 0.0],
+        spin_rad_s: v0 / R_BALL,
+        ..TwoPlaneStart::resting(&sys, 0.0)
+    };
+    let (evs, s) = run2(&sys, &start, 0.03);
+    let t_stop = first_motion(&evs, WallMotion::Stuck).expect("the ball stops");
+    let want = 7.0 * R_BALL * v0 / (5.0 * eta * g);
+    assert!(
+        (t_stop - want).abs() < 1e-9 * want,
+        "{t_stop} against {want}"
+    );
+    // Distance rolled: v0²/(2a) with a = (5/7)(η/r) g.
+    let a = 5.0 / 7.0 * eta / R_BALL * g;
+    let x = s.end.w_hole_m[0];
+    assert!((x - v0 * v0 / (2.0 * a)).abs() < 1e-9 * x, "{x}");
+    assert!(s.end.dw_hole_m_s[0].abs() < 1e-15 && s.end.spin_rad_s.abs() < 1e-12);
+    // The rolling loss is the kinetic energy the ball had, translation and spin.
+    let ke = 0.5 * 0.026 * v0 * v0 * (1.0 + 0.4);
+    assert!(
+        (s.book.rolling_loss_j - ke).abs() < 1e-9 * ke,
+        "{:?}",
+        s.book
+    );
+}
+
+/// A bar driven along the hole with the ball resting (rolling) on the hole's wall, gravity
+/// across: its steady state along x as a bar of mass `M + extra` and the static offset across.
+fn rolling_start(sys: &TwoPlaneSystem, extra_kg: f64) -> (TwoPlaneStart, f64) {
+    let b = sys.bar;
+    let (m, k) = (b.mass_kg + extra_kg, b.stiffness_n_per_m[0]);
+    let c = 2.0 * b.damping_ratio[0] * (k * b.mass_kg).sqrt();
+    let om = sys.omega_rad_s();
+    let (re, im) = (k - m * om * om, c * om);
+    let mag = sys.forcing.amplitude_n / (re * re + im * im).sqrt();
+    let phi = im.atan2(re);
+    let stat = sys.ball.mass_kg * sys.gravity.m_s2 / k;
+    let start = TwoPlaneStart {
+        u_m: [-mag * phi.sin(), stat],
+        du_m_s: [mag * om * phi.cos(), 0.0],
+        ..TwoPlaneStart::resting(sys, 0.0)
+    };
+    (start, mag * om * om)
+}
+
+#[test]
+fn a_rolling_ball_lags_the_wall_by_five_sevenths_and_loads_the_bar_with_two_sevenths() {
+    let (mu_s, g, md) = (0.3, 9.80665, 0.026);
+    let mut sys = frictional(paper(1.0e-3, 0.05e-3, 0.0, 0.0, 0.98, g), mu_s, 0.2, 0.0);
+    let extra = 2.0 / 7.0 * md;
+    sys.forcing.amplitude_n = 0.1;
+    let (start, acc) = rolling_start(&sys, extra);
+    assert!(acc < 3.5 * mu_s * g);
+    let dur = 0.01;
+    let (evs, s) = run2(&sys, &start, dur);
+    assert!(evs.is_empty(), "{:?}", evs.first());
+    assert!(
+        s.contact_fraction[HoleWall::AcrossPlus as usize][WallMotion::Rolling as usize] > 0.999_999
+    );
+    // The ball moves along the wall by −5/7 of the bar's motion beyond its start's drift.
+    let du0 = start.du_m_s[0];
+    let u_rel = s.end.u_m[0] - start.u_m[0] - du0 * dur;
+    let w = s.end.w_hole_m[0];
+    assert!(
+        (w + 5.0 / 7.0 * u_rel).abs() < 1e-9 * u_rel.abs(),
+        "{w} against {u_rel}"
+    );
+    // The bar stays on the steady state of mass M + 2/7 m_d: the end matches it.
+    let om = sys.omega_rad_s();
+    let (re, im) = (
+        sys.bar.stiffness_n_per_m[0] - (sys.bar.mass_kg + extra) * om * om,
+        2.0 * 0.01 * (sys.bar.stiffness_n_per_m[0] * sys.bar.mass_kg).sqrt() * om,
+    );
+    let mag = 0.1 / (re * re + im * im).sqrt();
+    let u_end = mag * (om * dur - im.atan2(re)).sin();
+    assert!(
+        (s.end.u_m[0] - u_end).abs() < 1e-8 * mag,
+        "{} against {u_end}",
+        s.end.u_m[0]
+    );
+    // Across, the bar carries the resting ball's weight, still at its static offset.
+    let stat = md * g / sys.bar.stiffness_n_per_m[1];
+    assert!(
+        (s.end.u_m[1] - stat).abs() < 1e-9 * stat,
+        "{}",
+        s.end.u_m[1]
+    );
+}
+
+#[test]
+fn the_ball_slides_where_the_wall_accelerates_at_seven_halves_mu_g() {
+    let (mu_s, g, md) = (0.3, 9.80665, 0.026);
+    let mut sys = frictional(paper(1.0e-3, 0.05e-3, 0.0, 0.0, 0.98, g), mu_s, 0.2, 0.0);
+    let extra = 2.0 / 7.0 * md;
+    sys.forcing.amplitude_n = 1.0;
+    let (_, acc1) = rolling_start(&sys, extra);
+    let threshold_n = 3.5 * mu_s * g / acc1;
+    for (scale, slides) in [(0.97, false), (1.03, true)] {
+        sys.forcing.amplitude_n = scale * threshold_n;
+        let (start, _) = rolling_start(&sys, extra);
+        let (evs, _) = run2(&sys, &start, 0.01);
+        let t = first_motion(&evs, WallMotion::Sliding);
+        assert_eq!(t.is_some(), slides, "scale {scale}: {:?}", evs.first());
+        if let Some(t) = t {
+            let (_, s) = run2(&sys, &start, t);
+            let (kk, cc) = sys.bar.matrices();
+            let fx = sys.forcing.amplitude_n * (sys.omega_rad_s() * t).sin()
+                - cc[0][0] * s.end.du_m_s[0]
+                - kk[0][0] * s.end.u_m[0];
+            let acc = fx / (sys.bar.mass_kg + extra);
+            assert!((acc.abs() - 3.5 * mu_s * g).abs() < 1e-6 * g, "{acc}");
+        }
+    }
+}
+
+#[test]
+fn books_close_with_friction_and_spin() {
+    let sys = frictional(
+        paper(1.0e-3, 0.05e-3, 0.0, 63.4, 1.0, 9.80665),
+        0.3,
+        0.2,
+        0.6e-3,
+    );
+    let (evs, s) = run2(&sys, &TwoPlaneStart::resting(&sys, 0.0), 0.3);
+    assert!(evs.len() > 100, "{} events", evs.len());
+    let b = s.book;
+    assert!(b.sliding_loss_j > 0.0 && b.rolling_loss_j >= 0.0, "{b:?}");
+    assert!(
+        b.residual_j().abs() < 1e-8 * b.forcing_work_j.abs(),
+        "{b:?}, residual {:e}",
+        b.residual_j()
+    );
+    assert!(s.max_penetration_m <= 1e-12, "{}", s.max_penetration_m);
 }

@@ -1,10 +1,12 @@
 //! The reference solver of the bar that bends in two planes: classical RK4 with every event
-//! located inside its step, and a resting-contact mode per wall.
+//! located inside its step, and a resting-contact mode per wall with rolling, sliding and
+//! sticking.
 //!
 //! The model ([`crate::params::two_plane`]): a lumped bar `M ü + C u̇ + K u = F0 sin(Ωt)·e_F`
 //! in the cross-section plane (`u = (u_x, u_y)`, `K` and `C` may differ along two principal
-//! axes), and the ball (absolute position `b`) in a box in the hole's frame: `±l_g` along the
-//! hole (`a`), `±c_r` across it (`n`), with gravity `g` on the ball.
+//! axes), and the ball (absolute position `b`, spin `ω` about the bar's axis, `I = 2/5·m_d r²`)
+//! in a box in the hole's frame: `±l_g` along the hole (`a`), `±c_r` across it (`n`), with
+//! gravity `g` on the ball.
 //!
 //! # Method
 //! Fixed steps on the grid `i·dt` (the window's start is a step end too). After each step the
@@ -12,30 +14,42 @@
 //! by the Illinois method on the guard of the RK4 step of length `τ ∈ (0, dt]` from the step's
 //! start (each trial is a fresh RK4 step, so the event state carries RK4's accuracy), the run
 //! goes to it, applies the event and goes on to the next grid point. Work integrals (forcing,
-//! viscous, and `∫u²` over the window) are extra components of the state, integrated by the same
-//! RK4 steps.
+//! viscous, sliding and rolling losses, and `∫u²` over the window) are extra components of the
+//! state, integrated by the same RK4 steps.
 //!
-//! # Modes and events
-//! The ball flies, or rests on a wall (on one of each pair of walls at most: on a plug, on the
-//! hole's wall, or in a corner). The walls are frictionless here, so along a wall the ball
-//! slides freely and its spin never changes.
-//! - **Impact** at wall `n` (unit normal from the ball's centre to the wall) with approach speed
-//!   `v_n = (v̇ − u̇)·n > 0`: [`crate::damper::wall_impact`] with `μ = 0`, i.e. the one-plane law
-//!   along `n`.
-//! - **Coming to rest.** After an impact the ball would fly back within `2e·v_n/a_p`, where
-//!   `a_p = (g − f/M)·n` is the relative acceleration pressing it on the wall (`f` the force on
-//!   the bar besides the ball). When that is shorter than one step, the remaining geometric
-//!   sequence of bounces (which lasts at most `dt/(1 − e)`) is summed to its limit, the plastic
-//!   one: bar and ball take the common normal velocity, and the ball rests on the wall.
-//! - **Resting** on wall `n`: the ball moves with the bar along `n`, pressed by the normal force
-//!   `N = m_d M/(M + m_d)·(g·n − f·n/M)`, which the bar feels as well.
-//! - **Lift-off** where `N` falls to zero: the ball flies again.
+//! # Modes
+//! The ball flies, rests on one wall, or sits in a corner (a plug and the hole's wall). On a wall
+//! with outward normal `n` (from the ball's centre) and tangent `t = ẑ × n`, the contact point
+//! slips at `σ = (ḃ − u̇)·t + r·ω`.
+//! - **Resting on a wall:** the ball moves with the bar along `n`, pressed by the normal force
+//!   `N = m_d M/(M + m_d)·(g·n − f·n/M)` (`f` the force on the bar besides the ball's). Along the
+//!   wall it
+//!   - **rolls** (`σ = 0`) while the friction that needs stays within `μ_s·N`, with a
+//!     rolling-resistance torque `η·N` against `ω`: `F_t = −(g·t − f·t/M + r·τ/I)/W_tt`,
+//!     `W_tt = 7/(2m_d) + 1/M`, so a ball on a wall accelerating at `ü` lags at `−(5/7)·ü`;
+//!   - **slides** at `F_t = −μ_k·N·sgn σ` otherwise (rolling resistance is left out while it
+//!     slides);
+//!   - **sticks** (`σ = 0`, `ω = 0`) while rolling resistance can hold it: `|r·F_t| ≤ η·N` with
+//!     `F_t = −(g·t − f·t/M)/(1/m_d + 1/M)` and `|F_t| ≤ μ_s·N`.
+//! - **In a corner** the ball moves with the bar; a spinning ball slides on both walls and its
+//!   spin decays, the two normal forces solving the two walls' balance together.
+//! - **Lift-off** where a normal force falls to zero.
+//!
+//! # Impacts
+//! At wall `n` with approach speed `v_n = (ḃ − u̇)·n > 0`: [`crate::damper::wall_impact`] (with
+//! `μ = μ_k`). A ball resting on the other wall of a corner takes the impulse's tangential
+//! part as an approach of that wall, and the law is applied there too, wall by wall, until
+//! nothing approaches. After an impact the ball would fly back within `2e·v_n/a_p`, with
+//! `a_p = (g − f/M)·n` pressing it on the wall; when that is shorter than one step, the remaining
+//! geometric sequence of bounces (at most `dt/(1 − e)` long) is summed to its plastic limit and
+//! the ball rests on the wall.
 //!
 //! The paper's RK4 cannot serve as this check: it counts a resting ball as one impact per step.
-//! A crossing that enters and leaves a wall within one step is not seen (its depth is below
-//! `(v_n·dt)²/…`, far below the clearances at `dt = 1 µs`).
+//! A crossing that enters and leaves a wall within one step is not seen.
 
-use crate::damper::wall_impact::{inverse_mass_normal_per_kg, wall_impact};
+use crate::damper::wall_impact::{
+    inverse_mass_normal_per_kg, inverse_mass_tangential_per_kg, wall_impact,
+};
 use crate::error::{EventLimitCause, ParamError, SimError};
 use crate::limits;
 use crate::params::two_plane::{direction, TwoPlaneSystem};
@@ -83,6 +97,17 @@ impl HoleWall {
     }
 }
 
+/// How a ball resting on a wall moves along it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum WallMotion {
+    /// The contact point slips (always, on a frictionless wall).
+    Sliding = 0,
+    /// The ball rolls without slip.
+    Rolling = 1,
+    /// The ball neither slips nor rolls: rolling resistance holds it.
+    Stuck = 2,
+}
+
 /// What happened at an event.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TwoPlaneEventKind {
@@ -92,7 +117,7 @@ pub enum TwoPlaneEventKind {
         wall: HoleWall,
         /// `(v̇ − u̇)·n` before.
         approach_m_s: f64,
-        /// Kinetic energy lost.
+        /// Kinetic energy lost (translation and spin).
         energy_loss_j: f64,
     },
     /// A bounce sequence was summed to its end: the ball now rests on the wall.
@@ -102,10 +127,18 @@ pub enum TwoPlaneEventKind {
         /// Kinetic energy the summed bounces removed.
         energy_loss_j: f64,
     },
-    /// The normal force fell to zero: the ball leaves the wall.
+    /// The normal force fell to zero (or an impulse on the other wall of a corner pulled the
+    /// ball off): the ball leaves the wall.
     LiftOff {
         /// The wall.
         wall: HoleWall,
+    },
+    /// A ball resting on a wall started to slide, roll or stick.
+    Motion {
+        /// The wall.
+        wall: HoleWall,
+        /// How it moves from now on.
+        motion: WallMotion,
     },
 }
 
@@ -134,7 +167,7 @@ pub struct TwoPlaneStart {
 }
 
 impl TwoPlaneStart {
-    /// The bar at rest, the ball at rest at `w_hole_m` (put on the walls it lies on).
+    /// The bar at rest, the ball at rest at `w_hole_m` (on the walls it lies on).
     pub fn at_rest(w_hole_m: [f64; 2]) -> TwoPlaneStart {
         TwoPlaneStart {
             u_m: [0.0; 2],
@@ -163,24 +196,33 @@ impl TwoPlaneStart {
     }
 }
 
-/// The energy book of a run: `ΔE = W_F − W_C − W_impact` with
-/// `E = ½M|u̇|² + ½uᵀKu + ½m_d|v̇|² + ½Iω² − m_d g·b`.
+/// The energy book of a run: `ΔE = W_F − W_C − W_impact − W_slide − W_roll` with
+/// `E = ½M|u̇|² + ½uᵀKu + ½m_d|ḃ|² + ½Iω² − m_d g·b`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TwoPlaneBook {
     /// Work of the harmonic force.
     pub forcing_work_j: f64,
     /// Viscous loss of the bar.
     pub viscous_loss_j: f64,
-    /// Kinetic energy lost in impacts and summed bounce sequences.
+    /// Kinetic energy (translation and spin) lost in impacts and summed bounce sequences.
     pub impact_loss_j: f64,
+    /// Loss of sliding friction in resting contact.
+    pub sliding_loss_j: f64,
+    /// Loss of rolling resistance.
+    pub rolling_loss_j: f64,
     /// `E(end) − E(start)`.
     pub energy_change_j: f64,
 }
 
 impl TwoPlaneBook {
-    /// `W_F − W_C − W_impact − ΔE` (zero up to the integration error).
+    /// What the book leaves unexplained (zero up to the integration error).
     pub fn residual_j(&self) -> f64 {
-        self.forcing_work_j - self.viscous_loss_j - self.impact_loss_j - self.energy_change_j
+        self.forcing_work_j
+            - self.viscous_loss_j
+            - self.impact_loss_j
+            - self.sliding_loss_j
+            - self.rolling_loss_j
+            - self.energy_change_j
     }
 }
 
@@ -196,8 +238,9 @@ pub struct TwoPlaneSummary {
     pub rms_total_m: f64,
     /// Impacts per wall ([`HoleWall`] order).
     pub impacts: [u64; 4],
-    /// Fraction of the window the ball rests on each wall (a corner counts for both).
-    pub rest_fraction: [f64; 4],
+    /// Fraction of the window the ball rests on each wall ([`HoleWall`] order), by how it
+    /// moves along it ([`WallMotion`] order). A corner counts for both walls.
+    pub contact_fraction: [[f64; 3]; 4],
     /// Fraction of the window the ball flies (touches no wall).
     pub flight_fraction: f64,
     /// Every event of the run.
@@ -208,6 +251,13 @@ pub struct TwoPlaneSummary {
     pub book: TwoPlaneBook,
     /// The state at the end.
     pub end: TwoPlaneStart,
+}
+
+impl TwoPlaneSummary {
+    /// Fraction of the window the ball rests on `wall`, however it moves along it.
+    pub fn rest_fraction(&self, wall: HoleWall) -> f64 {
+        self.contact_fraction[wall as usize].iter().sum()
+    }
 }
 
 /// The reference solver.
@@ -223,15 +273,14 @@ impl Default for TwoPlaneRk4 {
     }
 }
 
-/// The solver runs frictionless walls only.
-pub const TWO_PLANE_RK4_FRICTIONLESS: &str = "the two-plane reference solver runs frictionless walls: set ball.friction_static, ball.friction_kinetic and ball.rolling_friction_m to 0";
-
 /// Events allowed per grid step on average before a run is stopped.
 const EVENTS_PER_STEP: f64 = 4.0;
 
-// State layout: u (0, 1), u̇ (2, 3), b (4, 5), ḃ (6, 7), then the integrals: forcing work,
-// viscous loss, and over the window ∫(u·e_F)², ∫u_x², ∫u_y².
-const NY: usize = 13;
+// State layout: u (0, 1), u̇ (2, 3), b (4, 5), ḃ (6, 7), ω (8), then the integrals: forcing
+// work (9), viscous loss (10), sliding loss (11), rolling loss (12), and over the window
+// ∫(u·e_F)² (13), ∫u_x² (14), ∫u_y² (15).
+const NY: usize = 16;
+const OM: usize = 8;
 type Y = [f64; NY];
 
 fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
@@ -245,9 +294,92 @@ fn mat(m: &[[f64; 2]; 2], v: [f64; 2]) -> [f64; 2] {
     ]
 }
 
-/// Which wall the ball rests on, per axis: `0` none, `±1` the wall at `±` clearance.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-struct Rest([i8; 2]);
+/// `ẑ × n`.
+fn tangent(n: [f64; 2]) -> [f64; 2] {
+    [-n[1], n[0]]
+}
+
+fn sgn(x: f64) -> i8 {
+    if x > 0.0 {
+        1
+    } else if x < 0.0 {
+        -1
+    } else {
+        0
+    }
+}
+
+/// How a resting ball moves along its wall, with the signs the law needs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Tan {
+    /// Sliding with slip sign `s` (0 on a frictionless wall: no friction force).
+    Slide(i8),
+    /// Rolling, with the sign of `ω` the rolling resistance opposes (0: none).
+    Roll(i8),
+    /// Held by rolling resistance.
+    Stuck,
+}
+
+impl Tan {
+    fn motion(self) -> WallMotion {
+        match self {
+            Tan::Slide(_) => WallMotion::Sliding,
+            Tan::Roll(_) => WallMotion::Rolling,
+            Tan::Stuck => WallMotion::Stuck,
+        }
+    }
+}
+
+/// The ball's mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    Flight,
+    /// Resting on the wall of `axis` at `sign`.
+    Wall {
+        axis: usize,
+        sign: i8,
+        tan: Tan,
+    },
+    /// In a corner: on the walls at `signs[0]` along the hole and `signs[1]` across it;
+    /// `tan` is `Slide(sgn ω)` (spinning) or `Stuck`.
+    Corner {
+        signs: [i8; 2],
+        tan: Tan,
+    },
+}
+
+impl Mode {
+    /// The sign of the wall the ball rests on along `axis` (0: none).
+    fn rest(self, axis: usize) -> i8 {
+        match self {
+            Mode::Flight => 0,
+            Mode::Wall { axis: a, sign, .. } => {
+                if a == axis {
+                    sign
+                } else {
+                    0
+                }
+            }
+            Mode::Corner { signs, .. } => signs[axis],
+        }
+    }
+}
+
+/// Accelerations and contact forces of a mode at one state.
+#[derive(Debug, Clone, Copy, Default)]
+struct Forces {
+    ddu: [f64; 2],
+    ddb: [f64; 2],
+    dom: f64,
+    /// Normal force per axis (0 off the walls).
+    normal: [f64; 2],
+    /// Friction force on the ball along the wall's tangent (single wall).
+    fric: f64,
+    /// Rolling-resistance torque.
+    torque: f64,
+    slide_power: f64,
+    roll_power: f64,
+}
 
 struct Model {
     m: f64,
@@ -265,10 +397,18 @@ struct Model {
     /// `l_g`, `c_r`.
     clr: [f64; 2],
     e: f64,
+    r: f64,
     inertia: f64,
-    /// Guard tolerances: depth beyond a wall, tension on a wall.
+    mu_s: f64,
+    mu_k: f64,
+    eta: f64,
+    w_nn: f64,
+    w_tt: f64,
+    /// Guard tolerances: depth beyond a wall, force, speed, spin.
     tol_x: f64,
     tol_f: f64,
+    tol_v: f64,
+    tol_w: f64,
 }
 
 impl Model {
@@ -278,6 +418,9 @@ impl Model {
         let clr = [sys.hole.half_axial_gap_m(), sys.radial_clearance_m()];
         let g_abs = sys.gravity.m_s2;
         let gd = direction(sys.gravity.angle_deg);
+        let om = sys.omega_rad_s();
+        let acc = (g_abs + sys.forcing.amplitude_n.abs() / m).max(1e-300);
+        let v_scale = acc / om.max(sys.bar.omega1_rad_s());
         Model {
             m,
             md,
@@ -285,7 +428,7 @@ impl Model {
             k,
             c,
             f0: sys.forcing.amplitude_n,
-            om: sys.omega_rad_s(),
+            om,
             e_f: direction(sys.forcing.angle_deg),
             g: [g_abs * gd[0], g_abs * gd[1]],
             axes: [
@@ -294,10 +437,22 @@ impl Model {
             ],
             clr,
             e: sys.ball.restitution,
+            r: sys.ball.radius_m,
             inertia: sys.ball.inertia_kg_m2(),
+            mu_s: sys.ball.friction_static,
+            mu_k: sys.ball.friction_kinetic,
+            eta: sys.ball.rolling_friction_m,
+            w_nn: inverse_mass_normal_per_kg(md, m),
+            w_tt: inverse_mass_tangential_per_kg(md, m),
             tol_x: 1e-12 * clr[0].min(clr[1]).max(1e-300),
-            tol_f: 1e-13 * md * (g_abs + sys.forcing.amplitude_n.abs() / m).max(1e-300),
+            tol_f: 1e-13 * md * acc,
+            tol_v: 1e-12 * v_scale,
+            tol_w: 1e-12 * v_scale / sys.ball.radius_m,
         }
+    }
+
+    fn frictional(&self) -> bool {
+        self.mu_s > 0.0
     }
 
     /// The force on the bar besides the ball's, `F0 sin Ωt e_F − C u̇ − K u`.
@@ -311,7 +466,7 @@ impl Model {
         ]
     }
 
-    /// The outward normal of the wall the ball rests on along `axis` with sign `s`.
+    /// The outward normal of the wall of `axis` at sign `s`.
     fn normal(&self, axis: usize, s: f64) -> [f64; 2] {
         [s * self.axes[axis][0], s * self.axes[axis][1]]
     }
@@ -321,42 +476,132 @@ impl Model {
         self.red * (dot(self.g, n) - dot(f, n) / self.m)
     }
 
-    fn deriv(&self, t: f64, y: &Y, rest: Rest, win: f64) -> Y {
+    /// Relative velocity `ḃ − u̇`.
+    fn rel_v(y: &Y) -> [f64; 2] {
+        [y[6] - y[2], y[7] - y[3]]
+    }
+
+    /// The slip of the contact point on the wall with outward normal `n`.
+    fn slip(&self, y: &Y, n: [f64; 2]) -> f64 {
+        dot(Self::rel_v(y), tangent(n)) + self.r * y[OM]
+    }
+
+    /// Friction force and rolling-resistance torque on a ball resting on the wall `n` with
+    /// normal force `nf`, moving as `tan`.
+    fn wall_friction(&self, f: [f64; 2], n: [f64; 2], nf: f64, tan: Tan) -> (f64, f64) {
+        let tv = tangent(n);
+        let drive = dot(self.g, tv) - dot(f, tv) / self.m;
+        match tan {
+            Tan::Slide(s) => (-self.mu_k * nf * f64::from(s), 0.0),
+            Tan::Roll(rr) => {
+                let tq = -self.eta * nf * f64::from(rr);
+                (-(drive + self.r * tq / self.inertia) / self.w_tt, tq)
+            }
+            Tan::Stuck => {
+                let fr = -drive / self.w_nn;
+                (fr, -self.r * fr)
+            }
+        }
+    }
+
+    fn forces(&self, t: f64, y: &Y, mode: Mode) -> Forces {
         let f = self.bar_force(t, y);
-        let mut ddu = [f[0] / self.m, f[1] / self.m];
-        let mut ddb = self.g;
-        for axis in 0..2 {
-            let s = rest.0[axis];
-            if s != 0 {
-                let n = self.normal(axis, f64::from(s));
+        match mode {
+            Mode::Flight => Forces {
+                ddu: [f[0] / self.m, f[1] / self.m],
+                ddb: self.g,
+                ..Forces::default()
+            },
+            Mode::Wall { axis, sign, tan } => {
+                let n = self.normal(axis, f64::from(sign));
+                let tv = tangent(n);
                 let nf = self.normal_force(f, n);
-                for i in 0..2 {
-                    ddu[i] += nf * n[i] / self.m;
-                    ddb[i] -= nf * n[i] / self.md;
+                let (fr, tq) = self.wall_friction(f, n, nf, tan);
+                let mut out = Forces {
+                    ddu: [
+                        (f[0] + nf * n[0] - fr * tv[0]) / self.m,
+                        (f[1] + nf * n[1] - fr * tv[1]) / self.m,
+                    ],
+                    ddb: [
+                        self.g[0] + (-nf * n[0] + fr * tv[0]) / self.md,
+                        self.g[1] + (-nf * n[1] + fr * tv[1]) / self.md,
+                    ],
+                    dom: (self.r * fr + tq) / self.inertia,
+                    fric: fr,
+                    torque: tq,
+                    ..Forces::default()
+                };
+                out.normal[axis] = nf;
+                match tan {
+                    Tan::Slide(_) => out.slide_power = -fr * self.slip(y, n),
+                    Tan::Roll(_) => out.roll_power = -tq * y[OM],
+                    Tan::Stuck => {}
+                }
+                out
+            }
+            Mode::Corner { signs, tan } => {
+                let mt = self.m + self.md;
+                let ddu = [
+                    (f[0] + self.md * self.g[0]) / mt,
+                    (f[1] + self.md * self.g[1]) / mt,
+                ];
+                let q = [
+                    self.md * (self.g[0] - ddu[0]),
+                    self.md * (self.g[1] - ddu[1]),
+                ];
+                let n0 = self.normal(0, f64::from(signs[0]));
+                let n1 = self.normal(1, f64::from(signs[1]));
+                let s = match tan {
+                    Tan::Slide(s) => f64::from(s),
+                    _ => 0.0,
+                };
+                // N0 − F1 (t1·n0) = q·n0 and N1 − F0 (t0·n1) = q·n1, with F_i = −μ_k N_i s.
+                let a = self.mu_k * s * dot(tangent(n1), n0);
+                let b = self.mu_k * s * dot(tangent(n0), n1);
+                let (q0, q1) = (dot(q, n0), dot(q, n1));
+                let det = 1.0 - a * b;
+                let nf0 = (q0 - a * q1) / det;
+                let nf1 = (q1 - b * q0) / det;
+                let fr = -self.mu_k * s * (nf0 + nf1);
+                Forces {
+                    ddu,
+                    ddb: ddu,
+                    dom: self.r * fr / self.inertia,
+                    normal: [nf0, nf1],
+                    fric: fr,
+                    slide_power: -fr * self.r * y[OM],
+                    ..Forces::default()
                 }
             }
         }
+    }
+
+    fn deriv(&self, t: f64, y: &Y, mode: Mode, win: f64) -> Y {
+        let fo = self.forces(t, y, mode);
         let du = [y[2], y[3]];
         let fs = self.f0 * (self.om * t).sin();
         let uf = y[0] * self.e_f[0] + y[1] * self.e_f[1];
         [
             y[2],
             y[3],
-            ddu[0],
-            ddu[1],
+            fo.ddu[0],
+            fo.ddu[1],
             y[6],
             y[7],
-            ddb[0],
-            ddb[1],
+            fo.ddb[0],
+            fo.ddb[1],
+            fo.dom,
             fs * dot(self.e_f, du),
             dot(du, mat(&self.c, du)),
+            fo.slide_power,
+            fo.roll_power,
             win * uf * uf,
             win * y[0] * y[0],
             win * y[1] * y[1],
         ]
     }
 
-    fn step(&self, t: f64, y: &Y, h: f64, rest: Rest, win: f64) -> Y {
+    fn step(&self, t: f64, y: &Y, h: f64, mode: Mode, win: f64) -> Y {
         let add = |a: &Y, k: &Y, s: f64| {
             let mut o = *a;
             for i in 0..NY {
@@ -364,10 +609,10 @@ impl Model {
             }
             o
         };
-        let k1 = self.deriv(t, y, rest, win);
-        let k2 = self.deriv(t + 0.5 * h, &add(y, &k1, 0.5 * h), rest, win);
-        let k3 = self.deriv(t + 0.5 * h, &add(y, &k2, 0.5 * h), rest, win);
-        let k4 = self.deriv(t + h, &add(y, &k3, h), rest, win);
+        let k1 = self.deriv(t, y, mode, win);
+        let k2 = self.deriv(t + 0.5 * h, &add(y, &k1, 0.5 * h), mode, win);
+        let k3 = self.deriv(t + 0.5 * h, &add(y, &k2, 0.5 * h), mode, win);
+        let k4 = self.deriv(t + h, &add(y, &k3, h), mode, win);
         let mut o = *y;
         for i in 0..NY {
             o[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
@@ -380,21 +625,51 @@ impl Model {
         dot([y[4] - y[0], y[5] - y[1]], self.axes[axis])
     }
 
-    /// The guards, positive once crossed: the depth beyond a wall the ball flies towards, the
-    /// tension on a wall it rests on; `−∞` where none applies.
-    fn guards(&self, t: f64, y: &Y, rest: Rest) -> [f64; 4] {
-        let mut out = [f64::NEG_INFINITY; 4];
-        let f = self.bar_force(t, y);
+    /// The guards, positive once crossed; `−∞` where none applies. 0–3: the depth beyond a wall
+    /// the ball flies towards ([`HoleWall`] order); 4, 5: the tension on the wall it rests on
+    /// along each axis; 6, 7: the limits of its motion along the wall.
+    fn guards(&self, t: f64, y: &Y, mode: Mode) -> [f64; 8] {
+        let mut out = [f64::NEG_INFINITY; 8];
+        let fo = self.forces(t, y, mode);
         for axis in 0..2 {
-            let s = rest.0[axis];
-            if s == 0 {
+            if mode.rest(axis) == 0 {
                 let w = self.w(y, axis);
                 out[2 * axis] = w - self.clr[axis] - self.tol_x;
                 out[2 * axis + 1] = -w - self.clr[axis] - self.tol_x;
             } else {
-                let s = f64::from(s);
-                let n = self.normal(axis, s);
-                out[HoleWall::of(axis, s) as usize] = -self.normal_force(f, n) - self.tol_f;
+                out[4 + axis] = -fo.normal[axis] - self.tol_f;
+            }
+        }
+        if !self.frictional() {
+            return out;
+        }
+        match mode {
+            Mode::Flight => {}
+            Mode::Wall { axis, sign, tan } => {
+                let nf = fo.normal[axis];
+                match tan {
+                    Tan::Slide(s) => {
+                        let n = self.normal(axis, f64::from(sign));
+                        out[6] = -f64::from(s) * self.slip(y, n) - self.tol_v;
+                    }
+                    Tan::Roll(rr) => {
+                        out[6] = fo.fric.abs() - self.mu_s * nf - self.tol_f;
+                        if rr != 0 {
+                            out[7] = -f64::from(rr) * y[OM] - self.tol_w;
+                        }
+                    }
+                    Tan::Stuck => {
+                        out[6] = fo.fric.abs() - self.mu_s * nf - self.tol_f;
+                        out[7] = fo.torque.abs() - self.eta * nf - self.r * self.tol_f;
+                    }
+                }
+            }
+            Mode::Corner { tan, .. } => {
+                if let Tan::Slide(s) = tan {
+                    if s != 0 {
+                        out[6] = -f64::from(s) * y[OM] - self.tol_w;
+                    }
+                }
             }
         }
         out
@@ -407,28 +682,143 @@ impl Model {
         y[5] += d * self.axes[axis][1];
     }
 
-    /// Remove the ball's velocity relative to the bar along `axis` (a resting ball).
+    /// Remove the ball's velocity relative to the bar along `axis`.
     fn hold(&self, y: &mut Y, axis: usize) {
         let a = self.axes[axis];
-        let dw = dot([y[6] - y[2], y[7] - y[3]], a);
+        let dw = dot(Self::rel_v(y), a);
         y[6] -= dw * a[0];
         y[7] -= dw * a[1];
     }
 
-    fn energy(&self, y: &Y, spin: f64) -> f64 {
-        let u = [y[0], y[1]];
-        0.5 * self.m * (y[2] * y[2] + y[3] * y[3])
-            + 0.5 * dot(u, mat(&self.k, u))
-            + 0.5 * self.md * (y[6] * y[6] + y[7] * y[7])
-            + 0.5 * self.inertia * spin * spin
-            - self.md * dot(self.g, [y[4], y[5]])
+    /// Keep the constraints of `mode` exact: position and normal velocity on the walls, no
+    /// slip while rolling, no slip and no spin while stuck.
+    fn project(&self, y: &mut Y, mode: Mode) {
+        for axis in 0..2 {
+            let s = mode.rest(axis);
+            if s != 0 {
+                self.snap(y, axis, f64::from(s));
+                self.hold(y, axis);
+            }
+        }
+        match mode {
+            Mode::Wall { axis, sign, tan } => {
+                let n = self.normal(axis, f64::from(sign));
+                match tan {
+                    Tan::Roll(_) => y[OM] -= self.slip(y, n) / self.r,
+                    Tan::Stuck => {
+                        self.hold(y, 1 - axis);
+                        y[OM] = 0.0;
+                    }
+                    Tan::Slide(_) => {}
+                }
+            }
+            Mode::Corner {
+                tan: Tan::Stuck, ..
+            } => y[OM] = 0.0,
+            _ => {}
+        }
     }
 
-    /// A normal impulse `p` on the ball along `−n`, and on the bar along `n`.
-    fn impulse(&self, y: &mut Y, n: [f64; 2], p: f64) {
+    fn kinetic(&self, y: &Y) -> f64 {
+        0.5 * self.m * (y[2] * y[2] + y[3] * y[3])
+            + 0.5 * self.md * (y[6] * y[6] + y[7] * y[7])
+            + 0.5 * self.inertia * y[OM] * y[OM]
+    }
+
+    fn energy(&self, y: &Y) -> f64 {
+        let u = [y[0], y[1]];
+        self.kinetic(y) + 0.5 * dot(u, mat(&self.k, u)) - self.md * dot(self.g, [y[4], y[5]])
+    }
+
+    /// Impulses `p_n` along `−n` and `p_t` along `t = ẑ × n` on the ball at the contact point
+    /// of wall `n`; the opposite on the bar.
+    fn impulse(&self, y: &mut Y, n: [f64; 2], p_n: f64, p_t: f64) {
+        let tv = tangent(n);
         for i in 0..2 {
-            y[6 + i] -= p / self.md * n[i];
-            y[2 + i] += p / self.m * n[i];
+            let j = -p_n * n[i] + p_t * tv[i];
+            y[6 + i] += j / self.md;
+            y[2 + i] -= j / self.m;
+        }
+        y[OM] += self.r * p_t / self.inertia;
+    }
+
+    /// The impact law at the wall of `axis`, `s`; returns the approach speed.
+    fn impact(&self, y: &mut Y, axis: usize, s: f64) -> f64 {
+        let n = self.normal(axis, s);
+        let approach = dot(Self::rel_v(y), n).max(0.0);
+        let p = wall_impact(
+            approach,
+            self.slip(y, n),
+            self.w_nn,
+            self.w_tt,
+            self.e,
+            self.mu_k,
+        );
+        self.impulse(y, n, p.normal_n_s, p.tangential_n_s);
+        approach
+    }
+
+    /// How a ball resting on wall `n` moves along it from this state on.
+    fn settle_wall(&self, t: f64, y: &Y, axis: usize, sign: i8) -> Tan {
+        if !self.frictional() {
+            return Tan::Slide(0);
+        }
+        let n = self.normal(axis, f64::from(sign));
+        let sigma = self.slip(y, n);
+        if sigma.abs() > 1e3 * self.tol_v {
+            return Tan::Slide(sgn(sigma));
+        }
+        let f = self.bar_force(t, y);
+        let nf = self.normal_force(f, n).max(0.0);
+        let (fr, tq) = self.wall_friction(f, n, nf, Tan::Stuck);
+        if y[OM].abs() <= 1e3 * self.tol_w
+            && self.eta > 0.0
+            && fr.abs() <= self.mu_s * nf
+            && tq.abs() <= self.eta * nf
+        {
+            return Tan::Stuck;
+        }
+        // Rolling: the resistance opposes the spin, or the spin the drive would start.
+        let rr = if y[OM].abs() > 1e3 * self.tol_w {
+            sgn(y[OM])
+        } else {
+            let (fr0, _) = self.wall_friction(f, n, nf, Tan::Roll(0));
+            sgn(fr0)
+        };
+        let (fr, _) = self.wall_friction(f, n, nf, Tan::Roll(rr));
+        if fr.abs() <= self.mu_s * nf {
+            Tan::Roll(if self.eta > 0.0 { rr } else { 0 })
+        } else {
+            // Kinetic friction opposes the slip that starts, which is against the friction
+            // rolling would need.
+            Tan::Slide(-sgn(fr))
+        }
+    }
+
+    /// The mode for a ball resting on the walls `signs` (0: none along that axis).
+    fn settle(&self, t: f64, y: &Y, signs: [i8; 2]) -> Mode {
+        match signs {
+            [0, 0] => Mode::Flight,
+            [s, 0] => Mode::Wall {
+                axis: 0,
+                sign: s,
+                tan: self.settle_wall(t, y, 0, s),
+            },
+            [0, s] => Mode::Wall {
+                axis: 1,
+                sign: s,
+                tan: self.settle_wall(t, y, 1, s),
+            },
+            _ => Mode::Corner {
+                signs,
+                tan: if self.frictional() && y[OM].abs() > 1e3 * self.tol_w {
+                    Tan::Slide(sgn(y[OM]))
+                } else if self.frictional() {
+                    Tan::Stuck
+                } else {
+                    Tan::Slide(0)
+                },
+            },
         }
     }
 }
@@ -445,9 +835,6 @@ impl TwoPlaneRk4 {
     ) -> Result<TwoPlaneSummary, SimError> {
         sys.validate()?;
         settings.validate()?;
-        if !sys.ball.frictionless() {
-            return Err(SimError::Unsupported(TWO_PLANE_RK4_FRICTIONLESS));
-        }
         let h = self.dt_s;
         crate::params::positive("dt_s", h)?;
         let k_max = sys.bar.stiffness_n_per_m[0].max(sys.bar.stiffness_n_per_m[1]);
@@ -511,23 +898,23 @@ impl TwoPlaneRk4 {
         y[5] = y[1] + w[1];
         y[6] = y[2] + dw[0];
         y[7] = y[3] + dw[1];
-        let spin = start.spin_rad_s;
-        let e0 = md.energy(&y, spin);
+        y[OM] = start.spin_rad_s;
+        let e0 = md.energy(&y);
 
         // A ball at rest on a wall that presses it stays there.
-        let mut rest = Rest::default();
         let f = md.bar_force(0.0, &y);
-        for axis in 0..2 {
+        let signs = [0, 1].map(|axis| {
             let wa = start.w_hole_m[axis];
             let s = wa.signum();
             let on_wall = (wa.abs() - md.clr[axis]).abs() <= md.tol_x;
-            if on_wall && start.dw_hole_m_s[axis] == 0.0 {
-                let nrm = md.normal(axis, s);
-                if md.normal_force(f, nrm) > 0.0 {
-                    rest.0[axis] = s as i8;
-                }
+            let pressed = md.normal_force(f, md.normal(axis, s)) > 0.0;
+            if on_wall && start.dw_hole_m_s[axis] == 0.0 && pressed {
+                s as i8
+            } else {
+                0
             }
-        }
+        });
+        let mut mode = md.settle(0.0, &y, signs);
 
         let t_end = duration;
         let t_win = duration * (1.0 - settings.rms_fraction);
@@ -539,7 +926,7 @@ impl TwoPlaneRk4 {
             rms_m: [0.0; 2],
             rms_total_m: 0.0,
             impacts: [0; 4],
-            rest_fraction: [0.0; 4],
+            contact_fraction: [[0.0; 3]; 4],
             flight_fraction: 0.0,
             events: 0,
             max_penetration_m: f64::NEG_INFINITY,
@@ -547,8 +934,22 @@ impl TwoPlaneRk4 {
             end: *start,
         };
         let mut loss = 0.0;
-        let mut rest_time = [0.0; 4];
+        let mut contact_time = [[0.0; 3]; 4];
         let mut flight_time = 0.0;
+        let mut emit = |out: &mut TwoPlaneSummary, t: f64, kind: TwoPlaneEventKind| {
+            on_event(&TwoPlaneEvent { t_s: t, kind });
+            out.events += 1;
+            if out.events > max_events {
+                let period = 2.0 * std::f64::consts::PI / sys.omega_rad_s();
+                return Err(SimError::TooManyEvents {
+                    limit: max_events,
+                    t_s: t,
+                    events_per_period: out.events as f64 / (t / period).max(1.0),
+                    cause: EventLimitCause::Dense,
+                });
+            }
+            Ok(())
+        };
 
         while t < t_end {
             // The next grid point (the window's start and the end are grid points too).
@@ -561,28 +962,27 @@ impl TwoPlaneRk4 {
             }
             let win = if t >= t_win { 1.0 } else { 0.0 };
             let span = t_next - t;
-            let y1 = md.step(t, &y, span, rest, win);
-            let g1 = md.guards(t_next, &y1, rest);
-            let crossed = g1.iter().any(|&g| g > 0.0);
-            let (tau, y_new, hit) = if crossed {
-                let g0 = md.guards(t, &y, rest);
+            let y1 = md.step(t, &y, span, mode, win);
+            let g1 = md.guards(t_next, &y1, mode);
+            let (tau, y_new, hit) = if g1.iter().any(|&g| g > 0.0) {
+                let g0 = md.guards(t, &y, mode);
                 let mut best = (span, usize::MAX);
-                for k in 0..4 {
+                for k in 0..8 {
                     if g1[k] > 0.0 {
                         let tk = if g0[k] >= 0.0 {
                             0.0
                         } else {
                             let guard =
-                                |tau| md.guards(t + tau, &md.step(t, &y, tau, rest, win), rest)[k];
+                                |tau| md.guards(t + tau, &md.step(t, &y, tau, mode, win), mode)[k];
                             locate(guard, g0[k], span, g1[k])
                         };
-                        if tk < best.0 || best.1 == usize::MAX {
+                        if best.1 == usize::MAX || tk < best.0 {
                             best = (tk, k);
                         }
                     }
                 }
                 let yk = if best.0 > 0.0 {
-                    md.step(t, &y, best.0, rest, win)
+                    md.step(t, &y, best.0, mode, win)
                 } else {
                     y
                 };
@@ -592,22 +992,25 @@ impl TwoPlaneRk4 {
             };
             // Time per mode over the window.
             if win > 0.0 {
-                if rest.0 == [0; 2] {
-                    flight_time += tau;
-                }
-                for axis in 0..2 {
-                    if rest.0[axis] != 0 {
-                        rest_time[HoleWall::of(axis, f64::from(rest.0[axis])) as usize] += tau;
+                match mode {
+                    Mode::Flight => flight_time += tau,
+                    Mode::Wall { axis, sign, tan } => {
+                        contact_time[HoleWall::of(axis, f64::from(sign)) as usize]
+                            [tan.motion() as usize] += tau;
+                    }
+                    Mode::Corner { signs, tan } => {
+                        for axis in 0..2 {
+                            contact_time[HoleWall::of(axis, f64::from(signs[axis])) as usize]
+                                [tan.motion() as usize] += tau;
+                        }
                     }
                 }
             }
             t = if hit.is_some() { t + tau } else { t_next };
             y = y_new;
+            md.project(&mut y, mode);
             for axis in 0..2 {
-                if rest.0[axis] != 0 {
-                    md.snap(&mut y, axis, f64::from(rest.0[axis]));
-                    md.hold(&mut y, axis);
-                } else {
+                if mode.rest(axis) == 0 {
                     out.max_penetration_m = out
                         .max_penetration_m
                         .max(md.w(&y, axis).abs() - md.clr[axis]);
@@ -626,96 +1029,133 @@ impl TwoPlaneRk4 {
                 .into());
             }
             let Some(k) = hit else { continue };
+            let mut signs = [mode.rest(0), mode.rest(1)];
+            if k >= 6 {
+                // The motion along the wall changes.
+                let new = md.settle(t, &y, signs);
+                if let Mode::Wall { axis, sign, tan } = new {
+                    let wall = HoleWall::of(axis, f64::from(sign));
+                    emit(
+                        &mut out,
+                        t,
+                        TwoPlaneEventKind::Motion {
+                            wall,
+                            motion: tan.motion(),
+                        },
+                    )?;
+                } else if let Mode::Corner { signs, tan } = new {
+                    let wall = HoleWall::of(1, f64::from(signs[1]));
+                    emit(
+                        &mut out,
+                        t,
+                        TwoPlaneEventKind::Motion {
+                            wall,
+                            motion: tan.motion(),
+                        },
+                    )?;
+                }
+                mode = new;
+                md.project(&mut y, mode);
+                continue;
+            }
+            if k >= 4 {
+                let axis = k - 4;
+                let wall = HoleWall::of(axis, f64::from(signs[axis]));
+                signs[axis] = 0;
+                mode = md.settle(t, &y, signs);
+                emit(&mut out, t, TwoPlaneEventKind::LiftOff { wall })?;
+                continue;
+            }
+            // An impact at wall `k`, then at any wall the ball rested on that its impulse
+            // drives it into, until nothing approaches.
             let wall = HoleWall::ALL[k];
             let (axis, s) = (wall.axis(), wall.sign());
             md.snap(&mut y, axis, s);
-            let kind = if f64::from(rest.0[axis]) * s > 0.0 {
-                rest.0[axis] = 0;
-                TwoPlaneEventKind::LiftOff { wall }
-            } else {
-                let nrm = md.normal(axis, s);
-                let approach = dot([y[6] - y[2], y[7] - y[3]], nrm).max(0.0);
-                let w_nn = inverse_mass_normal_per_kg(md.md, md.m);
-                let p = wall_impact(approach, 0.0, w_nn, 1.0, md.e, 0.0);
-                md.impulse(&mut y, nrm, p.normal_n_s);
-                let lost = 0.5 * md.red * (1.0 - md.e * md.e) * approach * approach;
+            let ke = md.kinetic(&y);
+            let approach = md.impact(&mut y, axis, s);
+            let other = 1 - axis;
+            if signs[other] != 0 {
+                let n_o = md.normal(other, f64::from(signs[other]));
+                let v_o = dot(Model::rel_v(&y), n_o);
+                if v_o > md.tol_v {
+                    md.impact(&mut y, other, f64::from(signs[other]));
+                    // That impulse is normal to the first wall's normal: it does not drive the
+                    // ball back into the first wall, but its friction may.
+                    let n = md.normal(axis, s);
+                    if dot(Model::rel_v(&y), n) > md.tol_v {
+                        md.impact(&mut y, axis, s);
+                    }
+                }
+                let v_o = dot(Model::rel_v(&y), n_o);
+                if v_o < -md.tol_v {
+                    let w_o = HoleWall::of(other, f64::from(signs[other]));
+                    signs[other] = 0;
+                    emit(&mut out, t, TwoPlaneEventKind::LiftOff { wall: w_o })?;
+                } else {
+                    md.hold(&mut y, other);
+                }
+            }
+            let lost = ke - md.kinetic(&y);
+            loss += lost;
+            out.impacts[k] += 1;
+            emit(
+                &mut out,
+                t,
+                TwoPlaneEventKind::Impact {
+                    wall,
+                    approach_m_s: approach,
+                    energy_loss_j: lost,
+                },
+            )?;
+            // Sum the bounces to their end if the next one would be shorter than a step.
+            let n = md.normal(axis, s);
+            let press = md.normal_force(md.bar_force(t, &y), n) / md.red;
+            let recede = -dot(Model::rel_v(&y), n);
+            if press > 0.0 && 2.0 * recede < press * h {
+                let ke = md.kinetic(&y);
+                // The plastic limit: the common normal velocity, momentum conserved.
+                md.impulse(&mut y, n, -recede / md.w_nn, 0.0);
+                let lost = ke - md.kinetic(&y);
                 loss += lost;
-                out.impacts[k] += 1;
-                on_event(&TwoPlaneEvent {
-                    t_s: t,
-                    kind: TwoPlaneEventKind::Impact {
-                        wall,
-                        approach_m_s: approach,
-                        energy_loss_j: lost,
-                    },
-                });
-                out.events += 1;
-                // Sum the bounces to their end if the next one would be shorter than a step.
-                let press = md.normal_force(md.bar_force(t, &y), nrm) / md.red;
-                let recede = md.e * approach;
-                if press > 0.0 && 2.0 * recede < press * h {
-                    let rel = dot([y[6] - y[2], y[7] - y[3]], nrm);
-                    md.impulse(&mut y, nrm, rel / w_nn);
-                    let lost = 0.5 * md.red * rel * rel;
-                    loss += lost;
-                    rest.0[axis] = s as i8;
-                    md.hold(&mut y, axis);
+                signs[axis] = s as i8;
+                emit(
+                    &mut out,
+                    t,
                     TwoPlaneEventKind::Rest {
                         wall,
                         energy_loss_j: lost,
-                    }
-                } else {
-                    continue_event_count(&out, t, max_events, sys)?;
-                    continue;
-                }
-            };
-            on_event(&TwoPlaneEvent { t_s: t, kind });
-            out.events += 1;
-            continue_event_count(&out, t, max_events, sys)?;
+                    },
+                )?;
+            }
+            mode = md.settle(t, &y, signs);
+            md.project(&mut y, mode);
         }
 
         let t_w = t_end - t_win;
-        out.rms_along_force_m = (y[10] / t_w).sqrt();
-        out.rms_m = [(y[11] / t_w).sqrt(), (y[12] / t_w).sqrt()];
-        out.rms_total_m = ((y[11] + y[12]) / t_w).sqrt();
+        out.rms_along_force_m = (y[13] / t_w).sqrt();
+        out.rms_m = [(y[14] / t_w).sqrt(), (y[15] / t_w).sqrt()];
+        out.rms_total_m = ((y[14] + y[15]) / t_w).sqrt();
         out.flight_fraction = flight_time / t_w;
-        out.rest_fraction = rest_time.map(|r| r / t_w);
+        out.contact_fraction = contact_time.map(|r| r.map(|v| v / t_w));
         out.book = TwoPlaneBook {
-            forcing_work_j: y[8],
-            viscous_loss_j: y[9],
+            forcing_work_j: y[9],
+            viscous_loss_j: y[10],
             impact_loss_j: loss,
-            energy_change_j: md.energy(&y, spin) - e0,
+            sliding_loss_j: y[11],
+            rolling_loss_j: y[12],
+            energy_change_j: md.energy(&y) - e0,
         };
         let w = [y[4] - y[0], y[5] - y[1]];
-        let dw = [y[6] - y[2], y[7] - y[3]];
+        let dw = Model::rel_v(&y);
         out.end = TwoPlaneStart {
             u_m: [y[0], y[1]],
             du_m_s: [y[2], y[3]],
             w_hole_m: [dot(w, a), dot(w, n)],
             dw_hole_m_s: [dot(dw, a), dot(dw, n)],
-            spin_rad_s: spin,
+            spin_rad_s: y[OM],
         };
         Ok(out)
     }
-}
-
-/// Stop a run whose events exceed `max_events`.
-fn continue_event_count(
-    out: &TwoPlaneSummary,
-    t: f64,
-    max_events: u64,
-    sys: &TwoPlaneSystem,
-) -> Result<(), SimError> {
-    if out.events > max_events {
-        let period = 2.0 * std::f64::consts::PI / sys.omega_rad_s();
-        return Err(SimError::TooManyEvents {
-            limit: max_events,
-            t_s: t,
-            events_per_period: out.events as f64 / (t / period).max(1.0),
-            cause: EventLimitCause::Dense,
-        });
-    }
-    Ok(())
 }
 
 /// The first `τ ∈ (0, hi]` where `g(τ)` crosses zero, with `g(0) = g_lo < 0 < g(hi) = g_hi`
