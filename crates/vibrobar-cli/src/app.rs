@@ -156,6 +156,10 @@ pub enum Command {
     /// lobes from the measurement and from the fit, the cavity placement and the lobe design
     /// on the fitted bar.
     TapTest(crate::commands::tap_test::TapTestArgs),
+    /// Write the generated Markdown document comparing the one-plane model with the bar that
+    /// bends in two planes (the ball in a hole across it, gravity, friction on its walls):
+    /// seeded ensembles over force direction, hole, gap and ratio, and the hole-angle × gap map.
+    TwoPlane(crate::commands::two_plane::TwoPlaneArgs),
     /// Cavity placement on a beam: position × gap over a band of ratios (mean reduction, worst
     /// RMS, regime), the optimum and a heat map with the nodes of modes 2 and 3; resumable
     /// (--resume) and shardable (--shard K/N).
@@ -219,6 +223,7 @@ impl Command {
             Command::Modes(_) => "modes",
             Command::FitModes(_) => "fit-modes",
             Command::TapTest(_) => "tap-test",
+            Command::TwoPlane(_) => "two-plane",
             Command::Placement(_) => "placement",
             Command::LumpedVsBeam(_) => "lumped-vs-beam",
             Command::CuttingDeeper(_) => "cutting-deeper",
@@ -260,6 +265,7 @@ impl Command {
             Command::Modes(a) => (one(&a.scenario), Some(a.out.as_path())),
             Command::FitModes(a) => (crate::commands::fit_modes::inputs(a), Some(a.out.as_path())),
             Command::TapTest(a) => (vec![], Some(a.out.as_path())),
+            Command::TwoPlane(a) => (vec![], Some(a.out.as_path())),
             Command::Placement(a) => (one(&a.system.scenario), Some(a.out.as_path())),
             Command::LumpedVsBeam(a) => (vec![], Some(a.out.as_path())),
             Command::CuttingDeeper(a) => (vec![], Some(a.out.as_path())),
@@ -367,6 +373,7 @@ pub fn dispatch(cli: Cli) -> Result<()> {
         Command::Modes(a) => modes::modes(&a),
         Command::FitModes(a) => crate::commands::fit_modes::run(&a),
         Command::TapTest(a) => crate::commands::tap_test::run(&a),
+        Command::TwoPlane(a) => crate::commands::two_plane::run(&a),
         Command::Placement(a) => placement::run(&a),
         Command::LumpedVsBeam(a) => lumped_vs_beam::run(&a),
         Command::CuttingDeeper(a) => crate::commands::cutting_deeper::run(&a),

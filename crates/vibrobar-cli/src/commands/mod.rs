@@ -26,6 +26,7 @@ pub mod run;
 pub mod sweep;
 pub mod tap_test;
 pub mod time_domain;
+pub mod two_plane;
 
 pub use design::{
     check_value, fmt_coord, make_solver, parse_range, with_threads, SystemArgs, DEFAULT_SOLVER,

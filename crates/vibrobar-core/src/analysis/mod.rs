@@ -4,7 +4,7 @@
 //! it): `case` (one run and its observers) and `grid` (ranges, axes, grids) are leaves; `batch`
 //! (the batch runner: pool, cancellation, progress, solid runs shared per ratio) uses `case`;
 //! `sweep` and `poincare` use `batch`; `regime` uses `poincare`; `map` uses `regime` and
-//! `batch`; `placement` uses `regime`, `batch` and `case`; `ensemble` uses `map`; `lobes` is a leaf (receptances only); `lobes_frf` uses `lobes` (its root finder's pieces); `time_domain` uses `batch`, `lobes` and `regime`; `lobe_design` uses `time_domain`, `placement` and `batch`; `frf` uses `batch` and `case`; `variational` (the one variational layer, with each bar's arithmetic in `variational/lumped` and `variational/modal`) is used by `lyapunov_spectrum` and `orbit`. `scripts/module_deps.py` lists the edges.
+//! `batch`; `placement` uses `regime`, `batch` and `case`; `ensemble` uses `map`; `lobes` is a leaf (receptances only); `lobes_frf` uses `lobes` (its root finder's pieces); `time_domain` uses `batch`, `lobes` and `regime`; `lobe_design` uses `time_domain`, `placement` and `batch`; `frf` uses `batch` and `case`; `variational` (the one variational layer, with each bar's arithmetic in `variational/lumped` and `variational/modal`) is used by `lyapunov_spectrum` and `orbit`; `two_plane` (ensembles of the bar that bends in two planes and its one-plane counterpart) uses `case` and `ensemble`. `scripts/module_deps.py` lists the edges.
 
 pub mod batch;
 pub mod case;
@@ -25,6 +25,7 @@ pub mod poincare;
 pub mod regime;
 pub mod sweep;
 pub mod time_domain;
+pub mod two_plane;
 pub mod variational;
 
 /// The N-mode bar's side of the variational layer, under its own name too.

@@ -1,0 +1,232 @@
+//! Design points of the bar that bends in two planes: seeded ensembles of starts, their spread,
+//! and the one-plane model beside them.
+//!
+//! Where the ball starts decides which of several coexisting motions a run settles on, in one
+//! plane as in two, so a design point is an ensemble: member 0 is the ball at rest on the wall
+//! gravity presses it onto, centred along the hole; every other member puts it at a uniformly
+//! drawn place along the hole with a uniformly drawn small velocity along it
+//! ([`TwoPlaneEnsemble`]), from a seeded generator, so an ensemble is reproducible.
+//!
+//! The one-plane counterpart ([`one_plane_system`]) is today's model of the same bar: the ball
+//! in a slot along the hole with the axial gap, the whole force along it, the rolling friction
+//! as a Coulomb force `(η/r)·m_d·g`. Its members start from the same places and velocities
+//! along the hole.
+
+use super::case::run_case;
+use super::ensemble::SplitMix64;
+use crate::error::{ParamError, SimError};
+use crate::params::two_plane::TwoPlaneSystem;
+use crate::params::{
+    Bar, BarModel, Contact, Damper, Forcing, FrictionModel, RunSettings, State, System,
+};
+use crate::solver::two_plane_rk4::TwoPlaneStart;
+use crate::solver::{Exact, Observer};
+
+/// How the members of a design point start.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TwoPlaneEnsemble {
+    /// Members (member 0 is the centred start).
+    pub members: usize,
+    /// Seed of the generator.
+    pub seed: u64,
+    /// Largest speed along the hole given to a member, `[−v, v]`.
+    pub along_speed_m_s: f64,
+}
+
+impl Default for TwoPlaneEnsemble {
+    /// Eight members, seed 1, up to 0.01 m/s along the hole.
+    fn default() -> Self {
+        TwoPlaneEnsemble {
+            members: 8,
+            seed: 1,
+            along_speed_m_s: 0.01,
+        }
+    }
+}
+
+impl TwoPlaneEnsemble {
+    /// Check the fields.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        crate::limits::check_count(
+            "members (--members)",
+            self.members,
+            1,
+            crate::limits::MAX_ENSEMBLE_MEMBERS,
+            "",
+        )?;
+        crate::params::non_negative("along_speed_m_s (--along-speed)", self.along_speed_m_s)?;
+        crate::limits::check(
+            "along_speed_m_s (--along-speed)",
+            self.along_speed_m_s,
+            0.0,
+            10.0,
+            "a small disturbance, in m/s",
+        )?;
+        Ok(())
+    }
+}
+
+/// The members' starts: the bar at rest, the ball on the wall gravity presses it onto.
+pub fn starts(
+    sys: &TwoPlaneSystem,
+    ens: &TwoPlaneEnsemble,
+) -> Result<Vec<TwoPlaneStart>, ParamError> {
+    ens.validate()?;
+    let l_g = sys.hole.half_axial_gap_m();
+    let mut rng = SplitMix64::new(ens.seed);
+    Ok((0..ens.members)
+        .map(|i| {
+            if i == 0 {
+                TwoPlaneStart::resting(sys, 0.0)
+            } else {
+                let along = rng.uniform(-l_g, l_g);
+                let speed = rng.uniform(-ens.along_speed_m_s, ens.along_speed_m_s);
+                let mut s = TwoPlaneStart::resting(sys, along);
+                s.dw_hole_m_s[0] = speed;
+                s
+            }
+        })
+        .collect())
+}
+
+/// Mean, standard error and range of an ensemble's values.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spread {
+    /// Mean.
+    pub mean: f64,
+    /// Standard error of the mean, `s/√n` (0 for one member).
+    pub std_err: f64,
+    /// Smallest value.
+    pub min: f64,
+    /// Largest value.
+    pub max: f64,
+    /// Members.
+    pub n: usize,
+}
+
+impl Spread {
+    /// Of `values` (at least one).
+    pub fn of(values: &[f64]) -> Spread {
+        let n = values.len();
+        let mean = values.iter().sum::<f64>() / n as f64;
+        let var = if n > 1 {
+            values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1) as f64
+        } else {
+            0.0
+        };
+        Spread {
+            mean,
+            std_err: (var / n as f64).sqrt(),
+            min: values.iter().copied().fold(f64::INFINITY, f64::min),
+            max: values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            n,
+        }
+    }
+}
+
+/// The one-plane model of the same bar and ball: the slot along the hole, the whole force along
+/// it, the bar's first principal axis, and `friction` (`coulomb` with the rolling friction as
+/// the Coulomb force, or none).
+pub fn one_plane_system(sys: &TwoPlaneSystem, friction: FrictionModel) -> System {
+    System {
+        bar: BarModel::Lumped(Bar {
+            mass_kg: sys.bar.mass_kg,
+            stiffness_n_per_m: sys.bar.stiffness_n_per_m[0],
+            damping_ratio: sys.bar.damping_ratio[0],
+        }),
+        damper: Some(Damper {
+            ball_mass_kg: sys.ball.mass_kg,
+            ball_radius_m: sys.ball.radius_m,
+            restitution: sys.ball.restitution,
+            gap_m: sys.hole.axial_gap_m,
+            rolling_friction_m: sys.ball.rolling_friction_m,
+            friction,
+            friction_force_n: None,
+            contact: Contact::default(),
+        }),
+        forcing: Forcing {
+            amplitude_n: sys.forcing.amplitude_n,
+            frequency: sys.forcing.frequency,
+            static_force_n: 0.0,
+        },
+        gravity_m_s2: sys.gravity.m_s2,
+    }
+}
+
+/// The one-plane start of a two-plane member: the bar at rest, the ball where it is along the
+/// hole with its velocity along it.
+pub fn one_plane_start(start: &TwoPlaneStart) -> State {
+    State {
+        v_m: start.w_hole_m[0],
+        dv_m_s: start.dw_hole_m_s[0],
+        ..State::REST
+    }
+}
+
+/// RMS of the bar over the window of a one-plane exact run (the solid bar when `sys` has no
+/// ball).
+pub fn one_plane_rms_m(
+    sys: &System,
+    init: &State,
+    settings: &RunSettings,
+) -> Result<f64, SimError> {
+    struct Nothing;
+    impl Observer for Nothing {}
+    Ok(run_case(sys, init, settings, &Exact::default(), &mut Nothing)?.rms_m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::two_plane::{Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing};
+    use crate::params::Frequency;
+
+    fn sys() -> TwoPlaneSystem {
+        TwoPlaneSystem {
+            bar: PlanarBar::isotropic(&Bar::PAPER_CAVITY),
+            ball: PlanarBall::paper_frictionless(),
+            hole: Hole {
+                angle_deg: 0.0,
+                axial_gap_m: 1e-3,
+                diameter_m: 0.0151,
+            },
+            forcing: PlanarForcing {
+                amplitude_n: 15.0,
+                frequency: Frequency::Ratio(1.0),
+                angle_deg: 63.4,
+            },
+            gravity: Gravity::default(),
+            bar_diameter_m: None,
+        }
+    }
+
+    #[test]
+    fn members_start_on_the_floor_inside_the_gap_and_are_reproducible() {
+        let s = sys();
+        let ens = TwoPlaneEnsemble::default();
+        let a = starts(&s, &ens).unwrap();
+        assert_eq!(a, starts(&s, &ens).unwrap());
+        assert_eq!(a.len(), 8);
+        assert_eq!(a[0].w_hole_m[0], 0.0);
+        for m in &a {
+            assert!(m.w_hole_m[0].abs() <= 0.5e-3);
+            assert!((m.w_hole_m[1] - s.radial_clearance_m()).abs() < 1e-18);
+            assert!(m.dw_hole_m_s[0].abs() <= 0.01);
+        }
+        assert!(a[1..].iter().all(|m| m.dw_hole_m_s[0] != 0.0));
+        let bad = TwoPlaneEnsemble { members: 0, ..ens };
+        assert!(starts(&s, &bad)
+            .unwrap_err()
+            .to_string()
+            .contains("--members"));
+    }
+
+    #[test]
+    fn spread_of_known_values() {
+        let s = Spread::of(&[1.0, 2.0, 3.0, 4.0]);
+        assert!((s.mean - 2.5).abs() < 1e-15);
+        // s² = 5/3, s/√4.
+        assert!((s.std_err - (5.0f64 / 3.0).sqrt() / 2.0).abs() < 1e-15);
+        assert!(s.min == 1.0 && s.max == 4.0 && s.n == 4);
+    }
+}
