@@ -986,7 +986,8 @@ fn pair_motion(
     let w = ExpSum::constant(s.w, &u);
     // Margins that stay positive while the mode holds: `k + sc·f` with `f = m_d (ü − g_s)` the
     // force the bar exerts on the ball (`m_d ü` without a body force).
-    let mk = |sc: f64, k: f64| Cand::new(ddu.affine(sc * cs.md, cs.margin_level(sc, k)), 0, cs.tol_f);
+    let mk =
+        |sc: f64, k: f64| Cand::new(ddu.affine(sc * cs.md, cs.margin_level(sc, k)), 0, cs.tol_f);
     let mut set = EventSet::<3>::new(&w);
     let seg_mode = match mode {
         Md::Stick => {
