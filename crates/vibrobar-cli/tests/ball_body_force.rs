@@ -42,7 +42,10 @@ fn gravity_along_the_gap_from_a_scenario_file() {
         }
         let r = fs::read(dir.path().join("r").join(f)).unwrap();
         let z = fs::read(dir.path().join("z").join(f)).unwrap();
-        assert!(r == z, "{f} differs with gravity_along_gap_m_s2 = 0.0 written out");
+        assert!(
+            r == z,
+            "{f} differs with gravity_along_gap_m_s2 = 0.0 written out"
+        );
     }
     let r = fs::read(dir.path().join("r/out.csv")).unwrap();
     let g = fs::read(dir.path().join("g/out.csv")).unwrap();

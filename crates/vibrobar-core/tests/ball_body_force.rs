@@ -483,6 +483,56 @@ fn where_unsupported_the_body_force_is_refused() {
         checked().run(&sys, &State::REST, 0.01, &mut ()).unwrap();
     }
     let sys = system("lumped", -G, 1.0, 90.0);
+    // Cutting runs, lumped and modal.
+    let cut = vibrobar_core::excitation::Cutting {
+        coefficient_n_m2: 1e9,
+        width_m: 1e-4,
+        feed_m: 1e-4,
+        spindle_rpm: 3000.0,
+        force_direction_factor: 1.0,
+        chip_direction_factor: 1.0,
+        force_law: vibrobar_core::excitation::CuttingForceLaw::Linear,
+    };
+    for model in ["lumped", "one-mode"] {
+        let sys = system(model, -G, 0.0, 1.0);
+        let r = match model {
+            "lumped" => vibrobar_core::solver::exact::cutting::ExactCutting::new(cut)
+                .run(&sys, &State::REST, 0.01, &mut ())
+                .map(|_| ()),
+            _ => {
+                let msys = vibrobar_core::structure::ModalSystem::from_system(&sys).unwrap();
+                let minit =
+                    vibrobar_core::structure::ModalState::from_public(&msys.model, &State::REST)
+                        .unwrap();
+                vibrobar_core::solver::exact::modal::cutting::ModalCutting::new(cut)
+                    .run(&msys, &minit, 0.01, &mut ())
+                    .map(|_| ())
+            }
+        };
+        match r {
+            Err(SimError::Unsupported(m)) => {
+                assert!(
+                    m.contains("damper.gravity_along_gap_m_s2") && m.contains("cutting"),
+                    "{m}"
+                )
+            }
+            other => panic!("{model} cutting: {other:?}"),
+        }
+    }
+    // Periodic orbits (their Jacobians are the variational flow's).
+    match vibrobar_core::analysis::orbit::Section::new(system("lumped", -G, 1.0, 90.0), 0.0, 1) {
+        Err(SimError::Unsupported(m)) => {
+            assert!(m.contains("damper.gravity_along_gap_m_s2"), "{m}")
+        }
+        other => panic!("orbit section: {:?}", other.map(|_| ())),
+    }
+    // The analytic symmetric orbit (the starting guesses) is the symmetric bar's.
+    match vibrobar_core::analysis::orbit::symmetric_orbits(&system("lumped", -G, 1.0, 90.0)) {
+        Err(SimError::Unsupported(m)) => {
+            assert!(m.contains("damper.gravity_along_gap_m_s2"), "{m}")
+        }
+        other => panic!("symmetric orbits: {:?}", other.map(|v| v.len())),
+    }
     let sink = vibrobar_core::analysis::variational::JacobianSink::default();
     match vibrobar_core::analysis::variational::Variational::new(&sys, sink) {
         Err(SimError::Unsupported(m)) => {
