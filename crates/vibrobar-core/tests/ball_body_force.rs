@@ -331,6 +331,55 @@ fn the_ball_lifts_off_where_the_pair_accelerates_down_at_g() {
     }
 }
 
+/// Coulomb friction under the body force: a ball sticks at `ẇ = 0` only where the friction it
+/// needs to follow the bar, `|m_d(ü_pair − g_s)|`, is within the level `F`, and unsticks where
+/// it reaches `F` (read from the event's state through the pair's equation of motion, 1e-9).
+#[test]
+fn a_stuck_ball_unsticks_where_the_friction_it_needs_reaches_the_level() {
+    let (gs, f) = (3.0 * G, 0.5);
+    for model in ["lumped", "one-mode"] {
+        let mut sys = system(model, gs, 20.0, 90.0);
+        let d = sys.damper.as_mut().unwrap();
+        d.friction = FrictionModel::Coulomb;
+        d.friction_force_n = Some(f);
+        let mut rec = Recorder::default();
+        checked().run(&sys, &State::REST, 0.3, &mut rec).unwrap();
+        let c = 2.0 * ZETA * (K * M).sqrt();
+        let needed = |s: &State| {
+            let pair = (sys.force_n(s.t_s) - c * s.du_m_s - K * s.u_m + MD * gs) / (M + MD);
+            MD * (pair - gs)
+        };
+        let (mut sticks, mut unsticks) = (0, 0);
+        for ev in &rec.events {
+            match ev.kind {
+                EventKind::Stick => {
+                    sticks += 1;
+                    let n = needed(&ev.after).abs();
+                    assert!(
+                        n <= f * (1.0 + 1e-9),
+                        "{model}: stick at {} s needs {n} N > {f} N",
+                        ev.t_s
+                    );
+                }
+                EventKind::Unstick => {
+                    unsticks += 1;
+                    let n = needed(&ev.before).abs();
+                    assert!(
+                        (n / f - 1.0).abs() < 1e-9,
+                        "{model}: unstick at {} s needs {n} N, level {f} N",
+                        ev.t_s
+                    );
+                }
+                _ => {}
+            }
+        }
+        assert!(
+            sticks >= 3 && unsticks >= 3,
+            "{model}: {sticks} sticks, {unsticks} unsticks"
+        );
+    }
+}
+
 /// 4. The books close to 1e-12 of the energy turned over with the work of the body force
 /// `m_d g_s Δv` booked: impacts, chatter, wall contact (the drop and a forced ball), coulomb
 /// stick-slip and as-published friction, on the lumped bar, the one-mode bar and the beam, both
