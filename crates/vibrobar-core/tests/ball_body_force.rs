@@ -90,7 +90,7 @@ fn du_cavity(s: &State) -> f64 {
     s.cavity.map_or(s.du_m_s, |c| c.du_cavity_m_s)
 }
 
-/// 1. Unforced bar, ball at rest in the middle, `g_s = −g`: it falls freely and hits the `−`
+/// (1) Unforced bar, ball at rest in the middle, `g_s = −g`: it falls freely and hits the `−`
 /// wall at `t = √(2 l_g/g)` with `ẇ− = −√(2 g l_g)`; the bar's velocity at the cavity jumps by
 /// the impact law's `(1 + e) ẇ− (1/M_eff)/κ`, `κ = 1/m_d + 1/M_eff`.
 #[test]
@@ -172,7 +172,7 @@ impl Observer for Grid {
     }
 }
 
-/// 2a. With `e < 1` the bounces accumulate (a chatter summed to its limit) and the ball ends
+/// (2a) With `e < 1` the bounces accumulate (a chatter summed to its limit) and the ball ends
 /// resting on the `−` wall; the unforced bar settles at the static offset `m_d g_s/K`.
 #[test]
 fn the_bounces_accumulate_and_the_ball_rests_on_the_lower_wall() {
@@ -229,7 +229,7 @@ fn pair_orbit(gs: f64, accel_over_g: f64, omega: f64) -> (f64, f64, f64, f64, St
     (f0, x, phi, u_s, init)
 }
 
-/// 2b. Resting on the `−` wall under a harmonic force whose pair acceleration amplitude is half
+/// (2b) Resting on the `−` wall under a harmonic force whose pair acceleration amplitude is half
 /// of `g`: the ball never leaves, and the bar moves as the pair's linear response (plus the
 /// static offset `m_d g_s/K`) to 1e-9 of its amplitude.
 #[test]
@@ -262,7 +262,7 @@ fn under_a_small_force_the_resting_ball_rides_the_bar_as_one_body() {
     }
 }
 
-/// 3. Raise the force so the pair's acceleration amplitude is twice `g`: the ball resting on the
+/// (3) Raise the force so the pair's acceleration amplitude is twice `g`: the ball resting on the
 /// `−` wall first leaves it where the pair's acceleration reaches `g_s = −g`, at
 /// `sin(Ωt − φ) = g/(Ω²X)`. The acceleration is read at the release from the segment's closed
 /// form (lumped) and from the event's state through the pair's equation of motion.
@@ -380,7 +380,7 @@ fn a_stuck_ball_unsticks_where_the_friction_it_needs_reaches_the_level() {
     }
 }
 
-/// 4. The books close to 1e-12 of the energy turned over with the work of the body force
+/// (4) The books close to 1e-12 of the energy turned over with the work of the body force
 /// `m_d g_s Δv` booked: impacts, chatter, wall contact (the drop and a forced ball), coulomb
 /// stick-slip and as-published friction, on the lumped bar, the one-mode bar and the beam, both
 /// signs of `g_s`. The body force's work is far above the tolerance (without it the books
@@ -449,7 +449,7 @@ fn the_books_close_with_the_work_of_the_body_force() {
     }
 }
 
-/// 5. rk4 converges to the exact solver with `g_s ≠ 0` (a bar launched at 1 m/s and forced
+/// (5) rk4 converges to the exact solver with `g_s ≠ 0` (a bar launched at 1 m/s and forced
 /// below resonance, the ball bouncing and once chattering to rest before the bar's motion
 /// lifts it off again): the final state's error falls with `dt` (at most first order with the
 /// after-step impact detection, which resolves a chatter as many small bounces) and is 1e-4
@@ -493,7 +493,7 @@ fn rk4_agrees_with_exact_under_the_body_force() {
     }
 }
 
-/// 6. Bad values are refused naming the field.
+/// (6) Bad values are refused naming the field.
 #[test]
 fn a_bad_body_force_is_refused_naming_the_field() {
     for gs in [f64::NAN, 1e4, -1e4, f64::INFINITY] {
@@ -592,7 +592,7 @@ fn where_unsupported_the_body_force_is_refused() {
     }
 }
 
-/// 7. `g_s = 0` written out reads as the default and serialises as if left out.
+/// (7) `g_s = 0` written out reads as the default and serialises as if left out.
 #[test]
 fn an_explicit_zero_is_the_default_and_is_not_written() {
     let d: Damper = serde_json::from_str(r#"{"gravity_along_gap_m_s2": 0.0}"#).unwrap();
