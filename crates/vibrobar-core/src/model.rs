@@ -35,8 +35,8 @@ pub fn lumped_mechanical_energy_j(
     bar + ball
 }
 
-/// Right-hand side of Eqs. 1–3 for a sliding ball, as the paper integrates it:
-/// returns `(ü, v̈)` at state `s` with the friction evaluated from this very state; `None` for
+/// Right-hand side of Eqs. 1–3 for a sliding ball, as the paper integrates it (plus the ball's
+/// body force along the gap, `damper.gravity_along_gap_m_s2`): returns `(ü, v̈)` at state `s` with the friction evaluated from this very state; `None` for
 /// a modal bar (its right-hand side is in [`crate::solver::modal_rk4`]).
 pub fn accelerations(sys: &System, s: &State) -> Option<(f64, f64)> {
     let bar = sys.lumped_bar()?;
@@ -55,5 +55,10 @@ pub fn accelerations(sys: &System, s: &State) -> Option<(f64, f64)> {
     };
     let ddu = (f_ext - c * s.du_m_s - bar.stiffness_n_per_m * s.u_m - f_ball) / bar.mass_kg;
     let ddv = f_ball / m_d;
+    // The ball's body force along the gap, `g_s` (nothing added without one).
+    let ddv = match &sys.damper {
+        Some(d) if d.gravity_along_gap_m_s2 != 0.0 => ddv + d.gravity_along_gap_m_s2,
+        _ => ddv,
+    };
     Some((ddu, ddv))
 }

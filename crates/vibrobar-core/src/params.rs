@@ -10,6 +10,10 @@ use serde::{Deserialize, Serialize};
 
 pub mod two_plane;
 
+/// Largest `|damper.gravity_along_gap_m_s2|` accepted (about 100 g: a tilted or spun bar,
+/// far beyond any gravity along a hole).
+pub const MAX_GRAVITY_ALONG_GAP_M_S2: f64 = 1000.0;
+
 /// Standard gravity used for the derived rolling-friction force.
 pub const STANDARD_GRAVITY_M_S2: f64 = 9.806_65;
 
@@ -128,6 +132,16 @@ pub struct Damper {
     /// existing file stays byte-identical.
     #[serde(skip_serializing_if = "Contact::is_restitution")]
     pub contact: Contact,
+    /// The ball's acceleration from gravity along the gap (m/s²), towards the `+` wall when
+    /// positive: a constant body force `m_d·g_s` on the ball alone (the bar's own weight is in
+    /// its static equilibrium). 0 means gravity acts across the hole, as in the paper. Left out
+    /// of serialised output while it is 0, so every existing file stays byte-identical.
+    #[serde(skip_serializing_if = "is_zero_f64")]
+    pub gravity_along_gap_m_s2: f64,
+}
+
+fn is_zero_f64(x: &f64) -> bool {
+    *x == 0.0
 }
 
 impl Damper {
@@ -145,6 +159,7 @@ impl Damper {
             friction,
             friction_force_n: None,
             contact: Contact::default(),
+            gravity_along_gap_m_s2: 0.0,
         }
     }
 
@@ -615,6 +630,13 @@ impl System {
                 non_negative("damper.friction_force_n", f)?;
             }
             d.contact.validate(d.ball_radius_m, d.restitution)?;
+            in_range(
+                "damper.gravity_along_gap_m_s2",
+                d.gravity_along_gap_m_s2,
+                -MAX_GRAVITY_ALONG_GAP_M_S2,
+                MAX_GRAVITY_ALONG_GAP_M_S2,
+                "[-1000, 1000] m/s²",
+            )?;
         }
         Ok(())
     }

@@ -142,6 +142,7 @@ fn sample_case(rng: &mut SplitMix64, index: usize) -> Case {
             friction,
             friction_force_n,
             contact: vibrobar_core::Contact::default(),
+            gravity_along_gap_m_s2: 0.0,
         }),
         forcing: Forcing {
             amplitude_n: f0,

@@ -144,6 +144,7 @@ fn regression_friction_work_of_a_slide_shorter_than_the_rounding_of_w() {
             friction: FrictionModel::Coulomb,
             friction_force_n: Some(0.884),
             contact: vibrobar_core::Contact::default(),
+            gravity_along_gap_m_s2: 0.0,
         }),
         forcing: Forcing {
             amplitude_n: 0.0,
@@ -221,6 +222,7 @@ fn regression_elastic_chatter_under_coulomb_friction_was_not_summed() {
             friction: FrictionModel::Coulomb,
             friction_force_n: Some(0.2),
             contact: vibrobar_core::Contact::default(),
+            gravity_along_gap_m_s2: 0.0,
         }),
         forcing: Forcing {
             amplitude_n: 0.0,

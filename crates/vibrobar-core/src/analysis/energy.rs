@@ -1,6 +1,6 @@
 //! Energy audit: does a run keep its books?
 //!
-//! Along any run, `ΔE_mech = ∫F u̇ − ∫C u̇² + ∫F_ball ẇ − Σ impact losses`, with
+//! Along any run, `ΔE_mech = ∫F u̇ − ∫C u̇² + ∫F_ball ẇ − Σ impact losses (+ m_d g_s Δv)`, with
 //! `E_mech = ½Mu̇² + ½Ku² + ½m_d v̇²` (every mode's energy for a modal bar), taken from the
 //! segments ([`Segment::mechanical_energy_j`]). In stick and contact segments the
 //! pair moves together and the same formula holds. [`EnergyAudit`] sums the right-hand side from
@@ -9,6 +9,8 @@
 //! friction work come from the laws of [`crate::damper`] (impact loss and plastic limit in
 //! `damper::impact`, the friction sign in `damper::friction`), the same ones the solvers apply,
 //! so the audit checks the motion against the laws, not one re-derivation against another.
+//! A body force on the ball along the gap (`damper.gravity_along_gap_m_s2 = g_s ≠ 0`) does the
+//! work `m_d g_s Δv` (`v` the ball's absolute displacement), taken from the segments' states.
 //!
 //! With `rk4` the residual falls as dt² (its segment integrals are trapezoids), e.g. 3.3e-10 J
 //! of 1.3e-2 J input for the linear bar over 20 ms at dt = 1 µs. Exception: `coulomb` friction
@@ -39,6 +41,10 @@ pub struct EnergyBalance {
     /// serialised books when 0, so existing outputs are unchanged).
     #[serde(skip_serializing_if = "is_zero")]
     pub cutting_work_j: f64,
+    /// Work of the body force on the ball along the gap, `m_d g_s Δv` (left out of serialised
+    /// books when 0, so existing outputs are unchanged).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub gravity_work_j: f64,
     /// Mechanical energy at the end minus at the start.
     pub delta_mechanical_j: f64,
     /// `Δ − (input − viscous − impact + friction)`: 0 for an exact solution.
@@ -53,6 +59,9 @@ pub struct EnergyAudit {
     pub window_start_s: f64,
     sums: SegmentIntegrals,
     cutting_work_j: f64,
+    gravity_work_j: f64,
+    /// `m_d g_s`, the ball's body force along the gap (0 without one).
+    ball_force_n: f64,
     impact_loss_j: f64,
     e_start_j: Option<f64>,
     e_end_j: f64,
@@ -71,6 +80,10 @@ impl EnergyAudit {
             window_start_s,
             sums: SegmentIntegrals::default(),
             cutting_work_j: 0.0,
+            gravity_work_j: 0.0,
+            ball_force_n: sys
+                .damper
+                .map_or(0.0, |d| d.ball_mass_kg * d.gravity_along_gap_m_s2),
             impact_loss_j: 0.0,
             e_start_j: None,
             e_end_j: f64::NAN,
@@ -82,15 +95,19 @@ impl EnergyAudit {
         let e0 = self.e_start_j?;
         let i = &self.sums;
         let delta = self.e_end_j - e0;
-        let books = i.forcing_work_j - i.viscous_loss_j - self.impact_loss_j
+        let mut books = i.forcing_work_j - i.viscous_loss_j - self.impact_loss_j
             + i.friction_work_j
             + self.cutting_work_j;
+        if self.ball_force_n != 0.0 {
+            books += self.gravity_work_j;
+        }
         Some(EnergyBalance {
             work_input_j: i.forcing_work_j,
             viscous_loss_j: i.viscous_loss_j,
             impact_loss_j: self.impact_loss_j,
             friction_work_j: i.friction_work_j,
             cutting_work_j: self.cutting_work_j,
+            gravity_work_j: self.gravity_work_j,
             delta_mechanical_j: delta,
             residual_j: delta - books,
         })
@@ -110,6 +127,10 @@ impl Observer for EnergyAudit {
         if b > a {
             self.sums += seg.integrals(a, b);
             self.cutting_work_j += seg.cutting_work_j(a, b);
+            if self.ball_force_n != 0.0 {
+                self.gravity_work_j +=
+                    self.ball_force_n * (seg.state_at(b).v_m - seg.state_at(a).v_m);
+            }
         }
         self.e_end_j = seg.mechanical_energy_j(b);
     }

@@ -9,8 +9,8 @@
 //!
 //! The one-plane counterpart ([`one_plane_system`]) is today's model of the same bar: the ball
 //! in a slot along the hole with the axial gap, the whole force along it, the rolling friction
-//! as a Coulomb force `(η/r)·m_d·g`. Its members start from the same places and velocities
-//! along the hole.
+//! as a Coulomb force `(η/r)·m_d·g`, gravity's component along the hole as a body force on the
+//! ball. Its members start from the same places and velocities along the hole.
 
 use super::case::run_case;
 use super::ensemble::SplitMix64;
@@ -125,8 +125,8 @@ impl Spread {
 }
 
 /// The one-plane model of the same bar and ball: the slot along the hole, the whole force along
-/// it, the bar's first principal axis, and `friction` (`coulomb` with the rolling friction as
-/// the Coulomb force, or none).
+/// it, the bar's first principal axis, gravity's component along the hole on the ball, and
+/// `friction` (`coulomb` with the rolling friction as the Coulomb force, or none).
 pub fn one_plane_system(sys: &TwoPlaneSystem, friction: FrictionModel) -> System {
     System {
         bar: BarModel::Lumped(Bar {
@@ -143,6 +143,7 @@ pub fn one_plane_system(sys: &TwoPlaneSystem, friction: FrictionModel) -> System
             friction,
             friction_force_n: None,
             contact: Contact::default(),
+            gravity_along_gap_m_s2: gravity_along_hole_m_s2(sys),
         }),
         forcing: Forcing {
             amplitude_n: sys.forcing.amplitude_n,
@@ -150,6 +151,17 @@ pub fn one_plane_system(sys: &TwoPlaneSystem, friction: FrictionModel) -> System
             static_force_n: 0.0,
         },
         gravity_m_s2: sys.gravity.m_s2,
+    }
+}
+
+/// Gravity's component along the hole (0 where the hole is level to within 1e-12 of g).
+pub fn gravity_along_hole_m_s2(sys: &TwoPlaneSystem) -> f64 {
+    let g = sys.gravity.m_s2;
+    let along = g * (sys.gravity.angle_deg - sys.hole.angle_deg).to_radians().cos();
+    if along.abs() <= 1e-12 * g {
+        0.0
+    } else {
+        along
     }
 }
 

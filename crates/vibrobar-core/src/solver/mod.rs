@@ -273,6 +273,37 @@ pub(crate) fn refuse_hertz(
     }
 }
 
+/// A constant body force on the ball along the gap (`damper.gravity_along_gap_m_s2 ≠ 0`) is
+/// refused with `why` where it is not supported, instead of being silently ignored.
+pub(crate) fn refuse_ball_body_force(
+    damper: Option<&crate::params::Damper>,
+    why: &'static str,
+) -> Result<(), SimError> {
+    match damper {
+        Some(d) if d.gravity_along_gap_m_s2 != 0.0 => Err(SimError::Unsupported(why)),
+        _ => Ok(()),
+    }
+}
+
+/// The exact solver's refusal of the ball's body force under the `hertz` contact law.
+pub(crate) const GRAVITY_ALONG_GAP_HERTZ: &str = "damper.gravity_along_gap_m_s2 ≠ 0 is not supported with contact.law = hertz (the compliant contact phase has no body force on the ball); use contact.law = restitution or set damper.gravity_along_gap_m_s2 = 0";
+
+/// The cutting runs' refusal of the ball's body force.
+pub(crate) const GRAVITY_ALONG_GAP_CUTTING: &str = "damper.gravity_along_gap_m_s2 ≠ 0 is not supported in cutting runs; set damper.gravity_along_gap_m_s2 = 0 or run without [cutting]";
+
+/// The exact solver's refusal of the ball's body force under `hertz` (only there: the
+/// restitution law supports it).
+pub(crate) fn refuse_ball_body_force_hertz(
+    damper: Option<&crate::params::Damper>,
+) -> Result<(), SimError> {
+    match damper {
+        Some(d) if d.contact.law == crate::params::ContactLaw::Hertz => {
+            refuse_ball_body_force(damper, GRAVITY_ALONG_GAP_HERTZ)
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Checks every solver makes before it runs: the system, the initial state, and an end time that
 /// is finite and not before the start (a NaN or backward end would otherwise run nothing and
 /// return `Ok`, looking like a finished run).

@@ -97,6 +97,7 @@ pub fn constant_push(static_force_n: f64, gap_m: f64, restitution: f64) -> Syste
             friction: FrictionModel::None,
             friction_force_n: None,
             contact: vibrobar_core::Contact::default(),
+            gravity_along_gap_m_s2: 0.0,
         }),
         forcing: Forcing {
             amplitude_n: 0.0,

@@ -94,7 +94,7 @@ impl SymmetricOrbit {
 }
 
 /// Why [`symmetric_orbits`] refuses a system.
-pub const SYMMETRIC_ORBIT_SCOPE: &str = "the analytic symmetric orbit is derived for a lumped bar with a frictionless ball (friction none), the restitution law and no static load";
+pub const SYMMETRIC_ORBIT_SCOPE: &str = "the analytic symmetric orbit is derived for a lumped bar with a frictionless ball (friction none), the restitution law, no static load and no body force on the ball (damper.gravity_along_gap_m_s2 = 0)";
 
 #[derive(Debug, Clone, Copy)]
 struct Consts {
@@ -179,7 +179,9 @@ pub fn symmetric_orbits(sys: &System) -> Result<Vec<SymmetricOrbit>, SimError> {
     let applies = sys.lumped_bar().is_some()
         && sys.forcing.static_force_n == 0.0
         && sys.damper.is_some_and(|d| {
-            d.contact.law == ContactLaw::Restitution && d.friction == FrictionModel::None
+            d.contact.law == ContactLaw::Restitution
+                && d.friction == FrictionModel::None
+                && d.gravity_along_gap_m_s2 == 0.0
         });
     if !applies {
         return Err(SimError::Unsupported(SYMMETRIC_ORBIT_SCOPE));

@@ -559,6 +559,7 @@ impl<T: TangentSink> Variational<T, LumpedBar> {
         let d = sys
             .damper
             .ok_or(SimError::Unsupported(VARIATIONAL_NEEDS_BALL))?;
+        crate::solver::refuse_ball_body_force(Some(&d), super::VARIATIONAL_GRAVITY_ALONG_GAP)?;
         let laws = Laws::new(
             &d,
             sys.friction_level_n(),

@@ -242,6 +242,9 @@ pub fn require_exact(solver: &dyn Solver) -> Result<(), SimError> {
 pub const VARIATIONAL_NEEDS_BALL: &str =
     "the variational flow needs a damper (a solid bar is linear: its Jacobian is the bar's closed form)";
 
+/// Why the variational layer refuses a body force on the ball along the gap.
+pub const VARIATIONAL_GRAVITY_ALONG_GAP: &str = "damper.gravity_along_gap_m_s2 ≠ 0 is not supported by the variational flow (Jacobian, periodic orbits, continuation, Lyapunov spectrum): its flow and saltation matrices have no body force on the ball; set damper.gravity_along_gap_m_s2 = 0";
+
 /// The identity.
 pub const IDENTITY: Mat4 = [
     [1.0, 0.0, 0.0, 0.0],

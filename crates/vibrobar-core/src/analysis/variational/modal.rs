@@ -120,6 +120,7 @@ impl Cs {
         let d = sys
             .damper
             .ok_or(SimError::Unsupported(VARIATIONAL_NEEDS_BALL))?;
+        crate::solver::refuse_ball_body_force(Some(&d), super::VARIATIONAL_GRAVITY_ALONG_GAP)?;
         let modes = sys.model.modes();
         let n = modes.len();
         let mut cs = Cs {

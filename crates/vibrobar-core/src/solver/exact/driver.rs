@@ -219,6 +219,26 @@ pub(super) trait Cavity {
     /// The first and second time derivatives of `a_b` (given `a_b` itself), for a start at
     /// `ẇ = 0` under the as-published law.
     fn a_b_rates(&self, s: &Self::St, a_b: f64) -> (f64, f64);
+    /// `g_s`: the ball's acceleration from a constant body force along the gap
+    /// (`damper.gravity_along_gap_m_s2`), 0 without one. The kernels that support it fold it
+    /// into their closed forms (free flight: the ball's acceleration gains `g_s`; held: the
+    /// pair's load gains `m_d g_s`, in [`Cavity::held_acceleration`]); the others refuse it at
+    /// the start of a run and keep this default.
+    fn ball_gravity(&self) -> f64 {
+        0.0
+    }
+    /// `a_b − g_s`, what the ball's relative motion reads of the bar: in free flight
+    /// `ẅ = F_ball κ − (a_b − g_s)`, so every test on `a_b` (stick, the sliding direction from
+    /// rest, the chatter test) reads this. `a_b` itself, to the bit, without a body force.
+    fn a_rel(&self, s: &Self::St) -> f64 {
+        let ab = self.a_b(s);
+        let g = self.ball_gravity();
+        if g == 0.0 {
+            ab
+        } else {
+            ab - g
+        }
+    }
 
     /// Friction is on and has a level.
     fn frictional(&self) -> bool {
@@ -438,7 +458,7 @@ pub(super) fn at_zero_velocity<C: Cavity>(cs: &C, s: &C::St) -> Md {
     if !cs.frictional() {
         return flight(0.0);
     }
-    let ab = cs.a_b(s);
+    let ab = cs.a_rel(s);
     if can_stick(cs.friction_model()) {
         if ab.abs() <= cs.friction_level_n() * cs.kappa() {
             return Md::Stick;
@@ -449,7 +469,8 @@ pub(super) fn at_zero_velocity<C: Cavity>(cs: &C, s: &C::St) -> Md {
     // looking at the higher derivatives of a_b when it vanishes (start from rest).
     let mut sigma = -sgn0(ab);
     if sigma == 0.0 {
-        let (dab, ddab) = cs.a_b_rates(s, ab);
+        // The body force is constant: `a_b − g_s` has the rates of `a_b`.
+        let (dab, ddab) = cs.a_b_rates(s, cs.a_b(s));
         sigma = -sgn0(dab);
         if sigma == 0.0 {
             sigma = -sgn0(ddab);
@@ -469,7 +490,7 @@ fn friction_zero<K: Kernel>(
 ) -> Result<Md, SimError> {
     let cs = k.cs();
     let sticks =
-        can_stick(cs.friction_model()) && cs.a_b(s).abs() <= cs.friction_level_n() * cs.kappa();
+        can_stick(cs.friction_model()) && cs.a_rel(s).abs() <= cs.friction_level_n() * cs.kappa();
     if sticks {
         k.event(EventKind::Stick, s, s)?;
         return Ok(Md::Stick);
@@ -500,7 +521,7 @@ fn impact<K: Kernel>(k: &mut K, sw: f64, s: &mut <K::Cs as Cavity>::St) -> Resul
 fn chatter_time<C: Cavity>(cs: &C, sw: f64, s: &C::St) -> Option<f64> {
     let dw = s.dw();
     let sigma = sgn0(dw);
-    let a_b = cs.a_b(s);
+    let a_b = cs.a_rel(s);
     let ddw_away = cs.fb(sigma) * cs.kappa() - a_b;
     let ddw_back = cs.fb(-sigma) * cs.kappa() - a_b;
     if sw * ddw_away > 0.0 && sw * ddw_back > 0.0 {
@@ -540,8 +561,15 @@ fn chatter_limit<K: Kernel>(
 }
 
 /// Ball at wall `sw` with `ẇ = 0`: does it stay pressed on it (`sw·m_d ü_pair ≤ f_hold`)?
+/// With a body force on the ball, the wall has to supply `m_d (ü_pair − g_s)` of it:
+/// `sw·m_d (ü_pair − g_s) ≤ f_hold`.
 pub(super) fn contact_test<C: Cavity>(cs: &C, sw: f64, s: &C::St) -> Md {
-    let ddu_pair = cs.held_acceleration(s);
+    let g = cs.ball_gravity();
+    let ddu_pair = if g == 0.0 {
+        cs.held_acceleration(s)
+    } else {
+        cs.held_acceleration(s) - g
+    };
     if sw * cs.ball_mass_kg() * ddu_pair <= cs.f_hold() {
         Md::Contact(wall_of(sw))
     } else {

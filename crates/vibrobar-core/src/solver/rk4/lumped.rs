@@ -66,7 +66,7 @@ impl Rhs {
         let fb = self.drive.friction_on_ball(dv - du);
         (
             (f_ext - self.c * du - self.k * u - fb) / self.m,
-            fb / self.drive.md,
+            self.drive.ball_acc(fb),
         )
     }
 

@@ -92,6 +92,8 @@ struct Drive {
     md: f64,
     friction: FrictionModel,
     level: f64,
+    /// `g_s`: the ball's acceleration from its body force along the gap (`+0.0` without one).
+    gs: f64,
 }
 
 impl Drive {
@@ -107,6 +109,21 @@ impl Drive {
             md,
             friction,
             level,
+            gs: match damper {
+                Some(d) if d.gravity_along_gap_m_s2 != 0.0 => d.gravity_along_gap_m_s2,
+                _ => 0.0,
+            },
+        }
+    }
+
+    /// The ball's acceleration under the friction force `fb`: `fb/m_d + g_s` (`fb/m_d` to the
+    /// bit without a body force).
+    #[inline(always)]
+    fn ball_acc(&self, fb: f64) -> f64 {
+        if self.gs == 0.0 {
+            fb / self.md
+        } else {
+            fb / self.md + self.gs
         }
     }
 

@@ -157,7 +157,7 @@ impl Rhs {
                 (self.phi_f[i] * f_ext - self.c[i] * dq[i] - self.k[i] * q[i] - self.phi_d[i] * fb)
                     / self.m[i];
         }
-        fb / self.drive.md
+        self.drive.ball_acc(fb)
     }
 
     /// One classical RK4 step of size `h` from `s` (the lumped step's arithmetic, per mode).

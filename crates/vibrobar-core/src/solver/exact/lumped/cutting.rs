@@ -1210,6 +1210,10 @@ impl ExactCutting {
             _ => start,
         };
         crate::solver::validate_run(sys, &checked, t_end_s)?;
+        crate::solver::refuse_ball_body_force(
+            sys.damper.as_ref(),
+            crate::solver::GRAVITY_ALONG_GAP_CUTTING,
+        )?;
         let t0 = start.t_s;
         // The two sets of constants: out of the cut the bar's own, in it the stiffness `K + kc`
         // (the damping `C` stays the bar's).

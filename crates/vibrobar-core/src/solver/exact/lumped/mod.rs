@@ -95,6 +95,10 @@ struct Consts {
     k_spring: f64,
     /// The cut over the current piece of a cutting run ([`cutting`]); `None`: no cut.
     cut: Option<CutPiece>,
+    /// `g_s`: the ball's acceleration from its body force along the gap (`+0.0` without one,
+    /// whose runs stay bit-identical). In free flight the ball's acceleration gains it; while
+    /// the ball is held the pair's load gains `m_d g_s`.
+    gs: f64,
 }
 
 /// The cut over one piece of a cutting run, in the local time `τ` of the segment starting at
@@ -194,6 +198,35 @@ impl Consts {
     #[inline]
     fn tol_t_at(&self, t: f64) -> f64 {
         self.tol_t + 4.0 * f64::EPSILON * t.abs()
+    }
+
+    /// Half the ball's acceleration in free flight under the friction force `fb`:
+    /// `½(fb/m_d + g_s)` (`½ fb/m_d` to the bit without a body force).
+    fn ball_half_acc(&self, fb: f64) -> f64 {
+        if self.gs == 0.0 {
+            0.5 * fb / self.md
+        } else {
+            0.5 * (fb / self.md + self.gs)
+        }
+    }
+
+    /// The constant load on the pair while the ball is held: `m_d g_s` (0 without a body force).
+    fn pair_load(&self) -> f64 {
+        if self.gs == 0.0 {
+            0.0
+        } else {
+            self.md * self.gs
+        }
+    }
+
+    /// The constant of a held margin `k + sc·m_d (ü − g_s)`: `k − sc·m_d g_s` (`k` to the bit
+    /// without a body force).
+    fn margin_level(&self, sc: f64, k: f64) -> f64 {
+        if self.gs == 0.0 {
+            k
+        } else {
+            k - sc * self.md * self.gs
+        }
     }
 
     /// `a_b = (F − C u̇ − K u)/M`: bar acceleration without the ball force.
@@ -590,6 +623,10 @@ impl Consts {
                 .map(|d| crate::damper::contact::Hertz::of_damper(&d)),
             k_spring: bar.stiffness_n_per_m,
             cut: None,
+            gs: match &sys.damper {
+                Some(d) if d.gravity_along_gap_m_s2 != 0.0 => d.gravity_along_gap_m_s2,
+                _ => 0.0,
+            },
         };
         cs.osc = [Osc::new(&cs, cs.m), Osc::new(&cs, cs.m + cs.md)];
         cs
@@ -606,6 +643,7 @@ pub(in crate::solver) fn run(
     obs: &mut dyn Observer,
 ) -> Result<RunSummary, SimError> {
     crate::solver::validate_run(sys, init, t_end_s)?;
+    crate::solver::refuse_ball_body_force_hertz(sys.damper.as_ref())?;
     let cs = Consts::new(sys, bar);
     let mut book = Book {
         obs,
@@ -668,9 +706,17 @@ impl Cavity for Consts {
     fn a_b(&self, s: &St) -> f64 {
         Consts::a_b(self, s)
     }
-    /// The pair (`M + m_d`) moves as one body: `a_b M/(M + m_d)`.
+    /// The pair (`M + m_d`) moves as one body: `a_b M/(M + m_d)`, with a body force on the
+    /// ball `(a_b M + m_d g_s)/(M + m_d)`.
     fn held_acceleration(&self, s: &St) -> f64 {
-        Consts::a_b(self, s) * self.m / (self.m + self.md)
+        if self.gs == 0.0 {
+            Consts::a_b(self, s) * self.m / (self.m + self.md)
+        } else {
+            (Consts::a_b(self, s) * self.m + self.md * self.gs) / (self.m + self.md)
+        }
+    }
+    fn ball_gravity(&self) -> f64 {
+        self.gs
     }
     fn a_b_rates(&self, s: &St, ab: f64) -> (f64, f64) {
         let dforce = self.f0 * self.om * (self.om * s.t).cos();
@@ -727,7 +773,7 @@ impl Kernel for Lumped<'_, '_> {
         let cs = self.cs;
         let mtot = cs.m + cs.md;
         let (v, loss) = plastic_limit(cs.m, cs.md, s.du, s.du + s.dw);
-        let (u, force) = cs.bar_sum(mtot, 0.0, s.t, s.u, v)?;
+        let (u, force) = cs.bar_sum(mtot, cs.pair_load(), s.t, s.u, v)?;
         let seg = ExactSegment {
             t0: s.t,
             t1: s.t + dt,
@@ -880,7 +926,7 @@ fn free_flight(
         k0: s.w + u.a + u.p,
         // `− u.c1`, `− u.c2`: the bar's polynomial part in a cut (0 otherwise, to the bit).
         c1: s.du + s.dw - u.c1,
-        c2: 0.5 * fb / cs.md - u.c2,
+        c2: cs.ball_half_acc(fb) - u.c2,
         a: -u.a,
         b: -u.b,
         p: -u.p,
@@ -935,20 +981,22 @@ fn pair_motion(
 ) -> Result<u8, SimError> {
     let span = t_end_s - s.t;
     let tol_t = cs.tol_t_at(s.t);
-    let (u, force) = cs.bar_sum(cs.m + cs.md, 0.0, s.t, s.u, s.du)?;
+    let (u, force) = cs.bar_sum(cs.m + cs.md, cs.pair_load(), s.t, s.u, s.du)?;
     let ddu = u.deriv().deriv();
     let w = ExpSum::constant(s.w, &u);
-    // Margins that stay positive while the mode holds.
-    let mk = |g: ExpSum| Cand::new(g, 0, cs.tol_f);
+    // Margins that stay positive while the mode holds: `k + sc·f` with `f = m_d (ü − g_s)` the
+    // force the bar exerts on the ball (`m_d ü` without a body force).
+    let mk =
+        |sc: f64, k: f64| Cand::new(ddu.affine(sc * cs.md, cs.margin_level(sc, k)), 0, cs.tol_f);
     let mut set = EventSet::<3>::new(&w);
     let seg_mode = match mode {
         Md::Stick => {
-            set.push(1, mk(ddu.affine(-cs.md, cs.fl))); // ball lags
-            set.push(2, mk(ddu.affine(cs.md, cs.fl))); // ball leads
+            set.push(1, mk(-1.0, cs.fl)); // ball lags
+            set.push(2, mk(1.0, cs.fl)); // ball leads
             Mode::Stick
         }
         Md::Contact(wall) => {
-            set.push(3, mk(ddu.affine(-wall.sign() * cs.md, cs.f_hold())));
+            set.push(3, mk(-wall.sign(), cs.f_hold()));
             Mode::Contact(wall)
         }
         Md::Free { .. } | Md::HertzTouch(_) => {

@@ -640,6 +640,21 @@ impl ConstrainedModes {
         {
             *q = p * fs / k;
         }
+        // A body force on the held ball (`m_d g_s` at the cavity) is a second static load:
+        // `q_s += K⁻¹φ_d m_d g_s` (nothing added without one: those runs stay bit-identical).
+        let gs = sys.damper.map_or(0.0, |d| d.gravity_along_gap_m_s2);
+        if gs != 0.0 {
+            let load = self.ball_mass_kg * gs;
+            for ((q, p), k) in self
+                .q_static
+                .iter_mut()
+                .zip(&phi_d)
+                .zip(&self.stiffness)
+                .take(n)
+            {
+                *q += p * load / k;
+            }
+        }
         if f0 == 0.0 {
             return Ok(());
         }

@@ -1255,6 +1255,10 @@ impl ModalCutting {
             _ => start,
         };
         crate::solver::validate_modal_run(sys, &checked, t_end_s, None)?;
+        crate::solver::refuse_ball_body_force(
+            sys.damper.as_ref(),
+            crate::solver::GRAVITY_ALONG_GAP_CUTTING,
+        )?;
         let modes = sys.model.modes();
         let n = modes.len();
         let (md, lg, e, model) = match &sys.damper {

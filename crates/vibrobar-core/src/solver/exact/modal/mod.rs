@@ -143,6 +143,10 @@ struct Consts {
     chatter_t: f64,
     /// The compliant law, when `contact.law = hertz` (wall touches start a compliant contact phase).
     hertz: Option<crate::damper::contact::Hertz>,
+    /// `g_s`: the ball's acceleration from its body force along the gap (`+0.0` without one,
+    /// whose runs stay bit-identical). In free flight the ball's acceleration gains it; while
+    /// the ball is held the constrained modes carry the load `m_d g_s` at the cavity.
+    gs: f64,
 }
 
 impl Consts {
@@ -189,6 +193,10 @@ impl Consts {
                 .damper
                 .filter(|d| d.contact.law == crate::params::ContactLaw::Hertz)
                 .map(|d| crate::damper::contact::Hertz::of_damper(&d)),
+            gs: match &sys.damper {
+                Some(d) if d.gravity_along_gap_m_s2 != 0.0 => d.gravity_along_gap_m_s2,
+                _ => 0.0,
+            },
         };
         for (i, mode) in modes.iter().enumerate() {
             let (m, k) = (mode.modal_mass_kg, mode.modal_stiffness_n_per_m());
@@ -748,6 +756,7 @@ impl ModalExact {
         obs: &mut dyn ModalObserver,
     ) -> Result<(ModalRunSummary, u64), SimError> {
         crate::solver::validate_modal_run(sys, init, t_end_s, None)?;
+        crate::solver::refuse_ball_body_force_hertz(sys.damper.as_ref())?;
         let cs = Consts::new(sys)?;
         let mut book = Book {
             obs,
@@ -834,9 +843,18 @@ impl Cavity for Consts {
     fn a_b(&self, s: &St) -> f64 {
         Consts::a_b(self, s)
     }
-    /// The bar's effective mass at the cavity and the ball move together: `a_b/(m_d κ)`.
+    /// The bar's effective mass at the cavity and the ball move together: `a_b/(m_d κ)`; with
+    /// a body force on the ball `(a_b + g_s (m_d κ − 1))/(m_d κ)` (`m_d κ − 1 = m_d/M_eff`).
     fn held_acceleration(&self, s: &St) -> f64 {
-        Consts::a_b(self, s) / (self.md * self.kappa)
+        if self.gs == 0.0 {
+            Consts::a_b(self, s) / (self.md * self.kappa)
+        } else {
+            let mk = self.md * self.kappa;
+            (Consts::a_b(self, s) + self.gs * (mk - 1.0)) / mk
+        }
+    }
+    fn ball_gravity(&self) -> f64 {
+        self.gs
     }
     fn a_b_rates(&self, s: &St, _ab: f64) -> (f64, f64) {
         let (sn, cn) = (self.om * s.t).sin_cos();
@@ -971,7 +989,11 @@ fn build_free(cs: &Consts, s: &St, fb: f64, no_ball: bool, mo: &mut FreeMotion) 
     mo.w.om = om;
     mo.w.f0 = s.w;
     mo.w.c1 = dv0;
-    mo.w.c2 = 0.5 * fb / cs.md;
+    mo.w.c2 = if cs.gs == 0.0 {
+        0.5 * fb / cs.md
+    } else {
+        0.5 * (fb / cs.md + cs.gs)
+    };
     mo.w.a = wa;
     mo.w.b = wb;
     mo.w.k0 = s.w - wa - wsum(&mo.w.t[..n]);
@@ -1216,7 +1238,14 @@ fn pair_motion(
     let fc = &work.tmp;
     let f_hold = crate::damper::friction::holding_capacity_n(cs.model, cs.fl);
     let mut nc = 0;
+    // Margins `k + sc·f`, `f = m_d (φ_dᵀq̈ − g_s)` the force the bar exerts on the ball
+    // (`holding_force` is `m_d φ_dᵀq̈`; the constant `−m_d g_s` folds into `k`).
     let mut push = |id: u8, sc: f64, k: f64| {
+        let k = if cs.gs == 0.0 {
+            k
+        } else {
+            k - sc * cs.md * cs.gs
+        };
         let c = &mut work.cands[nc];
         c.g.set_affine(fc, sc, k);
         c.order = 0;
