@@ -605,3 +605,91 @@ fn books_close_with_friction_and_spin() {
     );
     assert!(s.max_penetration_m <= 1e-12, "{}", s.max_penetration_m);
 }
+
+/// Every event of a one-plane exact run.
+#[derive(Default)]
+struct AllEvents(Vec<Event>);
+impl Observer for AllEvents {
+    fn event(&mut self, ev: &Event) {
+        self.0.push(*ev);
+    }
+}
+
+#[test]
+fn the_plane_across_the_hole_is_the_one_plane_model_with_gravity_on_the_ball() {
+    // Frictionless walls, a round bar, gravity across the hole: the plane across it is the
+    // one-plane run with the force's component across, the radial clearance, and gravity as a
+    // body force on the ball along its slot; the ball starts resting on the wall gravity presses
+    // it onto.
+    let (gap, c_r, g) = (0.04e-3, 0.02e-3, 9.80665);
+    let sys = paper(gap, c_r, 0.0, 60.0, 1.0, g);
+    let dur = 0.06;
+    let start = TwoPlaneStart::resting(&sys, 0.0);
+    let (evs, _) = run2(&sys, &start, dur);
+    let one = System {
+        bar: Bar::PAPER_CAVITY.into(),
+        damper: Some(Damper {
+            gravity_along_gap_m_s2: g,
+            ..Damper::paper(2.0 * c_r, FrictionModel::None)
+        }),
+        forcing: Forcing {
+            amplitude_n: 15.0 * 60f64.to_radians().sin(),
+            frequency: Frequency::RadPerS(sys.omega_rad_s()),
+            static_force_n: 0.0,
+        },
+        gravity_m_s2: g,
+    };
+    let init = State {
+        v_m: c_r,
+        ..State::REST
+    };
+    let mut rec = AllEvents::default();
+    Exact::default().run(&one, &init, dur, &mut rec).unwrap();
+    // The releases from the wall: the two-plane lift-offs.
+    let lifts: Vec<f64> = evs
+        .iter()
+        .filter(|e| matches!(e.kind, TwoPlaneEventKind::LiftOff { wall } if wall.axis() == 1))
+        .map(|e| e.t_s)
+        .collect();
+    let releases: Vec<f64> = rec
+        .0
+        .iter()
+        .filter(|e| matches!(e.kind, EventKind::ContactRelease { .. }))
+        .map(|e| e.t_s)
+        .collect();
+    assert!(lifts.len() >= 2, "{} lift-offs", lifts.len());
+    assert_eq!(lifts.len(), releases.len());
+    for (a, b) in lifts.iter().zip(&releases) {
+        assert!(
+            (a - b).abs() < 1e-9,
+            "lift-off at {a} s against release at {b} s"
+        );
+    }
+    // The impacts that matter (the two solvers sum a bounce sequence to its end at different
+    // depths: below one step here, below 1e-10 of the gap there).
+    let big2: Vec<f64> = evs
+        .iter()
+        .filter_map(|e| match e.kind {
+            TwoPlaneEventKind::Impact {
+                wall, approach_m_s, ..
+            } if wall.axis() == 1 && approach_m_s > 0.01 => Some(e.t_s),
+            _ => None,
+        })
+        .collect();
+    let big1: Vec<f64> = rec
+        .0
+        .iter()
+        .filter_map(|e| match e.kind {
+            EventKind::Impact { dw_m_s, .. } if dw_m_s.abs() > 0.01 => Some(e.t_s),
+            _ => None,
+        })
+        .collect();
+    assert!(big2.len() >= 3, "{} impacts", big2.len());
+    assert_eq!(big2.len(), big1.len());
+    for (a, b) in big2.iter().zip(&big1) {
+        assert!((a - b).abs() < 1e-9, "impact at {a} s against {b} s");
+    }
+    // And along the hole, the one-plane run without gravity.
+    let along = one_plane(15.0 * 60f64.to_radians().cos(), gap, sys.omega_rad_s(), dur);
+    assert_same_impacts(&impacts_on(&evs, 0), &along, 1e-10, "along");
+}
