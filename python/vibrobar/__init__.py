@@ -56,6 +56,7 @@ __all__ = [
     "read_frf",
     "write_uff58",
     "frf",
+    "two_plane",
     "submit",
     "solver_names",
     "DEFAULT_SOLVER",
@@ -1179,6 +1180,141 @@ def lobe_design(
     finally:
         close()
     return Table(cols, csv)
+
+
+def two_plane(
+    *,
+    bar_mass_kg: float = 0.644,
+    bar_stiffness_n_per_m: Any = 9.22e6,
+    bar_damping_ratio: Any = 0.01,
+    bar_principal_axis_deg: float = 0.0,
+    ball_mass_kg: float = 0.026,
+    ball_radius_m: float = 0.0075,
+    ball_restitution: float = 0.5,
+    ball_friction_static: float = 0.0,
+    ball_friction_kinetic: float = 0.0,
+    ball_rolling_friction_m: float = 0.0,
+    hole_angle_deg: float = 0.0,
+    hole_axial_gap_m: float = 1e-3,
+    hole_diameter_m: float = 0.0151,
+    forcing_amplitude_n: float = 15.0,
+    forcing_frequency_ratio: float = 1.0,
+    forcing_angle_deg: float = 63.4,
+    gravity_m_s2: float = 9.80665,
+    gravity_angle_deg: float = 90.0,
+    members: int = 8,
+    seed: int = 1,
+    along_speed_m_s: float = 0.01,
+    duration_s: float = 2.0,
+    dt_s: float = 1e-6,
+    rms_fraction: float = 0.8,
+    threads: Optional[int] = None,
+    progress: Progress = None,
+) -> Table:
+    """The bar that bends in two planes, with the ball in a hole across it, at one design point
+    (``vibrobar two-plane`` runs grids of these).
+
+    Angles are in the bar's cross-section plane, in degrees from the radial direction towards
+    the tangential one. A force with tangential/radial ratio ``F_t/F_r`` points at
+    ``atan(F_t/F_r)`` (63.4° for 2). Gravity defaults to 90°, along the tangential force.
+
+    Args:
+        bar_mass_kg: the lumped bar's mass, the same in both planes.
+        bar_stiffness_n_per_m, bar_damping_ratio: a number (a round bar) or a pair, one per
+            principal axis; bar_principal_axis_deg: the first principal axis' angle. A frequency
+            ratio refers to the lower principal frequency.
+        ball_mass_kg, ball_radius_m, ball_restitution: the ball (restitution on every wall).
+        ball_friction_static, ball_friction_kinetic: friction on the hole's walls, 0 ≤ μ_k ≤ μ_s < 1;
+            ball_rolling_friction_m: rolling resistance η (a length).
+        hole_angle_deg: the hole's direction; hole_axial_gap_m: total clearance along it (the
+            ball moves ±gap/2); hole_diameter_m: across it the ball moves ±(d_hole − 2r)/2.
+        forcing_amplitude_n, forcing_frequency_ratio, forcing_angle_deg: the harmonic force.
+        gravity_m_s2, gravity_angle_deg: gravity on the ball (0 allowed).
+        members, seed, along_speed_m_s: the ensemble of starts: member 0 rests on the wall gravity
+            presses it onto, centred along the hole; the others at seeded places along the hole
+            with a speed along it up to ``along_speed_m_s``.
+        duration_s, dt_s, rms_fraction: each run (RK4 step; RMS over the last fraction).
+
+    Returns:
+        Table, one row per member: ``w_along_start_m``, ``dw_along_start_m_s`` (the start),
+        ``rms_along_force_m``, ``rms_radial_m``, ``rms_tangential_m``, ``rms_total_m`` (m),
+        ``impacts_axial_plus``, ``impacts_axial_minus``, ``impacts_across_plus``,
+        ``impacts_across_minus``, ``flight_fraction``, ``one_plane_rms_m`` (the one-plane model
+        from the same start: the slot along the hole, the whole force along it, Coulomb friction
+        when the walls have friction) and ``solid_rms_m`` (the bar without its ball).
+    """
+    def pair(name, x):
+        if isinstance(x, (int, float, _np.integer, _np.floating)) and not isinstance(x, bool):
+            return (float(x), float(x))
+        try:
+            a, b = x
+        except (TypeError, ValueError):
+            raise TypeError(f"{name} must be a number or a pair of numbers, got {x!r}") from None
+        return (_number(name, a, False), _number(name, b, False))
+
+    for name, x in (("members", members), ("seed", seed)):
+        if isinstance(x, bool) or not isinstance(x, (int, _np.integer)):
+            raise TypeError(f"{name} must be an int, got {type(x).__name__}")
+        if x < 0:
+            raise ValueError(f"{name} = {x} is outside the allowed range [0, ∞)")
+    numbers = {
+        k: _number(k, v, False)
+        for k, v in (
+            ("bar_mass_kg", bar_mass_kg),
+            ("bar_principal_axis_deg", bar_principal_axis_deg),
+            ("ball_mass_kg", ball_mass_kg),
+            ("ball_radius_m", ball_radius_m),
+            ("ball_restitution", ball_restitution),
+            ("ball_friction_static", ball_friction_static),
+            ("ball_friction_kinetic", ball_friction_kinetic),
+            ("ball_rolling_friction_m", ball_rolling_friction_m),
+            ("hole_angle_deg", hole_angle_deg),
+            ("hole_axial_gap_m", hole_axial_gap_m),
+            ("hole_diameter_m", hole_diameter_m),
+            ("forcing_amplitude_n", forcing_amplitude_n),
+            ("forcing_frequency_ratio", forcing_frequency_ratio),
+            ("forcing_angle_deg", forcing_angle_deg),
+            ("gravity_m_s2", gravity_m_s2),
+            ("gravity_angle_deg", gravity_angle_deg),
+            ("along_speed_m_s", along_speed_m_s),
+            ("duration_s", duration_s),
+            ("dt_s", dt_s),
+            ("rms_fraction", rms_fraction),
+        )
+    }
+    cb, close = _progress(progress, "two_plane")
+    try:
+        cols = _vibrobar.two_plane(
+            numbers["bar_mass_kg"],
+            pair("bar_stiffness_n_per_m", bar_stiffness_n_per_m),
+            pair("bar_damping_ratio", bar_damping_ratio),
+            numbers["bar_principal_axis_deg"],
+            numbers["ball_mass_kg"],
+            numbers["ball_radius_m"],
+            numbers["ball_restitution"],
+            numbers["ball_friction_static"],
+            numbers["ball_friction_kinetic"],
+            numbers["ball_rolling_friction_m"],
+            numbers["hole_angle_deg"],
+            numbers["hole_axial_gap_m"],
+            numbers["hole_diameter_m"],
+            numbers["forcing_amplitude_n"],
+            numbers["forcing_frequency_ratio"],
+            numbers["forcing_angle_deg"],
+            numbers["gravity_m_s2"],
+            numbers["gravity_angle_deg"],
+            int(members),
+            int(seed),
+            numbers["along_speed_m_s"],
+            numbers["duration_s"],
+            numbers["dt_s"],
+            numbers["rms_fraction"],
+            _threads(threads),
+            cb,
+        )
+    finally:
+        close()
+    return Table(cols)
 
 
 def _one_frequency_axis(ratios, freqs_hz, required: bool) -> None:

@@ -1,6 +1,6 @@
 """Type stubs of the ``vibrobar`` package (units are SI; names carry them)."""
 
-from typing import Any, Callable, Mapping, Optional, Sequence, Union
+from typing import Any, Callable, Mapping, Optional, Sequence, Tuple, Union
 import numpy as np
 import numpy.typing as npt
 
@@ -245,3 +245,33 @@ def write_uff58(
     driving_point: bool = True,
     description: str = "vibrobar FRF",
 ) -> None: ...
+
+def two_plane(
+    *,
+    bar_mass_kg: float = 0.644,
+    bar_stiffness_n_per_m: Union[float, Tuple[float, float]] = 9.22e6,
+    bar_damping_ratio: Union[float, Tuple[float, float]] = 0.01,
+    bar_principal_axis_deg: float = 0.0,
+    ball_mass_kg: float = 0.026,
+    ball_radius_m: float = 0.0075,
+    ball_restitution: float = 0.5,
+    ball_friction_static: float = 0.0,
+    ball_friction_kinetic: float = 0.0,
+    ball_rolling_friction_m: float = 0.0,
+    hole_angle_deg: float = 0.0,
+    hole_axial_gap_m: float = 1e-3,
+    hole_diameter_m: float = 0.0151,
+    forcing_amplitude_n: float = 15.0,
+    forcing_frequency_ratio: float = 1.0,
+    forcing_angle_deg: float = 63.4,
+    gravity_m_s2: float = 9.80665,
+    gravity_angle_deg: float = 90.0,
+    members: int = 8,
+    seed: int = 1,
+    along_speed_m_s: float = 0.01,
+    duration_s: float = 2.0,
+    dt_s: float = 1e-6,
+    rms_fraction: float = 0.8,
+    threads: Optional[int] = None,
+    progress: Progress = None,
+) -> Table: ...

@@ -1,6 +1,6 @@
 """Type stubs of the native module (crates/vibrobar-py). Use the package ``vibrobar``."""
 
-from typing import Any, Callable, Optional, Union
+from typing import Any, Callable, Dict, Optional, Tuple, Union
 import os
 import numpy as np
 import numpy.typing as npt
@@ -213,3 +213,32 @@ def write_uff58(
     driving_point: bool = True,
     description: str = "vibrobar FRF",
 ) -> None: ...
+
+def two_plane(
+    bar_mass_kg: float,
+    bar_stiffness_n_per_m: Tuple[float, float],
+    bar_damping_ratio: Tuple[float, float],
+    bar_principal_axis_deg: float,
+    ball_mass_kg: float,
+    ball_radius_m: float,
+    ball_restitution: float,
+    ball_friction_static: float,
+    ball_friction_kinetic: float,
+    ball_rolling_friction_m: float,
+    hole_angle_deg: float,
+    hole_axial_gap_m: float,
+    hole_diameter_m: float,
+    forcing_amplitude_n: float,
+    forcing_frequency_ratio: float,
+    forcing_angle_deg: float,
+    gravity_m_s2: float,
+    gravity_angle_deg: float,
+    members: int,
+    seed: int,
+    along_speed_m_s: float,
+    duration_s: float,
+    dt_s: float,
+    rms_fraction: float,
+    threads: Optional[int],
+    progress: Optional[Callable[[int, int], None]],
+) -> Dict[str, npt.NDArray[Any]]: ...

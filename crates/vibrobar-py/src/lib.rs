@@ -2748,6 +2748,187 @@ fn fit_modes<'py>(
 }
 
 /// The native part of the `vibrobar` package.
+/// Core field names (`hole.diameter_m`) as the keywords of `vibrobar.two_plane`
+/// (`hole_diameter_m`).
+fn two_plane_keywords(msg: String) -> String {
+    ["bar.", "ball.", "hole.", "forcing.", "gravity."]
+        .iter()
+        .fold(msg, |m, p| m.replace(p, &p.replace('.', "_")))
+}
+
+/// The bar that bends in two planes at one design point: a seeded ensemble of starts on the
+/// two-plane reference solver, the one-plane model from the same starts, and the bar without
+/// its ball. Keywords and meaning: `vibrobar.two_plane`.
+#[pyfunction]
+#[pyo3(signature = (
+    bar_mass_kg, bar_stiffness_n_per_m, bar_damping_ratio, bar_principal_axis_deg,
+    ball_mass_kg, ball_radius_m, ball_restitution, ball_friction_static, ball_friction_kinetic,
+    ball_rolling_friction_m, hole_angle_deg, hole_axial_gap_m, hole_diameter_m,
+    forcing_amplitude_n, forcing_frequency_ratio, forcing_angle_deg, gravity_m_s2,
+    gravity_angle_deg, members, seed, along_speed_m_s, duration_s, dt_s, rms_fraction, threads,
+    progress
+))]
+#[allow(clippy::too_many_arguments)]
+fn two_plane<'py>(
+    py: Python<'py>,
+    bar_mass_kg: f64,
+    bar_stiffness_n_per_m: (f64, f64),
+    bar_damping_ratio: (f64, f64),
+    bar_principal_axis_deg: f64,
+    ball_mass_kg: f64,
+    ball_radius_m: f64,
+    ball_restitution: f64,
+    ball_friction_static: f64,
+    ball_friction_kinetic: f64,
+    ball_rolling_friction_m: f64,
+    hole_angle_deg: f64,
+    hole_axial_gap_m: f64,
+    hole_diameter_m: f64,
+    forcing_amplitude_n: f64,
+    forcing_frequency_ratio: f64,
+    forcing_angle_deg: f64,
+    gravity_m_s2: f64,
+    gravity_angle_deg: f64,
+    members: usize,
+    seed: u64,
+    along_speed_m_s: f64,
+    duration_s: f64,
+    dt_s: f64,
+    rms_fraction: f64,
+    threads: Option<usize>,
+    progress: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use vibrobar_core::analysis::two_plane::{
+        one_plane_rms_m, one_plane_start, one_plane_system, starts, TwoPlaneEnsemble,
+    };
+    use vibrobar_core::params::two_plane::{
+        Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneSystem,
+    };
+    use vibrobar_core::solver::two_plane_rk4::TwoPlaneRk4;
+    use vibrobar_core::{FrictionModel, RunSettings, State};
+    check_threads(threads)?;
+    let sys = TwoPlaneSystem {
+        bar: PlanarBar {
+            mass_kg: bar_mass_kg,
+            stiffness_n_per_m: [bar_stiffness_n_per_m.0, bar_stiffness_n_per_m.1],
+            damping_ratio: [bar_damping_ratio.0, bar_damping_ratio.1],
+            principal_axis_deg: bar_principal_axis_deg,
+        },
+        ball: PlanarBall {
+            mass_kg: ball_mass_kg,
+            radius_m: ball_radius_m,
+            restitution: ball_restitution,
+            friction_static: ball_friction_static,
+            friction_kinetic: ball_friction_kinetic,
+            rolling_friction_m: ball_rolling_friction_m,
+        },
+        hole: Hole {
+            angle_deg: hole_angle_deg,
+            axial_gap_m: hole_axial_gap_m,
+            diameter_m: hole_diameter_m,
+        },
+        forcing: PlanarForcing {
+            amplitude_n: forcing_amplitude_n,
+            frequency: Frequency::Ratio(forcing_frequency_ratio),
+            angle_deg: forcing_angle_deg,
+        },
+        gravity: Gravity {
+            m_s2: gravity_m_s2,
+            angle_deg: gravity_angle_deg,
+        },
+        bar_diameter_m: None,
+    };
+    sys.validate()
+        .map_err(|e| input_error(two_plane_keywords(e.to_string())))?;
+    let settings = RunSettings {
+        duration_s,
+        dt_s,
+        rms_fraction,
+    };
+    settings.validate().map_err(input_error)?;
+    let ens = TwoPlaneEnsemble {
+        members,
+        seed,
+        along_speed_m_s,
+    };
+    let starts = starts(&sys, &ens).map_err(|e| {
+        input_error(
+            e.to_string()
+                .replace(" (--members)", "")
+                .replace(" (--along-speed)", ""),
+        )
+    })?;
+    let solver = TwoPlaneRk4 { dt_s };
+    let friction = if sys.ball.frictionless() {
+        FrictionModel::None
+    } else {
+        FrictionModel::Coulomb
+    };
+    let one = one_plane_system(&sys, friction);
+    let mut solid = one;
+    solid.damper = None;
+    let (two, one_rms, solid_rms) = detached(py, progress, |ctl| {
+        let cb = |d: usize, t: usize| ctl.progress(d, t);
+        let run = runner(ctl, &cb, threads);
+        let two = run
+            .each(&starts, |st| solver.run(&sys, st, &settings, &mut |_| {}))
+            .map_err(|e| run_error(two_plane_keywords(e.to_string())))?;
+        let one_rms = run
+            .each(&starts, |st| {
+                one_plane_rms_m(&one, &one_plane_start(st), &settings)
+            })
+            .map_err(run_error)?;
+        let solid_rms = one_plane_rms_m(&solid, &State::REST, &settings).map_err(run_error)?;
+        Ok((two, one_rms, solid_rms))
+    })?;
+    let d = PyDict::new(py);
+    let col = |f: &dyn Fn(&vibrobar_core::solver::two_plane_rk4::TwoPlaneSummary) -> f64| {
+        two.iter().map(f).collect::<Vec<f64>>()
+    };
+    d.set_item(
+        "w_along_start_m",
+        starts
+            .iter()
+            .map(|s| s.w_hole_m[0])
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "dw_along_start_m_s",
+        starts
+            .iter()
+            .map(|s| s.dw_hole_m_s[0])
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
+        "rms_along_force_m",
+        col(&|s| s.rms_along_force_m).into_pyarray(py),
+    )?;
+    d.set_item("rms_radial_m", col(&|s| s.rms_m[0]).into_pyarray(py))?;
+    d.set_item("rms_tangential_m", col(&|s| s.rms_m[1]).into_pyarray(py))?;
+    d.set_item("rms_total_m", col(&|s| s.rms_total_m).into_pyarray(py))?;
+    for (k, name) in ["axial_plus", "axial_minus", "across_plus", "across_minus"]
+        .iter()
+        .enumerate()
+    {
+        d.set_item(
+            format!("impacts_{name}"),
+            two.iter()
+                .map(|s| s.impacts[k] as i64)
+                .collect::<Vec<_>>()
+                .into_pyarray(py),
+        )?;
+    }
+    d.set_item(
+        "flight_fraction",
+        col(&|s| s.flight_fraction).into_pyarray(py),
+    )?;
+    d.set_item("one_plane_rms_m", one_rms.into_pyarray(py))?;
+    d.set_item("solid_rms_m", vec![solid_rms; two.len()].into_pyarray(py))?;
+    Ok(d)
+}
+
 #[pymodule]
 fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScenario>()?;
@@ -2765,6 +2946,7 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ensemble, m)?)?;
     m.add_function(wrap_pyfunction!(lobes, m)?)?;
     m.add_function(wrap_pyfunction!(lobes_frf, m)?)?;
+    m.add_function(wrap_pyfunction!(two_plane, m)?)?;
     m.add_function(wrap_pyfunction!(fit_modes, m)?)?;
     m.add_function(wrap_pyfunction!(width_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(time_domain_lobes, m)?)?;

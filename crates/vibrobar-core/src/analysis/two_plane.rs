@@ -126,8 +126,17 @@ impl Spread {
 
 /// The one-plane model of the same bar and ball: the slot along the hole, the whole force along
 /// it, the bar's first principal axis, gravity's component along the hole on the ball, and
-/// `friction` (`coulomb` with the rolling friction as the Coulomb force, or none).
+/// `friction` (`coulomb` with the rolling friction as the Coulomb force, or none; none without
+/// gravity, which leaves the ball no normal load).
 pub fn one_plane_system(sys: &TwoPlaneSystem, friction: FrictionModel) -> System {
+    // Without gravity the one-plane friction has no normal load: none. (The one-plane model
+    // needs a positive gravity for its friction level; it is not used then.)
+    let weightless = sys.gravity.m_s2 <= 0.0;
+    let friction = if weightless {
+        FrictionModel::None
+    } else {
+        friction
+    };
     System {
         bar: BarModel::Lumped(Bar {
             mass_kg: sys.bar.mass_kg,
@@ -150,14 +159,21 @@ pub fn one_plane_system(sys: &TwoPlaneSystem, friction: FrictionModel) -> System
             frequency: sys.forcing.frequency,
             static_force_n: 0.0,
         },
-        gravity_m_s2: sys.gravity.m_s2,
+        gravity_m_s2: if weightless {
+            crate::params::STANDARD_GRAVITY_M_S2
+        } else {
+            sys.gravity.m_s2
+        },
     }
 }
 
 /// Gravity's component along the hole (0 where the hole is level to within 1e-12 of g).
 pub fn gravity_along_hole_m_s2(sys: &TwoPlaneSystem) -> f64 {
     let g = sys.gravity.m_s2;
-    let along = g * (sys.gravity.angle_deg - sys.hole.angle_deg).to_radians().cos();
+    let along = g
+        * (sys.gravity.angle_deg - sys.hole.angle_deg)
+            .to_radians()
+            .cos();
     if along.abs() <= 1e-12 * g {
         0.0
     } else {

@@ -1,0 +1,55 @@
+"""The bar that bends in two planes from Python: the same numbers as the core, the one-plane
+counterpart with the force along the hole, and keywords named in errors."""
+import numpy as np
+import pytest
+
+import vibrobar
+
+
+def test_force_along_the_hole_on_frictionless_walls_is_the_one_plane_model():
+    t = vibrobar.two_plane(
+        hole_axial_gap_m=0.1e-3, forcing_angle_deg=0.0, gravity_m_s2=0.0,
+        members=3, duration_s=0.1,
+    )
+    c = t
+    assert len(c["rms_along_force_m"]) == 3
+    # Nothing moves across the hole, and along it the two models agree to RK4's accuracy.
+    assert np.all(c["rms_tangential_m"] < 1e-15)
+    assert np.allclose(c["rms_along_force_m"], c["one_plane_rms_m"], rtol=1e-6)
+    assert np.all(c["impacts_axial_plus"] + c["impacts_axial_minus"] > 0)
+    assert np.all(c["solid_rms_m"] > 0)
+
+
+def test_members_are_reproducible_and_start_along_the_hole():
+    a = vibrobar.two_plane(members=4, duration_s=0.02, seed=7)
+    b = vibrobar.two_plane(members=4, duration_s=0.02, seed=7, threads=1)
+    for k in a:
+        assert np.array_equal(a[k], b[k]), k
+    assert a["w_along_start_m"][0] == 0.0
+    assert np.all(np.abs(a["w_along_start_m"]) <= 0.5e-3)
+    assert np.all(np.abs(a["dw_along_start_m_s"]) <= 0.01)
+
+
+@pytest.mark.parametrize(
+    "kw, name",
+    [
+        ({"hole_diameter_m": 0.012}, "hole_diameter_m"),
+        ({"hole_angle_deg": float("nan")}, "hole_angle_deg"),
+        ({"gravity_m_s2": float("inf")}, "gravity_m_s2"),
+        ({"ball_friction_static": 1.0}, "ball_friction_static"),
+        ({"ball_friction_static": 0.2, "ball_friction_kinetic": 0.3}, "ball_friction_kinetic"),
+        ({"hole_axial_gap_m": -1e-4}, "hole_axial_gap_m"),
+        ({"bar_stiffness_n_per_m": (9e6, -1.0)}, "bar_stiffness_n_per_m[1]"),
+        ({"members": 0}, "members"),
+    ],
+)
+def test_bad_input_names_the_keyword(kw, name):
+    with pytest.raises(ValueError, match=name.replace("[", r"\[").replace("]", r"\]")):
+        vibrobar.two_plane(duration_s=0.01, **kw)
+
+
+def test_wrong_types_are_type_errors():
+    with pytest.raises(TypeError, match="bar_stiffness_n_per_m"):
+        vibrobar.two_plane(bar_stiffness_n_per_m="stiff")
+    with pytest.raises(TypeError, match="members"):
+        vibrobar.two_plane(members=2.5)
