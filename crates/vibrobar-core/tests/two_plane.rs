@@ -538,14 +538,13 @@ fn a_rolling_ball_lags_the_wall_by_five_sevenths_and_loads_the_bar_with_two_seve
         (w + 5.0 / 7.0 * u_rel).abs() < 1e-9 * u_rel.abs(),
         "{w} against {u_rel}"
     );
-    // The bar stays on the steady state of mass M + 2/7 m_d: the end matches it.
-    let om = sys.omega_rad_s();
-    let (re, im) = (
-        sys.bar.stiffness_n_per_m[0] - (sys.bar.mass_kg + extra) * om * om,
-        2.0 * 0.01 * (sys.bar.stiffness_n_per_m[0] * sys.bar.mass_kg).sqrt() * om,
-    );
-    let mag = 0.1 / (re * re + im * im).sqrt();
-    let u_end = mag * (om * dur - im.atan2(re)).sin();
+    // The bar stays on the steady state of mass M + 2/7 m_d: the end matches it (the steady
+    // state's start shifted by `dur` is its state at the end).
+    let (at_end, acc) = rolling_start(&sys, extra);
+    let mag = acc / sys.omega_rad_s().powi(2);
+    let shift = sys.omega_rad_s() * dur;
+    let (u0, v0) = (at_end.u_m[0], at_end.du_m_s[0] / sys.omega_rad_s());
+    let u_end = u0 * shift.cos() + v0 * shift.sin();
     assert!(
         (s.end.u_m[0] - u_end).abs() < 1e-8 * mag,
         "{} against {u_end}",

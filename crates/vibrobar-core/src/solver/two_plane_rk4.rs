@@ -1033,26 +1033,16 @@ impl TwoPlaneRk4 {
             if k >= 6 {
                 // The motion along the wall changes.
                 let new = md.settle(t, &y, signs);
-                if let Mode::Wall { axis, sign, tan } = new {
+                // A corner reports the hole's wall.
+                let changed = match new {
+                    Mode::Wall { axis, sign, tan } => Some((axis, sign, tan)),
+                    Mode::Corner { signs, tan } => Some((1, signs[1], tan)),
+                    Mode::Flight => None,
+                };
+                if let Some((axis, sign, tan)) = changed {
                     let wall = HoleWall::of(axis, f64::from(sign));
-                    emit(
-                        &mut out,
-                        t,
-                        TwoPlaneEventKind::Motion {
-                            wall,
-                            motion: tan.motion(),
-                        },
-                    )?;
-                } else if let Mode::Corner { signs, tan } = new {
-                    let wall = HoleWall::of(1, f64::from(signs[1]));
-                    emit(
-                        &mut out,
-                        t,
-                        TwoPlaneEventKind::Motion {
-                            wall,
-                            motion: tan.motion(),
-                        },
-                    )?;
+                    let motion = tan.motion();
+                    emit(&mut out, t, TwoPlaneEventKind::Motion { wall, motion })?;
                 }
                 mode = new;
                 md.project(&mut y, mode);
