@@ -28,7 +28,11 @@ fn quick_document_has_its_tables_and_the_force_along_the_hole_agrees_with_one_pl
     assert!(!doc.contains("NaN") && !doc.contains("inf"));
     assert!(!doc.contains("-0 "), "a negative zero in a cell");
     let csv = fs::read_to_string(d.path().join("docs/two-plane/points.csv")).unwrap();
-    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
     // 2 wall laws × 2 holes × 2 gaps × 1 ratio × 2 forces, and the 2 × 2 map; two models each.
     assert_eq!(rows.len(), 2 * (16 + 4));
     for r in &rows {
