@@ -20,6 +20,7 @@ fn quick_document_has_its_tables_and_the_force_along_the_hole_agrees_with_one_pl
         "## One plane against two planes, frictionless walls",
         "## One plane against two planes, frictional walls",
         "## Where to drill the hole: hole angle × axial gap",
+        "## How tight a hole: radial clearance × axial gap",
         "## Which of the paper's conclusions survive",
         "| hole | gap | r | one plane | 0° | 63.4° |",
     ] {
@@ -33,8 +34,9 @@ fn quick_document_has_its_tables_and_the_force_along_the_hole_agrees_with_one_pl
         .skip(1)
         .map(|l| l.split(',').collect())
         .collect();
-    // 2 wall laws × 2 holes × 2 gaps × 1 ratio × 2 forces, and the 2 × 2 map; two models each.
-    assert_eq!(rows.len(), 2 * (16 + 4));
+    // 2 wall laws × 2 holes × 2 gaps × 1 ratio × 2 forces, and the two 2 × 2 maps; two models
+    // each.
+    assert_eq!(rows.len(), 2 * (16 + 4 + 4));
     for r in &rows {
         assert_eq!(r.len(), 15);
         for v in &r[8..] {

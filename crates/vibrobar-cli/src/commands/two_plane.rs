@@ -5,7 +5,8 @@
 //! frequency ratios 0.97, 1 and 1.03 it runs seeded ensembles of the two-plane reference solver
 //! at force directions from 0° to 90° from the hole, on frictionless walls and on walls with
 //! friction and rolling resistance, beside the one-plane model from the same starts; then the
-//! map of hole angle × axial gap at the force of a tangential/radial ratio of 2. The reductions
+//! maps of hole angle × axial gap and of radial clearance × axial gap at the force of a
+//! tangential/radial ratio of 2. The reductions
 //! are of the RMS displacement along the force against the solid bar's. Every number is computed
 //! by this run; the table of every point is written beside the document, the document last.
 
@@ -61,6 +62,9 @@ const FORCE_DEG: [f64; 6] = [0.0, 30.0, 60.0, 63.4, 71.6, 90.0];
 /// The map's hole angles and gaps (force at ratio 2, the 15.1 mm hole, resonance).
 const MAP_HOLE_DEG: [f64; 7] = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 90.0];
 const MAP_GAPS_MM: [f64; 5] = [0.05, 0.1, 0.2, 0.5, 1.0];
+/// The clearance map's hole diameters, mm (radial clearances 0.025–1 mm around the 15 mm ball;
+/// a radial hole, the same force, resonance).
+const MAP_DIAMETERS_MM: [f64; 6] = [15.05, 15.1, 15.3, 15.6, 16.0, 17.0];
 /// Friction of the walls in the frictional runs.
 const MU_S: f64 = 0.3;
 const MU_K: f64 = 0.2;
@@ -167,9 +171,10 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
         );
     }
     let dir = args.out.with_extension("");
-    let (duration, members, ratios, forces, map_holes, map_gaps): (
+    let (duration, members, ratios, forces, map_holes, map_gaps, map_diameters): (
         f64,
         usize,
+        Vec<f64>,
         Vec<f64>,
         Vec<f64>,
         Vec<f64>,
@@ -182,6 +187,7 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
             vec![0.0, 63.4],
             vec![0.0, 45.0],
             vec![0.1, 1.0],
+            vec![15.1, 17.0],
         )
     } else {
         (
@@ -191,6 +197,7 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
             FORCE_DEG.to_vec(),
             MAP_HOLE_DEG.to_vec(),
             MAP_GAPS_MM.to_vec(),
+            MAP_DIAMETERS_MM.to_vec(),
         )
     };
     let ens = TwoPlaneEnsemble {
@@ -237,6 +244,19 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
                 ratio: 1.0,
                 force_deg: map_force,
                 hole_deg,
+                friction: true,
+            });
+        }
+    }
+    let n_angle = points.len();
+    for &hole_mm in &map_diameters {
+        for &gap_mm in &map_gaps {
+            points.push(Point {
+                hole_mm,
+                gap_mm,
+                ratio: 1.0,
+                force_deg: map_force,
+                hole_deg: 0.0,
                 friction: true,
             });
         }
@@ -370,6 +390,8 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
         points: &points,
         answers: &answers,
         n_compare,
+        n_angle,
+        map_diameters: &map_diameters,
         ratios: &ratios,
         forces: &forces,
         map_holes: &map_holes,
@@ -402,6 +424,9 @@ struct Doc<'a> {
     points: &'a [Point],
     answers: &'a [(Answer, Answer)],
     n_compare: usize,
+    /// The end of the hole-angle map; the clearance map follows.
+    n_angle: usize,
+    map_diameters: &'a [f64],
     ratios: &'a [f64],
     forces: &'a [f64],
     map_holes: &'a [f64],
@@ -562,7 +587,7 @@ fn document(d: &Doc) -> Result<String> {
         rule.push_str("---|");
     }
     writeln!(s, "{head}\n{rule}")?;
-    let map = &d.points[d.n_compare..];
+    let map = &d.points[d.n_compare..d.n_angle];
     let mut best: Option<(f64, f64, f64)> = None;
     for &h in d.map_holes {
         let mut row = format!("| {h}° |");
@@ -586,6 +611,49 @@ fn document(d: &Doc) -> Result<String> {
         writeln!(
             s,
             "\nThe best cell: the hole at {h}° with the {g} mm gap, {m:.0} % on average over the \
+             ensemble.\n"
+        )?;
+    }
+
+    // The clearance map.
+    writeln!(
+        s,
+        "## How tight a hole: radial clearance × axial gap\n\n\
+         A radial hole (0°), frictional walls, r = 1, the force at {:.1}°, gravity at 90°, the \
+         15 mm ball. Mean reduction ± its standard error, %.\n",
+        d.map_force
+    )?;
+    let mut head = String::from("| hole (c_r) |");
+    let mut rule = String::from("|---|");
+    for g in d.map_gaps {
+        write!(head, " gap {g} mm |")?;
+        rule.push_str("---|");
+    }
+    writeln!(s, "{head}\n{rule}")?;
+    let cmap = &d.points[d.n_angle..];
+    let mut best: Option<(f64, f64, f64)> = None;
+    for &h in d.map_diameters {
+        let mut row = format!("| {h} mm ({:.3} mm) |", (h - 15.0) / 2.0);
+        for &g in d.map_gaps {
+            let i = cmap
+                .iter()
+                .position(|p| {
+                    p.hole_mm.to_bits() == h.to_bits() && p.gap_mm.to_bits() == g.to_bits()
+                })
+                .map(|i| i + d.n_angle)
+                .expect("computed");
+            let a = d.answers[i].0;
+            write!(row, " {} |", cell(&a))?;
+            if best.is_none_or(|b| a.reduction.mean > b.2) {
+                best = Some((h, g, a.reduction.mean));
+            }
+        }
+        writeln!(s, "{row}")?;
+    }
+    if let Some((h, g, m)) = best {
+        writeln!(
+            s,
+            "\nThe best cell: the {h} mm hole with the {g} mm gap, {m:.0} % on average over the \
              ensemble.\n"
         )?;
     }
