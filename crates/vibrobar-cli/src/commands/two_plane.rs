@@ -462,6 +462,50 @@ impl Doc<'_> {
     }
 }
 
+/// A map's rows (`label` over `values`, each point's row value read by `of`) × the gaps, as a
+/// Markdown table of the points `range`; returns its best cell `(row value, gap, mean)`.
+type MapRows<'a> = (
+    &'a str,
+    &'a [f64],
+    &'a dyn Fn(f64) -> String,
+    &'a dyn Fn(&Point) -> f64,
+);
+
+fn map_table(
+    s: &mut String,
+    d: &Doc,
+    range: std::ops::Range<usize>,
+    (label, values, name, of): MapRows,
+) -> Result<Option<(f64, f64, f64)>> {
+    let mut head = format!("| {label} |");
+    let mut rule = String::from("|---|");
+    for g in d.map_gaps {
+        write!(head, " gap {g} mm |")?;
+        rule.push_str("---|");
+    }
+    writeln!(s, "{head}\n{rule}")?;
+    let offset = range.start;
+    let map = &d.points[range];
+    let mut best: Option<(f64, f64, f64)> = None;
+    for &h in values {
+        let mut row = format!("| {} |", name(h));
+        for &g in d.map_gaps {
+            let i = map
+                .iter()
+                .position(|p| of(p).to_bits() == h.to_bits() && p.gap_mm.to_bits() == g.to_bits())
+                .map(|i| i + offset)
+                .expect("computed");
+            let a = d.answers[i].0;
+            write!(row, " {} |", cell(&a))?;
+            if best.is_none_or(|b| a.reduction.mean > b.2) {
+                best = Some((h, g, a.reduction.mean));
+            }
+        }
+        writeln!(s, "{row}")?;
+    }
+    Ok(best)
+}
+
 fn document(d: &Doc) -> Result<String> {
     let mut s = String::new();
     let regen = if d.quick {
@@ -580,33 +624,14 @@ fn document(d: &Doc) -> Result<String> {
          standard error, %.\n",
         d.map_force
     )?;
-    let mut head = String::from("| hole angle |");
-    let mut rule = String::from("|---|");
-    for g in d.map_gaps {
-        write!(head, " gap {g} mm |")?;
-        rule.push_str("---|");
-    }
-    writeln!(s, "{head}\n{rule}")?;
-    let map = &d.points[d.n_compare..d.n_angle];
-    let mut best: Option<(f64, f64, f64)> = None;
-    for &h in d.map_holes {
-        let mut row = format!("| {h}° |");
-        for &g in d.map_gaps {
-            let i = map
-                .iter()
-                .position(|p| {
-                    p.hole_deg.to_bits() == h.to_bits() && p.gap_mm.to_bits() == g.to_bits()
-                })
-                .map(|i| i + d.n_compare)
-                .expect("computed");
-            let a = d.answers[i].0;
-            write!(row, " {} |", cell(&a))?;
-            if best.is_none_or(|b| a.reduction.mean > b.2) {
-                best = Some((h, g, a.reduction.mean));
-            }
-        }
-        writeln!(s, "{row}")?;
-    }
+    let best = map_table(
+        &mut s,
+        d,
+        d.n_compare..d.n_angle,
+        ("hole angle", d.map_holes, &|h| format!("{h}°"), &|p| {
+            p.hole_deg
+        }),
+    )?;
     if let Some((h, g, m)) = best {
         writeln!(
             s,
@@ -623,33 +648,17 @@ fn document(d: &Doc) -> Result<String> {
          15 mm ball. Mean reduction ± its standard error, %.\n",
         d.map_force
     )?;
-    let mut head = String::from("| hole (c_r) |");
-    let mut rule = String::from("|---|");
-    for g in d.map_gaps {
-        write!(head, " gap {g} mm |")?;
-        rule.push_str("---|");
-    }
-    writeln!(s, "{head}\n{rule}")?;
-    let cmap = &d.points[d.n_angle..];
-    let mut best: Option<(f64, f64, f64)> = None;
-    for &h in d.map_diameters {
-        let mut row = format!("| {h} mm ({:.3} mm) |", (h - 15.0) / 2.0);
-        for &g in d.map_gaps {
-            let i = cmap
-                .iter()
-                .position(|p| {
-                    p.hole_mm.to_bits() == h.to_bits() && p.gap_mm.to_bits() == g.to_bits()
-                })
-                .map(|i| i + d.n_angle)
-                .expect("computed");
-            let a = d.answers[i].0;
-            write!(row, " {} |", cell(&a))?;
-            if best.is_none_or(|b| a.reduction.mean > b.2) {
-                best = Some((h, g, a.reduction.mean));
-            }
-        }
-        writeln!(s, "{row}")?;
-    }
+    let best = map_table(
+        &mut s,
+        d,
+        d.n_angle..d.points.len(),
+        (
+            "hole (c_r)",
+            d.map_diameters,
+            &|h| format!("{h} mm ({:.3} mm)", (h - 15.0) / 2.0),
+            &|p| p.hole_mm,
+        ),
+    )?;
     if let Some((h, g, m)) = best {
         writeln!(
             s,
