@@ -161,6 +161,10 @@ fn cell(a: &Answer) -> String {
     )
 }
 
+/// What a run computes: duration, members, ratios, force directions, the maps' hole angles,
+/// gaps and hole diameters.
+type Plan = (f64, usize, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+
 /// Run the command.
 pub fn run(args: &TwoPlaneArgs) -> Result<()> {
     let t_start = Instant::now();
@@ -171,35 +175,28 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
         );
     }
     let dir = args.out.with_extension("");
-    let (duration, members, ratios, forces, map_holes, map_gaps, map_diameters): (
-        f64,
-        usize,
-        Vec<f64>,
-        Vec<f64>,
-        Vec<f64>,
-        Vec<f64>,
-        Vec<f64>,
-    ) = if args.quick {
-        (
-            0.1,
-            2,
-            vec![1.0],
-            vec![0.0, 63.4],
-            vec![0.0, 45.0],
-            vec![0.1, 1.0],
-            vec![15.1, 17.0],
-        )
-    } else {
-        (
-            check_value("--duration", args.duration, |x| x > 0.0, "(0, ∞) s")?,
-            args.members,
-            RATIOS.to_vec(),
-            FORCE_DEG.to_vec(),
-            MAP_HOLE_DEG.to_vec(),
-            MAP_GAPS_MM.to_vec(),
-            MAP_DIAMETERS_MM.to_vec(),
-        )
-    };
+    let (duration, members, ratios, forces, map_holes, map_gaps, map_diameters): Plan =
+        if args.quick {
+            (
+                0.1,
+                2,
+                vec![1.0],
+                vec![0.0, 63.4],
+                vec![0.0, 45.0],
+                vec![0.1, 1.0],
+                vec![15.1, 17.0],
+            )
+        } else {
+            (
+                check_value("--duration", args.duration, |x| x > 0.0, "(0, ∞) s")?,
+                args.members,
+                RATIOS.to_vec(),
+                FORCE_DEG.to_vec(),
+                MAP_HOLE_DEG.to_vec(),
+                MAP_GAPS_MM.to_vec(),
+                MAP_DIAMETERS_MM.to_vec(),
+            )
+        };
     let ens = TwoPlaneEnsemble {
         members,
         seed: args.seed,
