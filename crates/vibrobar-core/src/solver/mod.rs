@@ -8,6 +8,7 @@
 pub mod dopri5;
 pub mod exact;
 pub mod rk4;
+pub mod two_plane_exact;
 pub mod two_plane_rk4;
 
 /// The N-mode bar's RK4 ([`rk4::modal`]), under the path it has always had.

@@ -92,7 +92,7 @@ impl HoleWall {
         }
     }
 
-    fn of(axis: usize, sign: f64) -> HoleWall {
+    pub(crate) fn of(axis: usize, sign: f64) -> HoleWall {
         HoleWall::ALL[2 * axis + usize::from(sign < 0.0)]
     }
 }
@@ -258,6 +258,32 @@ impl TwoPlaneSummary {
     pub fn rest_fraction(&self, wall: HoleWall) -> f64 {
         self.contact_fraction[wall as usize].iter().sum()
     }
+}
+
+/// Check a start: finite, the ball inside its box.
+pub(crate) fn check_start(sys: &TwoPlaneSystem, start: &TwoPlaneStart) -> Result<(), ParamError> {
+    let clr = [sys.hole.half_axial_gap_m(), sys.radial_clearance_m()];
+    for (axis, field) in [(0, "start.w_hole_m[0]"), (1, "start.w_hole_m[1]")] {
+        crate::params::in_range(
+            field,
+            start.w_hole_m[axis],
+            -clr[axis],
+            clr[axis],
+            "[−clearance, +clearance] (l_g along the hole, c_r across it)",
+        )?;
+    }
+    for (v, field) in [
+        (start.u_m[0], "start.u_m[0]"),
+        (start.u_m[1], "start.u_m[1]"),
+        (start.du_m_s[0], "start.du_m_s[0]"),
+        (start.du_m_s[1], "start.du_m_s[1]"),
+        (start.dw_hole_m_s[0], "start.dw_hole_m_s[0]"),
+        (start.dw_hole_m_s[1], "start.dw_hole_m_s[1]"),
+        (start.spin_rad_s, "start.spin_rad_s"),
+    ] {
+        crate::params::finite(field, v)?;
+    }
+    Ok(())
 }
 
 /// The reference solver.
@@ -858,26 +884,7 @@ impl TwoPlaneRk4 {
         )?;
         limits::check_phase(sys.omega_rad_s().max(omega_max), duration)?;
         let md = Model::new(sys);
-        for (axis, field) in [(0, "start.w_hole_m[0]"), (1, "start.w_hole_m[1]")] {
-            crate::params::in_range(
-                field,
-                start.w_hole_m[axis],
-                -md.clr[axis],
-                md.clr[axis],
-                "[−clearance, +clearance] (l_g along the hole, c_r across it)",
-            )?;
-        }
-        for (v, field) in [
-            (start.u_m[0], "start.u_m[0]"),
-            (start.u_m[1], "start.u_m[1]"),
-            (start.du_m_s[0], "start.du_m_s[0]"),
-            (start.du_m_s[1], "start.du_m_s[1]"),
-            (start.dw_hole_m_s[0], "start.dw_hole_m_s[0]"),
-            (start.dw_hole_m_s[1], "start.dw_hole_m_s[1]"),
-            (start.spin_rad_s, "start.spin_rad_s"),
-        ] {
-            crate::params::finite(field, v)?;
-        }
+        check_start(sys, start)?;
 
         // The start, in absolute coordinates.
         let [a, n] = md.axes;

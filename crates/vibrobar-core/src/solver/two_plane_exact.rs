@@ -1,0 +1,627 @@
+//! The exact solver of the bar that bends in two planes, where its planes decouple.
+//!
+//! On frictionless walls a wall's impulse and its resting force act along the wall's normal
+//! only, so the ball's motion along the hole and across it are two separate impact dampers:
+//! along the hole the plugs at `±l_g`, across it the hole's wall at `±c_r`. When the bar's
+//! principal axes lie along and across the hole (any pair of axes of a round bar does), its two
+//! planes there are separate oscillators too, each driven by the force's component and carrying
+//! gravity's component on the ball as a body force. The two-plane run is then exactly two
+//! one-plane runs of [`super::Exact`], the one solver stack, and this module runs them side by
+//! side and puts them together:
+//!
+//! * each plane's `∫u²` over the window, its books and its events come from its own run, exact;
+//! * what needs both planes at once (the RMS along the force, along `x` and `y`, and the time
+//!   the ball touches no wall) is integrated over the pieces both runs share: the plane along the
+//!   hole runs on a second thread and streams its motion over the window as Chebyshev
+//!   interpolants of pieces no longer than `1/ω` (ω the highest frequency of the bar or the
+//!   force), split at its events; the plane across the hole integrates the product of the two
+//!   displacements by Gauss–Legendre quadrature on the common pieces. Both rules are exact for
+//!   polynomials far beyond the pieces' smoothness, so the cross term carries ~1e-12 relative
+//!   error, and memory stays bounded by the stream's buffer;
+//! * the events of the two planes are reported in the order of time.
+//!
+//! Where the planes do not decouple (friction on the walls, which couples them through the
+//! normal force; principal axes at a slant to the hole; no radial clearance), [`decoupled`] says
+//! why, and the reference solver [`super::two_plane_rk4`] is the one that runs.
+
+use std::collections::VecDeque;
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+
+use super::two_plane_rk4::{
+    HoleWall, TwoPlaneBook, TwoPlaneEvent, TwoPlaneEventKind, TwoPlaneStart, TwoPlaneSummary,
+    WallMotion,
+};
+use super::{Event, EventKind, Exact, Mode, Observer, Segment, Solver, Wall};
+use crate::error::SimError;
+use crate::params::two_plane::{direction, TwoPlaneSystem};
+use crate::params::{
+    Bar, BarModel, Contact, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System,
+};
+
+/// Chebyshev–Lobatto nodes per streamed piece.
+const NODES: usize = 12;
+
+/// Messages the stream holds at most before the plane along the hole waits.
+const STREAM_BUFFER: usize = 4096;
+
+/// Why the planes of `sys` do not decouple, or `Ok` when they do.
+pub fn decoupled(sys: &TwoPlaneSystem) -> Result<(), &'static str> {
+    if sys.ball.friction_static != 0.0 || sys.ball.friction_kinetic != 0.0 {
+        return Err(
+            "the exact two-plane solver needs frictionless walls: friction couples the \
+                    planes through the normal force",
+        );
+    }
+    if sys.radial_clearance_m() <= 0.0 {
+        return Err(
+            "the exact two-plane solver needs a radial clearance: this hole leaves the \
+                    ball none",
+        );
+    }
+    principal_index(sys, 0).ok_or(
+        "the exact two-plane solver needs the bar's principal axes along and across the hole: \
+         at a slant they couple the planes",
+    )?;
+    Ok(())
+}
+
+/// The index of the bar's principal axis along hole axis `axis` (0 along the hole, 1 across
+/// it); `None` when no principal axis lies along it. A round bar's is 0 for both.
+fn principal_index(sys: &TwoPlaneSystem, axis: usize) -> Option<usize> {
+    let bar = &sys.bar;
+    // Round: the same stiffness and damping on both axes, exactly.
+    let round = bar.stiffness_n_per_m[0] - bar.stiffness_n_per_m[1] == 0.0
+        && bar.damping_ratio[0] - bar.damping_ratio[1] == 0.0;
+    if round {
+        return Some(0);
+    }
+    let rel = (sys.hole.angle_deg + 90.0 * axis as f64 - bar.principal_axis_deg).to_radians();
+    let tol = 1e-12;
+    if rel.sin().abs() <= tol {
+        Some(0)
+    } else if rel.cos().abs() <= tol {
+        Some(1)
+    } else {
+        None
+    }
+}
+
+/// The hole's axes: along it (`a`) and across it (`n = ẑ × a`).
+fn hole_axes(sys: &TwoPlaneSystem) -> [[f64; 2]; 2] {
+    [
+        direction(sys.hole.angle_deg),
+        direction(sys.hole.angle_deg + 90.0),
+    ]
+}
+
+fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+
+/// The one-plane system of hole axis `axis` (0 along the hole, 1 across it) of a decoupled
+/// two-plane system: the bar's principal stiffness and damping along it, the force's component,
+/// the clearance (`2l_g` or `2c_r`) as the gap, gravity's component as a body force on the
+/// ball, frictionless walls.
+pub fn plane_system(sys: &TwoPlaneSystem, axis: usize) -> Result<System, SimError> {
+    decoupled(sys).map_err(SimError::Unsupported)?;
+    let j = principal_index(sys, axis).unwrap_or(0);
+    let e = hole_axes(sys)[axis];
+    let g = sys.gravity.m_s2;
+    let g_along = g * dot(direction(sys.gravity.angle_deg), e);
+    let gap_m = if axis == 0 {
+        sys.hole.axial_gap_m
+    } else {
+        2.0 * sys.radial_clearance_m()
+    };
+    Ok(System {
+        bar: BarModel::Lumped(Bar {
+            mass_kg: sys.bar.mass_kg,
+            stiffness_n_per_m: sys.bar.stiffness_n_per_m[j],
+            damping_ratio: sys.bar.damping_ratio[j],
+        }),
+        damper: Some(Damper {
+            ball_mass_kg: sys.ball.mass_kg,
+            ball_radius_m: sys.ball.radius_m,
+            restitution: sys.ball.restitution,
+            gap_m,
+            rolling_friction_m: 0.0,
+            friction: FrictionModel::None,
+            friction_force_n: None,
+            contact: Contact::default(),
+            gravity_along_gap_m_s2: if g_along.abs() <= 1e-12 * g {
+                0.0
+            } else {
+                g_along
+            },
+        }),
+        forcing: Forcing {
+            amplitude_n: sys.forcing.amplitude_n * dot(direction(sys.forcing.angle_deg), e),
+            frequency: Frequency::RadPerS(sys.omega_rad_s()),
+            static_force_n: 0.0,
+        },
+        // Read by friction only, which these planes do not have.
+        gravity_m_s2: if g > 0.0 {
+            g
+        } else {
+            crate::params::STANDARD_GRAVITY_M_S2
+        },
+    })
+}
+
+/// The one-plane start of hole axis `axis`.
+fn plane_start(sys: &TwoPlaneSystem, start: &TwoPlaneStart, axis: usize) -> State {
+    let e = hole_axes(sys)[axis];
+    let (u, du) = (dot(start.u_m, e), dot(start.du_m_s, e));
+    State {
+        t_s: 0.0,
+        u_m: u,
+        du_m_s: du,
+        v_m: u + start.w_hole_m[axis],
+        dv_m_s: du + start.dw_hole_m_s[axis],
+        cavity: None,
+    }
+}
+
+/// A piece of the plane along the hole inside the window: its displacement at the
+/// Chebyshev–Lobatto nodes of `[t0, t1]`, and whether the ball rests on a plug.
+#[derive(Debug, Clone, Copy)]
+struct Piece {
+    t0: f64,
+    t1: f64,
+    u: [f64; NODES],
+    contact: bool,
+}
+
+impl Piece {
+    /// Node `j` in `[t0, t1]` (node 0 at `t1`).
+    fn node(t0: f64, t1: f64, j: usize) -> f64 {
+        let x = (std::f64::consts::PI * j as f64 / (NODES - 1) as f64).cos();
+        0.5 * (t0 + t1) + 0.5 * (t1 - t0) * x
+    }
+
+    /// The interpolant at `t` (barycentric formula).
+    fn at(&self, t: f64) -> f64 {
+        let (mut num, mut den) = (0.0, 0.0);
+        for j in 0..NODES {
+            let d = t - Piece::node(self.t0, self.t1, j);
+            if d == 0.0 {
+                return self.u[j];
+            }
+            let mut w = if j % 2 == 0 { 1.0 } else { -1.0 };
+            if j == 0 || j == NODES - 1 {
+                w *= 0.5;
+            }
+            num += w / d * self.u[j];
+            den += w / d;
+        }
+        num / den
+    }
+}
+
+/// What the plane along the hole streams.
+enum Msg {
+    Piece(Piece),
+    Event(TwoPlaneEvent),
+}
+
+/// What one plane's run adds up.
+#[derive(Debug, Clone, Copy, Default)]
+struct PlaneTotals {
+    /// `∫u²` over the window.
+    u2: f64,
+    forcing_work_j: f64,
+    viscous_loss_j: f64,
+    impact_loss_j: f64,
+    /// Impacts on the `+` and `−` walls.
+    impacts: [u64; 2],
+    /// Window time resting on the `+` and `−` walls.
+    rest_s: [f64; 2],
+    events: u64,
+    max_penetration_m: f64,
+    /// Mechanical energy (with the body force's potential) at the start and the end.
+    energy_start_j: Option<f64>,
+    energy_end_j: f64,
+    end: Option<State>,
+}
+
+/// The observer of one plane: its totals, and its share of the stream.
+struct PlaneObserver<'a> {
+    axis: usize,
+    window: (f64, f64),
+    half_gap_m: f64,
+    /// `m_d·g` along the plane's slot (the body force's potential is `−m_d g v`).
+    weight_n: f64,
+    totals: PlaneTotals,
+    /// The plane along the hole: where it streams to (`None` once the other end is gone).
+    tx: Option<SyncSender<Msg>>,
+    /// The largest piece length.
+    h_max_s: f64,
+    /// The plane across the hole: the stream it reads and what it does with it.
+    rx: Option<Cross<'a>>,
+}
+
+/// The plane across the hole's reading of the stream.
+struct Cross<'a> {
+    rx: Receiver<Msg>,
+    /// The piece the stream reached (straddling the last time asked for).
+    cur: Option<Piece>,
+    /// Events of the plane along the hole not yet reported.
+    pending: VecDeque<TwoPlaneEvent>,
+    /// Time up to which the stream has been read.
+    stream_t: f64,
+    /// `∫u_a u_n` over the window.
+    cross: f64,
+    /// Window time the ball touches no wall.
+    flight_s: f64,
+    on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
+}
+
+impl Cross<'_> {
+    /// Read one message; `false` once the stream has ended.
+    fn read(&mut self) -> bool {
+        match self.rx.recv() {
+            Ok(Msg::Piece(p)) => {
+                debug_assert!(self.cur.is_none(), "a piece read over one still in use");
+                self.stream_t = p.t1;
+                self.cur = Some(p);
+                true
+            }
+            Ok(Msg::Event(e)) => {
+                self.stream_t = e.t_s;
+                self.pending.push_back(e);
+                true
+            }
+            Err(_) => {
+                self.stream_t = f64::INFINITY;
+                false
+            }
+        }
+    }
+
+    /// Report the stream's events up to `t` (all of them for `t = ∞`).
+    fn report_until(&mut self, t: f64) {
+        while self.stream_t < t && self.read() {}
+        while let Some(e) = self.pending.front() {
+            if e.t_s > t {
+                break;
+            }
+            let e = self.pending.pop_front().expect("front exists");
+            (self.on_event)(&e);
+        }
+    }
+
+    /// Integrate `u_a u_n` and the flight time over `[a, b]` of a segment of the plane across
+    /// the hole.
+    fn integrate(&mut self, seg: &dyn Segment, a: f64, b: f64, contact: bool) {
+        let mut lo = a;
+        while lo < b {
+            let p = match self.cur {
+                Some(p) if p.t1 > lo => p,
+                _ => {
+                    self.cur = None;
+                    if !self.read_piece() {
+                        return;
+                    }
+                    continue;
+                }
+            };
+            let hi = p.t1.min(b);
+            let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+            let mut sum = 0.0;
+            for (x, w) in GAUSS_8 {
+                let t = mid + half * x;
+                sum += w * p.at(t) * seg.state_at(t).u_m;
+            }
+            self.cross += half * sum;
+            if !contact && !p.contact {
+                self.flight_s += hi - lo;
+            }
+            lo = hi;
+            if p.t1 <= b {
+                self.cur = None;
+            }
+        }
+    }
+
+    /// Read up to the next piece (keeping the events on the way); `false` if the stream ended.
+    fn read_piece(&mut self) -> bool {
+        while self.read() {
+            if self.cur.is_some() {
+                return true;
+            }
+        }
+        false
+    }
+}
+
+/// Nodes and weights of the 8-point Gauss–Legendre rule on `[−1, 1]`.
+const GAUSS_8: [(f64, f64); 8] = [
+    (-0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
+    (-0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
+    (-0.525_532_409_916_329, 0.313_706_645_877_887_3),
+    (-0.183_434_642_495_649_8, 0.362_683_783_378_362),
+    (0.183_434_642_495_649_8, 0.362_683_783_378_362),
+    (0.525_532_409_916_329, 0.313_706_645_877_887_3),
+    (0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
+    (0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
+];
+
+impl PlaneObserver<'_> {
+    fn energy_j(&self, seg: &dyn Segment, t: f64) -> f64 {
+        seg.mechanical_energy_j(t) - self.weight_n * seg.state_at(t).v_m
+    }
+
+    fn two_plane_event(&self, ev: &Event) -> Option<TwoPlaneEvent> {
+        let wall = |w: Wall| HoleWall::of(self.axis, w.sign());
+        let kind = match ev.kind {
+            EventKind::Impact {
+                wall: w,
+                dw_m_s,
+                energy_loss_j,
+            } => TwoPlaneEventKind::Impact {
+                wall: wall(w),
+                approach_m_s: dw_m_s.abs(),
+                energy_loss_j,
+            },
+            EventKind::ChatterLimit {
+                wall: w,
+                energy_loss_j,
+            } => TwoPlaneEventKind::Rest {
+                wall: wall(w),
+                energy_loss_j,
+            },
+            EventKind::ContactRelease { wall: w } => TwoPlaneEventKind::LiftOff { wall: wall(w) },
+            // Frictionless walls: no friction events.
+            EventKind::FrictionSwitch | EventKind::Stick | EventKind::Unstick => return None,
+        };
+        Some(TwoPlaneEvent { t_s: ev.t_s, kind })
+    }
+}
+
+impl Observer for PlaneObserver<'_> {
+    fn segment(&mut self, seg: &dyn Segment) {
+        let (t0, t1) = (seg.t_start_s(), seg.t_end_s());
+        if self.totals.energy_start_j.is_none() {
+            self.totals.energy_start_j = Some(self.energy_j(seg, t0));
+        }
+        self.totals.energy_end_j = self.energy_j(seg, t1);
+        self.totals.end = Some(seg.state_at(t1));
+        let i = seg.integrals(t0, t1);
+        self.totals.forcing_work_j += i.forcing_work_j;
+        self.totals.viscous_loss_j += i.viscous_loss_j;
+        let (a, b) = (t0.max(self.window.0), t1.min(self.window.1));
+        if b <= a {
+            return;
+        }
+        self.totals.u2 += seg.integral_u2(a, b);
+        let contact = match seg.mode() {
+            Mode::Contact(w) => {
+                self.totals.rest_s[usize::from(w == Wall::Minus)] += b - a;
+                true
+            }
+            _ => false,
+        };
+        if let Some(tx) = &self.tx {
+            let n = ((b - a) / self.h_max_s).ceil().max(1.0) as usize;
+            let h = (b - a) / n as f64;
+            for k in 0..n {
+                let p0 = a + h * k as f64;
+                let p1 = if k + 1 == n { b } else { p0 + h };
+                let mut u = [0.0; NODES];
+                for (j, uj) in u.iter_mut().enumerate() {
+                    *uj = seg.state_at(Piece::node(p0, p1, j)).u_m;
+                }
+                let piece = Piece {
+                    t0: p0,
+                    t1: p1,
+                    u,
+                    contact,
+                };
+                if tx.send(Msg::Piece(piece)).is_err() {
+                    self.tx = None;
+                    break;
+                }
+            }
+        }
+        if let Some(cross) = &mut self.rx {
+            cross.integrate(seg, a, b, contact);
+        }
+    }
+
+    fn event(&mut self, ev: &Event) {
+        self.totals.events += 1;
+        let w = ev.after.v_m - ev.after.u_cavity_m();
+        self.totals.max_penetration_m =
+            self.totals.max_penetration_m.max(w.abs() - self.half_gap_m);
+        match ev.kind {
+            EventKind::Impact {
+                wall,
+                energy_loss_j,
+                ..
+            } => {
+                self.totals.impacts[usize::from(wall == Wall::Minus)] += 1;
+                self.totals.impact_loss_j += energy_loss_j;
+            }
+            EventKind::ChatterLimit { energy_loss_j, .. } => {
+                self.totals.impact_loss_j += energy_loss_j;
+            }
+            _ => {}
+        }
+        let Some(e) = self.two_plane_event(ev) else {
+            return;
+        };
+        if let Some(tx) = &self.tx {
+            if tx.send(Msg::Event(e)).is_err() {
+                self.tx = None;
+            }
+        }
+        if let Some(cross) = &mut self.rx {
+            cross.report_until(e.t_s);
+            (cross.on_event)(&e);
+        }
+    }
+}
+
+/// The exact two-plane solver (see the module's documentation for where it applies).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TwoPlaneExact {
+    /// The one-plane solver each plane runs on.
+    pub plane: Exact,
+}
+
+impl TwoPlaneExact {
+    /// Run `sys` from `start` over `settings.duration_s` (its `dt_s` is not used), calling
+    /// `on_event` at every event in the order of time. Refuses a system whose planes do not
+    /// decouple ([`decoupled`]).
+    pub fn run(
+        &self,
+        sys: &TwoPlaneSystem,
+        start: &TwoPlaneStart,
+        settings: &RunSettings,
+        on_event: &mut dyn FnMut(&TwoPlaneEvent),
+    ) -> Result<TwoPlaneSummary, SimError> {
+        sys.validate()?;
+        settings.validate()?;
+        super::two_plane_rk4::check_start(sys, start)?;
+        let systems = [plane_system(sys, 0)?, plane_system(sys, 1)?];
+        let starts = [plane_start(sys, start, 0), plane_start(sys, start, 1)];
+        let t_end = settings.duration_s;
+        let window = (settings.window_start_s(), t_end);
+        let k_max = sys.bar.stiffness_n_per_m[0].max(sys.bar.stiffness_n_per_m[1]);
+        let omega_hi = (k_max / sys.bar.mass_kg).sqrt().max(sys.omega_rad_s());
+        let h_max_s = 1.0 / omega_hi;
+        let observer = |axis: usize| PlaneObserver {
+            axis,
+            window,
+            half_gap_m: if axis == 0 {
+                sys.hole.half_axial_gap_m()
+            } else {
+                sys.radial_clearance_m()
+            },
+            weight_n: sys.ball.mass_kg
+                * systems[axis]
+                    .damper
+                    .map_or(0.0, |d| d.gravity_along_gap_m_s2),
+            totals: PlaneTotals::default(),
+            tx: None,
+            h_max_s,
+            rx: None,
+        };
+        let (tx, rx) = sync_channel(STREAM_BUFFER);
+        let solver = self.plane;
+        let (along, across, cross, flight_s) = std::thread::scope(|scope| {
+            let producer = scope.spawn(|| {
+                let mut obs = PlaneObserver {
+                    tx: Some(tx),
+                    ..observer(0)
+                };
+                let r = solver.run(&systems[0], &starts[0], t_end, &mut obs);
+                r.map(|_| obs.totals)
+            });
+            let mut obs = PlaneObserver {
+                rx: Some(Cross {
+                    rx,
+                    cur: None,
+                    pending: VecDeque::new(),
+                    stream_t: f64::NEG_INFINITY,
+                    cross: 0.0,
+                    flight_s: 0.0,
+                    on_event,
+                }),
+                ..observer(1)
+            };
+            let r = solver.run(&systems[1], &starts[1], t_end, &mut obs);
+            let mut cross = obs.rx.take().expect("the reading end");
+            if r.is_ok() {
+                // The rest of the stream: the events after the last one across the hole.
+                cross.report_until(f64::INFINITY);
+            }
+            let (c, f) = (cross.cross, cross.flight_s);
+            // Dropping the reading end lets a producer still running finish.
+            drop(cross);
+            let along = producer
+                .join()
+                .map_err(|_| SimError::Unsupported("the run of the plane along the hole failed"))?;
+            r?;
+            Ok::<_, SimError>((along?, obs.totals, c, f))
+        })?;
+        summarize(sys, start, &[along, across], cross, flight_s, window)
+    }
+}
+
+/// The summary of the two planes' totals and their cross integrals.
+fn summarize(
+    sys: &TwoPlaneSystem,
+    start: &TwoPlaneStart,
+    planes: &[PlaneTotals; 2],
+    cross: f64,
+    flight_s: f64,
+    window: (f64, f64),
+) -> Result<TwoPlaneSummary, SimError> {
+    let len = window.1 - window.0;
+    let axes = hole_axes(sys);
+    // `∫(c·u)²` for `c` in the hole's frame.
+    let rms = |c: [f64; 2]| {
+        let s = c[0] * c[0] * planes[0].u2 + c[1] * c[1] * planes[1].u2 + 2.0 * c[0] * c[1] * cross;
+        (s.max(0.0) / len).sqrt()
+    };
+    let e_f = direction(sys.forcing.angle_deg);
+    let frame = |v: [f64; 2]| [dot(v, axes[0]), dot(v, axes[1])];
+    let mut impacts = [0; 4];
+    let mut contact_fraction = [[0.0; 3]; 4];
+    for axis in 0..2 {
+        for side in 0..2 {
+            impacts[2 * axis + side] = planes[axis].impacts[side];
+            contact_fraction[2 * axis + side][WallMotion::Sliding as usize] =
+                planes[axis].rest_s[side] / len;
+        }
+    }
+    let ends = [planes[0].end, planes[1].end];
+    let [Some(ea), Some(en)] = ends else {
+        return Err(SimError::Unsupported(
+            "a plane's run had no segment (zero duration)",
+        ));
+    };
+    let end = TwoPlaneStart {
+        u_m: [
+            ea.u_m * axes[0][0] + en.u_m * axes[1][0],
+            ea.u_m * axes[0][1] + en.u_m * axes[1][1],
+        ],
+        du_m_s: [
+            ea.du_m_s * axes[0][0] + en.du_m_s * axes[1][0],
+            ea.du_m_s * axes[0][1] + en.du_m_s * axes[1][1],
+        ],
+        w_hole_m: [ea.v_m - ea.u_m, en.v_m - en.u_m],
+        dw_hole_m_s: [ea.dv_m_s - ea.du_m_s, en.dv_m_s - en.du_m_s],
+        spin_rad_s: start.spin_rad_s,
+    };
+    let sum = |f: fn(&PlaneTotals) -> f64| f(&planes[0]) + f(&planes[1]);
+    let book = TwoPlaneBook {
+        forcing_work_j: sum(|p| p.forcing_work_j),
+        viscous_loss_j: sum(|p| p.viscous_loss_j),
+        impact_loss_j: sum(|p| p.impact_loss_j),
+        sliding_loss_j: 0.0,
+        rolling_loss_j: 0.0,
+        energy_change_j: sum(|p| p.energy_end_j - p.energy_start_j.unwrap_or(p.energy_end_j)),
+    };
+    let cause = "parameters far outside the model's range (forces, masses or stiffness)";
+    let fin = |what: &'static str, v: f64| crate::limits::finite_result(what, v, cause);
+    Ok(TwoPlaneSummary {
+        rms_along_force_m: fin("RMS along the force", rms(frame(e_f)))?,
+        rms_m: [
+            fin("RMS of u_x", rms(frame([1.0, 0.0])))?,
+            fin("RMS of u_y", rms(frame([0.0, 1.0])))?,
+        ],
+        rms_total_m: fin(
+            "RMS of |u|",
+            ((planes[0].u2 + planes[1].u2).max(0.0) / len).sqrt(),
+        )?,
+        impacts,
+        contact_fraction,
+        flight_fraction: flight_s / len,
+        events: planes[0].events + planes[1].events,
+        max_penetration_m: planes[0].max_penetration_m.max(planes[1].max_penetration_m),
+        book,
+        end,
+    })
+}
