@@ -1204,10 +1204,11 @@ def two_plane(
     gravity_angle_deg: float = 90.0,
     members: int = 8,
     seed: int = 1,
-    along_speed_m_s: float = 0.01,
+    start_speed_m_s: float = 0.01,
     duration_s: float = 2.0,
     dt_s: float = 1e-6,
     rms_fraction: float = 0.8,
+    solver: str = "auto",
     threads: Optional[int] = None,
     progress: Progress = None,
 ) -> Table:
@@ -1230,19 +1231,31 @@ def two_plane(
             ball moves ±gap/2); hole_diameter_m: across it the ball moves ±(d_hole − 2r)/2.
         forcing_amplitude_n, forcing_frequency_ratio, forcing_angle_deg: the harmonic force.
         gravity_m_s2, gravity_angle_deg: gravity on the ball (0 allowed).
-        members, seed, along_speed_m_s: the ensemble of starts: member 0 rests on the wall gravity
+        members, seed, start_speed_m_s: the ensemble of starts: member 0 rests on the wall gravity
             presses it onto, centred along the hole; the others at seeded places along the hole
-            with a speed along it up to ``along_speed_m_s``.
-        duration_s, dt_s, rms_fraction: each run (RK4 step; RMS over the last fraction).
+            with speeds up to ``start_speed_m_s`` along it and across it (away from the wall it
+            rests on).
+        duration_s, dt_s, rms_fraction: each run (the reference solver's RK4 step; RMS over
+            the last fraction).
+        solver: ``"exact"`` (the event-driven solver; it needs frictionless walls and the bar's
+            principal axes along and across the hole, where the planes decouple),
+            ``"reference"`` (RK4 at ``dt_s`` with every event located inside its step; any
+            walls), or ``"auto"``: exact where it applies, the reference elsewhere.
 
     Returns:
-        Table, one row per member: ``w_along_start_m``, ``dw_along_start_m_s`` (the start),
+        Table, one row per member: ``w_along_start_m``, ``dw_along_start_m_s``,
+        ``dw_across_start_m_s`` (the start),
         ``rms_along_force_m``, ``rms_radial_m``, ``rms_tangential_m``, ``rms_total_m`` (m),
         ``impacts_axial_plus``, ``impacts_axial_minus``, ``impacts_across_plus``,
         ``impacts_across_minus``, ``flight_fraction``, ``one_plane_rms_m`` (the one-plane model
         from the same start: the slot along the hole, the whole force along it, Coulomb friction
-        when the walls have friction) and ``solid_rms_m`` (the bar without its ball).
+        when the walls have friction), ``solid_rms_m`` (the bar without its ball) and
+        ``solver`` (which solver ran).
     """
+    if solver not in ("auto", "exact", "reference"):
+        raise ValueError(
+            f"solver = {solver!r} is not one of the allowed values: 'auto', 'exact', 'reference'"
+        )
     def pair(name, x):
         if isinstance(x, (int, float, _np.integer, _np.floating)) and not isinstance(x, bool):
             return (float(x), float(x))
@@ -1276,7 +1289,7 @@ def two_plane(
             ("forcing_angle_deg", forcing_angle_deg),
             ("gravity_m_s2", gravity_m_s2),
             ("gravity_angle_deg", gravity_angle_deg),
-            ("along_speed_m_s", along_speed_m_s),
+            ("start_speed_m_s", start_speed_m_s),
             ("duration_s", duration_s),
             ("dt_s", dt_s),
             ("rms_fraction", rms_fraction),
@@ -1305,10 +1318,11 @@ def two_plane(
             numbers["gravity_angle_deg"],
             int(members),
             int(seed),
-            numbers["along_speed_m_s"],
+            numbers["start_speed_m_s"],
             numbers["duration_s"],
             numbers["dt_s"],
             numbers["rms_fraction"],
+            solver,
             _threads(threads),
             cb,
         )

@@ -268,10 +268,11 @@ def two_plane(
     gravity_angle_deg: float = 90.0,
     members: int = 8,
     seed: int = 1,
-    along_speed_m_s: float = 0.01,
+    start_speed_m_s: float = 0.01,
     duration_s: float = 2.0,
     dt_s: float = 1e-6,
     rms_fraction: float = 0.8,
+    solver: str = "auto",
     threads: Optional[int] = None,
     progress: Progress = None,
 ) -> Table: ...

@@ -235,10 +235,11 @@ def two_plane(
     gravity_angle_deg: float,
     members: int,
     seed: int,
-    along_speed_m_s: float,
+    start_speed_m_s: float,
     duration_s: float,
     dt_s: float,
     rms_fraction: float,
+    solver: str,
     threads: Optional[int],
     progress: Optional[Callable[[int, int], None]],
 ) -> Dict[str, npt.NDArray[Any]]: ...

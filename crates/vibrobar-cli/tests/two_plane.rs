@@ -17,6 +17,8 @@ fn quick_document_has_its_tables_and_the_force_along_the_hole_agrees_with_one_pl
     for h in [
         "# One plane or two: the ball in a hole across a round bar",
         "## The model",
+        "## The exact solver against the reference",
+        "## The beam referred to the tip",
         "## One plane against two planes, frictionless walls",
         "## One plane against two planes, frictional walls",
         "## Where to drill the hole: hole angle × axial gap",
@@ -34,26 +36,41 @@ fn quick_document_has_its_tables_and_the_force_along_the_hole_agrees_with_one_pl
         .skip(1)
         .map(|l| l.split(',').collect())
         .collect();
-    // 2 wall laws × 2 holes × 2 gaps × 1 ratio × 2 forces, and the two 2 × 2 maps; two models
-    // each.
-    assert_eq!(rows.len(), 2 * (16 + 4 + 4));
+    // 2 wall laws × 2 holes × 2 gaps × 1 ratio × 2 forces, the two 2 × 2 maps and the beam's
+    // 2 holes × 2 gaps × 2 forces; two models each; and the reference solver's check at the four
+    // frictionless points at 63.4°.
+    assert_eq!(rows.len(), 2 * (16 + 4 + 4 + 8) + 4);
+    assert_eq!(rows.iter().filter(|r| r[0] == "beam").count(), 16);
     for r in &rows {
-        assert_eq!(r.len(), 15);
-        for v in &r[8..] {
+        assert_eq!(r.len(), 17);
+        let r = &r[1..];
+        for v in &r[9..] {
             assert!(v.parse::<f64>().unwrap().is_finite(), "{r:?}");
         }
+        // The exact solver where the planes decouple, the reference one with friction.
+        let expected = match (r[0], r[7]) {
+            (_, "one-plane") | ("frictionless", _) => &["exact", "reference"][..],
+            _ => &["reference"][..],
+        };
+        assert!(expected.contains(&r[8]), "{r:?}");
     }
+    let checks = rows
+        .iter()
+        .filter(|r| r[1] == "frictionless" && r[8] == "two-plane" && r[9] == "reference")
+        .count();
+    assert_eq!(checks, 4);
     // Frictionless walls with the force along the hole: two planes = one plane, member by
     // member, so the means and ranges agree.
-    let along: Vec<&Vec<&str>> = rows
+    let along: Vec<Vec<&str>> = rows
         .iter()
-        .filter(|r| r[0] == "frictionless" && r[6] == "0")
+        .filter(|r| r[0] == "lumped" && r[1] == "frictionless" && r[7] == "0")
+        .map(|r| r[1..].to_vec())
         .collect();
     assert_eq!(along.len(), 8);
     for pair in along.chunks(2) {
-        let (two, one) = (pair[0], pair[1]);
+        let (two, one) = (&pair[0], &pair[1]);
         assert_eq!((two[7], one[7]), ("two-plane", "one-plane"));
-        for k in 8..12 {
+        for k in 9..13 {
             let (a, b): (f64, f64) = (two[k].parse().unwrap(), one[k].parse().unwrap());
             assert!((a - b).abs() < 0.01, "{two:?} against {one:?}");
         }

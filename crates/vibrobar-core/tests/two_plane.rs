@@ -2,7 +2,7 @@
 //! resting mode), against closed forms and against the one-plane exact solver.
 
 use vibrobar_core::params::two_plane::{
-    Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneSystem,
+    Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneBar, TwoPlaneSystem,
 };
 use vibrobar_core::solver::two_plane_exact::{self, TwoPlaneExact};
 use vibrobar_core::solver::two_plane_rk4::{
@@ -23,7 +23,7 @@ fn paper(
     g: f64,
 ) -> TwoPlaneSystem {
     TwoPlaneSystem {
-        bar: PlanarBar::isotropic(&Bar::PAPER_CAVITY),
+        bar: PlanarBar::isotropic(&Bar::PAPER_CAVITY).into(),
         ball: PlanarBall::paper_frictionless(),
         hole: Hole {
             angle_deg: hole_deg,
@@ -262,7 +262,7 @@ fn a_dropped_ball_falls_as_a_parabola() {
 /// The steady state of the bar carrying the resting ball across the hole (gravity at 90°, the
 /// hole at 0°, the force across it): `(u_y, u̇_y)` at `t = 0` and the acceleration amplitude.
 fn carried_steady_state(sys: &TwoPlaneSystem) -> ([f64; 2], f64) {
-    let b = sys.bar;
+    let b = *sys.bar.lumped().unwrap();
     let (m, k) = (b.mass_kg + sys.ball.mass_kg, b.stiffness_n_per_m[0]);
     let c = 2.0 * b.damping_ratio[0] * (k * b.mass_kg).sqrt();
     let om = sys.omega_rad_s();
@@ -310,11 +310,11 @@ fn the_ball_lifts_off_where_the_cavity_accelerates_away_faster_than_g() {
             // and read the bar's force there (a resting ball leaves when f_y/M reaches g).
             let t_ev = first_lift.unwrap().t_s;
             let (_, s) = run2(&sys, &start, t_ev);
-            let (kk, cc) = sys.bar.matrices();
+            let (kk, cc) = sys.bar.lumped_mut().unwrap().matrices();
             let fy = sys.forcing.amplitude_n * (sys.omega_rad_s() * t_ev).sin()
                 - cc[1][1] * s.end.du_m_s[1]
                 - kk[1][1] * s.end.u_m[1];
-            let acc = fy / sys.bar.mass_kg;
+            let acc = fy / sys.bar.lumped_mut().unwrap().mass_kg;
             assert!((acc - 9.80665).abs() < 1e-6 * 9.80665, "{acc}");
         }
     }
@@ -336,7 +336,7 @@ fn a_carried_ball_adds_its_mass_to_the_bar() {
     let (evs, s) = run2(&sys, &start, 0.2);
     assert!(evs.is_empty());
     let om = sys.omega_rad_s();
-    let stat = sys.ball.mass_kg * 9.80665 / sys.bar.stiffness_n_per_m[0];
+    let stat = sys.ball.mass_kg * 9.80665 / sys.bar.lumped_mut().unwrap().stiffness_n_per_m[0];
     let amp = acc / (om * om);
     // Over whole periods RMS² = stat² + amp²/2; the window is 0.16 s, 0.16·Ω/2π periods.
     let periods = 0.16 * om / (2.0 * std::f64::consts::PI);
@@ -427,11 +427,11 @@ fn frictional(mut sys: TwoPlaneSystem, mu_s: f64, mu_k: f64, eta: f64) -> TwoPla
 /// A bar so heavy it does not move: 1e9 kg at 100 rad/s, no force.
 fn fixed_wall(gap_m: f64, mu_s: f64, mu_k: f64, eta: f64) -> TwoPlaneSystem {
     let mut sys = paper(gap_m, 0.05e-3, 0.0, 0.0, 1.0, 9.80665);
-    sys.bar = PlanarBar::isotropic(&Bar {
+    sys.bar = TwoPlaneBar::from(PlanarBar::isotropic(&Bar {
         mass_kg: 1e9,
         stiffness_n_per_m: 1e13,
         damping_ratio: 0.01,
-    });
+    }));
     sys.forcing.amplitude_n = 0.0;
     frictional(sys, mu_s, mu_k, eta)
 }
@@ -501,7 +501,7 @@ fn rolling_resistance_stops_a_rolling_ball_after_7rv0_over_5_eta_g() {
 /// A bar driven along the hole with the ball resting (rolling) on the hole's wall, gravity
 /// across: its steady state along x as a bar of mass `M + extra` and the static offset across.
 fn rolling_start(sys: &TwoPlaneSystem, extra_kg: f64) -> (TwoPlaneStart, f64) {
-    let b = sys.bar;
+    let b = *sys.bar.lumped().unwrap();
     let (m, k) = (b.mass_kg + extra_kg, b.stiffness_n_per_m[0]);
     let c = 2.0 * b.damping_ratio[0] * (k * b.mass_kg).sqrt();
     let om = sys.omega_rad_s();
@@ -551,7 +551,7 @@ fn a_rolling_ball_lags_the_wall_by_five_sevenths_and_loads_the_bar_with_two_seve
         s.end.u_m[0]
     );
     // Across, the bar carries the resting ball's weight, still at its static offset.
-    let stat = md * g / sys.bar.stiffness_n_per_m[1];
+    let stat = md * g / sys.bar.lumped_mut().unwrap().stiffness_n_per_m[1];
     assert!(
         (s.end.u_m[1] - stat).abs() < 1e-9 * stat,
         "{}",
@@ -575,11 +575,11 @@ fn the_ball_slides_where_the_wall_accelerates_at_seven_halves_mu_g() {
         assert_eq!(t.is_some(), slides, "scale {scale}: {:?}", evs.first());
         if let Some(t) = t {
             let (_, s) = run2(&sys, &start, t);
-            let (kk, cc) = sys.bar.matrices();
+            let (kk, cc) = sys.bar.lumped_mut().unwrap().matrices();
             let fx = sys.forcing.amplitude_n * (sys.omega_rad_s() * t).sin()
                 - cc[0][0] * s.end.du_m_s[0]
                 - kk[0][0] * s.end.u_m[0];
-            let acc = fx / (sys.bar.mass_kg + extra);
+            let acc = fx / (sys.bar.lumped_mut().unwrap().mass_kg + extra);
             assert!((acc.abs() - 3.5 * mu_s * g).abs() < 1e-6 * g, "{acc}");
         }
     }
@@ -699,20 +699,20 @@ fn an_anisotropic_bar_responds_along_its_principal_axes() {
     // bar alone, with 600 and 618 Hz-like principal stiffnesses at 20°. Its steady response along
     // x is the sum over the principal axes of the force's projection times each axis' receptance.
     let mut sys = paper(20e-3, 10e-3, 0.0, 65.0, 1.0, 0.0);
-    sys.bar.stiffness_n_per_m = [9.22e6, 9.22e6 * (618.0f64 / 600.0).powi(2)];
-    sys.bar.damping_ratio = [0.01, 0.02];
-    sys.bar.principal_axis_deg = 20.0;
+    sys.bar.lumped_mut().unwrap().stiffness_n_per_m = [9.22e6, 9.22e6 * (618.0f64 / 600.0).powi(2)];
+    sys.bar.lumped_mut().unwrap().damping_ratio = [0.01, 0.02];
+    sys.bar.lumped_mut().unwrap().principal_axis_deg = 20.0;
     let (_, s) = run2(&sys, &TwoPlaneStart::at_rest([0.0; 2]), 2.0);
     assert_eq!(s.impacts, [0; 4]);
     let om = sys.omega_rad_s();
-    let m = sys.bar.mass_kg;
+    let m = sys.bar.lumped_mut().unwrap().mass_kg;
     let f = 15.0;
     let (mut ux, mut uy) = ((0.0, 0.0), (0.0, 0.0));
     for i in 0..2 {
         let ang = (20.0 + 90.0 * i as f64).to_radians();
         let p = [ang.cos(), ang.sin()];
-        let k = sys.bar.stiffness_n_per_m[i];
-        let c = 2.0 * sys.bar.damping_ratio[i] * (k * m).sqrt();
+        let k = sys.bar.lumped_mut().unwrap().stiffness_n_per_m[i];
+        let c = 2.0 * sys.bar.lumped_mut().unwrap().damping_ratio[i] * (k * m).sqrt();
         // Receptance 1/(k − mΩ² + icΩ).
         let (re, im) = (k - m * om * om, c * om);
         let h = (re / (re * re + im * im), -im / (re * re + im * im));
@@ -728,8 +728,8 @@ fn an_anisotropic_bar_responds_along_its_principal_axes() {
     }
     // An isotropic bar would answer differently: the axes matter.
     let mut iso = sys;
-    iso.bar.stiffness_n_per_m = [9.22e6; 2];
-    iso.bar.damping_ratio = [0.01; 2];
+    iso.bar.lumped_mut().unwrap().stiffness_n_per_m = [9.22e6; 2];
+    iso.bar.lumped_mut().unwrap().damping_ratio = [0.01; 2];
     let (_, si) = run2(&iso, &TwoPlaneStart::at_rest([0.0; 2]), 2.0);
     assert!((si.rms_m[0] - s.rms_m[0]).abs() > 0.05 * s.rms_m[0]);
 }
@@ -890,13 +890,113 @@ fn the_exact_solver_says_where_the_planes_do_not_decouple() {
     };
     refuse(frictional(base, 0.3, 0.2, 0.0), "friction");
     let mut slanted = base;
-    slanted.bar.stiffness_n_per_m[1] *= 1.1;
-    slanted.bar.principal_axis_deg = 20.0;
+    slanted.bar.lumped_mut().unwrap().stiffness_n_per_m[1] *= 1.1;
+    slanted.bar.lumped_mut().unwrap().principal_axis_deg = 20.0;
     refuse(slanted, "principal axes");
     // Along and across the hole, an anisotropic bar decouples.
     let mut aligned = slanted;
-    aligned.bar.principal_axis_deg = 90.0;
+    aligned.bar.lumped_mut().unwrap().principal_axis_deg = 90.0;
     assert!(two_plane_exact::decoupled(&aligned).is_ok());
     // Rolling resistance alone does not couple frictionless walls.
     assert!(two_plane_exact::decoupled(&frictional(base, 0.0, 0.0, 0.6e-3)).is_ok());
+}
+
+/// The paper's bar as a round beam of its modes (the default rule), with its ball.
+fn round_beam(gap_m: f64, c_r_m: f64, force_deg: f64, ratio: f64, g: f64) -> TwoPlaneSystem {
+    let mut sys = paper(gap_m, c_r_m, 0.0, force_deg, ratio, g);
+    sys.bar = TwoPlaneBar::Round(
+        vibrobar_core::structure::Beam::default()
+            .modal_model()
+            .unwrap(),
+    );
+    sys
+}
+
+#[test]
+fn a_round_beam_far_from_the_walls_responds_through_its_receptance() {
+    // No wall touched: the tip's steady RMS along the force is |F0·G_tip,force(Ω)|/√2 in any
+    // direction of the force, and the planes' cross term puts it together.
+    use vibrobar_core::structure::Point;
+    let mut sys = round_beam(20e-3, 10e-3, 50.0, 1.0, 0.0);
+    sys.forcing.frequency = Frequency::RadPerS(2.0 * std::f64::consts::PI * 550.0);
+    let (evs, e) = exact2(&sys, &TwoPlaneStart::at_rest([0.0; 2]), 2.0);
+    assert!(evs.is_empty());
+    let TwoPlaneBar::Round(m) = sys.bar else {
+        unreachable!()
+    };
+    let g = m.receptance(Point::Force, Point::Response, sys.omega_rad_s());
+    let amp = 15.0 * g.norm();
+    close(
+        e.rms_along_force_m,
+        amp / 2f64.sqrt(),
+        1e-6,
+        "RMS along the force",
+    );
+    close(e.rms_total_m, amp / 2f64.sqrt(), 1e-6, "RMS of |u|");
+    assert!(m.len() >= 2, "{} modes", m.len());
+}
+
+#[test]
+fn a_bar_of_one_mode_is_the_lumped_bar_in_two_planes() {
+    // The one-mode model of the paper's lumped bar, with gravity, lift-off and impacts in both
+    // planes: the same run as the lumped two-plane bar.
+    let lumped = paper(0.1e-3, 0.05e-3, 0.0, 63.4, 1.0, 9.80665);
+    let mut one_mode = lumped;
+    one_mode.bar = TwoPlaneBar::Round(vibrobar_core::structure::ModalModel::lumped(
+        &Bar::PAPER_CAVITY,
+    ));
+    let start = TwoPlaneStart::resting(&lumped, 0.0);
+    // 60 ms: later the motion's sensitivity grows the rounding-level differences of the two
+    // kernels beyond 1e-9 s.
+    let (ea, a) = exact2(&lumped, &start, 0.06);
+    let (eb, b) = exact2(&one_mode, &start, 0.06);
+    assert!(a.impacts.iter().sum::<u64>() > 10, "{:?}", a.impacts);
+    assert_eq!(ea.len(), eb.len());
+    for (x, y) in ea.iter().zip(&eb) {
+        assert!((x.t_s - y.t_s).abs() < 1e-9, "{x:?} against {y:?}");
+    }
+    close(
+        b.rms_along_force_m,
+        a.rms_along_force_m,
+        1e-7,
+        "RMS along the force",
+    );
+    close(b.rms_m[1], a.rms_m[1], 1e-7, "RMS of u_y");
+    close(
+        b.book.forcing_work_j,
+        a.book.forcing_work_j,
+        1e-7,
+        "forcing work",
+    );
+    assert!(
+        b.book.residual_j().abs() < 1e-10 * b.book.forcing_work_j,
+        "{:?}",
+        b.book
+    );
+    // The reference solver runs the lumped bar only, and says so.
+    let err = TwoPlaneRk4::default()
+        .run(&one_mode, &start, &settings(0.01), &mut |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("lumped bar only"), "{err}");
+}
+
+#[test]
+fn a_round_beam_with_the_force_along_the_hole_is_the_one_plane_beam() {
+    // No gravity, the ball centred: the plane across the hole stays still, and along it the
+    // run is the one-plane beam's.
+    let sys = round_beam(0.1e-3, 0.05e-3, 0.0, 1.0, 0.0);
+    let start = TwoPlaneStart::at_rest([0.0; 2]);
+    let dur = 0.2;
+    let (_, e) = exact2(&sys, &start, dur);
+    let one = vibrobar_core::analysis::two_plane::one_plane_system(&sys, FrictionModel::None);
+    let rms = vibrobar_core::analysis::two_plane::one_plane_rms_m(
+        &one,
+        &vibrobar_core::analysis::two_plane::one_plane_start(&start),
+        &settings(dur),
+    )
+    .unwrap();
+    assert!(e.impacts[0] + e.impacts[1] > 0 && e.impacts[2] + e.impacts[3] == 0);
+    close(e.rms_along_force_m, rms, 1e-9, "RMS along the force");
+    assert!(e.rms_m[1] < 1e-15);
 }

@@ -2765,8 +2765,8 @@ fn two_plane_keywords(msg: String) -> String {
     ball_mass_kg, ball_radius_m, ball_restitution, ball_friction_static, ball_friction_kinetic,
     ball_rolling_friction_m, hole_angle_deg, hole_axial_gap_m, hole_diameter_m,
     forcing_amplitude_n, forcing_frequency_ratio, forcing_angle_deg, gravity_m_s2,
-    gravity_angle_deg, members, seed, along_speed_m_s, duration_s, dt_s, rms_fraction, threads,
-    progress
+    gravity_angle_deg, members, seed, start_speed_m_s, duration_s, dt_s, rms_fraction, solver,
+    threads, progress
 ))]
 #[allow(clippy::too_many_arguments)]
 fn two_plane<'py>(
@@ -2791,20 +2791,21 @@ fn two_plane<'py>(
     gravity_angle_deg: f64,
     members: usize,
     seed: u64,
-    along_speed_m_s: f64,
+    start_speed_m_s: f64,
     duration_s: f64,
     dt_s: f64,
     rms_fraction: f64,
+    solver: &str,
     threads: Option<usize>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use vibrobar_core::analysis::two_plane::{
         one_plane_rms_m, one_plane_start, one_plane_system, starts, TwoPlaneEnsemble,
+        TwoPlaneMethod,
     };
     use vibrobar_core::params::two_plane::{
         Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneSystem,
     };
-    use vibrobar_core::solver::two_plane_rk4::TwoPlaneRk4;
     use vibrobar_core::{FrictionModel, RunSettings, State};
     check_threads(threads)?;
     let sys = TwoPlaneSystem {
@@ -2813,7 +2814,8 @@ fn two_plane<'py>(
             stiffness_n_per_m: [bar_stiffness_n_per_m.0, bar_stiffness_n_per_m.1],
             damping_ratio: [bar_damping_ratio.0, bar_damping_ratio.1],
             principal_axis_deg: bar_principal_axis_deg,
-        },
+        }
+        .into(),
         ball: PlanarBall {
             mass_kg: ball_mass_kg,
             radius_m: ball_radius_m,
@@ -2849,16 +2851,20 @@ fn two_plane<'py>(
     let ens = TwoPlaneEnsemble {
         members,
         seed,
-        along_speed_m_s,
+        start_speed_m_s,
     };
-    let starts = starts(&sys, &ens).map_err(|e| {
-        input_error(
-            e.to_string()
-                .replace(" (--members)", "")
-                .replace(" (--along-speed)", ""),
-        )
-    })?;
-    let solver = TwoPlaneRk4 { dt_s };
+    let starts =
+        starts(&sys, &ens).map_err(|e| input_error(e.to_string().replace(" (--members)", "")))?;
+    let method = match solver {
+        "auto" => TwoPlaneMethod::Auto,
+        "exact" => TwoPlaneMethod::Exact,
+        "reference" => TwoPlaneMethod::Reference { dt_s },
+        _ => {
+            return Err(input_error(format!(
+                "solver = {solver:?} is not one of the allowed values: auto, exact, reference"
+            )))
+        }
+    };
     let friction = if sys.ball.frictionless() {
         FrictionModel::None
     } else {
@@ -2871,7 +2877,7 @@ fn two_plane<'py>(
         let cb = |d: usize, t: usize| ctl.progress(d, t);
         let run = runner(ctl, &cb, threads);
         let two = run
-            .each(&starts, |st| solver.run(&sys, st, &settings, &mut |_| {}))
+            .each(&starts, |st| method.run(&sys, st, &settings, &mut |_| {}))
             .map_err(|e| run_error(two_plane_keywords(e.to_string())))?;
         let one_rms = run
             .each(&starts, |st| {
@@ -2902,6 +2908,14 @@ fn two_plane<'py>(
             .into_pyarray(py),
     )?;
     d.set_item(
+        "dw_across_start_m_s",
+        starts
+            .iter()
+            .map(|s| s.dw_hole_m_s[1])
+            .collect::<Vec<_>>()
+            .into_pyarray(py),
+    )?;
+    d.set_item(
         "rms_along_force_m",
         col(&|s| s.rms_along_force_m).into_pyarray(py),
     )?;
@@ -2926,6 +2940,7 @@ fn two_plane<'py>(
     )?;
     d.set_item("one_plane_rms_m", one_rms.into_pyarray(py))?;
     d.set_item("solid_rms_m", vec![solid_rms; two.len()].into_pyarray(py))?;
+    d.set_item("solver", vec![method.solver_for(&sys); two.len()])?;
     Ok(d)
 }
 

@@ -133,6 +133,7 @@ pub fn bench(args: &BenchArgs) -> Result<()> {
         }
         super::orbit::bench_row()?;
         super::orbit::bench_row_modal()?;
+        super::two_plane::bench_row(BEAM_PAIRS)?;
     }
     cutting_row(&st)?;
     time_domain_row()?;

@@ -2,8 +2,8 @@
 //! one-plane model with the bar that bends in two planes, at the paper's bar and ball.
 //!
 //! For holes of 15.1 mm and 17 mm around the 15 mm ball, axial gaps of 0.1 and 1.0 mm and
-//! frequency ratios 0.97, 1 and 1.03 it runs seeded ensembles of the two-plane reference solver
-//! at force directions from 0° to 90° from the hole, on frictionless walls and on walls with
+//! frequency ratios 0.97, 1 and 1.03 it runs seeded ensembles of the two-plane solvers (the
+//! exact one on frictionless walls, the reference one with friction) at force directions from 0° to 90° from the hole, on frictionless walls and on walls with
 //! friction and rolling resistance, beside the one-plane model from the same starts; then the
 //! maps of hole angle × axial gap and of radial clearance × axial gap at the force of a
 //! tangential/radial ratio of 2. The reductions
@@ -18,12 +18,14 @@ use std::path::PathBuf;
 use std::time::Instant;
 use vibrobar_core::analysis::two_plane::{
     one_plane_rms_m, one_plane_start, one_plane_system, starts, Spread, TwoPlaneEnsemble,
+    TwoPlaneMethod,
 };
 use vibrobar_core::analysis::Runner;
 use vibrobar_core::params::two_plane::{
-    Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneSystem,
+    Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneBar, TwoPlaneSystem,
 };
-use vibrobar_core::solver::two_plane_rk4::{TwoPlaneRk4, TwoPlaneStart};
+use vibrobar_core::solver::two_plane_rk4::TwoPlaneStart;
+use vibrobar_core::structure::{Beam, ModalModel};
 use vibrobar_core::{Bar, Frequency, FrictionModel, RunSettings, State, System};
 
 /// `vibrobar two-plane`.
@@ -80,6 +82,18 @@ struct Point {
     force_deg: f64,
     hole_deg: f64,
     friction: bool,
+    /// The paper's bar as a round beam of its modes instead of its lumped model.
+    beam: bool,
+}
+
+/// The paper's bar as a beam (175 mm, 25 mm, the cavity 38 mm from the free end, force and
+/// response at the tip), its modes by the default rule.
+fn beam_model() -> Result<ModalModel> {
+    static MODEL: std::sync::OnceLock<Result<ModalModel, String>> = std::sync::OnceLock::new();
+    MODEL
+        .get_or_init(|| Beam::default().modal_model().map_err(|e| e.to_string()))
+        .clone()
+        .map_err(|e| anyhow::anyhow!("the paper's beam: {e}"))
 }
 
 impl Point {
@@ -91,7 +105,10 @@ impl Point {
             ball.rolling_friction_m = ETA_M;
         }
         TwoPlaneSystem {
-            bar: PlanarBar::isotropic(&Bar::PAPER_CAVITY),
+            bar: match (self.beam, beam_model()) {
+                (true, Ok(m)) => TwoPlaneBar::Round(m),
+                _ => PlanarBar::isotropic(&Bar::PAPER_CAVITY).into(),
+            },
             ball,
             hole: Hole {
                 angle_deg: self.hole_deg,
@@ -225,6 +242,7 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
                             force_deg,
                             hole_deg: 0.0,
                             friction,
+                            beam: false,
                         });
                     }
                 }
@@ -242,6 +260,7 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
                 force_deg: map_force,
                 hole_deg,
                 friction: true,
+                beam: false,
             });
         }
     }
@@ -255,7 +274,33 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
                 force_deg: map_force,
                 hole_deg: 0.0,
                 friction: true,
+                beam: false,
             });
+        }
+    }
+    // The beam: frictionless walls (its exact solver), the hole radial.
+    let n_clear = points.len();
+    beam_model()?;
+    let beam_forces: Vec<f64> = forces
+        .iter()
+        .copied()
+        .filter(|f| [0.0, 63.4, 71.6].iter().any(|x| (f - x).abs() < 1e-9))
+        .collect();
+    for hole_mm in HOLES_MM {
+        for gap_mm in GAPS_MM {
+            for &ratio in &ratios {
+                for &force_deg in &beam_forces {
+                    points.push(Point {
+                        hole_mm,
+                        gap_mm,
+                        ratio,
+                        force_deg,
+                        hole_deg: 0.0,
+                        friction: false,
+                        beam: true,
+                    });
+                }
+            }
         }
     }
     // Every member of every point, run in parallel.
@@ -272,16 +317,17 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
         points.len(),
         jobs.len()
     );
-    let solver = TwoPlaneRk4::default();
-    let timing = std::sync::Mutex::new(Vec::new());
+    let method = TwoPlaneMethod::Auto;
+    // Run times per solver: exact, reference.
+    let timing = std::sync::Mutex::new([Vec::new(), Vec::new()]);
     let bar = Progress::new("two-plane runs", jobs.len(), 0);
     let cb = bar.callback();
     let two = runner.with_progress(&cb).each(&jobs, |(i, start)| {
+        let sys = points[*i].system();
         let t0 = Instant::now();
-        let s = solver.run(&points[*i].system(), start, &settings, &mut |_| {})?;
-        timing
-            .lock()
-            .map_err(|_| anyhow::anyhow!("timing lock"))?
+        let s = method.run(&sys, start, &settings, &mut |_| {})?;
+        let which = usize::from(method.solver_for(&sys) != "exact");
+        timing.lock().map_err(|_| anyhow::anyhow!("timing lock"))?[which]
             .push(t0.elapsed().as_secs_f64());
         Ok::<_, anyhow::Error>(Outcome {
             rms_m: s.rms_along_force_m,
@@ -291,6 +337,32 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
     });
     bar.finish();
     let two: Vec<Outcome> = two.map_err(|e| anyhow::anyhow!("two-plane runs: {e}"))?;
+    // The check of the exact solver: the reference solver on the same members of the
+    // frictionless points at resonance with the force at ratios 2 and 3.
+    let checked: Vec<usize> = (0..n_compare)
+        .filter(|&i| {
+            let p = &points[i];
+            !p.friction
+                && p.ratio - 1.0 == 0.0
+                && [63.4, 71.6].iter().any(|f| (p.force_deg - f).abs() < 1e-9)
+        })
+        .collect();
+    let check_jobs: Vec<(usize, TwoPlaneStart)> = jobs
+        .iter()
+        .filter(|(i, _)| checked.contains(i))
+        .copied()
+        .collect();
+    let reference = TwoPlaneMethod::Reference { dt_s: 1e-6 };
+    let checks: Vec<Outcome> = runner
+        .each(&check_jobs, |(i, start)| {
+            let s = reference.run(&points[*i].system(), start, &settings, &mut |_| {})?;
+            Ok::<_, anyhow::Error>(Outcome {
+                rms_m: s.rms_along_force_m,
+                impacts: s.impacts.iter().sum(),
+                flight: s.flight_fraction,
+            })
+        })
+        .map_err(|e| anyhow::anyhow!("reference runs: {e}"))?;
     // The one-plane model from the same starts (comparison points at force 0° stand for every
     // direction: the one-plane model has none).
     let one: Vec<Outcome> = runner
@@ -318,12 +390,33 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
             one_plane_rms_m(&System::paper_solid(r), &State::REST, &settings)
         })
         .map_err(|e| anyhow::anyhow!("solid runs: {e}"))?;
-    let solid_of = |r: f64| {
+    // The solid beam: the same beam without the ball, at the same frequencies.
+    let solid_beam: Vec<f64> = runner
+        .each(&ratios, |&r| {
+            let p = Point {
+                hole_mm: 15.1,
+                gap_mm: 0.1,
+                ratio: r,
+                force_deg: 0.0,
+                hole_deg: 0.0,
+                friction: false,
+                beam: true,
+            };
+            let mut sys = one_plane_system(&p.system(), FrictionModel::None);
+            sys.damper = None;
+            one_plane_rms_m(&sys, &State::REST, &settings)
+        })
+        .map_err(|e| anyhow::anyhow!("solid beam runs: {e}"))?;
+    let solid_of = |p: &Point| {
         let i = ratios
             .iter()
-            .position(|&x| x.to_bits() == r.to_bits())
+            .position(|&x| x.to_bits() == p.ratio.to_bits())
             .unwrap_or(0);
-        solid[i]
+        if p.beam {
+            solid_beam[i]
+        } else {
+            solid[i]
+        }
     };
     let group = |outs: &[Outcome], i: usize| -> Vec<Outcome> {
         jobs.iter()
@@ -336,23 +429,52 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            let s = solid_of(p.ratio);
+            let s = solid_of(p);
             (answer(&group(&two, i), s), answer(&group(&one, i), s))
+        })
+        .collect();
+
+    let check_answers: Vec<(usize, Answer)> = checked
+        .iter()
+        .map(|&i| {
+            let outs: Vec<Outcome> = check_jobs
+                .iter()
+                .zip(&checks)
+                .filter(|((j, _), _)| *j == i)
+                .map(|(_, o)| *o)
+                .collect();
+            (i, answer(&outs, solid_of(&points[i])))
         })
         .collect();
 
     // The table of every point.
     let mut csv = String::from(
-        "walls,hole_mm,axial_gap_mm,ratio,hole_deg,force_deg,force_from_hole_deg,model,\
-         reduction_mean_pct,reduction_std_err_pct,reduction_min_pct,reduction_max_pct,members,\
-         impacts_mean,flight_fraction_mean\n",
+        "bar,walls,hole_mm,axial_gap_mm,ratio,hole_deg,force_deg,force_from_hole_deg,model,\
+         solver,reduction_mean_pct,reduction_std_err_pct,reduction_min_pct,reduction_max_pct,\
+         members,impacts_mean,flight_fraction_mean\n",
     );
-    for (p, (two_a, one_a)) in points.iter().zip(&answers) {
-        for (model, a) in [("two-plane", two_a), ("one-plane", one_a)] {
+    let rows = points
+        .iter()
+        .zip(&answers)
+        .enumerate()
+        .flat_map(|(i, (p, (two_a, one_a)))| {
+            let check = check_answers.iter().find(|(j, _)| *j == i).map(|(_, a)| a);
+            [
+                Some(("two-plane", method.solver_for(&p.system()), two_a)),
+                check.map(|a| ("two-plane", "reference", a)),
+                Some(("one-plane", "exact", one_a)),
+            ]
+            .into_iter()
+            .flatten()
+            .map(move |(model, solver, a)| (p, model, solver, a))
+        });
+    for (p, model, solver, a) in rows {
+        {
             let r = a.reduction;
             writeln!(
                 csv,
-                "{},{},{},{},{},{},{},{model},{:.3},{:.3},{:.3},{:.3},{},{:.1},{:.4}",
+                "{},{},{},{},{},{},{},{},{model},{solver},{:.3},{:.3},{:.3},{:.3},{},{:.1},{:.4}",
+                if p.beam { "beam" } else { "lumped" },
                 if p.friction {
                     "friction"
                 } else {
@@ -380,14 +502,19 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
         .with_context(|| format!("writing {}", csv_path.display()))?;
 
     let times = timing.into_inner().unwrap_or_default();
-    let mut sorted = times.clone();
-    sorted.sort_by(f64::total_cmp);
-    let median_s = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+    let median = |v: &[f64]| {
+        let mut sorted = v.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        sorted.get(sorted.len() / 2).copied().unwrap_or(0.0)
+    };
+    let median_run_s = [median(&times[0]), median(&times[1])];
     let doc = document(&Doc {
         points: &points,
         answers: &answers,
         n_compare,
         n_angle,
+        n_clear,
+        beam_forces: &beam_forces,
         map_diameters: &map_diameters,
         ratios: &ratios,
         forces: &forces,
@@ -397,7 +524,8 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
         members,
         seed: args.seed,
         duration,
-        median_run_s: median_s,
+        median_run_s,
+        check_answers: &check_answers,
         quick: args.quick,
         csv_name: format!(
             "{}/points.csv",
@@ -423,6 +551,9 @@ struct Doc<'a> {
     n_compare: usize,
     /// The end of the hole-angle map; the clearance map follows.
     n_angle: usize,
+    /// The end of the clearance map; the beam's points follow.
+    n_clear: usize,
+    beam_forces: &'a [f64],
     map_diameters: &'a [f64],
     ratios: &'a [f64],
     forces: &'a [f64],
@@ -432,7 +563,10 @@ struct Doc<'a> {
     members: usize,
     seed: u64,
     duration: f64,
-    median_run_s: f64,
+    /// Median run time of the exact and the reference solver.
+    median_run_s: [f64; 2],
+    /// The reference solver's answers at the points that check the exact one.
+    check_answers: &'a [(usize, Answer)],
     quick: bool,
     csv_name: String,
 }
@@ -449,7 +583,8 @@ impl Doc<'_> {
         self.points[..self.n_compare]
             .iter()
             .position(|p| {
-                p.friction == friction
+                !p.beam
+                    && p.friction == friction
                     && p.hole_mm.to_bits() == hole_mm.to_bits()
                     && p.gap_mm.to_bits() == gap_mm.to_bits()
                     && p.ratio.to_bits() == ratio.to_bits()
@@ -552,25 +687,64 @@ fn document(d: &Doc) -> Result<String> {
          friction `(η/r)·m_d·g` (or none, beside the frictionless walls).\n\
          - **The force:** 15 N, harmonic. **The runs:** {} s, RMS along the force over the last \
          80 %.\n\
-         - **The solver:** the two-plane reference solver, classical RK4 at 1 µs with every \
-         impact, lift-off and change between rolling, sliding and sticking located inside its \
-         step, and a resting mode per wall; the one-plane runs use the exact event-driven solver. \
-         The reference solver's tests check it against closed forms (a dropped ball, a carried \
-         ball, lift-off where the cavity's acceleration reaches g, rolling at 5/7, the slip \
-         threshold (7/2)·μ_s·g, rolling resistance, energy books to 1e-8) and against the \
-         one-plane exact solver, which it reproduces to 1e-10 s with the force along the hole.\n\
+         - **The solvers:** on frictionless walls the exact event-driven solver: there the \
+         ball's motions along and across the hole are two separate impact dampers and a round \
+         bar's planes two separate oscillators, so a run is two one-plane exact runs, their RMS \
+         along the force put together with the cross term of the planes (its tests check it \
+         against the closed form of the bar alone and against the reference solver). With \
+         friction the planes couple through the normal force, and the two-plane reference solver \
+         runs: classical RK4 at 1 µs with every impact, lift-off and change between rolling, \
+         sliding and sticking located inside its step, and a resting mode per wall. Its tests \
+         check it against closed forms (a dropped ball, a carried ball, lift-off where the \
+         cavity's acceleration reaches g, rolling at 5/7, the slip threshold (7/2)·μ_s·g, \
+         rolling resistance, energy books to 1e-8) and against the one-plane exact solver, which \
+         it reproduces to 1e-10 s with the force along the hole. The one-plane runs use the \
+         exact solver.\n\
          - **Ensembles:** where the ball starts decides which of coexisting motions a run \
          settles on, so each design point is {} runs: the ball at rest on the wall gravity \
          presses it onto, centred along the hole, and {} starts at seeded random places along \
-         the hole with up to 0.01 m/s along it (seed {}). Cells give the mean reduction ± its \
-         standard error, in %; the CSV has the range. The median run took {:.2} s.\n",
+         the hole with up to 0.01 m/s along it and across it, away from the wall (seed {}); on \
+         frictionless walls the motions along and across the hole are independent, so both are \
+         varied. Cells give the mean reduction ± its standard error, in %; the CSV has the range. The median run took {:.3} s on the exact \
+         solver and {:.2} s on the reference one.\n",
         ETA_M * 1e3,
         d.duration,
         d.members,
         d.members.saturating_sub(1),
         d.seed,
-        d.median_run_s
+        d.median_run_s[0],
+        d.median_run_s[1]
     )?;
+
+    // The exact solver against the reference.
+    if !d.check_answers.is_empty() {
+        writeln!(
+            s,
+            "## The exact solver against the reference\n\n\
+             The same members on the reference solver, frictionless walls, r = 1: mean reduction \
+             ± its standard error, %. The motion is chaotic at most of these points, so single \
+             runs differ; the ensemble means agree where they differ by less than two combined \
+             standard errors.\n\n\
+             | hole | gap | force | exact | reference | agree |\n|---|---|---|---|---|---|"
+        )?;
+        for (i, r) in d.check_answers {
+            let p = &d.points[*i];
+            let e = &d.answers[*i].0;
+            let diff = (e.reduction.mean - r.reduction.mean).abs();
+            let both = e.reduction.std_err.hypot(r.reduction.std_err);
+            writeln!(
+                s,
+                "| {} mm | {} mm | {}° | {} | {} | {} |",
+                p.hole_mm,
+                p.gap_mm,
+                p.force_deg,
+                cell(e),
+                cell(r),
+                if diff <= 2.0 * both { "yes" } else { "no" }
+            )?;
+        }
+        writeln!(s)?;
+    }
 
     for friction in [false, true] {
         writeln!(
@@ -612,6 +786,59 @@ fn document(d: &Doc) -> Result<String> {
         writeln!(s)?;
     }
 
+    // The beam.
+    writeln!(
+        s,
+        "## The beam referred to the tip\n\n\
+         The paper's bar as an Euler–Bernoulli beam (L = 175 mm, D = 25 mm, steel, ζ = 0.01 in \
+         every mode, the cavity 38 mm from the free end, the force and the response at the tip) \
+         with its first {} modes in each plane, round, on frictionless walls (the exact solver), \
+         the hole radial. Reduction of the tip's RMS along the force against the same beam \
+         without the ball at the same frequency, %; r refers to the first mode. The one-plane \
+         column is the same beam with the ball in a slot along the hole and the whole force \
+         along it.\n",
+        beam_model()?.len()
+    )?;
+    let mut head = String::from("| hole | gap | r | one plane |");
+    let mut rule = String::from("|---|---|---|---|");
+    for f in d.beam_forces {
+        write!(head, " {f}° |")?;
+        rule.push_str("---|");
+    }
+    writeln!(s, "{head}\n{rule}")?;
+    let beam_points = &d.points[d.n_clear..];
+    let beam_at = |hole: f64, gap: f64, r: f64, f: f64| {
+        beam_points
+            .iter()
+            .position(|p| {
+                p.hole_mm.to_bits() == hole.to_bits()
+                    && p.gap_mm.to_bits() == gap.to_bits()
+                    && p.ratio.to_bits() == r.to_bits()
+                    && p.force_deg.to_bits() == f.to_bits()
+            })
+            .map(|i| &d.answers[d.n_clear + i])
+    };
+    for hole in HOLES_MM {
+        for gap in GAPS_MM {
+            for &r in d.ratios {
+                let Some((_, one)) = d
+                    .beam_forces
+                    .first()
+                    .and_then(|&f| beam_at(hole, gap, r, f))
+                else {
+                    continue;
+                };
+                let mut row = format!("| {hole} mm | {gap} mm | {r} | {} |", cell(one));
+                for &f in d.beam_forces {
+                    let (two, _) = beam_at(hole, gap, r, f).expect("computed");
+                    write!(row, " {} |", cell(two))?;
+                }
+                writeln!(s, "{row}")?;
+            }
+        }
+    }
+    writeln!(s)?;
+
     // The map.
     writeln!(
         s,
@@ -648,7 +875,7 @@ fn document(d: &Doc) -> Result<String> {
     let best = map_table(
         &mut s,
         d,
-        d.n_angle..d.points.len(),
+        d.n_angle..d.n_clear,
         (
             "hole (c_r)",
             d.map_diameters,
@@ -767,4 +994,109 @@ fn document(d: &Doc) -> Result<String> {
          and the ensembles are small."
     )?;
     Ok(s)
+}
+
+/// Seconds of CPU the process has used (all its threads); the wall clock where the platform
+/// gives no process clock.
+fn cpu_seconds() -> f64 {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `ts` is a valid, writable timespec; the call only writes it.
+        if unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) } == 0 {
+            return ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64;
+        }
+    }
+    static START: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
+    START.get_or_init(Instant::now).elapsed().as_secs_f64()
+}
+
+/// `vibrobar bench`'s two-plane row: a two-plane run on the exact solver against the one-plane
+/// run of the same design point (the 15.1 mm hole, the 0.1 mm gap, r = 1, the force at 63.4°,
+/// frictionless walls, the ball resting on the floor), both 2 s; the cost per event in CPU time
+/// (the two-plane run uses a second thread) and in wall time, medians over alternating pairs;
+/// and the reference solver's run of the same point.
+pub fn bench_row(pairs: usize) -> Result<()> {
+    let sys = Point {
+        hole_mm: 15.1,
+        gap_mm: 0.1,
+        ratio: 1.0,
+        force_deg: 63.4,
+        hole_deg: 0.0,
+        friction: false,
+        beam: false,
+    }
+    .system();
+    let start = TwoPlaneStart::resting(&sys, 0.0);
+    let settings = RunSettings {
+        duration_s: 2.0,
+        ..RunSettings::default()
+    };
+    let one = one_plane_system(&sys, FrictionModel::None);
+    let one_start = one_plane_start(&start);
+    // (wall s, CPU s, events) of one run.
+    let time = |f: &mut dyn FnMut() -> Result<u64>| -> Result<(f64, f64, u64)> {
+        let (t, c) = (Instant::now(), cpu_seconds());
+        let n = f()?;
+        Ok((t.elapsed().as_secs_f64(), cpu_seconds() - c, n.max(1)))
+    };
+    let mut run_one = || -> Result<u64> {
+        struct Count(u64);
+        impl vibrobar_core::solver::Observer for Count {
+            fn event(&mut self, _: &vibrobar_core::solver::Event) {
+                self.0 += 1;
+            }
+        }
+        let mut n = Count(0);
+        vibrobar_core::analysis::run_case(
+            &one,
+            &one_start,
+            &settings,
+            &vibrobar_core::solver::Exact::default(),
+            &mut n,
+        )?;
+        Ok(n.0)
+    };
+    let run_two = |method: TwoPlaneMethod| -> Result<u64> {
+        Ok(method.run(&sys, &start, &settings, &mut |_| {})?.events)
+    };
+    // Warm-up.
+    time(&mut run_one)?;
+    time(&mut || run_two(TwoPlaneMethod::Exact))?;
+    let (mut cpu_ratio, mut wall_ratio, mut t_one, mut t_two) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut events = (0, 0);
+    for _ in 0..pairs.max(1) {
+        let a = time(&mut run_one)?;
+        let b = time(&mut || run_two(TwoPlaneMethod::Exact))?;
+        events = (a.2, b.2);
+        cpu_ratio.push((b.1 / b.2 as f64) / (a.1 / a.2 as f64));
+        wall_ratio.push((b.0 / b.2 as f64) / (a.0 / a.2 as f64));
+        t_one.push(a.0);
+        t_two.push(b.0);
+    }
+    let med = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let reference = time(&mut || run_two(TwoPlaneMethod::Reference { dt_s: 1e-6 }))?;
+    println!(
+        "  exact  two-plane run (15.1 mm hole, 0.1 mm gap, r = 1, force at 63.4°, 2 s, {} \
+         events): median {} against the one-plane run's {} ({} events); per event {:.2}× in CPU \
+         time, {:.2}× in wall time (medians of {} alternating pairs; target: ≤ 2.5×); the \
+         reference solver takes {} ({:.0}× the exact two-plane run)",
+        events.1,
+        super::fmt_secs(med(&mut t_two)),
+        super::fmt_secs(med(&mut t_one)),
+        events.0,
+        med(&mut cpu_ratio),
+        med(&mut wall_ratio),
+        pairs.max(1),
+        super::fmt_secs(reference.0),
+        reference.0 / med(&mut t_two)
+    );
+    Ok(())
 }

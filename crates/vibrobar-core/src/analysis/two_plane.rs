@@ -4,8 +4,11 @@
 //! Where the ball starts decides which of several coexisting motions a run settles on, in one
 //! plane as in two, so a design point is an ensemble: member 0 is the ball at rest on the wall
 //! gravity presses it onto, centred along the hole; every other member puts it at a uniformly
-//! drawn place along the hole with a uniformly drawn small velocity along it
-//! ([`TwoPlaneEnsemble`]), from a seeded generator, so an ensemble is reproducible.
+//! drawn place along the hole with uniformly drawn small velocities along it and across it
+//! (away from the wall it rests on) ([`TwoPlaneEnsemble`]), from a seeded generator, so an
+//! ensemble is reproducible. Both directions matter: on frictionless walls the motions along
+//! and across the hole are independent, so starts that differ along the hole only would all
+//! give the same motion across it.
 //!
 //! The one-plane counterpart ([`one_plane_system`]) is today's model of the same bar: the ball
 //! in a slot along the hole with the axial gap, the whole force along it, the rolling friction
@@ -15,11 +18,12 @@
 use super::case::run_case;
 use super::ensemble::SplitMix64;
 use crate::error::{ParamError, SimError};
-use crate::params::two_plane::TwoPlaneSystem;
+use crate::params::two_plane::{TwoPlaneBar, TwoPlaneSystem};
 use crate::params::{
     Bar, BarModel, Contact, Damper, Forcing, FrictionModel, RunSettings, State, System,
 };
-use crate::solver::two_plane_rk4::TwoPlaneStart;
+use crate::solver::two_plane_exact::{decoupled, TwoPlaneExact};
+use crate::solver::two_plane_rk4::{TwoPlaneEvent, TwoPlaneRk4, TwoPlaneStart, TwoPlaneSummary};
 use crate::solver::{Exact, Observer};
 
 /// How the members of a design point start.
@@ -29,17 +33,18 @@ pub struct TwoPlaneEnsemble {
     pub members: usize,
     /// Seed of the generator.
     pub seed: u64,
-    /// Largest speed along the hole given to a member, `[−v, v]`.
-    pub along_speed_m_s: f64,
+    /// Largest speed given to a member: along the hole in `[−v, v]`, across it in `[0, v]` away
+    /// from the wall it rests on (`[−v, v]` where it rests on none).
+    pub start_speed_m_s: f64,
 }
 
 impl Default for TwoPlaneEnsemble {
-    /// Eight members, seed 1, up to 0.01 m/s along the hole.
+    /// Eight members, seed 1, up to 0.01 m/s.
     fn default() -> Self {
         TwoPlaneEnsemble {
             members: 8,
             seed: 1,
-            along_speed_m_s: 0.01,
+            start_speed_m_s: 0.01,
         }
     }
 }
@@ -54,10 +59,10 @@ impl TwoPlaneEnsemble {
             crate::limits::MAX_ENSEMBLE_MEMBERS,
             "",
         )?;
-        crate::params::non_negative("along_speed_m_s (--along-speed)", self.along_speed_m_s)?;
+        crate::params::non_negative("start_speed_m_s", self.start_speed_m_s)?;
         crate::limits::check(
-            "along_speed_m_s (--along-speed)",
-            self.along_speed_m_s,
+            "start_speed_m_s",
+            self.start_speed_m_s,
             0.0,
             10.0,
             "a small disturbance, in m/s",
@@ -80,13 +85,64 @@ pub fn starts(
                 TwoPlaneStart::resting(sys, 0.0)
             } else {
                 let along = rng.uniform(-l_g, l_g);
-                let speed = rng.uniform(-ens.along_speed_m_s, ens.along_speed_m_s);
+                let v = ens.start_speed_m_s;
+                let speed = rng.uniform(-v, v);
                 let mut s = TwoPlaneStart::resting(sys, along);
                 s.dw_hole_m_s[0] = speed;
+                // Away from the wall across the hole it rests on.
+                let w_n = s.w_hole_m[1];
+                s.dw_hole_m_s[1] = if w_n == 0.0 {
+                    rng.uniform(-v, v)
+                } else {
+                    -w_n.signum() * rng.uniform(0.0, v)
+                };
                 s
             }
         })
         .collect())
+}
+
+/// Which solver runs a two-plane system.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum TwoPlaneMethod {
+    /// The exact solver where the planes decouple ([`decoupled`]), the reference elsewhere.
+    #[default]
+    Auto,
+    /// The exact solver; a system whose planes do not decouple is refused.
+    Exact,
+    /// The reference solver (RK4 at the given step with located events).
+    Reference {
+        /// Its step.
+        dt_s: f64,
+    },
+}
+
+impl TwoPlaneMethod {
+    /// The solver that runs `sys`: `"exact"` or `"reference"`.
+    pub fn solver_for(&self, sys: &TwoPlaneSystem) -> &'static str {
+        match self {
+            TwoPlaneMethod::Auto if decoupled(sys).is_ok() => "exact",
+            TwoPlaneMethod::Exact => "exact",
+            _ => "reference",
+        }
+    }
+
+    /// Run `sys` from `start` on the solver of [`TwoPlaneMethod::solver_for`].
+    pub fn run(
+        &self,
+        sys: &TwoPlaneSystem,
+        start: &TwoPlaneStart,
+        settings: &RunSettings,
+        on_event: &mut dyn FnMut(&TwoPlaneEvent),
+    ) -> Result<TwoPlaneSummary, SimError> {
+        match (self, self.solver_for(sys)) {
+            (_, "exact") => TwoPlaneExact::default().run(sys, start, settings, on_event),
+            (TwoPlaneMethod::Reference { dt_s }, _) => {
+                TwoPlaneRk4 { dt_s: *dt_s }.run(sys, start, settings, on_event)
+            }
+            _ => TwoPlaneRk4::default().run(sys, start, settings, on_event),
+        }
+    }
 }
 
 /// Mean, standard error and range of an ensemble's values.
@@ -138,11 +194,14 @@ pub fn one_plane_system(sys: &TwoPlaneSystem, friction: FrictionModel) -> System
         friction
     };
     System {
-        bar: BarModel::Lumped(Bar {
-            mass_kg: sys.bar.mass_kg,
-            stiffness_n_per_m: sys.bar.stiffness_n_per_m[0],
-            damping_ratio: sys.bar.damping_ratio[0],
-        }),
+        bar: match &sys.bar {
+            TwoPlaneBar::Lumped(b) => BarModel::Lumped(Bar {
+                mass_kg: b.mass_kg,
+                stiffness_n_per_m: b.stiffness_n_per_m[0],
+                damping_ratio: b.damping_ratio[0],
+            }),
+            TwoPlaneBar::Round(m) => BarModel::Modal(*m),
+        },
         damper: Some(Damper {
             ball_mass_kg: sys.ball.mass_kg,
             ball_radius_m: sys.ball.radius_m,
@@ -211,7 +270,7 @@ mod tests {
 
     fn sys() -> TwoPlaneSystem {
         TwoPlaneSystem {
-            bar: PlanarBar::isotropic(&Bar::PAPER_CAVITY),
+            bar: PlanarBar::isotropic(&Bar::PAPER_CAVITY).into(),
             ball: PlanarBall::paper_frictionless(),
             hole: Hole {
                 angle_deg: 0.0,
@@ -240,7 +299,10 @@ mod tests {
             assert!(m.w_hole_m[0].abs() <= 0.5e-3);
             assert!((m.w_hole_m[1] - s.radial_clearance_m()).abs() < 1e-18);
             assert!(m.dw_hole_m_s[0].abs() <= 0.01);
+            // Across the hole: away from the wall it rests on.
+            assert!(m.dw_hole_m_s[1] * m.w_hole_m[1] <= 0.0 && m.dw_hole_m_s[1].abs() <= 0.01);
         }
+        assert!(a[1..].iter().all(|m| m.dw_hole_m_s[1] != 0.0));
         assert!(a[1..].iter().all(|m| m.dw_hole_m_s[0].abs() > 0.0));
         let bad = TwoPlaneEnsemble { members: 0, ..ens };
         assert!(starts(&s, &bad)

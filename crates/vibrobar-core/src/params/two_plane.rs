@@ -19,13 +19,18 @@
 //! above the band) are neglected.
 //!
 //! # The bar
-//! A lumped bar with one mass `M` in both planes. Its stiffness and damping ratio may differ
-//! along two principal axes at [`PlanarBar::principal_axis_deg`] (a flat, an oval section, a
-//! clamping that splits the pair); by default both are the same (a round bar). A frequency
-//! ratio `r` refers to the lower principal frequency, `√(min K / M)`.
+//! [`TwoPlaneBar`]: either
+//! - a lumped bar with one mass `M` in both planes, whose stiffness and damping ratio may differ
+//!   along two principal axes at [`PlanarBar::principal_axis_deg`] (a flat, an oval section, a
+//!   clamping that splits the pair); by default both are the same (a round bar). A frequency
+//!   ratio `r` refers to the lower principal frequency, `√(min K / M)`;
+//! - or a round bar reduced to its modes ([`ModalModel`], e.g. the Euler–Bernoulli beam's): the
+//!   same N modes in each plane, the force at the force point, the ball at the cavity, the
+//!   response at the response point. A frequency ratio refers to the first mode.
 
 use super::{finite, in_range, non_negative, positive, Bar, Frequency};
 use crate::error::ParamError;
+use crate::structure::ModalModel;
 use serde::{Deserialize, Serialize};
 
 /// A lumped bar in the cross-section plane: one mass, stiffness and damping per principal axis.
@@ -82,6 +87,78 @@ impl PlanarBar {
         below_one("bar.damping_ratio[0]", self.damping_ratio[0])?;
         below_one("bar.damping_ratio[1]", self.damping_ratio[1])?;
         finite("bar.principal_axis_deg", self.principal_axis_deg)
+    }
+}
+
+/// The bar of a two-plane system.
+// Not boxed: a `TwoPlaneSystem` stays `Copy` plain data, as a `System` does.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TwoPlaneBar {
+    /// A lumped bar, possibly with two principal stiffnesses.
+    Lumped(PlanarBar),
+    /// A round bar of these modes in each plane (tip-normalised, [`crate::structure`]).
+    Round(ModalModel),
+}
+
+impl From<PlanarBar> for TwoPlaneBar {
+    fn from(b: PlanarBar) -> Self {
+        TwoPlaneBar::Lumped(b)
+    }
+}
+
+impl TwoPlaneBar {
+    /// The lumped bar, if it is one.
+    pub fn lumped(&self) -> Option<&PlanarBar> {
+        match self {
+            TwoPlaneBar::Lumped(b) => Some(b),
+            TwoPlaneBar::Round(_) => None,
+        }
+    }
+
+    /// The lumped bar, if it is one, to change.
+    pub fn lumped_mut(&mut self) -> Option<&mut PlanarBar> {
+        match self {
+            TwoPlaneBar::Lumped(b) => Some(b),
+            TwoPlaneBar::Round(_) => None,
+        }
+    }
+
+    /// The frequency a ratio refers to: the lumped bar's lower principal frequency, the round
+    /// bar's first mode.
+    pub fn omega1_rad_s(&self) -> f64 {
+        match self {
+            TwoPlaneBar::Lumped(b) => b.omega1_rad_s(),
+            TwoPlaneBar::Round(m) => m.modes()[0].omega_rad_s,
+        }
+    }
+
+    /// The highest natural frequency.
+    pub fn highest_omega_rad_s(&self) -> f64 {
+        match self {
+            TwoPlaneBar::Lumped(b) => {
+                (b.stiffness_n_per_m[0].max(b.stiffness_n_per_m[1]) / b.mass_kg).sqrt()
+            }
+            TwoPlaneBar::Round(m) => m.modes().iter().map(|m| m.omega_rad_s).fold(0.0, f64::max),
+        }
+    }
+
+    fn validate(&self) -> Result<(), ParamError> {
+        match self {
+            TwoPlaneBar::Lumped(b) => b.validate(),
+            TwoPlaneBar::Round(m) => {
+                for mode in m.modes() {
+                    positive("bar.modes.omega_rad_s", mode.omega_rad_s)?;
+                    positive("bar.modes.modal_mass_kg", mode.modal_mass_kg)?;
+                    below_one("bar.modes.damping_ratio", mode.damping_ratio)?;
+                    finite("bar.modes.shape_cavity", mode.shape_cavity)?;
+                    finite("bar.modes.shape_force", mode.shape_force)?;
+                    finite("bar.modes.shape_response", mode.shape_response)?;
+                }
+                Ok(())
+            }
+        }
     }
 }
 
@@ -217,7 +294,7 @@ impl Default for Gravity {
 #[serde(deny_unknown_fields)]
 pub struct TwoPlaneSystem {
     /// The bar.
-    pub bar: PlanarBar,
+    pub bar: TwoPlaneBar,
     /// The ball.
     pub ball: PlanarBall,
     /// The hole.

@@ -33,7 +33,7 @@ use super::two_plane_rk4::{
 };
 use super::{Event, EventKind, Exact, Mode, Observer, Segment, Solver, Wall};
 use crate::error::SimError;
-use crate::params::two_plane::{direction, TwoPlaneSystem};
+use crate::params::two_plane::{direction, TwoPlaneBar, TwoPlaneSystem};
 use crate::params::{
     Bar, BarModel, Contact, Damper, Forcing, Frequency, FrictionModel, RunSettings, State, System,
 };
@@ -68,7 +68,10 @@ pub fn decoupled(sys: &TwoPlaneSystem) -> Result<(), &'static str> {
 /// The index of the bar's principal axis along hole axis `axis` (0 along the hole, 1 across
 /// it); `None` when no principal axis lies along it. A round bar's is 0 for both.
 fn principal_index(sys: &TwoPlaneSystem, axis: usize) -> Option<usize> {
-    let bar = &sys.bar;
+    let Some(bar) = sys.bar.lumped() else {
+        // A bar of modes is round.
+        return Some(0);
+    };
     // Round: the same stiffness and damping on both axes, exactly.
     let round = bar.stiffness_n_per_m[0] - bar.stiffness_n_per_m[1] == 0.0
         && bar.damping_ratio[0] - bar.damping_ratio[1] == 0.0;
@@ -114,11 +117,14 @@ pub fn plane_system(sys: &TwoPlaneSystem, axis: usize) -> Result<System, SimErro
         2.0 * sys.radial_clearance_m()
     };
     Ok(System {
-        bar: BarModel::Lumped(Bar {
-            mass_kg: sys.bar.mass_kg,
-            stiffness_n_per_m: sys.bar.stiffness_n_per_m[j],
-            damping_ratio: sys.bar.damping_ratio[j],
-        }),
+        bar: match &sys.bar {
+            TwoPlaneBar::Lumped(b) => BarModel::Lumped(Bar {
+                mass_kg: b.mass_kg,
+                stiffness_n_per_m: b.stiffness_n_per_m[j],
+                damping_ratio: b.damping_ratio[j],
+            }),
+            TwoPlaneBar::Round(m) => BarModel::Modal(*m),
+        },
         damper: Some(Damper {
             ball_mass_kg: sys.ball.mass_kg,
             ball_radius_m: sys.ball.radius_m,
@@ -487,8 +493,7 @@ impl TwoPlaneExact {
         let starts = [plane_start(sys, start, 0), plane_start(sys, start, 1)];
         let t_end = settings.duration_s;
         let window = (settings.window_start_s(), t_end);
-        let k_max = sys.bar.stiffness_n_per_m[0].max(sys.bar.stiffness_n_per_m[1]);
-        let omega_hi = (k_max / sys.bar.mass_kg).sqrt().max(sys.omega_rad_s());
+        let omega_hi = sys.bar.highest_omega_rad_s().max(sys.omega_rad_s());
         let h_max_s = 1.0 / omega_hi;
         let observer = |axis: usize| PlaneObserver {
             axis,

@@ -52,7 +52,7 @@ use crate::damper::wall_impact::{
 };
 use crate::error::{EventLimitCause, ParamError, SimError};
 use crate::limits;
-use crate::params::two_plane::{direction, TwoPlaneSystem};
+use crate::params::two_plane::{direction, PlanarBar, TwoPlaneSystem};
 use crate::params::RunSettings;
 
 /// The walls of the box, as indices into [`TwoPlaneSummary::impacts`] and
@@ -439,14 +439,20 @@ struct Model {
 
 impl Model {
     fn new(sys: &TwoPlaneSystem) -> Model {
-        let (m, md) = (sys.bar.mass_kg, sys.ball.mass_kg);
-        let (k, c) = sys.bar.matrices();
+        let bar = sys.bar.lumped().copied().unwrap_or(PlanarBar {
+            mass_kg: 1.0,
+            stiffness_n_per_m: [1.0; 2],
+            damping_ratio: [0.0; 2],
+            principal_axis_deg: 0.0,
+        });
+        let (m, md) = (bar.mass_kg, sys.ball.mass_kg);
+        let (k, c) = bar.matrices();
         let clr = [sys.hole.half_axial_gap_m(), sys.radial_clearance_m()];
         let g_abs = sys.gravity.m_s2;
         let gd = direction(sys.gravity.angle_deg);
         let om = sys.omega_rad_s();
         let acc = (g_abs + sys.forcing.amplitude_n.abs() / m).max(1e-300);
-        let v_scale = acc / om.max(sys.bar.omega1_rad_s());
+        let v_scale = acc / om.max(bar.omega1_rad_s());
         Model {
             m,
             md,
@@ -863,8 +869,13 @@ impl TwoPlaneRk4 {
         settings.validate()?;
         let h = self.dt_s;
         crate::params::positive("dt_s", h)?;
-        let k_max = sys.bar.stiffness_n_per_m[0].max(sys.bar.stiffness_n_per_m[1]);
-        let omega_max = (k_max / sys.bar.mass_kg).sqrt();
+        if sys.bar.lumped().is_none() {
+            return Err(SimError::Unsupported(
+                "the two-plane reference solver runs the lumped bar only; a bar of modes runs on \
+                 the exact solver (frictionless walls)",
+            ));
+        }
+        let omega_max = sys.bar.highest_omega_rad_s();
         limits::check_derived(
             "ω_max·dt_s (the bar's higher principal frequency times the step)",
             || format!("{omega_max} rad/s · {h} s"),
