@@ -344,6 +344,18 @@ fn preflight(cmd: &Command) -> Result<()> {
             }
         }
     }
+    // And every command either runs a [two_plane] scenario or refuses it, here.
+    if !vibrobar_scenario::TWO_PLANE_COMMANDS.contains(&name) {
+        for p in &inputs {
+            if std::fs::read_to_string(p).is_ok_and(|t| vibrobar_scenario::text_has_two_plane(&t)) {
+                anyhow::bail!(
+                    "{} ({})",
+                    vibrobar_scenario::two_plane_refusal(name),
+                    p.display()
+                );
+            }
+        }
+    }
     if let Some(out) = out {
         vibrobar_io::refuse_input(out)?;
     }

@@ -90,3 +90,160 @@ fn bad_flags_are_refused_and_nothing_is_written() {
     assert_fails_with(&o, &["--out", ".md"]);
     assert!(fs::read_dir(d.path()).unwrap().next().is_none());
 }
+
+const TWO_PLANE: &str = "[damper]\ngap_m = 1.0e-3\n\n[run]\nduration_s = 0.5\n\n[two_plane]\nhole_diameter_m = 0.0151\nforce_ratio = 2.0\n";
+
+/// Rows of a two-plane sweep CSV, by column name.
+fn sweep_rows(csv: &str) -> Vec<std::collections::HashMap<String, String>> {
+    let mut lines = csv.lines();
+    let head: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    lines
+        .map(|l| {
+            head.iter()
+                .cloned()
+                .zip(l.split(',').map(String::from))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn a_two_plane_scenario_sweeps_ensembles_beside_the_one_plane_model() {
+    let d = tempfile::tempdir().unwrap();
+    let sc = d.path().join("tp.toml");
+    fs::write(&sc, TWO_PLANE).unwrap();
+    let out = d.path().join("out.csv");
+    vibrobar_ok(&[
+        "sweep",
+        "--scenario",
+        s(&sc),
+        "--ratios",
+        "0.97:1.03:0.03",
+        "--gap-mm",
+        "0.1",
+        "--gap-mm",
+        "1.0",
+        "--out",
+        s(&out),
+    ]);
+    let rows = sweep_rows(&fs::read_to_string(&out).unwrap());
+    assert_eq!(rows.len(), 6);
+    let num = |r: &std::collections::HashMap<String, String>, k: &str| -> f64 {
+        r[k].parse().unwrap_or_else(|_| panic!("{k} = {}", r[k]))
+    };
+    for r in &rows {
+        assert_eq!(r.len(), 19);
+        assert_eq!(r["solver"], "exact");
+        assert_eq!(r["members"], "8");
+        for (k, v) in r {
+            if k != "solver" {
+                assert!(v.parse::<f64>().unwrap().is_finite(), "{k} = {v}");
+            }
+        }
+        assert!(num(r, "rms_along_force_min_m") <= num(r, "rms_along_force_mean_m"));
+        assert!(num(r, "rms_along_force_mean_m") <= num(r, "rms_along_force_max_m"));
+    }
+    // At resonance with the 1 mm gap and a tight hole, the plane across the hole damps: two
+    // planes reduce the vibration by far more than the one-plane model says.
+    let res = rows
+        .iter()
+        .find(|r| r["axial_gap_m"] == "0.001" && r["ratio"] == "1")
+        .unwrap();
+    assert!(
+        num(res, "reduction_mean_pct") > num(res, "one_plane_reduction_mean_pct") + 20.0,
+        "{res:?}"
+    );
+    // With friction on the walls the reference solver runs, and says so.
+    let rough = d.path().join("rough.toml");
+    fs::write(
+        &rough,
+        format!("{TWO_PLANE}friction_static = 0.3\nfriction_kinetic = 0.2\n")
+            .replace("duration_s = 0.5", "duration_s = 0.01"),
+    )
+    .unwrap();
+    vibrobar_ok(&[
+        "sweep",
+        "--scenario",
+        s(&rough),
+        "--ratios",
+        "1:1:0.1",
+        "--out",
+        s(&out),
+    ]);
+    let rows = sweep_rows(&fs::read_to_string(&out).unwrap());
+    assert!(rows.iter().all(|r| r["solver"] == "reference"), "{rows:?}");
+}
+
+#[test]
+fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("out.csv");
+    for (extra, words) in [
+        (
+            "hole_diameter_m = 0.012\n",
+            &["[two_plane] hole_diameter_m"][..],
+        ),
+        (
+            "friction_static = 1.0\n",
+            &["[two_plane] friction_static"][..],
+        ),
+        (
+            "friction_static = 0.2\nfriction_kinetic = 0.3\n",
+            &["[two_plane] friction_kinetic"][..],
+        ),
+        (
+            "hole_angle_deg = nan\n",
+            &["[two_plane] hole_angle_deg"][..],
+        ),
+        (
+            "force_angle_deg = 60.0\n",
+            &["force_angle_deg", "force_ratio"][..],
+        ),
+        (
+            "solver = \"rk4\"\n",
+            &["[two_plane] solver", "reference"][..],
+        ),
+        ("members = 0\n", &["[two_plane] members"][..]),
+        ("colour = 1\n", &["colour"][..]),
+        (
+            "friction_static = 0.3\nsolver = \"exact\"\n",
+            &["exact", "frictionless walls"][..],
+        ),
+    ] {
+        let sc = d.path().join("bad.toml");
+        let base = TWO_PLANE.replace("hole_diameter_m = 0.0151\n", "");
+        fs::write(&sc, format!("{base}{extra}")).unwrap();
+        let o = vibrobar(&["sweep", "--scenario", s(&sc), "--out", s(&out)]);
+        assert_fails_with(&o, words);
+        assert!(!out.exists(), "{extra}: an output was written");
+    }
+    let sc = d.path().join("tp.toml");
+    fs::write(&sc, TWO_PLANE).unwrap();
+    for cmd in [
+        &["run", "--scenario", s(&sc), "--out", s(&out)][..],
+        &["ensemble", "--scenario", s(&sc), "--out", s(&out)][..],
+        &[
+            "map",
+            "--scenario",
+            s(&sc),
+            "--gaps-mm",
+            "0.1",
+            "--ratios",
+            "1",
+            "--out",
+            s(&out),
+        ][..],
+    ] {
+        let o = vibrobar(cmd);
+        assert_fails_with(&o, &["does not run a [two_plane] scenario", "sweep"]);
+        assert!(!out.exists());
+    }
+    let cut = d.path().join("cut.toml");
+    fs::write(
+        &cut,
+        format!("{TWO_PLANE}\n[cutting]\nspindle_rpm = 5000.0\n"),
+    )
+    .unwrap();
+    let o = vibrobar(&["sweep", "--scenario", s(&cut), "--out", s(&out)]);
+    assert_fails_with(&o, &["[cutting]"]);
+}

@@ -14,6 +14,9 @@
 
 #![warn(missing_docs)]
 
+mod two_plane;
+pub use two_plane::{text_has_two_plane, two_plane_refusal, TwoPlaneSection, TWO_PLANE_COMMANDS};
+
 use anyhow::{bail, Context, Result};
 use serde::de::{DeserializeOwned, Error as _};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -102,6 +105,11 @@ pub struct Scenario {
     /// scenario).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub time_domain: Option<TimeDomainSettings>,
+    /// `[two_plane]`: the bar that bends in two planes, with the ball in a hole across it
+    /// ([`TwoPlaneSection`]); absent: the one-plane model (and left out of the serialised
+    /// scenario).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub two_plane: Option<TwoPlaneSection>,
     /// The bars' models, computed once ([`Scenario::bars`]; a beam's modes cost up to seconds).
     #[serde(skip)]
     bars_cache: BarsCache,
@@ -161,6 +169,7 @@ impl Default for Scenario {
             solid_modes: None,
             cutting: None,
             time_domain: None,
+            two_plane: None,
             bars_cache: BarsCache::default(),
         }
     }
@@ -417,6 +426,15 @@ impl Scenario {
             .get("forcing")
             .and_then(|f| f.get("amplitude_n"))
             .is_some();
+        if s.two_plane.is_some() && s.cutting.is_some() {
+            bail!(
+                "[two_plane] and [cutting] together: the cutting process runs on the one-plane \
+                 model only; remove one of them"
+            );
+        }
+        if let Some(t) = &s.two_plane {
+            t.force_angle_deg()?;
+        }
         if s.cutting.is_some() && !amplitude_given {
             s.forcing.amplitude_n = 0.0;
         }
@@ -699,6 +717,7 @@ impl Scenario {
         if let Some(c) = &self.cutting {
             c.validate()?;
         }
+        self.two_plane_system()?;
         Ok(())
     }
 }

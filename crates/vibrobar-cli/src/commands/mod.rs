@@ -24,6 +24,7 @@ pub mod paper;
 pub mod placement;
 pub mod run;
 pub mod sweep;
+pub mod sweep_two_plane;
 pub mod tap_test;
 pub mod time_domain;
 pub mod two_plane;

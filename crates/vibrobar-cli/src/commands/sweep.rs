@@ -21,6 +21,9 @@ use vibrobar_io::{GridInfo, Metadata};
 pub fn sweep(args: &SweepArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
     let sc = Scenario::from_args(&args.model)?;
+    if sc.two_plane.is_some() {
+        return super::sweep_two_plane::sweep(args, &sc);
+    }
     let gaps_m: Vec<f64> = if args.gap_mm.is_empty() {
         sc.sweep.gaps_m.clone()
     } else {

@@ -15,6 +15,7 @@
 //! as a Coulomb force `(η/r)·m_d·g`, gravity's component along the hole as a body force on the
 //! ball. Its members start from the same places and velocities along the hole.
 
+use super::batch::{BatchError, Runner};
 use super::case::run_case;
 use super::ensemble::SplitMix64;
 use crate::error::{ParamError, SimError};
@@ -143,6 +144,100 @@ impl TwoPlaneMethod {
             _ => TwoPlaneRk4::default().run(sys, start, settings, on_event),
         }
     }
+}
+
+/// A design point's answer: every member's run of the two-plane model, the one-plane model from
+/// the same starts, and the bar without its ball.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignPoint {
+    /// The members' starts.
+    pub starts: Vec<TwoPlaneStart>,
+    /// The members' runs.
+    pub members: Vec<TwoPlaneSummary>,
+    /// The one-plane model's RMS from each member's start ([`one_plane_system`], with the
+    /// rolling friction as a Coulomb force when the walls have friction).
+    pub one_plane_rms_m: Vec<f64>,
+    /// RMS of the bar without its ball.
+    pub solid_rms_m: f64,
+    /// The solver that ran the members: `"exact"` or `"reference"`.
+    pub solver: &'static str,
+}
+
+impl DesignPoint {
+    /// Each member's reduction of the RMS along the force against the bar without its ball, %.
+    pub fn reductions_pct(&self) -> Vec<f64> {
+        self.members
+            .iter()
+            .map(|m| 100.0 * (1.0 - m.rms_along_force_m / self.solid_rms_m))
+            .collect()
+    }
+
+    /// The one-plane model's reductions, %.
+    pub fn one_plane_reductions_pct(&self) -> Vec<f64> {
+        self.one_plane_rms_m
+            .iter()
+            .map(|r| 100.0 * (1.0 - r / self.solid_rms_m))
+            .collect()
+    }
+}
+
+/// Run the design points `systems`, every member of every point in parallel on `runner`.
+pub fn design_points(
+    systems: &[TwoPlaneSystem],
+    ens: &TwoPlaneEnsemble,
+    method: TwoPlaneMethod,
+    settings: &RunSettings,
+    runner: &Runner,
+) -> Result<Vec<DesignPoint>, BatchError<SimError>> {
+    let starts: Vec<Vec<TwoPlaneStart>> = systems
+        .iter()
+        .map(|s| starts(s, ens))
+        .collect::<Result<_, _>>()
+        .map_err(|e| BatchError::Point(e.into()))?;
+    let jobs: Vec<(usize, TwoPlaneStart)> = starts
+        .iter()
+        .enumerate()
+        .flat_map(|(i, st)| st.iter().map(move |s| (i, *s)))
+        .collect();
+    let two = runner.each(&jobs, |(i, st)| {
+        method.run(&systems[*i], st, settings, &mut |_| {})
+    })?;
+    let one_plane: Vec<System> = systems
+        .iter()
+        .map(|s| {
+            let friction = if s.ball.frictionless() {
+                FrictionModel::None
+            } else {
+                FrictionModel::Coulomb
+            };
+            one_plane_system(s, friction)
+        })
+        .collect();
+    let one = runner.each(&jobs, |(i, st)| {
+        one_plane_rms_m(&one_plane[*i], &one_plane_start(st), settings)
+    })?;
+    let solid = runner.each(&one_plane, |sys| {
+        let mut bare = *sys;
+        bare.damper = None;
+        one_plane_rms_m(&bare, &State::REST, settings)
+    })?;
+    let mut two = two.into_iter();
+    let mut one = one.into_iter();
+    Ok(systems
+        .iter()
+        .zip(starts)
+        .zip(solid)
+        .map(|((sys, st), solid_rms_m)| {
+            let n = st.len();
+            DesignPoint {
+                members: two.by_ref().take(n).collect(),
+                one_plane_rms_m: one.by_ref().take(n).collect(),
+                starts: st,
+                solid_rms_m,
+                solver: method.solver_for(sys),
+            }
+        })
+        .collect())
 }
 
 /// Mean, standard error and range of an ensemble's values.

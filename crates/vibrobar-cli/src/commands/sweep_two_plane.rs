@@ -1,0 +1,149 @@
+//! `vibrobar sweep` on a `[two_plane]` scenario: the bar that bends in two planes over gaps and
+//! frequency ratios, each point an ensemble of starts, beside the one-plane model and the bar
+//! without its ball.
+//!
+//! One row per (gap, ratio), gap-major: the ensemble's RMS along the force (mean, standard
+//! error, range), its reduction against the bar without the ball, the one-plane model's from the
+//! same starts, the RMS per direction, impacts and flight, and the solver that ran. The file is
+//! written whole at the end (atomically), after every point has run.
+
+use anyhow::{Context, Result};
+use std::fmt::Write as _;
+use vibrobar_core::analysis::two_plane::{design_points, Spread};
+use vibrobar_core::analysis::Runner;
+use vibrobar_core::Frequency;
+
+use crate::cli::SweepArgs;
+use crate::progress::Progress;
+use crate::scenario::{parse_ratios, sweep_ratios, Scenario};
+
+/// The columns.
+const HEADER: &str = "axial_gap_m,ratio,solver,members,rms_along_force_mean_m,\
+rms_along_force_std_err_m,rms_along_force_min_m,rms_along_force_max_m,reduction_mean_pct,\
+reduction_std_err_pct,one_plane_rms_mean_m,one_plane_reduction_mean_pct,\
+one_plane_reduction_std_err_pct,solid_rms_m,rms_radial_mean_m,rms_tangential_mean_m,\
+rms_total_mean_m,impacts_mean,flight_fraction_mean";
+
+/// Run the command on a scenario with `[two_plane]`.
+pub fn sweep(args: &SweepArgs, sc: &Scenario) -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let Some(section) = &sc.two_plane else {
+        anyhow::bail!("no [two_plane] section");
+    };
+    if args.resume {
+        anyhow::bail!(
+            "--resume: a sweep of a [two_plane] scenario writes its file whole at the end; run \
+             it again without --resume"
+        );
+    }
+    if args.freqs_hz.is_some() {
+        anyhow::bail!(
+            "--freqs-hz: a sweep of a [two_plane] scenario takes frequency ratios (--ratios); \
+             the ratio refers to the bar's lower principal frequency or first mode"
+        );
+    }
+    for g in &args.gap_mm {
+        crate::scenario::check_positive("--gap-mm", *g, "mm")?;
+    }
+    let gaps_m: Vec<f64> = if args.gap_mm.is_empty() {
+        sc.sweep.gaps_m.clone()
+    } else {
+        args.gap_mm.iter().map(|g| g * 1e-3).collect()
+    };
+    if gaps_m.is_empty() {
+        anyhow::bail!("sweep.gaps_m = [] in the scenario file: no gap to sweep (or give --gap-mm)");
+    }
+    let ratios = match &args.ratios {
+        Some(spec) => parse_ratios(spec)?,
+        None => sweep_ratios(&sc.sweep)?,
+    };
+    let settings = sc.settings();
+    let method = section.method(settings.dt_s)?;
+    let ens = section.ensemble()?;
+    // Every point's system, checked before anything runs.
+    let mut systems = Vec::with_capacity(gaps_m.len() * ratios.len());
+    for &gap_m in &gaps_m {
+        for &ratio in &ratios {
+            let mut s = sc.clone();
+            s.damper.gap_m = gap_m;
+            s.forcing.frequency = Frequency::Ratio(ratio);
+            let sys = s
+                .two_plane_system()?
+                .context("the scenario lost its [two_plane] section")?;
+            if let vibrobar_core::analysis::two_plane::TwoPlaneMethod::Exact = method {
+                vibrobar_core::solver::two_plane_exact::decoupled(&sys)
+                    .map_err(|why| anyhow::anyhow!("[two_plane] solver = \"exact\": {why}"))?;
+            }
+            systems.push(sys);
+        }
+    }
+    settings.validate()?;
+    let total = systems.len() * ens.members;
+    eprintln!(
+        "sweep: two planes, {} points × {} members ({} runs of {} s; solver {})",
+        systems.len(),
+        ens.members,
+        total,
+        settings.duration_s,
+        section.solver
+    );
+    let bar = Progress::new("two-plane sweep", total, 0);
+    let cb = bar.callback();
+    let points = design_points(
+        &systems,
+        &ens,
+        method,
+        &settings,
+        &Runner::default().with_progress(&cb),
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
+    bar.finish();
+    let mut csv = format!("{HEADER}\n");
+    let mut i = 0;
+    for &gap_m in &gaps_m {
+        for &ratio in &ratios {
+            let p = &points[i];
+            i += 1;
+            let rms: Vec<f64> = p.members.iter().map(|m| m.rms_along_force_m).collect();
+            let s = Spread::of(&rms);
+            let red = Spread::of(&p.reductions_pct());
+            let one = Spread::of(&p.one_plane_rms_m);
+            let one_red = Spread::of(&p.one_plane_reductions_pct());
+            let mean =
+                |f: &dyn Fn(&vibrobar_core::solver::two_plane_rk4::TwoPlaneSummary) -> f64| {
+                    p.members.iter().map(f).sum::<f64>() / p.members.len() as f64
+                };
+            writeln!(
+                csv,
+                "{gap_m},{ratio},{},{},{:e},{:e},{:e},{:e},{:.4},{:.4},{:e},{:.4},{:.4},{:e},{:e},{:e},\
+                 {:e},{:.2},{:.6}",
+                p.solver,
+                p.members.len(),
+                s.mean,
+                s.std_err,
+                s.min,
+                s.max,
+                red.mean,
+                red.std_err,
+                one.mean,
+                one_red.mean,
+                one_red.std_err,
+                p.solid_rms_m,
+                mean(&|m| m.rms_m[0]),
+                mean(&|m| m.rms_m[1]),
+                mean(&|m| m.rms_total_m),
+                mean(&|m| m.impacts.iter().sum::<u64>() as f64),
+                mean(&|m| m.flight_fraction),
+            )?;
+        }
+    }
+    vibrobar_io::csv::write_text(&args.out, &csv)
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    println!(
+        "wrote {} ({} points, {:.1} s)",
+        args.out.display(),
+        points.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
+}

@@ -1,0 +1,257 @@
+//! `[two_plane]`: the bar that bends in two planes, with the ball in a hole across it.
+//!
+//! The section adds what the one-plane model has no place for; everything else comes from the
+//! scenario's other sections, so a one-plane scenario becomes a two-plane one by adding it:
+//!
+//! | what | from |
+//! |---|---|
+//! | the bar | `[bar]` (round: its K and ζ in both planes, or per principal axis with `stiffness_n_per_m = [K1, K2]`, `damping_ratio = [ζ1, ζ2]`, `principal_axis_deg`), or `[beam]` / `[[modes]]` (a round bar of those modes in each plane) |
+//! | the ball | `[damper]`: `ball_mass_kg`, `ball_radius_m`, `restitution`, `rolling_friction_m`; friction on the hole's walls here |
+//! | the hole | `[damper] gap_m` is the axial gap (the ball moves ±gap/2 along the hole); here its direction and diameter |
+//! | the force | `[forcing]`: amplitude and frequency; here its direction |
+//! | gravity | `gravity_m_s2`; here its direction |
+//! | the runs | `[run]`: `duration_s`, `rms_fraction`, `dt_s` (the reference solver's step); here the solver and the ensemble of starts |
+//!
+//! ```toml
+//! [two_plane]
+//! hole_angle_deg = 0.0        # the hole's direction (0 = radial)
+//! hole_diameter_m = 0.0151    # radial clearance (d_hole − 2r)/2 across the hole
+//! force_ratio = 2.0           # F_t/F_r: the force at atan(2) = 63.4° (or force_angle_deg)
+//! gravity_angle_deg = 90.0    # along the tangential force
+//! friction_static = 0.0       # μ_s on the hole's walls, [0, 1)
+//! friction_kinetic = 0.0      # μ_k, [0, μ_s]
+//! solver = "auto"             # exact | reference | auto
+//! members = 8                 # the ensemble of starts
+//! seed = 1
+//! start_speed_m_s = 0.01
+//! ```
+//!
+//! Angles are in the cross-section plane, in degrees from the radial direction towards the
+//! tangential one.
+
+use anyhow::{bail, Result};
+use serde::{Deserialize, Serialize};
+use vibrobar_core::analysis::two_plane::{TwoPlaneEnsemble, TwoPlaneMethod};
+use vibrobar_core::params::two_plane::{
+    Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneBar, TwoPlaneSystem,
+};
+use vibrobar_core::params::BarModel;
+
+use crate::Scenario;
+
+/// `[two_plane]`. Missing fields: a radial 15.1 mm hole, the force at a tangential/radial ratio
+/// of 2, gravity at 90°, frictionless walls, the automatic solver, 8 members from seed 1.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TwoPlaneSection {
+    /// The hole's direction, degrees.
+    pub hole_angle_deg: f64,
+    /// The hole's diameter, m.
+    pub hole_diameter_m: f64,
+    /// The force's direction, degrees (exclusive with `force_ratio`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub force_angle_deg: Option<f64>,
+    /// The force's tangential/radial ratio (exclusive with `force_angle_deg`; default 2).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub force_ratio: Option<f64>,
+    /// Gravity's direction, degrees.
+    pub gravity_angle_deg: f64,
+    /// Static friction coefficient on the hole's walls.
+    pub friction_static: f64,
+    /// Kinetic friction coefficient.
+    pub friction_kinetic: f64,
+    /// A lumped bar's stiffness per principal axis (default: `[bar]`'s in both).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stiffness_n_per_m: Option<[f64; 2]>,
+    /// A lumped bar's damping ratio per principal axis (default: `[bar]`'s in both).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub damping_ratio: Option<[f64; 2]>,
+    /// The first principal axis' direction, degrees.
+    pub principal_axis_deg: f64,
+    /// The bar's diameter at the cavity, m, when known: the hole must fit inside it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bar_diameter_m: Option<f64>,
+    /// `exact`, `reference` or `auto`.
+    pub solver: String,
+    /// Members of each design point's ensemble of starts.
+    pub members: usize,
+    /// Seed of the starts.
+    pub seed: u64,
+    /// Largest start speed of a member, m/s.
+    pub start_speed_m_s: f64,
+}
+
+impl Default for TwoPlaneSection {
+    fn default() -> Self {
+        let ens = TwoPlaneEnsemble::default();
+        TwoPlaneSection {
+            hole_angle_deg: 0.0,
+            hole_diameter_m: 0.0151,
+            force_angle_deg: None,
+            force_ratio: None,
+            gravity_angle_deg: 90.0,
+            friction_static: 0.0,
+            friction_kinetic: 0.0,
+            stiffness_n_per_m: None,
+            damping_ratio: None,
+            principal_axis_deg: 0.0,
+            bar_diameter_m: None,
+            solver: "auto".into(),
+            members: ens.members,
+            seed: ens.seed,
+            start_speed_m_s: ens.start_speed_m_s,
+        }
+    }
+}
+
+/// Every field's name in errors: `[two_plane] field`.
+fn field(e: impl std::fmt::Display) -> String {
+    let msg = e.to_string();
+    let map = [
+        ("hole.angle_deg", "[two_plane] hole_angle_deg"),
+        ("hole.diameter_m", "[two_plane] hole_diameter_m"),
+        ("hole.axial_gap_m", "[damper] gap_m"),
+        ("forcing.angle_deg", "[two_plane] force_angle_deg"),
+        ("gravity.angle_deg", "[two_plane] gravity_angle_deg"),
+        ("gravity.m_s2", "gravity_m_s2"),
+        ("ball.friction_static", "[two_plane] friction_static"),
+        ("ball.friction_kinetic", "[two_plane] friction_kinetic"),
+        ("bar.stiffness_n_per_m", "[two_plane] stiffness_n_per_m"),
+        ("bar.damping_ratio", "[two_plane] damping_ratio"),
+        ("bar.principal_axis_deg", "[two_plane] principal_axis_deg"),
+        ("bar_diameter_m", "[two_plane] bar_diameter_m"),
+        ("ball.", "[damper] ball_"),
+        ("bar.", "[bar] "),
+    ];
+    map.iter().fold(msg, |m, (a, b)| m.replace(a, b))
+}
+
+impl TwoPlaneSection {
+    /// The force's direction, degrees.
+    pub fn force_angle_deg(&self) -> Result<f64> {
+        match (self.force_angle_deg, self.force_ratio) {
+            (Some(_), Some(_)) => bail!(
+                "[two_plane] force_angle_deg and force_ratio both give the force's direction: \
+                 keep one of them"
+            ),
+            (Some(a), None) => Ok(a),
+            (None, r) => {
+                let r = r.unwrap_or(2.0);
+                if !r.is_finite() || r < 0.0 {
+                    bail!(
+                        "[two_plane] force_ratio = {r} is outside the allowed range [0, ∞) \
+                         (tangential over radial force)"
+                    );
+                }
+                Ok(PlanarForcing::angle_from_ratio_deg(r))
+            }
+        }
+    }
+
+    /// The solver.
+    pub fn method(&self, dt_s: f64) -> Result<TwoPlaneMethod> {
+        Ok(match self.solver.as_str() {
+            "auto" => TwoPlaneMethod::Auto,
+            "exact" => TwoPlaneMethod::Exact,
+            "reference" => TwoPlaneMethod::Reference { dt_s },
+            s => bail!(
+                "[two_plane] solver = {s:?} is not one of the allowed values: exact, reference, \
+                 auto"
+            ),
+        })
+    }
+
+    /// The ensemble of starts.
+    pub fn ensemble(&self) -> Result<TwoPlaneEnsemble> {
+        let e = TwoPlaneEnsemble {
+            members: self.members,
+            seed: self.seed,
+            start_speed_m_s: self.start_speed_m_s,
+        };
+        e.validate().map_err(|err| {
+            anyhow::anyhow!(
+                "{}",
+                err.to_string()
+                    .replace("members (--members)", "[two_plane] members")
+                    .replace("start_speed_m_s", "[two_plane] start_speed_m_s")
+            )
+        })?;
+        Ok(e)
+    }
+}
+
+impl Scenario {
+    /// The two-plane system of a `[two_plane]` scenario (`None` without the section); errors
+    /// name the scenario's field.
+    pub fn two_plane_system(&self) -> Result<Option<TwoPlaneSystem>> {
+        let Some(t) = &self.two_plane else {
+            return Ok(None);
+        };
+        let bar = match self.bars()?.0 {
+            BarModel::Lumped(b) => TwoPlaneBar::Lumped(PlanarBar {
+                mass_kg: b.mass_kg,
+                stiffness_n_per_m: t.stiffness_n_per_m.unwrap_or([b.stiffness_n_per_m; 2]),
+                damping_ratio: t.damping_ratio.unwrap_or([b.damping_ratio; 2]),
+                principal_axis_deg: t.principal_axis_deg,
+            }),
+            BarModel::Modal(m) => {
+                if t.stiffness_n_per_m.is_some() || t.damping_ratio.is_some() {
+                    bail!(
+                        "[two_plane] stiffness_n_per_m and damping_ratio apply to a lumped [bar]; \
+                         a bar of modes ([beam] or [[modes]]) is round, the same in both planes"
+                    );
+                }
+                TwoPlaneBar::Round(m)
+            }
+        };
+        let d = &self.damper;
+        let sys = TwoPlaneSystem {
+            bar,
+            ball: PlanarBall {
+                mass_kg: d.ball_mass_kg,
+                radius_m: d.ball_radius_m,
+                restitution: d.restitution,
+                friction_static: t.friction_static,
+                friction_kinetic: t.friction_kinetic,
+                rolling_friction_m: d.rolling_friction_m,
+            },
+            hole: Hole {
+                angle_deg: t.hole_angle_deg,
+                axial_gap_m: d.gap_m,
+                diameter_m: t.hole_diameter_m,
+            },
+            forcing: PlanarForcing {
+                amplitude_n: self.forcing.amplitude_n,
+                frequency: self.forcing.frequency,
+                angle_deg: t.force_angle_deg()?,
+            },
+            gravity: Gravity {
+                m_s2: self.gravity_m_s2,
+                angle_deg: t.gravity_angle_deg,
+            },
+            bar_diameter_m: t.bar_diameter_m,
+        };
+        sys.validate()
+            .map_err(|e| anyhow::anyhow!("{}", field(e)))?;
+        Ok(Some(sys))
+    }
+}
+
+/// The commands that run a `[two_plane]` scenario.
+pub const TWO_PLANE_COMMANDS: [&str; 1] = ["sweep"];
+
+/// The error for a `[two_plane]` scenario given to `command`.
+pub fn two_plane_refusal(command: &str) -> String {
+    format!(
+        "vibrobar {command} does not run a [two_plane] scenario (the bar that bends in two planes \
+         runs with vibrobar {}, the design document vibrobar two-plane, and Python's \
+         vibrobar.two_plane); remove [two_plane] for the one-plane model",
+        TWO_PLANE_COMMANDS.join(", ")
+    )
+}
+
+/// Whether the TOML text has a `[two_plane]` section (unparsable text: no; its command reports
+/// the parse error).
+pub fn text_has_two_plane(text: &str) -> bool {
+    toml::from_str::<toml::Table>(text).is_ok_and(|t| t.contains_key("two_plane"))
+}
