@@ -449,8 +449,15 @@ fn paper_quick_writes_everything() {
     assert_eq!(rows[11][col("gap_mm")], "1");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
-    // 16 claims of the paper and C1 (issue #9: instantaneous impacts against hertz).
-    assert_eq!(json["claims"].as_array().unwrap().len(), 17);
+    // 16 claims of the paper, C1 (instantaneous impacts against hertz) and T1, T2 (the gaps on
+    // the bar that bends in two planes).
+    assert_eq!(json["claims"].as_array().unwrap().len(), 19);
+    let two = json["two_plane"].as_array().unwrap();
+    assert_eq!(two.len(), 8);
+    for p in two {
+        assert_eq!(p["solver"], "exact");
+        assert!(p["two_plane_pct"][0].as_f64().unwrap().is_finite());
+    }
     assert!(json["contact_laws"]["mean_abs_pp"]
         .as_f64()
         .unwrap()

@@ -366,6 +366,21 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
         );
         Some(runs.comparison(&variants))
     };
+    // Claims T1, T2: the gaps' verdicts on the bar that bends in two planes.
+    let two_plane = {
+        let m = if members == 0 {
+            ENSEMBLE_MEMBERS.1
+        } else {
+            members
+        };
+        let t = Instant::now();
+        let points = super::two_plane::paper_check(&settings, m)?;
+        eprintln!(
+            "  two planes (ensembles of {m}): done in {}",
+            fmt_secs(t.elapsed().as_secs_f64())
+        );
+        Some(points)
+    };
 
     let mut files = Vec::new();
     let first = &data[0];
@@ -478,6 +493,7 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
         },
         ensemble,
         contact,
+        two_plane,
     };
     let cl = claims(&input);
     write_json(
@@ -498,6 +514,7 @@ pub fn paper(args: &PaperArgs) -> Result<()> {
                 })).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
             "contact_laws": input.contact,
+            "two_plane": input.two_plane,
             "ic_ensemble": input.ensemble.as_ref().map(|e| serde_json::json!({
                 "solver": e.solver,
                 "seed": e.seed,

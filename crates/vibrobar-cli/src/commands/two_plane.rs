@@ -1128,3 +1128,62 @@ pub fn bench_row(pairs: usize) -> Result<()> {
     );
     Ok(())
 }
+
+/// The paper's gap claims on the bar that bends in two planes, for `vibrobar paper`'s report:
+/// the 15.1 mm and 17 mm holes, the 0.1 and 1.0 mm gaps, the force at the ratio-2 and ratio-3
+/// directions from a radial hole, frictionless walls, r = 1, ensembles of `members`; reductions
+/// against the paper's solid bar.
+pub fn paper_check(
+    settings: &RunSettings,
+    members: usize,
+) -> Result<Vec<vibrobar_report::report::TwoPlanePoint>> {
+    let ens = TwoPlaneEnsemble {
+        members,
+        ..TwoPlaneEnsemble::default()
+    };
+    let mut points = Vec::new();
+    for hole_mm in HOLES_MM {
+        for gap_mm in GAPS_MM {
+            for force_deg in [63.4, 71.6] {
+                points.push(Point {
+                    hole_mm,
+                    gap_mm,
+                    ratio: 1.0,
+                    force_deg,
+                    hole_deg: 0.0,
+                    friction: false,
+                    beam: false,
+                });
+            }
+        }
+    }
+    let systems: Vec<TwoPlaneSystem> = points.iter().map(Point::system).collect();
+    let method = TwoPlaneMethod::Auto;
+    let answers = vibrobar_core::analysis::two_plane::design_points(
+        &systems,
+        &ens,
+        method,
+        settings,
+        &Runner::default(),
+    )
+    .map_err(|e| anyhow::anyhow!("two-plane runs: {e}"))?;
+    let solid = one_plane_rms_m(&System::paper_solid(1.0), &State::REST, settings)?;
+    let pct = |rms: &mut dyn Iterator<Item = f64>| {
+        let red: Vec<f64> = rms.map(|r| 100.0 * (1.0 - r / solid)).collect();
+        let s = Spread::of(&red);
+        (s.mean, s.std_err)
+    };
+    Ok(points
+        .iter()
+        .zip(&answers)
+        .map(|(p, a)| vibrobar_report::report::TwoPlanePoint {
+            hole_mm: p.hole_mm,
+            gap_mm: p.gap_mm,
+            force_deg: p.force_deg,
+            one_plane_pct: pct(&mut a.one_plane_rms_m.iter().copied()),
+            two_plane_pct: pct(&mut a.members.iter().map(|m| m.rms_along_force_m)),
+            members,
+            solver: a.solver.into(),
+        })
+        .collect())
+}
