@@ -942,6 +942,35 @@ fn ic_claims(input: &ReportInput) -> Vec<Claim> {
 }
 
 /// The section on the initial-condition ensemble: what was drawn, the claims, every point.
+/// One table row per finding of `claims`: id, claim, paper, rule, (the row's parameters when
+/// `with_params`), the finding and whether it holds.
+fn finding_rows(s: &mut String, claims: &[&Claim], with_params: bool, yes: &str, no: &str) {
+    use std::fmt::Write as _;
+    for c in claims {
+        for row in &c.rows {
+            for f in &row.findings {
+                let _ = write!(
+                    s,
+                    "| {} | {} | {} | {} |",
+                    c.id,
+                    cell(&c.text),
+                    cell(&c.paper),
+                    cell(&c.rule)
+                );
+                if with_params {
+                    let _ = write!(s, " {} |", cell(&row.params));
+                }
+                let _ = writeln!(
+                    s,
+                    " {} | {} |",
+                    cell(&f.value),
+                    if f.holds { yes } else { no }
+                );
+            }
+        }
+    }
+}
+
 fn render_ensemble(s: &mut String, input: &ReportInput, e: &IcEnsemble, claims: &[&Claim]) {
     use std::fmt::Write;
     let r = &e.ranges;
@@ -1215,22 +1244,7 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
              of `docs/contact-laws.md`, computed by this run):\n\n\
              | # | Claim | Paper | Rule | Ours | Holds |\n|---|---|---|---|---|---|"
         );
-        for c in &by_contact {
-            for row in &c.rows {
-                for f in &row.findings {
-                    let _ = writeln!(
-                        s,
-                        "| {} | {} | {} | {} | {} | {} |",
-                        c.id,
-                        cell(&c.text),
-                        cell(&c.paper),
-                        cell(&c.rule),
-                        cell(&f.value),
-                        if f.holds { "yes" } else { "**no**" }
-                    );
-                }
-            }
-        }
+        finding_rows(&mut s, &by_contact, false, "yes", "**no**");
     }
 
     if !by_two_plane.is_empty() {
@@ -1242,23 +1256,7 @@ pub fn render(input: &ReportInput, claims: &[Claim], total_wall_s: f64) -> Strin
              paper's model is one-plane:\n\n\
              | # | Claim | Paper | Rule | Where | Ours | Survives |\n|---|---|---|---|---|---|---|"
         );
-        for c in &by_two_plane {
-            for row in &c.rows {
-                for f in &row.findings {
-                    let _ = writeln!(
-                        s,
-                        "| {} | {} | {} | {} | {} | {} | {} |",
-                        c.id,
-                        cell(&c.text),
-                        cell(&c.paper),
-                        cell(&c.rule),
-                        cell(&row.params),
-                        cell(&f.value),
-                        if f.holds { "yes" } else { "**no**" }
-                    );
-                }
-            }
-        }
+        finding_rows(&mut s, &by_two_plane, true, "yes", "**no**");
     }
 
     let _ = writeln!(s, "\n## Claims, parameter set by parameter set\n");

@@ -27,6 +27,7 @@
 use std::collections::VecDeque;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 
+use super::exact::cutting::GL8;
 use super::two_plane_rk4::{
     HoleWall, TwoPlaneBook, TwoPlaneEvent, TwoPlaneEventKind, TwoPlaneStart, TwoPlaneSummary,
     WallMotion,
@@ -314,7 +315,7 @@ impl Cross<'_> {
             let hi = p.t1.min(b);
             let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
             let mut sum = 0.0;
-            for (x, w) in GAUSS_8 {
+            for (x, w) in GL8 {
                 let t = mid + half * x;
                 sum += w * p.at(t) * seg.state_at(t).u_m;
             }
@@ -339,18 +340,6 @@ impl Cross<'_> {
         false
     }
 }
-
-/// Nodes and weights of the 8-point Gauss–Legendre rule on `[−1, 1]`.
-const GAUSS_8: [(f64, f64); 8] = [
-    (-0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
-    (-0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
-    (-0.525_532_409_916_329, 0.313_706_645_877_887_3),
-    (-0.183_434_642_495_649_8, 0.362_683_783_378_362),
-    (0.183_434_642_495_649_8, 0.362_683_783_378_362),
-    (0.525_532_409_916_329, 0.313_706_645_877_887_3),
-    (0.796_666_477_413_626_7, 0.222_381_034_453_374_47),
-    (0.960_289_856_497_536_3, 0.101_228_536_290_376_26),
-];
 
 impl PlaneObserver<'_> {
     fn energy_j(&self, seg: &dyn Segment, t: f64) -> f64 {
