@@ -179,27 +179,43 @@ struct Piece {
     contact: bool,
 }
 
+/// The Chebyshev–Lobatto nodes `cos(πj/(n−1))` on `[−1, 1]` and their barycentric weights
+/// (`(−1)^j`, halved at the ends).
+fn lobatto() -> &'static ([f64; NODES], [f64; NODES]) {
+    static TABLE: std::sync::OnceLock<([f64; NODES], [f64; NODES])> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut x = [0.0; NODES];
+        let mut w = [0.0; NODES];
+        for j in 0..NODES {
+            x[j] = (std::f64::consts::PI * j as f64 / (NODES - 1) as f64).cos();
+            w[j] = if j % 2 == 0 { 1.0 } else { -1.0 };
+            if j == 0 || j == NODES - 1 {
+                w[j] *= 0.5;
+            }
+        }
+        (x, w)
+    })
+}
+
 impl Piece {
     /// Node `j` in `[t0, t1]` (node 0 at `t1`).
     fn node(t0: f64, t1: f64, j: usize) -> f64 {
-        let x = (std::f64::consts::PI * j as f64 / (NODES - 1) as f64).cos();
-        0.5 * (t0 + t1) + 0.5 * (t1 - t0) * x
+        0.5 * (t0 + t1) + 0.5 * (t1 - t0) * lobatto().0[j]
     }
 
     /// The interpolant at `t` (barycentric formula).
     fn at(&self, t: f64) -> f64 {
+        let (x, w) = lobatto();
+        let tau = (2.0 * t - self.t0 - self.t1) / (self.t1 - self.t0);
         let (mut num, mut den) = (0.0, 0.0);
         for j in 0..NODES {
-            let d = t - Piece::node(self.t0, self.t1, j);
+            let d = tau - x[j];
             if d == 0.0 {
                 return self.u[j];
             }
-            let mut w = if j % 2 == 0 { 1.0 } else { -1.0 };
-            if j == 0 || j == NODES - 1 {
-                w *= 0.5;
-            }
-            num += w / d * self.u[j];
-            den += w / d;
+            let q = w[j] / d;
+            num += q * self.u[j];
+            den += q;
         }
         num / den
     }
