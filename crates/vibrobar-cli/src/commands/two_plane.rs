@@ -132,6 +132,29 @@ impl Point {
     }
 }
 
+/// The design points of a radial hole: every hole × gap × ratio × force, in that order.
+fn radial_grid(ratios: &[f64], forces: &[f64], friction: bool, beam: bool) -> Vec<Point> {
+    let mut points = Vec::new();
+    for hole_mm in HOLES_MM {
+        for gap_mm in GAPS_MM {
+            for &ratio in ratios {
+                for &force_deg in forces {
+                    points.push(Point {
+                        hole_mm,
+                        gap_mm,
+                        ratio,
+                        force_deg,
+                        hole_deg: 0.0,
+                        friction,
+                        beam,
+                    });
+                }
+            }
+        }
+    }
+    points
+}
+
 /// One run's outcome.
 #[derive(Debug, Clone, Copy)]
 struct Outcome {
@@ -229,26 +252,10 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
 
     // The design points: the comparison (hole at 0°, the force turned) and the map (force at
     // the ratio-2 angle, the hole turned).
-    let mut points = Vec::new();
-    for friction in [false, true] {
-        for hole_mm in HOLES_MM {
-            for gap_mm in GAPS_MM {
-                for &ratio in &ratios {
-                    for &force_deg in &forces {
-                        points.push(Point {
-                            hole_mm,
-                            gap_mm,
-                            ratio,
-                            force_deg,
-                            hole_deg: 0.0,
-                            friction,
-                            beam: false,
-                        });
-                    }
-                }
-            }
-        }
-    }
+    let mut points: Vec<Point> = [false, true]
+        .iter()
+        .flat_map(|&friction| radial_grid(&ratios, &forces, friction, false))
+        .collect();
     let n_compare = points.len();
     let map_force = 2f64.atan().to_degrees();
     for &hole_deg in &map_holes {
@@ -286,23 +293,7 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
         .copied()
         .filter(|f| [0.0, 63.4, 71.6].iter().any(|x| (f - x).abs() < 1e-9))
         .collect();
-    for hole_mm in HOLES_MM {
-        for gap_mm in GAPS_MM {
-            for &ratio in &ratios {
-                for &force_deg in &beam_forces {
-                    points.push(Point {
-                        hole_mm,
-                        gap_mm,
-                        ratio,
-                        force_deg,
-                        hole_deg: 0.0,
-                        friction: false,
-                        beam: true,
-                    });
-                }
-            }
-        }
-    }
+    points.extend(radial_grid(&ratios, &beam_forces, false, true));
     // Every member of every point, run in parallel.
     let jobs: Vec<(usize, TwoPlaneStart)> = points
         .iter()
@@ -1141,22 +1132,7 @@ pub fn paper_check(
         members,
         ..TwoPlaneEnsemble::default()
     };
-    let mut points = Vec::new();
-    for hole_mm in HOLES_MM {
-        for gap_mm in GAPS_MM {
-            for force_deg in [63.4, 71.6] {
-                points.push(Point {
-                    hole_mm,
-                    gap_mm,
-                    ratio: 1.0,
-                    force_deg,
-                    hole_deg: 0.0,
-                    friction: false,
-                    beam: false,
-                });
-            }
-        }
-    }
+    let points = radial_grid(&[1.0], &[63.4, 71.6], false, false);
     let systems: Vec<TwoPlaneSystem> = points.iter().map(Point::system).collect();
     let method = TwoPlaneMethod::Auto;
     let answers = vibrobar_core::analysis::two_plane::design_points(
