@@ -999,4 +999,6 @@ fn a_round_beam_with_the_force_along_the_hole_is_the_one_plane_beam() {
     assert!(e.impacts[0] + e.impacts[1] > 0 && e.impacts[2] + e.impacts[3] == 0);
     close(e.rms_along_force_m, rms, 1e-9, "RMS along the force");
     assert!(e.rms_m[1] < 1e-15);
+    // The end state's ball is relative to the cavity, not to the tip.
+    assert!(e.end.w_hole_m[0].abs() <= 0.05e-3 + 1e-12, "{:?}", e.end);
 }

@@ -32,7 +32,7 @@ use super::two_plane_rk4::{
     HoleWall, TwoPlaneBook, TwoPlaneEvent, TwoPlaneEventKind, TwoPlaneStart, TwoPlaneSummary,
     WallMotion,
 };
-use super::{Event, EventKind, Exact, Mode, Observer, Segment, Solver, Wall};
+use super::{Event, EventKind, Exact, Mode, Observer, RunSummary, Segment, Solver, Wall};
 use crate::error::SimError;
 use crate::params::two_plane::{direction, TwoPlaneBar, TwoPlaneSystem};
 use crate::params::{
@@ -239,19 +239,16 @@ struct PlaneTotals {
     impacts: [u64; 2],
     /// Window time resting on the `+` and `−` walls.
     rest_s: [f64; 2],
-    events: u64,
-    max_penetration_m: f64,
     /// Mechanical energy (with the body force's potential) at the start and the end.
     energy_start_j: Option<f64>,
     energy_end_j: f64,
-    end: Option<State>,
 }
 
 /// The observer of one plane: its totals, and its share of the stream.
 struct PlaneObserver<'a> {
     axis: usize,
+    /// The RMS window; its end is the run's.
     window: (f64, f64),
-    half_gap_m: f64,
     /// `m_d·g` along the plane's slot (the body force's potential is `−m_d g v`).
     weight_n: f64,
     totals: PlaneTotals,
@@ -395,8 +392,10 @@ impl Observer for PlaneObserver<'_> {
         if self.totals.energy_start_j.is_none() {
             self.totals.energy_start_j = Some(self.energy_j(seg, t0));
         }
-        self.totals.energy_end_j = self.energy_j(seg, t1);
-        self.totals.end = Some(seg.state_at(t1));
+        if t1 >= self.window.1 {
+            // The run's last segment.
+            self.totals.energy_end_j = self.energy_j(seg, t1);
+        }
         let i = seg.integrals(t0, t1);
         self.totals.forcing_work_j += i.forcing_work_j;
         self.totals.viscous_loss_j += i.viscous_loss_j;
@@ -440,10 +439,6 @@ impl Observer for PlaneObserver<'_> {
     }
 
     fn event(&mut self, ev: &Event) {
-        self.totals.events += 1;
-        let w = ev.after.v_m - ev.after.u_cavity_m();
-        self.totals.max_penetration_m =
-            self.totals.max_penetration_m.max(w.abs() - self.half_gap_m);
         match ev.kind {
             EventKind::Impact {
                 wall,
@@ -503,11 +498,6 @@ impl TwoPlaneExact {
         let observer = |axis: usize| PlaneObserver {
             axis,
             window,
-            half_gap_m: if axis == 0 {
-                sys.hole.half_axial_gap_m()
-            } else {
-                sys.radial_clearance_m()
-            },
             weight_n: sys.ball.mass_kg
                 * systems[axis]
                     .damper
@@ -526,7 +516,7 @@ impl TwoPlaneExact {
                     ..observer(0)
                 };
                 let r = solver.run(&systems[0], &starts[0], t_end, &mut obs);
-                r.map(|_| obs.totals)
+                r.map(|summary| (obs.totals, summary))
             });
             let mut obs = PlaneObserver {
                 rx: Some(Cross {
@@ -552,27 +542,28 @@ impl TwoPlaneExact {
             let along = producer
                 .join()
                 .map_err(|_| SimError::Unsupported("the run of the plane along the hole failed"))?;
-            r?;
-            Ok::<_, SimError>((along?, obs.totals, c, f))
+            Ok::<_, SimError>((along?, (obs.totals, r?), c, f))
         })?;
         summarize(sys, start, &[along, across], cross, flight_s, window)
     }
 }
 
-/// The summary of the two planes' totals and their cross integrals.
+/// The summary of the two planes' totals and runs and their cross integrals.
 fn summarize(
     sys: &TwoPlaneSystem,
     start: &TwoPlaneStart,
-    planes: &[PlaneTotals; 2],
+    planes: &[(PlaneTotals, RunSummary); 2],
     cross: f64,
     flight_s: f64,
     window: (f64, f64),
 ) -> Result<TwoPlaneSummary, SimError> {
     let len = window.1 - window.0;
     let axes = hole_axes(sys);
+    let [(ta, ra), (tn, rn)] = planes;
+    let totals = [ta, tn];
     // `∫(c·u)²` for `c` in the hole's frame.
     let rms = |c: [f64; 2]| {
-        let s = c[0] * c[0] * planes[0].u2 + c[1] * c[1] * planes[1].u2 + 2.0 * c[0] * c[1] * cross;
+        let s = c[0] * c[0] * ta.u2 + c[1] * c[1] * tn.u2 + 2.0 * c[0] * c[1] * cross;
         (s.max(0.0) / len).sqrt()
     };
     let e_f = direction(sys.forcing.angle_deg);
@@ -581,17 +572,12 @@ fn summarize(
     let mut contact_fraction = [[0.0; 3]; 4];
     for axis in 0..2 {
         for side in 0..2 {
-            impacts[2 * axis + side] = planes[axis].impacts[side];
+            impacts[2 * axis + side] = totals[axis].impacts[side];
             contact_fraction[2 * axis + side][WallMotion::Sliding as usize] =
-                planes[axis].rest_s[side] / len;
+                totals[axis].rest_s[side] / len;
         }
     }
-    let ends = [planes[0].end, planes[1].end];
-    let [Some(ea), Some(en)] = ends else {
-        return Err(SimError::Unsupported(
-            "a plane's run had no segment (zero duration)",
-        ));
-    };
+    let (ea, en) = (ra.final_state, rn.final_state);
     let end = TwoPlaneStart {
         u_m: [
             ea.u_m * axes[0][0] + en.u_m * axes[1][0],
@@ -601,11 +587,14 @@ fn summarize(
             ea.du_m_s * axes[0][0] + en.du_m_s * axes[1][0],
             ea.du_m_s * axes[0][1] + en.du_m_s * axes[1][1],
         ],
-        w_hole_m: [ea.v_m - ea.u_m, en.v_m - en.u_m],
-        dw_hole_m_s: [ea.dv_m_s - ea.du_m_s, en.dv_m_s - en.du_m_s],
+        w_hole_m: [ea.v_m - ea.u_cavity_m(), en.v_m - en.u_cavity_m()],
+        dw_hole_m_s: [
+            ea.dv_m_s - ea.du_cavity_m_s(),
+            en.dv_m_s - en.du_cavity_m_s(),
+        ],
         spin_rad_s: start.spin_rad_s,
     };
-    let sum = |f: fn(&PlaneTotals) -> f64| f(&planes[0]) + f(&planes[1]);
+    let sum = |f: fn(&PlaneTotals) -> f64| f(ta) + f(tn);
     let book = TwoPlaneBook {
         forcing_work_j: sum(|p| p.forcing_work_j),
         viscous_loss_j: sum(|p| p.viscous_loss_j),
@@ -622,15 +611,16 @@ fn summarize(
             fin("RMS of u_x", rms(frame([1.0, 0.0])))?,
             fin("RMS of u_y", rms(frame([0.0, 1.0])))?,
         ],
-        rms_total_m: fin(
-            "RMS of |u|",
-            ((planes[0].u2 + planes[1].u2).max(0.0) / len).sqrt(),
-        )?,
+        rms_total_m: fin("RMS of |u|", ((ta.u2 + tn.u2).max(0.0) / len).sqrt())?,
         impacts,
         contact_fraction,
         flight_fraction: flight_s / len,
-        events: planes[0].events + planes[1].events,
-        max_penetration_m: planes[0].max_penetration_m.max(planes[1].max_penetration_m),
+        events: ra.events + rn.events,
+        // |w| − clearance ≥ −clearance: the floor only replaces a plane that never looked.
+        max_penetration_m: ra
+            .max_penetration_m
+            .max(-sys.hole.half_axial_gap_m())
+            .max(rn.max_penetration_m.max(-sys.radial_clearance_m())),
         book,
         end,
     })
