@@ -2800,13 +2800,13 @@ fn two_plane<'py>(
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use vibrobar_core::analysis::two_plane::{
-        one_plane_rms_m, one_plane_start, one_plane_system, starts, TwoPlaneEnsemble,
-        TwoPlaneMethod,
+        design_points, starts, TwoPlaneEnsemble, TwoPlaneMethod,
     };
     use vibrobar_core::params::two_plane::{
         Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneSystem,
     };
-    use vibrobar_core::{FrictionModel, RunSettings, State};
+    use vibrobar_core::solver::two_plane_rk4::TwoPlaneStart;
+    use vibrobar_core::RunSettings;
     check_threads(threads)?;
     let sys = TwoPlaneSystem {
         bar: PlanarBar {
@@ -2853,8 +2853,8 @@ fn two_plane<'py>(
         seed,
         start_speed_m_s,
     };
-    let starts =
-        starts(&sys, &ens).map_err(|e| input_error(e.to_string().replace(" (--members)", "")))?;
+    // The ensemble's fields, checked before anything runs.
+    starts(&sys, &ens).map_err(|e| input_error(e.to_string().replace(" (--members)", "")))?;
     let method = match solver {
         "auto" => TwoPlaneMethod::Auto,
         "exact" => TwoPlaneMethod::Exact,
@@ -2865,55 +2865,36 @@ fn two_plane<'py>(
             )))
         }
     };
-    let friction = if sys.ball.frictionless() {
-        FrictionModel::None
-    } else {
-        FrictionModel::Coulomb
-    };
-    let one = one_plane_system(&sys, friction);
-    let mut solid = one;
-    solid.damper = None;
-    let (two, one_rms, solid_rms) = detached(py, progress, |ctl| {
+    let point = detached(py, progress, |ctl| {
         let cb = |d: usize, t: usize| ctl.progress(d, t);
-        let run = runner(ctl, &cb, threads);
-        let two = run
-            .each(&starts, |st| method.run(&sys, st, &settings, &mut |_| {}))
-            .map_err(|e| run_error(two_plane_keywords(e.to_string())))?;
-        let one_rms = run
-            .each(&starts, |st| {
-                one_plane_rms_m(&one, &one_plane_start(st), &settings)
-            })
-            .map_err(run_error)?;
-        let solid_rms = one_plane_rms_m(&solid, &State::REST, &settings).map_err(run_error)?;
-        Ok((two, one_rms, solid_rms))
-    })?;
+        design_points(
+            std::slice::from_ref(&sys),
+            &ens,
+            method,
+            &settings,
+            &runner(ctl, &cb, threads),
+        )
+        .map_err(|e| run_error(two_plane_keywords(e.to_string())))
+    })?
+    .pop()
+    .expect("one design point");
+    let (starts, two) = (&point.starts, &point.members);
     let d = PyDict::new(py);
     let col = |f: &dyn Fn(&vibrobar_core::solver::two_plane_rk4::TwoPlaneSummary) -> f64| {
         two.iter().map(f).collect::<Vec<f64>>()
     };
+    let start_col = |f: &dyn Fn(&TwoPlaneStart) -> f64| starts.iter().map(f).collect::<Vec<f64>>();
     d.set_item(
         "w_along_start_m",
-        starts
-            .iter()
-            .map(|s| s.w_hole_m[0])
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
+        start_col(&|s| s.w_hole_m[0]).into_pyarray(py),
     )?;
     d.set_item(
         "dw_along_start_m_s",
-        starts
-            .iter()
-            .map(|s| s.dw_hole_m_s[0])
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
+        start_col(&|s| s.dw_hole_m_s[0]).into_pyarray(py),
     )?;
     d.set_item(
         "dw_across_start_m_s",
-        starts
-            .iter()
-            .map(|s| s.dw_hole_m_s[1])
-            .collect::<Vec<_>>()
-            .into_pyarray(py),
+        start_col(&|s| s.dw_hole_m_s[1]).into_pyarray(py),
     )?;
     d.set_item(
         "rms_along_force_m",
@@ -2938,9 +2919,15 @@ fn two_plane<'py>(
         "flight_fraction",
         col(&|s| s.flight_fraction).into_pyarray(py),
     )?;
-    d.set_item("one_plane_rms_m", one_rms.into_pyarray(py))?;
-    d.set_item("solid_rms_m", vec![solid_rms; two.len()].into_pyarray(py))?;
-    d.set_item("solver", vec![method.solver_for(&sys); two.len()])?;
+    d.set_item(
+        "one_plane_rms_m",
+        point.one_plane_rms_m.clone().into_pyarray(py),
+    )?;
+    d.set_item(
+        "solid_rms_m",
+        vec![point.solid_rms_m; two.len()].into_pyarray(py),
+    )?;
+    d.set_item("solver", vec![point.solver; two.len()])?;
     Ok(d)
 }
 
