@@ -75,6 +75,10 @@ def test_the_exact_solver_runs_where_the_planes_decouple_and_matches_the_referen
     # With friction "auto" takes the reference solver, and "exact" refuses and says why.
     rough = dict(kw, ball_friction_static=0.3, ball_friction_kinetic=0.2, duration_s=0.01)
     assert list(vibrobar.two_plane(**rough)["solver"]) == ["reference"]
+    # ... at the step it is given.
+    coarse = vibrobar.two_plane(dt_s=2e-6, **rough)
+    assert not np.array_equal(coarse["rms_along_force_m"],
+                              vibrobar.two_plane(**rough)["rms_along_force_m"])
     with pytest.raises(Exception, match="frictionless walls"):
         vibrobar.two_plane(solver="exact", **rough)
     with pytest.raises(ValueError, match="solver"):

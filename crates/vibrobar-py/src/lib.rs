@@ -2856,7 +2856,7 @@ fn two_plane<'py>(
     // The ensemble's fields, checked before anything runs.
     starts(&sys, &ens).map_err(|e| input_error(e.to_string().replace(" (--members)", "")))?;
     let method = match solver {
-        "auto" => TwoPlaneMethod::Auto,
+        "auto" => TwoPlaneMethod::Auto { dt_s },
         "exact" => TwoPlaneMethod::Exact,
         "reference" => TwoPlaneMethod::Reference { dt_s },
         _ => {

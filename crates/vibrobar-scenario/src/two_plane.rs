@@ -151,7 +151,7 @@ impl TwoPlaneSection {
     /// The solver.
     pub fn method(&self, dt_s: f64) -> Result<TwoPlaneMethod> {
         Ok(match self.solver.as_str() {
-            "auto" => TwoPlaneMethod::Auto,
+            "auto" => TwoPlaneMethod::Auto { dt_s },
             "exact" => TwoPlaneMethod::Exact,
             "reference" => TwoPlaneMethod::Reference { dt_s },
             s => bail!(

@@ -308,7 +308,7 @@ pub fn run(args: &TwoPlaneArgs) -> Result<()> {
         points.len(),
         jobs.len()
     );
-    let method = TwoPlaneMethod::Auto;
+    let method = TwoPlaneMethod::default();
     // Run times per solver: exact, reference.
     let timing = std::sync::Mutex::new([Vec::new(), Vec::new()]);
     let bar = Progress::new("two-plane runs", jobs.len(), 0);
@@ -1134,7 +1134,7 @@ pub fn paper_check(
     };
     let points = radial_grid(&[1.0], &[63.4, 71.6], false, false);
     let systems: Vec<TwoPlaneSystem> = points.iter().map(Point::system).collect();
-    let method = TwoPlaneMethod::Auto;
+    let method = TwoPlaneMethod::default();
     let answers = vibrobar_core::analysis::two_plane::design_points(
         &systems,
         &ens,

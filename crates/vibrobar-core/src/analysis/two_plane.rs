@@ -103,12 +103,14 @@ pub fn starts(
         .collect())
 }
 
-/// Which solver runs a two-plane system.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+/// Which solver runs a two-plane system; `dt_s` is the reference solver's step wherever it runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TwoPlaneMethod {
     /// The exact solver where the planes decouple ([`decoupled`]), the reference elsewhere.
-    #[default]
-    Auto,
+    Auto {
+        /// The reference solver's step.
+        dt_s: f64,
+    },
     /// The exact solver; a system whose planes do not decouple is refused.
     Exact,
     /// The reference solver (RK4 at the given step with located events).
@@ -118,11 +120,20 @@ pub enum TwoPlaneMethod {
     },
 }
 
+impl Default for TwoPlaneMethod {
+    /// `Auto` with the reference solver's default step.
+    fn default() -> Self {
+        TwoPlaneMethod::Auto {
+            dt_s: TwoPlaneRk4::default().dt_s,
+        }
+    }
+}
+
 impl TwoPlaneMethod {
     /// The solver that runs `sys`: `"exact"` or `"reference"`.
     pub fn solver_for(&self, sys: &TwoPlaneSystem) -> &'static str {
         match self {
-            TwoPlaneMethod::Auto if decoupled(sys).is_ok() => "exact",
+            TwoPlaneMethod::Auto { .. } if decoupled(sys).is_ok() => "exact",
             TwoPlaneMethod::Exact => "exact",
             _ => "reference",
         }
@@ -136,12 +147,13 @@ impl TwoPlaneMethod {
         settings: &RunSettings,
         on_event: &mut dyn FnMut(&TwoPlaneEvent),
     ) -> Result<TwoPlaneSummary, SimError> {
-        match (self, self.solver_for(sys)) {
-            (_, "exact") => TwoPlaneExact::default().run(sys, start, settings, on_event),
-            (TwoPlaneMethod::Reference { dt_s }, _) => {
+        match self {
+            TwoPlaneMethod::Auto { dt_s } | TwoPlaneMethod::Reference { dt_s }
+                if self.solver_for(sys) == "reference" =>
+            {
                 TwoPlaneRk4 { dt_s: *dt_s }.run(sys, start, settings, on_event)
             }
-            _ => TwoPlaneRk4::default().run(sys, start, settings, on_event),
+            _ => TwoPlaneExact::default().run(sys, start, settings, on_event),
         }
     }
 }
