@@ -170,6 +170,13 @@ pub trait Segment {
     fn compliant_contact(&self) -> Option<CompliantContact> {
         None
     }
+    /// The bar's displacement on this segment as one exponential sum `x`, with
+    /// `u(t) = x(t − t_start)`, where the segment holds it so (the lumped bar's exact segments
+    /// outside a cut); `None` elsewhere. What lets two runs integrate the product of their
+    /// displacements in closed form.
+    fn displacement_sum(&self) -> Option<exact::lumped::expsum::ExpSum> {
+        None
+    }
 }
 
 /// The constants of one step of a compliant contact phase ([`exact::hertz`]): the law, the

@@ -305,6 +305,20 @@ impl ExpSum {
             (C(0.5 * self.p, 0.5 * self.q), dd.conj()),
         ]
     }
+
+    /// The exponentials `e^{λ_k τ}` of [`ExpSum::terms`] at `τ` (two `sin_cos` and one `exp`).
+    fn exponentials(&self, tau: f64) -> [C; 5] {
+        let (sh, ch) = (self.om * tau).sin_cos();
+        let (sd, cd) = (self.wd * tau).sin_cos();
+        let e = (-self.al * tau).exp();
+        [
+            C(1.0, 0.0),
+            C(ch, sh),
+            C(ch, -sh),
+            C(e * cd, e * sd),
+            C(e * cd, -e * sd),
+        ]
+    }
 }
 
 /// `∫_a^b x(τ) y(τ) dτ` in closed form, for sums without polynomial terms and with the same
@@ -322,44 +336,65 @@ pub fn integral_product(x: &ExpSum, y: &ExpSum, a: f64, b: f64) -> f64 {
             && x.al.to_bits() == y.al.to_bits()
             && x.wd.to_bits() == y.wd.to_bits()
     );
+    let (ea, eb) = (x.exponentials(a), x.exponentials(b));
+    sum_of_products(x, y, (&ea, &ea), (&eb, &eb), h)
+}
+
+/// `∫_a^b x(t − x0) y(t − y0) dt` in closed form, for sums without polynomial terms whose
+/// frequencies and decay rates may differ and whose origins `x0, y0 ≤ a` may differ: the product
+/// of the displacements of two bars (or two planes of one bar) over the time they share. Each
+/// sum's exponentials are taken at its own local times of `a` and `b` (the shifts decay, so no
+/// term grows), and the 25 products are integrated as in [`integral_product`].
+pub fn integral_product_shifted(x: &ExpSum, x0: f64, y: &ExpSum, y0: f64, a: f64, b: f64) -> f64 {
+    let h = b - a;
+    if h <= 0.0 {
+        return 0.0;
+    }
+    debug_assert!(a >= x0 && a >= y0);
+    let (xa, xb) = (x.exponentials(a - x0), x.exponentials(b - x0));
+    let (ya, yb) = (y.exponentials(a - y0), y.exponentials(b - y0));
+    sum_of_products(x, y, (&xa, &ya), (&xb, &yb), h)
+}
+
+/// `Σ_jk c_j d_k ∫ e^{λ_j τ_x + μ_k τ_y}` over an interval of length `h`, from the sums'
+/// exponentials at its start (`ea`) and end (`eb`), `x`'s first and `y`'s second. The sums are
+/// real, so the term of `(j, k)` is the conjugate of that of their conjugate pair: 13 of the 25
+/// are computed, the others as twice their real parts.
+fn sum_of_products(
+    x: &ExpSum,
+    y: &ExpSum,
+    ea: (&[C; 5], &[C; 5]),
+    eb: (&[C; 5], &[C; 5]),
+    h: f64,
+) -> f64 {
+    // The index of each term's conjugate in `terms`.
+    const CONJ: [usize; 5] = [0, 2, 1, 4, 3];
     let tx = x.terms();
     let ty = y.terms();
-    let ends = |t: f64| -> [C; 5] {
-        let (sh, ch) = (x.om * t).sin_cos();
-        let (sd, cd) = (x.wd * t).sin_cos();
-        let e = (-x.al * t).exp();
-        [
-            C(1.0, 0.0),
-            C(ch, sh),
-            C(ch, -sh),
-            C(e * cd, e * sd),
-            C(e * cd, -e * sd),
-        ]
-    };
-    let ea = ends(a);
-    let eb = ends(b);
-    let mut sum = C(0.0, 0.0);
+    let mut sum = 0.0;
     for (j, &(cj, lj)) in tx.iter().enumerate() {
         if cj.0 == 0.0 && cj.1 == 0.0 {
             continue;
         }
         for (k, &(dk, lk)) in ty.iter().enumerate() {
-            if dk.0 == 0.0 && dk.1 == 0.0 {
+            let pair = (CONJ[j], CONJ[k]);
+            if (dk.0 == 0.0 && dk.1 == 0.0) || pair < (j, k) {
                 continue;
             }
             let nu = lj.add(lk);
             let z = nu.scale(h);
             let int = if z.0 * z.0 + z.1 * z.1 < 0.25 {
-                ea[j].mul(ea[k]).mul(phi1(z)).scale(h)
+                ea.0[j].mul(ea.1[k]).mul(phi1(z)).scale(h)
             } else {
-                let d = eb[j].mul(eb[k]);
-                let c = ea[j].mul(ea[k]);
+                let d = eb.0[j].mul(eb.1[k]);
+                let c = ea.0[j].mul(ea.1[k]);
                 C(d.0 - c.0, d.1 - c.1).div(nu)
             };
-            sum = sum.add(cj.mul(dk).mul(int));
+            let re = cj.mul(dk).mul(int).0;
+            sum += if pair == (j, k) { re } else { 2.0 * re };
         }
     }
-    sum.0
+    sum
 }
 
 /// `∫_a^b x(τ)² dτ` in closed form, for a sum without polynomial terms: the hot path of RMS.
@@ -711,5 +746,49 @@ mod tests {
             let c = integral_product(&x, &y, a, b);
             assert!((c - s).abs() < 1e-11 * (1.0 + s.abs()), "{c} {s}");
         }
+    }
+
+    #[test]
+    fn shifted_product_integral_matches_simpson_across_frequencies_and_origins() {
+        // Two sums with different decay, damped frequency and origins, both with a constant
+        // part, over a long interval, a short one and one that starts late; the shifts are
+        // where the sums were started, as two planes' segments.
+        let x = sample();
+        let mut y = sample();
+        y.k0 = 0.05;
+        y.f0 = y.k0 + y.a + y.p;
+        y.a = -0.4;
+        y.b = 0.9;
+        y.p = 0.2;
+        y.q = -0.6;
+        y.al = 0.35;
+        y.wd = 4.2;
+        let (x0, y0) = (0.4, -1.1);
+        for &(a, b) in &[(0.4, 3.0), (1.0, 1.0001), (2.5, 9.0)] {
+            let n = 40000;
+            let h = (b - a) / n as f64;
+            let mut s = 0.0;
+            for i in 0..=n {
+                let t = a + i as f64 * h;
+                let w = if i == 0 || i == n {
+                    1.0
+                } else if i % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
+                s += w * naive(&x, t - x0) * naive(&y, t - y0);
+            }
+            s *= h / 3.0;
+            let c = integral_product_shifted(&x, x0, &y, y0, a, b);
+            assert!((c - s).abs() < 1e-11 * (1.0 + s.abs()), "{c} {s}");
+            // Swapped, and equal to the common-origin form where the sums agree.
+            let d = integral_product_shifted(&y, y0, &x, x0, a, b);
+            assert!((c - d).abs() <= 1e-14 * (1.0 + c.abs()), "{c} {d}");
+        }
+        let z = x.deriv();
+        let p = integral_product(&x, &z, 0.5, 4.0);
+        let q = integral_product_shifted(&x, 0.0, &z, 0.0, 0.5, 4.0);
+        assert!((p - q).abs() <= 1e-15 * (1.0 + p.abs()), "{p} {q}");
     }
 }

@@ -461,6 +461,10 @@ impl Segment for ExactSegment {
         s.t_s = t_s;
         s
     }
+    fn displacement_sum(&self) -> Option<ExpSum> {
+        // A cut's segment holds the displacement piece by piece.
+        self.cut.is_none().then_some(self.u)
+    }
     fn acceleration_at(&self, t_s: f64) -> Option<f64> {
         let tau = t_s - self.t0;
         let trig = if tau.to_bits() == self.end.tau.to_bits() {
