@@ -1062,6 +1062,8 @@ pub fn bench_row(pairs: usize) -> Result<()> {
         let n = f()?;
         Ok((t.elapsed().as_secs_f64(), cpu_seconds() - c, n.max(1)))
     };
+    // The one-plane run with the outputs the two-plane run has: RMS, impacts and the energy
+    // book.
     let mut run_one = || -> Result<u64> {
         struct Count(u64);
         impl vibrobar_core::solver::Observer for Count {
@@ -1069,15 +1071,18 @@ pub fn bench_row(pairs: usize) -> Result<()> {
                 self.0 += 1;
             }
         }
-        let mut n = Count(0);
+        let mut obs = (
+            Count(0),
+            vibrobar_core::analysis::energy::EnergyAudit::new(&one),
+        );
         vibrobar_core::analysis::run_case(
             &one,
             &one_start,
             &settings,
             &vibrobar_core::solver::Exact::default(),
-            &mut n,
+            &mut obs,
         )?;
-        Ok(n.0)
+        Ok(obs.0 .0)
     };
     let run_two = |method: TwoPlaneMethod| -> Result<u64> {
         Ok(method.run(&sys, &start, &settings, &mut |_| {})?.events)
@@ -1104,7 +1109,8 @@ pub fn bench_row(pairs: usize) -> Result<()> {
     let reference = time(&mut || run_two(TwoPlaneMethod::Reference { dt_s: 1e-6 }))?;
     println!(
         "  exact  two-plane run (15.1 mm hole, 0.1 mm gap, r = 1, force at 63.4°, 2 s, {} \
-         events): median {} against the one-plane run's {} ({} events); per event {:.2}× in CPU \
+         events): median {} against the one-plane run's {} ({} events; both with their energy \
+         books); per event {:.2}× in CPU \
          time, {:.2}× in wall time (medians of {} alternating pairs; target: ≤ 2.5×); the \
          reference solver takes {} ({:.0}× the exact two-plane run)",
         events.1,
