@@ -6,7 +6,8 @@ use vibrobar_core::params::two_plane::{
 };
 use vibrobar_core::solver::two_plane_exact::{self, TwoPlaneExact};
 use vibrobar_core::solver::two_plane_rk4::{
-    HoleWall, TwoPlaneEvent, TwoPlaneEventKind, TwoPlaneRk4, TwoPlaneStart, WallMotion,
+    HoleWall, Sampling, TwoPlaneEvent, TwoPlaneEventKind, TwoPlaneRk4, TwoPlaneSample,
+    TwoPlaneStart, WallMotion,
 };
 use vibrobar_core::solver::{Event, EventKind, Exact, Observer, Solver, Wall};
 use vibrobar_core::*;
@@ -1001,4 +1002,105 @@ fn a_round_beam_with_the_force_along_the_hole_is_the_one_plane_beam() {
     assert!(e.rms_m[1] < 1e-15);
     // The end state's ball is relative to the cavity, not to the tip.
     assert!(e.end.w_hole_m[0].abs() <= 0.05e-3 + 1e-12, "{:?}", e.end);
+}
+
+/// A run of `solver` sampled every `interval_s`: its samples and summary.
+fn sampled(
+    sys: &TwoPlaneSystem,
+    start: &TwoPlaneStart,
+    dur: f64,
+    interval_s: f64,
+    method: vibrobar_core::analysis::two_plane::TwoPlaneMethod,
+) -> (
+    Vec<TwoPlaneSample>,
+    vibrobar_core::solver::two_plane_rk4::TwoPlaneSummary,
+) {
+    let mut out = Vec::new();
+    let mut on_sample = |s: &TwoPlaneSample| out.push(*s);
+    let s = method
+        .run_sampled(
+            sys,
+            start,
+            &settings(dur),
+            &mut |_| {},
+            Some(Sampling {
+                interval_s,
+                on_sample: &mut on_sample,
+            }),
+        )
+        .unwrap();
+    (out, s)
+}
+
+#[test]
+fn sampled_runs_give_the_grid_and_agree_between_the_solvers() {
+    // Impacts in both planes and the ball lifting off and landing on the hole's wall (the
+    // cases of the exact-against-reference check), sampled every 20 µs over 60 ms.
+    use vibrobar_core::analysis::two_plane::TwoPlaneMethod;
+    for (sys, start) in [
+        {
+            let s = paper(0.1e-3, 0.02e-3, 40.0, 70.0, 1.0, 0.0);
+            (s, TwoPlaneStart::at_rest([0.0; 2]))
+        },
+        {
+            let s = paper(0.04e-3, 0.02e-3, 0.0, 60.0, 1.0, 9.80665);
+            (s, TwoPlaneStart::resting(&s, 0.0))
+        },
+    ] {
+        let (dur, dt) = (0.06, 20e-6);
+        let (ex, e) = sampled(&sys, &start, dur, dt, TwoPlaneMethod::Exact);
+        let (rk, r) = sampled(
+            &sys,
+            &start,
+            dur,
+            dt,
+            TwoPlaneMethod::Reference { dt_s: 1e-6 },
+        );
+        // The grid from t = 0 to the end, whole, in both.
+        assert_eq!(ex.len(), 3001);
+        assert_eq!(rk.len(), 3001);
+        for (k, (a, b)) in ex.iter().zip(&rk).enumerate() {
+            assert!((a.t_s - k as f64 * dt).abs() < 1e-15, "{} at {k}", a.t_s);
+            assert!((b.t_s - a.t_s).abs() < 1e-12, "{} against {}", b.t_s, a.t_s);
+        }
+        // Sampling changes nothing else.
+        let (_, plain) = exact2(&sys, &start, dur);
+        assert_eq!(
+            e.rms_along_force_m.to_bits(),
+            plain.rms_along_force_m.to_bits()
+        );
+        assert_eq!(e.impacts, plain.impacts);
+        // The first sample is the start, the last the end.
+        assert_eq!(ex[0].state.w_hole_m, start.w_hole_m);
+        let last = ex.last().unwrap().state;
+        for i in 0..2 {
+            assert!(
+                (last.u_m[i] - e.end.u_m[i]).abs() <= 1e-15,
+                "{last:?} {:?}",
+                e.end
+            );
+            assert!((last.w_hole_m[i] - e.end.w_hole_m[i]).abs() <= 1e-15);
+            assert!((rk.last().unwrap().state.u_m[i] - r.end.u_m[i]).abs() <= 1e-15);
+        }
+        // The bar's motion agrees with the reference's to a small fraction of its amplitude,
+        // and the ball stays inside the hole in both.
+        let amp = ex
+            .iter()
+            .map(|s| s.state.u_m[0].hypot(s.state.u_m[1]))
+            .fold(0.0, f64::max);
+        let clr = [sys.hole.half_axial_gap_m(), sys.radial_clearance_m()];
+        for (a, b) in ex.iter().zip(&rk) {
+            for (i, c) in clr.iter().enumerate() {
+                assert!(
+                    (a.state.u_m[i] - b.state.u_m[i]).abs() < 1e-3 * amp,
+                    "u at {}: {:?} against {:?}",
+                    a.t_s,
+                    a.state,
+                    b.state
+                );
+                assert!(a.state.w_hole_m[i].abs() <= c + 1e-12);
+                assert!(b.state.w_hole_m[i].abs() <= c + 1e-9);
+            }
+        }
+    }
 }

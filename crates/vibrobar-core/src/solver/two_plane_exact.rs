@@ -32,8 +32,8 @@ use std::sync::mpsc::{channel, sync_channel, Receiver, Sender, SyncSender};
 use super::exact::cutting::GL8;
 use super::exact::lumped::expsum::{integral_product_shifted, ExpSum};
 use super::two_plane_rk4::{
-    HoleWall, TwoPlaneBook, TwoPlaneEvent, TwoPlaneEventKind, TwoPlaneStart, TwoPlaneSummary,
-    WallMotion,
+    HoleWall, Sampling, TwoPlaneBook, TwoPlaneEvent, TwoPlaneEventKind, TwoPlaneSample,
+    TwoPlaneStart, TwoPlaneSummary, WallMotion,
 };
 use super::{Event, EventKind, Exact, Mode, Observer, RunSummary, Segment, Solver, Wall};
 use crate::error::SimError;
@@ -245,6 +245,56 @@ impl Piece {
 enum Msg {
     Piece(Piece),
     Event(TwoPlaneEvent),
+    /// The plane's state at sample `k` of the sampling grid.
+    Sample(u64, PlaneState),
+}
+
+/// One plane's state at a sample: the bar's displacement and velocity along the plane's axis,
+/// the ball's relative to the cavity.
+#[derive(Debug, Clone, Copy)]
+struct PlaneState {
+    u: f64,
+    du: f64,
+    w: f64,
+    dw: f64,
+}
+
+impl PlaneState {
+    fn of(s: &State) -> PlaneState {
+        PlaneState {
+            u: s.u_m,
+            du: s.du_m_s,
+            w: s.v_m - s.u_cavity_m(),
+            dw: s.dv_m_s - s.du_cavity_m_s(),
+        }
+    }
+}
+
+/// The sampling grid `t_k = k·interval` as one plane walks it (the convention of the one-plane
+/// history: a sample at an event's time belongs to the segment that ends there).
+#[derive(Debug, Clone, Copy)]
+struct Grid {
+    interval_s: f64,
+    next_k: u64,
+}
+
+impl Grid {
+    /// The samples of `seg` not yet taken, with their indices. A grid time past the segment's
+    /// end by rounding only (`k·interval` against a sum of steps; 1e-9 of the interval) is the
+    /// end's sample, so that a run whose duration is a multiple of the interval ends on one.
+    fn take(&mut self, seg: &dyn Segment, mut f: impl FnMut(u64, PlaneState)) {
+        let (t0, t1) = (seg.t_start_s(), seg.t_end_s());
+        loop {
+            let t = self.next_k as f64 * self.interval_s;
+            if t > t1 + 1e-9 * self.interval_s {
+                return;
+            }
+            if t >= t0 {
+                f(self.next_k, PlaneState::of(&seg.state_at(t.min(t1))));
+            }
+            self.next_k += 1;
+        }
+    }
 }
 
 /// The writing end of the stream. Messages go in batches, so that the reading end is woken once
@@ -309,6 +359,8 @@ struct PlaneObserver<'a> {
     h_max_s: f64,
     /// Whether to use the segments' closed forms where they have them (the nodes otherwise).
     closed_form: bool,
+    /// The sampling grid, when the run is sampled.
+    grid: Option<Grid>,
     /// The plane across the hole: the stream it reads and what it does with it.
     rx: Option<Cross<'a>>,
 }
@@ -332,6 +384,13 @@ struct Cross<'a> {
     /// Window time the ball touches no wall.
     flight_s: f64,
     on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
+    /// The samples of the plane along the hole not yet matched.
+    samples: VecDeque<(u64, PlaneState)>,
+    /// Where matched samples go, the hole's axes and the (constant) spin.
+    on_sample: Option<&'a mut dyn FnMut(&TwoPlaneSample)>,
+    grid_interval_s: f64,
+    axes: [[f64; 2]; 2],
+    spin_rad_s: f64,
 }
 
 impl Cross<'_> {
@@ -367,6 +426,11 @@ impl Cross<'_> {
             Msg::Event(e) => {
                 self.stream_t = e.t_s;
                 self.pending.push_back(e);
+                true
+            }
+            Msg::Sample(k, p) => {
+                self.stream_t = k as f64 * self.interval_s();
+                self.samples.push_back((k, p));
                 true
             }
         }
@@ -425,6 +489,49 @@ impl Cross<'_> {
         }
     }
 
+    /// The sampling interval (the samples' times are only read when sampling).
+    fn interval_s(&self) -> f64 {
+        self.grid_interval_s
+    }
+
+    /// Put the plane across the hole's sample `k` together with the stream's and report it.
+    fn sample(&mut self, k: u64, n: PlaneState) {
+        let a = loop {
+            match self.samples.front() {
+                Some(&(j, p)) if j == k => {
+                    self.samples.pop_front();
+                    break p;
+                }
+                // A sample the other plane skipped cannot exist (both walk the same grid over
+                // the same time); one past `k` means the stream is ahead.
+                Some(&(j, _)) if j < k => {
+                    self.samples.pop_front();
+                }
+                Some(_) => return,
+                None => {
+                    if !self.read() {
+                        return;
+                    }
+                }
+            }
+        };
+        let [ea, en] = self.axes;
+        let frame = |x: f64, y: f64| [x * ea[0] + y * en[0], x * ea[1] + y * en[1]];
+        let sample = TwoPlaneSample {
+            t_s: k as f64 * self.grid_interval_s,
+            state: TwoPlaneStart {
+                u_m: frame(a.u, n.u),
+                du_m_s: frame(a.du, n.du),
+                w_hole_m: [a.w, n.w],
+                dw_hole_m_s: [a.dw, n.dw],
+                spin_rad_s: self.spin_rad_s,
+            },
+        };
+        if let Some(f) = self.on_sample.as_mut() {
+            f(&sample);
+        }
+    }
+
     /// Read up to the next piece (keeping the events on the way); `false` if the stream ended.
     fn read_piece(&mut self) -> bool {
         while self.read() {
@@ -466,10 +573,9 @@ impl PlaneObserver<'_> {
         };
         Some(TwoPlaneEvent { t_s: ev.t_s, kind })
     }
-}
-
-impl Observer for PlaneObserver<'_> {
-    fn segment(&mut self, seg: &dyn Segment) {
+    /// The segment's share of the books and the window: totals, and the stream or the cross
+    /// term.
+    fn window_segment(&mut self, seg: &dyn Segment) {
         let (t0, t1) = (seg.t_start_s(), seg.t_end_s());
         if self.totals.energy_start_j.is_none() {
             self.totals.energy_start_j = Some(self.energy_j(seg, t0));
@@ -535,6 +641,35 @@ impl Observer for PlaneObserver<'_> {
         }
     }
 
+    /// The plane along the hole: stream the segment's samples (ahead of its pieces, so that
+    /// the reading plane has them once it has read the pieces up to a time).
+    fn stream_samples(&mut self, seg: &dyn Segment) {
+        let (Some(grid), Some(tx)) = (self.grid.as_mut(), self.tx.as_mut()) else {
+            return;
+        };
+        let mut open = true;
+        grid.take(seg, |k, p| open = open && tx.push(Msg::Sample(k, p)));
+        if !open {
+            self.tx = None;
+        }
+    }
+
+    /// The plane across the hole: put the segment's samples together with the stream's.
+    fn report_samples(&mut self, seg: &dyn Segment) {
+        let (Some(grid), Some(cross)) = (self.grid.as_mut(), self.rx.as_mut()) else {
+            return;
+        };
+        grid.take(seg, |k, n| cross.sample(k, n));
+    }
+}
+
+impl Observer for PlaneObserver<'_> {
+    fn segment(&mut self, seg: &dyn Segment) {
+        self.stream_samples(seg);
+        self.window_segment(seg);
+        self.report_samples(seg);
+    }
+
     fn event(&mut self, ev: &Event) {
         match ev.kind {
             EventKind::Impact {
@@ -583,22 +718,47 @@ impl TwoPlaneExact {
         settings: &RunSettings,
         on_event: &mut dyn FnMut(&TwoPlaneEvent),
     ) -> Result<TwoPlaneSummary, SimError> {
-        self.run_with(sys, start, settings, on_event, true)
+        self.run_with(sys, start, settings, on_event, None, true)
     }
 
-    /// [`TwoPlaneExact::run`], with the cross term from the closed forms where the segments
-    /// have them (`closed_form`) or from the streamed nodes everywhere (the check of the first).
-    fn run_with(
+    /// [`TwoPlaneExact::run`], sampling the state as `sampling` asks: each plane samples its
+    /// own closed form on the common grid and the two are put together in the hole's frame.
+    pub fn run_sampled<'a>(
         &self,
         sys: &TwoPlaneSystem,
         start: &TwoPlaneStart,
         settings: &RunSettings,
-        on_event: &mut dyn FnMut(&TwoPlaneEvent),
+        on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
+        sampling: Option<Sampling<'a>>,
+    ) -> Result<TwoPlaneSummary, SimError> {
+        self.run_with(sys, start, settings, on_event, sampling, true)
+    }
+
+    /// [`TwoPlaneExact::run`], with the cross term from the closed forms where the segments
+    /// have them (`closed_form`) or from the streamed nodes everywhere (the check of the first).
+    fn run_with<'a>(
+        &self,
+        sys: &TwoPlaneSystem,
+        start: &TwoPlaneStart,
+        settings: &RunSettings,
+        on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
+        sampling: Option<Sampling<'a>>,
         closed_form: bool,
     ) -> Result<TwoPlaneSummary, SimError> {
         sys.validate()?;
         settings.validate()?;
         super::two_plane_rk4::check_start(sys, start)?;
+        if let Some(sm) = &sampling {
+            sm.check(settings.duration_s)?;
+        }
+        let grid = sampling.as_ref().map(|sm| Grid {
+            interval_s: sm.interval_s,
+            next_k: 0,
+        });
+        let (grid_interval_s, on_sample) = match sampling {
+            Some(sm) => (sm.interval_s, Some(sm.on_sample)),
+            None => (1.0, None),
+        };
         let systems = [plane_system(sys, 0)?, plane_system(sys, 1)?];
         let starts = [plane_start(sys, start, 0), plane_start(sys, start, 1)];
         let t_end = settings.duration_s;
@@ -616,6 +776,7 @@ impl TwoPlaneExact {
             tx: None,
             h_max_s,
             closed_form,
+            grid,
             rx: None,
         };
         let (tx, rx) = sync_channel(STREAM_BATCHES);
@@ -649,6 +810,11 @@ impl TwoPlaneExact {
                     cross: 0.0,
                     flight_s: 0.0,
                     on_event,
+                    samples: VecDeque::new(),
+                    on_sample,
+                    grid_interval_s,
+                    axes: hole_axes(sys),
+                    spin_rad_s: start.spin_rad_s,
                 }),
                 ..observer(1)
             };
@@ -795,10 +961,10 @@ mod tests {
             let solver = TwoPlaneExact::default();
             let mut n = 0;
             let closed = solver
-                .run_with(&sys, &start, &settings, &mut |_| n += 1, true)
+                .run_with(&sys, &start, &settings, &mut |_| n += 1, None, true)
                 .unwrap();
             let nodes = solver
-                .run_with(&sys, &start, &settings, &mut |_| {}, false)
+                .run_with(&sys, &start, &settings, &mut |_| {}, None, false)
                 .unwrap();
             let i = closed.impacts;
             assert!(i[2] > 0 && i[3] > 0, "{i:?}");

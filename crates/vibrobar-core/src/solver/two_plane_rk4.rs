@@ -196,6 +196,43 @@ impl TwoPlaneStart {
     }
 }
 
+/// The state at one time of a sampled run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TwoPlaneSample {
+    /// Time.
+    pub t_s: f64,
+    /// The state then, in the form a start takes.
+    pub state: TwoPlaneStart,
+}
+
+/// Sampling of a run: the state every `interval_s` from `t = 0` to the end, handed to
+/// `on_sample` in the order of time. The reference solver samples at the multiples of its step
+/// nearest to the interval's.
+pub struct Sampling<'a> {
+    /// Time between samples, s.
+    pub interval_s: f64,
+    /// What receives each sample.
+    pub on_sample: &'a mut dyn FnMut(&TwoPlaneSample),
+}
+
+impl Sampling<'_> {
+    /// The interval's check: positive and finite, and at most `limits::MAX_SAMPLES` samples
+    /// over `duration_s`.
+    pub(crate) fn check(&self, duration_s: f64) -> Result<(), SimError> {
+        crate::params::positive("sample interval (s)", self.interval_s)?;
+        let d = self.interval_s;
+        limits::check_derived(
+            "duration_s / sample interval (samples)",
+            || format!("{duration_s} s / {d} s"),
+            duration_s / d,
+            0.0,
+            limits::MAX_SAMPLES,
+            "sample less often or shorten the run",
+        )?;
+        Ok(())
+    }
+}
+
 /// The energy book of a run: `ΔE = W_F − W_C − W_impact − W_slide − W_roll` with
 /// `E = ½M|u̇|² + ½uᵀKu + ½m_d|ḃ|² + ½Iω² − m_d g·b`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -653,6 +690,20 @@ impl Model {
     }
 
     /// The ball relative to the cavity's centre along `axis`.
+    /// The state `y` in the form a start takes (the ball in the hole's frame).
+    fn state_of(&self, y: &Y) -> TwoPlaneStart {
+        let [a, n] = self.axes;
+        let w = [y[4] - y[0], y[5] - y[1]];
+        let dw = Model::rel_v(y);
+        TwoPlaneStart {
+            u_m: [y[0], y[1]],
+            du_m_s: [y[2], y[3]],
+            w_hole_m: [dot(w, a), dot(w, n)],
+            dw_hole_m_s: [dot(dw, a), dot(dw, n)],
+            spin_rad_s: y[OM],
+        }
+    }
+
     fn w(&self, y: &Y, axis: usize) -> f64 {
         dot([y[4] - y[0], y[5] - y[1]], self.axes[axis])
     }
@@ -865,6 +916,19 @@ impl TwoPlaneRk4 {
         settings: &RunSettings,
         on_event: &mut dyn FnMut(&TwoPlaneEvent),
     ) -> Result<TwoPlaneSummary, SimError> {
+        self.run_sampled(sys, start, settings, on_event, None)
+    }
+
+    /// [`TwoPlaneRk4::run`], sampling the state as `sampling` asks (at the multiples of the
+    /// step nearest to its interval).
+    pub fn run_sampled(
+        &self,
+        sys: &TwoPlaneSystem,
+        start: &TwoPlaneStart,
+        settings: &RunSettings,
+        on_event: &mut dyn FnMut(&TwoPlaneEvent),
+        mut sampling: Option<Sampling>,
+    ) -> Result<TwoPlaneSummary, SimError> {
         sys.validate()?;
         settings.validate()?;
         let h = self.dt_s;
@@ -896,6 +960,13 @@ impl TwoPlaneRk4 {
         limits::check_phase(sys.omega_rad_s().max(omega_max), duration)?;
         let md = Model::new(sys);
         check_start(sys, start)?;
+        if let Some(sm) = &sampling {
+            sm.check(duration)?;
+        }
+        // Steps per sample.
+        let every = sampling
+            .as_ref()
+            .map_or(1, |sm| (sm.interval_s / h).round().max(1.0) as u64);
 
         // The start, in absolute coordinates.
         let [a, n] = md.axes;
@@ -939,6 +1010,12 @@ impl TwoPlaneRk4 {
         let max_events = (EVENTS_PER_STEP * steps).max(1e4) as u64;
         let mut t = 0.0_f64;
         let mut grid = 0.0_f64;
+        if let Some(sm) = sampling.as_mut() {
+            (sm.on_sample)(&TwoPlaneSample {
+                t_s: 0.0,
+                state: md.state_of(&y),
+            });
+        }
         let mut out = TwoPlaneSummary {
             rms_along_force_m: 0.0,
             rms_m: [0.0; 2],
@@ -1027,6 +1104,15 @@ impl TwoPlaneRk4 {
             t = if hit.is_some() { t + tau } else { t_next };
             y = y_new;
             md.project(&mut y, mode);
+            if let Some(sm) = sampling.as_mut() {
+                if hit.is_none() && t.to_bits() == (grid * h).to_bits() && grid as u64 % every == 0
+                {
+                    (sm.on_sample)(&TwoPlaneSample {
+                        t_s: t,
+                        state: md.state_of(&y),
+                    });
+                }
+            }
             for axis in 0..2 {
                 if mode.rest(axis) == 0 {
                     out.max_penetration_m = out
@@ -1153,15 +1239,7 @@ impl TwoPlaneRk4 {
             rolling_loss_j: y[12],
             energy_change_j: md.energy(&y) - e0,
         };
-        let w = [y[4] - y[0], y[5] - y[1]];
-        let dw = Model::rel_v(&y);
-        out.end = TwoPlaneStart {
-            u_m: [y[0], y[1]],
-            du_m_s: [y[2], y[3]],
-            w_hole_m: [dot(w, a), dot(w, n)],
-            dw_hole_m_s: [dot(dw, a), dot(dw, n)],
-            spin_rad_s: y[OM],
-        };
+        out.end = md.state_of(&y);
         Ok(out)
     }
 }
