@@ -174,6 +174,11 @@ pub struct RunArgs {
     /// FILE.meta.json beside it.
     #[arg(long, value_name = "FILE.csv|FILE.npy")]
     pub out: PathBuf,
+    /// A scenario with `[two_plane]`: start from member K of its ensemble of starts (0: the bar
+    /// at rest, the ball resting where gravity presses it; the others as `sweep` draws them)
+    /// [default: 0].
+    #[arg(long, value_name = "K")]
+    pub member: Option<usize>,
     /// Print the energy audit of the whole run as JSON on stdout (fields work_input_j,
     /// viscous_loss_j, impact_loss_j, friction_work_j, delta_mechanical_j, residual_j; friction
     /// work > 0 means friction put energy in). The human summary then goes to stderr.

@@ -220,7 +220,6 @@ fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
     let sc = d.path().join("tp.toml");
     fs::write(&sc, TWO_PLANE).unwrap();
     for cmd in [
-        &["run", "--scenario", s(&sc), "--out", s(&out)][..],
         &["ensemble", "--scenario", s(&sc), "--out", s(&out)][..],
         &[
             "map",
@@ -235,7 +234,7 @@ fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
         ][..],
     ] {
         let o = vibrobar(cmd);
-        assert_fails_with(&o, &["does not run a [two_plane] scenario", "sweep"]);
+        assert_fails_with(&o, &["does not run a [two_plane] scenario", "run, sweep"]);
         assert!(!out.exists());
     }
     let cut = d.path().join("cut.toml");
@@ -246,4 +245,100 @@ fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
     .unwrap();
     let o = vibrobar(&["sweep", "--scenario", s(&cut), "--out", s(&out)]);
     assert_fails_with(&o, &["[cutting]"]);
+}
+
+#[test]
+fn a_two_plane_run_writes_its_history_and_its_summary_agrees_with_it() {
+    let d = tempfile::tempdir().unwrap();
+    let sc = d.path().join("tp.toml");
+    fs::write(&sc, TWO_PLANE.replace("gap_m = 1.0e-3", "gap_m = 1.0e-4")).unwrap();
+    let out = d.path().join("h/run.csv");
+    let o = vibrobar_ok(&[
+        "run",
+        "--scenario",
+        s(&sc),
+        "--out",
+        s(&out),
+        "--sample-every",
+        "5",
+        "--member",
+        "2",
+    ]);
+    let say = String::from_utf8_lossy(&o.stdout).to_string();
+    for w in [
+        "two planes",
+        "solver exact, member 2",
+        "plugs",
+        "hole wall",
+        "residual",
+    ] {
+        assert!(say.contains(w), "summary lacks {w:?}: {say}");
+    }
+    let csv = fs::read_to_string(&out).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "t_s,u_x_m,u_y_m,du_x_m_s,du_y_m_s,u_force_m,w_along_m,w_across_m,dw_along_m_s,\
+         dw_across_m_s,spin_rad_s"
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    // 0.5 s every 5 µs, both ends.
+    assert_eq!(rows.len(), 100_001);
+    // The ball stays in the hole: ±0.05 mm along, ±0.05 mm across.
+    for r in &rows {
+        assert!(r.iter().all(|v| v.is_finite()));
+        assert!(
+            r[6].abs() <= 0.05e-3 + 1e-12 && r[7].abs() <= 0.05e-3 + 1e-12,
+            "{r:?}"
+        );
+    }
+    // The RMS along the force of the samples in the window (the last 80 %) is the summary's.
+    let window: Vec<f64> = rows.iter().filter(|r| r[0] >= 0.1).map(|r| r[5]).collect();
+    let rms = (window.iter().map(|v| v * v).sum::<f64>() / window.len() as f64).sqrt();
+    let said: f64 = say
+        .split("along the force ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(
+        (rms - said).abs() < 2e-3 * said,
+        "samples {rms} against {said}"
+    );
+    // Its parameters beside it; a member outside the ensemble, the one-plane start flags and a
+    // binary history are refused, and nothing is written.
+    assert!(d.path().join("h/run.csv.meta.json").exists());
+    let other = d.path().join("other.csv");
+    for (flags, words) in [
+        (&["--member", "8"][..], &["--member 8", "[0, 7]"][..]),
+        (&["--w0-m", "0"][..], &["--w0-m", "--member"][..]),
+    ] {
+        let mut args = vec!["run", "--scenario", s(&sc), "--out", s(&other)];
+        args.extend_from_slice(flags);
+        assert_fails_with(&vibrobar(&args), words);
+        assert!(!other.exists());
+    }
+    let npy = d.path().join("run.npy");
+    assert_fails_with(
+        &vibrobar(&["run", "--scenario", s(&sc), "--out", s(&npy)]),
+        &["--out", ".csv"],
+    );
+    assert!(!npy.exists());
+    let plain = d.path().join("plain.csv");
+    assert_fails_with(
+        &vibrobar(&[
+            "run",
+            "--member",
+            "1",
+            "--duration",
+            "0.01",
+            "--out",
+            s(&plain),
+        ]),
+        &["--member", "[two_plane]"],
+    );
+    assert!(!plain.exists());
 }

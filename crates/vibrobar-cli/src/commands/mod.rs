@@ -23,6 +23,7 @@ pub mod orbit_docs;
 pub mod paper;
 pub mod placement;
 pub mod run;
+pub mod run_two_plane;
 pub mod sweep;
 pub mod sweep_two_plane;
 pub mod tap_test;

@@ -109,6 +109,15 @@ pub fn run(args: &RunArgs) -> Result<()> {
         check_positive("--ratio", r, "")?;
         sc.forcing.frequency = vibrobar_core::Frequency::Ratio(r);
     }
+    if sc.two_plane.is_some() {
+        return super::run_two_plane::run(args, &sc);
+    }
+    if args.member.is_some() {
+        anyhow::bail!(
+            "--member: only a scenario with [two_plane] has an ensemble of starts to choose from; \
+             give the start with --u0-m, --du0-m-s, --w0-m and --dw0-m-s"
+        );
+    }
     sc.override_initial(args.u0_m, args.du0_m_s, args.w0_m, args.dw0_m_s)?;
     if args.sample_every == 0 {
         anyhow::bail!("--sample-every = 0 is outside the allowed range [1, ∞) steps");

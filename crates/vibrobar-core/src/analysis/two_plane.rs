@@ -24,7 +24,9 @@ use crate::params::{
     Bar, BarModel, Contact, Damper, Forcing, FrictionModel, RunSettings, State, System,
 };
 use crate::solver::two_plane_exact::{decoupled, TwoPlaneExact};
-use crate::solver::two_plane_rk4::{TwoPlaneEvent, TwoPlaneRk4, TwoPlaneStart, TwoPlaneSummary};
+use crate::solver::two_plane_rk4::{
+    Sampling, TwoPlaneEvent, TwoPlaneRk4, TwoPlaneStart, TwoPlaneSummary,
+};
 use crate::solver::{Exact, Observer};
 
 /// How the members of a design point start.
@@ -147,13 +149,25 @@ impl TwoPlaneMethod {
         settings: &RunSettings,
         on_event: &mut dyn FnMut(&TwoPlaneEvent),
     ) -> Result<TwoPlaneSummary, SimError> {
+        self.run_sampled(sys, start, settings, on_event, None)
+    }
+
+    /// [`TwoPlaneMethod::run`], sampling the state as `sampling` asks.
+    pub fn run_sampled<'a>(
+        &self,
+        sys: &TwoPlaneSystem,
+        start: &TwoPlaneStart,
+        settings: &RunSettings,
+        on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
+        sampling: Option<Sampling<'a>>,
+    ) -> Result<TwoPlaneSummary, SimError> {
         match self {
             TwoPlaneMethod::Auto { dt_s } | TwoPlaneMethod::Reference { dt_s }
                 if self.solver_for(sys) == "reference" =>
             {
-                TwoPlaneRk4 { dt_s: *dt_s }.run(sys, start, settings, on_event)
+                TwoPlaneRk4 { dt_s: *dt_s }.run_sampled(sys, start, settings, on_event, sampling)
             }
-            _ => TwoPlaneExact::default().run(sys, start, settings, on_event),
+            _ => TwoPlaneExact::default().run_sampled(sys, start, settings, on_event, sampling),
         }
     }
 }
@@ -228,11 +242,7 @@ pub fn design_points(
     let one = runner.each(&jobs, |(i, st)| {
         one_plane_rms_m(&one_plane[*i], &one_plane_start(st), settings)
     })?;
-    let solid = runner.each(&one_plane, |sys| {
-        let mut bare = *sys;
-        bare.damper = None;
-        one_plane_rms_m(&bare, &State::REST, settings)
-    })?;
+    let solid = runner.each(systems, |sys| solid_rms_m(sys, settings))?;
     let mut two = two.into_iter();
     let mut one = one.into_iter();
     Ok(systems
@@ -355,6 +365,13 @@ pub fn one_plane_start(start: &TwoPlaneStart) -> State {
         dv_m_s: start.dw_hole_m_s[0],
         ..State::REST
     }
+}
+
+/// RMS along the force of the bar without its ball, from rest: the reference of a reduction.
+pub fn solid_rms_m(sys: &TwoPlaneSystem, settings: &RunSettings) -> Result<f64, SimError> {
+    let mut bare = one_plane_system(sys, FrictionModel::None);
+    bare.damper = None;
+    one_plane_rms_m(&bare, &State::REST, settings)
 }
 
 /// RMS of the bar over the window of a one-plane exact run (the solid bar when `sys` has no

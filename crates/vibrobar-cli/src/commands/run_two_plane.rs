@@ -1,0 +1,291 @@
+//! `vibrobar run` on a `[two_plane]` scenario: one run of the bar that bends in two planes, its
+//! sampled history streamed to disk (`FILE.partial` until the run is complete) and a summary.
+
+use anyhow::{bail, Context, Result};
+use std::io::Write as _;
+use vibrobar_core::analysis::two_plane::{solid_rms_m, starts, TwoPlaneMethod};
+use vibrobar_core::params::two_plane::direction;
+use vibrobar_core::solver::two_plane_rk4::{
+    HoleWall, Sampling, TwoPlaneSample, TwoPlaneSummary, WallMotion,
+};
+use vibrobar_io::atomic::AtomicFile;
+
+use super::fmt_secs;
+use crate::cli::RunArgs;
+use crate::scenario::Scenario;
+
+/// The history's columns: the bar in the cross-section's x (radial) and y (tangential), its
+/// displacement along the force, the ball relative to the cavity along and across the hole, its
+/// spin.
+pub const HEADER: &str = "t_s,u_x_m,u_y_m,du_x_m_s,du_y_m_s,u_force_m,w_along_m,w_across_m,\
+dw_along_m_s,dw_across_m_s,spin_rad_s";
+
+/// Run the command on a scenario with `[two_plane]` (gap and ratio already applied).
+pub fn run(args: &RunArgs, sc: &Scenario) -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let Some(section) = &sc.two_plane else {
+        bail!("no [two_plane] section");
+    };
+    for (flag, given) in [
+        ("--u0-m", args.u0_m.is_some()),
+        ("--du0-m-s", args.du0_m_s.is_some()),
+        ("--w0-m", args.w0_m.is_some()),
+        ("--dw0-m-s", args.dw0_m_s.is_some()),
+    ] {
+        if given {
+            bail!(
+                "{flag}: a [two_plane] scenario starts from a member of its ensemble of starts; \
+                 choose one with --member K"
+            );
+        }
+    }
+    if vibrobar_io::history::is_npy(&args.out) {
+        bail!(
+            "--out {}: the history of a [two_plane] run is written as CSV; give a name ending in \
+             .csv",
+            args.out.display()
+        );
+    }
+    if args.sample_every == 0 {
+        bail!("--sample-every = 0 is outside the allowed range [1, ∞) steps");
+    }
+    let sys = sc
+        .two_plane_system()?
+        .context("the scenario lost its [two_plane] section")?;
+    let settings = sc.settings();
+    settings.validate()?;
+    let method = section.method(settings.dt_s)?;
+    if let TwoPlaneMethod::Exact = method {
+        vibrobar_core::solver::two_plane_exact::decoupled(&sys)
+            .map_err(|why| anyhow::anyhow!("[two_plane] solver = \"exact\": {why}"))?;
+    }
+    let ens = section.ensemble()?;
+    let member = args.member.unwrap_or(0);
+    if member >= ens.members {
+        bail!(
+            "--member {member} is outside the allowed range [0, {}] (the [two_plane] ensemble \
+             has {} members)",
+            ens.members - 1,
+            ens.members
+        );
+    }
+    let start = starts(&sys, &ens)?[member];
+    let interval_s = args.sample_every as f64 * settings.dt_s;
+    vibrobar_core::limits::check_samples(
+        "rows = --duration / (--sample-every · --dt)",
+        settings.duration_s,
+        interval_s,
+    )?;
+
+    let mut file = AtomicFile::create(&args.out)?;
+    let mut io_error: Option<std::io::Error> = None;
+    let mut rows = 0u64;
+    let e_f = direction(sys.forcing.angle_deg);
+    let summary = {
+        if let Err(e) = writeln!(file, "{HEADER}") {
+            io_error = Some(e);
+        }
+        let mut on_sample = |s: &TwoPlaneSample| {
+            if io_error.is_some() {
+                return;
+            }
+            let st = &s.state;
+            let u_f = st.u_m[0] * e_f[0] + st.u_m[1] * e_f[1];
+            let r = writeln!(
+                file,
+                "{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
+                s.t_s,
+                st.u_m[0],
+                st.u_m[1],
+                st.du_m_s[0],
+                st.du_m_s[1],
+                u_f,
+                st.w_hole_m[0],
+                st.w_hole_m[1],
+                st.dw_hole_m_s[0],
+                st.dw_hole_m_s[1],
+                st.spin_rad_s
+            );
+            match r {
+                Ok(()) => rows += 1,
+                Err(e) => io_error = Some(e),
+            }
+        };
+        method.run_sampled(
+            &sys,
+            &start,
+            &settings,
+            &mut |_| {},
+            Some(Sampling {
+                interval_s,
+                on_sample: &mut on_sample,
+            }),
+        )
+    };
+    let summary = match (summary, io_error) {
+        (Ok(s), None) => s,
+        (Err(e), _) => {
+            file.discard();
+            return Err(e.into());
+        }
+        (_, Some(e)) => {
+            let err = file.error(e);
+            file.discard();
+            return Err(err.into());
+        }
+    };
+    file.commit()?;
+    let solid = solid_rms_m(&sys, &settings)?;
+    let params = serde_json::json!({
+        "scenario": sc,
+        "member": member,
+        "start": {
+            "u_m": start.u_m,
+            "du_m_s": start.du_m_s,
+            "w_hole_m": start.w_hole_m,
+            "dw_hole_m_s": start.dw_hole_m_s,
+        },
+        "solver": method.solver_for(&sys),
+        "sample_interval_s": interval_s,
+    });
+    vibrobar_io::Metadata::new("run", HEADER, params, None)
+        .write_beside(&args.out)
+        .with_context(|| format!("metadata beside {}", args.out.display()))?;
+    if args.energy {
+        let b = summary.book;
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "forcing_work_j": b.forcing_work_j,
+                "viscous_loss_j": b.viscous_loss_j,
+                "impact_loss_j": b.impact_loss_j,
+                "sliding_loss_j": b.sliding_loss_j,
+                "rolling_loss_j": b.rolling_loss_j,
+                "delta_mechanical_j": b.energy_change_j,
+                "residual_j": b.residual_j(),
+            }))?
+        );
+    }
+    let say = |line: String| {
+        if args.energy {
+            eprintln!("{line}");
+        } else {
+            println!("{line}");
+        }
+    };
+    print_summary(
+        &say,
+        sc,
+        &sys,
+        method.solver_for(&sys),
+        member,
+        &summary,
+        solid,
+    )?;
+    say(format!(
+        "  output     : {rows} rows to {} (+ .meta.json)",
+        args.out.display()
+    ));
+    say(format!(
+        "  wall time  : {}",
+        fmt_secs(t0.elapsed().as_secs_f64())
+    ));
+    Ok(())
+}
+
+/// `x` to six decimals without trailing zeros (`15.1`, not `15.100000000000001`).
+fn short(x: f64) -> String {
+    let s = format!("{x:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.into()
+    }
+}
+
+fn print_summary(
+    say: &dyn Fn(String),
+    sc: &Scenario,
+    sys: &vibrobar_core::params::two_plane::TwoPlaneSystem,
+    solver: &str,
+    member: usize,
+    s: &TwoPlaneSummary,
+    solid_rms_m: f64,
+) -> Result<()> {
+    let settings = sc.settings();
+    say(format!("vibrobar run ({}), two planes", crate::VERSION));
+    say(format!(
+        "  model      : hole at {}°, {} mm across (radial clearance {} mm), axial gap {} mm; \
+         force {} N at {}°, ratio {}; gravity {} m/s² at {}°; walls μ_s {}, μ_k {}",
+        short(sys.hole.angle_deg),
+        short(sys.hole.diameter_m * 1e3),
+        short(sys.radial_clearance_m() * 1e3),
+        short(sys.hole.axial_gap_m * 1e3),
+        short(sys.forcing.amplitude_n),
+        short(sys.forcing.angle_deg),
+        short(sc.frequency_ratio()?),
+        short(sys.gravity.m_s2),
+        short(sys.gravity.angle_deg),
+        short(sys.ball.friction_static),
+        short(sys.ball.friction_kinetic),
+    ));
+    say(format!(
+        "  run        : solver {solver}, member {member}, {} s, RMS over the last {:.0} %",
+        settings.duration_s,
+        settings.rms_fraction * 100.0
+    ));
+    say(format!(
+        "  RMS        : along the force {:.4e} m ({:.1} % below the bar without its ball, \
+         {:.4e} m); x {:.4e} m, y {:.4e} m, |u| {:.4e} m",
+        s.rms_along_force_m,
+        100.0 * (1.0 - s.rms_along_force_m / solid_rms_m),
+        solid_rms_m,
+        s.rms_m[0],
+        s.rms_m[1],
+        s.rms_total_m
+    ));
+    let wall = |w: HoleWall| {
+        let f = s.contact_fraction[w as usize];
+        format!(
+            "{} impacts, resting {:.1} % (rolling {:.1}, sliding {:.1}, stuck {:.1})",
+            s.impacts[w as usize],
+            100.0 * s.rest_fraction(w),
+            100.0 * f[WallMotion::Rolling as usize],
+            100.0 * f[WallMotion::Sliding as usize],
+            100.0 * f[WallMotion::Stuck as usize],
+        )
+    };
+    say(format!(
+        "  plugs      : + {}; − {}",
+        wall(HoleWall::AxialPlus),
+        wall(HoleWall::AxialMinus)
+    ));
+    say(format!(
+        "  hole wall  : + {}; − {}",
+        wall(HoleWall::AcrossPlus),
+        wall(HoleWall::AcrossMinus)
+    ));
+    say(format!(
+        "  flight     : {:.1} % of the window; {} events",
+        100.0 * s.flight_fraction,
+        s.events
+    ));
+    let b = s.book;
+    say(format!(
+        "  energy (J) : forcing {:+.4e}, viscous −{:.4e}, impacts −{:.4e}, sliding −{:.4e}, \
+         rolling −{:.4e}, ΔE_mech {:+.4e}, residual {:+.2e}",
+        b.forcing_work_j,
+        b.viscous_loss_j,
+        b.impact_loss_j,
+        b.sliding_loss_j,
+        b.rolling_loss_j,
+        b.energy_change_j,
+        b.residual_j()
+    ));
+    say(format!(
+        "  penetration: max {:.3e} m beyond a wall",
+        s.max_penetration_m.max(0.0)
+    ));
+    Ok(())
+}
