@@ -1093,8 +1093,8 @@ def width_diagram(
     progress: Progress = None,
     **overrides,
 ) -> Table:
-    """Width–amplitude diagram of a ``[cutting]`` scenario at one spindle speed (issue #14;
-    ``vibrobar width-diagram``): for each width, from the small and the large disturbance of
+    """Width–amplitude diagram of a ``[cutting]`` scenario at one spindle speed
+    (``vibrobar width-diagram``): for each width, from the small and the large disturbance of
     ``[time_domain]``, for the solid and the damped bar, the settled vibration.
 
     Returns:
@@ -1120,7 +1120,7 @@ def time_domain_lobes(
     progress: Progress = None,
     **overrides,
 ) -> Table:
-    """Time-domain lobes of a ``[cutting]`` scenario (issue #14; ``vibrobar lobes
+    """Time-domain lobes of a ``[cutting]`` scenario (``vibrobar lobes
     --time-domain``): per spindle speed the largest acceptable width of the solid and the damped
     bar from the small and the large disturbance.
 
@@ -1148,7 +1148,7 @@ def lobe_design(
     progress: Progress = None,
     **overrides,
 ) -> Table:
-    """Design by time-domain lobes of a ``[cutting]`` scenario (issue #14; ``vibrobar
+    """Design by time-domain lobes of a ``[cutting]`` scenario (``vibrobar
     lobe-design``): each gap × ball mass (``ball_masses_kg``, lumped bar) or gap × cavity
     position from the clamp (``positions_m``, a ``[beam]``) scored by its worst-case acceptable
     width over the spindle speeds from the large disturbance, beside the solid bar's. Give

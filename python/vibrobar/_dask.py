@@ -1,4 +1,4 @@
-"""Batch functions on a Dask cluster (issue #15): ``vibrobar.map(..., client=client)``.
+"""Batch functions on a Dask cluster: ``vibrobar.map(..., client=client)``.
 
 The grid is cut by frequency ratio, round-robin: shard ``k`` of ``n`` gets ``ratios[k::n]`` with
 every gap (and every optional axis). A row depends only on its own grid point (a map's solid run

@@ -168,7 +168,7 @@ pub enum Command {
     /// beam at the paper's geometry, with the convergence study in the number of modes.
     LumpedVsBeam(crate::commands::lumped_vs_beam::LumpedVsBeamArgs),
     /// Write the generated Markdown document on what the ball damper buys against chatter at
-    /// the paper's bar (issue #14): lobe design of the tip-referred lumped bar and of the beam,
+    /// the paper's bar: lobe design of the tip-referred lumped bar and of the beam,
     /// against the solid bar and the forced-response optimum.
     CuttingDeeper(crate::commands::cutting_deeper::CuttingDeeperArgs),
     /// Single-impact laboratory of the hertz contact law: one impact on a rigid fixed wall per
@@ -184,11 +184,11 @@ pub enum Command {
     /// limiting width of cut over spindle speed for the damped bar (ball free, ball stuck) and
     /// the solid reference, as CSV and a figure.
     Lobes(crate::commands::lobes::LobesArgs),
-    /// Width–amplitude diagram of a [cutting] scenario at one spindle speed (issue #14): the
+    /// Width–amplitude diagram of a [cutting] scenario at one spindle speed: the
     /// settled vibration of the solid and the damped bar from the small and the large
     /// disturbance over a range of widths; resumable (--resume) and shardable (--shard K/N).
     WidthDiagram(crate::commands::time_domain::WidthDiagramArgs),
-    /// Design by time-domain lobes of a [cutting] scenario (issue #14): each gap × ball mass
+    /// Design by time-domain lobes of a [cutting] scenario: each gap × ball mass
     /// (lumped bar) or gap × cavity position (beam) scored by its worst-case acceptable width
     /// over a band of spindle speeds from the large disturbance, beside the solid bar; the
     /// optimum and a heat map; resumable (--resume) and shardable (--shard K/N).

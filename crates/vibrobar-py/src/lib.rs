@@ -2107,7 +2107,7 @@ fn ensemble<'py>(
     columns(py, &iocsv::ensemble_schema(), &rows)
 }
 
-/// Width–amplitude diagram of a `[cutting]` scenario at one spindle speed (issue #14): for each
+/// Width–amplitude diagram of a `[cutting]` scenario at one spindle speed: for each
 /// width, from the small and the large disturbance of `[time_domain]`, for the solid and the
 /// damped bar, the settled vibration; the columns of `vibrobar width-diagram`.
 #[pyfunction]
@@ -2143,7 +2143,7 @@ fn width_diagram<'py>(
     columns(py, &iocsv::width_diagram_schema(), &rows)
 }
 
-/// Time-domain lobes of a `[cutting]` scenario (issue #14): per spindle speed the largest
+/// Time-domain lobes of a `[cutting]` scenario: per spindle speed the largest
 /// acceptable width of the solid and the damped bar from the small and the large disturbance;
 /// the columns of `vibrobar lobes --time-domain`.
 #[pyfunction]
@@ -2176,7 +2176,7 @@ fn time_domain_lobes<'py>(
     columns(py, &iocsv::td_lobes_schema(), &rows)
 }
 
-/// Design by time-domain lobes of a `[cutting]` scenario (issue #14 §3): each gap × ball mass
+/// Design by time-domain lobes of a `[cutting]` scenario: each gap × ball mass
 /// (`ball_masses_kg`) or gap × cavity position from the clamp (`positions_m`, a `[beam]`)
 /// scored by its worst-case acceptable width over the speeds from the large disturbance, beside
 /// the solid bar's (searched once per speed); the columns of `vibrobar lobe-design`, rows in its

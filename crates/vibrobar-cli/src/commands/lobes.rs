@@ -34,7 +34,7 @@ pub struct LobesArgs {
     /// No figure (CSV and metadata only).
     #[arg(long)]
     pub no_figure: bool,
-    /// Time-domain lobes (issue #14): per speed the largest acceptable width of the solid and
+    /// Time-domain lobes: per speed the largest acceptable width of the solid and
     /// the damped bar from the small and the large disturbance of `[time_domain]` (lumped bar;
     /// see `vibrobar width-diagram`), instead of the exact linear lobes.
     #[arg(long)]
