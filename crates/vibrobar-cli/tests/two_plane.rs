@@ -219,22 +219,26 @@ fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
     }
     let sc = d.path().join("tp.toml");
     fs::write(&sc, TWO_PLANE).unwrap();
-    for cmd in [
-        &["ensemble", "--scenario", s(&sc), "--out", s(&out)][..],
-        &[
-            "map",
-            "--scenario",
-            s(&sc),
-            "--gaps-mm",
-            "0.1",
-            "--ratios",
-            "1",
-            "--out",
-            s(&out),
-        ][..],
-    ] {
+    for cmd in [&[
+        "map",
+        "--scenario",
+        s(&sc),
+        "--gaps-mm",
+        "0.1",
+        "--ratios",
+        "1",
+        "--out",
+        s(&out),
+    ][..]]
+    {
         let o = vibrobar(cmd);
-        assert_fails_with(&o, &["does not run a [two_plane] scenario", "run, sweep"]);
+        assert_fails_with(
+            &o,
+            &[
+                "does not run a [two_plane] scenario",
+                "run, sweep, ensemble",
+            ],
+        );
         assert!(!out.exists());
     }
     let cut = d.path().join("cut.toml");
@@ -341,4 +345,105 @@ fn a_two_plane_run_writes_its_history_and_its_summary_agrees_with_it() {
         &["--member", "[two_plane]"],
     );
     assert!(!plain.exists());
+}
+
+#[test]
+fn a_two_plane_ensemble_writes_every_member_and_agrees_with_the_sweep() {
+    let d = tempfile::tempdir().unwrap();
+    let sc = d.path().join("tp.toml");
+    fs::write(&sc, TWO_PLANE).unwrap();
+    let out = d.path().join("ens.csv");
+    let o = vibrobar_ok(&[
+        "ensemble",
+        "--scenario",
+        s(&sc),
+        "--ratios",
+        "0.98:1.0:0.02",
+        "--gap-mm",
+        "1.0",
+        "--members",
+        "5",
+        "--out",
+        s(&out),
+    ]);
+    let said = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(
+        said.contains("r = 0.98") && said.contains("r = 1:"),
+        "{said}"
+    );
+    let csv = fs::read_to_string(&out).unwrap();
+    let rows = sweep_rows(&csv);
+    assert_eq!(rows.len(), 2 * 5);
+    for (i, r) in rows.iter().enumerate() {
+        assert_eq!(r["member"], (i % 5).to_string());
+        assert_eq!(r["solver"], "exact");
+        let rms: f64 = r["rms_along_force_m"].parse().unwrap();
+        let solid: f64 = r["solid_rms_m"].parse().unwrap();
+        let red: f64 = r["reduction_pct"].parse().unwrap();
+        assert!((red - 100.0 * (1.0 - rms / solid)).abs() < 1e-3, "{r:?}");
+        // Member 0 rests on the hole's wall, at rest.
+        if r["member"] == "0" {
+            assert_eq!(r["dw_along_start_m_s"].parse::<f64>().unwrap(), 0.0);
+        }
+    }
+    // The same members as the sweep's: its mean is the mean of these rows.
+    let sweep = d.path().join("sweep.csv");
+    vibrobar_ok(&[
+        "sweep",
+        "--scenario",
+        s(&sc),
+        "--ratios",
+        "0.98:1.0:0.02",
+        "--gap-mm",
+        "1.0",
+        "--out",
+        s(&sweep),
+    ]);
+    // The sweep takes its members from the file (8); the ensemble was told 5: compare the first
+    // point's mean over the file's members instead.
+    let ens8 = d.path().join("ens8.csv");
+    vibrobar_ok(&[
+        "ensemble",
+        "--scenario",
+        s(&sc),
+        "--ratios",
+        "0.98:1.0:0.02",
+        "--gap-mm",
+        "1.0",
+        "--out",
+        s(&ens8),
+    ]);
+    let e8 = sweep_rows(&fs::read_to_string(&ens8).unwrap());
+    let sw = sweep_rows(&fs::read_to_string(&sweep).unwrap());
+    for (p, srow) in sw.iter().enumerate() {
+        let members: Vec<f64> = e8[8 * p..8 * (p + 1)]
+            .iter()
+            .map(|r| r["rms_along_force_m"].parse().unwrap())
+            .collect();
+        let mean = members.iter().sum::<f64>() / 8.0;
+        let sweep_mean: f64 = srow["rms_along_force_mean_m"].parse().unwrap();
+        assert!(
+            (mean - sweep_mean).abs() <= 1e-12 * sweep_mean,
+            "{mean} {sweep_mean}"
+        );
+    }
+    // One-plane start ranges and sharding are refused by name, and nothing is written.
+    let other = d.path().join("other.csv");
+    for (flag, value) in [("--dw-m-s", "0.1"), ("--shard", "1/2")] {
+        let o = vibrobar(&[
+            "ensemble",
+            "--scenario",
+            s(&sc),
+            "--ratio",
+            "1",
+            "--gap-mm",
+            "1",
+            flag,
+            value,
+            "--out",
+            s(&other),
+        ]);
+        assert_fails_with(&o, &[flag]);
+        assert!(!other.exists());
+    }
 }

@@ -572,23 +572,24 @@ pub struct EnsembleArgs {
     /// Gaps in mm START:STOP:STEP instead of --gap-mm.
     #[arg(long, allow_hyphen_values = true)]
     pub gaps_mm: Option<String>,
-    /// Members per point.
-    #[arg(long, default_value_t = 16)]
-    pub members: usize,
-    /// Seed of the ensemble.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    /// Members per point [default: 16; a `[two_plane]` scenario: its `members`].
+    #[arg(long)]
+    pub members: Option<usize>,
+    /// Seed of the ensemble [default: 1; a `[two_plane]` scenario: its `seed`].
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Half range of the initial bar displacement u, m (uniform in ±; a beam: at the response
-    /// point, put into mode 1).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 5e-5)]
-    pub u_m: f64,
-    /// Half range of the initial bar velocity, m/s (a beam: at the response point, into mode 1).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.2)]
-    pub du_m_s: f64,
+    /// point, put into mode 1) [default: 5e-5].
+    #[arg(long, allow_negative_numbers = true)]
+    pub u_m: Option<f64>,
+    /// Half range of the initial bar velocity, m/s (a beam: at the response point, into mode 1)
+    /// [default: 0.2].
+    #[arg(long, allow_negative_numbers = true)]
+    pub du_m_s: Option<f64>,
     /// Half range of the initial relative velocity ẇ, m/s (the ball position is uniform over
-    /// the whole cavity).
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.2)]
-    pub dw_m_s: f64,
+    /// the whole cavity) [default: 0.2].
+    #[arg(long, allow_negative_numbers = true)]
+    pub dw_m_s: Option<f64>,
     /// Threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -604,7 +605,7 @@ pub struct EnsembleArgs {
     pub out: PathBuf,
 }
 
-fn axis_values(
+pub(crate) fn axis_values(
     flag1: &str,
     one: Option<f64>,
     flag2: &str,
@@ -620,12 +621,23 @@ fn axis_values(
 
 /// `vibrobar ensemble`.
 pub fn run_ensemble_cmd(a: &EnsembleArgs) -> anyhow::Result<()> {
+    let sc = a.system.scenario()?;
+    if sc.two_plane.is_some() {
+        return super::ensemble_two_plane::ensemble(a, &sc);
+    }
+    let members = a.members.unwrap_or(16);
+    let seed = a.seed.unwrap_or(1);
+    let (u_m, du_m_s, dw_m_s) = (
+        a.u_m.unwrap_or(5e-5),
+        a.du_m_s.unwrap_or(0.2),
+        a.dw_m_s.unwrap_or(0.2),
+    );
     let ratios = axis_values("--ratio", a.ratio, "--ratios", &a.ratios, "(0, ∞)")?;
     let gaps_mm = axis_values("--gap-mm", a.gap_mm, "--gaps-mm", &a.gaps_mm, "(0, ∞) mm")?;
-    check_value("--members", a.members as f64, |x| x >= 1.0, "[1, ∞)")?;
-    check_value("--u-m", a.u_m, |x| x >= 0.0, "[0, ∞) m")?;
-    check_value("--du-m-s", a.du_m_s, |x| x >= 0.0, "[0, ∞) m/s")?;
-    check_value("--dw-m-s", a.dw_m_s, |x| x >= 0.0, "[0, ∞) m/s")?;
+    check_value("--members", members as f64, |x| x >= 1.0, "[1, ∞)")?;
+    check_value("--u-m", u_m, |x| x >= 0.0, "[0, ∞) m")?;
+    check_value("--du-m-s", du_m_s, |x| x >= 0.0, "[0, ∞) m/s")?;
+    check_value("--dw-m-s", dw_m_s, |x| x >= 0.0, "[0, ∞) m/s")?;
     let spec = spec(&a.system)?;
     let grid = Grid::new(vec![
         GridAxis {
@@ -642,20 +654,20 @@ pub fn run_ensemble_cmd(a: &EnsembleArgs) -> anyhow::Result<()> {
         spec.damped_system(p)?.validate()?;
     }
     let params = EnsembleParams {
-        seed: a.seed,
-        members: a.members,
+        seed: seed,
+        members: members,
         ranges: IcRanges {
-            u_m: (-a.u_m, a.u_m),
-            du_m_s: (-a.du_m_s, a.du_m_s),
+            u_m: (-u_m, u_m),
+            du_m_s: (-du_m_s, du_m_s),
             w_over_half_gap: (-1.0, 1.0),
-            dw_m_s: (-a.dw_m_s, a.dw_m_s),
+            dw_m_s: (-dw_m_s, dw_m_s),
         },
     };
     params.validate()?;
     // The whole job's size (each batch is checked again by the core).
     vibrobar_core::limits::check(
         "ensemble runs (points × members)",
-        points.len() as f64 * a.members as f64,
+        points.len() as f64 * members as f64,
         0.0,
         vibrobar_core::limits::MAX_RUNS as f64,
         "fewer points or members",
@@ -681,12 +693,12 @@ pub fn run_ensemble_cmd(a: &EnsembleArgs) -> anyhow::Result<()> {
         system: a.system.to_params()?,
         ratios: grid.axes()[0].values.clone(),
         gaps_m: grid.axes()[1].values.clone(),
-        members: a.members,
-        seed: a.seed,
+        members: members,
+        seed: seed,
         ic_half_ranges: IcHalfRanges {
-            u_m: a.u_m,
-            du_m_s: a.du_m_s,
-            dw_m_s: a.dw_m_s,
+            u_m: u_m,
+            du_m_s: du_m_s,
+            dw_m_s: dw_m_s,
             w_over_half_gap: 1.0,
         },
     };
@@ -708,8 +720,8 @@ pub fn run_ensemble_cmd(a: &EnsembleArgs) -> anyhow::Result<()> {
     let pending = journal.pending();
     let bar = Progress::new(
         "ensemble",
-        indices.len() * a.members,
-        journal.done_count() * a.members,
+        indices.len() * members,
+        journal.done_count() * members,
     );
     let progress = bar.callback();
     // A few points per batch (enough members to keep every thread busy), each batch's rows
@@ -717,8 +729,8 @@ pub fn run_ensemble_cmd(a: &EnsembleArgs) -> anyhow::Result<()> {
     // statistics depend on its own members only (member i's initial state is seeded by i), so
     // the batching changes no digit.
     let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
-    let per_batch = (2 * threads).div_ceil(a.members).max(1);
-    let mut done_runs = journal.done_count() * a.members;
+    let per_batch = (2 * threads).div_ceil(members).max(1);
+    let mut done_runs = journal.done_count() * members;
     for batch in pending.chunks(per_batch) {
         let pts: Vec<GridPoint> = batch.iter().map(|&i| points[i].clone()).collect();
         let offset = done_runs;
@@ -727,7 +739,7 @@ pub fn run_ensemble_cmd(a: &EnsembleArgs) -> anyhow::Result<()> {
                 progress(offset + d, t)
             })
         })??;
-        done_runs += pts.len() * a.members;
+        done_runs += pts.len() * members;
         for (i, s) in batch.iter().zip(&stats) {
             let row = EnsembleCsvRow {
                 ratio: s.point.get(Axis::FreqRatio).unwrap_or(f64::NAN),

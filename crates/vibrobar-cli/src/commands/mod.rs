@@ -9,6 +9,7 @@ pub mod contact_test;
 pub mod continue2;
 pub mod cutting_deeper;
 pub mod design;
+pub mod ensemble_two_plane;
 pub mod explore;
 pub mod fit_modes;
 pub mod frf;
