@@ -83,3 +83,69 @@ def test_the_exact_solver_runs_where_the_planes_decouple_and_matches_the_referen
         vibrobar.two_plane(solver="exact", **rough)
     with pytest.raises(ValueError, match="solver"):
         vibrobar.two_plane(solver="rk4", **kw)
+
+
+TWO_PLANE_TOML = """[damper]
+gap_m = 1.0e-4
+
+[run]
+duration_s = 0.05
+
+[two_plane]
+hole_diameter_m = 0.0151
+force_ratio = 2.0
+members = 4
+"""
+
+
+def _vibrobar_cli():
+    import os
+    import shutil
+
+    here = os.path.dirname(os.path.abspath(__file__))
+    root = os.path.dirname(os.path.dirname(here))
+    for p in (os.path.join(root, "target", "release", "vibrobar"), shutil.which("vibrobar")):
+        if p and os.path.exists(p):
+            return p
+    pytest.skip("no vibrobar binary built")
+
+
+def test_a_two_plane_run_is_the_command_line_run(tmp_path):
+    import subprocess
+
+    sc_path = tmp_path / "tp.toml"
+    sc_path.write_text(TWO_PLANE_TOML)
+    sc = vibrobar.Scenario.from_toml(str(sc_path))
+    r = vibrobar.two_plane_run(sc, member=2, sample_every=5)
+    assert r.solver == "exact" and r.member == 2
+    h = r.history
+    assert h.rows == 10_001
+    assert np.all(np.abs(h["w_along_m"]) <= 0.05e-3 + 1e-12)
+    assert abs(r.reduction_pct - 100 * (1 - r.rms_along_force_m / r.solid_rms_m)) < 1e-9
+    assert abs(r.energy["residual_j"]) < 1e-9 * abs(r.energy["forcing_work_j"])
+    assert sum(w["impacts"] for w in r.walls.values()) > 0
+    out = tmp_path / "run.csv"
+    subprocess.run(
+        [_vibrobar_cli(), "run", "--scenario", str(sc_path), "--member", "2",
+         "--sample-every", "5", "--out", str(out)],
+        check=True, capture_output=True,
+    )
+    assert h.to_csv() == out.read_text()
+
+
+def test_two_plane_run_refuses_bad_members_and_one_plane_functions_refuse_two_planes(tmp_path):
+    sc_path = tmp_path / "tp.toml"
+    sc_path.write_text(TWO_PLANE_TOML)
+    sc = vibrobar.Scenario.from_toml(str(sc_path))
+    with pytest.raises(ValueError, match=r"member = 4 is outside the allowed range \[0, 3\]"):
+        vibrobar.two_plane_run(sc, member=4)
+    with pytest.raises(ValueError, match="member"):
+        vibrobar.two_plane_run(sc, member=-1)
+    with pytest.raises(TypeError, match="sample_every"):
+        vibrobar.two_plane_run(sc, sample_every=1.5)
+    with pytest.raises(ValueError, match=r"needs a scenario with \[two_plane\]"):
+        vibrobar.two_plane_run(vibrobar.Scenario.paper())
+    # The one-plane functions do not run the one-plane model in its place.
+    for f in (lambda: vibrobar.run(sc), lambda: vibrobar.sweep(sc, ratios=[1.0], gaps_m=[1e-4])):
+        with pytest.raises(ValueError, match=r"does not run a scenario with \[two_plane\]"):
+            f()

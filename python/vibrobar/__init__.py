@@ -57,6 +57,8 @@ __all__ = [
     "write_uff58",
     "frf",
     "two_plane",
+    "two_plane_run",
+    "TwoPlaneRun",
     "submit",
     "solver_names",
     "DEFAULT_SOLVER",
@@ -307,6 +309,84 @@ def _progress(progress: Progress, label: str):
         print(f"\r{label}: {done}/{total}", end="", file=_sys.stderr, flush=True)
 
     return cb, lambda: print(file=_sys.stderr)
+
+
+class TwoPlaneRun:
+    """One run of the bar that bends in two planes (``vibrobar run`` on a scenario with
+    ``[two_plane]``).
+
+    Attributes:
+        history: Table of the sampled states: ``t_s``; the bar in the cross-section's x (radial)
+            and y (tangential), ``u_x_m``, ``u_y_m``, ``du_x_m_s``, ``du_y_m_s``, and along the
+            force, ``u_force_m``; the ball relative to the cavity along and across the hole,
+            ``w_along_m``, ``w_across_m``, ``dw_along_m_s``, ``dw_across_m_s``; its spin
+            ``spin_rad_s``. ``history.to_csv()`` is the command line's file.
+        rms_along_force_m, rms_radial_m, rms_tangential_m, rms_total_m: RMS over the window, m.
+        solid_rms_m: RMS along the force of the bar without its ball, m; reduction_pct: the
+            reduction against it, %.
+        walls: per wall (``axial_plus``, ``axial_minus``, ``across_plus``, ``across_minus``) its
+            ``impacts`` and the window fractions the ball rests on it ``rolling``, ``sliding``,
+            ``stuck``.
+        flight_fraction: window fraction the ball touches no wall; events: all events.
+        max_penetration_m: largest depth beyond a wall (0 when the ball stayed inside), m.
+        energy: the energy book, J: ``forcing_work_j``, ``viscous_loss_j``, ``impact_loss_j``,
+            ``sliding_loss_j``, ``rolling_loss_j``, ``delta_mechanical_j``, ``residual_j``.
+        solver: ``"exact"`` or ``"reference"``; member: which member of the ensemble ran.
+    """
+
+    def __init__(self, d: dict):
+        self.history = Table(d["history"], csv=d["history_csv"])
+        for k in (
+            "rms_along_force_m",
+            "rms_radial_m",
+            "rms_tangential_m",
+            "rms_total_m",
+            "solid_rms_m",
+            "reduction_pct",
+            "walls",
+            "flight_fraction",
+            "events",
+            "max_penetration_m",
+            "energy",
+            "solver",
+            "member",
+        ):
+            setattr(self, k, d[k])
+
+    def __repr__(self) -> str:
+        return (
+            f"TwoPlaneRun(rms_along_force_m={self.rms_along_force_m:.6e}, "
+            f"reduction_pct={self.reduction_pct:.2f}, solver={self.solver!r}, "
+            f"member={self.member}, samples={self.history.rows})"
+        )
+
+
+def two_plane_run(
+    scenario: Scenario, *, member: int = 0, sample_every: int = 10, **overrides
+) -> TwoPlaneRun:
+    """One run of a scenario with ``[two_plane]`` (``vibrobar run`` on it): one member of its
+    ensemble of starts on its solver, the history and the summary.
+
+    Args:
+        scenario: a scenario with a ``[two_plane]`` section (``Scenario.from_toml``).
+        member: which member of the scenario's ensemble of starts, in ``[0, members)``: 0 is the
+            bar at rest with the ball resting where gravity presses it; the others are drawn as
+            ``vibrobar sweep`` and ``vibrobar ensemble`` draw them.
+        sample_every: keep one history row every this many steps of ``dt_s``, ≥ 1.
+        **overrides: scenario keyword overrides (``gap_m=1e-4``, ``frequency_ratio=1.0``, ...).
+
+    Returns:
+        TwoPlaneRun.
+    """
+    sc = _scenario(scenario, overrides)
+    for name, x in (("member", member), ("sample_every", sample_every)):
+        if isinstance(x, bool) or not isinstance(x, (int, _np.integer)):
+            raise TypeError(f"{name} must be an int, got {type(x).__name__}")
+    if member < 0:
+        raise ValueError(f"member = {member} is outside the allowed range [0, members)")
+    if sample_every < 1:
+        raise ValueError(f"sample_every = {sample_every} is outside the allowed range [1, ∞) steps")
+    return TwoPlaneRun(_vibrobar.two_plane_run(sc, int(member), int(sample_every)))
 
 
 def run(scenario: Optional[Scenario] = None, *, sample_every: int = 10, **overrides) -> RunResult:

@@ -1,6 +1,6 @@
 """Type stubs of the ``vibrobar`` package (units are SI; names carry them)."""
 
-from typing import Any, Callable, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Mapping, Optional, Sequence, Tuple, Union
 import numpy as np
 import numpy.typing as npt
 
@@ -24,6 +24,27 @@ class Table(dict[str, np.ndarray]):
 
 class SweepResult(Table): ...
 class MapResult(Table): ...
+
+class TwoPlaneRun:
+    history: Table
+    rms_along_force_m: float
+    rms_radial_m: float
+    rms_tangential_m: float
+    rms_total_m: float
+    solid_rms_m: float
+    reduction_pct: float
+    walls: Dict[str, Dict[str, float]]
+    flight_fraction: float
+    events: int
+    max_penetration_m: float
+    energy: Dict[str, float]
+    solver: str
+    member: int
+    def __init__(self, d: dict) -> None: ...
+
+def two_plane_run(
+    scenario: Scenario, *, member: int = 0, sample_every: int = 10, **overrides: Any
+) -> TwoPlaneRun: ...
 
 class RunResult:
     history: Table

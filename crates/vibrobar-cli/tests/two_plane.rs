@@ -219,18 +219,30 @@ fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
     }
     let sc = d.path().join("tp.toml");
     fs::write(&sc, TWO_PLANE).unwrap();
-    for cmd in [&[
-        "map",
-        "--scenario",
-        s(&sc),
-        "--gaps-mm",
-        "0.1",
-        "--ratios",
-        "1",
-        "--out",
-        s(&out),
-    ][..]]
-    {
+    for cmd in [
+        &[
+            "poincare",
+            "--scenario",
+            s(&sc),
+            "--ratio",
+            "1",
+            "--gap-mm",
+            "0.1",
+            "--out",
+            s(&out),
+        ][..],
+        &[
+            "map",
+            "--scenario",
+            s(&sc),
+            "--gaps-mm",
+            "0.1",
+            "--ratios",
+            "1",
+            "--out",
+            s(&out),
+        ][..],
+    ] {
         let o = vibrobar(cmd);
         assert_fails_with(
             &o,

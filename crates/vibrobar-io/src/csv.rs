@@ -384,6 +384,52 @@ pub fn history_values(s: &State) -> [f64; 7] {
     [s.t_s, s.u_m, s.du_m_s, s.v_m, s.dv_m_s, s.w_m(), s.dw_m_s()]
 }
 
+/// Columns of a two-plane run's history CSV: the bar in the cross-section's x (radial) and y
+/// (tangential) and along the force, the ball relative to the cavity along and across the hole,
+/// its spin.
+pub fn two_plane_history_schema() -> Schema {
+    Schema {
+        columns: [
+            "t_s",
+            "u_x_m",
+            "u_y_m",
+            "du_x_m_s",
+            "du_y_m_s",
+            "u_force_m",
+            "w_along_m",
+            "w_across_m",
+            "dw_along_m_s",
+            "dw_across_m_s",
+            "spin_rad_s",
+        ]
+        .into_iter()
+        .map(|n| col(n, Format::Sci))
+        .collect(),
+    }
+}
+
+/// The row of [`two_plane_history_schema`] for a sample, with `force_dir` the force's unit
+/// vector.
+pub fn two_plane_history_values(
+    s: &vibrobar_core::solver::two_plane_rk4::TwoPlaneSample,
+    force_dir: [f64; 2],
+) -> [f64; 11] {
+    let st = &s.state;
+    [
+        s.t_s,
+        st.u_m[0],
+        st.u_m[1],
+        st.du_m_s[0],
+        st.du_m_s[1],
+        st.u_m[0] * force_dir[0] + st.u_m[1] * force_dir[1],
+        st.w_hole_m[0],
+        st.w_hole_m[1],
+        st.dw_hole_m_s[0],
+        st.dw_hole_m_s[1],
+        st.spin_rad_s,
+    ]
+}
+
 /// Write a time-history CSV (small histories, rows checked by [`write_csv`]; `run` streams
 /// through [`crate::history`]).
 pub fn write_history_csv(path: &Path, samples: &[State]) -> Result<()> {

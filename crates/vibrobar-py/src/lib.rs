@@ -581,6 +581,25 @@ struct PyScenario {
     inner: Scenario,
 }
 
+impl PyScenario {
+    /// The scenario for the Python function `command`, refused when it has `[two_plane]` and
+    /// the function runs only the one-plane model (rather than running that model silently).
+    fn for_command(&self, command: &str) -> PyResult<&Scenario> {
+        if self.inner.two_plane.is_some() && !PY_TWO_PLANE_FUNCTIONS.contains(&command) {
+            return Err(PyValueError::new_err(format!(
+                "vibrobar.{command} does not run a scenario with [two_plane] (the bar that bends \
+                 in two planes runs with vibrobar.{}, and vibrobar.two_plane at one design \
+                 point); remove [two_plane] for the one-plane model",
+                PY_TWO_PLANE_FUNCTIONS.join(", vibrobar.")
+            )));
+        }
+        Ok(&self.inner)
+    }
+}
+
+/// The Python functions that run a scenario with `[two_plane]`.
+const PY_TWO_PLANE_FUNCTIONS: [&str; 1] = ["two_plane_run"];
+
 #[pymethods]
 impl PyScenario {
     /// The paper's scenario (lumped bar), with keyword overrides.
@@ -885,7 +904,7 @@ fn run<'py>(
     scenario: &PyScenario,
     sample_every: u64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("run")?;
     if sample_every == 0 {
         return Err(PyValueError::new_err(
             "sample_every = 0 is outside the allowed range [1, ∞) steps",
@@ -1006,7 +1025,7 @@ fn sweep<'py>(
     threads: Option<usize>,
     freqs_hz: Option<PyReadonlyArray1<'py, f64>>,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("sweep")?;
     check_threads(threads)?;
     let gaps_m = match &gaps_m {
         Some(g) => values("gaps_m", g, |x| x > 0.0, "(0, ∞) m", limits::MAX_SWEEP_RATIOS)?,
@@ -1130,7 +1149,7 @@ fn design_map<'py>(
     threads: Option<usize>,
     freqs_hz: Option<PyReadonlyArray1<'py, f64>>,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("design_map")?;
     check_threads(threads)?;
     let max = vibrobar_core::analysis::sweep::MAX_GRID_POINTS;
     let spec = map_spec(sc)?;
@@ -1282,7 +1301,7 @@ fn regime<'py>(
     ratio: Option<f64>,
     gap_m: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("regime")?;
     let (spec, p, _) = point_system(sc, ratio, gap_m)?;
     let solver = make_solver(sc, "regime")?;
     let row = detached(py, None, |_| {
@@ -1310,7 +1329,7 @@ fn poincare<'py>(
     phase_deg: f64,
     transient_s: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("poincare")?;
     let (spec, _, sys) = point_system(sc, ratio, gap_m)?;
     if !phase_deg.is_finite() {
         return Err(PyValueError::new_err(format!(
@@ -1432,7 +1451,7 @@ fn lyapunov<'py>(
     periods: f64,
     d0: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("lyapunov")?;
     let (spec, _, sys) = point_system(sc, ratio, gap_m)?;
     let t = transient(sc, transient_s)?;
     for (name, x) in [("periods", periods), ("d0", d0)] {
@@ -1493,7 +1512,7 @@ fn lyapunov_spectrum<'py>(
     transient_s: Option<f64>,
     blocks: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("lyapunov_spectrum")?;
     let (spec, _, sys) = point_system(sc, ratio, gap_m)?;
     let t = transient(sc, transient_s)?;
     let solver = make_solver(sc, "lyapunov")?;
@@ -1630,7 +1649,7 @@ fn orbit<'py>(
     branch: Option<usize>,
     settle_s: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("orbit")?;
     let (_, _, sys) = point_system(sc, ratio, gap_m)?;
     if sys.lumped_bar().is_none() {
         let ms = ModalSystem::from_system(&sys).map_err(input_error)?;
@@ -1728,7 +1747,7 @@ fn continuation<'py>(
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use vibrobar_core::analysis::orbit::continuation::*;
     use vibrobar_core::analysis::orbit::modal::{continue_modal_orbit, ModalFamily, ModalParam};
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("continuation")?;
     let modal = sc.beam.is_some() || sc.modes.is_some();
     let axis = match param {
         "ratio" => Some(Axis::FreqRatio),
@@ -1870,7 +1889,7 @@ fn continuation2<'py>(
     max_points: usize,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use vibrobar_core::analysis::orbit::two_param::*;
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("continuation2")?;
     let kind = CurveKind::parse(kind).map_err(PyValueError::new_err)?;
     let settings = Curve2Settings {
         ratios,
@@ -1944,7 +1963,7 @@ fn bifurcation_diagram<'py>(
     transient_s: Option<f64>,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("bifurcation_diagram")?;
     let axis = match param {
         "ratio" => Axis::FreqRatio,
         "gap_m" => Axis::GapM,
@@ -2027,7 +2046,7 @@ fn ensemble<'py>(
     dw_m_s: f64,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("ensemble")?;
     let max = vibrobar_core::analysis::sweep::MAX_GRID_POINTS;
     let grid = Grid::new(vec![
         GridAxis {
@@ -2120,7 +2139,7 @@ fn width_diagram<'py>(
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use vibrobar_core::analysis::time_domain as td;
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("width_diagram")?;
     let widths = values("widths_m", &widths_m, |x| x > 0.0, "(0, ∞) m", 100_000)?;
     vibrobar_core::limits::check(
         "spindle_rpm",
@@ -2155,7 +2174,7 @@ fn time_domain_lobes<'py>(
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use vibrobar_core::analysis::time_domain as td;
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("time_domain_lobes")?;
     let rpms = values(
         "spindle_rpm",
         &spindle_rpm,
@@ -2193,7 +2212,7 @@ fn lobe_design<'py>(
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Bound<'py, PyDict>, String)> {
     use vibrobar_core::analysis::lobe_design as ld;
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("lobe_design")?;
     let rpms = values(
         "spindle_rpm",
         &spindle_rpm,
@@ -2404,7 +2423,7 @@ fn frf<'py>(
         ResponsePoint, SteppedSine, TapTest,
     };
     use vibrobar_core::structure::{Point, Structure};
-    let sc = &scenario.inner;
+    let sc = scenario.for_command("frf")?;
     let lines = match (band_hz, &frequencies_hz) {
         (Some((a, b, c)), None) => frequency_lines_hz("band_hz", a, b, c).map_err(input_error)?,
         (None, Some(f)) => {
@@ -2931,6 +2950,143 @@ fn two_plane<'py>(
     Ok(d)
 }
 
+/// One run of a scenario with `[two_plane]`, as `vibrobar run` on it: member `member` of its
+/// ensemble of starts, its history every `sample_every` steps and its summary. Meaning:
+/// `vibrobar.two_plane_run`.
+#[pyfunction]
+#[pyo3(signature = (scenario, member = 0, sample_every = 10))]
+fn two_plane_run<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    member: usize,
+    sample_every: u64,
+) -> PyResult<Bound<'py, PyDict>> {
+    use vibrobar_core::analysis::two_plane::{solid_rms_m, starts, TwoPlaneMethod};
+    use vibrobar_core::params::two_plane::direction;
+    use vibrobar_core::solver::two_plane_rk4::{HoleWall, Sampling, TwoPlaneSample, WallMotion};
+    let sc = scenario.for_command("two_plane_run")?;
+    let Some(section) = &sc.two_plane else {
+        return Err(PyValueError::new_err(
+            "vibrobar.two_plane_run needs a scenario with [two_plane]; vibrobar.run runs the \
+             one-plane model",
+        ));
+    };
+    if sample_every == 0 {
+        return Err(PyValueError::new_err(
+            "sample_every = 0 is outside the allowed range [1, ∞) steps",
+        ));
+    }
+    let sys = sc
+        .two_plane_system()
+        .map_err(anyhow_input)?
+        .ok_or_else(|| PyValueError::new_err("the scenario lost its [two_plane] section"))?;
+    let settings = sc.settings();
+    settings.validate().map_err(input_error)?;
+    let method = section.method(settings.dt_s).map_err(anyhow_input)?;
+    if let TwoPlaneMethod::Exact = method {
+        vibrobar_core::solver::two_plane_exact::decoupled(&sys).map_err(|why| {
+            PyValueError::new_err(format!("[two_plane] solver = \"exact\": {why}"))
+        })?;
+    }
+    let ens = section.ensemble().map_err(anyhow_input)?;
+    if member >= ens.members {
+        return Err(PyValueError::new_err(format!(
+            "member = {member} is outside the allowed range [0, {}] (the [two_plane] ensemble \
+             has {} members)",
+            ens.members - 1,
+            ens.members
+        )));
+    }
+    let start = starts(&sys, &ens).map_err(input_error)?[member];
+    let interval_s = sample_every as f64 * settings.dt_s;
+    limits::check_samples(
+        "rows = duration_s / (sample_every · dt_s)",
+        settings.duration_s,
+        interval_s,
+    )
+    .map_err(input_error)?;
+    let e_f = direction(sys.forcing.angle_deg);
+    let (summary, rows, solid) = detached(py, None, |_| {
+        let mut rows: Vec<[f64; 11]> = Vec::new();
+        let mut on_sample = |s: &TwoPlaneSample| rows.push(iocsv::two_plane_history_values(s, e_f));
+        let summary = method
+            .run_sampled(
+                &sys,
+                &start,
+                &settings,
+                &mut |_| {},
+                Some(Sampling {
+                    interval_s,
+                    on_sample: &mut on_sample,
+                }),
+            )
+            .map_err(|e| run_error(two_plane_keywords(e.to_string())))?;
+        let solid = solid_rms_m(&sys, &settings).map_err(run_error)?;
+        Ok((summary, rows, solid))
+    })?;
+    let schema = iocsv::two_plane_history_schema();
+    let names: Vec<String> = schema.header().split(',').map(String::from).collect();
+    let history = PyDict::new(py);
+    for (j, name) in names.iter().enumerate() {
+        history.set_item(
+            name,
+            rows.iter()
+                .map(|r| r[j])
+                .collect::<Vec<f64>>()
+                .into_pyarray(py),
+        )?;
+    }
+    let mut csv = schema.header();
+    csv.push('\n');
+    for r in &rows {
+        schema.format_into(&r.map(iocsv::Value::F), &mut csv);
+        csv.push('\n');
+    }
+    let d = PyDict::new(py);
+    d.set_item("history", history)?;
+    d.set_item("history_csv", csv)?;
+    d.set_item("rms_along_force_m", summary.rms_along_force_m)?;
+    d.set_item("rms_radial_m", summary.rms_m[0])?;
+    d.set_item("rms_tangential_m", summary.rms_m[1])?;
+    d.set_item("rms_total_m", summary.rms_total_m)?;
+    d.set_item("solid_rms_m", solid)?;
+    d.set_item(
+        "reduction_pct",
+        100.0 * (1.0 - summary.rms_along_force_m / solid),
+    )?;
+    let walls = PyDict::new(py);
+    for (w, name) in
+        HoleWall::ALL
+            .iter()
+            .zip(["axial_plus", "axial_minus", "across_plus", "across_minus"])
+    {
+        let f = summary.contact_fraction[*w as usize];
+        let e = PyDict::new(py);
+        e.set_item("impacts", summary.impacts[*w as usize])?;
+        e.set_item("rolling", f[WallMotion::Rolling as usize])?;
+        e.set_item("sliding", f[WallMotion::Sliding as usize])?;
+        e.set_item("stuck", f[WallMotion::Stuck as usize])?;
+        walls.set_item(name, e)?;
+    }
+    d.set_item("walls", walls)?;
+    d.set_item("flight_fraction", summary.flight_fraction)?;
+    d.set_item("events", summary.events)?;
+    d.set_item("max_penetration_m", summary.max_penetration_m.max(0.0))?;
+    let b = summary.book;
+    let energy = PyDict::new(py);
+    energy.set_item("forcing_work_j", b.forcing_work_j)?;
+    energy.set_item("viscous_loss_j", b.viscous_loss_j)?;
+    energy.set_item("impact_loss_j", b.impact_loss_j)?;
+    energy.set_item("sliding_loss_j", b.sliding_loss_j)?;
+    energy.set_item("rolling_loss_j", b.rolling_loss_j)?;
+    energy.set_item("delta_mechanical_j", b.energy_change_j)?;
+    energy.set_item("residual_j", b.residual_j())?;
+    d.set_item("energy", energy)?;
+    d.set_item("solver", method.solver_for(&sys))?;
+    d.set_item("member", member)?;
+    Ok(d)
+}
+
 #[pymodule]
 fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScenario>()?;
@@ -2949,6 +3105,7 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(lobes, m)?)?;
     m.add_function(wrap_pyfunction!(lobes_frf, m)?)?;
     m.add_function(wrap_pyfunction!(two_plane, m)?)?;
+    m.add_function(wrap_pyfunction!(two_plane_run, m)?)?;
     m.add_function(wrap_pyfunction!(fit_modes, m)?)?;
     m.add_function(wrap_pyfunction!(width_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(time_domain_lobes, m)?)?;

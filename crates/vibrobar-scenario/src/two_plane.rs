@@ -245,7 +245,7 @@ pub fn two_plane_refusal(command: &str) -> String {
     format!(
         "vibrobar {command} does not run a [two_plane] scenario (the bar that bends in two planes \
          runs with vibrobar {}, the design document vibrobar two-plane, and Python's \
-         vibrobar.two_plane); remove [two_plane] for the one-plane model",
+         vibrobar.two_plane and vibrobar.two_plane_run); remove [two_plane] for the one-plane model",
         TWO_PLANE_COMMANDS.join(", ")
     )
 }

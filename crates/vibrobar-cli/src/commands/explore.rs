@@ -654,8 +654,8 @@ pub fn run_ensemble_cmd(a: &EnsembleArgs) -> anyhow::Result<()> {
         spec.damped_system(p)?.validate()?;
     }
     let params = EnsembleParams {
-        seed: seed,
-        members: members,
+        seed,
+        members,
         ranges: IcRanges {
             u_m: (-u_m, u_m),
             du_m_s: (-du_m_s, du_m_s),
@@ -693,12 +693,12 @@ pub fn run_ensemble_cmd(a: &EnsembleArgs) -> anyhow::Result<()> {
         system: a.system.to_params()?,
         ratios: grid.axes()[0].values.clone(),
         gaps_m: grid.axes()[1].values.clone(),
-        members: members,
-        seed: seed,
+        members,
+        seed,
         ic_half_ranges: IcHalfRanges {
-            u_m: u_m,
-            du_m_s: du_m_s,
-            dw_m_s: dw_m_s,
+            u_m,
+            du_m_s,
+            dw_m_s,
             w_over_half_gap: 1.0,
         },
     };

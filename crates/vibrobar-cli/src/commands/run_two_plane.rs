@@ -9,16 +9,11 @@ use vibrobar_core::solver::two_plane_rk4::{
     HoleWall, Sampling, TwoPlaneSample, TwoPlaneSummary, WallMotion,
 };
 use vibrobar_io::atomic::AtomicFile;
+use vibrobar_io::csv::{two_plane_history_schema, two_plane_history_values, Value};
 
 use super::fmt_secs;
 use crate::cli::RunArgs;
 use crate::scenario::Scenario;
-
-/// The history's columns: the bar in the cross-section's x (radial) and y (tangential), its
-/// displacement along the force, the ball relative to the cavity along and across the hole, its
-/// spin.
-pub const HEADER: &str = "t_s,u_x_m,u_y_m,du_x_m_s,du_y_m_s,u_force_m,w_along_m,w_across_m,\
-dw_along_m_s,dw_across_m_s,spin_rad_s";
 
 /// Run the command on a scenario with `[two_plane]` (gap and ratio already applied).
 pub fn run(args: &RunArgs, sc: &Scenario) -> Result<()> {
@@ -81,32 +76,20 @@ pub fn run(args: &RunArgs, sc: &Scenario) -> Result<()> {
     let mut io_error: Option<std::io::Error> = None;
     let mut rows = 0u64;
     let e_f = direction(sys.forcing.angle_deg);
+    let schema = two_plane_history_schema();
     let summary = {
-        if let Err(e) = writeln!(file, "{HEADER}") {
+        if let Err(e) = writeln!(file, "{}", schema.header()) {
             io_error = Some(e);
         }
+        let mut line = String::new();
         let mut on_sample = |s: &TwoPlaneSample| {
             if io_error.is_some() {
                 return;
             }
-            let st = &s.state;
-            let u_f = st.u_m[0] * e_f[0] + st.u_m[1] * e_f[1];
-            let r = writeln!(
-                file,
-                "{},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e},{:e}",
-                s.t_s,
-                st.u_m[0],
-                st.u_m[1],
-                st.du_m_s[0],
-                st.du_m_s[1],
-                u_f,
-                st.w_hole_m[0],
-                st.w_hole_m[1],
-                st.dw_hole_m_s[0],
-                st.dw_hole_m_s[1],
-                st.spin_rad_s
-            );
-            match r {
+            line.clear();
+            schema.format_into(&two_plane_history_values(s, e_f).map(Value::F), &mut line);
+            line.push('\n');
+            match file.write_all(line.as_bytes()) {
                 Ok(()) => rows += 1,
                 Err(e) => io_error = Some(e),
             }
@@ -148,7 +131,7 @@ pub fn run(args: &RunArgs, sc: &Scenario) -> Result<()> {
         "solver": method.solver_for(&sys),
         "sample_interval_s": interval_s,
     });
-    vibrobar_io::Metadata::new("run", HEADER, params, None)
+    vibrobar_io::Metadata::new("run", &schema.header(), params, None)
         .write_beside(&args.out)
         .with_context(|| format!("metadata beside {}", args.out.display()))?;
     if args.energy {
