@@ -119,7 +119,8 @@ pub enum Command {
     /// Euler–Bernoulli theory, for each reduction to one degree of freedom.
     Beam(crate::commands::beam::BeamArgs),
     /// Design map over frequency ratio × gap: RMS reduction, impacts per cycle, regime, optimum
-    /// and heat maps; resumable (--resume) and shardable (--shard K/N).
+    /// and heat maps; resumable (--resume) and shardable (--shard K/N). A [two_plane] scenario:
+    /// ratio × axial gap × hole angle × hole diameter, each cell an ensemble of starts.
     Map(crate::commands::map::MapArgs),
     /// Merge map shards written with --shard K/N into the whole map (checks completeness).
     Merge(crate::commands::merge::MergeArgs),

@@ -232,15 +232,13 @@ fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
             s(&out),
         ][..],
         &[
-            "map",
+            "lyapunov",
             "--scenario",
             s(&sc),
-            "--gaps-mm",
-            "0.1",
-            "--ratios",
+            "--ratio",
             "1",
-            "--out",
-            s(&out),
+            "--gap-mm",
+            "0.1",
         ][..],
     ] {
         let o = vibrobar(cmd);
@@ -458,4 +456,133 @@ fn a_two_plane_ensemble_writes_every_member_and_agrees_with_the_sweep() {
         assert_fails_with(&o, &[flag]);
         assert!(!other.exists());
     }
+}
+
+#[test]
+fn a_two_plane_map_over_hole_angles_and_diameters_is_the_ensembles_of_its_cells() {
+    let d = tempfile::tempdir().unwrap();
+    let sc = d.path().join("tp.toml");
+    fs::write(
+        &sc,
+        TWO_PLANE.replace("duration_s = 0.5", "duration_s = 0.3"),
+    )
+    .unwrap();
+    let out = d.path().join("map.csv");
+    let o = vibrobar_ok(&[
+        "map",
+        "--scenario",
+        s(&sc),
+        "--ratios",
+        "1:1:1",
+        "--gaps-mm",
+        "0.1:1.0:0.9",
+        "--hole-angles-deg",
+        "0:60:30",
+        "--out",
+        s(&out),
+    ]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("best cell: hole at"));
+    let rows = sweep_rows(&fs::read_to_string(&out).unwrap());
+    assert_eq!(rows.len(), 2 * 3);
+    let cell = |gap: &str, angle: &str| {
+        rows.iter()
+            .find(|r| r["axial_gap_m"] == gap && r["hole_angle_deg"] == angle)
+            .unwrap_or_else(|| panic!("no cell {gap} {angle}"))
+    };
+    // A cell is the ensemble of its point: the scenario with that hole, the same members.
+    let sc60 = d.path().join("tp60.toml");
+    fs::write(
+        &sc60,
+        TWO_PLANE.replace("duration_s = 0.5", "duration_s = 0.3") + "hole_angle_deg = 60.0\n",
+    )
+    .unwrap();
+    let ens = d.path().join("ens.csv");
+    vibrobar_ok(&[
+        "ensemble",
+        "--scenario",
+        s(&sc60),
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "1.0",
+        "--out",
+        s(&ens),
+    ]);
+    let members = sweep_rows(&fs::read_to_string(&ens).unwrap());
+    let mean = members
+        .iter()
+        .map(|r| r["reduction_pct"].parse::<f64>().unwrap())
+        .sum::<f64>()
+        / members.len() as f64;
+    let c: f64 = cell("0.001", "60")["reduction_mean_pct"].parse().unwrap();
+    assert!((mean - c).abs() < 1e-3, "{mean} against {c}");
+    // Over hole diameters: the radial clearance column follows.
+    let out2 = d.path().join("map2.csv");
+    vibrobar_ok(&[
+        "map",
+        "--scenario",
+        s(&sc),
+        "--ratios",
+        "1:1:1",
+        "--gaps-mm",
+        "1:1:1",
+        "--hole-diameters-mm",
+        "15.1:15.5:0.4",
+        "--out",
+        s(&out2),
+    ]);
+    let rows2 = sweep_rows(&fs::read_to_string(&out2).unwrap());
+    let c_r: Vec<f64> = rows2
+        .iter()
+        .map(|r| r["radial_clearance_m"].parse().unwrap())
+        .collect();
+    assert!(
+        (c_r[0] - 0.05e-3).abs() < 1e-12 && (c_r[1] - 0.25e-3).abs() < 1e-12,
+        "{c_r:?}"
+    );
+    // Bad axes name their flag; nothing is written.
+    let bad = d.path().join("bad.csv");
+    for (flags, words) in [
+        (
+            &["--hole-diameters-mm", "14:15:1"][..],
+            &["--hole-diameters-mm"][..],
+        ),
+        (
+            &["--freqs-hz", "100:200:100"][..],
+            &["--freqs-hz", "--ratios"][..],
+        ),
+        (&["--shard", "1/2"][..], &["--shard"][..]),
+    ] {
+        let mut args = vec![
+            "map",
+            "--scenario",
+            s(&sc),
+            "--gaps-mm",
+            "1:1:1",
+            "--out",
+            s(&bad),
+        ];
+        if flags[0] != "--freqs-hz" {
+            args.extend_from_slice(&["--ratios", "1:1:1"]);
+        }
+        args.extend_from_slice(flags);
+        assert_fails_with(&vibrobar(&args), words);
+        assert!(!bad.exists());
+    }
+    // The one-plane map has no hole.
+    let o = vibrobar(&[
+        "map",
+        "--ratios",
+        "1:1:1",
+        "--gaps-mm",
+        "1:1:1",
+        "--hole-angles-deg",
+        "0:10:10",
+        "--friction",
+        "none",
+        "--out",
+        s(&bad),
+    ]);
+    assert_fails_with(&o, &["--hole-angles-deg", "[two_plane]"]);
+    assert!(!bad.exists());
 }

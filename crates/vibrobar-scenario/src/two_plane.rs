@@ -238,7 +238,7 @@ impl Scenario {
 }
 
 /// The commands that run a `[two_plane]` scenario.
-pub const TWO_PLANE_COMMANDS: [&str; 3] = ["run", "sweep", "ensemble"];
+pub const TWO_PLANE_COMMANDS: [&str; 4] = ["run", "sweep", "ensemble", "map"];
 
 /// The error for a `[two_plane]` scenario given to `command`.
 pub fn two_plane_refusal(command: &str) -> String {

@@ -12,6 +12,7 @@ use vibrobar_core::Frequency;
 use super::explore::{axis_values, EnsembleArgs};
 use crate::progress::Progress;
 use crate::scenario::Scenario;
+use vibrobar_io::csv::fmt_coord;
 
 /// The columns.
 pub const HEADER: &str = "axial_gap_m,ratio,member,solver,w_along_start_m,w_across_start_m,\
@@ -149,9 +150,10 @@ pub fn ensemble(a: &EnsembleArgs, sc: &Scenario) -> Result<()> {
         let r = Spread::of(&red);
         let o = Spread::of(&one_red);
         println!(
-            "  gap {} mm, r = {ratio}: reduction along the force {:.1} ± {:.1} % (range {:.1} to \
+            "  gap {} mm, r = {}: reduction along the force {:.1} ± {:.1} % (range {:.1} to \
              {:.1}); one plane {:.1} ± {:.1} %; {} members, solver {}",
-            gap_m * 1e3,
+            fmt_coord(gap_m * 1e3),
+            fmt_coord(ratio),
             r.mean,
             r.std_err,
             r.min,

@@ -77,6 +77,14 @@ pub struct MapArgs {
     /// torus, fold, branch point) over the reduction figure (lumped bar, restitution law).
     #[arg(long)]
     pub stability_overlay: bool,
+    /// A `[two_plane]` scenario: hole directions in degrees, START:STOP:STEP (inclusive); an
+    /// axis of the design map beside the gaps.
+    #[arg(long, value_name = "START:STOP:STEP", allow_hyphen_values = true)]
+    pub hole_angles_deg: Option<String>,
+    /// A `[two_plane]` scenario: hole diameters in mm, START:STOP:STEP (inclusive), each larger
+    /// than the ball; an axis of the design map beside the gaps.
+    #[arg(long, value_name = "START:STOP:STEP", allow_hyphen_values = true)]
+    pub hole_diameters_mm: Option<String>,
     /// Output CSV.
     #[arg(long)]
     pub out: PathBuf,
@@ -282,6 +290,21 @@ fn compute(
 
 /// `vibrobar map`.
 pub fn run(args: &MapArgs) -> anyhow::Result<()> {
+    let sc = args.system.scenario()?;
+    if sc.two_plane.is_some() {
+        return super::map_two_plane::run(args, &sc);
+    }
+    for (flag, given) in [
+        ("--hole-angles-deg", args.hole_angles_deg.is_some()),
+        ("--hole-diameters-mm", args.hole_diameters_mm.is_some()),
+    ] {
+        if given {
+            anyhow::bail!(
+                "{flag}: only a scenario with [two_plane] has a hole across the bar; the \
+                 one-plane model's cavity is its gap"
+            );
+        }
+    }
     let job = job(args)?;
     let shard = args
         .shard

@@ -17,6 +17,7 @@ pub mod lobe_design;
 pub mod lobes;
 pub mod lumped_vs_beam;
 pub mod map;
+pub mod map_two_plane;
 pub mod merge;
 pub mod modes;
 pub mod orbit;

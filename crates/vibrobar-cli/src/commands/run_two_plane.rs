@@ -9,7 +9,7 @@ use vibrobar_core::solver::two_plane_rk4::{
     HoleWall, Sampling, TwoPlaneSample, TwoPlaneSummary, WallMotion,
 };
 use vibrobar_io::atomic::AtomicFile;
-use vibrobar_io::csv::{two_plane_history_schema, two_plane_history_values, Value};
+use vibrobar_io::csv::{fmt_coord, two_plane_history_schema, two_plane_history_values, Value};
 
 use super::fmt_secs;
 use crate::cli::RunArgs;
@@ -176,17 +176,6 @@ pub fn run(args: &RunArgs, sc: &Scenario) -> Result<()> {
     Ok(())
 }
 
-/// `x` to six decimals without trailing zeros (`15.1`, not `15.100000000000001`).
-fn short(x: f64) -> String {
-    let s = format!("{x:.6}");
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" {
-        "0".into()
-    } else {
-        s.into()
-    }
-}
-
 fn print_summary(
     say: &dyn Fn(String),
     sc: &Scenario,
@@ -201,17 +190,17 @@ fn print_summary(
     say(format!(
         "  model      : hole at {}°, {} mm across (radial clearance {} mm), axial gap {} mm; \
          force {} N at {}°, ratio {}; gravity {} m/s² at {}°; walls μ_s {}, μ_k {}",
-        short(sys.hole.angle_deg),
-        short(sys.hole.diameter_m * 1e3),
-        short(sys.radial_clearance_m() * 1e3),
-        short(sys.hole.axial_gap_m * 1e3),
-        short(sys.forcing.amplitude_n),
-        short(sys.forcing.angle_deg),
-        short(sc.frequency_ratio()?),
-        short(sys.gravity.m_s2),
-        short(sys.gravity.angle_deg),
-        short(sys.ball.friction_static),
-        short(sys.ball.friction_kinetic),
+        fmt_coord(sys.hole.angle_deg),
+        fmt_coord(sys.hole.diameter_m * 1e3),
+        fmt_coord(sys.radial_clearance_m() * 1e3),
+        fmt_coord(sys.hole.axial_gap_m * 1e3),
+        fmt_coord(sys.forcing.amplitude_n),
+        fmt_coord(sys.forcing.angle_deg),
+        fmt_coord(sc.frequency_ratio()?),
+        fmt_coord(sys.gravity.m_s2),
+        fmt_coord(sys.gravity.angle_deg),
+        fmt_coord(sys.ball.friction_static),
+        fmt_coord(sys.ball.friction_kinetic),
     ));
     say(format!(
         "  run        : solver {solver}, member {member}, {} s, RMS over the last {:.0} %",
