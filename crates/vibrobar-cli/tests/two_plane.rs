@@ -327,7 +327,7 @@ fn a_two_plane_run_writes_its_history_and_its_summary_agrees_with_it() {
     assert!(d.path().join("h/run.csv.meta.json").exists());
     let other = d.path().join("other.csv");
     for (flags, words) in [
-        (&["--member", "8"][..], &["--member 8", "[0, 7]"][..]),
+        (&["--member", "8"][..], &["--member = 8", "[0, 7]"][..]),
         (&["--w0-m", "0"][..], &["--w0-m", "--member"][..]),
     ] {
         let mut args = vec!["run", "--scenario", s(&sc), "--out", s(&other)];

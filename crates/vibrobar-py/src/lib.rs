@@ -2961,43 +2961,27 @@ fn two_plane_run<'py>(
     member: usize,
     sample_every: u64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use vibrobar_core::analysis::two_plane::{solid_rms_m, starts, TwoPlaneMethod};
+    use vibrobar_core::analysis::two_plane::solid_rms_m;
     use vibrobar_core::params::two_plane::direction;
     use vibrobar_core::solver::two_plane_rk4::{HoleWall, Sampling, TwoPlaneSample, WallMotion};
     let sc = scenario.for_command("two_plane_run")?;
-    let Some(section) = &sc.two_plane else {
+    if sc.two_plane.is_none() {
         return Err(PyValueError::new_err(
             "vibrobar.two_plane_run needs a scenario with [two_plane]; vibrobar.run runs the \
              one-plane model",
         ));
-    };
+    }
     if sample_every == 0 {
         return Err(PyValueError::new_err(
             "sample_every = 0 is outside the allowed range [1, ∞) steps",
         ));
     }
-    let sys = sc
-        .two_plane_system()
-        .map_err(anyhow_input)?
-        .ok_or_else(|| PyValueError::new_err("the scenario lost its [two_plane] section"))?;
     let settings = sc.settings();
     settings.validate().map_err(input_error)?;
-    let method = section.method(settings.dt_s).map_err(anyhow_input)?;
-    if let TwoPlaneMethod::Exact = method {
-        vibrobar_core::solver::two_plane_exact::decoupled(&sys).map_err(|why| {
-            PyValueError::new_err(format!("[two_plane] solver = \"exact\": {why}"))
-        })?;
-    }
-    let ens = section.ensemble().map_err(anyhow_input)?;
-    if member >= ens.members {
-        return Err(PyValueError::new_err(format!(
-            "member = {member} is outside the allowed range [0, {}] (the [two_plane] ensemble \
-             has {} members)",
-            ens.members - 1,
-            ens.members
-        )));
-    }
-    let start = starts(&sys, &ens).map_err(input_error)?[member];
+    let (sys, method) = sc.two_plane_run().map_err(anyhow_input)?;
+    let start = sc
+        .two_plane_start(&sys, member, "member")
+        .map_err(anyhow_input)?;
     let interval_s = sample_every as f64 * settings.dt_s;
     limits::check_samples(
         "rows = duration_s / (sample_every · dt_s)",

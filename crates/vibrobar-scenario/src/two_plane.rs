@@ -31,11 +31,12 @@
 
 use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
-use vibrobar_core::analysis::two_plane::{TwoPlaneEnsemble, TwoPlaneMethod};
+use vibrobar_core::analysis::two_plane::{starts, TwoPlaneEnsemble, TwoPlaneMethod};
 use vibrobar_core::params::two_plane::{
     Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneBar, TwoPlaneSystem,
 };
 use vibrobar_core::params::BarModel;
+use vibrobar_core::solver::two_plane_rk4::TwoPlaneStart;
 
 use crate::Scenario;
 
@@ -234,6 +235,45 @@ impl Scenario {
         sys.validate()
             .map_err(|e| anyhow::anyhow!("{}", field(e)))?;
         Ok(Some(sys))
+    }
+
+    /// The two-plane system this scenario runs and the solver its `[two_plane] solver` asks
+    /// for, checked: `exact` on a system whose planes do not decouple is refused with the
+    /// reason. An error without the section.
+    pub fn two_plane_run(&self) -> Result<(TwoPlaneSystem, TwoPlaneMethod)> {
+        let Some(t) = &self.two_plane else {
+            bail!("the scenario has no [two_plane] section");
+        };
+        let sys = self.two_plane_system()?.expect("the section is there");
+        let method = t.method(self.settings().dt_s)?;
+        if let TwoPlaneMethod::Exact = method {
+            vibrobar_core::solver::two_plane_exact::decoupled(&sys)
+                .map_err(|why| anyhow::anyhow!("[two_plane] solver = \"exact\": {why}"))?;
+        }
+        Ok((sys, method))
+    }
+
+    /// Member `member` of the `[two_plane]` ensemble of starts of `sys` (`flag` names the
+    /// argument that chose it in errors).
+    pub fn two_plane_start(
+        &self,
+        sys: &TwoPlaneSystem,
+        member: usize,
+        flag: &str,
+    ) -> Result<TwoPlaneStart> {
+        let Some(t) = &self.two_plane else {
+            bail!("the scenario has no [two_plane] section");
+        };
+        let ens = t.ensemble()?;
+        if member >= ens.members {
+            bail!(
+                "{flag} = {member} is outside the allowed range [0, {}] (the [two_plane] \
+                 ensemble has {} members)",
+                ens.members - 1,
+                ens.members
+            );
+        }
+        Ok(starts(sys, &ens).map_err(|e| anyhow::anyhow!("{e}"))?[member])
     }
 }
 

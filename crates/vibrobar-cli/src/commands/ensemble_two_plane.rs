@@ -5,12 +5,11 @@
 
 use anyhow::{bail, Context, Result};
 use std::fmt::Write as _;
-use vibrobar_core::analysis::two_plane::{design_points, Spread, TwoPlaneMethod};
-use vibrobar_core::analysis::Runner;
+use vibrobar_core::analysis::two_plane::Spread;
 use vibrobar_core::Frequency;
 
 use super::explore::{axis_values, EnsembleArgs};
-use crate::progress::Progress;
+use super::sweep_two_plane::run_points;
 use crate::scenario::Scenario;
 use vibrobar_io::csv::fmt_coord;
 
@@ -79,15 +78,8 @@ pub fn ensemble(a: &EnsembleArgs, sc: &Scenario) -> Result<()> {
             let mut s = sc.clone();
             s.damper.gap_m = gap_mm * 1e-3;
             s.forcing.frequency = Frequency::Ratio(ratio);
-            let sys = s
-                .two_plane_system()?
-                .context("the scenario lost its [two_plane] section")?;
-            if let TwoPlaneMethod::Exact = method {
-                vibrobar_core::solver::two_plane_exact::decoupled(&sys)
-                    .map_err(|why| anyhow::anyhow!("[two_plane] solver = \"exact\": {why}"))?;
-            }
             points.push((gap_mm * 1e-3, ratio));
-            systems.push(sys);
+            systems.push(s.two_plane_run()?.0);
         }
     }
     vibrobar_core::limits::check(
@@ -97,27 +89,15 @@ pub fn ensemble(a: &EnsembleArgs, sc: &Scenario) -> Result<()> {
         vibrobar_core::limits::MAX_RUNS as f64,
         "fewer points or members",
     )?;
-    let total = systems.len() * ens.members;
-    eprintln!(
-        "ensemble: two planes, {} points × {} members (seed {}, {} runs of {} s; solver {})",
-        systems.len(),
-        ens.members,
-        ens.seed,
-        total,
-        settings.duration_s,
-        section.solver
-    );
-    let bar = Progress::new("two-plane ensemble", total, 0);
-    let cb = bar.callback();
-    let answers = design_points(
+    let answers = run_points(
+        "ensemble",
         &systems,
         &ens,
         method,
         &settings,
-        &Runner::default().with_threads(a.threads).with_progress(&cb),
-    )
-    .map_err(|e| anyhow::anyhow!("{e}"))?;
-    bar.finish();
+        a.threads,
+        &section.solver,
+    )?;
     let mut csv = format!("{HEADER}\n");
     for (&(gap_m, ratio), p) in points.iter().zip(&answers) {
         let red = p.reductions_pct();

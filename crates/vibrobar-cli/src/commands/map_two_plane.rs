@@ -5,13 +5,12 @@
 
 use anyhow::{bail, Context, Result};
 use std::fmt::Write as _;
-use vibrobar_core::analysis::two_plane::{design_points, Spread, TwoPlaneMethod};
-use vibrobar_core::analysis::Runner;
+use vibrobar_core::analysis::two_plane::Spread;
 use vibrobar_core::Frequency;
 
 use super::map::MapArgs;
 use super::parse_range;
-use crate::progress::Progress;
+use super::sweep_two_plane::run_points;
 use crate::scenario::Scenario;
 use vibrobar_io::csv::fmt_coord;
 
@@ -123,53 +122,36 @@ pub fn run(args: &MapArgs, sc: &Scenario) -> Result<()> {
                         t.hole_angle_deg = angle;
                         t.hole_diameter_m = d;
                     }
-                    let sys = s
-                        .two_plane_system()
-                        .map_err(|e| {
-                            anyhow::anyhow!(
-                                "{}",
-                                e.to_string()
-                                    .replace("[two_plane] hole_diameter_m", "--hole-diameters-mm")
-                                    .replace("[two_plane] hole_angle_deg", "--hole-angles-deg")
-                            )
-                        })?
-                        .context("the scenario lost its [two_plane] section")?;
-                    if let TwoPlaneMethod::Exact = method {
-                        vibrobar_core::solver::two_plane_exact::decoupled(&sys).map_err(|why| {
-                            anyhow::anyhow!("[two_plane] solver = \"exact\": {why}")
-                        })?;
-                    }
+                    let (sys, _) = s.two_plane_run().map_err(|e| {
+                        anyhow::anyhow!(
+                            "{}",
+                            e.to_string()
+                                .replace("[two_plane] hole_diameter_m", "--hole-diameters-mm")
+                                .replace("[two_plane] hole_angle_deg", "--hole-angles-deg")
+                        )
+                    })?;
                     keys.push((ratio, gap_m, angle, d, sys.radial_clearance_m()));
                     systems.push(sys);
                 }
             }
         }
     }
-    let total = cells * ens.members;
     eprintln!(
-        "map: two planes, {} ratios × {} gaps × {} hole angles × {} hole diameters = {cells} \
-         cells × {} members ({total} runs of {} s; solver {})",
+        "map: {} ratios × {} gaps × {} hole angles × {} hole diameters = {cells} cells",
         ratios.len(),
         gaps_m.len(),
         angles.len(),
         diameters_m.len(),
-        ens.members,
-        settings.duration_s,
-        section.solver
     );
-    let bar = Progress::new("two-plane map", total, 0);
-    let cb = bar.callback();
-    let points = design_points(
+    let points = run_points(
+        "map",
         &systems,
         &ens,
         method,
         &settings,
-        &Runner::default()
-            .with_threads(args.threads)
-            .with_progress(&cb),
-    )
-    .map_err(|e| anyhow::anyhow!("{e}"))?;
-    bar.finish();
+        args.threads,
+        &section.solver,
+    )?;
     let mut csv = format!("{HEADER}\n");
     let mut best: Option<(f64, f64, usize)> = None;
     for (i, (&(ratio, gap_m, angle, d, c_r), p)) in keys.iter().zip(&points).enumerate() {

@@ -3,7 +3,7 @@
 
 use anyhow::{bail, Context, Result};
 use std::io::Write as _;
-use vibrobar_core::analysis::two_plane::{solid_rms_m, starts, TwoPlaneMethod};
+use vibrobar_core::analysis::two_plane::solid_rms_m;
 use vibrobar_core::params::two_plane::direction;
 use vibrobar_core::solver::two_plane_rk4::{
     HoleWall, Sampling, TwoPlaneSample, TwoPlaneSummary, WallMotion,
@@ -18,9 +18,6 @@ use crate::scenario::Scenario;
 /// Run the command on a scenario with `[two_plane]` (gap and ratio already applied).
 pub fn run(args: &RunArgs, sc: &Scenario) -> Result<()> {
     let t0 = std::time::Instant::now();
-    let Some(section) = &sc.two_plane else {
-        bail!("no [two_plane] section");
-    };
     for (flag, given) in [
         ("--u0-m", args.u0_m.is_some()),
         ("--du0-m-s", args.du0_m_s.is_some()),
@@ -44,27 +41,11 @@ pub fn run(args: &RunArgs, sc: &Scenario) -> Result<()> {
     if args.sample_every == 0 {
         bail!("--sample-every = 0 is outside the allowed range [1, ∞) steps");
     }
-    let sys = sc
-        .two_plane_system()?
-        .context("the scenario lost its [two_plane] section")?;
     let settings = sc.settings();
     settings.validate()?;
-    let method = section.method(settings.dt_s)?;
-    if let TwoPlaneMethod::Exact = method {
-        vibrobar_core::solver::two_plane_exact::decoupled(&sys)
-            .map_err(|why| anyhow::anyhow!("[two_plane] solver = \"exact\": {why}"))?;
-    }
-    let ens = section.ensemble()?;
+    let (sys, method) = sc.two_plane_run()?;
     let member = args.member.unwrap_or(0);
-    if member >= ens.members {
-        bail!(
-            "--member {member} is outside the allowed range [0, {}] (the [two_plane] ensemble \
-             has {} members)",
-            ens.members - 1,
-            ens.members
-        );
-    }
-    let start = starts(&sys, &ens)?[member];
+    let start = sc.two_plane_start(&sys, member, "--member")?;
     let interval_s = args.sample_every as f64 * settings.dt_s;
     vibrobar_core::limits::check_samples(
         "rows = --duration / (--sample-every · --dt)",

@@ -9,9 +9,13 @@
 
 use anyhow::{Context, Result};
 use std::fmt::Write as _;
-use vibrobar_core::analysis::two_plane::{design_points, Spread};
+use vibrobar_core::analysis::two_plane::{
+    design_points, DesignPoint, Spread, TwoPlaneEnsemble, TwoPlaneMethod,
+};
 use vibrobar_core::analysis::Runner;
+use vibrobar_core::params::two_plane::TwoPlaneSystem;
 use vibrobar_core::Frequency;
+use vibrobar_core::RunSettings;
 
 use crate::cli::SweepArgs;
 use crate::progress::Progress;
@@ -23,6 +27,40 @@ rms_along_force_std_err_m,rms_along_force_min_m,rms_along_force_max_m,reduction_
 reduction_std_err_pct,one_plane_rms_mean_m,one_plane_reduction_mean_pct,\
 one_plane_reduction_std_err_pct,solid_rms_m,rms_radial_mean_m,rms_tangential_mean_m,\
 rms_total_mean_m,impacts_mean,flight_fraction_mean";
+
+/// Run the design points of `systems` (an ensemble each) with a progress bar, saying first what
+/// `command` runs: what `sweep`, `ensemble` and `map` of a `[two_plane]` scenario share.
+pub fn run_points(
+    command: &str,
+    systems: &[TwoPlaneSystem],
+    ens: &TwoPlaneEnsemble,
+    method: TwoPlaneMethod,
+    settings: &RunSettings,
+    threads: Option<usize>,
+    solver: &str,
+) -> Result<Vec<DesignPoint>> {
+    let total = systems.len() * ens.members;
+    eprintln!(
+        "{command}: two planes, {} points × {} members (seed {}; {total} runs of {} s; solver \
+         {solver})",
+        systems.len(),
+        ens.members,
+        ens.seed,
+        settings.duration_s,
+    );
+    let bar = Progress::new(&format!("two-plane {command}"), total, 0);
+    let cb = bar.callback();
+    let points = design_points(
+        systems,
+        ens,
+        method,
+        settings,
+        &Runner::default().with_threads(threads).with_progress(&cb),
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
+    bar.finish();
+    Ok(points)
+}
 
 /// Run the command on a scenario with `[two_plane]`.
 pub fn sweep(args: &SweepArgs, sc: &Scenario) -> Result<()> {
@@ -67,37 +105,19 @@ pub fn sweep(args: &SweepArgs, sc: &Scenario) -> Result<()> {
             let mut s = sc.clone();
             s.damper.gap_m = gap_m;
             s.forcing.frequency = Frequency::Ratio(ratio);
-            let sys = s
-                .two_plane_system()?
-                .context("the scenario lost its [two_plane] section")?;
-            if let vibrobar_core::analysis::two_plane::TwoPlaneMethod::Exact = method {
-                vibrobar_core::solver::two_plane_exact::decoupled(&sys)
-                    .map_err(|why| anyhow::anyhow!("[two_plane] solver = \"exact\": {why}"))?;
-            }
-            systems.push(sys);
+            systems.push(s.two_plane_run()?.0);
         }
     }
     settings.validate()?;
-    let total = systems.len() * ens.members;
-    eprintln!(
-        "sweep: two planes, {} points × {} members ({} runs of {} s; solver {})",
-        systems.len(),
-        ens.members,
-        total,
-        settings.duration_s,
-        section.solver
-    );
-    let bar = Progress::new("two-plane sweep", total, 0);
-    let cb = bar.callback();
-    let points = design_points(
+    let points = run_points(
+        "sweep",
         &systems,
         &ens,
         method,
         &settings,
-        &Runner::default().with_progress(&cb),
-    )
-    .map_err(|e| anyhow::anyhow!("{e}"))?;
-    bar.finish();
+        None,
+        &section.solver,
+    )?;
     let mut csv = format!("{HEADER}\n");
     let mut i = 0;
     for &gap_m in &gaps_m {
