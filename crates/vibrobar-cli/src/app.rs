@@ -124,7 +124,8 @@ pub enum Command {
     Map(crate::commands::map::MapArgs),
     /// Merge map shards written with --shard K/N into the whole map (checks completeness).
     Merge(crate::commands::merge::MergeArgs),
-    /// Stroboscopic Poincaré section of one run (CSV, NPY, figure).
+    /// Stroboscopic Poincaré section of one run (CSV, NPY, figure); of one member's run for a
+    /// [two_plane] scenario.
     Poincare(crate::commands::explore::PoincareArgs),
     /// Bifurcation diagram over the frequency ratio or the gap (CSV, NPY, figure).
     Bifurcation(crate::commands::explore::BifurcationArgs),

@@ -219,34 +219,17 @@ fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
     }
     let sc = d.path().join("tp.toml");
     fs::write(&sc, TWO_PLANE).unwrap();
-    for cmd in [
-        &[
-            "poincare",
-            "--scenario",
-            s(&sc),
-            "--ratio",
-            "1",
-            "--gap-mm",
-            "0.1",
-            "--out",
-            s(&out),
-        ][..],
-        &[
-            "lyapunov",
-            "--scenario",
-            s(&sc),
-            "--ratio",
-            "1",
-            "--gap-mm",
-            "0.1",
-        ][..],
-    ] {
-        let o = vibrobar(cmd);
+    for cmd in ["lyapunov", "orbit"] {
+        let mut args = vec![cmd, "--scenario", s(&sc), "--ratio", "1", "--gap-mm", "0.1"];
+        if cmd == "orbit" {
+            args.extend_from_slice(&["--out", s(&out)]);
+        }
+        let o = vibrobar(&args);
         assert_fails_with(
             &o,
             &[
                 "does not run a [two_plane] scenario",
-                "run, sweep, ensemble",
+                "run, sweep, ensemble, map, poincare",
             ],
         );
         assert!(!out.exists());
@@ -584,5 +567,69 @@ fn a_two_plane_map_over_hole_angles_and_diameters_is_the_ensembles_of_its_cells(
         s(&bad),
     ]);
     assert_fails_with(&o, &["--hole-angles-deg", "[two_plane]"]);
+    assert!(!bad.exists());
+}
+
+#[test]
+fn a_two_plane_poincare_section_samples_once_per_period_at_the_phase() {
+    let d = tempfile::tempdir().unwrap();
+    let sc = d.path().join("tp.toml");
+    fs::write(&sc, TWO_PLANE).unwrap();
+    let out = d.path().join("pc.csv");
+    vibrobar_ok(&[
+        "poincare",
+        "--scenario",
+        s(&sc),
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "1",
+        "--phase-deg",
+        "90",
+        "--transient",
+        "0.2",
+        "--member",
+        "1",
+        "--out",
+        s(&out),
+    ]);
+    let rows = sweep_rows(&fs::read_to_string(&out).unwrap());
+    let t: Vec<f64> = rows.iter().map(|r| r["t_s"].parse().unwrap()).collect();
+    // The paper's bar at r = 1: Ω = √(K/M).
+    let om = (9.22e6f64 / 0.644).sqrt();
+    let period = 2.0 * std::f64::consts::PI / om;
+    assert!(t[0] >= 0.2 && t[0] < 0.2 + period, "{}", t[0]);
+    assert_eq!(t.len(), ((0.5 - t[0]) / period).floor() as usize + 1);
+    for (j, tj) in t.iter().enumerate() {
+        assert!((tj - (t[0] + j as f64 * period)).abs() < 1e-12);
+        let phase = (om * tj).rem_euclid(2.0 * std::f64::consts::PI);
+        assert!(
+            (phase - std::f64::consts::FRAC_PI_2).abs() < 1e-9,
+            "{phase}"
+        );
+    }
+    for r in &rows {
+        let w: f64 = r["w_along_m"].parse().unwrap();
+        assert!(w.abs() <= 0.5e-3 + 1e-12);
+    }
+    for f in ["pc.npy", "pc.png", "pc.svg", "pc.csv.meta.json"] {
+        assert!(d.path().join(f).exists(), "{f}");
+    }
+    // The one-plane section has no members.
+    let bad = d.path().join("bad.csv");
+    let o = vibrobar(&[
+        "poincare",
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "1",
+        "--friction",
+        "none",
+        "--member",
+        "1",
+        "--out",
+        s(&bad),
+    ]);
+    assert_fails_with(&o, &["--member", "[two_plane]"]);
     assert!(!bad.exists());
 }

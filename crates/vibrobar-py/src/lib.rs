@@ -3000,6 +3000,7 @@ fn two_plane_run<'py>(
                 &settings,
                 &mut |_| {},
                 Some(Sampling {
+                    start_s: 0.0,
                     interval_s,
                     on_sample: &mut on_sample,
                 }),

@@ -278,7 +278,7 @@ impl Scenario {
 }
 
 /// The commands that run a `[two_plane]` scenario.
-pub const TWO_PLANE_COMMANDS: [&str; 4] = ["run", "sweep", "ensemble", "map"];
+pub const TWO_PLANE_COMMANDS: [&str; 5] = ["run", "sweep", "ensemble", "map", "poincare"];
 
 /// The error for a `[two_plane]` scenario given to `command`.
 pub fn two_plane_refusal(command: &str) -> String {

@@ -80,7 +80,7 @@ impl PointArgs {
     }
 }
 
-fn transient_or_default(flag: Option<f64>, s: &SystemArgs) -> anyhow::Result<f64> {
+pub(crate) fn transient_or_default(flag: Option<f64>, s: &SystemArgs) -> anyhow::Result<f64> {
     let st = s.settings()?;
     let t = flag.unwrap_or(st.duration_s * (1.0 - st.rms_fraction));
     check_value(
@@ -118,13 +118,27 @@ pub struct PoincareArgs {
     /// Discarded time at the start, s (default: the part before the RMS window).
     #[arg(long, allow_negative_numbers = true)]
     pub transient: Option<f64>,
-    /// Output CSV (`t_s,u_m,du_m_s,w_m,dw_m_s`); FILE.npy (n × 5) and FILE.png/.svg beside it.
+    /// A `[two_plane]` scenario: start from member K of its ensemble of starts [default: 0].
+    #[arg(long, value_name = "K")]
+    pub member: Option<usize>,
+    /// Output CSV (`t_s,u_m,du_m_s,w_m,dw_m_s`; a `[two_plane]` scenario: the columns of its
+    /// `run` history); FILE.npy and FILE.png/.svg beside it.
     #[arg(long)]
     pub out: PathBuf,
 }
 
 /// `vibrobar poincare`.
 pub fn run_poincare(a: &PoincareArgs) -> anyhow::Result<()> {
+    let sc = a.point.system.scenario()?;
+    if sc.two_plane.is_some() {
+        return super::poincare_two_plane::run(a, &sc);
+    }
+    if a.member.is_some() {
+        bail!(
+            "--member: only a scenario with [two_plane] has an ensemble of starts to choose \
+             from; the one-plane start is the scenario's [initial]"
+        );
+    }
     let sys = a.point.system()?;
     let solver = a.point.system.solver()?;
     let phase = check_value("--phase-deg", a.phase_deg, |_| true, "finite")?.to_radians();

@@ -81,6 +81,7 @@ pub fn run(args: &RunArgs, sc: &Scenario) -> Result<()> {
             &settings,
             &mut |_| {},
             Some(Sampling {
+                start_s: 0.0,
                 interval_s,
                 on_sample: &mut on_sample,
             }),

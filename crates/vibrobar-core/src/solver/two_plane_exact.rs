@@ -270,10 +270,11 @@ impl PlaneState {
     }
 }
 
-/// The sampling grid `t_k = k·interval` as one plane walks it (the convention of the one-plane
+/// The sampling grid `t_k = start + k·interval` as one plane walks it (the convention of the one-plane
 /// history: a sample at an event's time belongs to the segment that ends there).
 #[derive(Debug, Clone, Copy)]
 struct Grid {
+    start_s: f64,
     interval_s: f64,
     next_k: u64,
 }
@@ -285,7 +286,7 @@ impl Grid {
     fn take(&mut self, seg: &dyn Segment, mut f: impl FnMut(u64, PlaneState)) {
         let (t0, t1) = (seg.t_start_s(), seg.t_end_s());
         loop {
-            let t = self.next_k as f64 * self.interval_s;
+            let t = self.start_s + self.next_k as f64 * self.interval_s;
             if t > t1 + 1e-9 * self.interval_s {
                 return;
             }
@@ -388,6 +389,7 @@ struct Cross<'a> {
     samples: VecDeque<(u64, PlaneState)>,
     /// Where matched samples go, the hole's axes and the (constant) spin.
     on_sample: Option<&'a mut dyn FnMut(&TwoPlaneSample)>,
+    grid_start_s: f64,
     grid_interval_s: f64,
     axes: [[f64; 2]; 2],
     spin_rad_s: f64,
@@ -429,7 +431,7 @@ impl Cross<'_> {
                 true
             }
             Msg::Sample(k, p) => {
-                self.stream_t = k as f64 * self.interval_s();
+                self.stream_t = self.sample_time(k);
                 self.samples.push_back((k, p));
                 true
             }
@@ -489,9 +491,9 @@ impl Cross<'_> {
         }
     }
 
-    /// The sampling interval (the samples' times are only read when sampling).
-    fn interval_s(&self) -> f64 {
-        self.grid_interval_s
+    /// The time of sample `k` (only read when sampling).
+    fn sample_time(&self, k: u64) -> f64 {
+        self.grid_start_s + k as f64 * self.grid_interval_s
     }
 
     /// Put the plane across the hole's sample `k` together with the stream's and report it.
@@ -518,7 +520,7 @@ impl Cross<'_> {
         let [ea, en] = self.axes;
         let frame = |x: f64, y: f64| [x * ea[0] + y * en[0], x * ea[1] + y * en[1]];
         let sample = TwoPlaneSample {
-            t_s: k as f64 * self.grid_interval_s,
+            t_s: self.sample_time(k),
             state: TwoPlaneStart {
                 u_m: frame(a.u, n.u),
                 du_m_s: frame(a.du, n.du),
@@ -752,12 +754,13 @@ impl TwoPlaneExact {
             sm.check(settings.duration_s)?;
         }
         let grid = sampling.as_ref().map(|sm| Grid {
+            start_s: sm.start_s,
             interval_s: sm.interval_s,
             next_k: 0,
         });
-        let (grid_interval_s, on_sample) = match sampling {
-            Some(sm) => (sm.interval_s, Some(sm.on_sample)),
-            None => (1.0, None),
+        let (grid_start_s, grid_interval_s, on_sample) = match sampling {
+            Some(sm) => (sm.start_s, sm.interval_s, Some(sm.on_sample)),
+            None => (0.0, 1.0, None),
         };
         let systems = [plane_system(sys, 0)?, plane_system(sys, 1)?];
         let starts = [plane_start(sys, start, 0), plane_start(sys, start, 1)];
@@ -812,6 +815,7 @@ impl TwoPlaneExact {
                     on_event,
                     samples: VecDeque::new(),
                     on_sample,
+                    grid_start_s,
                     grid_interval_s,
                     axes: hole_axes(sys),
                     spin_rad_s: start.spin_rad_s,

@@ -205,10 +205,11 @@ pub struct TwoPlaneSample {
     pub state: TwoPlaneStart,
 }
 
-/// Sampling of a run: the state every `interval_s` from `t = 0` to the end, handed to
-/// `on_sample` in the order of time. The reference solver samples at the multiples of its step
-/// nearest to the interval's.
+/// Sampling of a run: the state at `start_s + k·interval_s` (k = 0, 1, …) up to the end, handed
+/// to `on_sample` in the order of time. The reference solver ends a step at each sample time.
 pub struct Sampling<'a> {
+    /// The first sample's time, s (≥ 0).
+    pub start_s: f64,
     /// Time between samples, s.
     pub interval_s: f64,
     /// What receives each sample.
@@ -220,11 +221,13 @@ impl Sampling<'_> {
     /// over `duration_s`.
     pub(crate) fn check(&self, duration_s: f64) -> Result<(), SimError> {
         crate::params::positive("sample interval (s)", self.interval_s)?;
+        crate::params::non_negative("first sample time (s)", self.start_s)?;
         let d = self.interval_s;
+        let span = (duration_s - self.start_s).max(0.0);
         limits::check_derived(
-            "duration_s / sample interval (samples)",
-            || format!("{duration_s} s / {d} s"),
-            duration_s / d,
+            "time sampled / sample interval (samples)",
+            || format!("{span} s / {d} s"),
+            span / d,
             0.0,
             limits::MAX_SAMPLES,
             "sample less often or shorten the run",
@@ -963,10 +966,13 @@ impl TwoPlaneRk4 {
         if let Some(sm) = &sampling {
             sm.check(duration)?;
         }
-        // Steps per sample.
-        let every = sampling
+        // The next sample's index and time (∞ without sampling).
+        let mut sample_k = 0u64;
+        let plan = sampling
             .as_ref()
-            .map_or(1, |sm| (sm.interval_s / h).round().max(1.0) as u64);
+            .map_or((f64::INFINITY, 0.0), |sm| (sm.start_s, sm.interval_s));
+        let sample_t = |k: u64| plan.0 + k as f64 * plan.1;
+        let mut next_sample = sample_t(0);
 
         // The start, in absolute coordinates.
         let [a, n] = md.axes;
@@ -1010,11 +1016,15 @@ impl TwoPlaneRk4 {
         let max_events = (EVENTS_PER_STEP * steps).max(1e4) as u64;
         let mut t = 0.0_f64;
         let mut grid = 0.0_f64;
-        if let Some(sm) = sampling.as_mut() {
-            (sm.on_sample)(&TwoPlaneSample {
-                t_s: 0.0,
-                state: md.state_of(&y),
-            });
+        if next_sample <= 0.0 {
+            if let Some(sm) = sampling.as_mut() {
+                (sm.on_sample)(&TwoPlaneSample {
+                    t_s: 0.0,
+                    state: md.state_of(&y),
+                });
+            }
+            sample_k = 1;
+            next_sample = sample_t(1);
         }
         let mut out = TwoPlaneSummary {
             rms_along_force_m: 0.0,
@@ -1054,6 +1064,13 @@ impl TwoPlaneRk4 {
             let mut t_next = (grid * h).min(t_end);
             if t < t_win && t_next > t_win {
                 t_next = t_win;
+            }
+            // A step ends at each sample time; one past the end by rounding only is the end's.
+            if next_sample <= t_end + 1e-9 * h {
+                let ts = next_sample.min(t_end);
+                if t < ts && t_next > ts {
+                    t_next = ts;
+                }
             }
             let win = if t >= t_win { 1.0 } else { 0.0 };
             let span = t_next - t;
@@ -1104,14 +1121,15 @@ impl TwoPlaneRk4 {
             t = if hit.is_some() { t + tau } else { t_next };
             y = y_new;
             md.project(&mut y, mode);
-            if let Some(sm) = sampling.as_mut() {
-                if hit.is_none() && t.to_bits() == (grid * h).to_bits() && grid as u64 % every == 0
-                {
+            if hit.is_none() && t >= next_sample.min(t_end) && next_sample <= t_end + 1e-9 * h {
+                if let Some(sm) = sampling.as_mut() {
                     (sm.on_sample)(&TwoPlaneSample {
-                        t_s: t,
+                        t_s: next_sample,
                         state: md.state_of(&y),
                     });
                 }
+                sample_k += 1;
+                next_sample = sample_t(sample_k);
             }
             for axis in 0..2 {
                 if mode.rest(axis) == 0 {

@@ -1,0 +1,118 @@
+//! `vibrobar poincare` on a `[two_plane]` scenario: the stroboscopic section of one member's
+//! run, the state once per forcing period at a phase, after a transient.
+
+use anyhow::{Context, Result};
+use vibrobar_core::params::two_plane::direction;
+use vibrobar_core::solver::two_plane_rk4::{Sampling, TwoPlaneSample};
+use vibrobar_core::Frequency;
+use vibrobar_io::csv::{
+    fmt_coord, two_plane_history_schema, two_plane_history_values, write_csv, Value,
+};
+use vibrobar_io::{npy, Metadata};
+
+use super::check_value;
+use super::explore::{transient_or_default, PoincareArgs};
+use crate::scenario::Scenario;
+
+/// Run the command on a scenario with `[two_plane]`.
+pub fn run(a: &PoincareArgs, sc: &Scenario) -> Result<()> {
+    let ratio = check_value("--ratio", a.point.ratio, |x| x > 0.0, "(0, ∞)")?;
+    let gap_mm = check_value("--gap-mm", a.point.gap_mm, |x| x > 0.0, "(0, ∞) mm")?;
+    let phase_deg = check_value("--phase-deg", a.phase_deg, |_| true, "finite")?;
+    let mut s = sc.clone();
+    s.damper.gap_m = gap_mm * 1e-3;
+    s.forcing.frequency = Frequency::Ratio(ratio);
+    let (sys, method) = s.two_plane_run()?;
+    let member = a.member.unwrap_or(0);
+    let start = s.two_plane_start(&sys, member, "--member")?;
+    let settings = s.settings();
+    settings.validate()?;
+    let transient = transient_or_default(a.transient, &a.point.system)?;
+    // The section's times: Ωt = phase (mod 2π), from the first one at or after the transient.
+    let omega = sys.omega_rad_s();
+    let period = 2.0 * std::f64::consts::PI / omega;
+    let t_phase = phase_deg
+        .to_radians()
+        .rem_euclid(2.0 * std::f64::consts::PI)
+        / omega;
+    let first = t_phase + ((transient - t_phase) / period).ceil().max(0.0) * period;
+    vibrobar_core::limits::check_samples(
+        "Poincaré points = (--duration − --transient) / forcing period",
+        (settings.duration_s - first).max(0.0),
+        period,
+    )?;
+    let e_f = direction(sys.forcing.angle_deg);
+    let mut rows: Vec<[f64; 11]> = Vec::new();
+    let mut velocity: Vec<f64> = Vec::new();
+    let mut on_sample = |p: &TwoPlaneSample| {
+        rows.push(two_plane_history_values(p, e_f));
+        velocity.push(p.state.du_m_s[0] * e_f[0] + p.state.du_m_s[1] * e_f[1]);
+    };
+    method.run_sampled(
+        &sys,
+        &start,
+        &settings,
+        &mut |_| {},
+        Some(Sampling {
+            start_s: first,
+            interval_s: period,
+            on_sample: &mut on_sample,
+        }),
+    )?;
+    let params = serde_json::json!({
+        "scenario": &s,
+        "member": member,
+        "ratio": ratio,
+        "axial_gap_m": gap_mm * 1e-3,
+        "phase_rad": phase_deg.to_radians(),
+        "transient_s": transient,
+        "first_point_s": first,
+        "solver": method.solver_for(&sys),
+    });
+    let schema = two_plane_history_schema();
+    write_csv(
+        &a.out,
+        &schema,
+        rows.iter().map(|r| r.map(Value::F).to_vec()),
+    )
+    .with_context(|| format!("writing {}", a.out.display()))?;
+    Metadata::new("poincare", &schema.header(), &params, None)
+        .write_beside(&a.out)
+        .with_context(|| format!("metadata beside {}", a.out.display()))?;
+    let npy_path = a.out.with_extension("npy");
+    let data: Vec<f64> = rows.iter().flatten().copied().collect();
+    npy::write_f64(&npy_path, &[rows.len(), 11], &data)?;
+    Metadata::new("poincare", "", &params, None).write_beside(&npy_path)?;
+    let xy: Vec<(f64, f64)> = rows
+        .iter()
+        .zip(&velocity)
+        .map(|(r, v)| (r[5] * 1e6, v * 1e3))
+        .collect();
+    let title = format!(
+        "Poincaré section at Ωt = {}°, r = {}, axial gap = {} mm, two planes",
+        fmt_coord(phase_deg),
+        fmt_coord(ratio),
+        fmt_coord(gap_mm)
+    );
+    let files = vibrobar_report::figures::scatter_files(
+        &a.out.with_extension(""),
+        &vibrobar_report::figures::Scatter {
+            title: &title,
+            x_label: "bar displacement along the force (µm)",
+            y_label: "bar velocity along the force (mm/s)",
+            points: &xy,
+            radius: 3,
+        },
+    )?;
+    println!(
+        "{} points (member {member}, solver {}); wrote {}, {}",
+        rows.len(),
+        method.solver_for(&sys),
+        a.out.display(),
+        npy_path.display()
+    );
+    for f in files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}
