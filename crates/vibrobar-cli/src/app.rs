@@ -164,7 +164,8 @@ pub enum Command {
     TwoPlane(crate::commands::two_plane::TwoPlaneArgs),
     /// Cavity placement on a beam: position × gap over a band of ratios (mean reduction, worst
     /// RMS, regime), the optimum and a heat map with the nodes of modes 2 and 3; resumable
-    /// (--resume) and shardable (--shard K/N).
+    /// (--resume) and shardable (--shard K/N). A [two_plane] scenario: each cell an ensemble of
+    /// starts of the round beam with the ball in its hole.
     Placement(crate::commands::placement::PlacementArgs),
     /// Write the generated Markdown document comparing the paper's lumped bar with the N-mode
     /// beam at the paper's geometry, with the convergence study in the number of modes.

@@ -229,7 +229,7 @@ fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
             &o,
             &[
                 "does not run a [two_plane] scenario",
-                "run, sweep, ensemble, map, poincare",
+                "run, sweep, ensemble, map, poincare, placement",
             ],
         );
         assert!(!out.exists());
@@ -632,4 +632,78 @@ fn a_two_plane_poincare_section_samples_once_per_period_at_the_phase() {
     ]);
     assert_fails_with(&o, &["--member", "[two_plane]"]);
     assert!(!bad.exists());
+}
+
+#[test]
+fn a_two_plane_placement_on_a_beam_summarises_the_ensembles_of_its_band() {
+    let d = tempfile::tempdir().unwrap();
+    let text = "[damper]\ngap_m = 1.0e-4\n\n[run]\nduration_s = 0.2\n\n[beam]\nmodes = 2\n\
+                cavity_position_m = 0.15\n\n[two_plane]\nhole_diameter_m = 0.0151\n\
+                force_ratio = 2.0\nmembers = 3\n";
+    let sc = d.path().join("beam.toml");
+    fs::write(&sc, text).unwrap();
+    let out = d.path().join("pl.csv");
+    let o = vibrobar_ok(&[
+        "placement",
+        "--scenario",
+        s(&sc),
+        "--positions-mm",
+        "125:175:25",
+        "--gaps-mm",
+        "0.1:0.1:1",
+        "--ratios",
+        "1:1:1",
+        "--out",
+        s(&out),
+    ]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("best: the cavity at"));
+    let rows = sweep_rows(&fs::read_to_string(&out).unwrap());
+    assert_eq!(rows.len(), 3);
+    // The row at the scenario's own position is the ensemble there (one ratio: its mean).
+    let ens = d.path().join("ens.csv");
+    vibrobar_ok(&[
+        "ensemble",
+        "--scenario",
+        s(&sc),
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "0.1",
+        "--out",
+        s(&ens),
+    ]);
+    let members = sweep_rows(&fs::read_to_string(&ens).unwrap());
+    let mean = members
+        .iter()
+        .map(|r| r["reduction_pct"].parse::<f64>().unwrap())
+        .sum::<f64>()
+        / members.len() as f64;
+    let row = rows.iter().find(|r| r["position_mm"] == "150").unwrap();
+    let got: f64 = row["mean_reduction_pct"].parse().unwrap();
+    assert!((got - mean).abs() < 1e-3, "{got} against {mean}");
+    assert_eq!(row["solver"], "exact");
+    // Positions outside the bar and sharding are refused by name; nothing is written.
+    let bad = d.path().join("bad.csv");
+    for (flag, value, word) in [
+        ("--positions-mm", "150:200:50", "--positions-mm"),
+        ("--shard", "1/2", "--shard"),
+    ] {
+        let mut args = vec![
+            "placement",
+            "--scenario",
+            s(&sc),
+            "--gaps-mm",
+            "0.1:0.1:1",
+            "--ratios",
+            "1:1:1",
+            "--out",
+            s(&bad),
+        ];
+        if flag == "--shard" {
+            args.extend_from_slice(&["--positions-mm", "150:150:1"]);
+        }
+        args.extend_from_slice(&[flag, value]);
+        assert_fails_with(&vibrobar(&args), &[word]);
+        assert!(!bad.exists());
+    }
 }

@@ -278,7 +278,8 @@ impl Scenario {
 }
 
 /// The commands that run a `[two_plane]` scenario.
-pub const TWO_PLANE_COMMANDS: [&str; 5] = ["run", "sweep", "ensemble", "map", "poincare"];
+pub const TWO_PLANE_COMMANDS: [&str; 6] =
+    ["run", "sweep", "ensemble", "map", "poincare", "placement"];
 
 /// The error for a `[two_plane]` scenario given to `command`.
 pub fn two_plane_refusal(command: &str) -> String {

@@ -24,6 +24,7 @@ pub mod orbit;
 pub mod orbit_docs;
 pub mod paper;
 pub mod placement;
+pub mod placement_two_plane;
 pub mod poincare_two_plane;
 pub mod run;
 pub mod run_two_plane;

@@ -325,6 +325,9 @@ fn compute(
 
 /// `vibrobar placement`.
 pub fn run(args: &PlacementArgs) -> anyhow::Result<()> {
+    if args.system.scenario.is_some() && args.system.scenario()?.two_plane.is_some() {
+        return super::placement_two_plane::run(args);
+    }
     let job = job(args)?;
     let shard = args
         .shard
