@@ -1156,3 +1156,60 @@ fn a_stroboscopic_sampling_lands_on_the_steady_state_in_both_solvers() {
         }
     }
 }
+
+#[test]
+fn a_run_from_a_later_time_continues_the_run_that_reached_it() {
+    // From the state a run reached at t0 (its sample), a run started at t0 follows it on:
+    // the bar alone (nothing touched) to rounding, and with impacts in both planes closely over
+    // a short span (the answer does not restart the forcing's phase).
+    use vibrobar_core::analysis::two_plane::TwoPlaneMethod;
+    let mut linear = paper(20e-3, 10e-3, 10.0, 60.0, 0.9, 0.0);
+    linear.forcing.frequency = Frequency::RadPerS(2.0 * std::f64::consts::PI * 550.0);
+    let impacting = paper(0.1e-3, 0.02e-3, 40.0, 70.0, 1.0, 0.0);
+    for (sys, tol, dur) in [(linear, 1e-12, 0.1), (impacting, 1e-6, 0.02)] {
+        for method in [
+            TwoPlaneMethod::Exact,
+            TwoPlaneMethod::Reference { dt_s: 1e-6 },
+        ] {
+            let t0 = 0.5 * dur;
+            let (at_t0, whole) = {
+                let mut mid = None;
+                let mut on_sample = |s: &TwoPlaneSample| mid = Some(*s);
+                let whole = method
+                    .run_sampled(
+                        &sys,
+                        &TwoPlaneStart::at_rest([0.0; 2]),
+                        &settings(dur),
+                        &mut |_| {},
+                        Some(Sampling {
+                            start_s: t0,
+                            interval_s: 1.0,
+                            on_sample: &mut on_sample,
+                        }),
+                    )
+                    .unwrap();
+                (mid.expect("the sample at t0"), whole)
+            };
+            assert!((at_t0.t_s - t0).abs() < 1e-15);
+            let rest = method
+                .run_from(
+                    &sys,
+                    &at_t0.state,
+                    t0,
+                    &settings(dur - t0),
+                    &mut |_| {},
+                    None,
+                )
+                .unwrap();
+            let amp = whole.end.u_m[0].hypot(whole.end.u_m[1]).max(1e-9);
+            for i in 0..2 {
+                assert!(
+                    (rest.end.u_m[i] - whole.end.u_m[i]).abs() <= tol * amp,
+                    "{method:?}: {:?} against {:?}",
+                    rest.end,
+                    whole.end
+                );
+            }
+        }
+    }
+}

@@ -161,13 +161,26 @@ impl TwoPlaneMethod {
         on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
         sampling: Option<Sampling<'a>>,
     ) -> Result<TwoPlaneSummary, SimError> {
+        self.run_from(sys, start, 0.0, settings, on_event, sampling)
+    }
+
+    /// [`TwoPlaneMethod::run_sampled`] from the state `start` at time `t0_s`.
+    pub fn run_from<'a>(
+        &self,
+        sys: &TwoPlaneSystem,
+        start: &TwoPlaneStart,
+        t0_s: f64,
+        settings: &RunSettings,
+        on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
+        sampling: Option<Sampling<'a>>,
+    ) -> Result<TwoPlaneSummary, SimError> {
         match self {
             TwoPlaneMethod::Auto { dt_s } | TwoPlaneMethod::Reference { dt_s }
                 if self.solver_for(sys) == "reference" =>
             {
-                TwoPlaneRk4 { dt_s: *dt_s }.run_sampled(sys, start, settings, on_event, sampling)
+                TwoPlaneRk4 { dt_s: *dt_s }.run_from(sys, start, t0_s, settings, on_event, sampling)
             }
-            _ => TwoPlaneExact::default().run_sampled(sys, start, settings, on_event, sampling),
+            _ => TwoPlaneExact::default().run_from(sys, start, t0_s, settings, on_event, sampling),
         }
     }
 }

@@ -162,11 +162,11 @@ pub fn plane_system(sys: &TwoPlaneSystem, axis: usize) -> Result<System, SimErro
 }
 
 /// The one-plane start of hole axis `axis`.
-fn plane_start(sys: &TwoPlaneSystem, start: &TwoPlaneStart, axis: usize) -> State {
+fn plane_start(sys: &TwoPlaneSystem, start: &TwoPlaneStart, axis: usize, t0_s: f64) -> State {
     let e = hole_axes(sys)[axis];
     let (u, du) = (dot(start.u_m, e), dot(start.du_m_s, e));
     State {
-        t_s: 0.0,
+        t_s: t0_s,
         u_m: u,
         du_m_s: du,
         v_m: u + start.w_hole_m[axis],
@@ -720,7 +720,7 @@ impl TwoPlaneExact {
         settings: &RunSettings,
         on_event: &mut dyn FnMut(&TwoPlaneEvent),
     ) -> Result<TwoPlaneSummary, SimError> {
-        self.run_with(sys, start, settings, on_event, None, true)
+        self.run_with(sys, start, 0.0, settings, on_event, None, true)
     }
 
     /// [`TwoPlaneExact::run`], sampling the state as `sampling` asks: each plane samples its
@@ -733,15 +733,32 @@ impl TwoPlaneExact {
         on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
         sampling: Option<Sampling<'a>>,
     ) -> Result<TwoPlaneSummary, SimError> {
-        self.run_with(sys, start, settings, on_event, sampling, true)
+        self.run_with(sys, start, 0.0, settings, on_event, sampling, true)
+    }
+
+    /// [`TwoPlaneExact::run_sampled`] from the state `start` at time `t0_s` (the forcing's
+    /// phase is `Ωt0`) over `settings.duration_s`; the RMS window is the last fraction of that
+    /// span.
+    pub fn run_from<'a>(
+        &self,
+        sys: &TwoPlaneSystem,
+        start: &TwoPlaneStart,
+        t0_s: f64,
+        settings: &RunSettings,
+        on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
+        sampling: Option<Sampling<'a>>,
+    ) -> Result<TwoPlaneSummary, SimError> {
+        self.run_with(sys, start, t0_s, settings, on_event, sampling, true)
     }
 
     /// [`TwoPlaneExact::run`], with the cross term from the closed forms where the segments
     /// have them (`closed_form`) or from the streamed nodes everywhere (the check of the first).
+    #[allow(clippy::too_many_arguments)]
     fn run_with<'a>(
         &self,
         sys: &TwoPlaneSystem,
         start: &TwoPlaneStart,
+        t0_s: f64,
         settings: &RunSettings,
         on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
         sampling: Option<Sampling<'a>>,
@@ -750,8 +767,9 @@ impl TwoPlaneExact {
         sys.validate()?;
         settings.validate()?;
         super::two_plane_rk4::check_start(sys, start)?;
+        crate::params::non_negative("start time t0_s", t0_s)?;
         if let Some(sm) = &sampling {
-            sm.check(settings.duration_s)?;
+            sm.check(t0_s + settings.duration_s)?;
         }
         let grid = sampling.as_ref().map(|sm| Grid {
             start_s: sm.start_s,
@@ -763,9 +781,12 @@ impl TwoPlaneExact {
             None => (0.0, 1.0, None),
         };
         let systems = [plane_system(sys, 0)?, plane_system(sys, 1)?];
-        let starts = [plane_start(sys, start, 0), plane_start(sys, start, 1)];
-        let t_end = settings.duration_s;
-        let window = (settings.window_start_s(), t_end);
+        let starts = [
+            plane_start(sys, start, 0, t0_s),
+            plane_start(sys, start, 1, t0_s),
+        ];
+        let t_end = t0_s + settings.duration_s;
+        let window = (t0_s + settings.window_start_s(), t_end);
         let omega_hi = sys.bar.highest_omega_rad_s().max(sys.omega_rad_s());
         let h_max_s = 1.0 / omega_hi;
         let observer = |axis: usize| PlaneObserver {
@@ -965,10 +986,10 @@ mod tests {
             let solver = TwoPlaneExact::default();
             let mut n = 0;
             let closed = solver
-                .run_with(&sys, &start, &settings, &mut |_| n += 1, None, true)
+                .run_with(&sys, &start, 0.0, &settings, &mut |_| n += 1, None, true)
                 .unwrap();
             let nodes = solver
-                .run_with(&sys, &start, &settings, &mut |_| {}, None, false)
+                .run_with(&sys, &start, 0.0, &settings, &mut |_| {}, None, false)
                 .unwrap();
             let i = closed.impacts;
             assert!(i[2] > 0 && i[3] > 0, "{i:?}");

@@ -218,12 +218,12 @@ pub struct Sampling<'a> {
 
 impl Sampling<'_> {
     /// The interval's check: positive and finite, and at most `limits::MAX_SAMPLES` samples
-    /// over `duration_s`.
-    pub(crate) fn check(&self, duration_s: f64) -> Result<(), SimError> {
+    /// up to the run's end `t_end_s`.
+    pub(crate) fn check(&self, t_end_s: f64) -> Result<(), SimError> {
         crate::params::positive("sample interval (s)", self.interval_s)?;
         crate::params::non_negative("first sample time (s)", self.start_s)?;
         let d = self.interval_s;
-        let span = (duration_s - self.start_s).max(0.0);
+        let span = (t_end_s - self.start_s).max(0.0);
         limits::check_derived(
             "time sampled / sample interval (samples)",
             || format!("{span} s / {d} s"),
@@ -922,17 +922,31 @@ impl TwoPlaneRk4 {
         self.run_sampled(sys, start, settings, on_event, None)
     }
 
-    /// [`TwoPlaneRk4::run`], sampling the state as `sampling` asks (at the multiples of the
-    /// step nearest to its interval).
+    /// [`TwoPlaneRk4::run`], sampling the state as `sampling` asks.
     pub fn run_sampled(
         &self,
         sys: &TwoPlaneSystem,
         start: &TwoPlaneStart,
         settings: &RunSettings,
         on_event: &mut dyn FnMut(&TwoPlaneEvent),
+        sampling: Option<Sampling>,
+    ) -> Result<TwoPlaneSummary, SimError> {
+        self.run_from(sys, start, 0.0, settings, on_event, sampling)
+    }
+
+    /// [`TwoPlaneRk4::run_sampled`] from the state `start` at time `t0_s` (the forcing's phase
+    /// is `Ωt0`) over `settings.duration_s`; the RMS window is the last fraction of that span.
+    pub fn run_from(
+        &self,
+        sys: &TwoPlaneSystem,
+        start: &TwoPlaneStart,
+        t0_s: f64,
+        settings: &RunSettings,
+        on_event: &mut dyn FnMut(&TwoPlaneEvent),
         mut sampling: Option<Sampling>,
     ) -> Result<TwoPlaneSummary, SimError> {
         sys.validate()?;
+        crate::params::non_negative("start time t0_s", t0_s)?;
         settings.validate()?;
         let h = self.dt_s;
         crate::params::positive("dt_s", h)?;
@@ -960,11 +974,11 @@ impl TwoPlaneRk4 {
             limits::MAX_STEPS,
             "shorten the run or take a larger step",
         )?;
-        limits::check_phase(sys.omega_rad_s().max(omega_max), duration)?;
+        limits::check_phase(sys.omega_rad_s().max(omega_max), t0_s + duration)?;
         let md = Model::new(sys);
         check_start(sys, start)?;
         if let Some(sm) = &sampling {
-            sm.check(duration)?;
+            sm.check(t0_s + duration)?;
         }
         // The next sample's index and time (∞ without sampling).
         let mut sample_k = 0u64;
@@ -973,6 +987,11 @@ impl TwoPlaneRk4 {
             .map_or((f64::INFINITY, 0.0), |sm| (sm.start_s, sm.interval_s));
         let sample_t = |k: u64| plan.0 + k as f64 * plan.1;
         let mut next_sample = sample_t(0);
+        // Samples before the start are not the run's.
+        while next_sample < t0_s && next_sample.is_finite() {
+            sample_k += 1;
+            next_sample = sample_t(sample_k);
+        }
 
         // The start, in absolute coordinates.
         let [a, n] = md.axes;
@@ -997,7 +1016,7 @@ impl TwoPlaneRk4 {
         let e0 = md.energy(&y);
 
         // A ball at rest on a wall that presses it stays there.
-        let f = md.bar_force(0.0, &y);
+        let f = md.bar_force(t0_s, &y);
         let signs = [0, 1].map(|axis| {
             let wa = start.w_hole_m[axis];
             let s = wa.signum();
@@ -1009,22 +1028,22 @@ impl TwoPlaneRk4 {
                 0
             }
         });
-        let mut mode = md.settle(0.0, &y, signs);
+        let mut mode = md.settle(t0_s, &y, signs);
 
-        let t_end = duration;
-        let t_win = duration * (1.0 - settings.rms_fraction);
+        let t_end = t0_s + duration;
+        let t_win = t0_s + duration * (1.0 - settings.rms_fraction);
         let max_events = (EVENTS_PER_STEP * steps).max(1e4) as u64;
-        let mut t = 0.0_f64;
-        let mut grid = 0.0_f64;
-        if next_sample <= 0.0 {
+        let mut t = t0_s;
+        let mut grid = (t0_s / h).floor();
+        if next_sample <= t0_s {
             if let Some(sm) = sampling.as_mut() {
                 (sm.on_sample)(&TwoPlaneSample {
-                    t_s: 0.0,
+                    t_s: t0_s,
                     state: md.state_of(&y),
                 });
             }
-            sample_k = 1;
-            next_sample = sample_t(1);
+            sample_k += 1;
+            next_sample = sample_t(sample_k);
         }
         let mut out = TwoPlaneSummary {
             rms_along_force_m: 0.0,
