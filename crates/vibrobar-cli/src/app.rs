@@ -129,7 +129,8 @@ pub enum Command {
     Poincare(crate::commands::explore::PoincareArgs),
     /// Bifurcation diagram over the frequency ratio or the gap (CSV, NPY, figure).
     Bifurcation(crate::commands::explore::BifurcationArgs),
-    /// Maximal Lyapunov exponent at one point (two-trajectory divergence with renormalisation).
+    /// Maximal Lyapunov exponent at one point (two-trajectory divergence with renormalisation);
+    /// of one member's run for a [two_plane] scenario.
     Lyapunov(crate::commands::explore::LyapunovArgs),
     /// A periodic orbit of period k forcing cycles by Newton's method on the stroboscopic map:
     /// RMS, impacts, Floquet multipliers, stability and physicality checks (JSON).

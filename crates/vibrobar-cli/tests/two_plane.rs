@@ -219,17 +219,18 @@ fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
     }
     let sc = d.path().join("tp.toml");
     fs::write(&sc, TWO_PLANE).unwrap();
-    for cmd in ["lyapunov", "orbit"] {
+    for cmd in ["bifurcation", "orbit"] {
         let mut args = vec![cmd, "--scenario", s(&sc), "--ratio", "1", "--gap-mm", "0.1"];
-        if cmd == "orbit" {
-            args.extend_from_slice(&["--out", s(&out)]);
+        if cmd == "bifurcation" {
+            args.extend_from_slice(&["--param", "ratio", "--values", "0.9:1.1:0.1"]);
         }
+        args.extend_from_slice(&["--out", s(&out)]);
         let o = vibrobar(&args);
         assert_fails_with(
             &o,
             &[
                 "does not run a [two_plane] scenario",
-                "run, sweep, ensemble, map, poincare, placement",
+                "run, sweep, ensemble, map, poincare, placement, lyapunov",
             ],
         );
         assert!(!out.exists());
@@ -706,4 +707,45 @@ fn a_two_plane_placement_on_a_beam_summarises_the_ensembles_of_its_band() {
         assert_fails_with(&vibrobar(&args), &[word]);
         assert!(!bad.exists());
     }
+}
+
+#[test]
+fn a_two_plane_lyapunov_exponent_is_positive_where_the_ball_is_chaotic_across_the_hole() {
+    let d = tempfile::tempdir().unwrap();
+    let sc = d.path().join("tp.toml");
+    fs::write(
+        &sc,
+        TWO_PLANE.replace("duration_s = 0.5", "duration_s = 1.0"),
+    )
+    .unwrap();
+    let o = vibrobar_ok(&[
+        "lyapunov",
+        "--scenario",
+        s(&sc),
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "1",
+        "--json",
+    ]);
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let (l, se) = (
+        j["exponent_per_s"].as_f64().unwrap(),
+        j["std_error_per_s"].as_f64().unwrap(),
+    );
+    assert!(l > 5.0 * se, "{j}");
+    assert_eq!(j["solver"], "exact");
+    assert_eq!(j["member"], 0);
+    // The spectrum needs saltation matrices that are not derived: refused, saying so.
+    let o = vibrobar(&[
+        "lyapunov",
+        "--scenario",
+        s(&sc),
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "1",
+        "--spectrum",
+    ]);
+    assert_fails_with(&o, &["--spectrum", "saltation"]);
 }

@@ -278,8 +278,15 @@ impl Scenario {
 }
 
 /// The commands that run a `[two_plane]` scenario.
-pub const TWO_PLANE_COMMANDS: [&str; 6] =
-    ["run", "sweep", "ensemble", "map", "poincare", "placement"];
+pub const TWO_PLANE_COMMANDS: [&str; 7] = [
+    "run",
+    "sweep",
+    "ensemble",
+    "map",
+    "poincare",
+    "placement",
+    "lyapunov",
+];
 
 /// The error for a `[two_plane]` scenario given to `command`.
 pub fn two_plane_refusal(command: &str) -> String {

@@ -410,10 +410,23 @@ pub struct LyapunovArgs {
     /// transient, instead of the largest by two trajectories (--periods and --d0 do not apply).
     #[arg(long)]
     pub spectrum: bool,
+    /// A `[two_plane]` scenario: start from member K of its ensemble of starts [default: 0].
+    #[arg(long, value_name = "K")]
+    pub member: Option<usize>,
 }
 
 /// `vibrobar lyapunov`.
 pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
+    let sc = a.point.system.scenario()?;
+    if sc.two_plane.is_some() {
+        return super::lyapunov_two_plane::run(a, &sc);
+    }
+    if a.member.is_some() {
+        bail!(
+            "--member: only a scenario with [two_plane] has an ensemble of starts to choose \
+             from; the one-plane start is the scenario's [initial]"
+        );
+    }
     if a.spectrum {
         return run_spectrum(a);
     }

@@ -16,6 +16,7 @@ pub mod frf;
 pub mod lobe_design;
 pub mod lobes;
 pub mod lumped_vs_beam;
+pub mod lyapunov_two_plane;
 pub mod map;
 pub mod map_two_plane;
 pub mod merge;

@@ -154,7 +154,7 @@ pub struct LyapunovResult {
 /// What the two-trajectory estimate needs of a bar's state space: scaled coordinates (a norm on
 /// the whole state), the projection into the cavity, the solver's run. The estimate itself
 /// ([`diverge`]) is one loop for the lumped and the modal bar.
-trait Trajectories {
+pub(crate) trait Trajectories {
     /// The solver's state.
     type State: Clone;
     /// Coordinates measured (`D`, or the bar's alone without a ball).
@@ -178,7 +178,7 @@ trait Trajectories {
 }
 
 /// The two-trajectory estimate (module docs) from `init` on the bar `tr`.
-fn diverge<T: Trajectories>(
+pub(crate) fn diverge<T: Trajectories>(
     tr: &T,
     init: &T::State,
     p: &LyapunovParams,
@@ -373,7 +373,7 @@ pub(crate) fn onto_cavity_modal(s: &mut ModalState, sys: &ModalSystem) -> bool {
 }
 
 /// The checks of the settings every estimate makes.
-fn check_params(p: &LyapunovParams) -> Result<(), SimError> {
+pub(crate) fn check_params(p: &LyapunovParams) -> Result<(), SimError> {
     crate::params::non_negative("transient_s", p.transient_s)?;
     crate::params::positive("interval_s", p.interval_s)?;
     crate::params::positive("d0", p.d0)?;

@@ -380,6 +380,144 @@ pub fn one_plane_start(start: &TwoPlaneStart) -> State {
     }
 }
 
+/// The largest Lyapunov exponent of the two-plane bar from `start`, by two-trajectory
+/// divergence with renormalisation (the method of [`crate::analysis::lyapunov`]) on `method`'s
+/// solver. The state is scaled as the one-plane one, per plane: the bar's `u_x, u_y` by
+/// `s_u = F0/K`, their velocities by `ω₁ s_u`; the ball's `w` along and across the hole by
+/// `l_g` and `c_r`, its velocities by `ω₁` times those; the spin by `ω₁ c_r / r`. The first
+/// perturbation is along the bar's coordinates (so that a resting ball is not pushed into its
+/// wall); the ball is projected into the hole before each interval. `p.scales` is not used.
+pub fn max_lyapunov_two_plane(
+    sys: &TwoPlaneSystem,
+    start: &TwoPlaneStart,
+    method: TwoPlaneMethod,
+    settings: &RunSettings,
+    p: &crate::analysis::lyapunov::LyapunovParams,
+) -> Result<crate::analysis::lyapunov::LyapunovResult, SimError> {
+    use crate::analysis::lyapunov::{check_params, diverge};
+    sys.validate()?;
+    check_params(p)?;
+    crate::solver::two_plane_rk4::check_start(sys, start)?;
+    let w1 = sys.bar.omega1_rad_s();
+    let k = match &sys.bar {
+        TwoPlaneBar::Lumped(b) => b.stiffness_n_per_m[0].min(b.stiffness_n_per_m[1]),
+        TwoPlaneBar::Round(m) => 1.0 / m.tip_compliance_of_first(m.len()),
+    };
+    let su = if sys.forcing.amplitude_n > 0.0 {
+        sys.forcing.amplitude_n / k
+    } else {
+        1e-6
+    };
+    let clr = [sys.hole.half_axial_gap_m(), sys.radial_clearance_m()];
+    let tr = TwoPlaneTrajectories {
+        sys,
+        method,
+        settings: *settings,
+        scales: [
+            su,
+            su,
+            w1 * su,
+            w1 * su,
+            clr[0],
+            clr[1],
+            w1 * clr[0],
+            w1 * clr[1],
+            w1 * clr[1] / sys.ball.radius_m,
+        ],
+        clr,
+    };
+    // A hole without radial clearance has no motion across it to scale.
+    crate::params::positive("radial clearance (hole diameter − ball diameter)/2", clr[1])?;
+    diverge(&tr, &(0.0, *start), p)
+}
+
+/// The two-plane bar's trajectories for [`max_lyapunov_two_plane`]: a state is its time and
+/// the state a start takes.
+struct TwoPlaneTrajectories<'a> {
+    sys: &'a TwoPlaneSystem,
+    method: TwoPlaneMethod,
+    settings: RunSettings,
+    /// `u_x, u_y, u̇_x, u̇_y, w_a, w_n, ẇ_a, ẇ_n, spin`.
+    scales: [f64; 9],
+    clr: [f64; 2],
+}
+
+impl crate::analysis::lyapunov::Trajectories for TwoPlaneTrajectories<'_> {
+    type State = (f64, TwoPlaneStart);
+
+    fn dims(&self) -> usize {
+        9
+    }
+
+    fn has_ball(&self) -> bool {
+        true
+    }
+
+    fn direction(&self) -> Vec<f64> {
+        let mut e = vec![0.0; 9];
+        e[..4].fill(0.5);
+        e
+    }
+
+    fn to_scaled(&self, s: &Self::State) -> Vec<f64> {
+        let st = &s.1;
+        let v = [
+            st.u_m[0],
+            st.u_m[1],
+            st.du_m_s[0],
+            st.du_m_s[1],
+            st.w_hole_m[0],
+            st.w_hole_m[1],
+            st.dw_hole_m_s[0],
+            st.dw_hole_m_s[1],
+            st.spin_rad_s,
+        ];
+        v.iter().zip(&self.scales).map(|(x, s)| x / s).collect()
+    }
+
+    fn unscaled(&self, t_s: f64, y: &[f64]) -> Self::State {
+        let v: Vec<f64> = y.iter().zip(&self.scales).map(|(x, s)| x * s).collect();
+        (
+            t_s,
+            TwoPlaneStart {
+                u_m: [v[0], v[1]],
+                du_m_s: [v[2], v[3]],
+                w_hole_m: [v[4], v[5]],
+                dw_hole_m_s: [v[6], v[7]],
+                spin_rad_s: v[8],
+            },
+        )
+    }
+
+    fn drop_ball(&self, _s: &mut Self::State) {}
+
+    fn clamp(&self, s: &mut Self::State) -> bool {
+        let mut moved = false;
+        for (w, c) in s.1.w_hole_m.iter_mut().zip(self.clr) {
+            if w.abs() > c {
+                *w = w.signum() * c;
+                moved = true;
+            }
+        }
+        moved
+    }
+
+    fn run(&self, s: &Self::State, t_end_s: f64) -> Result<Self::State, SimError> {
+        let settings = RunSettings {
+            duration_s: t_end_s - s.0,
+            ..self.settings
+        };
+        let r = self
+            .method
+            .run_from(self.sys, &s.1, s.0, &settings, &mut |_| {}, None)?;
+        Ok((t_end_s, r.end))
+    }
+
+    fn t_s(s: &Self::State) -> f64 {
+        s.0
+    }
+}
+
 /// RMS along the force of the bar without its ball, from rest: the reference of a reduction.
 pub fn solid_rms_m(sys: &TwoPlaneSystem, settings: &RunSettings) -> Result<f64, SimError> {
     let mut bare = one_plane_system(sys, FrictionModel::None);
