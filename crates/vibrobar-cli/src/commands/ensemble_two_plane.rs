@@ -59,15 +59,6 @@ pub fn ensemble(a: &EnsembleArgs, sc: &Scenario) -> Result<()> {
             e.to_string().replace("members (--members)", "--members")
         )
     })?;
-    if let Some(n) = a.threads {
-        vibrobar_core::limits::check_count(
-            "--threads",
-            n,
-            1,
-            vibrobar_core::limits::MAX_THREADS,
-            "",
-        )?;
-    }
     let settings = sc.settings();
     settings.validate()?;
     let method = section.method(settings.dt_s)?;

@@ -5,10 +5,10 @@ use anyhow::{bail, Result};
 use std::io::Write as _;
 use vibrobar_core::analysis::lyapunov::LyapunovParams;
 use vibrobar_core::analysis::two_plane::max_lyapunov_two_plane;
-use vibrobar_core::Frequency;
 
 use super::check_value;
 use super::explore::{transient_or_default, LyapunovArgs};
+use super::poincare_two_plane::MemberRun;
 use crate::scenario::Scenario;
 
 /// Run the command on a scenario with `[two_plane]`.
@@ -20,18 +20,18 @@ pub fn run(a: &LyapunovArgs, sc: &Scenario) -> Result<()> {
              corners), which is not derived; the largest exponent (without --spectrum) runs"
         );
     }
-    let ratio = check_value("--ratio", a.point.ratio, |x| x > 0.0, "(0, ∞)")?;
-    let gap_mm = check_value("--gap-mm", a.point.gap_mm, |x| x > 0.0, "(0, ∞) mm")?;
+    let MemberRun {
+        scenario: s,
+        sys,
+        method,
+        member,
+        start,
+        ratio,
+        gap_mm,
+    } = MemberRun::at(&a.point, sc, a.member)?;
     let periods = check_value("--periods", a.periods, |x| x > 0.0, "(0, ∞)")?;
     let d0 = check_value("--d0", a.d0, |x| x > 0.0, "(0, ∞)")?;
-    let mut s = sc.clone();
-    s.damper.gap_m = gap_mm * 1e-3;
-    s.forcing.frequency = Frequency::Ratio(ratio);
-    let (sys, method) = s.two_plane_run()?;
-    let member = a.member.unwrap_or(0);
-    let start = s.two_plane_start(&sys, member, "--member")?;
     let settings = s.settings();
-    settings.validate()?;
     let transient = transient_or_default(a.transient, &a.point.system)?;
     let interval = periods * 2.0 * std::f64::consts::PI / sys.omega_rad_s();
     let intervals = ((settings.duration_s - transient) / interval).floor() as usize;

@@ -86,15 +86,6 @@ pub fn run(args: &MapArgs, sc: &Scenario) -> Result<()> {
             .collect(),
         None => vec![section.hole_diameter_m],
     };
-    if let Some(n) = args.threads {
-        vibrobar_core::limits::check_count(
-            "--threads",
-            n,
-            1,
-            vibrobar_core::limits::MAX_THREADS,
-            "",
-        )?;
-    }
     let ens = section.ensemble()?;
     let settings = sc.settings();
     settings.validate()?;

@@ -44,15 +44,6 @@ pub fn run(args: &PlacementArgs) -> Result<()> {
     )?;
     let gaps_mm = parse_range("--gaps-mm", &args.gaps_mm, |x| x > 0.0, "(0, ∞) mm")?;
     let ratios = parse_range("--ratios", &args.ratios, |x| x > 0.0, "(0, ∞)")?;
-    if let Some(n) = args.threads {
-        vibrobar_core::limits::check_count(
-            "--threads",
-            n,
-            1,
-            vibrobar_core::limits::MAX_THREADS,
-            "",
-        )?;
-    }
     let ens = section.ensemble()?;
     let settings = sc.settings();
     settings.validate()?;

@@ -2,8 +2,9 @@
 //! run, the state once per forcing period at a phase, after a transient.
 
 use anyhow::{Context, Result};
-use vibrobar_core::params::two_plane::direction;
-use vibrobar_core::solver::two_plane_rk4::{Sampling, TwoPlaneSample};
+use vibrobar_core::analysis::two_plane::TwoPlaneMethod;
+use vibrobar_core::params::two_plane::{direction, TwoPlaneSystem};
+use vibrobar_core::solver::two_plane_rk4::{Sampling, TwoPlaneSample, TwoPlaneStart};
 use vibrobar_core::Frequency;
 use vibrobar_io::csv::{
     fmt_coord, two_plane_history_schema, two_plane_history_values, write_csv, Value,
@@ -11,22 +12,65 @@ use vibrobar_io::csv::{
 use vibrobar_io::{npy, Metadata};
 
 use super::check_value;
-use super::explore::{transient_or_default, PoincareArgs};
+use super::explore::{transient_or_default, PoincareArgs, PointArgs};
 use crate::scenario::Scenario;
+
+/// One member's run of a `[two_plane]` scenario at a point (`--ratio`, `--gap-mm`): what the
+/// one-run analyses (`poincare`, `lyapunov`) start from.
+pub struct MemberRun {
+    /// The scenario with the point's axial gap and ratio.
+    pub scenario: Scenario,
+    /// Its two-plane system.
+    pub sys: TwoPlaneSystem,
+    /// The solver its `[two_plane] solver` asks for (checked against the system).
+    pub method: TwoPlaneMethod,
+    /// Which member of the ensemble of starts.
+    pub member: usize,
+    /// That member's start.
+    pub start: TwoPlaneStart,
+    /// The frequency ratio.
+    pub ratio: f64,
+    /// The axial gap, mm.
+    pub gap_mm: f64,
+}
+
+impl MemberRun {
+    /// At `point` from member `member` (`--member`, default 0), checked.
+    pub fn at(point: &PointArgs, sc: &Scenario, member: Option<usize>) -> Result<MemberRun> {
+        let ratio = check_value("--ratio", point.ratio, |x| x > 0.0, "(0, ∞)")?;
+        let gap_mm = check_value("--gap-mm", point.gap_mm, |x| x > 0.0, "(0, ∞) mm")?;
+        let mut s = sc.clone();
+        s.damper.gap_m = gap_mm * 1e-3;
+        s.forcing.frequency = Frequency::Ratio(ratio);
+        let (sys, method) = s.two_plane_run()?;
+        let member = member.unwrap_or(0);
+        let start = s.two_plane_start(&sys, member, "--member")?;
+        s.settings().validate()?;
+        Ok(MemberRun {
+            scenario: s,
+            sys,
+            method,
+            member,
+            start,
+            ratio,
+            gap_mm,
+        })
+    }
+}
 
 /// Run the command on a scenario with `[two_plane]`.
 pub fn run(a: &PoincareArgs, sc: &Scenario) -> Result<()> {
-    let ratio = check_value("--ratio", a.point.ratio, |x| x > 0.0, "(0, ∞)")?;
-    let gap_mm = check_value("--gap-mm", a.point.gap_mm, |x| x > 0.0, "(0, ∞) mm")?;
+    let MemberRun {
+        scenario: s,
+        sys,
+        method,
+        member,
+        start,
+        ratio,
+        gap_mm,
+    } = MemberRun::at(&a.point, sc, a.member)?;
     let phase_deg = check_value("--phase-deg", a.phase_deg, |_| true, "finite")?;
-    let mut s = sc.clone();
-    s.damper.gap_m = gap_mm * 1e-3;
-    s.forcing.frequency = Frequency::Ratio(ratio);
-    let (sys, method) = s.two_plane_run()?;
-    let member = a.member.unwrap_or(0);
-    let start = s.two_plane_start(&sys, member, "--member")?;
     let settings = s.settings();
-    settings.validate()?;
     let transient = transient_or_default(a.transient, &a.point.system)?;
     // The section's times: Ωt = phase (mod 2π), from the first one at or after the transient.
     let omega = sys.omega_rad_s();

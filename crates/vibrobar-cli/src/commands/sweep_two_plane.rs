@@ -39,6 +39,15 @@ pub fn run_points(
     threads: Option<usize>,
     solver: &str,
 ) -> Result<Vec<DesignPoint>> {
+    if let Some(n) = threads {
+        vibrobar_core::limits::check_count(
+            "--threads",
+            n,
+            1,
+            vibrobar_core::limits::MAX_THREADS,
+            "",
+        )?;
+    }
     let total = systems.len() * ens.members;
     eprintln!(
         "{command}: two planes, {} points × {} members (seed {}; {total} runs of {} s; solver \
