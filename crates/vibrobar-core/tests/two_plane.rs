@@ -1191,6 +1191,9 @@ fn a_run_from_a_later_time_continues_the_run_that_reached_it() {
                 (mid.expect("the sample at t0"), whole)
             };
             assert!((at_t0.t_s - t0).abs() < 1e-15);
+            // Sampled on a grid from t = 0, the run from t0 reports the grid from t0 on only.
+            let mut times = Vec::new();
+            let mut on_sample = |s: &TwoPlaneSample| times.push(s.t_s);
             let rest = method
                 .run_from(
                     &sys,
@@ -1198,9 +1201,15 @@ fn a_run_from_a_later_time_continues_the_run_that_reached_it() {
                     t0,
                     &settings(dur - t0),
                     &mut |_| {},
-                    None,
+                    Some(Sampling {
+                        start_s: 0.0,
+                        interval_s: t0 / 4.0,
+                        on_sample: &mut on_sample,
+                    }),
                 )
                 .unwrap();
+            assert_eq!(times.len(), 5, "{method:?}: {times:?}");
+            assert!((times[0] - t0).abs() < 1e-15 && (times[4] - dur).abs() < 1e-15);
             let amp = whole.end.u_m[0].hypot(whole.end.u_m[1]).max(1e-9);
             for i in 0..2 {
                 assert!(

@@ -692,7 +692,6 @@ impl Model {
         o
     }
 
-    /// The ball relative to the cavity's centre along `axis`.
     /// The state `y` in the form a start takes (the ball in the hole's frame).
     fn state_of(&self, y: &Y) -> TwoPlaneStart {
         let [a, n] = self.axes;
@@ -707,6 +706,7 @@ impl Model {
         }
     }
 
+    /// The ball relative to the cavity's centre along `axis`.
     fn w(&self, y: &Y, axis: usize) -> f64 {
         dot([y[4] - y[0], y[5] - y[1]], self.axes[axis])
     }
@@ -987,10 +987,14 @@ impl TwoPlaneRk4 {
             .map_or((f64::INFINITY, 0.0), |sm| (sm.start_s, sm.interval_s));
         let sample_t = |k: u64| plan.0 + k as f64 * plan.1;
         let mut next_sample = sample_t(0);
-        // Samples before the start are not the run's.
-        while next_sample < t0_s && next_sample.is_finite() {
-            sample_k += 1;
+        // Samples before the start are not the run's: the first at or after it.
+        if next_sample < t0_s {
+            sample_k = ((t0_s - plan.0) / plan.1).ceil() as u64;
             next_sample = sample_t(sample_k);
+            if next_sample < t0_s {
+                sample_k += 1;
+                next_sample = sample_t(sample_k);
+            }
         }
 
         // The start, in absolute coordinates.
