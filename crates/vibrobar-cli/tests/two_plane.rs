@@ -468,6 +468,10 @@ fn a_two_plane_map_over_hole_angles_and_diameters_is_the_ensembles_of_its_cells(
     assert!(String::from_utf8_lossy(&o.stdout).contains("best cell: hole at"));
     let rows = sweep_rows(&fs::read_to_string(&out).unwrap());
     assert_eq!(rows.len(), 2 * 3);
+    // Gap × hole angle: the heat map beside the table.
+    for f in ["map.reduction.png", "map.reduction.svg"] {
+        assert!(d.path().join(f).exists(), "{f}");
+    }
     let cell = |gap: &str, angle: &str| {
         rows.iter()
             .find(|r| r["axial_gap_m"] == gap && r["hole_angle_deg"] == angle)
@@ -516,6 +520,8 @@ fn a_two_plane_map_over_hole_angles_and_diameters_is_the_ensembles_of_its_cells(
         s(&out2),
     ]);
     let rows2 = sweep_rows(&fs::read_to_string(&out2).unwrap());
+    // One gap: no map to draw.
+    assert!(!d.path().join("map2.reduction.png").exists());
     let c_r: Vec<f64> = rows2
         .iter()
         .map(|r| r["radial_clearance_m"].parse().unwrap())

@@ -1,7 +1,9 @@
 //! `vibrobar map` on a `[two_plane]` scenario: the design map of the hole. Over frequency ratios
 //! × axial gaps × (optionally) hole directions and hole diameters, each cell an ensemble of
 //! starts, its RMS reduction along the force beside the one-plane model's; the best cell on the
-//! screen. The file is written whole at the end (atomically), after every cell has run.
+//! screen. The file is written whole at the end (atomically), after every cell has run; where
+//! the gap and exactly one other axis vary, `FILE.reduction.{png,svg}` maps the mean reduction
+//! over them.
 
 use anyhow::{bail, Context, Result};
 use std::fmt::Write as _;
@@ -196,6 +198,61 @@ pub fn run(args: &MapArgs, sc: &Scenario) -> Result<()> {
     }
     vibrobar_io::csv::write_text(&args.out, &csv)
         .with_context(|| format!("writing {}", args.out.display()))?;
+    // The heat map of the mean reduction over the gap and the one other axis that varies.
+    let others: [(&str, Vec<f64>); 3] = [
+        ("frequency ratio Ω/ω₁", ratios.clone()),
+        ("hole angle (°)", angles.clone()),
+        (
+            "hole diameter (mm)",
+            diameters_m.iter().map(|d| d * 1e3).collect(),
+        ),
+    ];
+    let varying: Vec<usize> = (0..3).filter(|&i| others[i].1.len() > 1).collect();
+    if gaps_m.len() > 1 && varying.len() == 1 {
+        let axis = varying[0];
+        let xs = &others[axis].1;
+        let ys: Vec<f64> = gaps_m.iter().map(|g| g * 1e3).collect();
+        let mut z = vec![vec![f64::NAN; ys.len()]; xs.len()];
+        for (&(ratio, gap_m, angle, d, _), p) in keys.iter().zip(&points) {
+            let x = [ratio, angle, d][axis];
+            let xi = [&ratios, &angles, &diameters_m][axis]
+                .iter()
+                .position(|v| v.to_bits() == x.to_bits());
+            let yj = gaps_m.iter().position(|v| v.to_bits() == gap_m.to_bits());
+            if let (Some(xi), Some(yj)) = (xi, yj) {
+                z[xi][yj] = Spread::of(&p.reductions_pct()).mean;
+            }
+        }
+        let best_xy = best.map(|(_, _, i)| {
+            let (ratio, gap_m, angle, d, _) = keys[i];
+            ([ratio, angle, d * 1e3][axis], gap_m * 1e3)
+        });
+        let stem = args.out.with_extension("");
+        let title = format!(
+            "Two planes: mean RMS reduction along the force at {:.1}° (ensembles of {})",
+            systems[0].forcing.angle_deg, ens.members
+        );
+        let files = vibrobar_report::figures::heat_files(
+            &stem.with_extension("reduction"),
+            &vibrobar_report::figures::Heat {
+                title: &title,
+                x_label: others[axis].0,
+                y_label: "axial gap (mm)",
+                z_label: "reduction (%)",
+                xs,
+                ys: &ys,
+                z: &z,
+                levels: vec![20.0, 40.0, 60.0, 80.0],
+                strong_level: Some(0.0),
+                markers: best_xy.map(|b| ("best cell", vec![b])),
+                hlines: Vec::new(),
+                vlines: Vec::new(),
+            },
+        )?;
+        for f in files {
+            println!("wrote {}", f.display());
+        }
+    }
     if let Some((mean, se, i)) = best {
         let (ratio, gap_m, angle, d, _) = keys[i];
         println!(
