@@ -1018,9 +1018,10 @@ fn sampled(
     let mut out = Vec::new();
     let mut on_sample = |s: &TwoPlaneSample| out.push(*s);
     let s = method
-        .run_sampled(
+        .run_from(
             sys,
             start,
+            0.0,
             &settings(dur),
             &mut |_| {},
             Some(Sampling {
@@ -1130,9 +1131,10 @@ fn a_stroboscopic_sampling_lands_on_the_steady_state_in_both_solvers() {
         let mut pts = Vec::new();
         let mut on_sample = |s: &TwoPlaneSample| pts.push(*s);
         method
-            .run_sampled(
+            .run_from(
                 &sys,
                 &TwoPlaneStart::at_rest([0.0; 2]),
+                0.0,
                 &settings(1.5),
                 &mut |_| {},
                 Some(Sampling {
@@ -1176,9 +1178,10 @@ fn a_run_from_a_later_time_continues_the_run_that_reached_it() {
                 let mut mid = None;
                 let mut on_sample = |s: &TwoPlaneSample| mid = Some(*s);
                 let whole = method
-                    .run_sampled(
+                    .run_from(
                         &sys,
                         &TwoPlaneStart::at_rest([0.0; 2]),
+                        0.0,
                         &settings(dur),
                         &mut |_| {},
                         Some(Sampling {

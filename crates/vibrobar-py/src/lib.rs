@@ -2994,9 +2994,10 @@ fn two_plane_run<'py>(
         let mut rows: Vec<[f64; 11]> = Vec::new();
         let mut on_sample = |s: &TwoPlaneSample| rows.push(iocsv::two_plane_history_values(s, e_f));
         let summary = method
-            .run_sampled(
+            .run_from(
                 &sys,
                 &start,
+                0.0,
                 &settings,
                 &mut |_| {},
                 Some(Sampling {

@@ -92,9 +92,10 @@ pub fn run(a: &PoincareArgs, sc: &Scenario) -> Result<()> {
         rows.push(two_plane_history_values(p, e_f));
         velocity.push(p.state.du_m_s[0] * e_f[0] + p.state.du_m_s[1] * e_f[1]);
     };
-    method.run_sampled(
+    method.run_from(
         &sys,
         &start,
+        0.0,
         &settings,
         &mut |_| {},
         Some(Sampling {

@@ -75,9 +75,10 @@ pub fn run(args: &RunArgs, sc: &Scenario) -> Result<()> {
                 Err(e) => io_error = Some(e),
             }
         };
-        method.run_sampled(
+        method.run_from(
             &sys,
             &start,
+            0.0,
             &settings,
             &mut |_| {},
             Some(Sampling {

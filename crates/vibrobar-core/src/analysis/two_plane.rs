@@ -149,22 +149,11 @@ impl TwoPlaneMethod {
         settings: &RunSettings,
         on_event: &mut dyn FnMut(&TwoPlaneEvent),
     ) -> Result<TwoPlaneSummary, SimError> {
-        self.run_sampled(sys, start, settings, on_event, None)
+        self.run_from(sys, start, 0.0, settings, on_event, None)
     }
 
-    /// [`TwoPlaneMethod::run`], sampling the state as `sampling` asks.
-    pub fn run_sampled<'a>(
-        &self,
-        sys: &TwoPlaneSystem,
-        start: &TwoPlaneStart,
-        settings: &RunSettings,
-        on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
-        sampling: Option<Sampling<'a>>,
-    ) -> Result<TwoPlaneSummary, SimError> {
-        self.run_from(sys, start, 0.0, settings, on_event, sampling)
-    }
-
-    /// [`TwoPlaneMethod::run_sampled`] from the state `start` at time `t0_s`.
+    /// [`TwoPlaneMethod::run`] from the state `start` at time `t0_s`, sampling the state as
+    /// `sampling` asks.
     pub fn run_from<'a>(
         &self,
         sys: &TwoPlaneSystem,

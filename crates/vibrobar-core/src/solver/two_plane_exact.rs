@@ -280,13 +280,18 @@ struct Grid {
 }
 
 impl Grid {
+    /// The time of sample `k`.
+    fn time(&self, k: u64) -> f64 {
+        self.start_s + k as f64 * self.interval_s
+    }
+
     /// The samples of `seg` not yet taken, with their indices. A grid time past the segment's
     /// end by rounding only (`k·interval` against a sum of steps; 1e-9 of the interval) is the
     /// end's sample, so that a run whose duration is a multiple of the interval ends on one.
     fn take(&mut self, seg: &dyn Segment, mut f: impl FnMut(u64, PlaneState)) {
         let (t0, t1) = (seg.t_start_s(), seg.t_end_s());
         loop {
-            let t = self.start_s + self.next_k as f64 * self.interval_s;
+            let t = self.time(self.next_k);
             if t > t1 + 1e-9 * self.interval_s {
                 return;
             }
@@ -389,8 +394,8 @@ struct Cross<'a> {
     samples: VecDeque<(u64, PlaneState)>,
     /// Where matched samples go, the hole's axes and the (constant) spin.
     on_sample: Option<&'a mut dyn FnMut(&TwoPlaneSample)>,
-    grid_start_s: f64,
-    grid_interval_s: f64,
+    /// The sampling grid (its times; unused without sampling).
+    grid: Grid,
     axes: [[f64; 2]; 2],
     spin_rad_s: f64,
 }
@@ -431,7 +436,7 @@ impl Cross<'_> {
                 true
             }
             Msg::Sample(k, p) => {
-                self.stream_t = self.sample_time(k);
+                self.stream_t = self.grid.time(k);
                 self.samples.push_back((k, p));
                 true
             }
@@ -491,11 +496,6 @@ impl Cross<'_> {
         }
     }
 
-    /// The time of sample `k` (only read when sampling).
-    fn sample_time(&self, k: u64) -> f64 {
-        self.grid_start_s + k as f64 * self.grid_interval_s
-    }
-
     /// Put the plane across the hole's sample `k` together with the stream's and report it.
     fn sample(&mut self, k: u64, n: PlaneState) {
         let a = loop {
@@ -520,7 +520,7 @@ impl Cross<'_> {
         let [ea, en] = self.axes;
         let frame = |x: f64, y: f64| [x * ea[0] + y * en[0], x * ea[1] + y * en[1]];
         let sample = TwoPlaneSample {
-            t_s: self.sample_time(k),
+            t_s: self.grid.time(k),
             state: TwoPlaneStart {
                 u_m: frame(a.u, n.u),
                 du_m_s: frame(a.du, n.du),
@@ -723,22 +723,10 @@ impl TwoPlaneExact {
         self.run_with(sys, start, 0.0, settings, on_event, None, true)
     }
 
-    /// [`TwoPlaneExact::run`], sampling the state as `sampling` asks: each plane samples its
-    /// own closed form on the common grid and the two are put together in the hole's frame.
-    pub fn run_sampled<'a>(
-        &self,
-        sys: &TwoPlaneSystem,
-        start: &TwoPlaneStart,
-        settings: &RunSettings,
-        on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
-        sampling: Option<Sampling<'a>>,
-    ) -> Result<TwoPlaneSummary, SimError> {
-        self.run_with(sys, start, 0.0, settings, on_event, sampling, true)
-    }
-
-    /// [`TwoPlaneExact::run_sampled`] from the state `start` at time `t0_s` (the forcing's
-    /// phase is `Ωt0`) over `settings.duration_s`; the RMS window is the last fraction of that
-    /// span.
+    /// [`TwoPlaneExact::run`] from the state `start` at time `t0_s` (the forcing's phase is
+    /// `Ωt0`) over `settings.duration_s`, sampling the state as `sampling` asks (each plane
+    /// samples its own closed form on the common grid; the two are put together in the hole's
+    /// frame); the RMS window is the last fraction of that span.
     pub fn run_from<'a>(
         &self,
         sys: &TwoPlaneSystem,
@@ -776,10 +764,7 @@ impl TwoPlaneExact {
             interval_s: sm.interval_s,
             next_k: 0,
         });
-        let (grid_start_s, grid_interval_s, on_sample) = match sampling {
-            Some(sm) => (sm.start_s, sm.interval_s, Some(sm.on_sample)),
-            None => (0.0, 1.0, None),
-        };
+        let on_sample = sampling.map(|sm| sm.on_sample);
         let systems = [plane_system(sys, 0)?, plane_system(sys, 1)?];
         let starts = [
             plane_start(sys, start, 0, t0_s),
@@ -836,8 +821,11 @@ impl TwoPlaneExact {
                     on_event,
                     samples: VecDeque::new(),
                     on_sample,
-                    grid_start_s,
-                    grid_interval_s,
+                    grid: grid.unwrap_or(Grid {
+                        start_s: 0.0,
+                        interval_s: 1.0,
+                        next_k: 0,
+                    }),
                     axes: hole_axes(sys),
                     spin_rad_s: start.spin_rad_s,
                 }),

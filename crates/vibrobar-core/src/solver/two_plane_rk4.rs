@@ -919,23 +919,12 @@ impl TwoPlaneRk4 {
         settings: &RunSettings,
         on_event: &mut dyn FnMut(&TwoPlaneEvent),
     ) -> Result<TwoPlaneSummary, SimError> {
-        self.run_sampled(sys, start, settings, on_event, None)
+        self.run_from(sys, start, 0.0, settings, on_event, None)
     }
 
-    /// [`TwoPlaneRk4::run`], sampling the state as `sampling` asks.
-    pub fn run_sampled(
-        &self,
-        sys: &TwoPlaneSystem,
-        start: &TwoPlaneStart,
-        settings: &RunSettings,
-        on_event: &mut dyn FnMut(&TwoPlaneEvent),
-        sampling: Option<Sampling>,
-    ) -> Result<TwoPlaneSummary, SimError> {
-        self.run_from(sys, start, 0.0, settings, on_event, sampling)
-    }
-
-    /// [`TwoPlaneRk4::run_sampled`] from the state `start` at time `t0_s` (the forcing's phase
-    /// is `Ωt0`) over `settings.duration_s`; the RMS window is the last fraction of that span.
+    /// [`TwoPlaneRk4::run`] from the state `start` at time `t0_s` (the forcing's phase is `Ωt0`)
+    /// over `settings.duration_s`, sampling the state as `sampling` asks; the RMS window is the
+    /// last fraction of that span.
     pub fn run_from(
         &self,
         sys: &TwoPlaneSystem,
