@@ -723,16 +723,11 @@ mod tests {
         }
     }
 
-    #[test]
-    fn product_integral_matches_simpson() {
-        let x = sample();
-        let y = x.deriv();
-        for &(a, b) in &[(0.0, 2.0), (1.0, 1.0001), (3.0, 10.0)] {
-            let n = 20000;
-            let h = (b - a) / n as f64;
-            let mut s = 0.0;
-            for i in 0..=n {
-                let t = a + i as f64 * h;
+    /// Simpson's rule for `∫_a^b f` on `n` (even) intervals.
+    fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
+        let h = (b - a) / n as f64;
+        let s: f64 = (0..=n)
+            .map(|i| {
                 let w = if i == 0 || i == n {
                     1.0
                 } else if i % 2 == 1 {
@@ -740,9 +735,18 @@ mod tests {
                 } else {
                     2.0
                 };
-                s += w * naive(&x, t) * naive(&y, t);
-            }
-            s *= h / 3.0;
+                w * f(a + i as f64 * h)
+            })
+            .sum();
+        s * h / 3.0
+    }
+
+    #[test]
+    fn product_integral_matches_simpson() {
+        let x = sample();
+        let y = x.deriv();
+        for &(a, b) in &[(0.0, 2.0), (1.0, 1.0001), (3.0, 10.0)] {
+            let s = simpson(|t| naive(&x, t) * naive(&y, t), a, b, 20000);
             let c = integral_product(&x, &y, a, b);
             assert!((c - s).abs() < 1e-11 * (1.0 + s.abs()), "{c} {s}");
         }
@@ -765,21 +769,7 @@ mod tests {
         y.wd = 4.2;
         let (x0, y0) = (0.4, -1.1);
         for &(a, b) in &[(0.4, 3.0), (1.0, 1.0001), (2.5, 9.0)] {
-            let n = 40000;
-            let h = (b - a) / n as f64;
-            let mut s = 0.0;
-            for i in 0..=n {
-                let t = a + i as f64 * h;
-                let w = if i == 0 || i == n {
-                    1.0
-                } else if i % 2 == 1 {
-                    4.0
-                } else {
-                    2.0
-                };
-                s += w * naive(&x, t - x0) * naive(&y, t - y0);
-            }
-            s *= h / 3.0;
+            let s = simpson(|t| naive(&x, t - x0) * naive(&y, t - y0), a, b, 40000);
             let c = integral_product_shifted(&x, x0, &y, y0, a, b);
             assert!((c - s).abs() < 1e-11 * (1.0 + s.abs()), "{c} {s}");
             // Swapped, and equal to the common-origin form where the sums agree.
