@@ -44,7 +44,7 @@ pub struct Column {
     pub optional: bool,
 }
 
-const fn col(name: &'static str, format: Format) -> Column {
+pub(crate) const fn col(name: &'static str, format: Format) -> Column {
     Column {
         name: Cow::Borrowed(name),
         format,

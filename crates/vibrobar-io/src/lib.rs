@@ -22,6 +22,7 @@ pub mod npy;
 pub mod params;
 pub mod shard;
 pub mod target;
+pub mod two_plane_csv;
 pub mod uff;
 
 pub use atomic::{

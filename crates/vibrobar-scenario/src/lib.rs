@@ -15,7 +15,10 @@
 #![warn(missing_docs)]
 
 mod two_plane;
-pub use two_plane::{text_has_two_plane, two_plane_refusal, TwoPlaneSection, TWO_PLANE_COMMANDS};
+pub use two_plane::{
+    text_has_two_plane, two_plane_refusal, TwoPlaneAxes, TwoPlaneCell, TwoPlaneSection,
+    TWO_PLANE_COMMANDS,
+};
 
 use anyhow::{bail, Context, Result};
 use serde::de::{DeserializeOwned, Error as _};

@@ -37,6 +37,7 @@ use vibrobar_core::params::two_plane::{
 };
 use vibrobar_core::params::BarModel;
 use vibrobar_core::solver::two_plane_rk4::TwoPlaneStart;
+use vibrobar_core::{limits, Frequency};
 
 use crate::Scenario;
 
@@ -274,6 +275,113 @@ impl Scenario {
             );
         }
         Ok(starts(sys, &ens).map_err(|e| anyhow::anyhow!("{e}"))?[member])
+    }
+}
+
+/// The axes of a grid of two-plane design points, and how errors name the hole's axes.
+#[derive(Debug, Clone, Copy)]
+pub struct TwoPlaneAxes<'a> {
+    /// Frequency ratios.
+    pub ratios: &'a [f64],
+    /// Total axial clearances.
+    pub gaps_m: &'a [f64],
+    /// Hole directions (`None`: the scenario's).
+    pub hole_angles_deg: Option<&'a [f64]>,
+    /// Hole diameters (`None`: the scenario's).
+    pub hole_diameters_m: Option<&'a [f64]>,
+    /// The names of the hole-angle and hole-diameter axes in errors (a flag, a keyword).
+    pub names: [&'a str; 2],
+}
+
+/// One cell of a grid of two-plane design points: where it lies and its system.
+#[derive(Debug, Clone, Copy)]
+pub struct TwoPlaneCell {
+    /// Frequency ratio.
+    pub ratio: f64,
+    /// Total axial clearance.
+    pub axial_gap_m: f64,
+    /// The hole's direction.
+    pub hole_angle_deg: f64,
+    /// The hole's diameter.
+    pub hole_diameter_m: f64,
+    /// The system at the cell.
+    pub system: TwoPlaneSystem,
+}
+
+impl Scenario {
+    /// Every cell of the grid `axes` of this `[two_plane]` scenario, in file order (hole
+    /// diameter, hole angle, gap, then ratio fastest), each system checked before anything
+    /// runs: a hole wider than the bar or a ball larger than the hole is refused naming the
+    /// axis. `members` runs per cell must stay within [`limits::MAX_RUNS`] (`what` names the
+    /// count in that error).
+    pub fn two_plane_cells(
+        &self,
+        axes: &TwoPlaneAxes,
+        members: usize,
+        what: &'static str,
+    ) -> Result<Vec<TwoPlaneCell>> {
+        let Some(t) = &self.two_plane else {
+            bail!("the scenario has no [two_plane] section");
+        };
+        let angles = axes
+            .hole_angles_deg
+            .unwrap_or(std::slice::from_ref(&t.hole_angle_deg));
+        let diameters = axes
+            .hole_diameters_m
+            .unwrap_or(std::slice::from_ref(&t.hole_diameter_m));
+        let cells = [
+            axes.ratios.len(),
+            axes.gaps_m.len(),
+            angles.len(),
+            diameters.len(),
+        ]
+        .iter()
+        .fold(1usize, |n, &k| n.saturating_mul(k));
+        limits::check(
+            what,
+            cells.saturating_mul(members) as f64,
+            0.0,
+            limits::MAX_RUNS as f64,
+            "fewer cells or members",
+        )?;
+        let mut out = Vec::with_capacity(cells);
+        for &d in diameters {
+            for &angle in angles {
+                for &gap_m in axes.gaps_m {
+                    for &ratio in axes.ratios {
+                        let mut s = self.clone();
+                        s.damper.gap_m = gap_m;
+                        s.forcing.frequency = Frequency::Ratio(ratio);
+                        if let Some(t) = s.two_plane.as_mut() {
+                            t.hole_angle_deg = angle;
+                            t.hole_diameter_m = d;
+                        }
+                        let (system, _) = s.two_plane_run().map_err(|e| {
+                            let msg = e.to_string();
+                            let msg = match axes.hole_diameters_m {
+                                Some(_) => {
+                                    msg.replace("[two_plane] hole_diameter_m", axes.names[1])
+                                }
+                                None => msg,
+                            };
+                            let msg = match axes.hole_angles_deg {
+                                Some(_) => msg.replace("[two_plane] hole_angle_deg", axes.names[0]),
+                                None => msg,
+                            };
+                            anyhow::anyhow!("{msg}")
+                        })?;
+                        out.push(TwoPlaneCell {
+                            ratio,
+                            axial_gap_m: gap_m,
+                            hole_angle_deg: angle,
+                            hole_diameter_m: d,
+                            system,
+                        });
+                    }
+                }
+            }
+        }
+        Ok(out)
     }
 }
 

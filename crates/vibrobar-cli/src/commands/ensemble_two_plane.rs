@@ -4,20 +4,14 @@
 //! (atomically), after every run.
 
 use anyhow::{bail, Context, Result};
-use std::fmt::Write as _;
 use vibrobar_core::analysis::two_plane::Spread;
-use vibrobar_core::Frequency;
 
 use super::explore::{axis_values, EnsembleArgs};
 use super::sweep_two_plane::run_points;
 use crate::scenario::Scenario;
 use vibrobar_io::csv::fmt_coord;
-
-/// The columns.
-pub const HEADER: &str = "axial_gap_m,ratio,member,solver,w_along_start_m,w_across_start_m,\
-dw_along_start_m_s,dw_across_start_m_s,rms_along_force_m,reduction_pct,one_plane_rms_m,\
-one_plane_reduction_pct,solid_rms_m,rms_radial_m,rms_tangential_m,rms_total_m,impacts_plug_plus,\
-impacts_plug_minus,impacts_wall_plus,impacts_wall_minus,flight_fraction";
+use vibrobar_io::two_plane_csv;
+use vibrobar_scenario::TwoPlaneAxes;
 
 /// Run the command on a scenario with `[two_plane]`.
 pub fn ensemble(a: &EnsembleArgs, sc: &Scenario) -> Result<()> {
@@ -62,24 +56,19 @@ pub fn ensemble(a: &EnsembleArgs, sc: &Scenario) -> Result<()> {
     let settings = sc.settings();
     settings.validate()?;
     let method = section.method(settings.dt_s)?;
-    let mut points = Vec::with_capacity(gaps_mm.len() * ratios.len());
-    let mut systems = Vec::with_capacity(points.capacity());
-    for &gap_mm in &gaps_mm {
-        for &ratio in &ratios {
-            let mut s = sc.clone();
-            s.damper.gap_m = gap_mm * 1e-3;
-            s.forcing.frequency = Frequency::Ratio(ratio);
-            points.push((gap_mm * 1e-3, ratio));
-            systems.push(s.two_plane_run()?.0);
-        }
-    }
-    vibrobar_core::limits::check(
+    let gaps_m: Vec<f64> = gaps_mm.iter().map(|g| g * 1e-3).collect();
+    let cells = sc.two_plane_cells(
+        &TwoPlaneAxes {
+            ratios: &ratios,
+            gaps_m: &gaps_m,
+            hole_angles_deg: None,
+            hole_diameters_m: None,
+            names: ["", ""],
+        },
+        ens.members,
         "ensemble runs (points × members)",
-        (systems.len() * ens.members) as f64,
-        0.0,
-        vibrobar_core::limits::MAX_RUNS as f64,
-        "fewer points or members",
     )?;
+    let systems: Vec<_> = cells.iter().map(|c| c.system).collect();
     let answers = run_points(
         "ensemble",
         &systems,
@@ -89,35 +78,12 @@ pub fn ensemble(a: &EnsembleArgs, sc: &Scenario) -> Result<()> {
         a.threads,
         &section.solver,
     )?;
-    let mut csv = format!("{HEADER}\n");
-    for (&(gap_m, ratio), p) in points.iter().zip(&answers) {
+    let mut rows = Vec::with_capacity(systems.len() * ens.members);
+    for (c, p) in cells.iter().zip(&answers) {
+        let (gap_m, ratio) = (c.axial_gap_m, c.ratio);
+        rows.extend(two_plane_csv::ensemble_rows(gap_m, ratio, p));
         let red = p.reductions_pct();
         let one_red = p.one_plane_reductions_pct();
-        for (k, (m, st)) in p.members.iter().zip(&p.starts).enumerate() {
-            writeln!(
-                csv,
-                "{gap_m},{ratio},{k},{},{:e},{:e},{:e},{:e},{:e},{:.4},{:e},{:.4},{:e},{:e},{:e},{:e},\
-                 {},{},{},{},{:.6}",
-                p.solver,
-                st.w_hole_m[0],
-                st.w_hole_m[1],
-                st.dw_hole_m_s[0],
-                st.dw_hole_m_s[1],
-                m.rms_along_force_m,
-                red[k],
-                p.one_plane_rms_m[k],
-                one_red[k],
-                p.solid_rms_m,
-                m.rms_m[0],
-                m.rms_m[1],
-                m.rms_total_m,
-                m.impacts[0],
-                m.impacts[1],
-                m.impacts[2],
-                m.impacts[3],
-                m.flight_fraction,
-            )?;
-        }
         let r = Spread::of(&red);
         let o = Spread::of(&one_red);
         println!(
@@ -135,7 +101,7 @@ pub fn ensemble(a: &EnsembleArgs, sc: &Scenario) -> Result<()> {
             p.solver
         );
     }
-    vibrobar_io::csv::write_text(&a.out, &csv)
+    vibrobar_io::csv::write_csv(&a.out, &two_plane_csv::ensemble_schema(), &rows)
         .with_context(|| format!("writing {}", a.out.display()))?;
     println!(
         "wrote {} ({} points × {} members, {:.1} s)",

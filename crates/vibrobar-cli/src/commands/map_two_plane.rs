@@ -6,21 +6,15 @@
 //! over them.
 
 use anyhow::{bail, Context, Result};
-use std::fmt::Write as _;
 use vibrobar_core::analysis::two_plane::Spread;
-use vibrobar_core::Frequency;
 
 use super::map::MapArgs;
 use super::parse_range;
 use super::sweep_two_plane::run_points;
 use crate::scenario::Scenario;
 use vibrobar_io::csv::fmt_coord;
-
-/// The columns.
-pub const HEADER: &str = "ratio,axial_gap_m,hole_angle_deg,hole_diameter_m,radial_clearance_m,\
-solver,members,reduction_mean_pct,reduction_std_err_pct,reduction_min_pct,reduction_max_pct,\
-one_plane_reduction_mean_pct,one_plane_reduction_std_err_pct,rms_along_force_mean_m,solid_rms_m,\
-impacts_plugs_mean,impacts_hole_wall_mean,flight_fraction_mean";
+use vibrobar_io::two_plane_csv::{self, MapCell};
+use vibrobar_scenario::TwoPlaneAxes;
 
 /// Run the command on a scenario with `[two_plane]`.
 pub fn run(args: &MapArgs, sc: &Scenario) -> Result<()> {
@@ -92,43 +86,29 @@ pub fn run(args: &MapArgs, sc: &Scenario) -> Result<()> {
     let settings = sc.settings();
     settings.validate()?;
     let method = section.method(settings.dt_s)?;
-    let cells = ratios.len() * gaps_m.len() * angles.len() * diameters_m.len();
-    vibrobar_core::limits::check(
+    let grid = sc.two_plane_cells(
+        &TwoPlaneAxes {
+            ratios: &ratios,
+            gaps_m: &gaps_m,
+            hole_angles_deg: Some(&angles),
+            hole_diameters_m: Some(&diameters_m),
+            names: ["--hole-angles-deg", "--hole-diameters-mm"],
+        },
+        ens.members,
         "map runs (cells × members)",
-        (cells * ens.members) as f64,
-        0.0,
-        vibrobar_core::limits::MAX_RUNS as f64,
-        "fewer cells or members",
     )?;
-    // Every cell's system, checked before anything runs (a hole wider than the bar, a ball
-    // larger than the hole: the flag's value named).
-    let mut keys = Vec::with_capacity(cells);
-    let mut systems = Vec::with_capacity(cells);
-    for &d in &diameters_m {
-        for &angle in &angles {
-            for &gap_m in &gaps_m {
-                for &ratio in &ratios {
-                    let mut s = sc.clone();
-                    s.damper.gap_m = gap_m;
-                    s.forcing.frequency = Frequency::Ratio(ratio);
-                    if let Some(t) = s.two_plane.as_mut() {
-                        t.hole_angle_deg = angle;
-                        t.hole_diameter_m = d;
-                    }
-                    let (sys, _) = s.two_plane_run().map_err(|e| {
-                        anyhow::anyhow!(
-                            "{}",
-                            e.to_string()
-                                .replace("[two_plane] hole_diameter_m", "--hole-diameters-mm")
-                                .replace("[two_plane] hole_angle_deg", "--hole-angles-deg")
-                        )
-                    })?;
-                    keys.push((ratio, gap_m, angle, d, sys.radial_clearance_m()));
-                    systems.push(sys);
-                }
-            }
-        }
-    }
+    let cells = grid.len();
+    let keys: Vec<MapCell> = grid
+        .iter()
+        .map(|c| MapCell {
+            ratio: c.ratio,
+            axial_gap_m: c.axial_gap_m,
+            hole_angle_deg: c.hole_angle_deg,
+            hole_diameter_m: c.hole_diameter_m,
+            radial_clearance_m: c.system.radial_clearance_m(),
+        })
+        .collect();
+    let systems: Vec<_> = grid.iter().map(|c| c.system).collect();
     eprintln!(
         "map: {} ratios × {} gaps × {} hole angles × {} hole diameters = {cells} cells",
         ratios.len(),
@@ -145,58 +125,18 @@ pub fn run(args: &MapArgs, sc: &Scenario) -> Result<()> {
         args.threads,
         &section.solver,
     )?;
-    let mut csv = format!("{HEADER}\n");
     let mut best: Option<(f64, f64, usize)> = None;
-    for (i, (&(ratio, gap_m, angle, d, c_r), p)) in keys.iter().zip(&points).enumerate() {
+    for (i, p) in points.iter().enumerate() {
         let red = Spread::of(&p.reductions_pct());
-        let one = Spread::of(&p.one_plane_reductions_pct());
-        let rms = Spread::of(
-            &p.members
-                .iter()
-                .map(|m| m.rms_along_force_m)
-                .collect::<Vec<_>>(),
-        );
-        let n = p.members.len() as f64;
-        let plugs = p
-            .members
-            .iter()
-            .map(|m| (m.impacts[0] + m.impacts[1]) as f64)
-            .sum::<f64>()
-            / n;
-        let wall = p
-            .members
-            .iter()
-            .map(|m| (m.impacts[2] + m.impacts[3]) as f64)
-            .sum::<f64>()
-            / n;
-        let flight = p.members.iter().map(|m| m.flight_fraction).sum::<f64>() / n;
-        writeln!(
-            csv,
-            "{},{},{},{},{c_r:e},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:e},{:e},\
-             {:.2},{:.2},{:.6}",
-            fmt_coord(ratio),
-            fmt_coord(gap_m),
-            fmt_coord(angle),
-            fmt_coord(d),
-            p.solver,
-            p.members.len(),
-            red.mean,
-            red.std_err,
-            red.min,
-            red.max,
-            one.mean,
-            one.std_err,
-            rms.mean,
-            p.solid_rms_m,
-            plugs,
-            wall,
-            flight
-        )?;
         if best.is_none_or(|b| red.mean > b.0) {
             best = Some((red.mean, red.std_err, i));
         }
     }
-    vibrobar_io::csv::write_text(&args.out, &csv)
+    let rows = keys
+        .iter()
+        .zip(&points)
+        .map(|(c, p)| two_plane_csv::map_values(c, p));
+    vibrobar_io::csv::write_csv(&args.out, &two_plane_csv::map_schema(), rows)
         .with_context(|| format!("writing {}", args.out.display()))?;
     // The heat map of the mean reduction over the gap and the one other axis that varies.
     let others: [(&str, Vec<f64>); 3] = [
@@ -213,8 +153,11 @@ pub fn run(args: &MapArgs, sc: &Scenario) -> Result<()> {
         let xs = &others[axis].1;
         let ys: Vec<f64> = gaps_m.iter().map(|g| g * 1e3).collect();
         let mut z = vec![vec![f64::NAN; ys.len()]; xs.len()];
-        for (&(ratio, gap_m, angle, d, _), p) in keys.iter().zip(&points) {
-            let x = [ratio, angle, d][axis];
+        for (c, p) in keys.iter().zip(&points) {
+            let (gap_m, x) = (
+                c.axial_gap_m,
+                [c.ratio, c.hole_angle_deg, c.hole_diameter_m][axis],
+            );
             let xi = [&ratios, &angles, &diameters_m][axis]
                 .iter()
                 .position(|v| v.to_bits() == x.to_bits());
@@ -224,8 +167,11 @@ pub fn run(args: &MapArgs, sc: &Scenario) -> Result<()> {
             }
         }
         let best_xy = best.map(|(_, _, i)| {
-            let (ratio, gap_m, angle, d, _) = keys[i];
-            ([ratio, angle, d * 1e3][axis], gap_m * 1e3)
+            let c = &keys[i];
+            (
+                [c.ratio, c.hole_angle_deg, c.hole_diameter_m * 1e3][axis],
+                c.axial_gap_m * 1e3,
+            )
         });
         let stem = args.out.with_extension("");
         let title = format!(
@@ -254,7 +200,13 @@ pub fn run(args: &MapArgs, sc: &Scenario) -> Result<()> {
         }
     }
     if let Some((mean, se, i)) = best {
-        let (ratio, gap_m, angle, d, _) = keys[i];
+        let MapCell {
+            ratio,
+            axial_gap_m: gap_m,
+            hole_angle_deg: angle,
+            hole_diameter_m: d,
+            ..
+        } = keys[i];
         println!(
             "best cell: hole at {}°, {} mm across, axial gap {} mm, r = {}: {mean:.1} ± {se:.1} % \
              along the force (one plane from the same starts: {:.1} %)",

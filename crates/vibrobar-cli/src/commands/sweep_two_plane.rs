@@ -8,25 +8,18 @@
 //! written whole at the end (atomically), after every point has run.
 
 use anyhow::{Context, Result};
-use std::fmt::Write as _;
 use vibrobar_core::analysis::two_plane::{
-    design_points, DesignPoint, Spread, TwoPlaneEnsemble, TwoPlaneMethod,
+    design_points, DesignPoint, TwoPlaneEnsemble, TwoPlaneMethod,
 };
 use vibrobar_core::analysis::Runner;
 use vibrobar_core::params::two_plane::TwoPlaneSystem;
-use vibrobar_core::Frequency;
 use vibrobar_core::RunSettings;
 
 use crate::cli::SweepArgs;
 use crate::progress::Progress;
 use crate::scenario::{parse_ratios, sweep_ratios, Scenario};
-
-/// The columns.
-const HEADER: &str = "axial_gap_m,ratio,solver,members,rms_along_force_mean_m,\
-rms_along_force_std_err_m,rms_along_force_min_m,rms_along_force_max_m,reduction_mean_pct,\
-reduction_std_err_pct,one_plane_rms_mean_m,one_plane_reduction_mean_pct,\
-one_plane_reduction_std_err_pct,solid_rms_m,rms_radial_mean_m,rms_tangential_mean_m,\
-rms_total_mean_m,impacts_mean,flight_fraction_mean";
+use vibrobar_io::two_plane_csv;
+use vibrobar_scenario::TwoPlaneAxes;
 
 /// Run the design points of `systems` (an ensemble each) with a progress bar, saying first what
 /// `command` runs: what `sweep`, `ensemble` and `map` of a `[two_plane]` scenario share.
@@ -107,16 +100,18 @@ pub fn sweep(args: &SweepArgs, sc: &Scenario) -> Result<()> {
     let settings = sc.settings();
     let method = section.method(settings.dt_s)?;
     let ens = section.ensemble()?;
-    // Every point's system, checked before anything runs.
-    let mut systems = Vec::with_capacity(gaps_m.len() * ratios.len());
-    for &gap_m in &gaps_m {
-        for &ratio in &ratios {
-            let mut s = sc.clone();
-            s.damper.gap_m = gap_m;
-            s.forcing.frequency = Frequency::Ratio(ratio);
-            systems.push(s.two_plane_run()?.0);
-        }
-    }
+    let cells = sc.two_plane_cells(
+        &TwoPlaneAxes {
+            ratios: &ratios,
+            gaps_m: &gaps_m,
+            hole_angles_deg: None,
+            hole_diameters_m: None,
+            names: ["", ""],
+        },
+        ens.members,
+        "sweep runs (points × members)",
+    )?;
+    let systems: Vec<TwoPlaneSystem> = cells.iter().map(|c| c.system).collect();
     settings.validate()?;
     let points = run_points(
         "sweep",
@@ -127,46 +122,11 @@ pub fn sweep(args: &SweepArgs, sc: &Scenario) -> Result<()> {
         None,
         &section.solver,
     )?;
-    let mut csv = format!("{HEADER}\n");
-    let mut i = 0;
-    for &gap_m in &gaps_m {
-        for &ratio in &ratios {
-            let p = &points[i];
-            i += 1;
-            let rms: Vec<f64> = p.members.iter().map(|m| m.rms_along_force_m).collect();
-            let s = Spread::of(&rms);
-            let red = Spread::of(&p.reductions_pct());
-            let one = Spread::of(&p.one_plane_rms_m);
-            let one_red = Spread::of(&p.one_plane_reductions_pct());
-            let mean =
-                |f: &dyn Fn(&vibrobar_core::solver::two_plane_rk4::TwoPlaneSummary) -> f64| {
-                    p.members.iter().map(f).sum::<f64>() / p.members.len() as f64
-                };
-            writeln!(
-                csv,
-                "{gap_m},{ratio},{},{},{:e},{:e},{:e},{:e},{:.4},{:.4},{:e},{:.4},{:.4},{:e},{:e},{:e},\
-                 {:e},{:.2},{:.6}",
-                p.solver,
-                p.members.len(),
-                s.mean,
-                s.std_err,
-                s.min,
-                s.max,
-                red.mean,
-                red.std_err,
-                one.mean,
-                one_red.mean,
-                one_red.std_err,
-                p.solid_rms_m,
-                mean(&|m| m.rms_m[0]),
-                mean(&|m| m.rms_m[1]),
-                mean(&|m| m.rms_total_m),
-                mean(&|m| m.impacts.iter().sum::<u64>() as f64),
-                mean(&|m| m.flight_fraction),
-            )?;
-        }
-    }
-    vibrobar_io::csv::write_text(&args.out, &csv)
+    let rows = cells
+        .iter()
+        .zip(&points)
+        .map(|(c, p)| two_plane_csv::sweep_values(c.axial_gap_m, c.ratio, p));
+    vibrobar_io::csv::write_csv(&args.out, &two_plane_csv::sweep_schema(), rows)
         .with_context(|| format!("writing {}", args.out.display()))?;
     println!(
         "wrote {} ({} points, {:.1} s)",
