@@ -2,9 +2,9 @@
 //! run, the state once per forcing period at a phase, after a transient.
 
 use anyhow::{Context, Result};
-use vibrobar_core::analysis::two_plane::TwoPlaneMethod;
+use vibrobar_core::analysis::two_plane::{poincare_two_plane, TwoPlaneMethod};
 use vibrobar_core::params::two_plane::{direction, TwoPlaneSystem};
-use vibrobar_core::solver::two_plane_rk4::{Sampling, TwoPlaneSample, TwoPlaneStart};
+use vibrobar_core::solver::two_plane_rk4::TwoPlaneStart;
 use vibrobar_core::Frequency;
 use vibrobar_io::csv::{
     fmt_coord, two_plane_history_schema, two_plane_history_values, write_csv, Value,
@@ -72,38 +72,24 @@ pub fn run(a: &PoincareArgs, sc: &Scenario) -> Result<()> {
     let phase_deg = check_value("--phase-deg", a.phase_deg, |_| true, "finite")?;
     let settings = s.settings();
     let transient = transient_or_default(a.transient, &a.point.system)?;
-    // The section's times: Ωt = phase (mod 2π), from the first one at or after the transient.
-    let omega = sys.omega_rad_s();
-    let period = 2.0 * std::f64::consts::PI / omega;
-    let t_phase = phase_deg
-        .to_radians()
-        .rem_euclid(2.0 * std::f64::consts::PI)
-        / omega;
-    let first = t_phase + ((transient - t_phase) / period).ceil().max(0.0) * period;
-    vibrobar_core::limits::check_samples(
-        "Poincaré points = (--duration − --transient) / forcing period",
-        (settings.duration_s - first).max(0.0),
-        period,
-    )?;
     let e_f = direction(sys.forcing.angle_deg);
-    let mut rows: Vec<[f64; 11]> = Vec::new();
-    let mut velocity: Vec<f64> = Vec::new();
-    let mut on_sample = |p: &TwoPlaneSample| {
-        rows.push(two_plane_history_values(p, e_f));
-        velocity.push(p.state.du_m_s[0] * e_f[0] + p.state.du_m_s[1] * e_f[1]);
-    };
-    method.run_from(
+    let points = poincare_two_plane(
         &sys,
         &start,
-        0.0,
+        method,
         &settings,
-        &mut |_| {},
-        Some(Sampling {
-            start_s: first,
-            interval_s: period,
-            on_sample: &mut on_sample,
-        }),
+        phase_deg.to_radians(),
+        transient,
     )?;
+    let first = points.first().map_or(f64::NAN, |p| p.t_s);
+    let rows: Vec<[f64; 11]> = points
+        .iter()
+        .map(|p| two_plane_history_values(p, e_f))
+        .collect();
+    let velocity: Vec<f64> = points
+        .iter()
+        .map(|p| p.state.du_m_s[0] * e_f[0] + p.state.du_m_s[1] * e_f[1])
+        .collect();
     let params = serde_json::json!({
         "scenario": &s,
         "member": member,

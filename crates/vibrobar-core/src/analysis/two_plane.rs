@@ -25,7 +25,7 @@ use crate::params::{
 };
 use crate::solver::two_plane_exact::{decoupled, TwoPlaneExact};
 use crate::solver::two_plane_rk4::{
-    Sampling, TwoPlaneEvent, TwoPlaneRk4, TwoPlaneStart, TwoPlaneSummary,
+    Sampling, TwoPlaneEvent, TwoPlaneRk4, TwoPlaneSample, TwoPlaneStart, TwoPlaneSummary,
 };
 use crate::solver::{Exact, Observer};
 
@@ -505,6 +505,43 @@ impl crate::analysis::lyapunov::Trajectories for TwoPlaneTrajectories<'_> {
     fn t_s(s: &Self::State) -> f64 {
         s.0
     }
+}
+
+/// The stroboscopic (Poincaré) section of one two-plane run from `start`: the state at every
+/// `t_k = φ/Ω + k·T` with `after_s ≤ t_k ≤ duration_s` (`phase_rad` modulo 2π), the sample
+/// times computed from `k` as in [`Stroboscope`](super::poincare::Stroboscope). The number of
+/// points is checked before anything runs.
+pub fn poincare_two_plane(
+    sys: &TwoPlaneSystem,
+    start: &TwoPlaneStart,
+    method: TwoPlaneMethod,
+    settings: &RunSettings,
+    phase_rad: f64,
+    after_s: f64,
+) -> Result<Vec<TwoPlaneSample>, SimError> {
+    let period_s = 2.0 * std::f64::consts::PI / sys.omega_rad_s();
+    let first_s =
+        super::poincare::Stroboscope::new(period_s, phase_rad, after_s, f64::INFINITY).next_t_s();
+    crate::limits::check_samples(
+        "Poincaré points = (duration − transient) / forcing period",
+        (settings.duration_s - first_s).max(0.0),
+        period_s,
+    )?;
+    let mut points = Vec::new();
+    let mut on_sample = |s: &TwoPlaneSample| points.push(*s);
+    method.run_from(
+        sys,
+        start,
+        0.0,
+        settings,
+        &mut |_| {},
+        Some(Sampling {
+            start_s: first_s,
+            interval_s: period_s,
+            on_sample: &mut on_sample,
+        }),
+    )?;
+    Ok(points)
 }
 
 /// RMS along the force of the bar without its ball, from rest: the reference of a reduction.
