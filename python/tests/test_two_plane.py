@@ -146,6 +146,116 @@ def test_two_plane_run_refuses_bad_members_and_one_plane_functions_refuse_two_pl
     with pytest.raises(ValueError, match=r"needs a scenario with \[two_plane\]"):
         vibrobar.two_plane_run(vibrobar.Scenario.paper())
     # The one-plane functions do not run the one-plane model in its place.
-    for f in (lambda: vibrobar.run(sc), lambda: vibrobar.sweep(sc, ratios=[1.0], gaps_m=[1e-4])):
+    for f in (lambda: vibrobar.run(sc), lambda: vibrobar.regime(sc), lambda: vibrobar.orbit(sc)):
         with pytest.raises(ValueError, match=r"does not run a scenario with \[two_plane\]"):
             f()
+
+
+def _cli_file(tmp_path, name, *args):
+    import subprocess
+
+    out = tmp_path / name
+    subprocess.run([_vibrobar_cli(), *args, "--out", str(out)], check=True, capture_output=True)
+    return out.read_text()
+
+
+def test_sweep_ensemble_and_map_of_a_two_plane_scenario_are_the_command_line_files(tmp_path):
+    sc_path = tmp_path / "tp.toml"
+    sc_path.write_text(TWO_PLANE_TOML)
+    sc = vibrobar.Scenario.from_toml(str(sc_path))
+    assert sc.is_two_plane and not vibrobar.Scenario.paper().is_two_plane
+    scen = ("--scenario", str(sc_path))
+
+    s = vibrobar.sweep(sc, ratios=[0.98, 1.0], gaps_m=[1e-4, 1e-3], threads=1)
+    assert isinstance(s, vibrobar.TwoPlaneTable) and s.rows == 4
+    assert list(s["axial_gap_m"]) == [1e-4, 1e-4, 1e-3, 1e-3]
+    assert list(s["members"]) == [4] * 4
+    red = 100 * (1 - s["rms_along_force_mean_m"] / s["solid_rms_m"])
+    assert np.allclose(red, s["reduction_mean_pct"], atol=1e-9 + 1e-6 * np.abs(red).max())
+    assert s.to_csv() == _cli_file(tmp_path, "sweep.csv", "sweep", *scen, "--ratios",
+                                   "0.98:1.0:0.02", "--gap-mm", "0.1", "--gap-mm", "1.0")
+
+    e = vibrobar.ensemble(sc, ratios=[0.98, 1.0], gaps_m=1e-3, members=3, seed=7)
+    assert e.rows == 6 and list(e["member"]) == [0, 1, 2, 0, 1, 2]
+    assert e.to_csv() == _cli_file(tmp_path, "ens.csv", "ensemble", *scen, "--ratios",
+                                   "0.98:1.0:0.02", "--gap-mm", "1.0", "--members", "3",
+                                   "--seed", "7")
+    # The sweep's point is the mean of the same members (the scenario's 4, seed 1).
+    e4 = vibrobar.ensemble(sc, ratios=1.0, gaps_m=1e-3)
+    assert e4.rows == 4
+    assert abs(e4["rms_along_force_m"].mean() - s["rms_along_force_mean_m"][3]) < 1e-18
+
+    m = vibrobar.map(sc, ratios=1.0, gaps_m=[1e-4, 1e-3], hole_angles_deg=[0.0, 45.0],
+                     hole_diameters_m=0.0151)
+    assert m.rows == 4 and list(m["hole_angle_deg"]) == [0.0, 0.0, 45.0, 45.0]
+    assert np.allclose(m["radial_clearance_m"], 0.05e-3)
+    assert m.to_csv() == _cli_file(tmp_path, "map.csv", "map", *scen, "--ratios", "1:1:1",
+                                   "--gaps-mm", "0.1:1.0:0.9", "--hole-angles-deg", "0:45:45",
+                                   "--hole-diameters-mm", "15.1:15.1:1")
+    # The map's radial-hole cells are the sweep's points.
+    assert np.allclose(m["reduction_mean_pct"][:2], s["reduction_mean_pct"][[1, 3]], atol=1e-4)
+
+
+def test_poincare_and_lyapunov_of_a_two_plane_scenario_are_the_command_line_ones(tmp_path):
+    import json
+    import subprocess
+
+    sc_path = tmp_path / "tp.toml"
+    sc_path.write_text(TWO_PLANE_TOML)
+    sc = vibrobar.Scenario.from_toml(str(sc_path))
+    p = vibrobar.poincare(sc, ratio=1.0, gap_m=1e-4, phase_deg=30.0, transient_s=0.01, member=1)
+    period = 2 * np.pi / (np.sqrt(9.22e6 / 0.644))
+    t = p["t_s"]
+    assert len(t) > 10 and t[0] >= 0.01 and np.allclose(np.diff(t), period, rtol=1e-12)
+    assert np.allclose(np.mod(t / period, 1.0), 30.0 / 360.0, atol=1e-9)
+    out = tmp_path / "p.csv"
+    subprocess.run(
+        [_vibrobar_cli(), "poincare", "--scenario", str(sc_path), "--ratio", "1", "--gap-mm",
+         "0.1", "--phase-deg", "30", "--transient", "0.01", "--member", "1", "--out", str(out)],
+        check=True, capture_output=True,
+    )
+    cli_rows = np.loadtxt(out, delimiter=",", skiprows=1, ndmin=2)
+    assert cli_rows.shape[0] == len(t)
+    assert np.array_equal(cli_rows[:, 0], t) and np.array_equal(cli_rows[:, 5], p["u_force_m"])
+
+    ly = vibrobar.lyapunov(sc, ratio=1.0, gap_m=1e-4, transient_s=0.01, periods=5.0, member=1)
+    assert ly["member"] == 1 and ly["solver"] == "exact" and ly["intervals"] >= 2
+    o = subprocess.run(
+        [_vibrobar_cli(), "lyapunov", "--scenario", str(sc_path), "--ratio", "1", "--gap-mm",
+         "0.1", "--transient", "0.01", "--periods", "5", "--member", "1", "--json"],
+        check=True, capture_output=True, text=True,
+    )
+    j = json.loads(o.stdout)
+    assert j["exponent_per_s"] == ly["exponent_per_s"]
+    assert j["std_error_per_s"] == ly["std_error_per_s"]
+
+
+def test_two_plane_tables_refuse_what_does_not_apply_and_name_it(tmp_path):
+    sc_path = tmp_path / "tp.toml"
+    sc_path.write_text(TWO_PLANE_TOML)
+    sc = vibrobar.Scenario.from_toml(str(sc_path))
+    paper = vibrobar.Scenario.paper(duration_s=0.01)
+    cases = [
+        (lambda: vibrobar.sweep(sc, freqs_hz=[600.0]), "freqs_hz"),
+        (lambda: vibrobar.map(sc, ratios=1.0, gaps_m=1e-3, restitutions=[0.5]), "restitutions"),
+        (lambda: vibrobar.map(sc, ratios=1.0, gaps_m=1e-3, hole_diameters_m=0.014),
+         "hole_diameters_m"),
+        (lambda: vibrobar.map(sc, ratios=1.0, gaps_m=1e-3, hole_angles_deg=400.0),
+         "hole_angles_deg"),
+        (lambda: vibrobar.map(paper, ratios=1.0, gaps_m=1e-3, hole_angles_deg=0.0),
+         "hole_angles_deg"),
+        (lambda: vibrobar.ensemble(sc, ratios=1.0, gaps_m=1e-3, u_m=1e-5), "u_m"),
+        (lambda: vibrobar.ensemble(sc, ratios=1.0, gaps_m=1e-3, members=0), "members"),
+        (lambda: vibrobar.ensemble(sc, ratios=1.0, gaps_m=-1e-3), "gaps_m"),
+        (lambda: vibrobar.ensemble(sc, ratios=[np.nan], gaps_m=1e-3), "ratios"),
+        (lambda: vibrobar.poincare(sc, member=4), "member"),
+        (lambda: vibrobar.poincare(paper, member=0), "member"),
+        (lambda: vibrobar.lyapunov(sc, gap_m=0.0), "gap_m"),
+        (lambda: vibrobar.lyapunov(sc, periods=-1.0), "periods"),
+        (lambda: vibrobar.lyapunov(sc, periods=1e6), "intervals"),
+    ]
+    for f, name in cases:
+        with pytest.raises(ValueError, match=name):
+            f()
+    with pytest.raises(TypeError, match="member"):
+        vibrobar.lyapunov(sc, member=1.5)

@@ -59,6 +59,7 @@ __all__ = [
     "two_plane",
     "two_plane_run",
     "TwoPlaneRun",
+    "TwoPlaneTable",
     "submit",
     "solver_names",
     "DEFAULT_SOLVER",
@@ -107,6 +108,11 @@ UNITS = {
     "solid_worst_width_m": "m",
     "solid_worst_rpm": "rpm",
     "solid_mean_width_m": "m",
+    "axial_gap_m": "m",
+    "hole_angle_deg": "°",
+    "hole_diameter_m": "m",
+    "radial_clearance_m": "m",
+    "member": "1",
 }
 
 
@@ -185,6 +191,16 @@ class MapResult(Table):
     """Rows of a design map in grid order, columns as ``vibrobar map``'s CSV."""
 
     _dims = ("ratio", "gap_mm", "friction_force_n", "restitution", "mass_ratio")
+
+
+class TwoPlaneTable(Table):
+    """Rows of a sweep, an ensemble or a design map of a scenario with ``[two_plane]``, columns
+    as the command line's CSV of the same command; xarray dims: the grid's axes (and ``member``
+    for an ensemble)."""
+
+    def __init__(self, columns: Mapping[str, Any], csv: Optional[str], dims: tuple):
+        super().__init__(columns, csv)
+        self._dims = dims
 
 
 class RunResult:
@@ -389,6 +405,57 @@ def two_plane_run(
     return TwoPlaneRun(_vibrobar.two_plane_run(sc, int(member), int(sample_every)))
 
 
+def _two_plane_refuse(function: str, given: Mapping[str, Any], why: str) -> None:
+    """Refuse, for a scenario with ``[two_plane]``, the arguments of the one-plane model."""
+    for name, x in given.items():
+        if x is not None:
+            raise ValueError(f"{name}: {why} (vibrobar.{function} of a scenario with [two_plane])")
+
+
+def _two_plane_refuse_one(function: str, given: Mapping[str, Any], why: str) -> None:
+    """Refuse, for a scenario without ``[two_plane]``, the arguments of the two-plane model."""
+    for name, x in given.items():
+        if x is not None:
+            raise ValueError(
+                f"{name}: {why}; this scenario has no [two_plane] section (vibrobar.{function})"
+            )
+
+
+def _two_plane_table(kind, sc, ratios, gaps_m, cb, close, threads, members=None, seed=None,
+                     hole_angles_deg=None, hole_diameters_m=None, dims=()):
+    for name, x in (("members", members), ("seed", seed)):
+        if x is None:
+            continue
+        if isinstance(x, bool) or not isinstance(x, (int, _np.integer)):
+            raise TypeError(f"{name} must be an int, got {type(x).__name__}")
+        if x < 0:
+            raise ValueError(f"{name} = {x} is outside the allowed range [0, ∞)")
+    try:
+        cols, csv = _vibrobar.two_plane_table(
+            sc,
+            kind,
+            _array("ratios", ratios, False),
+            _array("gaps_m", gaps_m, False),
+            _array("hole_angles_deg", hole_angles_deg, False),
+            _array("hole_diameters_m", hole_diameters_m, False),
+            None if members is None else int(members),
+            None if seed is None else int(seed),
+            cb,
+            _threads(threads),
+        )
+    finally:
+        close()
+    return TwoPlaneTable(cols, csv, dims)
+
+
+def _member(member: Any) -> int:
+    if isinstance(member, bool) or not isinstance(member, (int, _np.integer)):
+        raise TypeError(f"member must be an int, got {type(member).__name__}")
+    if member < 0:
+        raise ValueError(f"member = {member} is outside the allowed range [0, members)")
+    return int(member)
+
+
 def run(scenario: Optional[Scenario] = None, *, sample_every: int = 10, **overrides) -> RunResult:
     """One run of the scenario (``vibrobar run``): its gap, frequency ratio, initial state,
     solver, duration and step.
@@ -441,9 +508,21 @@ def sweep(
         SweepResult: columns ``ratio``, ``gap_mm`` (mm), ``friction``, ``solver``,
         ``rms_solid_m`` (m), ``rms_damped_m`` (m), ``reduction_pct`` (%), ``impacts``; rows
         gap-major, as the CLI's CSV.
+
+        For a scenario with ``[two_plane]``: a TwoPlaneTable, one row per (gap, ratio), each
+        point an ensemble of the scenario's starts, with the columns of ``vibrobar sweep`` on
+        it (``axial_gap_m``, ``ratio``, ``solver``, ``members``, the RMS along the force and its
+        reduction as mean, standard error and range, the one-plane model's from the same
+        starts, ``solid_rms_m``, the RMS per direction, impacts and flight). ``freqs_hz`` does
+        not apply there: ratios refer to the bar's lower principal frequency or first mode.
     """
     _one_frequency_axis(ratios, freqs_hz, required=False)
     sc = _scenario(scenario, overrides)
+    if sc.is_two_plane:
+        _two_plane_refuse("sweep", {"freqs_hz": freqs_hz}, "give frequency ratios (ratios)")
+        cb, close = _progress(progress, "sweep")
+        return _two_plane_table("sweep", sc, ratios, gaps_m, cb, close, threads,
+                                dims=("axial_gap_m", "ratio"))
     cb, close = _progress(progress, "sweep")
     try:
         cols, csv = _vibrobar.sweep(
@@ -468,6 +547,8 @@ def map(
     friction_forces_n: Optional[ArrayLike] = None,
     restitutions: Optional[ArrayLike] = None,
     mass_ratios: Optional[ArrayLike] = None,
+    hole_angles_deg: Optional[ArrayLike] = None,
+    hole_diameters_m: Optional[ArrayLike] = None,
     progress: Progress = None,
     threads: Optional[int] = None,
     client: Any = None,
@@ -496,12 +577,43 @@ def map(
         shards: number of Dask tasks (default: 4 per worker; at most one per ratio).
         **overrides: scenario keyword overrides.
 
+        hole_angles_deg, hole_diameters_m: axes of a scenario with ``[two_plane]`` only: hole
+            directions (degrees from the radial direction, in [−360, 360]) and hole diameters
+            (m); default: the scenario's hole.
+
     Returns:
         MapResult: columns ``ratio``, ``gap_mm`` (mm), the optional axes, ``rms_solid_m`` (m),
         ``rms_damped_m`` (m), ``reduction_pct`` (%), ``impacts_per_cycle``, ``regime``.
+
+        For a scenario with ``[two_plane]``: a TwoPlaneTable, one row per cell (hole diameter,
+        hole angle, gap, then ratio fastest), each an ensemble of the scenario's starts, with
+        the columns of ``vibrobar map`` on it (``ratio``, ``axial_gap_m``, ``hole_angle_deg``,
+        ``hole_diameter_m``, ``radial_clearance_m``, ``solver``, ``members``, the reduction
+        along the force as mean, standard error and range, the one-plane model's, the RMS,
+        impacts on the plugs and on the hole's wall, flight). ``freqs_hz``,
+        ``friction_forces_n``, ``restitutions``, ``mass_ratios`` and ``client`` do not apply
+        there.
     """
     _one_frequency_axis(ratios, freqs_hz, required=True)
     sc = _scenario(scenario, overrides)
+    if sc.is_two_plane:
+        _two_plane_refuse("map", {
+            "freqs_hz": freqs_hz,
+            "friction_forces_n": friction_forces_n,
+            "restitutions": restitutions,
+            "mass_ratios": mass_ratios,
+            "client": client,
+            "shards": shards,
+        }, "not an axis or option of the two-plane map")
+        cb, close = _progress(progress, "map")
+        return _two_plane_table(
+            "map", sc, ratios, gaps_m, cb, close, threads,
+            hole_angles_deg=hole_angles_deg, hole_diameters_m=hole_diameters_m,
+            dims=("ratio", "axial_gap_m", "hole_angle_deg", "hole_diameter_m"),
+        )
+    _two_plane_refuse_one("map", {"hole_angles_deg": hole_angles_deg,
+                              "hole_diameters_m": hole_diameters_m},
+                      "an axis of a scenario with [two_plane] only")
     cb, close = _progress(progress, "map")
     if client is not None:
         try:
@@ -556,6 +668,7 @@ def poincare(
     *,
     phase_deg: float = 0.0,
     transient_s: Optional[float] = None,
+    member: Optional[int] = None,
     **overrides,
 ) -> Table:
     """Stroboscopic Poincaré section: the state once per forcing period at phase ``phase_deg``.
@@ -564,11 +677,27 @@ def poincare(
         ratio: Ω/ω₁; gap_m: clearance in m (defaults: the scenario's).
         phase_deg: forcing phase of the section in degrees.
         transient_s: discarded time in s (default: the part before the RMS window).
+        member: for a scenario with ``[two_plane]``, which member of its ensemble of starts runs
+            (default 0: the ball resting where gravity presses it); ``gap_m`` is the axial gap.
 
     Returns:
         Table: ``t_s`` (s), ``u_m`` (m), ``du_m_s`` (m/s), ``w_m`` (m), ``dw_m_s`` (m/s).
+        For a scenario with ``[two_plane]``: the columns of :func:`two_plane_run`'s history
+        (``vibrobar poincare`` on it).
     """
     sc = _scenario(scenario, overrides)
+    if sc.is_two_plane:
+        return Table(
+            _vibrobar.two_plane_poincare(
+                sc,
+                _number("ratio", ratio),
+                _number("gap_m", gap_m),
+                _member(0 if member is None else member),
+                _number("phase_deg", phase_deg, False),
+                _number("transient_s", transient_s),
+            )
+        )
+    _two_plane_refuse_one("poincare", {"member": member}, "a member of a two-plane ensemble")
     return Table(
         _vibrobar.poincare(
             sc,
@@ -761,6 +890,7 @@ def lyapunov(
     transient_s: Optional[float] = None,
     periods: float = 5.0,
     d0: float = 1e-9,
+    member: Optional[int] = None,
     **overrides,
 ) -> dict:
     """The largest Lyapunov exponent at one point (two trajectories, renormalised).
@@ -769,12 +899,27 @@ def lyapunov(
         transient_s: discarded time in s (default: the part before the RMS window).
         periods: forcing periods per renormalisation interval (> 0).
         d0: initial separation in the energy-scaled state space (> 0).
+        member: for a scenario with ``[two_plane]``, which member of its ensemble of starts runs
+            (default 0); ``gap_m`` is the axial gap.
 
     Returns:
         dict: ``exponent_per_s`` (1/s), ``std_error_per_s`` (1/s), ``intervals``,
-        ``interval_s`` (s), ``blocks``, ``clamped``, ``d0``.
+        ``interval_s`` (s), ``blocks``, ``clamped``, ``d0``; for a scenario with
+        ``[two_plane]`` also ``member`` and ``solver`` (``clamped`` then counts projections of
+        the perturbed ball back into the hole).
     """
     sc = _scenario(scenario, overrides)
+    if sc.is_two_plane:
+        return _vibrobar.two_plane_lyapunov(
+            sc,
+            _number("ratio", ratio),
+            _number("gap_m", gap_m),
+            _member(0 if member is None else member),
+            _number("transient_s", transient_s),
+            _number("periods", periods, False),
+            _number("d0", d0, False),
+        )
+    _two_plane_refuse_one("lyapunov", {"member": member}, "a member of a two-plane ensemble")
     return _vibrobar.lyapunov(
         sc,
         _number("ratio", ratio),
@@ -1110,12 +1255,13 @@ def ensemble(
     ratios: ArrayLike = None,
     gaps_m: ArrayLike = None,
     *,
-    members: int = 16,
-    seed: int = 1,
-    u_m: float = 5e-5,
-    du_m_s: float = 0.2,
-    dw_m_s: float = 0.2,
+    members: Optional[int] = None,
+    seed: Optional[int] = None,
+    u_m: Optional[float] = None,
+    du_m_s: Optional[float] = None,
+    dw_m_s: Optional[float] = None,
     progress: Progress = None,
+    threads: Optional[int] = None,
     client: Any = None,
     shards: Optional[int] = None,
     **overrides,
@@ -1125,16 +1271,43 @@ def ensemble(
 
     Args:
         ratios: Ω/ω₁ values; gaps_m: clearances in m.
-        members: initial states per point (≥ 1); seed: random seed.
+        members: initial states per point (≥ 1; default 16, or the ``[two_plane]`` section's);
+            seed: random seed (default 1, or the section's).
         u_m, du_m_s, dw_m_s: half-ranges of the uniform initial u (m), u̇ and ẇ (m/s); the ball
-            starts anywhere in the cavity.
+            starts anywhere in the cavity (defaults 5e-5 m, 0.2 m/s, 0.2 m/s; one-plane model
+            only).
+        threads: worker threads of a scenario with ``[two_plane]`` (default: all cores).
         client, shards: run on a Dask cluster, as for :func:`map` (same result, bit for bit).
 
     Returns:
         Table: ``ratio``, ``gap_mm`` (mm), ``members``, ``mean_rms_m``, ``std_rms_m``,
         ``min_rms_m``, ``max_rms_m`` (m), ``regimes`` (counts per regime).
+
+        For a scenario with ``[two_plane]``: a TwoPlaneTable with one row per member (gap-major,
+        then ratio, then member), the columns of ``vibrobar ensemble`` on it: the member's start
+        along and across the hole, its RMS along the force and reduction beside the one-plane
+        model's from the same start and the bar without its ball, the RMS per direction,
+        impacts per wall (``impacts_plug_plus``, ``impacts_plug_minus``, ``impacts_wall_plus``,
+        ``impacts_wall_minus``) and ``flight_fraction``. Its members start with the bar at rest
+        and the ball where the section's ensemble puts it (``start_speed_m_s``), so ``u_m``,
+        ``du_m_s`` and ``dw_m_s`` do not apply.
     """
     sc = _scenario(scenario, overrides)
+    if sc.is_two_plane:
+        _two_plane_refuse("ensemble", {
+            "u_m": u_m, "du_m_s": du_m_s, "dw_m_s": dw_m_s, "client": client, "shards": shards,
+        }, "the members start where the [two_plane] ensemble puts them; set start_speed_m_s there")
+        cb, close = _progress(progress, "ensemble")
+        return _two_plane_table("ensemble", sc, _array("ratios", ratios),
+                                _array("gaps_m", gaps_m), cb, close, threads,
+                                members=members, seed=seed,
+                                dims=("axial_gap_m", "ratio", "member"))
+    _two_plane_refuse_one("ensemble", {"threads": threads}, "the one-plane ensemble runs on all cores (set RAYON_NUM_THREADS)")
+    members = 16 if members is None else members
+    seed = 1 if seed is None else seed
+    u_m = 5e-5 if u_m is None else u_m
+    du_m_s = 0.2 if du_m_s is None else du_m_s
+    dw_m_s = 0.2 if dw_m_s is None else dw_m_s
     for name, x in (("members", members), ("seed", seed)):
         if isinstance(x, bool) or not isinstance(x, (int, _np.integer)):
             raise TypeError(f"{name} must be an int, got {type(x).__name__}")

@@ -40,6 +40,9 @@ use vibrobar_core::{limits, Frequency, Observer, Solver, System};
 use vibrobar_io::csv::{self as iocsv, Schema, Value};
 use vibrobar_scenario::Scenario;
 
+mod two_planes;
+use two_planes::{two_plane_lyapunov, two_plane_poincare, two_plane_run, two_plane_table};
+
 /// How often the calling thread checks for Ctrl-C and reports progress while a call runs.
 const POLL: Duration = Duration::from_millis(100);
 
@@ -582,10 +585,10 @@ struct PyScenario {
 }
 
 impl PyScenario {
-    /// The scenario for the Python function `command`, refused when it has `[two_plane]` and
-    /// the function runs only the one-plane model (rather than running that model silently).
+    /// The scenario for the one-plane Python function `command`: a scenario with `[two_plane]`
+    /// is refused (rather than running the one-plane model silently).
     fn for_command(&self, command: &str) -> PyResult<&Scenario> {
-        if self.inner.two_plane.is_some() && !PY_TWO_PLANE_FUNCTIONS.contains(&command) {
+        if self.inner.two_plane.is_some() {
             return Err(PyValueError::new_err(format!(
                 "vibrobar.{command} does not run a scenario with [two_plane] (the bar that bends \
                  in two planes runs with vibrobar.{}, and vibrobar.two_plane at one design \
@@ -597,8 +600,16 @@ impl PyScenario {
     }
 }
 
-/// The Python functions that run a scenario with `[two_plane]`.
-const PY_TWO_PLANE_FUNCTIONS: [&str; 1] = ["two_plane_run"];
+/// The Python functions that run a scenario with `[two_plane]` (through the native functions of
+/// [`two_planes`], which never call [`PyScenario::for_command`]).
+const PY_TWO_PLANE_FUNCTIONS: [&str; 6] = [
+    "two_plane_run",
+    "sweep",
+    "ensemble",
+    "map",
+    "poincare",
+    "lyapunov",
+];
 
 #[pymethods]
 impl PyScenario {
@@ -686,6 +697,12 @@ impl PyScenario {
     #[getter]
     fn frequency_ratio(&self) -> PyResult<f64> {
         self.inner.frequency_ratio().map_err(anyhow_input)
+    }
+
+    /// True for a scenario with `[two_plane]` (the bar that bends in two planes).
+    #[getter]
+    fn is_two_plane(&self) -> bool {
+        self.inner.two_plane.is_some()
     }
 
     /// True for a `[beam]` scenario (the bar's modes), false for the lumped bar.
@@ -2767,312 +2784,6 @@ fn fit_modes<'py>(
 }
 
 /// The native part of the `vibrobar` package.
-/// Core field names (`hole.diameter_m`) as the keywords of `vibrobar.two_plane`
-/// (`hole_diameter_m`).
-fn two_plane_keywords(msg: String) -> String {
-    ["bar.", "ball.", "hole.", "forcing.", "gravity."]
-        .iter()
-        .fold(msg, |m, p| m.replace(p, &p.replace('.', "_")))
-}
-
-/// The bar that bends in two planes at one design point: a seeded ensemble of starts on the
-/// two-plane reference solver, the one-plane model from the same starts, and the bar without
-/// its ball. Keywords and meaning: `vibrobar.two_plane`.
-#[pyfunction]
-#[pyo3(signature = (
-    bar_mass_kg, bar_stiffness_n_per_m, bar_damping_ratio, bar_principal_axis_deg,
-    ball_mass_kg, ball_radius_m, ball_restitution, ball_friction_static, ball_friction_kinetic,
-    ball_rolling_friction_m, hole_angle_deg, hole_axial_gap_m, hole_diameter_m,
-    forcing_amplitude_n, forcing_frequency_ratio, forcing_angle_deg, gravity_m_s2,
-    gravity_angle_deg, members, seed, start_speed_m_s, duration_s, dt_s, rms_fraction, solver,
-    threads, progress
-))]
-#[allow(clippy::too_many_arguments)]
-fn two_plane<'py>(
-    py: Python<'py>,
-    bar_mass_kg: f64,
-    bar_stiffness_n_per_m: (f64, f64),
-    bar_damping_ratio: (f64, f64),
-    bar_principal_axis_deg: f64,
-    ball_mass_kg: f64,
-    ball_radius_m: f64,
-    ball_restitution: f64,
-    ball_friction_static: f64,
-    ball_friction_kinetic: f64,
-    ball_rolling_friction_m: f64,
-    hole_angle_deg: f64,
-    hole_axial_gap_m: f64,
-    hole_diameter_m: f64,
-    forcing_amplitude_n: f64,
-    forcing_frequency_ratio: f64,
-    forcing_angle_deg: f64,
-    gravity_m_s2: f64,
-    gravity_angle_deg: f64,
-    members: usize,
-    seed: u64,
-    start_speed_m_s: f64,
-    duration_s: f64,
-    dt_s: f64,
-    rms_fraction: f64,
-    solver: &str,
-    threads: Option<usize>,
-    progress: Option<&Bound<'py, PyAny>>,
-) -> PyResult<Bound<'py, PyDict>> {
-    use vibrobar_core::analysis::two_plane::{
-        design_points, starts, TwoPlaneEnsemble, TwoPlaneMethod,
-    };
-    use vibrobar_core::params::two_plane::{
-        Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneSystem,
-    };
-    use vibrobar_core::solver::two_plane_rk4::TwoPlaneStart;
-    use vibrobar_core::RunSettings;
-    check_threads(threads)?;
-    let sys = TwoPlaneSystem {
-        bar: PlanarBar {
-            mass_kg: bar_mass_kg,
-            stiffness_n_per_m: [bar_stiffness_n_per_m.0, bar_stiffness_n_per_m.1],
-            damping_ratio: [bar_damping_ratio.0, bar_damping_ratio.1],
-            principal_axis_deg: bar_principal_axis_deg,
-        }
-        .into(),
-        ball: PlanarBall {
-            mass_kg: ball_mass_kg,
-            radius_m: ball_radius_m,
-            restitution: ball_restitution,
-            friction_static: ball_friction_static,
-            friction_kinetic: ball_friction_kinetic,
-            rolling_friction_m: ball_rolling_friction_m,
-        },
-        hole: Hole {
-            angle_deg: hole_angle_deg,
-            axial_gap_m: hole_axial_gap_m,
-            diameter_m: hole_diameter_m,
-        },
-        forcing: PlanarForcing {
-            amplitude_n: forcing_amplitude_n,
-            frequency: Frequency::Ratio(forcing_frequency_ratio),
-            angle_deg: forcing_angle_deg,
-        },
-        gravity: Gravity {
-            m_s2: gravity_m_s2,
-            angle_deg: gravity_angle_deg,
-        },
-        bar_diameter_m: None,
-    };
-    sys.validate()
-        .map_err(|e| input_error(two_plane_keywords(e.to_string())))?;
-    let settings = RunSettings {
-        duration_s,
-        dt_s,
-        rms_fraction,
-    };
-    settings.validate().map_err(input_error)?;
-    let ens = TwoPlaneEnsemble {
-        members,
-        seed,
-        start_speed_m_s,
-    };
-    // The ensemble's fields, checked before anything runs.
-    starts(&sys, &ens).map_err(|e| input_error(e.to_string().replace(" (--members)", "")))?;
-    let method = match solver {
-        "auto" => TwoPlaneMethod::Auto { dt_s },
-        "exact" => TwoPlaneMethod::Exact,
-        "reference" => TwoPlaneMethod::Reference { dt_s },
-        _ => {
-            return Err(input_error(format!(
-                "solver = {solver:?} is not one of the allowed values: auto, exact, reference"
-            )))
-        }
-    };
-    let point = detached(py, progress, |ctl| {
-        let cb = |d: usize, t: usize| ctl.progress(d, t);
-        design_points(
-            std::slice::from_ref(&sys),
-            &ens,
-            method,
-            &settings,
-            &runner(ctl, &cb, threads),
-        )
-        .map_err(|e| run_error(two_plane_keywords(e.to_string())))
-    })?
-    .pop()
-    .expect("one design point");
-    let (starts, two) = (&point.starts, &point.members);
-    let d = PyDict::new(py);
-    let col = |f: &dyn Fn(&vibrobar_core::solver::two_plane_rk4::TwoPlaneSummary) -> f64| {
-        two.iter().map(f).collect::<Vec<f64>>()
-    };
-    let start_col = |f: &dyn Fn(&TwoPlaneStart) -> f64| starts.iter().map(f).collect::<Vec<f64>>();
-    d.set_item(
-        "w_along_start_m",
-        start_col(&|s| s.w_hole_m[0]).into_pyarray(py),
-    )?;
-    d.set_item(
-        "dw_along_start_m_s",
-        start_col(&|s| s.dw_hole_m_s[0]).into_pyarray(py),
-    )?;
-    d.set_item(
-        "dw_across_start_m_s",
-        start_col(&|s| s.dw_hole_m_s[1]).into_pyarray(py),
-    )?;
-    d.set_item(
-        "rms_along_force_m",
-        col(&|s| s.rms_along_force_m).into_pyarray(py),
-    )?;
-    d.set_item("rms_radial_m", col(&|s| s.rms_m[0]).into_pyarray(py))?;
-    d.set_item("rms_tangential_m", col(&|s| s.rms_m[1]).into_pyarray(py))?;
-    d.set_item("rms_total_m", col(&|s| s.rms_total_m).into_pyarray(py))?;
-    for (k, name) in ["axial_plus", "axial_minus", "across_plus", "across_minus"]
-        .iter()
-        .enumerate()
-    {
-        d.set_item(
-            format!("impacts_{name}"),
-            two.iter()
-                .map(|s| s.impacts[k] as i64)
-                .collect::<Vec<_>>()
-                .into_pyarray(py),
-        )?;
-    }
-    d.set_item(
-        "flight_fraction",
-        col(&|s| s.flight_fraction).into_pyarray(py),
-    )?;
-    d.set_item(
-        "one_plane_rms_m",
-        point.one_plane_rms_m.clone().into_pyarray(py),
-    )?;
-    d.set_item(
-        "solid_rms_m",
-        vec![point.solid_rms_m; two.len()].into_pyarray(py),
-    )?;
-    d.set_item("solver", vec![point.solver; two.len()])?;
-    Ok(d)
-}
-
-/// One run of a scenario with `[two_plane]`, as `vibrobar run` on it: member `member` of its
-/// ensemble of starts, its history every `sample_every` steps and its summary. Meaning:
-/// `vibrobar.two_plane_run`.
-#[pyfunction]
-#[pyo3(signature = (scenario, member = 0, sample_every = 10))]
-fn two_plane_run<'py>(
-    py: Python<'py>,
-    scenario: &PyScenario,
-    member: usize,
-    sample_every: u64,
-) -> PyResult<Bound<'py, PyDict>> {
-    use vibrobar_core::analysis::two_plane::solid_rms_m;
-    use vibrobar_core::params::two_plane::direction;
-    use vibrobar_core::solver::two_plane_rk4::{HoleWall, Sampling, TwoPlaneSample, WallMotion};
-    let sc = scenario.for_command("two_plane_run")?;
-    if sc.two_plane.is_none() {
-        return Err(PyValueError::new_err(
-            "vibrobar.two_plane_run needs a scenario with [two_plane]; vibrobar.run runs the \
-             one-plane model",
-        ));
-    }
-    if sample_every == 0 {
-        return Err(PyValueError::new_err(
-            "sample_every = 0 is outside the allowed range [1, ∞) steps",
-        ));
-    }
-    let settings = sc.settings();
-    settings.validate().map_err(input_error)?;
-    let (sys, method) = sc.two_plane_run().map_err(anyhow_input)?;
-    let start = sc
-        .two_plane_start(&sys, member, "member")
-        .map_err(anyhow_input)?;
-    let interval_s = sample_every as f64 * settings.dt_s;
-    limits::check_samples(
-        "rows = duration_s / (sample_every · dt_s)",
-        settings.duration_s,
-        interval_s,
-    )
-    .map_err(input_error)?;
-    let e_f = direction(sys.forcing.angle_deg);
-    let (summary, rows, solid) = detached(py, None, |_| {
-        let mut rows: Vec<[f64; 11]> = Vec::new();
-        let mut on_sample = |s: &TwoPlaneSample| rows.push(iocsv::two_plane_history_values(s, e_f));
-        let summary = method
-            .run_from(
-                &sys,
-                &start,
-                0.0,
-                &settings,
-                &mut |_| {},
-                Some(Sampling {
-                    start_s: 0.0,
-                    interval_s,
-                    on_sample: &mut on_sample,
-                }),
-            )
-            .map_err(|e| run_error(two_plane_keywords(e.to_string())))?;
-        let solid = solid_rms_m(&sys, &settings).map_err(run_error)?;
-        Ok((summary, rows, solid))
-    })?;
-    let schema = iocsv::two_plane_history_schema();
-    let names: Vec<String> = schema.header().split(',').map(String::from).collect();
-    let history = PyDict::new(py);
-    for (j, name) in names.iter().enumerate() {
-        history.set_item(
-            name,
-            rows.iter()
-                .map(|r| r[j])
-                .collect::<Vec<f64>>()
-                .into_pyarray(py),
-        )?;
-    }
-    let mut csv = schema.header();
-    csv.push('\n');
-    for r in &rows {
-        schema.format_into(&r.map(iocsv::Value::F), &mut csv);
-        csv.push('\n');
-    }
-    let d = PyDict::new(py);
-    d.set_item("history", history)?;
-    d.set_item("history_csv", csv)?;
-    d.set_item("rms_along_force_m", summary.rms_along_force_m)?;
-    d.set_item("rms_radial_m", summary.rms_m[0])?;
-    d.set_item("rms_tangential_m", summary.rms_m[1])?;
-    d.set_item("rms_total_m", summary.rms_total_m)?;
-    d.set_item("solid_rms_m", solid)?;
-    d.set_item(
-        "reduction_pct",
-        100.0 * (1.0 - summary.rms_along_force_m / solid),
-    )?;
-    let walls = PyDict::new(py);
-    for (w, name) in
-        HoleWall::ALL
-            .iter()
-            .zip(["axial_plus", "axial_minus", "across_plus", "across_minus"])
-    {
-        let f = summary.contact_fraction[*w as usize];
-        let e = PyDict::new(py);
-        e.set_item("impacts", summary.impacts[*w as usize])?;
-        e.set_item("rolling", f[WallMotion::Rolling as usize])?;
-        e.set_item("sliding", f[WallMotion::Sliding as usize])?;
-        e.set_item("stuck", f[WallMotion::Stuck as usize])?;
-        walls.set_item(name, e)?;
-    }
-    d.set_item("walls", walls)?;
-    d.set_item("flight_fraction", summary.flight_fraction)?;
-    d.set_item("events", summary.events)?;
-    d.set_item("max_penetration_m", summary.max_penetration_m.max(0.0))?;
-    let b = summary.book;
-    let energy = PyDict::new(py);
-    energy.set_item("forcing_work_j", b.forcing_work_j)?;
-    energy.set_item("viscous_loss_j", b.viscous_loss_j)?;
-    energy.set_item("impact_loss_j", b.impact_loss_j)?;
-    energy.set_item("sliding_loss_j", b.sliding_loss_j)?;
-    energy.set_item("rolling_loss_j", b.rolling_loss_j)?;
-    energy.set_item("delta_mechanical_j", b.energy_change_j)?;
-    energy.set_item("residual_j", b.residual_j())?;
-    d.set_item("energy", energy)?;
-    d.set_item("solver", method.solver_for(&sys))?;
-    d.set_item("member", member)?;
-    Ok(d)
-}
-
 #[pymodule]
 fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyScenario>()?;
@@ -3090,8 +2801,11 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ensemble, m)?)?;
     m.add_function(wrap_pyfunction!(lobes, m)?)?;
     m.add_function(wrap_pyfunction!(lobes_frf, m)?)?;
-    m.add_function(wrap_pyfunction!(two_plane, m)?)?;
+    m.add_function(wrap_pyfunction!(two_planes::two_plane, m)?)?;
     m.add_function(wrap_pyfunction!(two_plane_run, m)?)?;
+    m.add_function(wrap_pyfunction!(two_plane_table, m)?)?;
+    m.add_function(wrap_pyfunction!(two_plane_poincare, m)?)?;
+    m.add_function(wrap_pyfunction!(two_plane_lyapunov, m)?)?;
     m.add_function(wrap_pyfunction!(fit_modes, m)?)?;
     m.add_function(wrap_pyfunction!(width_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(time_domain_lobes, m)?)?;
