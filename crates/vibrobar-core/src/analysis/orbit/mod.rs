@@ -134,12 +134,6 @@ fn check_system(sys: &System) -> Result<(), SimError> {
             "periodic orbits of the damped bar need a ball (a damper section)",
         ));
     }
-    // Their Jacobians are the variational flow's, their starting guesses the symmetric bar's:
-    // neither has a body force on the ball.
-    crate::solver::refuse_ball_body_force(
-        sys.damper.as_ref(),
-        crate::analysis::variational::VARIATIONAL_GRAVITY_ALONG_GAP,
-    )?;
     Ok(())
 }
 
@@ -632,13 +626,14 @@ pub enum Start {
     },
 }
 
-/// `sys` without friction and with the restitution law: the model of the analytic symmetric
-/// orbit, whose orbit is the starting guess for `sys`.
+/// `sys` without friction, with the restitution law and without a body force on the ball: the
+/// model of the analytic symmetric orbit, whose orbit is the starting guess for `sys`.
 fn analytic_model(sys: &System) -> System {
     let mut m = *sys;
     if let Some(d) = m.damper.as_mut() {
         d.friction = crate::params::FrictionModel::None;
         d.contact.law = crate::params::ContactLaw::Restitution;
+        d.gravity_along_gap_m_s2 = 0.0;
     }
     m
 }

@@ -67,12 +67,6 @@ fn check_modal_system(sys: &ModalSystem) -> Result<(), SimError> {
             "periodic orbits of the damped bar need a ball (a damper section)",
         ));
     }
-    // Their Jacobians are the variational flow's, their starting guesses the symmetric bar's:
-    // neither has a body force on the ball.
-    crate::solver::refuse_ball_body_force(
-        sys.damper.as_ref(),
-        crate::analysis::variational::VARIATIONAL_GRAVITY_ALONG_GAP,
-    )?;
     Ok(())
 }
 

@@ -343,10 +343,15 @@ impl<T: TangentSink> TangentBar<T> for LumpedBar {
         match p.mode {
             Mode::Free | Mode::NoBall => {
                 let fb = self.laws.fb(p.sigma);
-                [x[1], (free - fb) / self.m, x[3], fb / self.laws.md]
+                [
+                    x[1],
+                    (free - fb) / self.m,
+                    x[3],
+                    fb / self.laws.md + self.laws.gs,
+                ]
             }
             Mode::Stick | Mode::Contact(_) => {
-                let a = free / (self.m + self.laws.md);
+                let a = (free + self.laws.md * self.laws.gs) / (self.m + self.laws.md);
                 [x[1], a, x[3], a]
             }
         }
@@ -445,13 +450,14 @@ impl<T: TangentSink> TangentBar<T> for LumpedBar {
     fn hz_field(&self, c: &CompliantContact, t: f64, y: &[f64; 4]) -> [f64; 4] {
         let free = self.laws.force(t) - self.c * y[1] - self.k * y[0];
         if c.stuck {
-            return [y[1], free / (self.m + self.laws.md), 0.0, 0.0];
+            let a = (free + self.laws.md * self.laws.gs) / (self.m + self.laws.md);
+            return [y[1], a, 0.0, 0.0];
         }
         let sw = c.wall_sign;
         let p = c.law.force_n(y[2], y[3], c.reference_speed_m_s);
         let fb = c.ball_friction_n;
         let ddu = (free + sw * p - fb) / self.m;
-        let ddv = (-sw * p + fb) / self.laws.md;
+        let ddv = (-sw * p + fb) / self.laws.md + self.laws.gs;
         [y[1], ddu, y[3], sw * (ddv - ddu)]
     }
 
@@ -559,7 +565,6 @@ impl<T: TangentSink> Variational<T, LumpedBar> {
         let d = sys
             .damper
             .ok_or(SimError::Unsupported(VARIATIONAL_NEEDS_BALL))?;
-        crate::solver::refuse_ball_body_force(Some(&d), super::VARIATIONAL_GRAVITY_ALONG_GAP)?;
         let laws = Laws::new(
             &d,
             sys.friction_level_n(),

@@ -42,7 +42,10 @@
 //!   `ω_d = √(K/m − α²)`:
 //!   `Φ(τ) = e^{−ατ} [[cos + (α/ω_d) sin, sin/ω_d], [−(K/m) sin/ω_d, cos − (α/ω_d) sin]]`
 //!   (`sin`, `cos` of `ω_d τ`), `det Φ = e^{−(C/m)τ}`;
-//! * the ball in free flight: `[[1, τ], [0, 1]]` (its acceleration `F_ball/m_d` is constant);
+//! * the ball in free flight: `[[1, τ], [0, 1]]` (its acceleration `F_ball/m_d + g_s` is
+//!   constant; `g_s` is a body force along the gap, gravity along the hole, which enters the
+//!   vector fields at events and the pair's load `m_d g_s` in stick and wall contact, never a
+//!   transition matrix or the gradient of a release threshold);
 //! * stick and wall contact (one body of mass `M + m_d`): first the projection `P` onto the
 //!   constrained motion — `u̇, v̇ → (M u̇ + m_d v̇)/(M + m_d)` (momentum), and in wall contact
 //!   `v → u ± l_g` — then the pair's `Φ` with `v` following `u` at fixed `w`.
@@ -241,9 +244,6 @@ pub fn require_exact(solver: &dyn Solver) -> Result<(), SimError> {
 /// Why the variational layer refuses a bar without a ball.
 pub const VARIATIONAL_NEEDS_BALL: &str =
     "the variational flow needs a damper (a solid bar is linear: its Jacobian is the bar's closed form)";
-
-/// Why the variational layer refuses a body force on the ball along the gap.
-pub const VARIATIONAL_GRAVITY_ALONG_GAP: &str = "damper.gravity_along_gap_m_s2 ≠ 0 is not supported by the variational flow (Jacobian, periodic orbits, continuation, Lyapunov spectrum): its flow and saltation matrices have no body force on the ball; set damper.gravity_along_gap_m_s2 = 0";
 
 /// The identity.
 pub const IDENTITY: Mat4 = [
@@ -471,6 +471,9 @@ pub struct Laws {
     pub hertz: Option<Hertz>,
     /// Half gap `l_g`.
     pub lg: f64,
+    /// `g_s`: the ball's acceleration from a constant body force along the gap
+    /// (`damper.gravity_along_gap_m_s2`, gravity along the hole).
+    pub gs: f64,
 }
 
 impl Laws {
@@ -487,6 +490,7 @@ impl Laws {
             om1,
             hertz: (d.contact.law == ContactLaw::Hertz).then(|| Hertz::of_damper(d)),
             lg: d.half_gap_m(),
+            gs: d.gravity_along_gap_m_s2,
         }
     }
     /// `F(t)`.

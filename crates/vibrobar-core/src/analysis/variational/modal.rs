@@ -120,7 +120,6 @@ impl Cs {
         let d = sys
             .damper
             .ok_or(SimError::Unsupported(VARIATIONAL_NEEDS_BALL))?;
-        crate::solver::refuse_ball_body_force(Some(&d), super::VARIATIONAL_GRAVITY_ALONG_GAP)?;
         let modes = sys.model.modes();
         let n = modes.len();
         let mut cs = Cs {
@@ -177,15 +176,17 @@ impl Cs {
             a_b += self.phi_d[i] * b / self.m[i];
         }
         f[2 * n] = x[2 * n + 1];
-        // The force on the ball: sliding friction in free flight, the holding force held.
+        // The force of the bar on the ball: sliding friction in free flight; held, the force
+        // that gives the ball (under its body force `m_d g_s`) the cavity's acceleration,
+        // `(a_b − g_s)/κ`.
         let fball = match p.mode {
             Mode::Free | Mode::NoBall => self.laws.fb(p.sigma),
-            Mode::Stick | Mode::Contact(_) => a_b / self.kappa,
+            Mode::Stick | Mode::Contact(_) => (a_b - self.laws.gs) / self.kappa,
         };
         for i in 0..n {
             f[n + i] -= self.phi_d[i] * fball / self.m[i];
         }
-        f[2 * n + 1] = fball / self.laws.md;
+        f[2 * n + 1] = fball / self.laws.md + self.laws.gs;
         f
     }
 
