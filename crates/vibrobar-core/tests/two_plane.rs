@@ -1281,3 +1281,96 @@ fn the_largest_lyapunov_exponent_agrees_between_solvers_and_with_the_plane_acros
     }
     assert_eq!(ex.clamped, 0);
 }
+
+/// A periodic orbit of the two-plane bar where its planes decouple: the orbit of each plane,
+/// whose states a two-plane run from the combined state repeats after one period; where the
+/// orbit is stable, the RMS of a long run from the same start settles on the orbit's, and the
+/// largest Lyapunov exponent of that run is `ln max|λ| / T` of the orbit's multipliers (the
+/// planes' saltation at a fixed point against QR along the run).
+#[test]
+fn a_two_plane_orbit_is_the_pair_of_plane_orbits_and_the_long_run_settles_on_it() {
+    use vibrobar_core::analysis::lyapunov_spectrum::SpectrumParams;
+    use vibrobar_core::analysis::orbit::ExactJacobian;
+    use vibrobar_core::analysis::two_plane_orbit::{two_plane_lyapunov_spectrum, two_plane_orbit};
+    let g = STANDARD_GRAVITY_M_S2;
+    // The force at 63.4° to the radial hole, gravity across it, r = 1. A tight hole (0.04 mm
+    // axial gap, 0.04 mm radial clearance): a stable two-impact orbit in each plane, the ball
+    // pressed on the hole's wall by gravity between impacts across it. With the 1 mm axial
+    // gap the resting ball floats along the hole without an impact (multipliers 1: not
+    // asymptotically stable) while the orbit across the hole stays.
+    for (name, gap_m, c_r_m) in [
+        ("tight", 0.04e-3, 0.04e-3),
+        ("1 mm axial gap", 1e-3, 0.04e-3),
+    ] {
+        let sys = paper(gap_m, c_r_m, 0.0, 63.4, 1.0, g);
+        let start = TwoPlaneStart::resting(&sys, 0.0);
+        let o = two_plane_orbit(&sys, 1, &start, 0.5, &ExactJacobian).unwrap();
+        let m = o.multipliers();
+        eprintln!(
+            "{name}: impacts {} per period, return gap {:.1e}, rms along force {:.4e}, stable {}, \
+             |λ| max {:.4}",
+            o.impacts_per_period(),
+            o.return_gap,
+            o.summary.rms_along_force_m,
+            o.stable(),
+            m[0].norm()
+        );
+        assert_eq!(m.len(), 8, "{name}");
+        assert!(o.return_gap < 1e-7, "{name}: return gap {:e}", o.return_gap);
+        assert_eq!(
+            o.summary.impacts.iter().sum::<u64>(),
+            o.impacts_per_period() as u64,
+            "{name}: impacts of the two-plane run over the orbit"
+        );
+        if name != "tight" {
+            assert!(!o.stable() && o.planes[0].impacts_per_period == 0, "{name}");
+            assert!(
+                (o.planes[0].max_abs_multiplier() - 1.0).abs() < 1e-6,
+                "{name}"
+            );
+            assert!(
+                o.planes[1].stable() && o.planes[1].impacts_per_period == 2,
+                "{name}"
+            );
+            continue;
+        }
+        assert!(o.stable() && o.planes.iter().all(|p| p.impacts_per_period == 2));
+        // A window of whole periods (300, after 75 of settling).
+        let t_period = 2.0 * std::f64::consts::PI / sys.omega_rad_s();
+        let (_, long) = exact2(&sys, &start, 375.0 * t_period);
+        close(
+            long.rms_along_force_m,
+            o.summary.rms_along_force_m,
+            1e-6,
+            &format!("{name}: RMS of the settled run against the orbit's"),
+        );
+        let p = SpectrumParams {
+            transient_s: 0.3,
+            duration_s: 0.7,
+            blocks: 10,
+            scales: None,
+        };
+        let sp = two_plane_lyapunov_spectrum(&sys, &start, &p).unwrap();
+        let top = sp
+            .iter()
+            .flat_map(|s| s.exponents_per_s.iter().flatten().copied())
+            .fold(f64::NEG_INFINITY, f64::max);
+        let expected = m[0].norm().ln() / t_period;
+        eprintln!("{name}: largest exponent {top:.3} 1/s, orbit {expected:.3} 1/s");
+        close(top, expected, 1e-2, &format!("{name}: largest exponent"));
+    }
+    // With friction the planes couple: refused, naming why.
+    let mut rough = paper(1e-3, 0.05e-3, 0.0, 63.4, 1.0, g);
+    rough.ball.friction_static = 0.3;
+    rough.ball.friction_kinetic = 0.2;
+    let e = two_plane_orbit(
+        &rough,
+        1,
+        &TwoPlaneStart::resting(&rough, 0.0),
+        0.5,
+        &ExactJacobian,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("decouple") && e.contains("friction"), "{e}");
+}

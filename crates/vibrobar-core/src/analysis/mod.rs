@@ -26,6 +26,7 @@ pub mod regime;
 pub mod sweep;
 pub mod time_domain;
 pub mod two_plane;
+pub mod two_plane_orbit;
 pub mod variational;
 
 /// The N-mode bar's side of the variational layer, under its own name too.

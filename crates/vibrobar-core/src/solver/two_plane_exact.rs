@@ -97,7 +97,7 @@ fn principal_index(sys: &TwoPlaneSystem, axis: usize) -> Option<usize> {
 }
 
 /// The hole's axes: along it (`a`) and across it (`n = ẑ × a`).
-fn hole_axes(sys: &TwoPlaneSystem) -> [[f64; 2]; 2] {
+pub fn hole_axes(sys: &TwoPlaneSystem) -> [[f64; 2]; 2] {
     [
         direction(sys.hole.angle_deg),
         direction(sys.hole.angle_deg + 90.0),
@@ -161,8 +161,10 @@ pub fn plane_system(sys: &TwoPlaneSystem, axis: usize) -> Result<System, SimErro
     })
 }
 
-/// The one-plane start of hole axis `axis`.
-fn plane_start(sys: &TwoPlaneSystem, start: &TwoPlaneStart, axis: usize, t0_s: f64) -> State {
+/// The one-plane start of hole axis `axis` (0 along the hole, 1 across it) at `t0_s`: the bar's
+/// displacement and velocity along the axis, the ball at the bar's plus its place relative to
+/// the cavity.
+pub fn plane_start(sys: &TwoPlaneSystem, start: &TwoPlaneStart, axis: usize, t0_s: f64) -> State {
     let e = hole_axes(sys)[axis];
     let (u, du) = (dot(start.u_m, e), dot(start.du_m_s, e));
     State {
