@@ -121,7 +121,7 @@ pub fn two_plane_orbit(
     let at: Vec<State> = planes
         .iter()
         .map(|o| {
-            if o.state.t_s == t0 {
+            if o.state.t_s >= t0 {
                 Ok(o.state)
             } else {
                 Ok(Exact::default()
