@@ -219,10 +219,13 @@ fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
     }
     let sc = d.path().join("tp.toml");
     fs::write(&sc, TWO_PLANE).unwrap();
-    for cmd in ["bifurcation", "orbit"] {
+    for cmd in ["bifurcation", "continue"] {
         let mut args = vec![cmd, "--scenario", s(&sc), "--ratio", "1", "--gap-mm", "0.1"];
         if cmd == "bifurcation" {
             args.extend_from_slice(&["--param", "ratio", "--values", "0.9:1.1:0.1"]);
+        } else {
+            args = vec![cmd, "--scenario", s(&sc), "--gap-mm", "0.1"];
+            args.extend_from_slice(&["--param", "ratio", "--from", "0.9", "--to", "1.1"]);
         }
         args.extend_from_slice(&["--out", s(&out)]);
         let o = vibrobar(&args);
@@ -230,7 +233,7 @@ fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
             &o,
             &[
                 "does not run a [two_plane] scenario",
-                "run, sweep, ensemble, map, poincare, placement, lyapunov",
+                "run, sweep, ensemble, map, poincare, placement, lyapunov, orbit",
             ],
         );
         assert!(!out.exists());
@@ -742,16 +745,128 @@ fn a_two_plane_lyapunov_exponent_is_positive_where_the_ball_is_chaotic_across_th
     assert!(l > 5.0 * se, "{j}");
     assert_eq!(j["solver"], "exact");
     assert_eq!(j["member"], 0);
-    // The spectrum needs saltation matrices that are not derived: refused, saying so.
+    // With friction on the walls the spectrum needs saltation matrices that are not derived:
+    // refused, saying so.
+    let rough = d.path().join("rough.toml");
+    fs::write(
+        &rough,
+        format!("{TWO_PLANE}friction_static = 0.3\nfriction_kinetic = 0.2\n"),
+    )
+    .unwrap();
     let o = vibrobar(&[
         "lyapunov",
         "--scenario",
-        s(&sc),
+        s(&rough),
         "--ratio",
         "1",
         "--gap-mm",
         "1",
         "--spectrum",
     ]);
-    assert_fails_with(&o, &["--spectrum", "saltation"]);
+    assert_fails_with(&o, &["decouple", "saltation", "frictionless walls"]);
+}
+
+/// A tight hole (0.04 mm axial gap, 0.04 mm radial clearance) at r = 1, the force at 63.4°:
+/// a stable two-impact orbit in each plane.
+const TIGHT: &str = "[damper]\ngap_m = 0.04e-3\n\n[run]\nduration_s = 0.3\n\n[two_plane]\n\
+hole_diameter_m = 0.01508\nforce_ratio = 2.0\nmembers = 4\n";
+
+#[test]
+fn a_two_plane_orbit_and_spectrum_agree_and_refuse_what_they_cannot_do() {
+    let d = tempfile::tempdir().unwrap();
+    let sc = d.path().join("tight.toml");
+    fs::write(&sc, TIGHT).unwrap();
+    let out = d.path().join("o.json");
+    let point = ["--scenario", s(&sc), "--ratio", "1", "--gap-mm", "0.04"];
+    let mut args = vec!["orbit"];
+    args.extend_from_slice(&point);
+    args.extend_from_slice(&["--out", s(&out)]);
+    vibrobar_ok(&args);
+    let j: serde_json::Value = serde_json::from_str(&fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(j["stable"], true, "{j}");
+    assert_eq!(j["multipliers"].as_array().unwrap().len(), 8);
+    assert!(
+        j["return_gap"].as_f64().unwrap() < 1e-9,
+        "{}",
+        j["return_gap"]
+    );
+    for plane in ["along_hole", "across_hole"] {
+        assert_eq!(j["planes"][plane]["impacts_per_period"], 2, "{plane}");
+    }
+    let walls = &j["impacts_per_wall"];
+    for w in ["plug_plus", "plug_minus", "wall_plus", "wall_minus"] {
+        assert_eq!(walls[w], 1, "{w}");
+    }
+    let red = j["reduction_pct"].as_f64().unwrap();
+    assert!(red > 50.0 && red < 100.0, "{red}");
+    assert!(d.path().join("o.json.meta.json").exists());
+    // The spectrum along the run: its largest exponent is ln max|λ| / T of the orbit.
+    let mut args = vec!["lyapunov"];
+    args.extend_from_slice(&point);
+    args.extend_from_slice(&["--spectrum", "--json", "--duration", "1.0"]);
+    let o = vibrobar_ok(&args);
+    let sp: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let top = ["along_hole", "across_hole"]
+        .iter()
+        .flat_map(|p| sp[*p]["exponents_per_s"].as_array().unwrap().clone())
+        .filter_map(|x| x.as_f64())
+        .fold(f64::NEG_INFINITY, f64::max);
+    let period_s = 2.0 * std::f64::consts::PI / (9.22e6f64 / 0.644).sqrt();
+    let expected = j["max_abs_multiplier"].as_f64().unwrap().ln() / period_s;
+    assert!(
+        (top - expected).abs() < 0.03 * expected.abs(),
+        "largest exponent {top} against the orbit's {expected}"
+    );
+    assert_eq!(sp["spin_exponent_per_s"], 0.0);
+    // What does not apply is refused by name, and nothing is written.
+    fs::remove_file(&out).unwrap();
+    fs::remove_file(d.path().join("o.json.meta.json")).unwrap();
+    for (extra, words) in [
+        (
+            &["--start", "symmetric"][..],
+            &["--start symmetric", "one-plane"][..],
+        ),
+        (&["--member", "9"][..], &["--member = 9", "[0, 3]"][..]),
+        (
+            &["--solver", "rk4"][..],
+            &["--solver", "[two_plane] solver"][..],
+        ),
+    ] {
+        let mut args = vec!["orbit"];
+        args.extend_from_slice(&point);
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--out", s(&out)]);
+        assert_fails_with(&vibrobar(&args), words);
+        assert!(!out.exists(), "{extra:?}");
+    }
+    let rough = d.path().join("rough.toml");
+    fs::write(&rough, format!("{TIGHT}friction_static = 0.3\n")).unwrap();
+    let o = vibrobar(&[
+        "orbit",
+        "--scenario",
+        s(&rough),
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "0.04",
+        "--out",
+        s(&out),
+    ]);
+    assert_fails_with(&o, &["decouple", "frictionless walls"]);
+    assert!(!out.exists());
+    // The one-plane orbit has no ensemble to pick a member from.
+    let o = vibrobar(&[
+        "orbit",
+        "--friction",
+        "none",
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "0.08",
+        "--member",
+        "1",
+        "--out",
+        s(&out),
+    ]);
+    assert_fails_with(&o, &["--member", "[two_plane]"]);
 }

@@ -386,7 +386,7 @@ impl Scenario {
 }
 
 /// The commands that run a `[two_plane]` scenario.
-pub const TWO_PLANE_COMMANDS: [&str; 7] = [
+pub const TWO_PLANE_COMMANDS: [&str; 8] = [
     "run",
     "sweep",
     "ensemble",
@@ -394,6 +394,7 @@ pub const TWO_PLANE_COMMANDS: [&str; 7] = [
     "poincare",
     "placement",
     "lyapunov",
+    "orbit",
 ];
 
 /// The error for a `[two_plane]` scenario given to `command`.

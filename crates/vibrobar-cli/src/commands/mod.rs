@@ -23,6 +23,7 @@ pub mod merge;
 pub mod modes;
 pub mod orbit;
 pub mod orbit_docs;
+pub mod orbit_two_plane;
 pub mod paper;
 pub mod placement;
 pub mod placement_two_plane;

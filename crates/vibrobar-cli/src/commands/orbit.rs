@@ -52,7 +52,7 @@ pub enum JacobianArg {
 }
 
 impl JacobianArg {
-    fn get(self) -> &'static dyn MapJacobian {
+    pub(crate) fn get(self) -> &'static dyn MapJacobian {
         match self {
             JacobianArg::Exact => &ExactJacobian,
             JacobianArg::FiniteDifference => &FD,
@@ -161,9 +161,13 @@ pub struct OrbitArgs {
     pub start: OrbitStartArgs,
     /// Output JSON: rms_m, impacts_per_period, multipliers ([re, im], largest first), stable,
     /// the state at the section, the event sequence, the physicality checks and the parameters;
-    /// FILE.meta.json beside it.
+    /// FILE.meta.json beside it. A `[two_plane]` scenario: the orbit's multipliers and RMS along
+    /// the force, per direction and in total, and each plane's orbit under `planes`.
     #[arg(long)]
     pub out: PathBuf,
+    /// A `[two_plane]` scenario: settle from member K of its ensemble of starts [default: 0].
+    #[arg(long, value_name = "K")]
+    pub member: Option<usize>,
 }
 
 pub(crate) fn event_json(e: &vibrobar_core::analysis::orbit::OrbitEvent) -> serde_json::Value {
@@ -279,6 +283,16 @@ pub fn orbit_json<F: Bar>(o: &Orbit<F>) -> anyhow::Result<serde_json::Value> {
 
 /// `vibrobar orbit`.
 pub fn run_orbit(a: &OrbitArgs) -> anyhow::Result<()> {
+    let sc = a.point.system.scenario()?;
+    if sc.two_plane.is_some() {
+        return super::orbit_two_plane::run(a, &sc);
+    }
+    if a.member.is_some() {
+        bail!(
+            "--member: only a scenario with [two_plane] has an ensemble of starts to choose \
+             from; the one-plane start is the scenario's [initial]"
+        );
+    }
     exact_only(&a.point.system)?;
     let sys = a.point.system()?;
     if sys.lumped_bar().is_none() {

@@ -1,0 +1,124 @@
+//! `vibrobar orbit` on a `[two_plane]` scenario: the periodic orbit one member's run settles on,
+//! where the planes decouple (frictionless walls, the bar's principal axes along and across the
+//! hole): each plane's orbit with its multipliers, and the two-plane run over one period for
+//! the RMS along the force.
+
+use anyhow::{bail, Context, Result};
+use vibrobar_core::analysis::two_plane::solid_rms_m;
+use vibrobar_core::analysis::two_plane_orbit::{two_plane_orbit, TWO_PLANE_ORBIT_SCOPE};
+use vibrobar_core::solver::two_plane_exact::decoupled;
+use vibrobar_io::csv::write_json;
+use vibrobar_io::Metadata;
+
+use super::check_value;
+use super::orbit::{orbit_json, period_of, OrbitArgs, StartArg};
+use super::poincare_two_plane::MemberRun;
+use crate::scenario::Scenario;
+
+/// Run the command on a scenario with `[two_plane]`.
+pub fn run(a: &OrbitArgs, sc: &Scenario) -> Result<()> {
+    if a.start.start == StartArg::Symmetric || a.start.branch.is_some() {
+        bail!(
+            "--start symmetric and --branch: the analytic symmetric orbit is the one-plane \
+             model's; a [two_plane] orbit starts from the run a member settles on (--member, \
+             --settle)"
+        );
+    }
+    let MemberRun {
+        scenario: s,
+        sys,
+        member,
+        start,
+        ratio,
+        gap_mm,
+        ..
+    } = MemberRun::at(&a.point, sc, a.member)?;
+    if let Err(why) = decoupled(&sys) {
+        bail!("{TWO_PLANE_ORBIT_SCOPE}; here {why}");
+    }
+    let periods = period_of(&a.start)?;
+    let settings = s.settings();
+    let settle = match a.start.settle {
+        Some(t) => check_value("--settle", t, |x| x > 0.0, "(0, ∞) s")?,
+        None => settings.duration_s * (1.0 - settings.rms_fraction),
+    };
+    let o = two_plane_orbit(&sys, periods, &start, settle, a.start.jacobian.get())?;
+    let solid = solid_rms_m(&sys, &settings)?;
+    let m = o.multipliers();
+    let max_abs = m.first().map_or(0.0, |l| l.norm());
+    let sm = &o.summary;
+    let st = &o.start;
+    let mut j = serde_json::json!({
+        "period": periods,
+        "stable": o.stable(),
+        "max_abs_multiplier": max_abs,
+        "multipliers": m.iter().map(|l| [l.re, l.im]).collect::<Vec<_>>(),
+        "spin_multiplier": 1.0,
+        "impacts_per_period": o.impacts_per_period(),
+        "impacts_per_wall": {
+            "plug_plus": sm.impacts[0],
+            "plug_minus": sm.impacts[1],
+            "wall_plus": sm.impacts[2],
+            "wall_minus": sm.impacts[3],
+        },
+        "rms_along_force_m": sm.rms_along_force_m,
+        "rms_radial_m": sm.rms_m[0],
+        "rms_tangential_m": sm.rms_m[1],
+        "rms_total_m": sm.rms_total_m,
+        "solid_rms_m": solid,
+        "reduction_pct": 100.0 * (1.0 - sm.rms_along_force_m / solid),
+        "flight_fraction": sm.flight_fraction,
+        "return_gap": o.return_gap,
+        "state": {
+            "t_s": o.start_t_s,
+            "u_m": st.u_m,
+            "du_m_s": st.du_m_s,
+            "w_hole_m": st.w_hole_m,
+            "dw_hole_m_s": st.dw_hole_m_s,
+        },
+        "planes": {
+            "along_hole": orbit_json(&o.planes[0])?,
+            "across_hole": orbit_json(&o.planes[1])?,
+        },
+    });
+    let params = serde_json::json!({
+        "scenario": &s,
+        "member": member,
+        "ratio": ratio,
+        "axial_gap_m": gap_mm * 1e-3,
+        "period": periods,
+        "settle_s": settle,
+        "jacobian": o.planes[0].jacobian_source,
+    });
+    j["parameters"] = params.clone();
+    write_json(&a.out, &j).with_context(|| format!("writing {}", a.out.display()))?;
+    Metadata::new("orbit", "", &params, None)
+        .write_beside(&a.out)
+        .with_context(|| format!("metadata beside {}", a.out.display()))?;
+    let plane = |k: usize| {
+        let p = &o.planes[k];
+        format!(
+            "{} impacts, max |λ| = {:.6}{}",
+            p.impacts_per_period,
+            p.max_abs_multiplier(),
+            if p.impacts_per_period == 0 && (p.max_abs_multiplier() - 1.0).abs() < 1e-6 {
+                " (the ball floats without an impact: neutral)"
+            } else {
+                ""
+            }
+        )
+    };
+    println!(
+        "period-{periods} orbit (member {member}): RMS along the force {:.4e} m ({:.1} % below \
+         the bar without its ball), along the hole {}, across it {}; {}; the run over one period \
+         returns within {:.1e}",
+        sm.rms_along_force_m,
+        100.0 * (1.0 - sm.rms_along_force_m / solid),
+        plane(0),
+        plane(1),
+        if o.stable() { "stable" } else { "not stable" },
+        o.return_gap
+    );
+    println!("wrote {}", a.out.display());
+    Ok(())
+}
