@@ -146,7 +146,8 @@ def test_two_plane_run_refuses_bad_members_and_one_plane_functions_refuse_two_pl
     with pytest.raises(ValueError, match=r"needs a scenario with \[two_plane\]"):
         vibrobar.two_plane_run(vibrobar.Scenario.paper())
     # The one-plane functions do not run the one-plane model in its place.
-    for f in (lambda: vibrobar.run(sc), lambda: vibrobar.regime(sc), lambda: vibrobar.orbit(sc)):
+    for f in (lambda: vibrobar.run(sc), lambda: vibrobar.regime(sc),
+              lambda: vibrobar.continuation(sc, param="ratio", from_=0.99, to=1.01)):
         with pytest.raises(ValueError, match=r"does not run a scenario with \[two_plane\]"):
             f()
 
@@ -259,3 +260,63 @@ def test_two_plane_tables_refuse_what_does_not_apply_and_name_it(tmp_path):
             f()
     with pytest.raises(TypeError, match="member"):
         vibrobar.lyapunov(sc, member=1.5)
+
+
+TIGHT_TOML = """[damper]
+gap_m = 0.04e-3
+
+[run]
+duration_s = 0.3
+
+[two_plane]
+hole_diameter_m = 0.01508
+force_ratio = 2.0
+members = 4
+"""
+
+
+def test_orbit_and_spectrum_of_a_two_plane_scenario_are_the_command_line_ones(tmp_path):
+    import json
+    import subprocess
+
+    sc_path = tmp_path / "tight.toml"
+    sc_path.write_text(TIGHT_TOML)
+    sc = vibrobar.Scenario.from_toml(str(sc_path))
+    o = vibrobar.orbit(sc, ratio=1.0, gap_m=0.04e-3, member=1)
+    assert o["stable"] and o["member"] == 1 and len(o["multipliers"]) == 8
+    assert o["return_gap"] < 1e-9
+    assert o["planes"]["along_hole"]["impacts_per_period"] == 2
+    assert o["planes"]["across_hole"]["impacts_per_period"] == 2
+    out = tmp_path / "o.json"
+    subprocess.run(
+        [_vibrobar_cli(), "orbit", "--scenario", str(sc_path), "--ratio", "1", "--gap-mm",
+         "0.04", "--member", "1", "--out", str(out)],
+        check=True, capture_output=True,
+    )
+    j = json.loads(out.read_text())
+    assert j["rms_along_force_m"] == o["rms_along_force_m"]
+    assert j["max_abs_multiplier"] == o["max_abs_multiplier"]
+    assert [tuple(m) for m in j["multipliers"]] == [tuple(m) for m in o["multipliers"]]
+
+    sp = vibrobar.lyapunov_spectrum(sc, ratio=1.0, gap_m=0.04e-3, member=1)
+    p = subprocess.run(
+        [_vibrobar_cli(), "lyapunov", "--scenario", str(sc_path), "--ratio", "1", "--gap-mm",
+         "0.04", "--member", "1", "--spectrum", "--json"],
+        check=True, capture_output=True, text=True,
+    )
+    js = json.loads(p.stdout)
+    for plane in ("along_hole", "across_hole"):
+        assert sp[plane]["exponents_per_s"] == js[plane]["exponents_per_s"]
+        assert len(sp[plane]["exponents_per_s"]) == 4
+    assert sp["spin_exponent_per_s"] == 0.0
+
+    with pytest.raises(ValueError, match="start"):
+        vibrobar.orbit(sc, start="symmetric")
+    with pytest.raises(ValueError, match="member"):
+        vibrobar.orbit(vibrobar.Scenario.paper(), member=0)
+    rough = tmp_path / "rough.toml"
+    rough.write_text(TIGHT_TOML + "friction_static = 0.3\n")
+    with pytest.raises(ValueError, match="decouple"):
+        vibrobar.orbit(vibrobar.Scenario.from_toml(str(rough)))
+    with pytest.raises(ValueError, match="decouple"):
+        vibrobar.lyapunov_spectrum(vibrobar.Scenario.from_toml(str(rough)))

@@ -763,6 +763,7 @@ def orbit(
     start: str = "auto",
     branch: Optional[int] = None,
     settle_s: Optional[float] = None,
+    member: Optional[int] = None,
     **overrides,
 ) -> dict:
     """A periodic orbit of ``period`` forcing cycles (Newton on the stroboscopic map), like
@@ -776,16 +777,46 @@ def orbit(
             or ``"settled"``), the Jacobian the modal variational flow, and the result also has
             ``modes`` and the modal state (``state["q_m"]``, ``state["dq_m_s"]``).
 
+        member: for a scenario with ``[two_plane]``, which member of its ensemble of starts
+            settles (default 0; ``gap_m`` is the axial gap). The orbit is then the one that
+            member's run settles on over ``settle_s``, where the planes decouple (frictionless
+            walls, the bar's principal axes along and across the hole); ``start`` must be
+            ``"auto"`` or ``"settled"``.
+
     Returns:
         dict: ``rms_m``, ``impacts_per_period``, ``period``, ``multipliers`` (list of
         ``(re, im)``, largest first), ``max_abs_multiplier``, ``stable``, ``event_sequence``,
         ``state`` (at the section), ``confined``, ``max_penetration_m``, ``residual``.
+
+        For a scenario with ``[two_plane]`` (``vibrobar orbit`` on it): ``stable``,
+        ``multipliers`` and ``max_abs_multiplier`` of both planes (the spin's neutral
+        ``spin_multiplier`` 1 apart), ``impacts_per_period``, ``impacts_per_wall``,
+        ``rms_along_force_m``, ``rms_radial_m``, ``rms_tangential_m``, ``rms_total_m`` over the
+        orbit, ``solid_rms_m``, ``reduction_pct``, ``flight_fraction``, ``return_gap`` (how
+        closely a two-plane run repeats the orbit), ``state`` and ``planes`` (each plane's
+        orbit, ``"along_hole"`` and ``"across_hole"``, with the keys above).
     """
     sc = _scenario(scenario, overrides)
     if isinstance(period, bool) or not isinstance(period, (int, _np.integer)):
         raise TypeError(f"period must be an int, got {period!r}")
     if not 1 <= int(period) <= 64:
         raise ValueError(f"period = {period} is outside the allowed range [1, 64] forcing cycles")
+    if sc.is_two_plane:
+        if start not in ("auto", "settled") or branch is not None:
+            raise ValueError(
+                f"start = {start!r}, branch = {branch!r}: a [two_plane] orbit starts from the run "
+                "a member settles on (start = 'auto' or 'settled', no branch); the analytic "
+                "symmetric orbit is the one-plane model's"
+            )
+        return _vibrobar.two_plane_orbit(
+            sc,
+            _number("ratio", ratio),
+            _number("gap_m", gap_m),
+            _member(0 if member is None else member),
+            int(period),
+            _number("settle_s", settle_s),
+        )
+    _two_plane_refuse_one("orbit", {"member": member}, "a member of a two-plane ensemble")
     return _vibrobar.orbit(
         sc,
         _number("ratio", ratio),
@@ -937,6 +968,7 @@ def lyapunov_spectrum(
     *,
     transient_s: Optional[float] = None,
     blocks: int = 10,
+    member: Optional[int] = None,
     **overrides,
 ) -> dict:
     """Every Lyapunov exponent at one point, by QR of the variational flow with saltation
@@ -957,10 +989,26 @@ def lyapunov_spectrum(
         N-mode bar, + 2 ln(e) × ``impacts_per_s``; ``None`` with friction). With nothing
         collapsed, ``sum_per_s`` equals it (under ``hertz``: the trace average plus
         ``approach_memory_per_s``; the restitution identity in the stiff limit).
+
+        For a scenario with ``[two_plane]`` (``member`` picks the start, default 0), where the
+        planes decouple: ``along_hole`` and ``across_hole``, each plane's ``exponents_per_s``,
+        ``std_error_per_s``, ``collapsed``, ``sum_per_s``, ``impacts_per_s``, ``duration_s``,
+        and ``spin_exponent_per_s`` (0: nothing acts on the spin on frictionless walls).
     """
     sc = _scenario(scenario, overrides)
     if isinstance(blocks, bool) or not isinstance(blocks, int) or blocks < 2:
         raise ValueError(f"blocks = {blocks!r} is outside the allowed range [2, 1000000] (an integer)")
+    if sc.is_two_plane:
+        return _vibrobar.two_plane_lyapunov_spectrum(
+            sc,
+            _number("ratio", ratio),
+            _number("gap_m", gap_m),
+            _member(0 if member is None else member),
+            _number("transient_s", transient_s),
+            blocks,
+        )
+    _two_plane_refuse_one("lyapunov_spectrum", {"member": member},
+                          "a member of a two-plane ensemble")
     return _vibrobar.lyapunov_spectrum(
         sc,
         _number("ratio", ratio),

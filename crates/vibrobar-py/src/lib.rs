@@ -41,7 +41,10 @@ use vibrobar_io::csv::{self as iocsv, Schema, Value};
 use vibrobar_scenario::Scenario;
 
 mod two_planes;
-use two_planes::{two_plane_lyapunov, two_plane_poincare, two_plane_run, two_plane_table};
+use two_planes::{
+    two_plane_lyapunov, two_plane_lyapunov_spectrum, two_plane_orbit, two_plane_poincare,
+    two_plane_run, two_plane_table,
+};
 
 /// How often the calling thread checks for Ctrl-C and reports progress while a call runs.
 const POLL: Duration = Duration::from_millis(100);
@@ -602,13 +605,15 @@ impl PyScenario {
 
 /// The Python functions that run a scenario with `[two_plane]` (through the native functions of
 /// [`two_planes`], which never call [`PyScenario::for_command`]).
-const PY_TWO_PLANE_FUNCTIONS: [&str; 6] = [
+const PY_TWO_PLANE_FUNCTIONS: [&str; 8] = [
     "two_plane_run",
     "sweep",
     "ensemble",
     "map",
     "poincare",
     "lyapunov",
+    "lyapunov_spectrum",
+    "orbit",
 ];
 
 #[pymethods]
@@ -2806,6 +2811,8 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(two_plane_table, m)?)?;
     m.add_function(wrap_pyfunction!(two_plane_poincare, m)?)?;
     m.add_function(wrap_pyfunction!(two_plane_lyapunov, m)?)?;
+    m.add_function(wrap_pyfunction!(two_plane_lyapunov_spectrum, m)?)?;
+    m.add_function(wrap_pyfunction!(two_plane_orbit, m)?)?;
     m.add_function(wrap_pyfunction!(fit_modes, m)?)?;
     m.add_function(wrap_pyfunction!(width_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(time_domain_lobes, m)?)?;

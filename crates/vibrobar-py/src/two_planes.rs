@@ -611,3 +611,143 @@ pub(crate) fn two_plane_lyapunov<'py>(
     d.set_item("solver", method.solver_for(&sys))?;
     Ok(d)
 }
+
+/// `orbit` of a `[two_plane]` scenario where its planes decouple: the period-`period` orbit
+/// member `member`'s run settles on over `settle_s`, as `vibrobar orbit` on it.
+#[pyfunction]
+#[pyo3(signature = (scenario, ratio, gap_m, member, period, settle_s))]
+pub(crate) fn two_plane_orbit<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    ratio: Option<f64>,
+    gap_m: Option<f64>,
+    member: usize,
+    period: u32,
+    settle_s: Option<f64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use vibrobar_core::analysis::orbit::{check_period, ExactJacobian};
+    use vibrobar_core::analysis::two_plane::solid_rms_m;
+    use vibrobar_core::analysis::two_plane_orbit::{two_plane_orbit, TWO_PLANE_ORBIT_SCOPE};
+    let sc = two_plane_scenario(scenario, "orbit")?;
+    let (s, sys, _, start) = member_at(sc, ratio, gap_m, member)?;
+    check_period(period).map_err(input_error)?;
+    if let Err(why) = vibrobar_core::solver::two_plane_exact::decoupled(&sys) {
+        return Err(PyValueError::new_err(format!(
+            "{TWO_PLANE_ORBIT_SCOPE}; here {why}"
+        )));
+    }
+    let settings = s.settings();
+    let settle = match settle_s {
+        Some(t) if t.is_finite() && t > 0.0 => t,
+        Some(t) => {
+            return Err(PyValueError::new_err(format!(
+                "settle_s = {t} is outside the allowed range (0, ∞) s"
+            )))
+        }
+        None => settings.duration_s * (1.0 - settings.rms_fraction),
+    };
+    let (o, solid) = detached(py, None, |_| {
+        let o = two_plane_orbit(&sys, period, &start, settle, &ExactJacobian)
+            .map_err(|e| run_error(two_plane_keywords(e.to_string())))?;
+        let solid = solid_rms_m(&sys, &settings).map_err(run_error)?;
+        Ok((o, solid))
+    })?;
+    let sm = &o.summary;
+    let d = PyDict::new(py);
+    d.set_item("period", period)?;
+    d.set_item("stable", o.stable())?;
+    let m = o.multipliers();
+    d.set_item("max_abs_multiplier", m.first().map_or(0.0, |l| l.norm()))?;
+    d.set_item(
+        "multipliers",
+        m.iter().map(|l| (l.re, l.im)).collect::<Vec<_>>(),
+    )?;
+    d.set_item("spin_multiplier", 1.0)?;
+    d.set_item("impacts_per_period", o.impacts_per_period())?;
+    let walls = PyDict::new(py);
+    for (k, name) in ["plug_plus", "plug_minus", "wall_plus", "wall_minus"]
+        .iter()
+        .enumerate()
+    {
+        walls.set_item(*name, sm.impacts[k])?;
+    }
+    d.set_item("impacts_per_wall", walls)?;
+    d.set_item("rms_along_force_m", sm.rms_along_force_m)?;
+    d.set_item("rms_radial_m", sm.rms_m[0])?;
+    d.set_item("rms_tangential_m", sm.rms_m[1])?;
+    d.set_item("rms_total_m", sm.rms_total_m)?;
+    d.set_item("solid_rms_m", solid)?;
+    d.set_item(
+        "reduction_pct",
+        100.0 * (1.0 - sm.rms_along_force_m / solid),
+    )?;
+    d.set_item("flight_fraction", sm.flight_fraction)?;
+    d.set_item("return_gap", o.return_gap)?;
+    let st = PyDict::new(py);
+    st.set_item("t_s", o.start_t_s)?;
+    st.set_item("u_m", o.start.u_m.to_vec())?;
+    st.set_item("du_m_s", o.start.du_m_s.to_vec())?;
+    st.set_item("w_hole_m", o.start.w_hole_m.to_vec())?;
+    st.set_item("dw_hole_m_s", o.start.dw_hole_m_s.to_vec())?;
+    d.set_item("state", st)?;
+    let planes = PyDict::new(py);
+    planes.set_item("along_hole", super::orbit_dict(py, &o.planes[0])?)?;
+    planes.set_item("across_hole", super::orbit_dict(py, &o.planes[1])?)?;
+    d.set_item("planes", planes)?;
+    d.set_item("member", member)?;
+    Ok(d)
+}
+
+/// `lyapunov_spectrum` of a `[two_plane]` scenario where its planes decouple: each plane's
+/// exponents over the window after the transient, as `vibrobar lyapunov --spectrum` on it.
+#[pyfunction]
+#[pyo3(signature = (scenario, ratio, gap_m, member, transient_s, blocks))]
+pub(crate) fn two_plane_lyapunov_spectrum<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    ratio: Option<f64>,
+    gap_m: Option<f64>,
+    member: usize,
+    transient_s: Option<f64>,
+    blocks: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    use vibrobar_core::analysis::lyapunov_spectrum::SpectrumParams;
+    use vibrobar_core::analysis::two_plane_orbit::{
+        two_plane_lyapunov_spectrum as spectrum, TWO_PLANE_ORBIT_SCOPE,
+    };
+    let sc = two_plane_scenario(scenario, "lyapunov_spectrum")?;
+    let (s, sys, _, start) = member_at(sc, ratio, gap_m, member)?;
+    if let Err(why) = vibrobar_core::solver::two_plane_exact::decoupled(&sys) {
+        return Err(PyValueError::new_err(format!(
+            "{TWO_PLANE_ORBIT_SCOPE}; here {why}"
+        )));
+    }
+    let t = transient(&s, transient_s)?;
+    let p = SpectrumParams {
+        transient_s: t,
+        duration_s: s.settings().duration_s - t,
+        blocks,
+        scales: None,
+    };
+    let planes = detached(py, None, |_| {
+        spectrum(&sys, &start, &p).map_err(|e| match e {
+            vibrobar_core::SimError::Param(p) => input_error(p),
+            other => run_error(two_plane_keywords(other.to_string())),
+        })
+    })?;
+    let d = PyDict::new(py);
+    for (name, r) in ["along_hole", "across_hole"].iter().zip(&planes) {
+        let e = PyDict::new(py);
+        e.set_item("exponents_per_s", r.exponents_per_s.clone())?;
+        e.set_item("std_error_per_s", r.std_error_per_s.clone())?;
+        e.set_item("collapsed", r.collapsed)?;
+        e.set_item("sum_per_s", r.sum_per_s)?;
+        e.set_item("impacts_per_s", r.impacts_per_s)?;
+        e.set_item("duration_s", r.duration_s)?;
+        d.set_item(*name, e)?;
+    }
+    d.set_item("spin_exponent_per_s", 0.0)?;
+    d.set_item("blocks", blocks)?;
+    d.set_item("member", member)?;
+    Ok(d)
+}
