@@ -219,25 +219,29 @@ fn bad_two_plane_scenarios_name_the_field_and_other_commands_refuse_them() {
     }
     let sc = d.path().join("tp.toml");
     fs::write(&sc, TWO_PLANE).unwrap();
-    for cmd in ["bifurcation", "continue"] {
-        let mut args = vec![cmd, "--scenario", s(&sc), "--ratio", "1", "--gap-mm", "0.1"];
-        if cmd == "bifurcation" {
-            args.extend_from_slice(&["--param", "ratio", "--values", "0.9:1.1:0.1"]);
-        } else {
-            args = vec![cmd, "--scenario", s(&sc), "--gap-mm", "0.1"];
-            args.extend_from_slice(&["--param", "ratio", "--from", "0.9", "--to", "1.1"]);
-        }
-        args.extend_from_slice(&["--out", s(&out)]);
-        let o = vibrobar(&args);
-        assert_fails_with(
-            &o,
-            &[
-                "does not run a [two_plane] scenario",
-                "run, sweep, ensemble, map, poincare, placement, lyapunov, orbit",
-            ],
-        );
-        assert!(!out.exists());
-    }
+    let o = vibrobar(&[
+        "bifurcation",
+        "--scenario",
+        s(&sc),
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "0.1",
+        "--param",
+        "ratio",
+        "--values",
+        "0.9:1.1:0.1",
+        "--out",
+        s(&out),
+    ]);
+    assert_fails_with(
+        &o,
+        &[
+            "does not run a [two_plane] scenario",
+            "run, sweep, ensemble, map, poincare, placement, lyapunov, orbit, continue",
+        ],
+    );
+    assert!(!out.exists());
     let cut = d.path().join("cut.toml");
     fs::write(
         &cut,
@@ -869,4 +873,128 @@ fn a_two_plane_orbit_and_spectrum_agree_and_refuse_what_they_cannot_do() {
         s(&out),
     ]);
     assert_fails_with(&o, &["--member", "[two_plane]"]);
+}
+
+#[test]
+fn a_two_plane_continuation_follows_each_plane_from_the_orbit() {
+    let d = tempfile::tempdir().unwrap();
+    let sc = d.path().join("tight.toml");
+    fs::write(&sc, TIGHT).unwrap();
+    let orbit = d.path().join("o.json");
+    vibrobar_ok(&[
+        "orbit",
+        "--scenario",
+        s(&sc),
+        "--ratio",
+        "1",
+        "--gap-mm",
+        "0.04",
+        "--out",
+        s(&orbit),
+    ]);
+    let j: serde_json::Value = serde_json::from_str(&fs::read_to_string(&orbit).unwrap()).unwrap();
+    let out = d.path().join("c.csv");
+    let o = vibrobar_ok(&[
+        "continue",
+        "--scenario",
+        s(&sc),
+        "--param",
+        "ratio",
+        "--from",
+        "1",
+        "--to",
+        "1.05",
+        "--gap-mm",
+        "0.04",
+        "--out",
+        s(&out),
+    ]);
+    let text = fs::read_to_string(&out).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "plane,param,rms_m,max_abs_multiplier,stable,impacts_per_period,period,event"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    for plane in ["along_hole", "across_hole"] {
+        let mine: Vec<&Vec<&str>> = rows.iter().filter(|r| r[0] == plane).collect();
+        assert!(mine.len() > 20, "{plane}: {} rows", mine.len());
+        // The branch starts at the orbit of `orbit`, in the scenario's ratio.
+        let first = mine[0];
+        assert_eq!(first[1], "1", "{plane}");
+        let m: f64 = first[3].parse().unwrap();
+        let m_orbit = j["planes"][plane]["max_abs_multiplier"].as_f64().unwrap();
+        assert!((m - m_orbit).abs() < 1e-6, "{plane}: {m} against {m_orbit}");
+        assert_eq!(first[4], "true");
+        // It reaches the end of the interval, through a torus bifurcation of the two-impact
+        // orbit near 1.027.
+        let last: f64 = mine.last().unwrap()[1].parse().unwrap();
+        assert!((last - 1.05).abs() < 1e-9, "{plane}: ends at {last}");
+        let torus: Vec<f64> = mine
+            .iter()
+            .filter(|r| r[7] == "torus")
+            .map(|r| r[1].parse().unwrap())
+            .collect();
+        assert!(
+            torus.iter().any(|t| (t - 1.027).abs() < 0.002),
+            "{plane}: {torus:?}"
+        );
+    }
+    assert!(String::from_utf8_lossy(&o.stdout).contains("stable where both are"));
+    for f in ["c.along_hole.png", "c.across_hole.svg", "c.csv.meta.json"] {
+        assert!(d.path().join(f).exists(), "{f}");
+    }
+    // The axial gap acts on the plane along the hole only.
+    let gap = d.path().join("g.csv");
+    let o = vibrobar_ok(&[
+        "continue",
+        "--scenario",
+        s(&sc),
+        "--param",
+        "gap-mm",
+        "--from",
+        "0.04",
+        "--to",
+        "0.05",
+        "--ratio",
+        "1",
+        "--out",
+        s(&gap),
+    ]);
+    let text = fs::read_to_string(&gap).unwrap();
+    assert!(text.lines().skip(1).all(|l| l.starts_with("along_hole,")));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("across the hole: gap-mm does not act"));
+    // Refused by name, nothing written.
+    let bad = d.path().join("bad.csv");
+    for (extra, words) in [
+        (
+            &["--param", "ratio", "--from", "0.97", "--to", "1.0"][..],
+            &["floats along the hole", "continuum"][..],
+        ),
+        (
+            &[
+                "--param",
+                "friction-force-n",
+                "--from",
+                "1",
+                "--to",
+                "2",
+                "--ratio",
+                "1",
+            ][..],
+            &["--param friction-force-n", "couples the planes"][..],
+        ),
+        (
+            &[
+                "--param", "ratio", "--from", "1", "--to", "1.05", "--member", "7",
+            ][..],
+            &["--member = 7"][..],
+        ),
+    ] {
+        let mut args = vec!["continue", "--scenario", s(&sc), "--gap-mm", "0.04"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--out", s(&bad)]);
+        assert_fails_with(&vibrobar(&args), words);
+        assert!(!bad.exists());
+    }
 }

@@ -214,3 +214,24 @@ pub fn map_values(c: &MapCell, p: &DesignPoint) -> Vec<Value> {
         F(mean(p, |m| m.flight_fraction)),
     ]
 }
+
+/// Columns of a two-plane continuation: the plane (`along_hole`, `across_hole`) and the
+/// columns of the one-plane continuation ([`crate::csv::continuation_schema`]) of its branch,
+/// the parameter in the two-plane scenario's units.
+pub fn continuation_schema() -> Schema {
+    let mut columns = vec![col("plane", Format::Text)];
+    columns.extend(crate::csv::continuation_schema().columns);
+    Schema { columns }
+}
+
+/// The row of [`continuation_schema`] for a point of `plane`'s branch, its parameter times
+/// `inv`.
+pub fn continuation_values(
+    plane: &str,
+    p: &vibrobar_core::analysis::orbit::continuation::BranchPoint,
+    inv: f64,
+) -> Vec<Value> {
+    let mut v = vec![Value::S(plane.to_string())];
+    v.extend(crate::csv::continuation_values(p, inv));
+    v
+}

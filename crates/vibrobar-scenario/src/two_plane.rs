@@ -386,7 +386,7 @@ impl Scenario {
 }
 
 /// The commands that run a `[two_plane]` scenario.
-pub const TWO_PLANE_COMMANDS: [&str; 8] = [
+pub const TWO_PLANE_COMMANDS: [&str; 9] = [
     "run",
     "sweep",
     "ensemble",
@@ -395,6 +395,7 @@ pub const TWO_PLANE_COMMANDS: [&str; 8] = [
     "placement",
     "lyapunov",
     "orbit",
+    "continue",
 ];
 
 /// The error for a `[two_plane]` scenario given to `command`.

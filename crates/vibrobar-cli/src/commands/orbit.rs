@@ -389,12 +389,17 @@ pub struct ContinueArgs {
     pub no_switch: bool,
     /// Output CSV `param,rms_m,max_abs_multiplier,stable,impacts_per_period,period,event`;
     /// FILE.png/.svg (the branch: stable solid, unstable dashed, events marked) and
-    /// FILE.meta.json beside it.
+    /// FILE.meta.json beside it. A `[two_plane]` scenario: a `plane` column first
+    /// (`along_hole`, `across_hole`) and one figure per plane, FILE.along_hole.png and
+    /// FILE.across_hole.png.
     #[arg(long)]
     pub out: PathBuf,
+    /// A `[two_plane]` scenario: settle from member K of its ensemble of starts [default: 0].
+    #[arg(long, value_name = "K")]
+    pub member: Option<usize>,
 }
 
-fn axis_of(name: &str) -> anyhow::Result<(Axis, f64)> {
+pub(crate) fn axis_of(name: &str) -> anyhow::Result<(Axis, f64)> {
     if let Some((_, a)) = CONTINUATION_PARAMS.iter().find(|(n, _)| *n == name) {
         let scale = if *a == Axis::GapM { 1e-3 } else { 1.0 };
         return Ok((*a, scale));
@@ -456,6 +461,16 @@ pub(crate) fn continued_point(
 
 /// `vibrobar continue`.
 pub fn run_continue(a: &ContinueArgs) -> anyhow::Result<()> {
+    let sc = a.system.scenario()?;
+    if sc.two_plane.is_some() {
+        return super::orbit_two_plane::run_continue(a, &sc);
+    }
+    if a.member.is_some() {
+        bail!(
+            "--member: only a scenario with [two_plane] has an ensemble of starts to choose \
+             from; the one-plane start is the scenario's [initial]"
+        );
+    }
     exact_only(&a.system)?;
     if is_modal(&a.system)? {
         return run_continue_modal(a);

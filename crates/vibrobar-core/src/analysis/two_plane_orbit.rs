@@ -21,13 +21,15 @@
 //! of sliding, rolling, sticking and corner contacts is not derived: orbits and the spectrum
 //! are refused there, naming why.
 
+use super::grid::Axis;
 use super::lyapunov_spectrum::{lyapunov_spectrum, SpectrumParams, SpectrumResult};
+use super::orbit::continuation::{continue_orbit, Branch, ContinuationSettings};
 use super::orbit::{find_orbit, scales, starting_guess, to_vector, MapJacobian};
 use super::orbit::{NewtonSettings, PeriodicOrbit, Start};
 use super::two_plane::TwoPlaneMethod;
-use crate::error::SimError;
+use crate::error::{ParamError, SimError};
 use crate::params::two_plane::TwoPlaneSystem;
-use crate::params::{RunSettings, State};
+use crate::params::{Frequency, RunSettings, State};
 use crate::solver::two_plane_exact::{decoupled, hole_axes, plane_start, plane_system};
 use crate::solver::two_plane_rk4::{Sampling, TwoPlaneSample, TwoPlaneStart, TwoPlaneSummary};
 use crate::solver::{Exact, Solver};
@@ -200,6 +202,96 @@ pub fn two_plane_lyapunov_spectrum(
             &Exact::default(),
             params,
         )?);
+    }
+    Ok(out.try_into().expect("two planes"))
+}
+
+/// One plane of a two-plane continuation.
+#[derive(Debug, Clone)]
+pub enum PlaneBranch {
+    /// The plane's orbits followed in the parameter; `scale` turns the branch's parameter
+    /// values (the plane's own frequency ratio when the ratio is followed) into the two-plane
+    /// scenario's.
+    Followed {
+        /// The branch.
+        branch: Branch,
+        /// Two-plane parameter per branch parameter.
+        scale: f64,
+    },
+    /// The parameter does not act on this plane (the axial gap across the hole): its one orbit.
+    Fixed(Box<PeriodicOrbit>),
+}
+
+/// The parameters a two-plane continuation follows: the frequency ratio and the restitution
+/// (both planes) and the axial gap (the plane along the hole).
+pub const TWO_PLANE_CONTINUATION_AXES: [Axis; 3] = [Axis::FreqRatio, Axis::GapM, Axis::Restitution];
+
+/// Follow the period-`periods` orbit that the run from `start` settles on over `settle_s`, in
+/// each plane, from `from` to `to` of `axis` (two-plane units: the ratio refers to the bar's
+/// lower principal frequency). Where the planes decouple the two-plane orbit at a parameter
+/// value is the pair of the planes' orbits there, stable where both are.
+#[allow(clippy::too_many_arguments)]
+pub fn two_plane_branches(
+    sys: &TwoPlaneSystem,
+    start: &TwoPlaneStart,
+    axis: Axis,
+    from: f64,
+    to: f64,
+    periods: u32,
+    settle_s: f64,
+    jac: &dyn MapJacobian,
+    settings: &ContinuationSettings,
+) -> Result<[PlaneBranch; 2], SimError> {
+    if !TWO_PLANE_CONTINUATION_AXES.contains(&axis) {
+        return Err(ParamError::OutOfRange {
+            field: "followed parameter of a two-plane continuation",
+            value: f64::NAN,
+            allowed: "ratio, gap-mm (the axial gap) or restitution (friction on the walls couples the planes)",
+        }
+        .into());
+    }
+    let mut at_from = *sys;
+    match axis {
+        Axis::FreqRatio => at_from.forcing.frequency = Frequency::Ratio(from),
+        Axis::GapM => at_from.hole.axial_gap_m = from,
+        _ => at_from.ball.restitution = from,
+    }
+    at_from.validate()?;
+    check(&at_from)?;
+    let omega1 = at_from.bar.omega1_rad_s();
+    let mut out = Vec::with_capacity(2);
+    for plane in 0..2 {
+        let mut psys = plane_system(&at_from, plane)?;
+        // The plane's own ratio is Ω over its own first frequency; the continuation follows
+        // the ratio, so the plane's forcing is given as one.
+        let scale = match axis {
+            Axis::FreqRatio => {
+                let s = psys.omega1_rad_s() / omega1;
+                psys.forcing.frequency = Frequency::Ratio(from / s);
+                s
+            }
+            _ => 1.0,
+        };
+        let init = plane_start(&at_from, start, plane, 0.0);
+        let (sec, x0) = starting_guess(&psys, periods, &Start::Settled { init, settle_s })?;
+        let orbit = find_orbit(&sec, &x0, jac, &NewtonSettings::default())?;
+        if axis == Axis::GapM && plane == 1 {
+            out.push(PlaneBranch::Fixed(Box::new(orbit)));
+            continue;
+        }
+        if orbit.impacts_per_period == 0 {
+            return Err(SimError::Unsupported(if plane == 0 {
+                "at the start of the interval the ball floats along the hole without an impact: \
+                 its orbits form a continuum (a multiplier 1) that no continuation can follow; \
+                 start where it impacts (another ratio, a smaller axial gap or another member)"
+            } else {
+                "at the start of the interval the ball floats across the hole without an impact: \
+                 its orbits form a continuum (a multiplier 1) that no continuation can follow; \
+                 start where it impacts (another ratio, a tighter hole or another member)"
+            }));
+        }
+        let branch = continue_orbit(&orbit, axis, from / scale, to / scale, jac, settings)?;
+        out.push(PlaneBranch::Followed { branch, scale });
     }
     Ok(out.try_into().expect("two planes"))
 }
