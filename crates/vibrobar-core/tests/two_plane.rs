@@ -4,6 +4,7 @@
 use vibrobar_core::params::two_plane::{
     Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneBar, TwoPlaneSystem,
 };
+use vibrobar_core::solver::exact::modal::ModalExact;
 use vibrobar_core::solver::two_plane_exact::{self, TwoPlaneExact};
 use vibrobar_core::solver::two_plane_rk4::{
     HoleWall, Sampling, TwoPlaneEvent, TwoPlaneEventKind, TwoPlaneRk4, TwoPlaneSample,
@@ -1291,7 +1292,9 @@ fn the_largest_lyapunov_exponent_agrees_between_solvers_and_with_the_plane_acros
 fn a_two_plane_orbit_is_the_pair_of_plane_orbits_and_the_long_run_settles_on_it() {
     use vibrobar_core::analysis::lyapunov_spectrum::SpectrumParams;
     use vibrobar_core::analysis::orbit::ExactJacobian;
-    use vibrobar_core::analysis::two_plane_orbit::{two_plane_lyapunov_spectrum, two_plane_orbit};
+    use vibrobar_core::analysis::two_plane_orbit::{
+        two_plane_lyapunov_spectrum, two_plane_orbit, TwoPlaneOrbitOf,
+    };
     let g = STANDARD_GRAVITY_M_S2;
     // The force at 63.4° to the radial hole, gravity across it, r = 1. A tight hole (0.04 mm
     // axial gap, 0.04 mm radial clearance): a stable two-impact orbit in each plane, the ball
@@ -1304,7 +1307,11 @@ fn a_two_plane_orbit_is_the_pair_of_plane_orbits_and_the_long_run_settles_on_it(
     ] {
         let sys = paper(gap_m, c_r_m, 0.0, 63.4, 1.0, g);
         let start = TwoPlaneStart::resting(&sys, 0.0);
-        let o = two_plane_orbit(&sys, 1, &start, 0.5, &ExactJacobian).unwrap();
+        let TwoPlaneOrbitOf::Lumped(o) =
+            two_plane_orbit(&sys, 1, &start, 0.5, &ExactJacobian).unwrap()
+        else {
+            panic!("{name}: a lumped bar's orbit");
+        };
         let m = o.multipliers();
         eprintln!(
             "{name}: impacts {} per period, return gap {:.1e}, rms along force {:.4e}, stable {}, \
@@ -1373,4 +1380,96 @@ fn a_two_plane_orbit_is_the_pair_of_plane_orbits_and_the_long_run_settles_on_it(
     .unwrap_err()
     .to_string();
     assert!(e.contains("decouple") && e.contains("friction"), "{e}");
+}
+
+/// A periodic orbit of the round beam in two planes (0.1 mm axial gap, 0.04 mm radial
+/// clearance, r = 1, gravity across the hole): each plane's orbit is the one-plane modal orbit
+/// of its system, the two-plane run started from the planes' modal states comes back to them
+/// after one period, and its RMS along the force (the planes' closed forms and cross term) is
+/// the quadrature of the sampled displacement along the force.
+#[test]
+fn a_round_beam_two_plane_orbit_is_the_pair_of_modal_orbits() {
+    use vibrobar_core::analysis::orbit::modal::modal_orbit_settled;
+    use vibrobar_core::analysis::orbit::ExactJacobian;
+    use vibrobar_core::analysis::two_plane_orbit::{two_plane_orbit, TwoPlaneOrbitOf};
+    use vibrobar_core::params::two_plane::direction;
+    use vibrobar_core::structure::{ModalState, ModalSystem};
+    let sys = round_beam(0.1e-3, 0.04e-3, 63.4, 1.0, STANDARD_GRAVITY_M_S2);
+    let start = TwoPlaneStart::resting(&sys, 0.0);
+    let TwoPlaneOrbitOf::Round(o) = two_plane_orbit(&sys, 1, &start, 0.3, &ExactJacobian).unwrap()
+    else {
+        panic!("a round bar's orbit");
+    };
+    eprintln!(
+        "beam: impacts {} per period, return gap {:.1e}, rms along force {:.4e}, |λ| max {:.4}",
+        o.impacts_per_period(),
+        o.return_gap,
+        o.summary.rms_along_force_m,
+        o.multipliers()[0].norm()
+    );
+    assert!(o.return_gap < 1e-8, "return gap {:e}", o.return_gap);
+    assert_eq!(
+        o.multipliers().len(),
+        2 * (2 * o.planes[0].section.n_modes() + 2)
+    );
+    for axis in 0..2 {
+        let psys = two_plane_exact::plane_system(&sys, axis).unwrap();
+        let ms = ModalSystem::from_system(&psys).unwrap();
+        let init = ModalState::from_public(
+            &ms.model,
+            &two_plane_exact::plane_start(&sys, &start, axis, 0.0),
+        )
+        .unwrap();
+        let one = modal_orbit_settled(&ms, 1, &init, 0.3).unwrap();
+        close(
+            o.planes[axis].max_abs_multiplier(),
+            one.max_abs_multiplier(),
+            1e-9,
+            "a plane's multipliers are its one-plane orbit's",
+        );
+        assert_eq!(o.planes[axis].impacts_per_period, one.impacts_per_period);
+    }
+    // The RMS along the force over the period by the trapezoid rule on 20 000 samples.
+    let period_s = 2.0 * std::f64::consts::PI / sys.omega_rad_s();
+    let n = 20_000;
+    let e_f = direction(sys.forcing.angle_deg);
+    let mut u2 = Vec::with_capacity(n + 1);
+    let mut on_sample = |s: &TwoPlaneSample| {
+        let u = s.state.u_m[0] * e_f[0] + s.state.u_m[1] * e_f[1];
+        u2.push(u * u);
+    };
+    let modal = [0, 1].map(|axis| {
+        let o1 = &o.planes[axis];
+        ModalExact::default()
+            .run(&o1.section.system, &o1.state, o.start_t_s, &mut ())
+            .unwrap()
+            .final_state
+    });
+    TwoPlaneExact::default()
+        .run_from_modal(
+            &sys,
+            &o.start,
+            &modal,
+            o.start_t_s,
+            &RunSettings {
+                duration_s: period_s,
+                dt_s: 1e-6,
+                rms_fraction: 1.0,
+            },
+            &mut |_| {},
+            Some(Sampling {
+                start_s: o.start_t_s,
+                interval_s: period_s / n as f64,
+                on_sample: &mut on_sample,
+            }),
+        )
+        .unwrap();
+    assert!(u2.len() >= n, "{} samples", u2.len());
+    let mean = (u2[..n].iter().sum::<f64>() + 0.5 * (u2[n.min(u2.len() - 1)] - u2[0])) / n as f64;
+    close(
+        mean.sqrt(),
+        o.summary.rms_along_force_m,
+        1e-5,
+        "the orbit's RMS along the force against the quadrature",
+    );
 }

@@ -627,7 +627,9 @@ pub(crate) fn two_plane_orbit<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     use vibrobar_core::analysis::orbit::{check_period, ExactJacobian};
     use vibrobar_core::analysis::two_plane::solid_rms_m;
-    use vibrobar_core::analysis::two_plane_orbit::{two_plane_orbit, TWO_PLANE_ORBIT_SCOPE};
+    use vibrobar_core::analysis::two_plane_orbit::{
+        two_plane_orbit, TwoPlaneOrbitOf, TWO_PLANE_ORBIT_SCOPE,
+    };
     let sc = two_plane_scenario(scenario, "orbit")?;
     let (s, sys, _, start) = member_at(sc, ratio, gap_m, member)?;
     check_period(period).map_err(input_error)?;
@@ -646,12 +648,40 @@ pub(crate) fn two_plane_orbit<'py>(
         }
         None => settings.duration_s * (1.0 - settings.rms_fraction),
     };
-    let (o, solid) = detached(py, None, |_| {
+    let (orbit, solid) = detached(py, None, |_| {
         let o = two_plane_orbit(&sys, period, &start, settle, &ExactJacobian)
             .map_err(|e| run_error(two_plane_keywords(e.to_string())))?;
         let solid = solid_rms_m(&sys, &settings).map_err(run_error)?;
         Ok((o, solid))
     })?;
+    let d = match &orbit {
+        TwoPlaneOrbitOf::Lumped(o) => {
+            let planes = [
+                super::orbit_dict(py, &o.planes[0])?,
+                super::orbit_dict(py, &o.planes[1])?,
+            ];
+            orbit_of_two_planes(py, o, planes, solid)?
+        }
+        TwoPlaneOrbitOf::Round(o) => {
+            let planes = [
+                super::modal_orbit_dict(py, &o.planes[0])?,
+                super::modal_orbit_dict(py, &o.planes[1])?,
+            ];
+            orbit_of_two_planes(py, o, planes, solid)?
+        }
+    };
+    d.set_item("member", member)?;
+    Ok(d)
+}
+
+/// The dict of a two-plane orbit on either bar, with its planes' dicts.
+fn orbit_of_two_planes<'py, F: vibrobar_core::analysis::orbit::Flow>(
+    py: Python<'py>,
+    o: &vibrobar_core::analysis::two_plane_orbit::TwoPlaneOrbit<F>,
+    planes: [Bound<'py, PyDict>; 2],
+    solid: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let period = o.planes[0].section.periods();
     let sm = &o.summary;
     let d = PyDict::new(py);
     d.set_item("period", period)?;
@@ -690,11 +720,11 @@ pub(crate) fn two_plane_orbit<'py>(
     st.set_item("w_hole_m", o.start.w_hole_m.to_vec())?;
     st.set_item("dw_hole_m_s", o.start.dw_hole_m_s.to_vec())?;
     d.set_item("state", st)?;
-    let planes = PyDict::new(py);
-    planes.set_item("along_hole", super::orbit_dict(py, &o.planes[0])?)?;
-    planes.set_item("across_hole", super::orbit_dict(py, &o.planes[1])?)?;
-    d.set_item("planes", planes)?;
-    d.set_item("member", member)?;
+    let [along, across] = planes;
+    let p = PyDict::new(py);
+    p.set_item("along_hole", along)?;
+    p.set_item("across_hole", across)?;
+    d.set_item("planes", p)?;
     Ok(d)
 }
 

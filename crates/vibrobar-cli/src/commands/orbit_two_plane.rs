@@ -8,8 +8,8 @@ use anyhow::{bail, Context, Result};
 use vibrobar_core::analysis::orbit::continuation::ContinuationSettings;
 use vibrobar_core::analysis::two_plane::solid_rms_m;
 use vibrobar_core::analysis::two_plane_orbit::{
-    two_plane_branches, two_plane_orbit, PlaneBranch, TWO_PLANE_CONTINUATION_AXES,
-    TWO_PLANE_ORBIT_SCOPE,
+    two_plane_branches, two_plane_orbit, PlaneBranch, TwoPlaneOrbit, TwoPlaneOrbitOf,
+    TWO_PLANE_CONTINUATION_AXES, TWO_PLANE_ORBIT_SCOPE,
 };
 use vibrobar_core::solver::two_plane_exact::decoupled;
 use vibrobar_io::csv::{write_csv, write_json};
@@ -19,7 +19,8 @@ use vibrobar_report::figures::branch::BranchDot;
 
 use super::explore::PointArgs;
 use super::orbit::{
-    axis_of, continued_point, orbit_json, period_of, ContinueArgs, OrbitArgs, StartArg,
+    axis_of, continued_point, orbit_json, period_of, Bar, ContinueArgs, JacobianArg, OrbitArgs,
+    StartArg,
 };
 use super::poincare_two_plane::MemberRun;
 use super::{check_value, fmt_coord};
@@ -52,8 +53,38 @@ pub fn run(a: &OrbitArgs, sc: &Scenario) -> Result<()> {
         Some(t) => check_value("--settle", t, |x| x > 0.0, "(0, ∞) s")?,
         None => settings.duration_s * (1.0 - settings.rms_fraction),
     };
-    let o = two_plane_orbit(&sys, periods, &start, settle, a.start.jacobian.get())?;
+    if sys.bar.lumped().is_none() && a.start.jacobian != JacobianArg::Exact {
+        bail!(
+            "--jacobian finite-difference: orbits of a round bar of modes use the exact Jacobian \
+             (the modal variational flow); leave --jacobian out"
+        );
+    }
+    let orbit = two_plane_orbit(&sys, periods, &start, settle, a.start.jacobian.get())?;
     let solid = solid_rms_m(&sys, &settings)?;
+    let params = serde_json::json!({
+        "scenario": &s,
+        "member": member,
+        "ratio": ratio,
+        "axial_gap_m": gap_mm * 1e-3,
+        "period": periods,
+        "settle_s": settle,
+    });
+    match &orbit {
+        TwoPlaneOrbitOf::Lumped(o) => report(a, o, solid, member, params),
+        TwoPlaneOrbitOf::Round(o) => report(a, o, solid, member, params),
+    }
+}
+
+/// The file, metadata and report line of a two-plane orbit on either bar.
+fn report<F: Bar>(
+    a: &OrbitArgs,
+    o: &TwoPlaneOrbit<F>,
+    solid: f64,
+    member: usize,
+    mut params: serde_json::Value,
+) -> Result<()> {
+    let periods = o.planes[0].section.periods();
+    params["jacobian"] = serde_json::json!(o.planes[0].jacobian_source);
     let m = o.multipliers();
     let max_abs = m.first().map_or(0.0, |l| l.norm());
     let sm = &o.summary;
@@ -90,15 +121,6 @@ pub fn run(a: &OrbitArgs, sc: &Scenario) -> Result<()> {
             "along_hole": orbit_json(&o.planes[0])?,
             "across_hole": orbit_json(&o.planes[1])?,
         },
-    });
-    let params = serde_json::json!({
-        "scenario": &s,
-        "member": member,
-        "ratio": ratio,
-        "axial_gap_m": gap_mm * 1e-3,
-        "period": periods,
-        "settle_s": settle,
-        "jacobian": o.planes[0].jacobian_source,
     });
     j["parameters"] = params.clone();
     write_json(&a.out, &j).with_context(|| format!("writing {}", a.out.display()))?;

@@ -22,17 +22,24 @@
 //! are refused there, naming why.
 
 use super::grid::Axis;
-use super::lyapunov_spectrum::{lyapunov_spectrum, SpectrumParams, SpectrumResult};
+use super::lyapunov_spectrum::{
+    lyapunov_spectrum, lyapunov_spectrum_modal, SpectrumParams, SpectrumResult,
+};
 use super::orbit::continuation::{continue_orbit, Branch, ContinuationSettings};
+use super::orbit::modal::{modal_orbit_settled, modal_scales, ModalPeriodicOrbit, ModalSection};
 use super::orbit::{find_orbit, scales, starting_guess, to_vector, MapJacobian};
+use super::orbit::{Flow, Orbit, Section};
 use super::orbit::{NewtonSettings, PeriodicOrbit, Start};
-use super::two_plane::TwoPlaneMethod;
 use crate::error::{ParamError, SimError};
 use crate::params::two_plane::TwoPlaneSystem;
-use crate::params::{Frequency, RunSettings, State};
-use crate::solver::two_plane_exact::{decoupled, hole_axes, plane_start, plane_system};
+use crate::params::{BarModel, Frequency, RunSettings};
+use crate::solver::exact::modal::ModalExact;
+use crate::solver::two_plane_exact::{
+    decoupled, hole_axes, plane_start, plane_system, TwoPlaneExact,
+};
 use crate::solver::two_plane_rk4::{Sampling, TwoPlaneSample, TwoPlaneStart, TwoPlaneSummary};
 use crate::solver::{Exact, Solver};
+use crate::structure::{ModalState, ModalSystem, Point};
 
 /// Why orbits and the spectrum of a two-plane bar whose planes do not decouple are refused
 /// ([`decoupled`] gives the particular reason).
@@ -46,35 +53,31 @@ fn check(sys: &TwoPlaneSystem) -> Result<(), SimError> {
     if decoupled(sys).is_err() {
         return Err(SimError::Unsupported(TWO_PLANE_ORBIT_SCOPE));
     }
-    if sys.bar.lumped().is_none() {
-        return Err(SimError::Unsupported(
-            "periodic orbits and the Lyapunov spectrum of a round bar of modes in two planes \
-             are not built (the lumped bar's are); the largest exponent runs",
-        ));
-    }
     Ok(())
 }
 
-/// A periodic orbit of a decoupled two-plane bar.
+/// A periodic orbit of a decoupled two-plane bar, on either bar (`F`: the lumped bar's
+/// [`Section`] or a round bar of modes' [`ModalSection`]).
 #[derive(Debug, Clone)]
-pub struct TwoPlaneOrbit {
+pub struct TwoPlaneOrbit<F: Flow = Section> {
     /// The orbit of each plane's one-plane system: `[along the hole, across it]`, each at its
     /// own section time.
-    pub planes: [PeriodicOrbit; 2],
+    pub planes: [Orbit<F>; 2],
     /// The two-plane state on the orbit at [`start_t_s`](Self::start_t_s) (the later of the
-    /// planes' section times).
+    /// planes' section times); on a round bar its public picture (the response point, the ball
+    /// relative to the cavity).
     pub start: TwoPlaneStart,
     /// Its time.
     pub start_t_s: f64,
-    /// A run of the two-plane exact solver over one orbit period from `start`: the RMS over the
+    /// A run of the two-plane exact solver over one orbit period from there: the RMS over the
     /// orbit along the force, per direction and in total, impacts per wall.
     pub summary: TwoPlaneSummary,
-    /// `max |x(t + kT) − x(t)|` of that run over the plane states, in the planes' scaled units:
-    /// how closely the two-plane run repeats the orbit.
+    /// `max |x(t + kT) − x(t)|` of that run over each plane's `(u, u̇, w, ẇ)`, in the plane's
+    /// scaled units: how closely the two-plane run repeats the orbit.
     pub return_gap: f64,
 }
 
-impl TwoPlaneOrbit {
+impl<F: Flow> TwoPlaneOrbit<F> {
     /// Floquet multipliers of both planes, largest modulus first (the spin's neutral 1 left
     /// out).
     pub fn multipliers(&self) -> Vec<num_complex::Complex64> {
@@ -98,90 +101,178 @@ impl TwoPlaneOrbit {
     }
 }
 
+/// A two-plane orbit of the bar the system has.
+#[derive(Debug, Clone)]
+pub enum TwoPlaneOrbitOf {
+    /// A lumped bar's.
+    Lumped(Box<TwoPlaneOrbit<Section>>),
+    /// A round bar of modes'.
+    Round(Box<TwoPlaneOrbit<ModalSection>>),
+}
+
+impl TwoPlaneOrbitOf {
+    /// The summary of the two-plane run over the orbit.
+    pub fn summary(&self) -> &TwoPlaneSummary {
+        match self {
+            TwoPlaneOrbitOf::Lumped(o) => &o.summary,
+            TwoPlaneOrbitOf::Round(o) => &o.summary,
+        }
+    }
+}
+
+/// One plane at the common time: its public `(u, u̇, w, ẇ)` and their scales.
+struct PlanePoint {
+    x: [f64; 4],
+    scales: [f64; 4],
+}
+
 /// The period-`periods` orbit that the run from `start` settles on over `settle_s` in each
-/// plane, found by Newton's method with `jac`, and the two-plane run over it.
+/// plane, found by Newton's method (with `jac` on a lumped bar, the modal variational flow on a
+/// round bar of modes), and the two-plane run over it.
 pub fn two_plane_orbit(
     sys: &TwoPlaneSystem,
     periods: u32,
     start: &TwoPlaneStart,
     settle_s: f64,
     jac: &dyn MapJacobian,
-) -> Result<TwoPlaneOrbit, SimError> {
+) -> Result<TwoPlaneOrbitOf, SimError> {
     sys.validate()?;
     check(sys)?;
+    let psys = [plane_system(sys, 0)?, plane_system(sys, 1)?];
+    let inits = [0, 1].map(|axis| plane_start(sys, start, axis, 0.0));
+    if sys.bar.lumped().is_some() {
+        let mut planes = Vec::with_capacity(2);
+        for axis in 0..2 {
+            let init = inits[axis];
+            let (sec, x0) =
+                starting_guess(&psys[axis], periods, &Start::Settled { init, settle_s })?;
+            planes.push(find_orbit(&sec, &x0, jac, &NewtonSettings::default())?);
+        }
+        let planes: [PeriodicOrbit; 2] = planes.try_into().expect("two planes");
+        let t0 = planes[0].section.t0_s.max(planes[1].section.t0_s);
+        let mut pts = Vec::with_capacity(2);
+        for o in &planes {
+            let s = if o.state.t_s >= t0 {
+                o.state
+            } else {
+                Exact::default()
+                    .run(&o.section.system, &o.state, t0, &mut ())?
+                    .final_state
+            };
+            pts.push(PlanePoint {
+                x: to_vector(&s),
+                scales: scales(&o.section.system),
+            });
+        }
+        let pts: [PlanePoint; 2] = pts.try_into().ok().expect("two planes");
+        let (start2, summary, gap) = over_one_period(sys, &pts, None, t0, periods)?;
+        return Ok(TwoPlaneOrbitOf::Lumped(Box::new(TwoPlaneOrbit {
+            planes,
+            start: start2,
+            start_t_s: t0,
+            summary,
+            return_gap: gap,
+        })));
+    }
+    let msys = [
+        ModalSystem::from_system(&psys[0])?,
+        ModalSystem::from_system(&psys[1])?,
+    ];
     let mut planes = Vec::with_capacity(2);
     for axis in 0..2 {
-        let psys = plane_system(sys, axis)?;
-        let init = plane_start(sys, start, axis, 0.0);
-        let (sec, x0) = starting_guess(&psys, periods, &Start::Settled { init, settle_s })?;
-        planes.push(find_orbit(&sec, &x0, jac, &NewtonSettings::default())?);
+        let init = ModalState::from_public(&msys[axis].model, &inits[axis])?;
+        planes.push(modal_orbit_settled(&msys[axis], periods, &init, settle_s)?);
     }
-    let planes: [PeriodicOrbit; 2] = planes.try_into().expect("two planes");
-    // Both planes at the later section time (each orbit is kT-periodic, the sections lie in
-    // [0, T)).
-    let t0 = planes[0].section.t0_s.max(planes[1].section.t0_s);
-    let at: Vec<State> = planes
-        .iter()
-        .map(|o| {
-            if o.state.t_s >= t0 {
-                Ok(o.state)
-            } else {
-                Ok(Exact::default()
-                    .run(&o.section.system, &o.state, t0, &mut ())?
-                    .final_state)
-            }
-        })
-        .collect::<Result<_, SimError>>()?;
+    let planes: [ModalPeriodicOrbit; 2] = planes.try_into().expect("two planes");
+    let t0 = planes[0].section.t0_s().max(planes[1].section.t0_s());
+    let mut pts = Vec::with_capacity(2);
+    let mut modal = Vec::with_capacity(2);
+    for (axis, o) in planes.iter().enumerate() {
+        let s = if o.state.t_s >= t0 {
+            o.state
+        } else {
+            ModalExact::default()
+                .run(&msys[axis], &o.state, t0, &mut ())?
+                .final_state
+        };
+        let model = &msys[axis].model;
+        let sc = modal_scales(&msys[axis]);
+        let n = msys[axis].n_modes();
+        pts.push(PlanePoint {
+            x: [
+                s.u_at(model, Point::Response),
+                s.du_at(model, Point::Response),
+                s.w_m(model),
+                s.dw_m_s(model),
+            ],
+            scales: [sc[0], sc[n], sc[2 * n], sc[2 * n + 1]],
+        });
+        modal.push(s);
+    }
+    let pts: [PlanePoint; 2] = pts.try_into().ok().expect("two planes");
+    let modal: [ModalState; 2] = modal.try_into().expect("two planes");
+    let (start2, summary, gap) = over_one_period(sys, &pts, Some(&modal), t0, periods)?;
+    Ok(TwoPlaneOrbitOf::Round(Box::new(TwoPlaneOrbit {
+        planes,
+        start: start2,
+        start_t_s: t0,
+        summary,
+        return_gap: gap,
+    })))
+}
+
+/// The two-plane run over one orbit period from the planes' points at `t0` (from their modal
+/// states on a round bar): the start's public picture, the summary and the return gap (the
+/// run's samples at `t0` and `t0 + kT` compared plane by plane, in each plane's scales).
+fn over_one_period(
+    sys: &TwoPlaneSystem,
+    pts: &[PlanePoint; 2],
+    modal: Option<&[ModalState; 2]>,
+    t0: f64,
+    periods: u32,
+) -> Result<(TwoPlaneStart, TwoPlaneSummary, f64), SimError> {
     let axes = hole_axes(sys);
-    let comb =
-        |f: &dyn Fn(&State) -> f64| [0, 1].map(|c| f(&at[0]) * axes[0][c] + f(&at[1]) * axes[1][c]);
-    let start2 = TwoPlaneStart {
-        u_m: comb(&|s| s.u_m),
-        du_m_s: comb(&|s| s.du_m_s),
-        w_hole_m: [at[0].w_m(), at[1].w_m()],
-        dw_hole_m_s: [at[0].dw_m_s(), at[1].dw_m_s()],
+    let comb = |i: usize| [0, 1].map(|c| pts[0].x[i] * axes[0][c] + pts[1].x[i] * axes[1][c]);
+    let start = TwoPlaneStart {
+        u_m: comb(0),
+        du_m_s: comb(1),
+        w_hole_m: [pts[0].x[2], pts[1].x[2]],
+        dw_hole_m_s: [pts[0].x[3], pts[1].x[3]],
         spin_rad_s: 0.0,
     };
-    let period_s = periods as f64 * planes[0].section.period_s();
+    let period_s = periods as f64 * 2.0 * std::f64::consts::PI / sys.omega_rad_s();
     let settings = RunSettings {
         duration_s: period_s,
         dt_s: 1e-6,
         rms_fraction: 1.0,
     };
-    let mut end: Option<TwoPlaneSample> = None;
-    let mut on_sample = |s: &TwoPlaneSample| end = Some(*s);
-    let summary = TwoPlaneMethod::Exact.run_from(
-        sys,
-        &start2,
-        t0,
-        &settings,
-        &mut |_| {},
-        Some(Sampling {
-            start_s: t0 + period_s,
-            interval_s: period_s,
-            on_sample: &mut on_sample,
-        }),
-    )?;
-    let return_gap = match end {
-        Some(e) => (0..2)
+    let mut samples: Vec<TwoPlaneSample> = Vec::with_capacity(2);
+    let mut on_sample = |s: &TwoPlaneSample| samples.push(*s);
+    let sampling = Some(Sampling {
+        start_s: t0,
+        interval_s: period_s,
+        on_sample: &mut on_sample,
+    });
+    let solver = TwoPlaneExact::default();
+    let summary = match modal {
+        None => solver.run_from(sys, &start, t0, &settings, &mut |_| {}, sampling)?,
+        Some(m) => solver.run_from_modal(sys, &start, m, t0, &settings, &mut |_| {}, sampling)?,
+    };
+    let gap = match samples.as_slice() {
+        [a, b, ..] => (0..2)
             .map(|axis| {
-                let a = to_vector(&plane_start(sys, &start2, axis, t0));
-                let b = to_vector(&plane_start(sys, &e.state, axis, t0));
-                let sc = scales(&planes[axis].section.system);
+                let (x, y) = (
+                    to_vector(&plane_start(sys, &a.state, axis, t0)),
+                    to_vector(&plane_start(sys, &b.state, axis, t0)),
+                );
                 (0..4)
-                    .map(|i| ((a[i] - b[i]) / sc[i]).abs())
+                    .map(|i| ((x[i] - y[i]) / pts[axis].scales[i]).abs())
                     .fold(0.0, f64::max)
             })
             .fold(0.0, f64::max),
-        None => f64::INFINITY,
+        _ => f64::INFINITY,
     };
-    Ok(TwoPlaneOrbit {
-        planes,
-        start: start2,
-        start_t_s: t0,
-        summary,
-        return_gap,
-    })
+    Ok((start, summary, gap))
 }
 
 /// The Lyapunov spectrum of a decoupled two-plane bar's run from `start`: each plane's spectrum
@@ -196,12 +287,15 @@ pub fn two_plane_lyapunov_spectrum(
     let mut out = Vec::with_capacity(2);
     for axis in 0..2 {
         let psys = plane_system(sys, axis)?;
-        out.push(lyapunov_spectrum(
-            &psys,
-            &plane_start(sys, start, axis, 0.0),
-            &Exact::default(),
-            params,
-        )?);
+        let init = plane_start(sys, start, axis, 0.0);
+        out.push(match &psys.bar {
+            BarModel::Lumped(_) => lyapunov_spectrum(&psys, &init, &Exact::default(), params)?,
+            BarModel::Modal(model) => lyapunov_spectrum_modal(
+                &ModalSystem::from_system(&psys)?,
+                &ModalState::from_public(model, &init)?,
+                params,
+            )?,
+        });
     }
     Ok(out.try_into().expect("two planes"))
 }
@@ -258,6 +352,12 @@ pub fn two_plane_branches(
     }
     at_from.validate()?;
     check(&at_from)?;
+    if at_from.bar.lumped().is_none() {
+        return Err(SimError::Unsupported(
+            "continuation of a round bar of modes in two planes is not built (its orbit, \
+             `orbit`, and the lumped bar's continuation are)",
+        ));
+    }
     let omega1 = at_from.bar.omega1_rad_s();
     let mut out = Vec::with_capacity(2);
     for plane in 0..2 {

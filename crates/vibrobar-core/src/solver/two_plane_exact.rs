@@ -722,7 +722,7 @@ impl TwoPlaneExact {
         settings: &RunSettings,
         on_event: &mut dyn FnMut(&TwoPlaneEvent),
     ) -> Result<TwoPlaneSummary, SimError> {
-        self.run_with(sys, start, 0.0, settings, on_event, None, true)
+        self.run_with(sys, start, None, 0.0, settings, on_event, None, true)
     }
 
     /// [`TwoPlaneExact::run`] from the state `start` at time `t0_s` (the forcing's phase is
@@ -738,16 +738,51 @@ impl TwoPlaneExact {
         on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
         sampling: Option<Sampling<'a>>,
     ) -> Result<TwoPlaneSummary, SimError> {
-        self.run_with(sys, start, t0_s, settings, on_event, sampling, true)
+        self.run_with(sys, start, None, t0_s, settings, on_event, sampling, true)
+    }
+
+    /// [`TwoPlaneExact::run_from`] on a round bar of modes from each plane's modal state
+    /// (`[along the hole, across it]`, at `t0_s`): a start that the public state `start` (the
+    /// response point, the ball relative to the cavity) cannot carry, such as a point of a
+    /// periodic orbit. `start` must be their public picture; it gives the spin.
+    #[allow(clippy::too_many_arguments)]
+    pub fn run_from_modal<'a>(
+        &self,
+        sys: &TwoPlaneSystem,
+        start: &TwoPlaneStart,
+        modal: &[crate::structure::ModalState; 2],
+        t0_s: f64,
+        settings: &RunSettings,
+        on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
+        sampling: Option<Sampling<'a>>,
+    ) -> Result<TwoPlaneSummary, SimError> {
+        if sys.bar.lumped().is_some() {
+            return Err(SimError::Unsupported(
+                "modal plane starts are for a round bar of modes; a lumped bar starts from its \
+                 public state",
+            ));
+        }
+        self.run_with(
+            sys,
+            start,
+            Some(modal),
+            t0_s,
+            settings,
+            on_event,
+            sampling,
+            true,
+        )
     }
 
     /// [`TwoPlaneExact::run`], with the cross term from the closed forms where the segments
-    /// have them (`closed_form`) or from the streamed nodes everywhere (the check of the first).
+    /// have them (`closed_form`) or from the streamed nodes everywhere (the check of the first);
+    /// the planes start from `modal` where given, else from `start`.
     #[allow(clippy::too_many_arguments)]
     fn run_with<'a>(
         &self,
         sys: &TwoPlaneSystem,
         start: &TwoPlaneStart,
+        modal: Option<&[crate::structure::ModalState; 2]>,
         t0_s: f64,
         settings: &RunSettings,
         on_event: &'a mut dyn FnMut(&TwoPlaneEvent),
@@ -790,9 +825,24 @@ impl TwoPlaneExact {
             grid,
             rx: None,
         };
+        // Each plane's run: from its public state, or from its modal state on the N-mode
+        // kernel the one-plane solver would pick.
+        let run_plane = |axis: usize, obs: &mut PlaneObserver| -> Result<RunSummary, SimError> {
+            match modal {
+                None => self.plane.run(&systems[axis], &starts[axis], t_end, obs),
+                Some(ms) => {
+                    let msys = crate::structure::ModalSystem::from_system(&systems[axis])?;
+                    Ok(crate::solver::exact::modal::ModalExact {
+                        max_events: self.plane.max_events,
+                        check_invariants: self.plane.check_invariants,
+                    }
+                    .run(&msys, &ms[axis], t_end, obs)?
+                    .summary)
+                }
+            }
+        };
         let (tx, rx) = sync_channel(STREAM_BATCHES);
         let (back_tx, back_rx) = channel();
-        let solver = self.plane;
         let (along, across, cross, flight_s) = std::thread::scope(|scope| {
             let producer = scope.spawn(|| {
                 let mut obs = PlaneObserver {
@@ -803,7 +853,7 @@ impl TwoPlaneExact {
                     }),
                     ..observer(0)
                 };
-                let r = solver.run(&systems[0], &starts[0], t_end, &mut obs);
+                let r = run_plane(0, &mut obs);
                 if let Some(stream) = &mut obs.tx {
                     stream.flush();
                 }
@@ -833,7 +883,7 @@ impl TwoPlaneExact {
                 }),
                 ..observer(1)
             };
-            let r = solver.run(&systems[1], &starts[1], t_end, &mut obs);
+            let r = run_plane(1, &mut obs);
             let mut cross = obs.rx.take().expect("the reading end");
             if r.is_ok() {
                 // The rest of the stream: the events after the last one across the hole.
@@ -976,10 +1026,19 @@ mod tests {
             let solver = TwoPlaneExact::default();
             let mut n = 0;
             let closed = solver
-                .run_with(&sys, &start, 0.0, &settings, &mut |_| n += 1, None, true)
+                .run_with(
+                    &sys,
+                    &start,
+                    None,
+                    0.0,
+                    &settings,
+                    &mut |_| n += 1,
+                    None,
+                    true,
+                )
                 .unwrap();
             let nodes = solver
-                .run_with(&sys, &start, 0.0, &settings, &mut |_| {}, None, false)
+                .run_with(&sys, &start, None, 0.0, &settings, &mut |_| {}, None, false)
                 .unwrap();
             let i = closed.impacts;
             assert!(i[2] > 0 && i[3] > 0, "{i:?}");
