@@ -998,3 +998,99 @@ fn a_two_plane_continuation_follows_each_plane_from_the_orbit() {
         assert!(!bad.exists());
     }
 }
+
+/// Measured modes with the direction each bends in: two perpendicular families.
+fn measured(dirs: [&str; 4]) -> String {
+    let mut t = String::from(
+        "[damper]\ngap_m = 1.0e-4\n\n[run]\nduration_s = 0.05\n\n[two_plane]\n\
+         hole_angle_deg = 20.0\nhole_diameter_m = 0.0151\nforce_ratio = 2.0\nmembers = 2\n",
+    );
+    for (i, (f, d)) in [600.0, 612.0, 3700.0, 3770.0].iter().zip(dirs).enumerate() {
+        t += &format!(
+            "\n[[modes]]\nfrequency_hz = {f}\ndamping_ratio = 0.01\nmodal_mass_kg = 0.16\n\
+             shape_cavity = {}\n{d}",
+            if i < 2 { 0.7 } else { -0.4 }
+        );
+    }
+    t
+}
+
+#[test]
+fn measured_modes_with_directions_run_and_bad_directions_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let sc = d.path().join("m.toml");
+    let out = d.path().join("run.csv");
+    // The families at 20° and 110°: along and across the hole at 20°, the exact solver runs.
+    fs::write(
+        &sc,
+        measured([
+            "direction_deg = 20.0\n",
+            "direction_deg = 110.0\n",
+            "direction_deg = 200.0\n",
+            "direction_deg = -70.0\n",
+        ]),
+    )
+    .unwrap();
+    let o = vibrobar_ok(&["run", "--scenario", s(&sc), "--out", s(&out)]);
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("solver exact"),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    assert!(out.exists());
+    fs::remove_file(&out).unwrap();
+    for (dirs, words) in [
+        (
+            ["direction_deg = 20.0\n", "", "", ""],
+            &["direction_deg", "1 of 4 entries"][..],
+        ),
+        (
+            [
+                "direction_deg = 20.0\n",
+                "direction_deg = 70.0\n",
+                "direction_deg = 20.0\n",
+                "direction_deg = 110.0\n",
+            ],
+            &["modes[1].direction_deg = 70", "perpendicular"][..],
+        ),
+        (
+            [
+                "direction_deg = 20.0\n",
+                "direction_deg = 20.0\n",
+                "direction_deg = 200.0\n",
+                "direction_deg = 20.0\n",
+            ],
+            &["every mode bends along 20°"][..],
+        ),
+        (
+            [
+                "direction_deg = 50.0\n",
+                "direction_deg = 140.0\n",
+                "direction_deg = 50.0\n",
+                "direction_deg = 140.0\n",
+            ],
+            &[
+                "a bar of modes runs on the exact solver",
+                "along and across the hole",
+            ][..],
+        ),
+    ] {
+        fs::write(&sc, measured(dirs)).unwrap();
+        assert_fails_with(
+            &vibrobar(&["run", "--scenario", s(&sc), "--out", s(&out)]),
+            words,
+        );
+        assert!(!out.exists(), "{dirs:?}");
+    }
+    // One plane has no place for a direction.
+    let one = measured(["direction_deg = 20.0\n", "", "", ""]);
+    let one = &one[..one.find("[two_plane]").unwrap()];
+    let rest = measured(["direction_deg = 20.0\n", "", "", ""]);
+    let modes = &rest[rest.find("\n[[modes]]").unwrap()..];
+    fs::write(&sc, format!("{one}{modes}")).unwrap();
+    assert_fails_with(
+        &vibrobar(&["run", "--scenario", s(&sc), "--out", s(&out)]),
+        &["modes[0].direction_deg", "[two_plane]"],
+    );
+    assert!(!out.exists());
+}

@@ -127,6 +127,7 @@ fn one_percent_noise_keeps_frequencies_damping_shape_and_lobes() {
             damping_ratio: m.damping_ratio,
             modal_mass_kg: m.modal_mass_kg,
             shape_cavity: m.shape_cavity.unwrap(),
+            direction_deg: None,
         });
     }
     let model = |ms: &[MeasuredMode]| {
@@ -144,6 +145,7 @@ fn one_percent_noise_keeps_frequencies_damping_shape_and_lobes() {
             damping_ratio: z,
             modal_mass_kg: m,
             shape_cavity: s,
+            direction_deg: None,
         })
         .collect();
     let s_min = |ms: &[MeasuredMode]| {

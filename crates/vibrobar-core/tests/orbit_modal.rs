@@ -23,6 +23,7 @@ fn measured_one_mode(lumped: &System) -> ModalSystem {
         damping_ratio: bar.damping_ratio,
         modal_mass_kg: bar.mass_kg,
         shape_cavity: 1.0,
+        direction_deg: None,
     };
     ModalSystem {
         model: Structure::Measured(vec![mm.mode()]).modal_model().unwrap(),

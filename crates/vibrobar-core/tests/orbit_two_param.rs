@@ -333,6 +333,7 @@ fn measured_one_mode(lumped: &System) -> structure::ModalSystem {
         damping_ratio: bar.damping_ratio,
         modal_mass_kg: bar.mass_kg,
         shape_cavity: 1.0,
+        direction_deg: None,
     };
     structure::ModalSystem {
         model: structure::Structure::Measured(vec![mm.mode()])

@@ -1473,3 +1473,101 @@ fn a_round_beam_two_plane_orbit_is_the_pair_of_modal_orbits() {
         "the orbit's RMS along the force against the quadrature",
     );
 }
+
+/// Measured modes in two perpendicular bending directions (a clamping that splits the pair).
+fn measured_pair(split: f64, axis_deg: f64) -> vibrobar_core::params::two_plane::ModalPair {
+    use vibrobar_core::structure::{ModalModel, Mode};
+    let family = |scale: f64| {
+        ModalModel::new(
+            &[
+                Mode {
+                    omega_rad_s: 2.0 * std::f64::consts::PI * 600.0 * scale,
+                    damping_ratio: 0.01,
+                    modal_mass_kg: 0.16,
+                    shape_cavity: 0.7,
+                    shape_force: 1.0,
+                    shape_response: 1.0,
+                },
+                Mode {
+                    omega_rad_s: 2.0 * std::f64::consts::PI * 3700.0 * scale,
+                    damping_ratio: 0.015,
+                    modal_mass_kg: 0.16,
+                    shape_cavity: -0.4,
+                    shape_force: 1.0,
+                    shape_response: 1.0,
+                },
+            ],
+            0.0,
+        )
+        .unwrap()
+    };
+    vibrobar_core::params::two_plane::ModalPair {
+        modes: [family(1.0), family(split)],
+        axis_deg,
+    }
+}
+
+#[test]
+fn measured_modes_bend_in_their_directions() {
+    use vibrobar_core::structure::Point;
+    // Far from the walls (no impact): the tip's response along the force is
+    // F0 Σⱼ (e_F·dⱼ)² Gⱼ(Ω), each family through its receptance along its direction.
+    let mut sys = paper(20e-3, 10e-3, 30.0, 75.0, 1.0, 0.0);
+    let pair = measured_pair(1.04, 30.0);
+    sys.bar = TwoPlaneBar::Measured(pair);
+    sys.forcing.frequency = Frequency::RadPerS(2.0 * std::f64::consts::PI * 610.0);
+    assert!(two_plane_exact::decoupled(&sys).is_ok());
+    let (evs, e) = exact2(&sys, &TwoPlaneStart::at_rest([0.0; 2]), 2.0);
+    assert!(evs.is_empty());
+    let w = sys.omega_rad_s();
+    let rel = (75.0f64 - 30.0).to_radians();
+    let g = pair.modes[0].receptance(Point::Force, Point::Response, w) * rel.cos().powi(2)
+        + pair.modes[1].receptance(Point::Force, Point::Response, w) * rel.sin().powi(2);
+    close(
+        e.rms_along_force_m,
+        15.0 * g.norm() / 2f64.sqrt(),
+        1e-6,
+        "RMS along the force of the split pair",
+    );
+    // A ratio refers to the lower first mode; the hole across the first family puts the second
+    // along the hole.
+    close(
+        sys.bar.omega1_rad_s(),
+        2.0 * std::f64::consts::PI * 600.0,
+        1e-15,
+        "ω₁",
+    );
+    let mut across = sys;
+    across.hole.angle_deg = 120.0;
+    let p0 = two_plane_exact::plane_system(&across, 0).unwrap();
+    assert_eq!(
+        p0.bar,
+        vibrobar_core::params::BarModel::Modal(pair.modes[1])
+    );
+    // Equal families are a round bar: the same run as TwoPlaneBar::Round, at any hole angle.
+    let mut twins = paper(0.1e-3, 0.05e-3, 10.0, 63.4, 1.0, 9.80665);
+    twins.bar = TwoPlaneBar::Measured(measured_pair(1.0, 47.0));
+    let mut round = twins;
+    round.bar = TwoPlaneBar::Round(pair.modes[0]);
+    let start = TwoPlaneStart::resting(&twins, 0.0);
+    let (ea, a) = exact2(&twins, &start, 0.05);
+    let (eb, b) = exact2(&round, &start, 0.05);
+    assert_eq!(ea.len(), eb.len());
+    assert!(a.impacts.iter().sum::<u64>() > 5);
+    assert_eq!(a.rms_along_force_m, b.rms_along_force_m);
+    // At a slant to the hole the families couple the planes: refused, saying so.
+    let mut slant = sys;
+    slant.hole.angle_deg = 50.0;
+    let why = two_plane_exact::decoupled(&slant).unwrap_err();
+    assert!(why.contains("bending directions"), "{why}");
+    let err = TwoPlaneRk4::default()
+        .run(
+            &slant,
+            &TwoPlaneStart::at_rest([0.0; 2]),
+            &settings(0.01),
+            &mut |_| {},
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("lumped bar only"), "{err}");
+}

@@ -438,6 +438,7 @@ impl Scenario {
         if let Some(t) = &s.two_plane {
             t.force_angle_deg()?;
         }
+        two_plane::check_mode_directions(&s)?;
         if s.cutting.is_some() && !amplitude_given {
             s.forcing.amplitude_n = 0.0;
         }
@@ -720,6 +721,7 @@ impl Scenario {
         if let Some(c) = &self.cutting {
             c.validate()?;
         }
+        two_plane::check_mode_directions(self)?;
         self.two_plane_system()?;
         Ok(())
     }

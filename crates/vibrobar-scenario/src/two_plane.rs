@@ -5,7 +5,7 @@
 //!
 //! | what | from |
 //! |---|---|
-//! | the bar | `[bar]` (round: its K and ζ in both planes, or per principal axis with `stiffness_n_per_m = [K1, K2]`, `damping_ratio = [ζ1, ζ2]`, `principal_axis_deg`), or `[beam]` / `[[modes]]` (a round bar of those modes in each plane) |
+//! | the bar | `[bar]` (round: its K and ζ in both planes, or per principal axis with `stiffness_n_per_m = [K1, K2]`, `damping_ratio = [ζ1, ζ2]`, `principal_axis_deg`), or `[beam]` / `[[modes]]` (a round bar of those modes in each plane; `[[modes]]` entries with `direction_deg`: two perpendicular families, each bending in its direction) |
 //! | the ball | `[damper]`: `ball_mass_kg`, `ball_radius_m`, `restitution`, `rolling_friction_m`; friction on the hole's walls here |
 //! | the hole | `[damper] gap_m` is the axial gap (the ball moves ±gap/2 along the hole); here its direction and diameter |
 //! | the force | `[forcing]`: amplitude and frequency; here its direction |
@@ -33,10 +33,11 @@ use anyhow::{bail, Result};
 use serde::{Deserialize, Serialize};
 use vibrobar_core::analysis::two_plane::{starts, TwoPlaneEnsemble, TwoPlaneMethod};
 use vibrobar_core::params::two_plane::{
-    Gravity, Hole, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneBar, TwoPlaneSystem,
+    Gravity, Hole, ModalPair, PlanarBall, PlanarBar, PlanarForcing, TwoPlaneBar, TwoPlaneSystem,
 };
 use vibrobar_core::params::BarModel;
 use vibrobar_core::solver::two_plane_rk4::TwoPlaneStart;
+use vibrobar_core::structure::MeasuredMode;
 use vibrobar_core::{limits, Frequency};
 
 use crate::Scenario;
@@ -200,10 +201,20 @@ impl Scenario {
                 if t.stiffness_n_per_m.is_some() || t.damping_ratio.is_some() {
                     bail!(
                         "[two_plane] stiffness_n_per_m and damping_ratio apply to a lumped [bar]; \
-                         a bar of modes ([beam] or [[modes]]) is round, the same in both planes"
+                         a bar of modes ([beam] or [[modes]]) is round, the same in both planes, \
+                         or its [[modes]] give each mode's direction_deg"
                     );
                 }
-                TwoPlaneBar::Round(m)
+                match self
+                    .modes
+                    .as_deref()
+                    .map(measured_pair)
+                    .transpose()?
+                    .flatten()
+                {
+                    Some(pair) => TwoPlaneBar::Measured(pair),
+                    None => TwoPlaneBar::Round(m),
+                }
             }
         };
         let d = &self.damper;
@@ -276,6 +287,93 @@ impl Scenario {
         }
         Ok(starts(sys, &ens).map_err(|e| anyhow::anyhow!("{e}"))?[member])
     }
+}
+
+/// The two bending families of measured modes whose `[[modes]]` entries give `direction_deg`
+/// (`None` when none does: a round bar). Every entry must give one, and the directions must
+/// form two perpendicular families (to 1e-9°, modulo 180°), each with at least one mode.
+pub(crate) fn measured_pair(modes: &[MeasuredMode]) -> Result<Option<ModalPair>> {
+    let given = modes.iter().filter(|m| m.direction_deg.is_some()).count();
+    if given == 0 {
+        return Ok(None);
+    }
+    if given < modes.len() {
+        bail!(
+            "[[modes]] direction_deg: {given} of {} entries give it; give every mode's bending \
+             direction (two perpendicular families), or none for a round bar",
+            modes.len()
+        );
+    }
+    let dirs: Vec<f64> = modes
+        .iter()
+        .map(|m| m.direction_deg.expect("every entry gives one"))
+        .collect();
+    for (i, d) in dirs.iter().enumerate() {
+        if !d.is_finite() {
+            bail!("modes[{i}].direction_deg = {d} is not a finite angle (degrees)");
+        }
+    }
+    let axis = dirs[0];
+    let off = |d: f64| (d - axis).rem_euclid(180.0);
+    let near = |x: f64, y: f64| (x - y).abs() <= 1e-9 || (x - y).abs() >= 180.0 - 1e-9;
+    let mut families: [Vec<MeasuredMode>; 2] = [Vec::new(), Vec::new()];
+    for (i, (m, &d)) in modes.iter().zip(&dirs).enumerate() {
+        let o = off(d);
+        if near(o, 0.0) {
+            families[0].push(*m);
+        } else if near(o, 90.0) {
+            families[1].push(*m);
+        } else {
+            bail!(
+                "modes[{i}].direction_deg = {d}: the measured modes bend in two perpendicular \
+                 directions (the bar's principal axes); allowed: {axis}° or {}° (modulo 180°)",
+                axis + 90.0
+            );
+        }
+    }
+    if families[1].is_empty() {
+        bail!(
+            "[[modes]] direction_deg: every mode bends along {axis}°; give the modes of the \
+             perpendicular direction too (the bar bends in both), or leave direction_deg out \
+             for a round bar"
+        );
+    }
+    Ok(Some(ModalPair {
+        modes: [
+            crate::measured_model("modes", &families[0])?,
+            crate::measured_model("modes", &families[1])?,
+        ],
+        axis_deg: axis,
+    }))
+}
+
+/// `[[modes]] direction_deg` belongs to a `[two_plane]` scenario, never to `[[solid_modes]]`.
+pub(crate) fn check_mode_directions(s: &Scenario) -> Result<()> {
+    if let Some(i) = s
+        .solid_modes
+        .iter()
+        .flatten()
+        .position(|m| m.direction_deg.is_some())
+    {
+        bail!(
+            "solid_modes[{i}].direction_deg: the solid reference is the one-plane bar; leave \
+             direction_deg out of [[solid_modes]]"
+        );
+    }
+    if s.two_plane.is_none() {
+        if let Some(i) = s
+            .modes
+            .iter()
+            .flatten()
+            .position(|m| m.direction_deg.is_some())
+        {
+            bail!(
+                "modes[{i}].direction_deg: a mode's bending direction applies to a scenario \
+                 with [two_plane] (the bar that bends in two planes); leave it out for one plane"
+            );
+        }
+    }
+    Ok(())
 }
 
 /// The axes of a grid of two-plane design points, and how errors name the hole's axes.

@@ -217,6 +217,7 @@ pub fn run(a: &FitModesArgs) -> Result<()> {
             damping_ratio: m.damping_ratio,
             modal_mass_kg: m.modal_mass_kg,
             shape_cavity: shape,
+            direction_deg: None,
         };
         if let Err(e) = mode.validate() {
             warnings.push(format!(

@@ -481,6 +481,7 @@ fn fitted_table(
             damping_ratio: m.damping_ratio,
             modal_mass_kg: m.modal_mass_kg,
             shape_cavity: 1.0,
+            direction_deg: None,
         })
         .filter(|m| m.validate().is_ok())
         .collect();

@@ -157,6 +157,7 @@ fn measured(
                 damping_ratio: z,
                 modal_mass_kg: m,
                 shape_cavity: shape(k)?,
+                direction_deg: None,
             };
             mode.validate()?;
             Ok(mode)

@@ -300,7 +300,7 @@ impl Spread {
 }
 
 /// The one-plane model of the same bar and ball: the slot along the hole, the whole force along
-/// it, the bar's first principal axis, gravity's component along the hole on the ball, and
+/// it, the bar's first principal axis (the first family of measured modes), gravity's component along the hole on the ball, and
 /// `friction` (`coulomb` with the rolling friction as the Coulomb force, or none; none without
 /// gravity, which leaves the ball no normal load).
 pub fn one_plane_system(sys: &TwoPlaneSystem, friction: FrictionModel) -> System {
@@ -320,6 +320,7 @@ pub fn one_plane_system(sys: &TwoPlaneSystem, friction: FrictionModel) -> System
                 damping_ratio: b.damping_ratio[0],
             }),
             TwoPlaneBar::Round(m) => BarModel::Modal(*m),
+            TwoPlaneBar::Measured(p) => BarModel::Modal(p.modes[0]),
         },
         damper: Some(Damper {
             ball_mass_kg: sys.ball.mass_kg,
@@ -391,6 +392,11 @@ pub fn max_lyapunov_two_plane(
     let k = match &sys.bar {
         TwoPlaneBar::Lumped(b) => b.stiffness_n_per_m[0].min(b.stiffness_n_per_m[1]),
         TwoPlaneBar::Round(m) => 1.0 / m.tip_compliance_of_first(m.len()),
+        TwoPlaneBar::Measured(p) => p
+            .modes
+            .iter()
+            .map(|m| 1.0 / m.tip_compliance_of_first(m.len()))
+            .fold(f64::INFINITY, f64::min),
     };
     let su = if sys.forcing.amplitude_n > 0.0 {
         sys.forcing.amplitude_n / k

@@ -354,8 +354,8 @@ pub fn two_plane_branches(
     check(&at_from)?;
     if at_from.bar.lumped().is_none() {
         return Err(SimError::Unsupported(
-            "continuation of a round bar of modes in two planes is not built (its orbit, \
-             `orbit`, and the lumped bar's continuation are)",
+            "continuation of a bar of modes in two planes is not built (its orbit, `orbit`, \
+             and the lumped bar's continuation are)",
         ));
     }
     let omega1 = at_from.bar.omega1_rad_s();

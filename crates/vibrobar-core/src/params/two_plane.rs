@@ -26,7 +26,10 @@
 //!   ratio `r` refers to the lower principal frequency, `√(min K / M)`;
 //! - or a round bar reduced to its modes ([`ModalModel`], e.g. the Euler–Bernoulli beam's): the
 //!   same N modes in each plane, the force at the force point, the ball at the cavity, the
-//!   response at the response point. A frequency ratio refers to the first mode.
+//!   response at the response point. A frequency ratio refers to the first mode;
+//! - or measured modes in two perpendicular bending directions ([`ModalPair`]): each family
+//!   bends only in its direction, as a clamping that splits the pair makes it. A frequency
+//!   ratio refers to the lower first mode.
 
 use super::{finite, in_range, non_negative, positive, Bar, Frequency};
 use crate::error::ParamError;
@@ -90,6 +93,17 @@ impl PlanarBar {
     }
 }
 
+/// A bar of measured modes that bend in two perpendicular directions (its principal axes):
+/// the modes of a tap test in each direction, as a clamping that splits the pair gives them.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModalPair {
+    /// The modes bending along `axis_deg`, then those bending along `axis_deg + 90°`.
+    pub modes: [ModalModel; 2],
+    /// The direction the first family bends in, from the radial direction.
+    pub axis_deg: f64,
+}
+
 /// The bar of a two-plane system.
 // Not boxed: a `TwoPlaneSystem` stays `Copy` plain data, as a `System` does.
 #[allow(clippy::large_enum_variant)]
@@ -100,6 +114,8 @@ pub enum TwoPlaneBar {
     Lumped(PlanarBar),
     /// A round bar of these modes in each plane (tip-normalised, [`crate::structure`]).
     Round(ModalModel),
+    /// Measured modes, each family bending in its own direction.
+    Measured(ModalPair),
 }
 
 impl From<PlanarBar> for TwoPlaneBar {
@@ -113,7 +129,7 @@ impl TwoPlaneBar {
     pub fn lumped(&self) -> Option<&PlanarBar> {
         match self {
             TwoPlaneBar::Lumped(b) => Some(b),
-            TwoPlaneBar::Round(_) => None,
+            TwoPlaneBar::Round(_) | TwoPlaneBar::Measured(_) => None,
         }
     }
 
@@ -121,16 +137,19 @@ impl TwoPlaneBar {
     pub fn lumped_mut(&mut self) -> Option<&mut PlanarBar> {
         match self {
             TwoPlaneBar::Lumped(b) => Some(b),
-            TwoPlaneBar::Round(_) => None,
+            TwoPlaneBar::Round(_) | TwoPlaneBar::Measured(_) => None,
         }
     }
 
     /// The frequency a ratio refers to: the lumped bar's lower principal frequency, the round
-    /// bar's first mode.
+    /// bar's first mode, the lower of the measured families' first modes.
     pub fn omega1_rad_s(&self) -> f64 {
         match self {
             TwoPlaneBar::Lumped(b) => b.omega1_rad_s(),
             TwoPlaneBar::Round(m) => m.modes()[0].omega_rad_s,
+            TwoPlaneBar::Measured(p) => p.modes[0].modes()[0]
+                .omega_rad_s
+                .min(p.modes[1].modes()[0].omega_rad_s),
         }
     }
 
@@ -141,25 +160,37 @@ impl TwoPlaneBar {
                 (b.stiffness_n_per_m[0].max(b.stiffness_n_per_m[1]) / b.mass_kg).sqrt()
             }
             TwoPlaneBar::Round(m) => m.modes().iter().map(|m| m.omega_rad_s).fold(0.0, f64::max),
+            TwoPlaneBar::Measured(p) => p
+                .modes
+                .iter()
+                .flat_map(|m| m.modes().iter().map(|m| m.omega_rad_s))
+                .fold(0.0, f64::max),
         }
     }
 
     fn validate(&self) -> Result<(), ParamError> {
         match self {
             TwoPlaneBar::Lumped(b) => b.validate(),
-            TwoPlaneBar::Round(m) => {
-                for mode in m.modes() {
-                    positive("bar.modes.omega_rad_s", mode.omega_rad_s)?;
-                    positive("bar.modes.modal_mass_kg", mode.modal_mass_kg)?;
-                    below_one("bar.modes.damping_ratio", mode.damping_ratio)?;
-                    finite("bar.modes.shape_cavity", mode.shape_cavity)?;
-                    finite("bar.modes.shape_force", mode.shape_force)?;
-                    finite("bar.modes.shape_response", mode.shape_response)?;
-                }
-                Ok(())
+            TwoPlaneBar::Round(m) => validate_modes(m),
+            TwoPlaneBar::Measured(p) => {
+                validate_modes(&p.modes[0])?;
+                validate_modes(&p.modes[1])?;
+                finite("bar.axis_deg", p.axis_deg)
             }
         }
     }
+}
+
+fn validate_modes(m: &ModalModel) -> Result<(), ParamError> {
+    for mode in m.modes() {
+        positive("bar.modes.omega_rad_s", mode.omega_rad_s)?;
+        positive("bar.modes.modal_mass_kg", mode.modal_mass_kg)?;
+        below_one("bar.modes.damping_ratio", mode.damping_ratio)?;
+        finite("bar.modes.shape_cavity", mode.shape_cavity)?;
+        finite("bar.modes.shape_force", mode.shape_force)?;
+        finite("bar.modes.shape_response", mode.shape_response)?;
+    }
+    Ok(())
 }
 
 /// The ball, with the friction of its contact with the hole's walls.

@@ -66,8 +66,8 @@ pub fn decoupled(sys: &TwoPlaneSystem) -> Result<(), &'static str> {
         );
     }
     principal_index(sys, 0).ok_or(
-        "the exact two-plane solver needs the bar's principal axes along and across the hole: \
-         at a slant they couple the planes",
+        "the exact two-plane solver needs the bar's principal axes (or its measured modes' \
+         bending directions) along and across the hole: at a slant they couple the planes",
     )?;
     Ok(())
 }
@@ -75,17 +75,25 @@ pub fn decoupled(sys: &TwoPlaneSystem) -> Result<(), &'static str> {
 /// The index of the bar's principal axis along hole axis `axis` (0 along the hole, 1 across
 /// it); `None` when no principal axis lies along it. A round bar's is 0 for both.
 fn principal_index(sys: &TwoPlaneSystem, axis: usize) -> Option<usize> {
-    let Some(bar) = sys.bar.lumped() else {
-        // A bar of modes is round.
-        return Some(0);
+    let principal_deg = match &sys.bar {
+        TwoPlaneBar::Round(_) => return Some(0),
+        TwoPlaneBar::Lumped(bar) => {
+            // Round: the same stiffness and damping on both axes, exactly.
+            let round = bar.stiffness_n_per_m[0] - bar.stiffness_n_per_m[1] == 0.0
+                && bar.damping_ratio[0] - bar.damping_ratio[1] == 0.0;
+            if round {
+                return Some(0);
+            }
+            bar.principal_axis_deg
+        }
+        TwoPlaneBar::Measured(p) => {
+            if p.modes[0] == p.modes[1] {
+                return Some(0);
+            }
+            p.axis_deg
+        }
     };
-    // Round: the same stiffness and damping on both axes, exactly.
-    let round = bar.stiffness_n_per_m[0] - bar.stiffness_n_per_m[1] == 0.0
-        && bar.damping_ratio[0] - bar.damping_ratio[1] == 0.0;
-    if round {
-        return Some(0);
-    }
-    let rel = (sys.hole.angle_deg + 90.0 * axis as f64 - bar.principal_axis_deg).to_radians();
+    let rel = (sys.hole.angle_deg + 90.0 * axis as f64 - principal_deg).to_radians();
     let tol = 1e-12;
     if rel.sin().abs() <= tol {
         Some(0)
@@ -131,6 +139,7 @@ pub fn plane_system(sys: &TwoPlaneSystem, axis: usize) -> Result<System, SimErro
                 damping_ratio: b.damping_ratio[j],
             }),
             TwoPlaneBar::Round(m) => BarModel::Modal(*m),
+            TwoPlaneBar::Measured(p) => BarModel::Modal(p.modes[j]),
         },
         damper: Some(Damper {
             ball_mass_kg: sys.ball.mass_kg,

@@ -942,7 +942,8 @@ impl TwoPlaneRk4 {
         if sys.bar.lumped().is_none() {
             return Err(SimError::Unsupported(
                 "the two-plane reference solver runs the lumped bar only; a bar of modes runs on \
-                 the exact solver (frictionless walls)",
+                 the exact solver (frictionless walls, measured modes bending along and across \
+                 the hole)",
             ));
         }
         let omega_max = sys.bar.highest_omega_rad_s();

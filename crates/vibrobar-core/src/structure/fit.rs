@@ -1076,6 +1076,7 @@ impl ModalFit {
             damping_ratio: zeta,
             modal_mass_kg: m,
             shape_cavity: shape,
+            direction_deg: None,
         })
     }
 }

@@ -131,6 +131,11 @@ pub struct MeasuredMode {
     pub modal_mass_kg: f64,
     /// The shape at the cavity centre (the ball).
     pub shape_cavity: f64,
+    /// The direction the mode bends in, in the bar's cross-section from the radial direction
+    /// (a `[two_plane]` scenario: two perpendicular families, as a clamping that splits the
+    /// pair gives them); left out, the bar is round and every mode bends in both planes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub direction_deg: Option<f64>,
 }
 
 impl MeasuredMode {
@@ -147,7 +152,11 @@ impl MeasuredMode {
                 allowed: "[0, 1)",
             });
         }
-        finite("shape_cavity", self.shape_cavity)
+        finite("shape_cavity", self.shape_cavity)?;
+        match self.direction_deg {
+            Some(d) => finite("direction_deg", d),
+            None => Ok(()),
+        }
     }
 
     /// The mode: `ω = 2πf`, shapes 1 at the force and response points (the tip).
