@@ -147,7 +147,7 @@ def test_two_plane_run_refuses_bad_members_and_one_plane_functions_refuse_two_pl
         vibrobar.two_plane_run(vibrobar.Scenario.paper())
     # The one-plane functions do not run the one-plane model in its place.
     for f in (lambda: vibrobar.run(sc), lambda: vibrobar.regime(sc),
-              lambda: vibrobar.continuation(sc, param="ratio", from_=0.99, to=1.01)):
+              lambda: vibrobar.continuation2(sc)):
         with pytest.raises(ValueError, match=r"does not run a scenario with \[two_plane\]"):
             f()
 
@@ -320,3 +320,31 @@ def test_orbit_and_spectrum_of_a_two_plane_scenario_are_the_command_line_ones(tm
         vibrobar.orbit(vibrobar.Scenario.from_toml(str(rough)))
     with pytest.raises(ValueError, match="decouple"):
         vibrobar.lyapunov_spectrum(vibrobar.Scenario.from_toml(str(rough)))
+
+
+def test_continuation_of_a_two_plane_scenario_is_the_command_line_one(tmp_path):
+    import subprocess
+
+    sc_path = tmp_path / "tight.toml"
+    sc_path.write_text(TIGHT_TOML)
+    sc = vibrobar.Scenario.from_toml(str(sc_path))
+    c = vibrobar.continuation(sc, param="ratio", from_=1.0, to=1.05, gap_m=0.04e-3)
+    planes = set(c["plane"])
+    assert planes == {"along_hole", "across_hole"}
+    along = c["plane"] == "along_hole"
+    assert c["param"][along][0] == 1.0 and abs(c["param"][along][-1] - 1.05) < 1e-9
+    out = tmp_path / "c.csv"
+    subprocess.run(
+        [_vibrobar_cli(), "continue", "--scenario", str(sc_path), "--param", "ratio", "--from",
+         "1", "--to", "1.05", "--gap-mm", "0.04", "--out", str(out)],
+        check=True, capture_output=True,
+    )
+    # The ratio is dimensionless: the same rows, character for character.
+    assert c.to_csv() == out.read_text()
+    g = vibrobar.continuation(sc, param="gap_m", from_=0.04e-3, to=0.05e-3, ratio=1.0)
+    assert set(g["plane"]) == {"along_hole"}
+    with pytest.raises(ValueError, match="param"):
+        vibrobar.continuation(sc, param="friction_force_n", from_=1.0, to=2.0, ratio=1.0,
+                              gap_m=0.04e-3)
+    with pytest.raises(ValueError, match="member"):
+        vibrobar.continuation(vibrobar.Scenario.paper(), member=1)

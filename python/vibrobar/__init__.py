@@ -840,6 +840,8 @@ def continuation(
     start: str = "auto",
     max_points: int = 2000,
     switch_branches: bool = True,
+    member: Optional[int] = None,
+    settle_s: Optional[float] = None,
     **overrides,
 ) -> Table:
     """Pseudo-arclength continuation of a periodic orbit in ``param`` (``"ratio"``,
@@ -852,12 +854,42 @@ def continuation(
         Table: ``param``, ``rms_m``, ``max_abs_multiplier``, ``stable``,
         ``impacts_per_period``, ``period``, ``event`` (the CSV's columns; ``to_csv()`` its text
         with ``param`` in SI units).
+
+        For a scenario with ``[two_plane]``, where the planes decouple (``vibrobar continue`` on
+        it): each plane's orbit, from the one member ``member`` (default 0) settles on over
+        ``settle_s``, followed in ``"ratio"`` or ``"restitution"`` (both planes) or ``"gap_m"``
+        (the axial gap: the plane along the hole); the same columns after a ``plane`` column
+        (``"along_hole"``, ``"across_hole"``). The two-plane orbit at a value is the pair of
+        the planes' orbits there, stable where both are.
     """
     sc = _scenario(scenario, overrides)
     if isinstance(period, bool) or not isinstance(period, (int, _np.integer)):
         raise TypeError(f"period must be an int, got {period!r}")
     if not 1 <= int(period) <= 64:
         raise ValueError(f"period = {period} is outside the allowed range [1, 64] forcing cycles")
+    if sc.is_two_plane:
+        if start not in ("auto", "settled"):
+            raise ValueError(
+                f"start = {start!r}: a [two_plane] orbit starts from the run a member settles on "
+                "(start = 'auto' or 'settled'); the analytic symmetric orbit is the one-plane "
+                "model's"
+            )
+        cols, csv = _vibrobar.two_plane_continuation(
+            sc,
+            param,
+            _number("from_", from_, False),
+            _number("to", to, False),
+            _number("ratio", ratio),
+            _number("gap_m", gap_m),
+            _member(0 if member is None else member),
+            int(period),
+            _number("settle_s", settle_s),
+            int(max_points),
+            bool(switch_branches),
+        )
+        return Table(cols, csv)
+    _two_plane_refuse_one("continuation", {"member": member, "settle_s": settle_s},
+                          "an argument of a scenario with [two_plane]")
     cols, csv = _vibrobar.continuation(
         sc,
         param,

@@ -42,8 +42,8 @@ use vibrobar_scenario::Scenario;
 
 mod two_planes;
 use two_planes::{
-    two_plane_lyapunov, two_plane_lyapunov_spectrum, two_plane_orbit, two_plane_poincare,
-    two_plane_run, two_plane_table,
+    two_plane_continuation, two_plane_lyapunov, two_plane_lyapunov_spectrum, two_plane_orbit,
+    two_plane_poincare, two_plane_run, two_plane_table,
 };
 
 /// How often the calling thread checks for Ctrl-C and reports progress while a call runs.
@@ -605,7 +605,7 @@ impl PyScenario {
 
 /// The Python functions that run a scenario with `[two_plane]` (through the native functions of
 /// [`two_planes`], which never call [`PyScenario::for_command`]).
-const PY_TWO_PLANE_FUNCTIONS: [&str; 8] = [
+const PY_TWO_PLANE_FUNCTIONS: [&str; 9] = [
     "two_plane_run",
     "sweep",
     "ensemble",
@@ -614,6 +614,7 @@ const PY_TWO_PLANE_FUNCTIONS: [&str; 8] = [
     "lyapunov",
     "lyapunov_spectrum",
     "orbit",
+    "continuation",
 ];
 
 #[pymethods]
@@ -2813,6 +2814,7 @@ fn _vibrobar(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(two_plane_lyapunov, m)?)?;
     m.add_function(wrap_pyfunction!(two_plane_lyapunov_spectrum, m)?)?;
     m.add_function(wrap_pyfunction!(two_plane_orbit, m)?)?;
+    m.add_function(wrap_pyfunction!(two_plane_continuation, m)?)?;
     m.add_function(wrap_pyfunction!(fit_modes, m)?)?;
     m.add_function(wrap_pyfunction!(width_diagram, m)?)?;
     m.add_function(wrap_pyfunction!(time_domain_lobes, m)?)?;

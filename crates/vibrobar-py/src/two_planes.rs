@@ -781,3 +781,107 @@ pub(crate) fn two_plane_lyapunov_spectrum<'py>(
     d.set_item("member", member)?;
     Ok(d)
 }
+
+/// `continuation` of a `[two_plane]` scenario where its planes decouple: each plane's orbit,
+/// from the one member `member` settles on, followed in `param` ("ratio", "gap_m" (the axial
+/// gap: the plane along the hole) or "restitution"; SI) from `from_` to `to`; the rows of
+/// `vibrobar continue` on it, the parameter in SI units.
+#[pyfunction]
+#[pyo3(signature = (scenario, param, from_, to, ratio, gap_m, member, period, settle_s, max_points, switch_branches))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn two_plane_continuation<'py>(
+    py: Python<'py>,
+    scenario: &PyScenario,
+    param: &str,
+    from_: f64,
+    to: f64,
+    ratio: Option<f64>,
+    gap_m: Option<f64>,
+    member: usize,
+    period: u32,
+    settle_s: Option<f64>,
+    max_points: usize,
+    switch_branches: bool,
+) -> PyResult<(Bound<'py, PyDict>, String)> {
+    use vibrobar_core::analysis::grid::Axis;
+    use vibrobar_core::analysis::orbit::continuation::{check_interval, ContinuationSettings};
+    use vibrobar_core::analysis::orbit::{check_period, ExactJacobian};
+    use vibrobar_core::analysis::two_plane_orbit::{
+        two_plane_branches, PlaneBranch, TWO_PLANE_ORBIT_SCOPE,
+    };
+    let sc = two_plane_scenario(scenario, "continuation")?;
+    let axis = match param {
+        "ratio" => Axis::FreqRatio,
+        "gap_m" => Axis::GapM,
+        "restitution" => Axis::Restitution,
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "param must be one of \"ratio\", \"gap_m\" (the axial gap), \"restitution\" for a \
+                 scenario with [two_plane] (friction on the hole's walls couples the planes), got \
+                 {param:?}"
+            )))
+        }
+    };
+    check_interval(axis, from_, to).map_err(input_error)?;
+    check_period(period).map_err(input_error)?;
+    limits::check_count("max_points", max_points, 2, 100_000, "").map_err(input_error)?;
+    let (ratio, gap_m) = match axis {
+        Axis::FreqRatio => (Some(from_), gap_m),
+        Axis::GapM => (ratio, Some(from_)),
+        _ => (ratio, gap_m),
+    };
+    let (s, sys, _, start) = member_at(sc, ratio, gap_m, member)?;
+    if let Err(why) = vibrobar_core::solver::two_plane_exact::decoupled(&sys) {
+        return Err(PyValueError::new_err(format!(
+            "{TWO_PLANE_ORBIT_SCOPE}; here {why}"
+        )));
+    }
+    let settings = s.settings();
+    let settle = match settle_s {
+        Some(t) if t.is_finite() && t > 0.0 => t,
+        Some(t) => {
+            return Err(PyValueError::new_err(format!(
+                "settle_s = {t} is outside the allowed range (0, ∞) s"
+            )))
+        }
+        None => settings.duration_s * (1.0 - settings.rms_fraction),
+    };
+    let cont = ContinuationSettings {
+        max_points,
+        switch_branches,
+        ..Default::default()
+    };
+    let planes = detached(py, None, |_| {
+        two_plane_branches(
+            &sys,
+            &start,
+            axis,
+            from_,
+            to,
+            period,
+            settle,
+            &ExactJacobian,
+            &cont,
+        )
+        .map_err(|e| match e {
+            vibrobar_core::SimError::Param(p) => input_error(p),
+            other => run_error(two_plane_keywords(other.to_string())),
+        })
+    })?;
+    let mut rows = Vec::new();
+    for (name, p) in ["along_hole", "across_hole"].iter().zip(&planes) {
+        if let PlaneBranch::Followed { branch, scale } = p {
+            rows.extend(
+                branch
+                    .points
+                    .iter()
+                    .map(|q| two_plane_csv::continuation_values(name, q, *scale)),
+            );
+        }
+    }
+    let schema = two_plane_csv::continuation_schema();
+    for r in &rows {
+        schema.check(r).map_err(run_error)?;
+    }
+    columns(py, &schema, &rows)
+}
