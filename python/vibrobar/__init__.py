@@ -421,6 +421,16 @@ def _two_plane_refuse_one(function: str, given: Mapping[str, Any], why: str) -> 
             )
 
 
+def _two_plane_start(start: str, branch: Any) -> None:
+    """A [two_plane] orbit starts from the run a member settles on."""
+    if start not in ("auto", "settled") or branch is not None:
+        raise ValueError(
+            f"start = {start!r}, branch = {branch!r}: a [two_plane] orbit starts from the run a "
+            "member settles on (start = 'auto' or 'settled', no branch); the analytic symmetric "
+            "orbit is the one-plane model's"
+        )
+
+
 def _two_plane_table(kind, sc, ratios, gaps_m, cb, close, threads, members=None, seed=None,
                      hole_angles_deg=None, hole_diameters_m=None, dims=()):
     for name, x in (("members", members), ("seed", seed)):
@@ -802,12 +812,7 @@ def orbit(
     if not 1 <= int(period) <= 64:
         raise ValueError(f"period = {period} is outside the allowed range [1, 64] forcing cycles")
     if sc.is_two_plane:
-        if start not in ("auto", "settled") or branch is not None:
-            raise ValueError(
-                f"start = {start!r}, branch = {branch!r}: a [two_plane] orbit starts from the run "
-                "a member settles on (start = 'auto' or 'settled', no branch); the analytic "
-                "symmetric orbit is the one-plane model's"
-            )
+        _two_plane_start(start, branch)
         return _vibrobar.two_plane_orbit(
             sc,
             _number("ratio", ratio),
@@ -868,12 +873,7 @@ def continuation(
     if not 1 <= int(period) <= 64:
         raise ValueError(f"period = {period} is outside the allowed range [1, 64] forcing cycles")
     if sc.is_two_plane:
-        if start not in ("auto", "settled"):
-            raise ValueError(
-                f"start = {start!r}: a [two_plane] orbit starts from the run a member settles on "
-                "(start = 'auto' or 'settled'); the analytic symmetric orbit is the one-plane "
-                "model's"
-            )
+        _two_plane_start(start, None)
         cols, csv = _vibrobar.two_plane_continuation(
             sc,
             param,

@@ -1512,6 +1512,17 @@ fn lyapunov<'py>(
             max_lyapunov_modal(&ms, &init, &*run, &p).map_err(run_error)
         }
     })?;
+    lyapunov_dict(py, &r, intervals, interval, d0)
+}
+
+/// The dict of a largest-exponent estimate over `intervals` intervals of `interval` s.
+fn lyapunov_dict<'py>(
+    py: Python<'py>,
+    r: &vibrobar_core::analysis::lyapunov::LyapunovResult,
+    intervals: usize,
+    interval: f64,
+    d0: f64,
+) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("exponent_per_s", r.exponent_per_s)?;
     d.set_item("std_error_per_s", r.std_error_per_s)?;

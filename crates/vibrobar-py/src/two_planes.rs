@@ -281,15 +281,7 @@ pub(crate) fn two_plane_run<'py>(
     let d = PyDict::new(py);
     d.set_item("history", history)?;
     d.set_item("history_csv", csv)?;
-    d.set_item("rms_along_force_m", summary.rms_along_force_m)?;
-    d.set_item("rms_radial_m", summary.rms_m[0])?;
-    d.set_item("rms_tangential_m", summary.rms_m[1])?;
-    d.set_item("rms_total_m", summary.rms_total_m)?;
-    d.set_item("solid_rms_m", solid)?;
-    d.set_item(
-        "reduction_pct",
-        100.0 * (1.0 - summary.rms_along_force_m / solid),
-    )?;
+    rms_items(&d, &summary, solid)?;
     let walls = PyDict::new(py);
     for (w, name) in
         HoleWall::ALL
@@ -599,14 +591,7 @@ pub(crate) fn two_plane_lyapunov<'py>(
         max_lyapunov_two_plane(&sys, &start, method, &settings, &p)
             .map_err(|e| run_error(two_plane_keywords(e.to_string())))
     })?;
-    let d = PyDict::new(py);
-    d.set_item("exponent_per_s", r.exponent_per_s)?;
-    d.set_item("std_error_per_s", r.std_error_per_s)?;
-    d.set_item("intervals", intervals)?;
-    d.set_item("interval_s", interval)?;
-    d.set_item("blocks", r.block_means_per_s.len())?;
-    d.set_item("clamped", r.clamped)?;
-    d.set_item("d0", d0)?;
+    let d = super::lyapunov_dict(py, &r, intervals, interval, d0)?;
     d.set_item("member", member)?;
     d.set_item("solver", method.solver_for(&sys))?;
     Ok(d)
@@ -627,27 +612,13 @@ pub(crate) fn two_plane_orbit<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     use vibrobar_core::analysis::orbit::{check_period, ExactJacobian};
     use vibrobar_core::analysis::two_plane::solid_rms_m;
-    use vibrobar_core::analysis::two_plane_orbit::{
-        two_plane_orbit, TwoPlaneOrbitOf, TWO_PLANE_ORBIT_SCOPE,
-    };
+    use vibrobar_core::analysis::two_plane_orbit::{two_plane_orbit, TwoPlaneOrbitOf};
     let sc = two_plane_scenario(scenario, "orbit")?;
     let (s, sys, _, start) = member_at(sc, ratio, gap_m, member)?;
     check_period(period).map_err(input_error)?;
-    if let Err(why) = vibrobar_core::solver::two_plane_exact::decoupled(&sys) {
-        return Err(PyValueError::new_err(format!(
-            "{TWO_PLANE_ORBIT_SCOPE}; here {why}"
-        )));
-    }
+    refuse_coupled(&sys)?;
     let settings = s.settings();
-    let settle = match settle_s {
-        Some(t) if t.is_finite() && t > 0.0 => t,
-        Some(t) => {
-            return Err(PyValueError::new_err(format!(
-                "settle_s = {t} is outside the allowed range (0, ∞) s"
-            )))
-        }
-        None => settings.duration_s * (1.0 - settings.rms_fraction),
-    };
+    let settle = settle_of(&settings, settle_s)?;
     let (orbit, solid) = detached(py, None, |_| {
         let o = two_plane_orbit(&sys, period, &start, settle, &ExactJacobian)
             .map_err(|e| run_error(two_plane_keywords(e.to_string())))?;
@@ -702,15 +673,7 @@ fn orbit_of_two_planes<'py, F: vibrobar_core::analysis::orbit::Flow>(
         walls.set_item(*name, sm.impacts[k])?;
     }
     d.set_item("impacts_per_wall", walls)?;
-    d.set_item("rms_along_force_m", sm.rms_along_force_m)?;
-    d.set_item("rms_radial_m", sm.rms_m[0])?;
-    d.set_item("rms_tangential_m", sm.rms_m[1])?;
-    d.set_item("rms_total_m", sm.rms_total_m)?;
-    d.set_item("solid_rms_m", solid)?;
-    d.set_item(
-        "reduction_pct",
-        100.0 * (1.0 - sm.rms_along_force_m / solid),
-    )?;
+    rms_items(&d, sm, solid)?;
     d.set_item("flight_fraction", sm.flight_fraction)?;
     d.set_item("return_gap", o.return_gap)?;
     let st = PyDict::new(py);
@@ -742,16 +705,10 @@ pub(crate) fn two_plane_lyapunov_spectrum<'py>(
     blocks: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     use vibrobar_core::analysis::lyapunov_spectrum::SpectrumParams;
-    use vibrobar_core::analysis::two_plane_orbit::{
-        two_plane_lyapunov_spectrum as spectrum, TWO_PLANE_ORBIT_SCOPE,
-    };
+    use vibrobar_core::analysis::two_plane_orbit::two_plane_lyapunov_spectrum as spectrum;
     let sc = two_plane_scenario(scenario, "lyapunov_spectrum")?;
     let (s, sys, _, start) = member_at(sc, ratio, gap_m, member)?;
-    if let Err(why) = vibrobar_core::solver::two_plane_exact::decoupled(&sys) {
-        return Err(PyValueError::new_err(format!(
-            "{TWO_PLANE_ORBIT_SCOPE}; here {why}"
-        )));
-    }
+    refuse_coupled(&sys)?;
     let t = transient(&s, transient_s)?;
     let p = SpectrumParams {
         transient_s: t,
@@ -806,9 +763,7 @@ pub(crate) fn two_plane_continuation<'py>(
     use vibrobar_core::analysis::grid::Axis;
     use vibrobar_core::analysis::orbit::continuation::{check_interval, ContinuationSettings};
     use vibrobar_core::analysis::orbit::{check_period, ExactJacobian};
-    use vibrobar_core::analysis::two_plane_orbit::{
-        two_plane_branches, PlaneBranch, TWO_PLANE_ORBIT_SCOPE,
-    };
+    use vibrobar_core::analysis::two_plane_orbit::{two_plane_branches, PlaneBranch};
     let sc = two_plane_scenario(scenario, "continuation")?;
     let axis = match param {
         "ratio" => Axis::FreqRatio,
@@ -831,21 +786,9 @@ pub(crate) fn two_plane_continuation<'py>(
         _ => (ratio, gap_m),
     };
     let (s, sys, _, start) = member_at(sc, ratio, gap_m, member)?;
-    if let Err(why) = vibrobar_core::solver::two_plane_exact::decoupled(&sys) {
-        return Err(PyValueError::new_err(format!(
-            "{TWO_PLANE_ORBIT_SCOPE}; here {why}"
-        )));
-    }
+    refuse_coupled(&sys)?;
     let settings = s.settings();
-    let settle = match settle_s {
-        Some(t) if t.is_finite() && t > 0.0 => t,
-        Some(t) => {
-            return Err(PyValueError::new_err(format!(
-                "settle_s = {t} is outside the allowed range (0, ∞) s"
-            )))
-        }
-        None => settings.duration_s * (1.0 - settings.rms_fraction),
-    };
+    let settle = settle_of(&settings, settle_s)?;
     let cont = ContinuationSettings {
         max_points,
         switch_branches,
@@ -884,4 +827,42 @@ pub(crate) fn two_plane_continuation<'py>(
         schema.check(r).map_err(run_error)?;
     }
     columns(py, &schema, &rows)
+}
+
+/// Orbits, continuation and the spectrum need the planes to decouple: refused, saying why.
+fn refuse_coupled(sys: &TwoPlaneSystem) -> PyResult<()> {
+    use vibrobar_core::analysis::two_plane_orbit::TWO_PLANE_ORBIT_SCOPE;
+    match vibrobar_core::solver::two_plane_exact::decoupled(sys) {
+        Ok(()) => Ok(()),
+        Err(why) => Err(PyValueError::new_err(format!(
+            "{TWO_PLANE_ORBIT_SCOPE}; here {why}"
+        ))),
+    }
+}
+
+/// The settling time of an orbit's start: `settle_s`, or the part of the run before the RMS
+/// window.
+fn settle_of(settings: &vibrobar_core::RunSettings, settle_s: Option<f64>) -> PyResult<f64> {
+    match settle_s {
+        Some(t) if t.is_finite() && t > 0.0 => Ok(t),
+        Some(t) => Err(PyValueError::new_err(format!(
+            "settle_s = {t} is outside the allowed range (0, ∞) s"
+        ))),
+        None => Ok(settings.duration_s * (1.0 - settings.rms_fraction)),
+    }
+}
+
+/// The RMS of a two-plane summary (along the force, per direction, in total) beside the bar
+/// without its ball, and the reduction, into `d`.
+fn rms_items(
+    d: &Bound<'_, PyDict>,
+    s: &vibrobar_core::solver::two_plane_rk4::TwoPlaneSummary,
+    solid: f64,
+) -> PyResult<()> {
+    d.set_item("rms_along_force_m", s.rms_along_force_m)?;
+    d.set_item("rms_radial_m", s.rms_m[0])?;
+    d.set_item("rms_tangential_m", s.rms_m[1])?;
+    d.set_item("rms_total_m", s.rms_total_m)?;
+    d.set_item("solid_rms_m", solid)?;
+    d.set_item("reduction_pct", 100.0 * (1.0 - s.rms_along_force_m / solid))
 }

@@ -20,7 +20,7 @@ use vibrobar_report::figures::branch::BranchDot;
 use super::explore::PointArgs;
 use super::orbit::{
     axis_of, continued_point, orbit_json, period_of, Bar, ContinueArgs, JacobianArg, OrbitArgs,
-    StartArg,
+    OrbitStartArgs, StartArg,
 };
 use super::poincare_two_plane::MemberRun;
 use super::{check_value, fmt_coord};
@@ -28,13 +28,6 @@ use crate::scenario::Scenario;
 
 /// Run the command on a scenario with `[two_plane]`.
 pub fn run(a: &OrbitArgs, sc: &Scenario) -> Result<()> {
-    if a.start.start == StartArg::Symmetric || a.start.branch.is_some() {
-        bail!(
-            "--start symmetric and --branch: the analytic symmetric orbit is the one-plane \
-             model's; a [two_plane] orbit starts from the run a member settles on (--member, \
-             --settle)"
-        );
-    }
     let MemberRun {
         scenario: s,
         sys,
@@ -44,15 +37,8 @@ pub fn run(a: &OrbitArgs, sc: &Scenario) -> Result<()> {
         gap_mm,
         ..
     } = MemberRun::at(&a.point, sc, a.member)?;
-    if let Err(why) = decoupled(&sys) {
-        bail!("{TWO_PLANE_ORBIT_SCOPE}; here {why}");
-    }
-    let periods = period_of(&a.start)?;
     let settings = s.settings();
-    let settle = match a.start.settle {
-        Some(t) => check_value("--settle", t, |x| x > 0.0, "(0, ∞) s")?,
-        None => settings.duration_s * (1.0 - settings.rms_fraction),
-    };
+    let (periods, settle) = orbit_start(&a.start, &sys, &settings)?;
     if sys.bar.lumped().is_none() && a.start.jacobian != JacobianArg::Exact {
         bail!(
             "--jacobian finite-difference: orbits of a round bar of modes use the exact Jacobian \
@@ -159,13 +145,6 @@ fn report<F: Bar>(
 /// plane's orbit followed in the ratio or the restitution (both planes) or the axial gap (the
 /// plane along the hole; the one across it does not feel it).
 pub fn run_continue(a: &ContinueArgs, sc: &Scenario) -> Result<()> {
-    if a.start.start == StartArg::Symmetric || a.start.branch.is_some() {
-        bail!(
-            "--start symmetric and --branch: the analytic symmetric orbit is the one-plane \
-             model's; a [two_plane] orbit starts from the run a member settles on (--member, \
-             --settle)"
-        );
-    }
     let (axis, file_scale) = axis_of(&a.param)?;
     if !TWO_PLANE_CONTINUATION_AXES.contains(&axis) {
         bail!(
@@ -187,15 +166,8 @@ pub fn run_continue(a: &ContinueArgs, sc: &Scenario) -> Result<()> {
         start,
         ..
     } = MemberRun::at(&point, sc, a.member)?;
-    if let Err(why) = decoupled(&sys) {
-        bail!("{TWO_PLANE_ORBIT_SCOPE}; here {why}");
-    }
-    let periods = period_of(&a.start)?;
     let settings = s.settings();
-    let settle = match a.start.settle {
-        Some(t) => check_value("--settle", t, |x| x > 0.0, "(0, ∞) s")?,
-        None => settings.duration_s * (1.0 - settings.rms_fraction),
-    };
+    let (periods, settle) = orbit_start(&a.start, &sys, &settings)?;
     let (from, to) = (a.from * file_scale, a.to * file_scale);
     let cont = ContinuationSettings {
         max_points: a.max_points,
@@ -320,4 +292,30 @@ pub fn run_continue(a: &ContinueArgs, sc: &Scenario) -> Result<()> {
     }
     println!("wrote {}", a.out.display());
     Ok(())
+}
+
+/// What a two-plane orbit starts from, checked: the planes decouple, `--start` is a settled
+/// run (not the one-plane analytic orbit); the period and the settling time (`--settle`, or the
+/// part of the run before the RMS window).
+fn orbit_start(
+    a: &OrbitStartArgs,
+    sys: &vibrobar_core::params::two_plane::TwoPlaneSystem,
+    settings: &vibrobar_core::RunSettings,
+) -> Result<(u32, f64)> {
+    if a.start == StartArg::Symmetric || a.branch.is_some() {
+        bail!(
+            "--start symmetric and --branch: the analytic symmetric orbit is the one-plane \
+             model's; a [two_plane] orbit starts from the run a member settles on (--member, \
+             --settle)"
+        );
+    }
+    if let Err(why) = decoupled(sys) {
+        bail!("{TWO_PLANE_ORBIT_SCOPE}; here {why}");
+    }
+    let periods = period_of(a)?;
+    let settle = match a.settle {
+        Some(t) => check_value("--settle", t, |x| x > 0.0, "(0, ∞) s")?,
+        None => settings.duration_s * (1.0 - settings.rms_fraction),
+    };
+    Ok((periods, settle))
 }
