@@ -709,3 +709,30 @@ fn hertz_on_a_beam_has_orbits_branches_curves_and_the_spectrum() {
         assert!(test.abs() < 1e-8 && residual < 1e-9, "{r:?}");
     }
 }
+
+/// A settled run where the ball floats without an impact (0.08 mm, r = 0.97): its orbits form
+/// a continuum, which continuation cannot follow; refused, saying so, and nothing written.
+#[test]
+fn continuation_from_a_floating_ball_is_refused_with_the_reason() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("c.csv");
+    let o = vibrobar(&[
+        "continue",
+        "--friction",
+        "none",
+        "--param",
+        "ratio",
+        "--from",
+        "0.97",
+        "--to",
+        "1.03",
+        "--gap-mm",
+        "0.08",
+        "--start",
+        "settled",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_fails_with(&o, &["no impact", "the ball floats", "continuum"]);
+    assert!(!out.exists());
+}

@@ -1094,3 +1094,72 @@ fn measured_modes_with_directions_run_and_bad_directions_are_refused() {
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn one_plane_flags_on_a_two_plane_scenario_are_refused_by_name() {
+    let d = tempfile::tempdir().unwrap();
+    let sc = d.path().join("tp.toml");
+    fs::write(&sc, TWO_PLANE).unwrap();
+    let out = d.path().join("o.csv");
+    let cases: [(&[&str], &[&str]); 6] = [
+        (
+            &["sweep", "--friction", "coulomb"],
+            &["--friction", "friction_static"],
+        ),
+        (
+            &["run", "--solver", "rk4"],
+            &["--solver", "[two_plane] solver"],
+        ),
+        (
+            &[
+                "ensemble",
+                "--ratio",
+                "1",
+                "--gap-mm",
+                "1",
+                "--contact",
+                "hertz",
+            ],
+            &["--contact", "restitution"],
+        ),
+        (
+            &[
+                "map",
+                "--ratios",
+                "1:1:1",
+                "--gaps-mm",
+                "1:1:1",
+                "--friction-force-n",
+                "2",
+            ],
+            &["--friction-force-n"],
+        ),
+        (
+            &[
+                "poincare",
+                "--ratio",
+                "1",
+                "--gap-mm",
+                "1",
+                "--friction",
+                "coulomb",
+            ],
+            &["--friction"],
+        ),
+        (
+            &[
+                "lyapunov", "--ratio", "1", "--gap-mm", "1", "--solver", "exact",
+            ],
+            &["--solver"],
+        ),
+    ];
+    for (args, words) in cases {
+        let mut all = vec![args[0], "--scenario", s(&sc)];
+        all.extend_from_slice(&args[1..]);
+        if args[0] != "lyapunov" {
+            all.extend_from_slice(&["--out", s(&out)]);
+        }
+        assert_fails_with(&vibrobar(&all), words);
+        assert!(!out.exists(), "{args:?}");
+    }
+}

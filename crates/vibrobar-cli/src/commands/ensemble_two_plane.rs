@@ -19,6 +19,7 @@ pub fn ensemble(a: &EnsembleArgs, sc: &Scenario) -> Result<()> {
     let Some(section) = &sc.two_plane else {
         bail!("no [two_plane] section");
     };
+    super::sweep_two_plane::refuse_system_flags(&a.system)?;
     for (flag, given) in [
         ("--u-m", a.u_m.is_some()),
         ("--du-m-s", a.du_m_s.is_some()),

@@ -22,6 +22,7 @@ pub fn run(args: &MapArgs, sc: &Scenario) -> Result<()> {
     let Some(section) = &sc.two_plane else {
         bail!("no [two_plane] section");
     };
+    super::sweep_two_plane::refuse_system_flags(&args.system)?;
     for (flag, given, why) in [
         (
             "--freqs-hz",

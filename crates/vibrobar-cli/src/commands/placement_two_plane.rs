@@ -33,6 +33,7 @@ pub fn run(args: &PlacementArgs) -> Result<()> {
     let Some(section) = &sc.two_plane else {
         bail!("no [two_plane] section");
     };
+    super::sweep_two_plane::refuse_system_flags(&args.system)?;
     let positions_mm = parse_range(
         "--positions-mm",
         &args.positions_mm,

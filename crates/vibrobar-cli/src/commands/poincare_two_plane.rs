@@ -37,12 +37,7 @@ pub struct MemberRun {
 impl MemberRun {
     /// At `point` from member `member` (`--member`, default 0), checked.
     pub fn at(point: &PointArgs, sc: &Scenario, member: Option<usize>) -> Result<MemberRun> {
-        if point.system.solver.is_some() {
-            anyhow::bail!(
-                "--solver: a [two_plane] scenario runs on its [two_plane] solver (exact, \
-                 reference or auto); leave --solver out"
-            );
-        }
+        super::sweep_two_plane::refuse_system_flags(&point.system)?;
         let ratio = check_value("--ratio", point.ratio, |x| x > 0.0, "(0, ∞)")?;
         let gap_mm = check_value("--gap-mm", point.gap_mm, |x| x > 0.0, "(0, ∞) mm")?;
         let mut s = sc.clone();

@@ -18,6 +18,7 @@ use crate::scenario::Scenario;
 /// Run the command on a scenario with `[two_plane]` (gap and ratio already applied).
 pub fn run(args: &RunArgs, sc: &Scenario) -> Result<()> {
     let t0 = std::time::Instant::now();
+    super::sweep_two_plane::refuse_model_flags(&args.model)?;
     for (flag, given) in [
         ("--u0-m", args.u0_m.is_some()),
         ("--du0-m-s", args.du0_m_s.is_some()),

@@ -21,6 +21,55 @@ use crate::scenario::{parse_ratios, sweep_ratios, Scenario};
 use vibrobar_io::two_plane_csv;
 use vibrobar_scenario::TwoPlaneAxes;
 
+/// The one-plane model's flags given to a `[two_plane]` scenario, `(solver, friction,
+/// friction force, contact law)`: refused by name rather than silently not used.
+pub fn refuse_one_plane_flags(given: [bool; 4]) -> Result<()> {
+    let why = [
+        (
+            "--solver",
+            "a [two_plane] scenario runs on its [two_plane] solver (exact, reference or auto)",
+        ),
+        (
+            "--friction",
+            "friction on the hole's walls is [two_plane] friction_static and friction_kinetic",
+        ),
+        (
+            "--friction-force-n",
+            "friction on the hole's walls is [two_plane] friction_static and friction_kinetic",
+        ),
+        (
+            "--contact",
+            "the walls of the two-plane hole take the restitution law",
+        ),
+    ];
+    for ((flag, why), g) in why.iter().zip(given) {
+        if g {
+            anyhow::bail!("{flag}: {why}; leave it out");
+        }
+    }
+    Ok(())
+}
+
+/// [`refuse_one_plane_flags`] of a command's system flags.
+pub fn refuse_system_flags(s: &super::SystemArgs) -> Result<()> {
+    refuse_one_plane_flags([
+        s.solver.is_some(),
+        s.friction.is_some(),
+        s.friction_force_n.is_some(),
+        s.contact.is_some(),
+    ])
+}
+
+/// [`refuse_one_plane_flags`] of `run`'s and `sweep`'s model flags.
+pub fn refuse_model_flags(m: &crate::cli::ModelArgs) -> Result<()> {
+    refuse_one_plane_flags([
+        m.solver.is_some(),
+        m.friction.is_some(),
+        m.friction_force_n.is_some(),
+        m.contact.is_some(),
+    ])
+}
+
 /// Run the design points of `systems` (an ensemble each) with a progress bar, saying first what
 /// `command` runs: what `sweep`, `ensemble` and `map` of a `[two_plane]` scenario share.
 pub fn run_points(
@@ -70,6 +119,7 @@ pub fn sweep(args: &SweepArgs, sc: &Scenario) -> Result<()> {
     let Some(section) = &sc.two_plane else {
         anyhow::bail!("no [two_plane] section");
     };
+    refuse_model_flags(&args.model)?;
     if args.resume {
         anyhow::bail!(
             "--resume: a sweep of a [two_plane] scenario writes its file whole at the end; run \

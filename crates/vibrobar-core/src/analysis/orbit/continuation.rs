@@ -442,12 +442,23 @@ impl<Fm: Family> Cont<'_, Fm> {
         let sec = self.section(t0, y[d])?;
         let x = sec.clamp(&self.x_of(&y));
         let mut orbit = describe(&sec, &x, dp, self.jac.name(), 0.0, 0)?;
-        let tangent = self.tangent(j, prev_t).ok_or(SimError::NoConvergence {
-            what: "the continuation tangent (singular extended Jacobian)",
-            iterations: 0,
-            residual: f64::NAN,
-            tolerance: 0.0,
-        })?;
+        let tangent =
+            match self.tangent(j, prev_t) {
+                Some(t) => t,
+                // A ball that floats without an impact: every nearby place of the ball is an orbit
+                // too (a multiplier 1), so the orbit is not isolated and has no tangent.
+                None if orbit.impacts_per_period == 0 => return Err(SimError::Unsupported(
+                    "the orbit has no impact: the ball floats, and its orbits form a continuum (a \
+                     multiplier 1) that no continuation can follow; start where the ball impacts \
+                     (another parameter value, a smaller gap or another start)",
+                )),
+                None => {
+                    return Err(SimError::Unsupported(
+                        "the continuation tangent does not exist here (the extended Jacobian is \
+                     singular: the orbit is not isolated); start from a nearby parameter value",
+                    ))
+                }
+            };
         orbit.residual = {
             let px = sec.flow(&x)?;
             (0..d)
