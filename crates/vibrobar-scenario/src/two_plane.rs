@@ -391,6 +391,19 @@ pub struct TwoPlaneAxes<'a> {
     pub names: [&'a str; 2],
 }
 
+impl<'a> TwoPlaneAxes<'a> {
+    /// Gaps × ratios at the scenario's hole.
+    pub fn gaps_and_ratios(gaps_m: &'a [f64], ratios: &'a [f64]) -> Self {
+        TwoPlaneAxes {
+            ratios,
+            gaps_m,
+            hole_angles_deg: None,
+            hole_diameters_m: None,
+            names: ["", ""],
+        }
+    }
+}
+
 /// One cell of a grid of two-plane design points: where it lies and its system.
 #[derive(Debug, Clone, Copy)]
 pub struct TwoPlaneCell {

@@ -59,13 +59,7 @@ pub fn ensemble(a: &EnsembleArgs, sc: &Scenario) -> Result<()> {
     let method = section.method(settings.dt_s)?;
     let gaps_m: Vec<f64> = gaps_mm.iter().map(|g| g * 1e-3).collect();
     let cells = sc.two_plane_cells(
-        &TwoPlaneAxes {
-            ratios: &ratios,
-            gaps_m: &gaps_m,
-            hole_angles_deg: None,
-            hole_diameters_m: None,
-            names: ["", ""],
-        },
+        &TwoPlaneAxes::gaps_and_ratios(&gaps_m, &ratios),
         ens.members,
         "ensemble runs (points × members)",
     )?;

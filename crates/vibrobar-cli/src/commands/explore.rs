@@ -133,12 +133,7 @@ pub fn run_poincare(a: &PoincareArgs) -> anyhow::Result<()> {
     if sc.two_plane.is_some() {
         return super::poincare_two_plane::run(a, &sc);
     }
-    if a.member.is_some() {
-        bail!(
-            "--member: only a scenario with [two_plane] has an ensemble of starts to choose \
-             from; the one-plane start is the scenario's [initial]"
-        );
-    }
+    super::sweep_two_plane::refuse_member(a.member)?;
     let sys = a.point.system()?;
     let solver = a.point.system.solver()?;
     let phase = check_value("--phase-deg", a.phase_deg, |_| true, "finite")?.to_radians();
@@ -421,12 +416,7 @@ pub fn run_lyapunov(a: &LyapunovArgs) -> anyhow::Result<()> {
     if sc.two_plane.is_some() {
         return super::lyapunov_two_plane::run(a, &sc);
     }
-    if a.member.is_some() {
-        bail!(
-            "--member: only a scenario with [two_plane] has an ensemble of starts to choose \
-             from; the one-plane start is the scenario's [initial]"
-        );
-    }
+    super::sweep_two_plane::refuse_member(a.member)?;
     if a.spectrum {
         return run_spectrum(a);
     }

@@ -287,12 +287,7 @@ pub fn run_orbit(a: &OrbitArgs) -> anyhow::Result<()> {
     if sc.two_plane.is_some() {
         return super::orbit_two_plane::run(a, &sc);
     }
-    if a.member.is_some() {
-        bail!(
-            "--member: only a scenario with [two_plane] has an ensemble of starts to choose \
-             from; the one-plane start is the scenario's [initial]"
-        );
-    }
+    super::sweep_two_plane::refuse_member(a.member)?;
     exact_only(&a.point.system)?;
     let sys = a.point.system()?;
     if sys.lumped_bar().is_none() {
@@ -465,12 +460,7 @@ pub fn run_continue(a: &ContinueArgs) -> anyhow::Result<()> {
     if sc.two_plane.is_some() {
         return super::orbit_two_plane::run_continue(a, &sc);
     }
-    if a.member.is_some() {
-        bail!(
-            "--member: only a scenario with [two_plane] has an ensemble of starts to choose \
-             from; the one-plane start is the scenario's [initial]"
-        );
-    }
+    super::sweep_two_plane::refuse_member(a.member)?;
     exact_only(&a.system)?;
     if is_modal(&a.system)? {
         return run_continue_modal(a);

@@ -50,6 +50,18 @@ pub fn refuse_one_plane_flags(given: [bool; 4]) -> Result<()> {
     Ok(())
 }
 
+/// `--member` given for a one-plane scenario: refused (only a `[two_plane]` scenario has an
+/// ensemble of starts).
+pub fn refuse_member(member: Option<usize>) -> Result<()> {
+    if member.is_some() {
+        anyhow::bail!(
+            "--member: only a scenario with [two_plane] has an ensemble of starts to choose \
+             from; the one-plane start is the scenario's [initial]"
+        );
+    }
+    Ok(())
+}
+
 /// [`refuse_one_plane_flags`] of a command's system flags.
 pub fn refuse_system_flags(s: &super::SystemArgs) -> Result<()> {
     refuse_one_plane_flags([
@@ -151,13 +163,7 @@ pub fn sweep(args: &SweepArgs, sc: &Scenario) -> Result<()> {
     let method = section.method(settings.dt_s)?;
     let ens = section.ensemble()?;
     let cells = sc.two_plane_cells(
-        &TwoPlaneAxes {
-            ratios: &ratios,
-            gaps_m: &gaps_m,
-            hole_angles_deg: None,
-            hole_diameters_m: None,
-            names: ["", ""],
-        },
+        &TwoPlaneAxes::gaps_and_ratios(&gaps_m, &ratios),
         ens.members,
         "sweep runs (points × members)",
     )?;
