@@ -133,10 +133,12 @@ pub enum Command {
     /// of one member's run for a [two_plane] scenario.
     Lyapunov(crate::commands::explore::LyapunovArgs),
     /// A periodic orbit of period k forcing cycles by Newton's method on the stroboscopic map:
-    /// RMS, impacts, Floquet multipliers, stability and physicality checks (JSON).
+    /// RMS, impacts, Floquet multipliers, stability and physicality checks (JSON); for a
+    /// [two_plane] scenario whose planes decouple, the orbit one member settles on.
     Orbit(crate::commands::orbit::OrbitArgs),
     /// Pseudo-arclength continuation of a periodic orbit in one parameter, with folds, period
-    /// doublings, torus and branch points, grazing and stick onset (CSV and figure).
+    /// doublings, torus and branch points, grazing and stick onset (CSV and figure); each
+    /// plane's branch for a [two_plane] scenario whose planes decouple.
     Continue(crate::commands::orbit::ContinueArgs),
     /// Two-parameter continuation in (ratio, gap) of a fold, period-doubling, torus, branch-point
     /// or grazing point of a periodic orbit, with codimension-two points (CSV and figure).
